@@ -1,0 +1,77 @@
+"""Bounded-sensor conversions: log, gyro, inclinometer and the pressure-crystal depth sensor.
+
+References: thesis §3.1 eq. 3.2–3.3 (pressure), §7.2 (conversions, L5541–5550), kalman.md §11.
+"""
+
+from __future__ import annotations
+
+import math
+
+KNOT_MS = 1852.0 / 3600.0
+"""One knot in m/s (1 nm = 1852 m exactly; the samples prove this factor, program.md §10)."""
+
+NM_M = 1852.0
+"""One nautical mile in metres."""
+
+PSI_PA = 6894.757
+"""α of eq. 3.2: pascal per psi."""
+
+CRYSTAL_F0_HZ = 40_000.0
+"""Vacuum frequency f0 of the pressure crystal (Hz, thesis eq. 3.2)."""
+
+CRYSTAL_A_PSI = 9750.0
+"""Calibration coefficient A of eq. 3.2 (psi)."""
+
+CRYSTAL_B_PSI = 5000.0
+"""Calibration coefficient B of eq. 3.2 (psi)."""
+
+BETA_M_PA = 1.0 / (1000.0 * 9.80665)
+"""β of eq. 3.3: metres of fresh water per pascal (101.9716·10⁻⁶ m/Pa)."""
+
+STANDARD_ATMOSPHERE_PA = 101_325.0
+"""Surface pressure assumed when no reference frequency is configured (Pa)."""
+
+
+def knots_to_ms(speed_kn: float) -> float:
+    """Convert a log speed in knots to m/s (× 1852/3600)."""
+    return speed_kn * KNOT_MS
+
+
+def crystal_pressure_pa(freq_hz: float) -> float:
+    """Absolute pressure (Pa) from the crystal frequency: P = α[A(1 − f/f0) − B(1 − f/f0)²]
+    (eq. 3.2 as read in program.md A18)."""
+    u = 1.0 - freq_hz / CRYSTAL_F0_HZ
+    return PSI_PA * (CRYSTAL_A_PSI * u - CRYSTAL_B_PSI * u * u)
+
+
+def crystal_frequency_hz(pressure_pa: float) -> float:
+    """Inverse of :func:`crystal_pressure_pa`: the crystal frequency (Hz) at ``pressure_pa``.
+
+    Solves B u² − A u + P/α = 0 for the root with small u (the branch the sensor works on).
+    """
+    p_psi = pressure_pa / PSI_PA
+    disc = CRYSTAL_A_PSI * CRYSTAL_A_PSI - 4.0 * CRYSTAL_B_PSI * p_psi
+    if disc < 0.0:
+        raise ValueError(f"pressure {pressure_pa:.0f} Pa is beyond the crystal's range")
+    u = (CRYSTAL_A_PSI - math.sqrt(disc)) / (2.0 * CRYSTAL_B_PSI)
+    return CRYSTAL_F0_HZ * (1.0 - u)
+
+
+def surface_reference_hz(ref_freq_hz: float = 0.0) -> float:
+    """The surface reference frequency: ``ref_freq_hz`` if set (> 0), else the frequency at one
+    standard atmosphere (101 325 Pa)."""
+    return ref_freq_hz if ref_freq_hz > 0.0 else crystal_frequency_hz(STANDARD_ATMOSPHERE_PA)
+
+
+def pressure_depth_m(freq_hz: float, ref_freq_hz: float, s_weight: float = 1.026) -> float:
+    """Depth (m, positive down) from the crystal frequency: d = (β/γ)(P − P_ref) (eq. 3.3), with
+    γ = ``s_weight`` (specific weight of sea water) and P_ref from the surface frequency."""
+    p = crystal_pressure_pa(freq_hz)
+    p_ref = crystal_pressure_pa(ref_freq_hz)
+    return BETA_M_PA / s_weight * (p - p_ref)
+
+
+def depth_to_frequency_hz(depth_m: float, ref_freq_hz: float, s_weight: float = 1.026) -> float:
+    """Crystal frequency (Hz) that :func:`pressure_depth_m` turns into ``depth_m`` (simulator)."""
+    p = crystal_pressure_pa(ref_freq_hz) + depth_m * s_weight / BETA_M_PA
+    return crystal_frequency_hz(p)
