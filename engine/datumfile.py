@@ -1,0 +1,258 @@
+"""Reader and writer for the geodetic datum file ``TO_WGS84.DAT`` (thesis A8.4, L8800–8871).
+
+Layout (program.md §5.1; role of the file: thesis L5552–5554):
+
+* Lines whose first non-blank character is ``*`` are comments; blank lines are ignored.
+* Section 1, "Parameters of reference spheroids": ``NAME  a[m]  1/f``.
+* Section 2, "Transformation parameters of Datums / Datum ==> WGS84":
+  ``NAME  a[m]  1/f  dX[m]  dY[m]  dZ[m]  Rx["]  Ry["]  Rz["]  scale[ppm]``, with
+  X_WGS84 = X_datum + (dX, dY, dZ) extended to Bursa–Wolf (program.md A2).
+* Names may contain spaces, so the numbers are the *last* 2 (section 1) or 9 (section 2) tokens
+  and the name is everything before them (re-joined with single spaces).
+
+Decisions (documented behaviour):
+
+* A section starts at a header comment: a comment mentioning ``datum`` starts section 2;
+  otherwise one mentioning ``spheroid`` or ``ellipsoid`` starts section 1. A data line before
+  any header is an error (field ``section``).
+* ``* End of Data`` ends the file. Data after it is an error (a datum appended after the end
+  marker would otherwise be silently ignored); a missing end marker is tolerated.
+* A file without any datum row is an error (most likely the wrong file).
+* Plausibility: 6 300 000 m < a < 6 400 000 m (any Earth ellipsoid; catches a missing column,
+  which shifts a name digit such as ``1830`` into ``a``); 1/f = 0 (sphere) or 1/f > 1; all
+  numbers finite. Names are unique (case and spacing insensitive).
+* A datum's ``Ellipsoid`` is built from the datum row's own a and 1/f. It is named after the
+  first spheroid of section 1 with exactly the same a and 1/f (e.g. ED50 → ``HAYFORD 1909``,
+  which equals INTERNATIONAL), otherwise after the datum itself (e.g. ``WGS84``, ``OSGB 1936``,
+  whose 1/f = 299.3249647 differs from AIRY 1830's 299.3249646 in the thesis file).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from engine.ellipsoid import Datum, Ellipsoid
+from engine.errors import InputError
+
+__all__ = [
+    "DatumFile",
+    "format_datum_file",
+    "parse_datum_text",
+    "read_datum_file",
+]
+
+_SPHEROID_FIELDS = ("a", "1/f")
+_DATUM_FIELDS = ("a", "1/f", "dX", "dY", "dZ", "Rx", "Ry", "Rz", "scale")
+_A_MIN_M = 6_300_000.0
+_A_MAX_M = 6_400_000.0
+
+
+def _key(name: str) -> str:
+    """Lookup key of a name: upper case, runs of whitespace collapsed to one space."""
+    return " ".join(name.split()).upper()
+
+
+@dataclass(frozen=True)
+class DatumFile:
+    """Contents of ``TO_WGS84.DAT``: spheroids (section 1) and datums (section 2), in file order.
+
+    Keys are the names as written in the file (single-spaced), e.g. ``"ED50 [DMA]"``.
+    """
+
+    spheroids: dict[str, Ellipsoid]
+    datums: dict[str, Datum]
+
+    def datum(self, name: str) -> Datum:
+        """The datum called ``name`` (exact, else case- and spacing-insensitive match).
+
+        Raises ``InputError("Unknown datum !", field="datum", text=name)`` (program.md §5.7).
+        """
+        found = self.datums.get(name)
+        if found is not None:
+            return found
+        wanted = _key(name)
+        for key, datum in self.datums.items():
+            if _key(key) == wanted:
+                return datum
+        raise InputError("Unknown datum !", field="datum", text=name)
+
+
+def _parse_number(token: str, field: str, file: str, line: int) -> float:
+    try:
+        value = float(token)
+    except ValueError:
+        raise InputError("Not a number !", file=file, line=line, field=field, text=token) from None
+    if not math.isfinite(value):
+        raise InputError("Not a number !", file=file, line=line, field=field, text=token)
+    return value
+
+
+def _is_number(token: str) -> bool:
+    try:
+        return math.isfinite(float(token))
+    except ValueError:
+        return False
+
+
+def _check_shape(a: float, inv_f: float, tokens: list[str], file: str, line: int) -> None:
+    if not _A_MIN_M < a < _A_MAX_M:
+        raise InputError(
+            f"Semi-major axis must be between {_A_MIN_M:.0f} and {_A_MAX_M:.0f} m !",
+            file=file, line=line, field="a", text=tokens[0],
+        )
+    if not (inv_f == 0.0 or inv_f > 1.0):
+        raise InputError(
+            "Inverse flattening must be 0 (sphere) or > 1 !",
+            file=file, line=line, field="1/f", text=tokens[1],
+        )
+
+
+def parse_datum_text(text: str, filename: str = "<string>") -> DatumFile:
+    """Parse the text of a datum file (see the module docstring for the grammar and checks).
+
+    Raises ``InputError`` naming ``filename``, the 1-based line, the field (``a``, ``1/f``,
+    ``dX`` … ``scale``, ``name``, ``record``, ``section``) and the offending text.
+    """
+    return _parse_lines(text.splitlines(), filename)
+
+
+def read_datum_file(path: str | os.PathLike[str]) -> DatumFile:
+    """Read and parse a datum file from disk (UTF-8, undecodable bytes replaced).
+
+    A missing file gives ``InputError("File not found !")`` (program.md §5.7).
+    """
+    name = os.fspath(path)
+    try:
+        with open(name, encoding="utf-8-sig", errors="replace") as fh:
+            text = fh.read()
+    except FileNotFoundError:
+        raise InputError("File not found !", file=name) from None
+    except OSError as exc:
+        raise InputError("Cannot read file !", file=name, text=exc.strerror) from None
+    return _parse_lines(text.splitlines(), name)
+
+
+def _parse_lines(lines: Iterable[str], file: str) -> DatumFile:
+    section = 0
+    ended_at: int | None = None
+    last_line = 0
+    spheroids: dict[str, Ellipsoid] = {}
+    spheroid_keys: set[str] = set()
+    datum_rows: list[tuple[str, list[float]]] = []
+    datum_keys: set[str] = set()
+
+    for line_no, raw in enumerate(lines, 1):
+        last_line = line_no
+        stripped = raw.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("*"):
+            body = stripped[1:].strip().lower()
+            if " ".join(body.split()) == "end of data":
+                ended_at = line_no
+            elif "datum" in body:
+                section = 2
+            elif "spheroid" in body or "ellipsoid" in body:
+                section = 1
+            continue
+        if ended_at is not None:
+            raise InputError(
+                f"Data after 'End of Data' (line {ended_at}) !",
+                file=file, line=line_no, field="section", text=stripped,
+            )
+        if section == 0:
+            raise InputError(
+                "Data line before any section header !",
+                file=file, line=line_no, field="section", text=stripped,
+            )
+        tokens = stripped.split()
+        fields = _SPHEROID_FIELDS if section == 1 else _DATUM_FIELDS
+        count = len(fields)
+        if len(tokens) < count + 1:
+            layout = "NAME a 1/f" if section == 1 else "NAME a 1/f dX dY dZ Rx Ry Rz scale"
+            raise InputError(
+                f"Too few fields, expected {layout} !",
+                file=file, line=line_no, field="record", text=stripped,
+            )
+        if (
+            section == 1
+            and len(tokens) >= len(_DATUM_FIELDS) + 1
+            and all(_is_number(t) for t in tokens[-len(_DATUM_FIELDS):])
+        ):
+            raise InputError(
+                "Datum row in the spheroid section (missing section header?) !",
+                file=file, line=line_no, field="section", text=stripped,
+            )
+        name = " ".join(tokens[:-count])
+        numbers = tokens[-count:]
+        values = [
+            _parse_number(tok, fld, file, line_no) for tok, fld in zip(numbers, fields, strict=True)
+        ]
+        _check_shape(values[0], values[1], numbers, file, line_no)
+        key = _key(name)
+        if section == 1:
+            if key in spheroid_keys:
+                raise InputError(
+                    "Duplicate spheroid name !", file=file, line=line_no, field="name", text=name
+                )
+            spheroid_keys.add(key)
+            spheroids[name] = Ellipsoid(name, values[0], values[1])
+        else:
+            if key in datum_keys:
+                raise InputError(
+                    "Duplicate datum name !", file=file, line=line_no, field="name", text=name
+                )
+            datum_keys.add(key)
+            datum_rows.append((name, values))
+
+    if not datum_rows:
+        raise InputError(
+            "No datums in file !", file=file, line=last_line or None, field="section"
+        )
+    datums = {name: _make_datum(name, values, spheroids) for name, values in datum_rows}
+    return DatumFile(spheroids=spheroids, datums=datums)
+
+
+def _make_datum(name: str, v: list[float], spheroids: dict[str, Ellipsoid]) -> Datum:
+    a, inv_f = v[0], v[1]
+    ell_name = next(
+        (s.name for s in spheroids.values() if s.a_m == a and s.inv_f == inv_f), name
+    )
+    return Datum(
+        name,
+        Ellipsoid(ell_name, a, inv_f),
+        dx_m=v[2], dy_m=v[3], dz_m=v[4],
+        rx_arcsec=v[5], ry_arcsec=v[6], rz_arcsec=v[7], scale_ppm=v[8],
+    )
+
+
+def _fmt(value: float, decimals: int) -> str:
+    """``value`` with ``decimals`` decimals when that reads back exactly, else the shortest repr."""
+    text = f"{value:.{decimals}f}"
+    return text if float(text) == value else repr(value)
+
+
+def format_datum_file(df: DatumFile) -> str:
+    """Write ``df`` in the thesis layout (tab-separated, comment headers, ``* End of Data``).
+
+    ``parse_datum_text(format_datum_file(df)) == df`` for every parsed ``df``. The datum's
+    ellipsoid name is not written; on reading it is re-derived by the rule in the module doc.
+    """
+    out = ["*", "* Parameters of reference spheroids", "*"]
+    for name, ell in df.spheroids.items():
+        out.append(f"{name}\t{_fmt(ell.a_m, 3)}\t{_fmt(ell.inv_f, 7)}")
+    out += ["*", "*", "*", "* Transformation parameters of Datums", "*", "* Datum ==> WGS84", "*"]
+    for name, d in df.datums.items():
+        e = d.ellipsoid
+        cols = [
+            _fmt(e.a_m, 3), _fmt(e.inv_f, 7),
+            _fmt(d.dx_m, 3), _fmt(d.dy_m, 3), _fmt(d.dz_m, 3),
+            _fmt(d.rx_arcsec, 2), _fmt(d.ry_arcsec, 2), _fmt(d.rz_arcsec, 2),
+            _fmt(d.scale_ppm, 2),
+        ]
+        out.append("\t".join([name, *cols]))
+    out += ["*", "* End of Data"]
+    return "\n".join(out) + "\n"
