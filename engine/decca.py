@@ -1,0 +1,221 @@
+"""Decca Navigator hyperbolic lane model, lane expansion factor and a priori VCV.
+
+Frame: the TM grid of the working datum (k0 = 1, no false origin, ``engine.tmgrid``); distances are
+spheroidal (grid chord divided by the line scale factor, A5.10/A5.13); azimuths are geodetic on the
+working-datum ellipsoid.  References: thesis eq. 4.9/4.10 (lane count), 4.12 (LEF), A4.1–A4.4 (VCV),
+A5.9–A5.12 (observation equation); digest ``lsq.md`` §5 and §6.3.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine.deccafile import DeccaChain
+from engine.geodesy import (
+    GeodesicSolver,
+    andoyer_lambert_m,
+    line_scale_factor,
+    mean_radius_sq,
+)
+from engine.operator_input import lanes_from_zone_lane
+from engine.tmgrid import TMGrid
+
+PATTERNS: tuple[str, str, str] = ("red", "green", "purple")
+"""Pattern order used everywhere (slots 3–5 of the LS observation vector)."""
+
+COMPARISON_MULTIPLIER_SLAVE: tuple[int, int, int] = (3, 2, 6)
+"""f_c / f_slave for Red, Green, Purple: comparison frequencies 24, 18, 30 f0 (thesis L774)."""
+
+MASTER_MULTIPLIER: tuple[int, int, int] = (4, 3, 5)
+"""f_c / f_master for Red, Green, Purple (A4.1a–c)."""
+
+SYNC_SIGMA_LANES: tuple[float, float, float] = (0.012, 0.009, 0.015)
+"""Synchronisation error of each pattern in lanes (3σ_syncR, 2σ_syncG, 6σ_syncP; thesis L8338)."""
+
+
+def sigma_path_a(d_100km: float) -> float:
+    """Sky-wave phase σ (lanes, summer night) for a path of ``d_100km`` × 100 km (A4.3a)."""
+    return (2.407 * d_100km * d_100km - 2.273 * d_100km + 4.240) * 1e-3
+
+
+def sigma_path_b(d_100km: float) -> float:
+    """Sky-wave phase σ (lanes, summer night) of the Purple slave signal (A4.3b, lsq.md Q15)."""
+    return (2.843 * d_100km * d_100km - 2.597 * d_100km + 5.000) * 1e-3
+
+
+@dataclass(frozen=True, slots=True)
+class ChainOnGrid:
+    """A Decca chain placed on the working grid: everything that does not depend on the ship.
+
+    ``station_latlon_deg`` rows are master, red, green, purple (geodetic, working datum);
+    ``station_xy_m`` the same on the TM grid; ``baseline_m`` the Andoyer–Lambert master–slave
+    lengths (lsq.md §2.4); ``wavelength_m`` the comparison wavelengths λc = v / f_c (lsq.md §5.2);
+    ``min_lanes`` the chain file's k per pattern (eq. 4.9).
+    """
+
+    chain_id: str
+    grid: TMGrid
+    station_latlon_deg: np.ndarray
+    station_xy_m: np.ndarray
+    baseline_m: np.ndarray
+    wavelength_m: np.ndarray
+    min_lanes: np.ndarray
+
+
+def place_chain(
+    chain: DeccaChain,
+    grid: TMGrid,
+    station_latlon_deg: np.ndarray | None = None,
+) -> ChainOnGrid:
+    """Place ``chain`` on ``grid``.
+
+    ``station_latlon_deg`` (4×2, degrees on the working datum) overrides the chain file's
+    coordinates; the caller passes them when the chain datum differs from the working datum.
+    """
+    stations = (chain.master, chain.red, chain.green, chain.purple)
+    if station_latlon_deg is None:
+        station_latlon_deg = np.array([[s.lat_deg, s.lon_deg] for s in stations], dtype=float)
+    xy = np.array([grid.forward(float(la), float(lo)) for la, lo in station_latlon_deg])
+    ell = grid.ellipsoid
+    m_lat, m_lon = station_latlon_deg[0]
+    baselines = np.array(
+        [
+            andoyer_lambert_m(ell, float(m_lat), float(m_lon), float(la), float(lo))
+            for la, lo in station_latlon_deg[1:]
+        ]
+    )
+    slaves = (chain.red, chain.green, chain.purple)
+    wavelength = np.array(
+        [
+            chain.speed_km_s / (mult * s.freq_khz)
+            for mult, s in zip(COMPARISON_MULTIPLIER_SLAVE, slaves, strict=True)
+        ]
+    )
+    return ChainOnGrid(
+        chain_id=chain.chain_id,
+        grid=grid,
+        station_latlon_deg=np.asarray(station_latlon_deg, dtype=float),
+        station_xy_m=xy,
+        baseline_m=baselines,
+        wavelength_m=wavelength,
+        min_lanes=np.array(chain.min_lanes, dtype=float),
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class DeccaGeometry:
+    """Ship-dependent Decca quantities at one grid point (the content of Pg 810).
+
+    Distances in metres (spheroidal), azimuths in radians (geodetic, ship → station), ``row``
+    the lane-count gradient ∂N/∂(x, y) in lanes per metre (A5.11–A5.12), ``metres_per_lane``
+    k = λc·LEF/2 (A4.4), ``lop_azimuth_rad`` the azimuth of the LOP (gradient + 90°, lsq.md §5.7).
+    """
+
+    d_master_m: float
+    az_master_rad: float
+    d_slave_m: np.ndarray
+    az_slave_rad: np.ndarray
+    baseline_m: np.ndarray
+    lef: np.ndarray
+    metres_per_lane: np.ndarray
+    lop_azimuth_rad: np.ndarray
+    n_calc: np.ndarray
+    row: np.ndarray
+
+
+def decca_geometry(
+    placed: ChainOnGrid,
+    x_m: float,
+    y_m: float,
+    geodesic: GeodesicSolver,
+) -> DeccaGeometry:
+    """Compute lane counts, partials, LEF and LOP azimuths at grid point (x, y) (eq. 4.9, A5.9–12).
+
+    N_calc = (D_m − D_s + B)/λc + k with D = grid chord / L (A5.10, L at the mean latitude of the
+    two end points, lsq.md §2.3).
+    """
+    lat0, lon0 = placed.grid.inverse(x_m, y_m)
+    ell = placed.grid.ellipsoid
+    sxy = placed.station_xy_m
+    sll = placed.station_latlon_deg
+    dist = np.empty(4)
+    dx_part = np.empty(4)
+    dy_part = np.empty(4)
+    for i in range(4):
+        xs, ys = sxy[i]
+        rm2 = mean_radius_sq(ell, lat0, float(sll[i, 0]))
+        chord = math.hypot(x_m - xs, y_m - ys)
+        lsf = line_scale_factor(x_m, xs, rm2)
+        dist[i] = chord / lsf
+        # ∂D/∂x including the line-scale term (A5.11), ∂D/∂y (A5.12).
+        dx_part[i] = (x_m - xs) / (lsf * chord) - chord * (2.0 * x_m + xs) / (lsf * lsf * 6.0 * rm2)
+        dy_part[i] = (y_m - ys) / (lsf * chord)
+    az_fwd, _az_back, _d = geodesic.inverse_many(lat0, lon0, sll[:, 0], sll[:, 1])
+    az = np.radians(az_fwd)
+    lam = placed.wavelength_m
+    n_calc = (dist[0] - dist[1:] + placed.baseline_m) / lam + placed.min_lanes
+    row = np.column_stack(((dx_part[0] - dx_part[1:]) / lam, (dy_part[0] - dy_part[1:]) / lam))
+    gamma = np.abs(az[1:] - az[0]) % (2.0 * math.pi)
+    gamma = np.where(gamma > math.pi, 2.0 * math.pi - gamma, gamma)
+    lef = 1.0 / np.sin(gamma / 2.0)
+    # Direction in which N increases: −ê(Az_m) + ê(Az_s); the LOP runs 90° from it (lsq.md §5.7).
+    gx = -math.sin(az[0]) + np.sin(az[1:])
+    gy = -math.cos(az[0]) + np.cos(az[1:])
+    lop_az = (np.arctan2(gx, gy) + math.pi / 2.0) % (2.0 * math.pi)
+    return DeccaGeometry(
+        d_master_m=float(dist[0]),
+        az_master_rad=float(az[0] % (2.0 * math.pi)),
+        d_slave_m=dist[1:].copy(),
+        az_slave_rad=az[1:] % (2.0 * math.pi),
+        baseline_m=placed.baseline_m,
+        lef=lef,
+        metres_per_lane=lam * lef / 2.0,
+        lop_azimuth_rad=lop_az,
+        n_calc=n_calc,
+        row=row,
+    )
+
+
+def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
+    """A priori 3×3 VCV of the Red, Green, Purple lane counts (lanes², A4.1–A4.3).
+
+    Sky-wave terms are divided by ``cf`` (``Decca.CF``: 64 summer day, 4 winter day, 1 summer
+    night, 1/2.25 winter night); the synchronisation terms are not (lsq.md §6.3, verified).
+    """
+    h = 1e-5  # metres → units of 100 km
+    s_n = sigma_path_a(geom.d_master_m * h)
+    s_nx = np.array([sigma_path_a(b * h) for b in geom.baseline_m])
+    s_x = np.array(
+        [
+            sigma_path_a(geom.d_slave_m[0] * h),
+            sigma_path_a(geom.d_slave_m[1] * h),
+            sigma_path_b(geom.d_slave_m[2] * h),
+        ]
+    )
+    mm = np.array(MASTER_MULTIPLIER, dtype=float)
+    ms = np.array(COMPARISON_MULTIPLIER_SLAVE, dtype=float)
+    var = (mm**2 * s_n**2 + mm**2 * s_nx**2 + ms**2 * s_x**2) / cf + np.array(SYNC_SIGMA_LANES) ** 2
+    c = np.outer(mm, mm) * s_n**2 / cf
+    np.fill_diagonal(c, var)
+    return c
+
+
+def decca_vcv_m2(geom: DeccaGeometry, cf: float) -> np.ndarray:
+    """A priori 3×3 Decca VCV in m² across the LOPs: C_ij·k_i·k_j with k = λc·LEF/2 (A4.4)."""
+    k = geom.metres_per_lane
+    return decca_vcv_lanes(geom, cf) * np.outer(k, k)
+
+
+def resolve_total_lanes(
+    zone: int, lane: int, fraction: float, pattern: str, n_calc: float
+) -> float:
+    """Total lane count from zone, whole lane and fraction, choosing the 10-zone cycle c that puts
+    it nearest to ``n_calc`` (the count computed at the provisional position; lsq.md §5.3, Q7).
+    """
+    base = lanes_from_zone_lane(zone, lane, fraction, pattern, 0)
+    period = lanes_from_zone_lane(zone, lane, fraction, pattern, 1) - base
+    cycle = math.floor((n_calc - base) / period + 0.5)
+    return base + cycle * period
