@@ -1,0 +1,499 @@
+"""One least-squares position fix from GPS, Decca and manual bearings/distances (thesis ch. 5, A5).
+
+Everything is on the TM grid of the working datum (metres, x = easting, y = northing); every
+observation row is metric (lsq.md §3.3), so the design matrix is dimensionless and the VCV in m².
+The observation vector has fixed slots (lsq.md §3.5, Pg 821/830)::
+
+    0 GPS "Lat" (northing)   1 GPS "Lon" (easting)      — or the filter's two position LOPs
+    2 Decca Red   3 Decca Green   4 Decca Purple
+    5..9  up to five bearing / distance observations (BRR), in input order
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from engine.adjustment import Adjustment, Linearisation
+from engine.confidence import Ellipse, error_ellipse
+from engine.decca import (
+    PATTERNS,
+    ChainOnGrid,
+    DeccaGeometry,
+    decca_geometry,
+    decca_vcv_m2,
+    resolve_total_lanes,
+)
+from engine.geodesy import GeodesicSolver, line_scale_factor, mean_radius_sq
+from engine.quality import TestedAdjustment, adjust_with_testing, w_critical
+from engine.robust import robust_adjust
+from engine.tmgrid import TMGrid
+
+N_SLOTS = 10
+MAX_BRR = 5
+SLOT_GPS_LAT, SLOT_GPS_LON = 0, 1
+SLOT_DECCA = (2, 3, 4)
+SLOT_BRR0 = 5
+
+GPS_VAR_CA_M2 = 2500.0
+"""A priori variance of a C/A-code GPS coordinate (σ = 50 m; thesis L5564, Pg 611/821)."""
+GPS_VAR_P_M2 = 8.9**2
+"""A priori variance of a P-code GPS coordinate: 2 d_rms 17.8 m → σ 8.9 m (program.md A13)."""
+
+
+@dataclass(frozen=True, slots=True)
+class GpsFix:
+    """A GPS position already on the working datum and grid (metres), with its a priori variance
+    per coordinate (m², already × ``GPS.SE_SF``) and the operator's corrections north/east (m)."""
+
+    lat_deg: float
+    lon_deg: float
+    x_m: float
+    y_m: float
+    var_m2: float
+    corr_north_m: float = 0.0
+    corr_east_m: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class DeccaReading:
+    """One cycle's Decca input: lane fractions (None = no reading), the operator's zone/lane per
+    pattern (None = not entered), selected patterns, corrections "C-O" (lanes) and ``Decca.CF``."""
+
+    placed: ChainOnGrid
+    fractions: tuple[float | None, float | None, float | None]
+    zone_lane: tuple[tuple[int, int] | None, tuple[int, int] | None, tuple[int, int] | None]
+    selected: tuple[bool, bool, bool]
+    corrections_lanes: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    cf: float = 64.0
+
+
+@dataclass(frozen=True, slots=True)
+class ManualObservation:
+    """An Obs-menu observation to a charted station (geodetic on the working datum).
+
+    ``kind`` is "bearing" (``value`` degrees true, ship → station) or "distance" (``value``
+    metres); ``sigma`` is degrees for a bearing and metres for a distance; ``sensor`` names the
+    instrument (compass repeater, periscope, radar).
+    """
+
+    kind: str
+    station: str
+    lat_deg: float
+    lon_deg: float
+    value: float
+    sigma: float
+    sensor: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class PositionPrior:
+    """The filter's predicted position used as two pseudo-LOPs when too few LOPs exist (lsq.md
+    §4.8, kalman.md §10.3): grid (x, y) in metres and its 2×2 VCV (m², order x, y)."""
+
+    x_m: float
+    y_m: float
+    cov: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class LsqSettings:
+    """LS parameters of A8.2: break-off ``epsilon_m``, ``s02``, ``LOPReject`` policy, α in %,
+    ``ScaleVCV``, the estimator ("lsq", "huber", "danish") and the confidence level (%)."""
+
+    epsilon_m: float = 1.0
+    s02: float = 1.0
+    lop_reject: str = "A"
+    reliab_interval: float = 5.0
+    scale_vcv: bool = False
+    estimator: str = "lsq"
+    conf_region: float = 95.0
+    max_iter: int = 10
+
+
+@dataclass(frozen=True, slots=True)
+class LopRow:
+    """One row of the LOP tables (Pg 631/633): what was read, corrected, computed and tested.
+
+    ``read``/``calc`` are degrees for GPS rows, lanes for Decca, degrees (bearing) or metres
+    (distance) for BRR rows; ``v_m`` the metric residual; ``az_deg`` the LOP azimuth; ``sigma_d``
+    (m), ``w``, ``tau``, ``vf`` the test quantities (NaN when not computed: the screens' 999.99).
+    """
+
+    slot: int
+    system: str
+    pattern: str
+    read: float
+    correction: float
+    calc: float
+    v_m: float
+    az_deg: float
+    used: bool
+    sigma_d: float = math.nan
+    w: float = math.nan
+    tau: float = math.nan
+    vf: float = math.nan
+    verdict: str = ""
+
+
+@dataclass(frozen=True)
+class FixResult:
+    """The outcome of one LS fix: position, precision, per-LOP table and the raw adjustment."""
+
+    ok: bool
+    reason: str | None
+    x_m: float
+    y_m: float
+    lat_deg: float
+    lon_deg: float
+    cov: np.ndarray
+    ellipse: Ellipse | None
+    category: str
+    n_used: int
+    rms_m: float
+    s2: float | None
+    lops: tuple[LopRow, ...]
+    tested: TestedAdjustment | None
+    decca_observed: tuple[float | None, float | None, float | None] = (None, None, None)
+    decca_geometry: DeccaGeometry | None = None
+    rejected_slots: tuple[int, ...] = ()
+    candidate_slot: int | None = None
+    uses_prior: bool = False
+    messages: tuple[str, ...] = field(default=())
+    raw_lops: RawLops | None = None
+
+
+@dataclass(frozen=True)
+class RawLops:
+    """The real LOPs of a too-few-LOPs fix, linearised at the filter's prediction ``x_ref``
+    (grid m): metric rows ``A`` (k×2), O − C ``omc_m`` (k,) and VCV ``Cl`` (k×k, m²), for the
+    filter update that must not see the hybrid LSE (kalman.md §10.3, A10)."""
+
+    A: np.ndarray
+    omc_m: np.ndarray
+    Cl: np.ndarray
+    x_ref: np.ndarray
+    slots: tuple[int, ...]
+
+
+def _wrap_pi(a: float) -> float:
+    """Wrap an angle (radians) into (−π, π]."""
+    a = math.fmod(a + math.pi, 2.0 * math.pi)
+    if a <= 0.0:
+        a += 2.0 * math.pi
+    return a - math.pi
+
+
+@dataclass(frozen=True, slots=True)
+class _Station:
+    obs: ManualObservation
+    x_m: float
+    y_m: float
+
+
+class _Model:
+    """The linearisation callback for the adjustment core (A5.9–A5.27), built once per fix."""
+
+    def __init__(
+        self,
+        grid: TMGrid,
+        geodesic: GeodesicSolver,
+        gps: GpsFix | None,
+        prior: PositionPrior | None,
+        decca: DeccaReading | None,
+        decca_obs: np.ndarray,
+        stations: Sequence[_Station],
+    ) -> None:
+        self.grid = grid
+        self.geodesic = geodesic
+        self.gps = gps
+        self.prior = prior
+        self.decca = decca
+        self.decca_obs = decca_obs
+        self.stations = stations
+        self.last_geometry: DeccaGeometry | None = None
+
+    def __call__(self, x: np.ndarray) -> Linearisation:
+        """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N)."""
+        A = np.zeros((N_SLOTS, 2))
+        b = np.zeros(N_SLOTS)
+        Cl = np.eye(N_SLOTS)
+        x0, y0 = float(x[0]), float(x[1])
+        if self.gps is not None:
+            g = self.gps
+            A[SLOT_GPS_LAT] = (0.0, 1.0)
+            A[SLOT_GPS_LON] = (1.0, 0.0)
+            b[SLOT_GPS_LAT] = g.y_m + g.corr_north_m - y0
+            b[SLOT_GPS_LON] = g.x_m + g.corr_east_m - x0
+            Cl[SLOT_GPS_LAT, SLOT_GPS_LAT] = g.var_m2
+            Cl[SLOT_GPS_LON, SLOT_GPS_LON] = g.var_m2
+        elif self.prior is not None:
+            p = self.prior
+            A[SLOT_GPS_LAT] = (0.0, 1.0)
+            A[SLOT_GPS_LON] = (1.0, 0.0)
+            b[SLOT_GPS_LAT] = p.y_m - y0
+            b[SLOT_GPS_LON] = p.x_m - x0
+            Cl[0, 0], Cl[0, 1] = p.cov[1, 1], p.cov[1, 0]
+            Cl[1, 0], Cl[1, 1] = p.cov[0, 1], p.cov[0, 0]
+        if self.decca is not None:
+            geom = decca_geometry(self.decca.placed, x0, y0, self.geodesic)
+            self.last_geometry = geom
+            k = geom.metres_per_lane
+            rows = geom.row * k[:, None]
+            omc = (self.decca_obs - geom.n_calc) * k
+            vcv = decca_vcv_m2(geom, self.decca.cf)
+            avail = ~np.isnan(self.decca_obs)
+            s = slice(SLOT_DECCA[0], SLOT_DECCA[-1] + 1)
+            A[s] = np.where(avail[:, None], rows, 0.0)
+            b[s] = np.where(avail, omc, 0.0)
+            Cl[s, s] = vcv
+        if self.stations:
+            lat0, lon0 = self.grid.inverse(x0, y0)
+            for i, st in enumerate(self.stations):
+                slot = SLOT_BRR0 + i
+                dxs, dys = x0 - st.x_m, y0 - st.y_m
+                d0 = math.hypot(dxs, dys)
+                o = st.obs
+                if o.kind == "bearing":
+                    az, _ = self.geodesic.azimuth_distance(lat0, lon0, o.lat_deg, o.lon_deg)
+                    A[slot] = (dys / d0, -dxs / d0)
+                    b[slot] = d0 * _wrap_pi(math.radians(o.value - az))
+                    Cl[slot, slot] = (math.radians(o.sigma) * d0) ** 2
+                else:
+                    rm2 = mean_radius_sq(self.grid.ellipsoid, lat0, o.lat_deg)
+                    A[slot] = (dxs / d0, dys / d0)
+                    b[slot] = o.value - d0 / line_scale_factor(x0, st.x_m, rm2)
+                    Cl[slot, slot] = o.sigma**2
+        return Linearisation(A=A, b=b, Cl=Cl)
+
+
+def _lop_azimuth_deg(row: np.ndarray) -> float:
+    """Azimuth of an LOP whose metric gradient is ``row`` = (∂/∂x, ∂/∂y): gradient + 90°."""
+    return (math.degrees(math.atan2(row[0], row[1])) + 90.0) % 360.0
+
+
+def compute_fix(
+    grid: TMGrid,
+    geodesic: GeodesicSolver,
+    x0: tuple[float, float],
+    *,
+    gps: GpsFix | None = None,
+    decca: DeccaReading | None = None,
+    manual: Sequence[ManualObservation] = (),
+    prior: PositionPrior | None = None,
+    settings: LsqSettings = LsqSettings(),
+    excluded_slots: Sequence[int] = (),
+) -> FixResult:
+    """Compute the LSE from the available LOPs, starting at provisional grid point ``x0`` (m).
+
+    The rejection policy and tests follow ``settings`` (lsq.md §8); ``excluded_slots`` are slots
+    the operator discarded (LOPReject 'A').  ``prior`` (the filter's prediction) is used as two
+    position LOPs only when GPS is absent (table 5.1 category I, lsq.md §4.8).  Never raises for
+    bad geometry: a failed fix has ``ok=False`` and a reason.
+    """
+    if len(manual) > MAX_BRR:
+        manual = manual[:MAX_BRR]
+    stations = [_Station(o, *grid.forward(o.lat_deg, o.lon_deg)) for o in manual]
+    used = np.zeros(N_SLOTS, dtype=bool)
+    if gps is not None:
+        used[[SLOT_GPS_LAT, SLOT_GPS_LON]] = True
+    decca_obs = np.full(3, np.nan)
+    decca_raw: list[float | None] = [None, None, None]
+    if decca is not None:
+        geom0 = decca_geometry(decca.placed, x0[0], x0[1], geodesic)
+        for i, pattern in enumerate(PATTERNS):
+            frac, zl = decca.fractions[i], decca.zone_lane[i]
+            if frac is None or zl is None:
+                continue
+            total = resolve_total_lanes(zl[0], zl[1], frac, pattern, float(geom0.n_calc[i]))
+            decca_raw[i] = total
+            decca_obs[i] = total + decca.corrections_lanes[i]
+            used[SLOT_DECCA[i]] = decca.selected[i]
+    for i in range(len(stations)):
+        used[SLOT_BRR0 + i] = True
+    for slot in excluded_slots:
+        used[slot] = False
+    uses_prior = False
+    if gps is None and prior is not None and 0 < int(used.sum()) < 2:
+        used[[SLOT_GPS_LAT, SLOT_GPS_LON]] = True
+        uses_prior = True
+    model = _Model(grid, geodesic, gps, prior if uses_prior else None, decca, decca_obs, stations)
+    x_start = np.array(x0, dtype=float)
+    n_avail = int(used.sum())
+    alpha = settings.reliab_interval / 100.0
+    if n_avail < 2:
+        return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail)
+    policy = "N" if uses_prior else settings.lop_reject
+    tested = adjust_with_testing(
+        model,
+        x_start,
+        used,
+        policy=policy,
+        alpha=alpha,
+        epsilon=settings.epsilon_m,
+        max_iter=settings.max_iter,
+        s02=settings.s02,
+        scale_vcv=settings.scale_vcv,
+    )
+    adj = tested.adjustment
+    if settings.estimator != "lsq" and adj.ok and adj.redundancy >= 1:
+        robust = robust_adjust(
+            model, adj.x, adj.used, psi=settings.estimator, epsilon=settings.epsilon_m
+        )
+        if robust.adjustment.ok:
+            adj = robust.adjustment
+    if not adj.ok:
+        return _no_fix(grid, x0, adj.reason or "no fix", int(adj.used.sum()), tested)
+    x_hat = adj.x
+    lat, lon = grid.inverse(float(x_hat[0]), float(x_hat[1]))
+    geom = (
+        decca_geometry(decca.placed, float(x_hat[0]), float(x_hat[1]), geodesic)
+        if decca is not None
+        else None
+    )
+    raw = None
+    if uses_prior:
+        lin0 = model(x_start)
+        idx = np.flatnonzero(adj.used)
+        idx = idx[idx >= 2]
+        raw = RawLops(lin0.A[idx], lin0.b[idx], lin0.Cl[np.ix_(idx, idx)], x_start,
+                      tuple(int(i) for i in idx))
+    lops = _lop_rows(grid, geodesic, adj, gps, prior if uses_prior else None, decca, decca_obs,
+                     decca_raw, geom, stations, lat, lon, alpha)
+    return FixResult(
+        ok=True,
+        reason=None,
+        x_m=float(x_hat[0]),
+        y_m=float(x_hat[1]),
+        lat_deg=lat,
+        lon_deg=lon,
+        cov=adj.cov_x,
+        ellipse=error_ellipse(adj.cov_x),
+        category=adj.category,
+        n_used=adj.n_used,
+        rms_m=adj.rms_m,
+        s2=adj.s2,
+        lops=tuple(lops),
+        tested=tested,
+        decca_observed=(decca_raw[0], decca_raw[1], decca_raw[2]),
+        decca_geometry=geom,
+        rejected_slots=tuple(s for s, _w in tested.rejected),
+        candidate_slot=tested.candidate,
+        uses_prior=uses_prior,
+        messages=tuple(tested.messages),
+        raw_lops=raw,
+    )
+
+
+def _no_fix(
+    grid: TMGrid,
+    x0: tuple[float, float],
+    reason: str,
+    n_used: int,
+    tested: TestedAdjustment | None = None,
+) -> FixResult:
+    lat, lon = grid.inverse(x0[0], x0[1])
+    return FixResult(
+        ok=False,
+        reason=reason,
+        x_m=x0[0],
+        y_m=x0[1],
+        lat_deg=lat,
+        lon_deg=lon,
+        cov=np.full((2, 2), np.nan),
+        ellipse=None,
+        category="I",
+        n_used=n_used,
+        rms_m=math.nan,
+        s2=None,
+        lops=(),
+        tested=tested,
+    )
+
+
+def _verdict(w: float, k_alpha: float, bound: float = 2.576) -> str:
+    if math.isnan(w):
+        return ""
+    aw = abs(w)
+    return "accept" if aw <= k_alpha else ("monitor" if aw <= bound else "reject")
+
+
+def _lop_rows(
+    grid: TMGrid,
+    geodesic: GeodesicSolver,
+    adj: Adjustment,
+    gps: GpsFix | None,
+    prior: PositionPrior | None,
+    decca: DeccaReading | None,
+    decca_obs: np.ndarray,
+    decca_raw: list[float | None],
+    geom: DeccaGeometry | None,
+    stations: Sequence[_Station],
+    lat: float,
+    lon: float,
+    alpha: float,
+) -> list[LopRow]:
+    """Assemble the Pg 631/633 table rows from the final adjustment."""
+    k_alpha = w_critical(alpha)
+    a = adj
+    rows: list[LopRow] = []
+
+    def stats(slot: int) -> dict[str, Any]:
+        w = float(a.w[slot])
+        return {
+            "sigma_d": float(a.sigma_d[slot]),
+            "w": w,
+            "tau": float(a.tau[slot]),
+            "vf": float(a.vf[slot]),
+            "verdict": _verdict(w, k_alpha),
+        }
+
+    used = a.used
+    v = a.v
+    if gps is not None or prior is not None:
+        system = "GPS" if gps is not None else "KF"
+        if gps is not None:
+            read_lat, read_lon = gps.lat_deg, gps.lon_deg
+            corr_n, corr_e = gps.corr_north_m, gps.corr_east_m
+        else:
+            read_lat, read_lon = grid.inverse(prior.x_m, prior.y_m)
+            corr_n = corr_e = 0.0
+        rows.append(LopRow(SLOT_GPS_LAT, system, "Lat", read_lat, corr_n, lat,
+                           float(v[SLOT_GPS_LAT]), 90.0, bool(used[SLOT_GPS_LAT]),
+                           **stats(SLOT_GPS_LAT)))
+        rows.append(LopRow(SLOT_GPS_LON, system, "Lon", read_lon, corr_e, lon,
+                           float(v[SLOT_GPS_LON]), 180.0, bool(used[SLOT_GPS_LON]),
+                           **stats(SLOT_GPS_LON)))
+    if decca is not None and geom is not None:
+        names = ("Red", "Grn", "Prp")
+        for i, slot in enumerate(SLOT_DECCA):
+            raw = decca_raw[i]
+            if raw is None:
+                continue
+            rows.append(LopRow(slot, "Decca", names[i], raw, decca.corrections_lanes[i],
+                               float(geom.n_calc[i]), float(v[slot]),
+                               math.degrees(float(geom.lop_azimuth_rad[i])), bool(used[slot]),
+                               **stats(slot)))
+    x_hat, y_hat = float(a.x[0]), float(a.x[1])
+    for i, st in enumerate(stations):
+        slot = SLOT_BRR0 + i
+        o = st.obs
+        if o.kind == "bearing":
+            calc, _ = geodesic.azimuth_distance(lat, lon, o.lat_deg, o.lon_deg)
+            row = np.array([y_hat - st.y_m, -(x_hat - st.x_m)])
+            pattern = "Brg"
+        else:
+            rm2 = mean_radius_sq(grid.ellipsoid, lat, o.lat_deg)
+            calc = math.hypot(x_hat - st.x_m, y_hat - st.y_m) / line_scale_factor(
+                x_hat, st.x_m, rm2
+            )
+            row = np.array([x_hat - st.x_m, y_hat - st.y_m])
+            pattern = "Dist"
+        rows.append(LopRow(slot, o.sensor or o.kind, pattern, o.value, 0.0, calc, float(v[slot]),
+                           _lop_azimuth_deg(row), bool(used[slot]),
+                           **stats(slot)))
+    return rows
