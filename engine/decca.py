@@ -219,3 +219,20 @@ def resolve_total_lanes(
     period = lanes_from_zone_lane(zone, lane, fraction, pattern, 1) - base
     cycle = math.floor((n_calc - base) / period + 0.5)
     return base + cycle * period
+
+
+def _wrap_half(d: float) -> float:
+    """Wrap a lane difference into [−0.5, 0.5)."""
+    return d - math.floor(d + 0.5)
+
+
+def track_lane(previous_total: float, fraction: float) -> float:
+    """Decometer lane tracking: the total count nearest to ``previous_total`` whose fraction is
+    ``fraction`` (valid while the ship moves less than half a lane between readings)."""
+    return previous_total + _wrap_half(fraction - (previous_total - math.floor(previous_total)))
+
+
+def identify_lane(n_calc: float, fraction: float) -> float:
+    """Lane identification from a position: the total count with this ``fraction`` nearest to
+    the count ``n_calc`` computed at the provisional position (after a gap in Decca reception)."""
+    return track_lane(n_calc, fraction)

@@ -41,7 +41,7 @@ class InputError(ValueError):
         return f"{where}{field}{self.message}{got}"
 
     def located(self, *, file: str | None = None, line: int | None = None) -> InputError:
-        """Return a copy with the file and/or line filled in (for errors raised by field parsers)."""
+        """A copy with the file and/or line filled in (for errors raised by field parsers)."""
         return InputError(
             self.message,
             file=file if file is not None else self.file,

@@ -62,7 +62,11 @@ class GpsFix:
 @dataclass(frozen=True, slots=True)
 class DeccaReading:
     """One cycle's Decca input: lane fractions (None = no reading), the operator's zone/lane per
-    pattern (None = not entered), selected patterns, corrections "C-O" (lanes) and ``Decca.CF``."""
+    pattern (None = not entered), selected patterns, corrections "C-O" (lanes) and ``Decca.CF``.
+
+    ``totals`` (uncorrected total lane counts per pattern) overrides the zone/lane resolution when
+    the caller tracks lanes from cycle to cycle like a decometer (``engine.decca.track_lane``).
+    """
 
     placed: ChainOnGrid
     fractions: tuple[float | None, float | None, float | None]
@@ -70,6 +74,7 @@ class DeccaReading:
     selected: tuple[bool, bool, bool]
     corrections_lanes: tuple[float, float, float] = (0.0, 0.0, 0.0)
     cf: float = 64.0
+    totals: tuple[float | None, float | None, float | None] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -304,12 +309,19 @@ def compute_fix(
     decca_obs = np.full(3, np.nan)
     decca_raw: list[float | None] = [None, None, None]
     if decca is not None:
-        geom0 = decca_geometry(decca.placed, x0[0], x0[1], geodesic)
+        geom0 = None
         for i, pattern in enumerate(PATTERNS):
             frac, zl = decca.fractions[i], decca.zone_lane[i]
-            if frac is None or zl is None:
-                continue
-            total = resolve_total_lanes(zl[0], zl[1], frac, pattern, float(geom0.n_calc[i]))
+            if decca.totals is not None:
+                if decca.totals[i] is None or frac is None:
+                    continue
+                total = float(decca.totals[i])  # type: ignore[arg-type]
+            else:
+                if frac is None or zl is None:
+                    continue
+                if geom0 is None:
+                    geom0 = decca_geometry(decca.placed, x0[0], x0[1], geodesic)
+                total = resolve_total_lanes(zl[0], zl[1], frac, pattern, float(geom0.n_calc[i]))
             decca_raw[i] = total
             decca_obs[i] = total + decca.corrections_lanes[i]
             used[SLOT_DECCA[i]] = decca.selected[i]

@@ -50,7 +50,8 @@ def format_value(value: Value) -> str:
             return "nan"
         return repr(value)
     text = str(value)
-    if text == "" or text == "-" or any(c.isspace() or c in '"=\\' for c in text) or _looks_numeric(text):
+    special = any(c.isspace() or c in '"=\\' for c in text)
+    if text in ("", "-") or special or _looks_numeric(text):
         return json.dumps(text, ensure_ascii=False)
     return text
 

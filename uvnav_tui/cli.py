@@ -1,17 +1,55 @@
-"""Command line entry point ``uvnav``."""
+"""Command line entry point ``uvnav``.
+
+``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
+``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
+``assess`` (accuracy against truth).  Each sub-command lives in its own module and is imported
+only when used, so ``uvnav replay`` never loads Textual.
+"""
 
 from __future__ import annotations
 
-import argparse
+import importlib
 import sys
+
+SUBCOMMANDS = {
+    "replay": ("uvnav_tui.replay_cmd", "run_replay"),
+    "simulate": ("uvnav_tui.simulate_cmd", "run_simulate"),
+    "script": ("uvnav_tui.script_cmd", "run_script"),
+    "assess": ("uvnav_tui.assess_cmd", "run_assess"),
+}
+
+USAGE = """usage: uvnav [--config FILE.toml] [--dev]          open the navigation console
+       uvnav replay RUN [--config TOML] [--out FILE.OUT] [--jsonl FILE] [--smooth] [--force]
+       uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
+       uvnav script FILE [--headless]
+       uvnav assess OUT_or_JSONL TRUTH.csv
+"""
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Parse the command line and run the chosen sub-command; returns the exit status."""
-    parser = argparse.ArgumentParser(prog="uvnav", description="UVNAV integrated navigation")
-    parser.parse_args(argv)
-    print("uvnav: the console is not built yet (see the open issues).", file=sys.stderr)
-    return 2
+    """Dispatch to the sub-command (or the console); returns the exit status."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if args and args[0] in ("-h", "--help"):
+        print(USAGE)
+        return 0
+    if args and args[0] in SUBCOMMANDS:
+        module, func = SUBCOMMANDS[args[0]]
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+            print(f"uvnav {args[0]}: not available in this build", file=sys.stderr)
+            return 2
+        return int(getattr(mod, func)(args[1:]))
+    try:
+        mod = importlib.import_module("uvnav_tui.console_cmd")
+    except ModuleNotFoundError as exc:
+        if exc.name != "uvnav_tui.console_cmd":
+            raise
+        print("uvnav: the console is not available in this build", file=sys.stderr)
+        return 2
+    return int(mod.run_console(args))
 
 
 if __name__ == "__main__":

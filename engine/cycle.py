@@ -1,0 +1,665 @@
+"""The processing cycle: one ``.RUN`` record in, one immutable :class:`CycleResult` out.
+
+Functional core (program.md §2.3–§2.5, kalman.md §10): ``step(context, state, record)`` returns the
+next :class:`NavState` and the cycle's result without touching anything else, so the console, the
+headless replay and the tests all drive the same code, and a cycle can be recomputed (e.g. after
+the operator discards an LOP under ``LOPReject = 'A'``) simply by calling ``step`` again.
+Frames: the TM grid of the working datum with CM = MPP longitude rounded (program.md A11);
+geodetic positions on the working datum; headings true outside the filter, grid inside it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from datetime import datetime
+
+import numpy as np
+
+from engine.confidence import Ellipse, error_ellipse
+from engine.datumfile import DatumFile
+from engine.decca import (
+    PATTERNS,
+    ChainOnGrid,
+    decca_geometry,
+    identify_lane,
+    place_chain,
+    resolve_total_lanes,
+    track_lane,
+)
+from engine.deccafile import DeccaChain
+from engine.ellipsoid import WGS84, Datum
+from engine.fix import (
+    GPS_VAR_CA_M2,
+    GPS_VAR_P_M2,
+    SLOT_BRR0,
+    DeccaReading,
+    FixResult,
+    GpsFix,
+    LsqSettings,
+    ManualObservation,
+    PositionPrior,
+    compute_fix,
+)
+from engine.geodesy import DatumShift, GeodesicSolver, datum_shift, geodetic_to_ecef
+from engine.kalman import (
+    FilterParams,
+    FilterState,
+    Measurement,
+    UpdateResult,
+    init_state,
+    lop_measurement,
+    lse_measurement,
+    predict,
+    sensor_measurement,
+    stack_measurements,
+    update,
+)
+from engine.operator_input import parse_zone_lane
+from engine.quality import CumulativeVariance
+from engine.runconfig import RunConfig
+from engine.runfile import RunRecord
+from engine.sensors import knots_to_ms, pressure_depth_m, surface_reference_hz
+from engine.tmgrid import TMGrid, central_meridian_deg
+
+DECCA_TRACK_GAP_S = 30.0
+"""Longest gap in a pattern's readings over which its lane count is still tracked (s); after a
+longer gap (a dive) the lane is identified again from the provisional position."""
+
+CM_HYSTERESIS_DEG = 0.05
+"""Extra margin beyond 0.5° before the CM switches, so a ship on a half-degree meridian does not
+make the grid flip every cycle (program.md A11 gives 0.5°; kalman.md A18 asks for stability)."""
+
+SENSOR_NAMES = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")
+STATUS_CODE = {"off": 0, "on": 1, "n/a": 2}
+
+
+def filter_params_from_config(cfg: RunConfig) -> FilterParams:
+    """The filter parameters of a run configuration (kalman.md §6.6–§6.8, §14)."""
+    f = cfg.filter
+    return FilterParams(
+        q_scale=f.q_scale,
+        turn_rate_max_deg_s=f.turn_rate_max_deg_s,
+        pitch_rate_max_deg_s=f.pitch_rate_max_deg_s,
+        sigma_gyro_deg=f.sigma_gyro_deg,
+        sigma_incl_deg=f.sigma_incl_deg,
+        sigma_press_m=f.sigma_press_m,
+        log_sigma_frac=f.log_sigma_frac,
+        log_sigma_floor_ms=f.log_sigma_floor_ms,
+        p0=f.p0,
+        coloured=f.model == "coloured",
+        fix_tau_s=f.fix_tau_s,
+        fix_sigma_frac=f.fix_sigma_frac,
+    )
+
+
+def lsq_settings_from_config(cfg: RunConfig) -> LsqSettings:
+    """The LS parameters of a run configuration (A8.2)."""
+    q = cfg.lsq
+    return LsqSettings(
+        epsilon_m=q.epsilon_m,
+        s02=q.s02,
+        lop_reject=q.lop_reject,
+        reliab_interval=q.reliab_interval_pct,
+        scale_vcv=q.scale_vcv,
+        estimator=q.estimator,
+        conf_region=q.conf_region_pct,
+    )
+
+
+@dataclass
+class RunContext:
+    """What a run needs besides its state: configuration, data files and derived solvers.
+
+    Rebuilt (cheaply) whenever the operator changes the set-up; holds small per-run caches of TM
+    grids and Decca chains placed on them, keyed by central meridian.
+    """
+
+    config: RunConfig
+    datums: DatumFile
+    chains: dict[str, DeccaChain]
+    working: Datum
+    gps_shift: DatumShift | None
+    geodesic: GeodesicSolver
+    filter_params: FilterParams
+    lsq: LsqSettings
+    zone_lane: tuple[tuple[int, int] | None, tuple[int, int] | None, tuple[int, int] | None]
+    _grids: dict[float, TMGrid] = field(default_factory=dict)
+    _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
+
+    def grid(self, cm_deg: float) -> TMGrid:
+        """The TM grid of the working datum at central meridian ``cm_deg``."""
+        g = self._grids.get(cm_deg)
+        if g is None:
+            g = TMGrid(self.working.ellipsoid, cm_deg)
+            self._grids[cm_deg] = g
+        return g
+
+    def placed_chain(self, cm_deg: float) -> ChainOnGrid | None:
+        """The selected Decca chain on the grid of ``cm_deg`` (None if Decca has no chain)."""
+        if cm_deg in self._placed:
+            return self._placed[cm_deg]
+        chain = self.chains.get(self.config.decca.chain)
+        placed = None
+        if chain is not None:
+            latlon = np.array([[s.lat_deg, s.lon_deg] for s in
+                               (chain.master, chain.red, chain.green, chain.purple)])
+            if chain.datum_name.upper() != self.working.name.upper():
+                shift = datum_shift(self.datums.datum(chain.datum_name), self.working)
+                latlon = np.array([shift.transform(float(a), float(b), 0.0)[:2]
+                                   for a, b in latlon])
+            placed = place_chain(chain, self.grid(cm_deg), latlon)
+        self._placed[cm_deg] = placed
+        return placed
+
+
+def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain]) -> RunContext:
+    """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain)."""
+    working = datums.datum(cfg.datum)
+    gps_datum = datums.datum(cfg.run_gps_datum) if cfg.run_gps_datum.upper() != "WGS84" else WGS84
+    shift = None if gps_datum.name.upper() == working.name.upper() else datum_shift(
+        gps_datum, working
+    )
+    d = cfg.decca
+    zl = tuple(
+        parse_zone_lane(text, pattern) if text else None
+        for text, pattern in ((d.red, "red"), (d.green, "green"), (d.purple, "purple"))
+    )
+    return RunContext(
+        config=cfg,
+        datums=datums,
+        chains=chains,
+        working=working,
+        gps_shift=shift,
+        geodesic=GeodesicSolver(working.ellipsoid),
+        filter_params=filter_params_from_config(cfg),
+        lsq=lsq_settings_from_config(cfg),
+        zone_lane=(zl[0], zl[1], zl[2]),
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class PositionEstimate:
+    """A position with its precision: geodetic (degrees, working datum), TM grid (m) on the
+    cycle's CM, depth (m, positive down), the 2×2 horizontal VCV (m², x/y) and its ellipse."""
+
+    source: str
+    lat_deg: float
+    lon_deg: float
+    x_m: float
+    y_m: float
+    depth_m: float
+    cov: np.ndarray
+    ellipse: Ellipse | None
+
+
+@dataclass(frozen=True, slots=True)
+class GpsInput:
+    """The GPS record of a cycle: as received (on ``run_gps_datum``), its WGS84 ECEF for Pg 100,
+    the displayed WGS84 height ``hg_m`` (program.md §4.3), on the working datum, and on the grid."""
+
+    lat_in_deg: float
+    lon_in_deg: float
+    wgs84_lat_deg: float
+    wgs84_lon_deg: float
+    hg_m: float
+    ecef_m: tuple[float, float, float]
+    lat_deg: float
+    lon_deg: float
+    x_m: float
+    y_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class SensorValues:
+    """Converted sensor values of a cycle (None = not available) and each sensor's status code
+    (A8.2: 0 connected-off, 1 on, 2 not connected) in the order of ``SENSOR_NAMES``."""
+
+    status: tuple[int, ...]
+    heading_true_deg: float | None
+    speed_kn: float | None
+    rudder_deg: float | None
+    incl_deg: float | None
+    depth_m: float | None
+    echo_m: float | None
+    convergence_deg: float
+
+
+@dataclass(frozen=True)
+class CycleResult:
+    """Everything one cycle produced (immutable; the pages, logs and tests read only this)."""
+
+    n: int
+    record: int
+    time: datetime
+    raw: str
+    dt_s: float
+    datum: str
+    cm_deg: float
+    systems: str
+    sensors: SensorValues
+    gps: GpsInput | None
+    decca_fractions: tuple[float | None, float | None, float | None]
+    decca_on: bool
+    fix: FixResult | None
+    kf_pred: PositionEstimate | None
+    kf: PositionEstimate | None
+    mpp: PositionEstimate
+    filter_status: str
+    filter_state: FilterState | None
+    filter_update: UpdateResult | None
+    cumulative: CumulativeVariance
+    manual: tuple[ManualObservation, ...] = ()
+    messages: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class NavState:
+    """What one cycle hands to the next (the thesis' "common block", minus configuration)."""
+
+    n: int = 0
+    last_time: datetime | None = None
+    cm_deg: float | None = None
+    mpp_lat_deg: float = 0.0
+    mpp_lon_deg: float = 0.0
+    filter: FilterState | None = None
+    cumulative: CumulativeVariance = field(default_factory=CumulativeVariance)
+    pending_obs: tuple[ManualObservation, ...] = ()
+    press_ref_hz: float | None = None
+    decca_track: tuple[tuple[float, datetime] | None, ...] = (None, None, None)
+    filter_has_fix: bool = False
+
+
+def initial_state(cfg: RunConfig) -> NavState:
+    """The state before the first record: the operator's DR position, no filter yet."""
+    return NavState(mpp_lat_deg=cfg.dr_lat_deg, mpp_lon_deg=cfg.dr_lon_deg)
+
+
+def _status(cfg: RunConfig, name: str) -> int:
+    return STATUS_CODE[getattr(cfg.sensors, name)]
+
+
+def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
+             lat: float, lon: float) -> tuple[SensorValues, float | None]:
+    cfg = ctx.config
+    status = tuple(_status(cfg, n) for n in SENSOR_NAMES)
+
+    def val(i: int, v: float | None) -> float | None:
+        return v if status[i] == 1 else None
+
+    depth = None
+    ref = nav.press_ref_hz
+    if status[4] == 1 and rec.press_freq_hz is not None:
+        if ref is None:
+            ref = surface_reference_hz(cfg.demo.press_ref_freq_hz)
+        depth = pressure_depth_m(rec.press_freq_hz, ref, cfg.demo.s_weight)
+    values = SensorValues(
+        status=status,
+        heading_true_deg=val(0, rec.heading_deg),
+        speed_kn=val(1, rec.speed_kn),
+        rudder_deg=val(2, rec.rudder_deg),
+        incl_deg=val(3, rec.incl_deg),
+        depth_m=depth,
+        echo_m=val(5, rec.echo_m),
+        convergence_deg=grid.convergence_deg(lat, lon),
+    )
+    return values, ref
+
+
+def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
+              cov: np.ndarray) -> PositionEstimate:
+    lat, lon = grid.inverse(x, y)
+    ell = error_ellipse(cov) if np.all(np.isfinite(cov)) else None
+    return PositionEstimate(source, lat, lon, x, y, depth, cov, ell)
+
+
+def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstimate:
+    """The horizontal position of a filter state as an estimate (grid ``grid``)."""
+    return _estimate(source, grid, float(fs.x[0]), float(fs.x[1]), float(fs.x[2]),
+                     np.array(fs.P[:2, :2]))
+
+
+def _gps_input(ctx: RunContext, rec: RunRecord, grid: TMGrid) -> GpsInput | None:
+    cfg = ctx.config
+    if not cfg.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
+        return None
+    lat_in, lon_in = rec.gps_lat_deg, rec.gps_lon_deg
+    if ctx.gps_shift is None:
+        lat, lon, h_datum = lat_in, lon_in, 0.0
+    else:
+        # h = 0 on the source datum for the horizontal transformation (lsq.md §2.1).
+        lat, lon, h_datum = ctx.gps_shift.transform(lat_in, lon_in, 0.0)
+    if cfg.run_gps_datum.upper() == "WGS84":
+        w_lat, w_lon, hg = lat_in, lon_in, -h_datum
+    else:
+        to_wgs = datum_shift(ctx.datums.datum(cfg.run_gps_datum), WGS84)
+        w_lat, w_lon, w_h = to_wgs.transform(lat, lon, 0.0)
+        hg = w_h
+    ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
+    x, y = grid.forward(lat, lon)
+    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y)
+
+
+def _cm_for(nav: NavState, lon: float) -> float:
+    cm = nav.cm_deg
+    if cm is None:
+        return central_meridian_deg(lon)
+    diff = (lon - cm + 180.0) % 360.0 - 180.0
+    if abs(diff) > 0.5 + CM_HYSTERESIS_DEG:
+        return central_meridian_deg(lon)
+    return cm
+
+
+def step(
+    ctx: RunContext,
+    nav: NavState,
+    rec: RunRecord,
+    *,
+    excluded_slots: Sequence[int] = (),
+) -> tuple[NavState, CycleResult]:
+    """Process one record: sensors, LOPs, LSE (or too-few-LOPs / DR-only path), filter, MPP.
+
+    Raises nothing for bad data (the parser already rejected malformed records); a record whose
+    time does not advance raises :class:`ValueError`, which the replay loop logs and skips.
+    """
+    cfg = ctx.config
+    if nav.last_time is None:
+        dt = float(cfg.demo.delta_t_s)
+    else:
+        dt = (rec.time - nav.last_time).total_seconds()
+        if dt <= 0.0:
+            raise ValueError(f"record time {rec.time:%H:%M:%S} does not advance")
+    messages: list[str] = []
+    params = ctx.filter_params
+    # Central meridian from the provisional position (the last MPP, program.md A11).
+    cm = _cm_for(nav, nav.mpp_lon_deg)
+    grid = ctx.grid(cm)
+    fstate = nav.filter
+    if fstate is not None and nav.cm_deg is not None and cm != nav.cm_deg:
+        fstate = reproject_state(fstate, ctx.grid(nav.cm_deg), grid)
+        messages.append(f"CM changed to {cm:+.0f}°: grid re-projected")
+    sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg)
+    gamma = sens.convergence_deg
+    heading_grid = (
+        None if sens.heading_true_deg is None else math.radians(sens.heading_true_deg - gamma)
+    )
+    speed_ms = None if sens.speed_kn is None else knots_to_ms(sens.speed_kn)
+    incl = None if sens.incl_deg is None else math.radians(sens.incl_deg)
+    # --- Filter: start from the DR position, then one propagation per record (kalman.md A3).
+    if fstate is None and heading_grid is not None and speed_ms is not None:
+        x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
+        set_rad = math.radians(cfg.current_set_deg)
+        vc = knots_to_ms(cfg.current_speed_kn)
+        pos_cov = None if cfg.filter.p0 == "thesis" else np.eye(2) * cfg.filter.dr_sigma_m**2
+        fstate = init_state(
+            0.0, x0, y0, cfg.depth_m, speed_ms, heading_grid, incl or 0.0,
+            vc * math.sin(set_rad - math.radians(gamma)),
+            vc * math.cos(set_rad - math.radians(gamma)),
+            params, pos_cov=pos_cov,
+        )
+    kf_pred: PositionEstimate | None = None
+    pred_state: FilterState | None = None
+    dr_sensors = False
+    if fstate is not None:
+        # Heading and speed of this record drive the step into it (program.md §10 item 6: the
+        # sample's KF row moves on the mean of the two records' gyro headings).
+        sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
+                                         gyro_grid_rad=heading_grid, incl_rad=incl, params=params)
+        dr_sensors = sensor_rows.z.shape[0] > 0
+        if dr_sensors:
+            fstate = update(fstate, sensor_rows, params).state
+        pred_state = predict(fstate, dt, params)
+        kf_pred = filter_estimate("KF", grid, pred_state)
+    # --- LOPs and the least-squares fix.
+    gps = _gps_input(ctx, rec, grid)
+    gps_fix = None
+    if gps is not None:
+        var = (GPS_VAR_P_M2 if cfg.gps.receiver == "P" else GPS_VAR_CA_M2) * cfg.lsq.gps_se_sf
+        gps_fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var,
+                         cfg.corrections.gps_north_m, cfg.corrections.gps_east_m)
+    if pred_state is not None:
+        x_start = (float(pred_state.x[0]), float(pred_state.x[1]))
+        prior: PositionPrior | None = PositionPrior(x_start[0], x_start[1],
+                                                    np.array(pred_state.P[:2, :2]))
+    else:
+        x_start = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
+        prior = None
+    decca_reading = None
+    decca_track = nav.decca_track
+    if cfg.decca.on:
+        placed = ctx.placed_chain(cm)
+        if placed is not None:
+            totals, decca_track, notes = _decca_totals(ctx, nav, rec, placed, x_start)
+            messages.extend(notes)
+            sel = tuple(p in cfg.decca.select for p in PATTERNS)
+            c = cfg.corrections
+            decca_reading = DeccaReading(
+                placed, rec.decca, ctx.zone_lane, (sel[0], sel[1], sel[2]),
+                (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes), cfg.lsq.decca_cf,
+                totals=totals,
+            )
+        else:
+            messages.append(f"Decca chain {cfg.decca.chain} not in the chain file")
+    manual = nav.pending_obs
+    fix: FixResult | None = None
+    decca_any = decca_reading is not None and any(
+        t is not None for t in (decca_reading.totals or (None,)))
+    if gps_fix is not None or decca_any or manual:
+        fix = compute_fix(grid, ctx.geodesic, x_start, gps=gps_fix, decca=decca_reading,
+                          manual=manual, prior=prior, settings=ctx.lsq,
+                          excluded_slots=excluded_slots)
+        if fix.candidate_slot is not None:
+            messages.append(f"LOP in slot {fix.candidate_slot} fails the w-test: discard it?")
+        messages.extend(fix.messages)
+    # --- Filter update with the fix (or the raw LOPs on the too-few-LOPs path, kalman.md A10).
+    filt_result: UpdateResult | None = None
+    kf_est: PositionEstimate | None = None
+    status = "OFF" if not cfg.filter.on else "N/A"
+    new_filter = pred_state
+    has_fix = nav.filter_has_fix
+    lse_ok = fix is not None and fix.ok and not fix.uses_prior
+    if pred_state is not None and sens.depth_m is not None:
+        rows = sensor_measurement(pred_state, depth_m=sens.depth_m, params=params)
+        new_filter = update(pred_state, rows, params).state
+    if new_filter is not None and fix is not None and lse_ok and not has_fix:
+        # The first LSE initialises the filter position (kalman.md A3): a DR start kilometres
+        # away with the thesis P0 = I would otherwise pull against every fix.
+        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
+        has_fix = True
+    elif new_filter is not None and cfg.filter.on:
+        meas: Measurement | None = None
+        if fix is not None and fix.ok:
+            meas = lse_measurement(fix.x_m, fix.y_m, fix.cov, params) if lse_ok else (
+                _raw_lop_measurement(fix))
+        if meas is not None:
+            filt_result = update(new_filter, meas, params)
+            new_filter = filt_result.state
+            status = "ON"
+            has_fix = True
+        elif dr_sensors:
+            status = "ON"  # DR-only path: model plus bounded sensors (program.md §2.5)
+    elif new_filter is not None and fix is not None and lse_ok:
+        # Filter off: dead reckoning restarts from each LSE (program.md §3 Kalman ▸ Filtering).
+        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
+    if new_filter is not None and status == "ON":
+        kf_est = filter_estimate("KF", grid, new_filter)
+    # --- MPP: filtered if the filter produced it, else the LSE, else the prediction (A6).
+    if kf_est is not None:
+        mpp = kf_est
+    elif fix is not None and lse_ok:
+        depth = cfg.depth_m if new_filter is None else float(new_filter.x[2])
+        mpp = _estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix.cov)
+    elif new_filter is not None:
+        mpp = filter_estimate("DR", grid, new_filter)
+    else:
+        x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
+        mpp = _estimate("DR", grid, x0, y0, cfg.depth_m, np.full((2, 2), np.nan))
+        messages.append("No MPP: gyro and log must stay switched on !")
+    cumulative = nav.cumulative
+    if fix is not None and fix.ok and fix.s2 is not None and not fix.uses_prior:
+        cumulative = cumulative.update(fix.s2, fix.n_used - 2)
+    systems = ("G" if cfg.gps.on else ".") + "..." + ("D" if cfg.decca.on else ".")
+    result = CycleResult(
+        n=nav.n + 1,
+        record=rec.line_no,
+        time=rec.time,
+        raw=rec.raw,
+        dt_s=dt,
+        datum=ctx.working.name,
+        cm_deg=cm,
+        systems=systems,
+        sensors=sens,
+        gps=gps,
+        decca_fractions=rec.decca,
+        decca_on=cfg.decca.on,
+        fix=fix,
+        kf_pred=kf_pred,
+        kf=kf_est,
+        mpp=mpp,
+        filter_status=status,
+        filter_state=new_filter,
+        filter_update=filt_result,
+        cumulative=cumulative,
+        manual=manual,
+        messages=tuple(messages),
+    )
+    next_nav = NavState(
+        n=nav.n + 1,
+        last_time=rec.time,
+        cm_deg=cm,
+        mpp_lat_deg=mpp.lat_deg,
+        mpp_lon_deg=mpp.lon_deg,
+        filter=new_filter,
+        cumulative=cumulative,
+        pending_obs=(),
+        press_ref_hz=press_ref,
+        decca_track=decca_track,
+        filter_has_fix=has_fix,
+    )
+    return next_nav, result
+
+
+def _decca_totals(
+    ctx: RunContext,
+    nav: NavState,
+    rec: RunRecord,
+    placed: ChainOnGrid,
+    x_start: tuple[float, float],
+) -> tuple[tuple[float | None, float | None, float | None],
+           tuple[tuple[float, datetime] | None, ...], list[str]]:
+    """Total lane counts of this record's fractions, tracked like a decometer.
+
+    The first reading of a pattern takes the operator's zone/lane (resolving the 10-zone cycle
+    from the provisional position, lsq.md §5.3); later readings follow lane crossings
+    (:func:`engine.decca.track_lane`); after a gap longer than ``DECCA_TRACK_GAP_S`` the lane is
+    identified again from the provisional position and a message says so.
+    """
+    totals: list[float | None] = [None, None, None]
+    track = list(nav.decca_track)
+    notes: list[str] = []
+    geom = None
+    for i, pattern in enumerate(PATTERNS):
+        frac = rec.decca[i]
+        if frac is None:
+            continue
+        prev = track[i]
+        if prev is not None and (rec.time - prev[1]).total_seconds() <= DECCA_TRACK_GAP_S:
+            total = track_lane(prev[0], frac)
+        else:
+            zl = ctx.zone_lane[i]
+            if prev is None and zl is None:
+                continue  # pattern never entered by the operator: not available
+            if geom is None:
+                geom = decca_geometry(placed, x_start[0], x_start[1], ctx.geodesic)
+            n_calc = float(geom.n_calc[i])
+            if prev is None:
+                assert zl is not None
+                total = resolve_total_lanes(zl[0], zl[1], frac, pattern, n_calc)
+            else:
+                total = identify_lane(n_calc, frac)
+                notes.append(f"Decca {pattern}: lane identified again from the DR position")
+        totals[i] = total
+        track[i] = (total, rec.time)
+    return (totals[0], totals[1], totals[2]), tuple(track), notes
+
+
+def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
+    """The too-few-LOPs path: feed the real LOPs (not the hybrid LSE) to the filter (A10)."""
+    raw = fix.raw_lops
+    if raw is None or not raw.slots:
+        return None
+    return lop_measurement(raw.A, raw.omc_m, raw.x_ref, raw.Cl,
+                           labels=tuple(f"lop{s}" for s in raw.slots))
+
+
+def reproject_state(
+    fs: FilterState,
+    old: TMGrid,
+    new: TMGrid,
+    shift: DatumShift | None = None,
+) -> FilterState:
+    """Move a filter state from grid ``old`` to grid ``new`` (another CM and/or datum).
+
+    Position goes through geodetic coordinates (and the datum ``shift`` when the datum changes);
+    the grid heading, the current and the horizontal covariance rotate by the change of grid
+    convergence Δγ (kalman.md A18: ψ_grid = ψ_true − γ).  Grid scale differences (< 2·10⁻⁵ within
+    ±0.5° of the CM) are ignored.
+    """
+    lat, lon = old.inverse(float(fs.x[0]), float(fs.x[1]))
+    g_old = old.convergence_deg(lat, lon)
+    if shift is not None:
+        lat, lon, _h = shift.transform(lat, lon, 0.0)
+    x_new, y_new = new.forward(lat, lon)
+    d = math.radians(new.convergence_deg(lat, lon) - g_old)
+    c, s_ = math.cos(d), math.sin(d)
+    # A grid azimuth α becomes α − Δγ: (e, n) → (e cosΔ − n sinΔ, n cosΔ + e sinΔ).
+    rot = np.array([[c, -s_], [s_, c]])
+    J = np.eye(fs.n)
+    J[0:2, 0:2] = rot
+    J[6:8, 6:8] = rot
+    x = np.array(fs.x, dtype=float)
+    x[0], x[1] = x_new, y_new
+    x[4] = (x[4] - d) % (2.0 * math.pi)
+    x[6:8] = rot @ x[6:8]
+    P = J @ fs.P @ J.T
+    return replace(fs, x=x, P=0.5 * (P + P.T))
+
+
+def rebase_state(nav: NavState, old: RunContext, new: RunContext) -> NavState:
+    """Carry a navigation state over to a new context whose working datum differs (Setup ▸
+    Params ▸ Datum): the MPP and the filter are transformed; the cumulative variance is kept."""
+    if old.working == new.working:
+        return nav
+    shift = datum_shift(old.working, new.working)
+    lat, lon, _h = shift.transform(nav.mpp_lat_deg, nav.mpp_lon_deg, 0.0)
+    fs = nav.filter
+    if fs is not None and nav.cm_deg is not None:
+        fs = reproject_state(fs, old.grid(nav.cm_deg), new.grid(nav.cm_deg), shift)
+    return replace(nav, mpp_lat_deg=lat, mpp_lon_deg=lon, filter=fs)
+
+
+def replace_position(fs: FilterState, x_m: float, y_m: float, cov: np.ndarray) -> FilterState:
+    """Put the filter's horizontal position at (x, y) with VCV ``cov`` and no cross-covariance."""
+    x = fs.x.copy()
+    P = fs.P.copy()
+    x[0], x[1] = x_m, y_m
+    P[:2, :] = 0.0
+    P[:, :2] = 0.0
+    P[:2, :2] = cov
+    return replace(fs, x=x, P=P)
+
+
+__all__ = [
+    "CycleResult",
+    "GpsInput",
+    "NavState",
+    "PositionEstimate",
+    "RunContext",
+    "SLOT_BRR0",
+    "SensorValues",
+    "build_context",
+    "initial_state",
+    "step",
+    "stack_measurements",
+]

@@ -1,0 +1,179 @@
+"""One cycle as data: the JSON-lines object and the ``.OUT`` block, built from a CycleResult.
+
+Both views come from the same numbers; positions are decimal degrees on the working datum and TM
+grid metres on the cycle's CM, ellipse semi-axes in metres at the 95 % level (``a95``, ``b95``)
+and the major-axis azimuth in degrees from grid north.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from engine.cycle import CycleResult, PositionEstimate
+from engine.kalman import STATE_LABELS
+from engine.outlog import Value
+
+P95 = 0.95
+
+
+def _num(x: float | None, nd: int | None = None) -> float | None:
+    """A JSON-safe float (None for NaN/None), optionally rounded to ``nd`` decimals."""
+    if x is None:
+        return None
+    x = float(x)
+    if math.isnan(x) or math.isinf(x):
+        return None
+    return round(x, nd) if nd is not None else x
+
+
+def position_json(p: PositionEstimate | None) -> dict[str, Any] | None:
+    """``{lat, lon, x, y, a95, b95, az_deg}`` of a position estimate (None stays None)."""
+    if p is None:
+        return None
+    a95 = b95 = az = None
+    if p.ellipse is not None:
+        a, b = p.ellipse.scaled(P95)
+        a95, b95, az = _num(a, 3), _num(b, 3), _num(p.ellipse.az_deg, 2)
+    return {
+        "lat": _num(p.lat_deg, 9),
+        "lon": _num(p.lon_deg, 9),
+        "x": _num(p.x_m, 3),
+        "y": _num(p.y_m, 3),
+        "depth": _num(p.depth_m, 2),
+        "a95": a95,
+        "b95": b95,
+        "az_deg": az,
+    }
+
+
+def lse_estimate(r: CycleResult) -> PositionEstimate | None:
+    """The cycle's least-squares estimate as a position (None without a proper LSE)."""
+    f = r.fix
+    if f is None or not f.ok or f.uses_prior:
+        return None
+    return PositionEstimate("LSE", f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov, f.ellipse)
+
+
+def cycle_json(r: CycleResult) -> dict[str, Any]:
+    """The JSON-lines object of one cycle (keys documented in README, "Replay outputs")."""
+    lops = []
+    if r.fix is not None:
+        for lop in r.fix.lops:
+            lops.append({
+                "system": lop.system,
+                "pattern": lop.pattern,
+                "obs": _num(lop.read, 9),
+                "corr": _num(lop.correction, 3),
+                "calc": _num(lop.calc, 9),
+                "v": _num(lop.v_m, 3),
+                "w": _num(lop.w, 3),
+                "used": lop.used,
+                "az_deg": _num(lop.az_deg, 2),
+            })
+    fs = r.filter_state
+    return {
+        "n": r.n,
+        "time": r.time.strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "record": r.record,
+        "filter": r.filter_status,
+        "source": r.mpp.source,
+        "datum": r.datum,
+        "cm_deg": r.cm_deg,
+        "mpp": position_json(r.mpp),
+        "lse": position_json(lse_estimate(r)),
+        "kf": position_json(r.kf),
+        "kf_pred": position_json(r.kf_pred),
+        "lops": lops,
+        "s2": _num(r.fix.s2, 5) if r.fix is not None else None,
+        "rms": _num(r.fix.rms_m, 3) if r.fix is not None else None,
+        "state": None if fs is None else [_num(v, 6) for v in fs.x[: len(STATE_LABELS)]],
+        "messages": list(r.messages),
+    }
+
+
+def _pos_fields(p: PositionEstimate) -> dict[str, Value]:
+    out: dict[str, Value] = {
+        "lat": p.lat_deg, "lon": p.lon_deg, "x": p.x_m, "y": p.y_m, "depth": p.depth_m,
+    }
+    if p.ellipse is not None:
+        a, b = p.ellipse.scaled(P95)
+        out.update(a95=a, b95=b, az=p.ellipse.az_deg)
+    c = p.cov
+    if c is not None and np.all(np.isfinite(c)):
+        out.update(cxx=float(c[0, 0]), cxy=float(c[0, 1]), cyy=float(c[1, 1]))
+    return out
+
+
+def cycle_block(
+    r: CycleResult,
+) -> tuple[dict[str, Value], list[tuple[str, dict[str, Value]]]]:
+    """The ``.OUT`` block of one cycle: the CYCLE line's fields and the tagged inner lines."""
+    head: dict[str, Value] = {
+        "n": r.n,
+        "t": r.time.strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "record": r.record,
+        "filter": r.filter_status,
+        "source": r.mpp.source,
+        "datum": r.datum,
+        "cm": r.cm_deg,
+        "dt": r.dt_s,
+    }
+    lines: list[tuple[str, dict[str, Value]]] = [("IN", {"raw": r.raw})]
+    s = r.sensors
+    lines.append(("SYS", {"systems": r.systems, "sensors": "".join(str(c) for c in s.status)}))
+    lines.append(("SENS", {
+        "gyro": s.heading_true_deg, "log": s.speed_kn, "rudder": s.rudder_deg,
+        "incl": s.incl_deg, "depth": s.depth_m, "echo": s.echo_m, "conv": s.convergence_deg,
+    }))
+    if r.gps is not None:
+        g = r.gps
+        lines.append(("GPS", {
+            "lat_in": g.lat_in_deg, "lon_in": g.lon_in_deg, "lat": g.lat_deg, "lon": g.lon_deg,
+            "x": g.x_m, "y": g.y_m, "hg": g.hg_m,
+        }))
+    for o in r.manual:
+        lines.append(("OBS", {"kind": o.kind, "station": o.station, "lat": o.lat_deg,
+                              "lon": o.lon_deg, "value": o.value, "sigma": o.sigma,
+                              "sensor": o.sensor}))
+    f = r.fix
+    if f is not None:
+        for lop in f.lops:
+            lines.append(("LOP", {
+                "sys": lop.system, "pat": lop.pattern, "obs": lop.read, "corr": lop.correction,
+                "calc": lop.calc, "v": lop.v_m, "w": lop.w, "sd": lop.sigma_d, "tau": lop.tau,
+                "az": lop.az_deg, "used": lop.used, "verdict": lop.verdict,
+            }))
+        if f.ok:
+            fields: dict[str, Value] = {"kind": "hybrid" if f.uses_prior else "lse",
+                                        "n": f.n_used, "cat": f.category, "s2": f.s2,
+                                        "rms": f.rms_m}
+            fields.update(_pos_fields(PositionEstimate(
+                "LSE", f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov, f.ellipse)))
+            if f.rejected_slots:
+                fields["rejected"] = ",".join(str(s) for s in f.rejected_slots)
+            lines.append(("LSE", fields))
+        else:
+            lines.append(("NOFIX", {"reason": f.reason}))
+    if r.kf_pred is not None:
+        lines.append(("KFP", _pos_fields(r.kf_pred)))
+    fs = r.filter_state
+    if fs is not None:
+        sig = np.sqrt(np.clip(np.diag(fs.P), 0.0, None))
+        kf: dict[str, Value] = {}
+        for i, name in enumerate(STATE_LABELS):
+            kf[name] = float(fs.x[i])
+        for i, name in enumerate(STATE_LABELS):
+            kf["s_" + name] = float(sig[i])
+        lines.append(("KF", kf))
+    u = r.filter_update
+    if u is not None:
+        lines.append(("TEST", {"lom": u.lom.t, "lo": u.lom.lower, "hi": u.lom.upper,
+                               "dof": u.lom.dof, "verdict": u.lom.verdict,
+                               "ls": ",".join(f"{t:.3f}" for t in u.ls.t)}))
+    lines.append(("MPP", {"source": r.mpp.source, **_pos_fields(r.mpp)}))
+    for m in r.messages:
+        lines.append(("MSG", {"text": m}))
+    return head, lines

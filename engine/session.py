@@ -1,0 +1,295 @@
+"""A run in progress: reads the ``.RUN`` file, steps the cycle, applies operator commands and
+keeps the ``.OUT`` / JSON-lines logs.  The console and the headless replay both drive this.
+
+The session is the only stateful object of the engine; it holds one run's context and state and
+nothing global.  Every completed cycle is on disk (flushed) before :meth:`Session.step` returns.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import IO
+
+from engine import __version__
+from engine.commands import Command, SetDatum, apply_command
+from engine.cycle import (
+    CycleResult,
+    NavState,
+    PositionEstimate,
+    RunContext,
+    build_context,
+    filter_estimate,
+    initial_state,
+    rebase_state,
+    step,
+)
+from engine.datumfile import DatumFile, read_datum_file
+from engine.deccafile import DeccaChain, read_chain_file
+from engine.kalman import predict_horizon, predict_step
+from engine.outlog import OutLogWriter
+from engine.records import cycle_block, cycle_json
+from engine.runconfig import RunConfig, dump_config, load_config
+from engine.runfile import BadRecord, RunRecord, iter_run_file
+from engine.smoother import SmootherRecord, rts_smooth
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What a replay did: counts, the last cycle and where the logs went."""
+
+    epochs: int
+    fixes: int
+    rejected_lops: int
+    skipped_records: int
+    last: CycleResult | None
+    out_path: Path | None
+    jsonl_path: Path | None
+    eof: bool
+
+
+def load_data(cfg: RunConfig) -> tuple[DatumFile, dict[str, DeccaChain]]:
+    """Read ``TO_WGS84.DAT`` and ``DECCA.CHN`` from the configuration's data directory."""
+    return (
+        read_datum_file(cfg.data_dir / "TO_WGS84.DAT"),
+        read_chain_file(cfg.data_dir / "DECCA.CHN"),
+    )
+
+
+class Session:
+    """One run: configuration, context, navigation state, logs and a bounded history."""
+
+    def __init__(
+        self,
+        config: RunConfig,
+        *,
+        out_path: str | os.PathLike[str] | None = None,
+        force: bool = False,
+        jsonl_path: str | os.PathLike[str] | None = None,
+        history: int = 3600,
+        collect_smoother: bool = False,
+        data: tuple[DatumFile, dict[str, DeccaChain]] | None = None,
+    ) -> None:
+        self.datums, self.chains = data if data is not None else load_data(config)
+        self.context: RunContext = build_context(config, self.datums, self.chains)
+        self.nav: NavState = initial_state(config)
+        self.history: deque[CycleResult] = deque(maxlen=max(1, history))
+        self.bad_records: list[BadRecord] = []
+        self.eof = False
+        self.fixes = 0
+        self.rejected_lops = 0
+        self._records: Iterator[RunRecord | BadRecord] = iter_run_file(config.run_path)
+        self._read = 0
+        self._prev_nav: NavState | None = None
+        self._prev_record: RunRecord | None = None
+        self._smoother: list[SmootherRecord] | None = [] if collect_smoother else None
+        self._out: OutLogWriter | None = None
+        self._jsonl: IO[str] | None = None
+        if out_path is not None:
+            self._out = OutLogWriter.create(
+                out_path,
+                header=[f"engine {__version__}", f"run {config.run_path}"],
+                config_text=dump_config(config),
+                force=force,
+            )
+        self.jsonl_path: Path | None = None
+        if jsonl_path is not None:
+            self.jsonl_path = Path(jsonl_path)
+            mode = "w" if force else "x"
+            self._jsonl = open(self.jsonl_path, mode, encoding="utf-8")  # noqa: SIM115
+
+    @classmethod
+    def from_file(cls, config_path: str | os.PathLike[str], **kwargs: object) -> Session:
+        """Open a session from a run-configuration TOML file."""
+        return cls(load_config(config_path), **kwargs)  # type: ignore[arg-type]
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def config(self) -> RunConfig:
+        """The configuration in force (changes with every set-up command)."""
+        return self.context.config
+
+    @property
+    def last(self) -> CycleResult | None:
+        """The most recent cycle, or None before the first."""
+        return self.history[-1] if self.history else None
+
+    @property
+    def out_path(self) -> Path | None:
+        """Where the ``.OUT`` log is written (None when not logging)."""
+        return self._out.path if self._out is not None else None
+
+    # ------------------------------------------------------------------ running
+    def _next_record(self) -> RunRecord | None:
+        delta = self.config.demo.delta_t_s
+        for item in self._records:
+            if isinstance(item, BadRecord):
+                self._log_bad(item.line_no, item.error.field or "record", item.error.message,
+                              item.raw)
+                self.bad_records.append(item)
+                continue
+            self._read += 1
+            if (self._read - 1) % delta:
+                continue  # DeltaT: process every DeltaT-th record (program.md A21)
+            return item
+        self.eof = True
+        return None
+
+    def _log_bad(self, line_no: int, field: str, message: str, raw: str) -> None:
+        if self._out is not None:
+            self._out.write_bad_record({"record": line_no, "field": field, "message": message,
+                                        "raw": raw})
+
+    def step(self) -> CycleResult | None:
+        """Process the next good record; None at the end of the file."""
+        while True:
+            rec = self._next_record()
+            if rec is None:
+                return None
+            try:
+                nav, result = step(self.context, self.nav, rec)
+            except ValueError as exc:
+                # e.g. a time stamp that does not advance: skip the record, keep the run going.
+                self._log_bad(rec.line_no, "time", str(exc), rec.raw)
+                self.bad_records.append(BadRecord(rec.line_no, rec.raw, _as_input_error(exc)))
+                continue
+            self._prev_nav, self._prev_record = self.nav, rec
+            self._commit(nav, result)
+            return result
+
+    def _commit(self, nav: NavState, result: CycleResult) -> None:
+        if self._smoother is not None and nav.filter is not None:
+            self._collect_smoother(nav)
+        self.nav = nav
+        self.history.append(result)
+        if result.fix is not None and result.fix.ok and not result.fix.uses_prior:
+            self.fixes += 1
+        if result.fix is not None:
+            self.rejected_lops += len(result.fix.rejected_slots)
+        if self._out is not None:
+            head, lines = cycle_block(result)
+            self._out.write_cycle(head, lines)
+        if self._jsonl is not None:
+            self._jsonl.write(json.dumps(cycle_json(result), separators=(",", ":")) + "\n")
+            self._jsonl.flush()
+
+    def _collect_smoother(self, nav: NavState) -> None:
+        assert self._smoother is not None and nav.filter is not None
+        fs = nav.filter
+        recs = self._smoother
+        if recs and recs[-1].predicted_next is None:
+            prev = recs[-1].filtered
+            if prev.n == fs.n and prev.fix_states == fs.fix_states and fs.t > prev.t:
+                pred, phi = predict_step(prev, fs.t - prev.t, self.context.filter_params)
+                recs[-1] = SmootherRecord(prev, pred, phi)
+            else:
+                recs.clear()  # the state changed shape (fix states added): restart the span
+        recs.append(SmootherRecord(fs))
+
+    def recompute_last(self, excluded_slots: tuple[int, ...]) -> CycleResult | None:
+        """Redo the last cycle with LOPs discarded (``LOPReject = 'A'``, the operator said yes)."""
+        if self._prev_record is None or self._prev_nav is None:
+            return None
+        nav, result = step(self.context, self._prev_nav, self._prev_record,
+                           excluded_slots=excluded_slots)
+        self.history.pop()
+        if self._out is not None:
+            self._out.write_action({"cycle": result.n, "text": f"LOP discarded {excluded_slots}"})
+        self._commit(nav, result)
+        return result
+
+    def run(
+        self,
+        max_cycles: int | None = None,
+        progress: Callable[[CycleResult], None] | None = None,
+    ) -> RunSummary:
+        """Step until the end of the file (or ``max_cycles``); returns the summary."""
+        n = 0
+        while max_cycles is None or n < max_cycles:
+            r = self.step()
+            if r is None:
+                break
+            n += 1
+            if progress is not None:
+                progress(r)
+        return self.summary()
+
+    def summary(self) -> RunSummary:
+        """Counts so far."""
+        return RunSummary(
+            epochs=len(self.history) if self.last is None else self.last.n,
+            fixes=self.fixes,
+            rejected_lops=self.rejected_lops,
+            skipped_records=len(self.bad_records),
+            last=self.last,
+            out_path=self.out_path,
+            jsonl_path=self.jsonl_path,
+            eof=self.eof,
+        )
+
+    # ------------------------------------------------------------------ operator
+    def apply(self, cmd: Command) -> str:
+        """Apply an operator command between cycles; logs it and returns its description."""
+        cfg, nav, text = apply_command(self.context, self.nav, cmd)
+        if cfg is not self.context.config:
+            old = self.context
+            new = build_context(cfg, self.datums, self.chains)
+            if isinstance(cmd, SetDatum):
+                nav = rebase_state(nav, old, new)
+            self.context = new
+        self.nav = nav
+        if self._out is not None:
+            self._out.write_action({
+                "cycle": self.nav.n,
+                "t": None if nav.last_time is None else nav.last_time.strftime("%H:%M:%SZ"),
+                "text": text,
+            })
+        return text
+
+    def predict(self, horizon_s: float, step_s: float) -> list[PositionEstimate]:
+        """Kalman ▸ Predict: positions and ellipses every ``step_s`` s up to ``horizon_s`` s,
+        from the current filter state (which is not changed)."""
+        fs = self.nav.filter
+        if fs is None or self.nav.cm_deg is None:
+            return []
+        grid = self.context.grid(self.nav.cm_deg)
+        out = []
+        for s in predict_horizon(fs, horizon_s, step_s, self.context.filter_params):
+            out.append(filter_estimate("KF", grid, s))
+        return out
+
+    def smooth(self) -> list[PositionEstimate]:
+        """Kalman ▸ Smoothing: RTS-smoothed positions of the collected span (oldest first)."""
+        if not self._smoother or self.nav.cm_deg is None:
+            return []
+        recs = list(self._smoother)
+        if recs[-1].predicted_next is not None:
+            recs[-1] = SmootherRecord(recs[-1].filtered)
+        grid = self.context.grid(self.nav.cm_deg)
+        return [filter_estimate("SMO", grid, s) for s in rts_smooth(recs)]
+
+    def close(self) -> None:
+        """Close the logs (everything written is already flushed)."""
+        if self._out is not None:
+            self._out.close()
+        if self._jsonl is not None and not self._jsonl.closed:
+            self._jsonl.close()
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _as_input_error(exc: Exception) -> object:
+    from engine.errors import InputError
+
+    return InputError(str(exc), field="time")
+
+
+__all__ = ["RunSummary", "Session", "load_data", "replace"]
