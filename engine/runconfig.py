@@ -575,7 +575,7 @@ DemoConfig.KEYS = (
     Key("s_weight", "s_weight", "float", "—", "specific weight of seawater γ (eq. 3.3)",
         "A8.2 s_weight = 1.026 (L8768)", _POSITIVE),
     Key("press_ref_freq_hz", "press_ref_freq_hz", "float", "Hz",
-        "pressure-crystal surface reference frequency; 0 = take the first reading",
+        "pressure-crystal surface reference frequency; 0 = one standard atmosphere",
         "L597; program.md A10, A18", _NON_NEGATIVE),
     Key("plot_scale_m", "plot_scale_m", "float", "m", "extent of the position plot",
         "L7678 (no value given)", _POSITIVE),
