@@ -24,10 +24,10 @@ caller asks for it explicitly (``force=True``): otherwise a new name is chosen.
 from __future__ import annotations
 
 import json
-import math
 import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from numbers import Integral
 from pathlib import Path
 from typing import IO
 
@@ -39,16 +39,14 @@ Value = str | int | float | bool | None
 
 def format_value(value: Value) -> str:
     """Encode one value for a ``key=value`` pair (floats keep full precision, None is ``-``)."""
+    if isinstance(value, float):  # the common case first; numpy floats are floats too
+        return "nan" if value != value else float.__repr__(value)
     if value is None:
         return "-"
     if isinstance(value, bool):
         return "1" if value else "0"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        return repr(value)
+    if isinstance(value, Integral):
+        return str(int(value))
     text = str(value)
     special = any(c.isspace() or c in '"=\\' for c in text)
     if text in ("", "-") or special or _looks_numeric(text):
@@ -67,9 +65,8 @@ def _looks_numeric(text: str) -> bool:
 
 def format_line(tag: str, fields: Mapping[str, Value], indent: str = "") -> str:
     """One log line: ``TAG k=v k=v`` (no newline)."""
-    parts = [indent + tag]
-    parts.extend(f"{k}={format_value(v)}" for k, v in fields.items())
-    return " ".join(parts)
+    fv = format_value
+    return indent + tag + "".join([f" {k}={fv(v)}" for k, v in fields.items()])
 
 
 def _split_tokens(text: str) -> list[str]:
