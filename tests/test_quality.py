@@ -230,7 +230,9 @@ def test_identification_rates() -> None:
     Δ = 1.5·MDB 0.963, Δ = 1.75·MDB 0.990, Δ = 2·MDB 0.998, Δ = 5σ_i 0.968. So ≥ 95 % needs
     Δ ≥ 1.5·MDB on average; asserted with a safe margin (≥ 5 binomial σ of 1000 trials) at
     Δ = 1.75·MDB (≥ 0.95) and 2·MDB (≥ 0.99). Δ = 5σ_i is a fixed multiple of σ_i, not of σ_d,
-    so slots with little redundancy are covered less well: asserted ≥ 0.93. At Δ = MDB the
+    so slots with little redundancy are covered less well; the issue's requirement (a 5σ blunder
+    identified in ≥ 95 % of trials) holds at 0.968 ± 0.003 and is asserted (0.95 lies 3 binomial
+    σ of 1000 trials below the expected rate; the RNG is seeded). At Δ = MDB the
     rate is below the 0.80 detection power (identification is harder than detection)."""
     _, _, at_mdb = _snooping_run("1*mdb", 303)
     _, _, at_5s = _snooping_run("5sigma", 404)
@@ -240,7 +242,7 @@ def test_identification_rates() -> None:
     assert at_175 >= 0.95
     assert at_2 >= 0.99
     assert at_15 >= 0.93
-    assert at_5s >= 0.93
+    assert at_5s >= 0.95
     assert 0.65 < at_mdb < 0.80
 
 
