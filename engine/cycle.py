@@ -51,7 +51,7 @@ from engine.kalman import (
     init_state,
     lop_measurement,
     lse_measurement,
-    predict,
+    predict_step,
     sensor_measurement,
     stack_measurements,
     update,
@@ -252,6 +252,9 @@ class CycleResult:
     cumulative: CumulativeVariance
     manual: tuple[ManualObservation, ...] = ()
     messages: tuple[str, ...] = ()
+    smoother_link: tuple[FilterState, FilterState, np.ndarray] | None = None
+    """(state at the previous epoch after this record's gyro/log update, its prediction to this
+    epoch, Φ): what the RTS smoother needs to go back over this step."""
 
 
 @dataclass(frozen=True)
@@ -400,6 +403,7 @@ def step(
         )
     kf_pred: PositionEstimate | None = None
     pred_state: FilterState | None = None
+    link: tuple[FilterState, FilterState, np.ndarray] | None = None
     dr_sensors = False
     if fstate is not None:
         # Heading and speed of this record drive the step into it (program.md §10 item 6: the
@@ -409,7 +413,8 @@ def step(
         dr_sensors = sensor_rows.z.shape[0] > 0
         if dr_sensors:
             fstate = update(fstate, sensor_rows, params).state
-        pred_state = predict(fstate, dt, params)
+        pred_state, phi = predict_step(fstate, dt, params)
+        link = (fstate, pred_state, phi)
         kf_pred = filter_estimate("KF", grid, pred_state)
     # --- LOPs and the least-squares fix.
     gps = _gps_input(ctx, rec, grid)
@@ -523,6 +528,7 @@ def step(
         cumulative=cumulative,
         manual=manual,
         messages=tuple(messages),
+        smoother_link=link,
     )
     next_nav = NavState(
         n=nav.n + 1,

@@ -26,11 +26,12 @@ from engine.cycle import (
     filter_estimate,
     initial_state,
     rebase_state,
+    reproject_state,
     step,
 )
 from engine.datumfile import DatumFile, read_datum_file
 from engine.deccafile import DeccaChain, read_chain_file
-from engine.kalman import predict_horizon, predict_step
+from engine.kalman import predict_horizon
 from engine.outlog import OutLogWriter
 from engine.records import cycle_block, cycle_json
 from engine.runconfig import RunConfig, dump_config, load_config
@@ -87,6 +88,7 @@ class Session:
         self._prev_nav: NavState | None = None
         self._prev_record: RunRecord | None = None
         self._smoother: list[SmootherRecord] | None = [] if collect_smoother else None
+        self._smoother_cm: float | None = None
         self._out: OutLogWriter | None = None
         self._jsonl: IO[str] | None = None
         if out_path is not None:
@@ -163,7 +165,7 @@ class Session:
 
     def _commit(self, nav: NavState, result: CycleResult) -> None:
         if self._smoother is not None and nav.filter is not None:
-            self._collect_smoother(nav)
+            self._collect_smoother(nav, result)
         self.nav = nav
         self.history.append(result)
         if result.fix is not None and result.fix.ok and not result.fix.uses_prior:
@@ -177,18 +179,30 @@ class Session:
             self._jsonl.write(json.dumps(cycle_json(result), separators=(",", ":")) + "\n")
             self._jsonl.flush()
 
-    def _collect_smoother(self, nav: NavState) -> None:
+    def _collect_smoother(self, nav: NavState, result: CycleResult) -> None:
+        """Keep what the RTS smoother needs: per epoch the final filter state, and for the step
+        into the next epoch the state it started from, the prediction and Φ."""
         assert self._smoother is not None and nav.filter is not None
-        fs = nav.filter
         recs = self._smoother
-        if recs and recs[-1].predicted_next is None:
+        link = result.smoother_link
+        if recs and self._smoother_cm is not None and result.cm_deg != self._smoother_cm:
+            old = self.context.grid(self._smoother_cm)
+            new = self.context.grid(result.cm_deg)
+            recs[:] = [SmootherRecord(reproject_state(r.filtered, old, new),
+                                      None if r.predicted_next is None
+                                      else reproject_state(r.predicted_next, old, new), r.phi)
+                       for r in recs]
+        self._smoother_cm = result.cm_deg
+        if recs and link is not None:
+            start, pred, phi = link
             prev = recs[-1].filtered
-            if prev.n == fs.n and prev.fix_states == fs.fix_states and fs.t > prev.t:
-                pred, phi = predict_step(prev, fs.t - prev.t, self.context.filter_params)
-                recs[-1] = SmootherRecord(prev, pred, phi)
+            if start.n == prev.n and start.fix_states == prev.fix_states and pred.n == nav.filter.n:
+                recs[-1] = SmootherRecord(start, pred, phi)
             else:
                 recs.clear()  # the state changed shape (fix states added): restart the span
-        recs.append(SmootherRecord(fs))
+        elif link is None:
+            recs.clear()
+        recs.append(SmootherRecord(nav.filter))
 
     def recompute_last(self, excluded_slots: tuple[int, ...]) -> CycleResult | None:
         """Redo the last cycle with LOPs discarded (``LOPReject = 'A'``, the operator said yes)."""
@@ -196,7 +210,12 @@ class Session:
             return None
         nav, result = step(self.context, self._prev_nav, self._prev_record,
                            excluded_slots=excluded_slots)
-        self.history.pop()
+        dropped = self.history.pop()
+        if dropped.fix is not None:
+            self.fixes -= int(dropped.fix.ok and not dropped.fix.uses_prior)
+            self.rejected_lops -= len(dropped.fix.rejected_slots)
+        if self._smoother:
+            self._smoother.pop()
         if self._out is not None:
             self._out.write_action({"cycle": result.n, "text": f"LOP discarded {excluded_slots}"})
         self._commit(nav, result)

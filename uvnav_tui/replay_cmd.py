@@ -7,6 +7,7 @@ Never a traceback for bad input: file, line and field are named and the exit sta
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from engine.errors import InputError
 from engine.formatting import format_lat_dms, format_lon_dms
+from engine.records import position_json
 from engine.runconfig import RunConfig, default_config, load_config
 from engine.session import RunSummary, Session
 
@@ -28,8 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "log is never overwritten: a free NAME_N.OUT is chosen)")
     p.add_argument("--no-out", action="store_true", help="write no .OUT log")
     p.add_argument("--jsonl", help="also write one JSON object per cycle to this file")
-    p.add_argument("--smooth", action="store_true",
-                   help="run the RTS smoother afterwards and report its final-span figures")
+    p.add_argument("--smooth", nargs="?", const="", metavar="FILE",
+                   help="run the RTS smoother over the whole run afterwards and write the smoothed "
+                   "positions as JSON lines to FILE (default NAME.smooth.jsonl next to RUN)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     return p
 
@@ -80,7 +83,7 @@ def run_replay(argv: list[str]) -> int:
         cfg = _config_for(run, args.config)
         out = None if args.no_out else (args.out or str(run.with_suffix(".OUT")))
         session = Session(cfg, out_path=out, force=args.force, jsonl_path=args.jsonl,
-                          collect_smoother=args.smooth, history=1)
+                          collect_smoother=args.smooth is not None, history=1)
     except InputError as exc:
         print(f"uvnav replay: {exc}", file=sys.stderr)
         return 2
@@ -96,8 +99,13 @@ def run_replay(argv: list[str]) -> int:
                 summary = session.run(progress=lambda _r: bar.advance(task))
         else:
             summary = session.run()
-        if args.smooth:
-            smoothed = len(session.smooth())
+        if args.smooth is not None:
+            path = Path(args.smooth) if args.smooth else run.with_suffix(".smooth.jsonl")
+            smoothed_positions = session.smooth()
+            with open(path, "w" if args.force else "x", encoding="utf-8") as fh:
+                for p in smoothed_positions:
+                    fh.write(json.dumps(position_json(p), separators=(",", ":")) + "\n")
+            smoothed = len(smoothed_positions)
     for line in _summary_lines(summary, smoothed):
         print(line)
     for bad in session.bad_records:
