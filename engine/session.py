@@ -196,7 +196,7 @@ class Session:
         if recs and link is not None:
             start, pred, phi = link
             prev = recs[-1].filtered
-            if start.n == prev.n and start.fix_states == prev.fix_states and pred.n == nav.filter.n:
+            if start.n == prev.n and start.fix_states == prev.fix_states:
                 recs[-1] = SmootherRecord(start, pred, phi)
             else:
                 recs.clear()  # the state changed shape (fix states added): restart the span
