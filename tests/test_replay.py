@@ -24,7 +24,7 @@ DATA = ROOT / "data"
 def test_replay_sample_writes_out_and_jsonl(tmp_path: Path, capsys) -> None:
     out, jl = tmp_path / "S.OUT", tmp_path / "S.jsonl"
     rc = main(["replay", str(DATA / "920917_1.RUN"), "--config", str(DATA / "920917_1.toml"),
-               "--out", str(out), "--jsonl", str(jl), "--smooth"])
+               "--out", str(out), "--jsonl", str(jl), "--smooth", str(tmp_path / "S.smo")])
     assert rc == 0
     text = capsys.readouterr().out
     assert "epochs 10  fixes 10  rejected LOPs 0  skipped records 0" in text
