@@ -135,47 +135,56 @@ def decca_geometry(
     """Compute lane counts, partials, LEF and LOP azimuths at grid point (x, y) (eq. 4.9, A5.9–12).
 
     N_calc = (D_m − D_s + B)/λc + k with D = grid chord / L (A5.10, L at the mean latitude of the
-    two end points, lsq.md §2.3).
+    two end points, lsq.md §2.3).  Scalar arithmetic throughout: this runs in every LS iteration.
     """
     lat0, lon0 = placed.grid.inverse(x_m, y_m)
     ell = placed.grid.ellipsoid
-    sxy = placed.station_xy_m
-    sll = placed.station_latlon_deg
-    dist = np.empty(4)
-    dx_part = np.empty(4)
-    dy_part = np.empty(4)
+    sxy = placed.station_xy_m.tolist()
+    sll = placed.station_latlon_deg.tolist()
+    dist = [0.0] * 4
+    dxp = [0.0] * 4
+    dyp = [0.0] * 4
+    az = [0.0] * 4
     for i in range(4):
         xs, ys = sxy[i]
-        rm2 = mean_radius_sq(ell, lat0, float(sll[i, 0]))
+        slat, slon = sll[i]
+        rm2 = mean_radius_sq(ell, lat0, slat)
         chord = math.hypot(x_m - xs, y_m - ys)
         lsf = line_scale_factor(x_m, xs, rm2)
         dist[i] = chord / lsf
         # ∂D/∂x including the line-scale term (A5.11), ∂D/∂y (A5.12).
-        dx_part[i] = (x_m - xs) / (lsf * chord) - chord * (2.0 * x_m + xs) / (lsf * lsf * 6.0 * rm2)
-        dy_part[i] = (y_m - ys) / (lsf * chord)
-    az_fwd, _az_back, _d = geodesic.inverse_many(lat0, lon0, sll[:, 0], sll[:, 1])
-    az = np.radians(az_fwd)
-    lam = placed.wavelength_m
-    n_calc = (dist[0] - dist[1:] + placed.baseline_m) / lam + placed.min_lanes
-    row = np.column_stack(((dx_part[0] - dx_part[1:]) / lam, (dy_part[0] - dy_part[1:]) / lam))
-    gamma = np.abs(az[1:] - az[0]) % (2.0 * math.pi)
-    gamma = np.where(gamma > math.pi, 2.0 * math.pi - gamma, gamma)
-    lef = 1.0 / np.sin(gamma / 2.0)
-    # Direction in which N increases: −ê(Az_m) + ê(Az_s); the LOP runs 90° from it (lsq.md §5.7).
-    gx = -math.sin(az[0]) + np.sin(az[1:])
-    gy = -math.cos(az[0]) + np.cos(az[1:])
-    lop_az = (np.arctan2(gx, gy) + math.pi / 2.0) % (2.0 * math.pi)
+        dxp[i] = (x_m - xs) / (lsf * chord) - chord * (2.0 * x_m + xs) / (lsf * lsf * 6.0 * rm2)
+        dyp[i] = (y_m - ys) / (lsf * chord)
+        az[i] = math.radians(geodesic.azimuth_distance(lat0, lon0, slat, slon)[0])
+    lam = placed.wavelength_m.tolist()
+    base = placed.baseline_m.tolist()
+    kmin = placed.min_lanes.tolist()
+    two_pi = 2.0 * math.pi
+    n_calc, row, lef, lop_az = [], [], [], []
+    for j in range(3):
+        s = j + 1
+        n_calc.append((dist[0] - dist[s] + base[j]) / lam[j] + kmin[j])
+        row.append(((dxp[0] - dxp[s]) / lam[j], (dyp[0] - dyp[s]) / lam[j]))
+        gamma = abs(az[s] - az[0]) % two_pi
+        if gamma > math.pi:
+            gamma = two_pi - gamma
+        lef.append(1.0 / math.sin(gamma / 2.0))
+        # Direction in which N increases: −ê(Az_m) + ê(Az_s); the LOP runs 90° from it (§5.7).
+        gx = -math.sin(az[0]) + math.sin(az[s])
+        gy = -math.cos(az[0]) + math.cos(az[s])
+        lop_az.append((math.atan2(gx, gy) + math.pi / 2.0) % two_pi)
+    lef_a = np.array(lef)
     return DeccaGeometry(
-        d_master_m=float(dist[0]),
-        az_master_rad=float(az[0] % (2.0 * math.pi)),
-        d_slave_m=dist[1:].copy(),
-        az_slave_rad=az[1:] % (2.0 * math.pi),
+        d_master_m=dist[0],
+        az_master_rad=az[0] % two_pi,
+        d_slave_m=np.array(dist[1:]),
+        az_slave_rad=np.array(az[1:]) % two_pi,
         baseline_m=placed.baseline_m,
-        lef=lef,
-        metres_per_lane=lam * lef / 2.0,
-        lop_azimuth_rad=lop_az,
-        n_calc=n_calc,
-        row=row,
+        lef=lef_a,
+        metres_per_lane=placed.wavelength_m * lef_a / 2.0,
+        lop_azimuth_rad=np.array(lop_az),
+        n_calc=np.array(n_calc),
+        row=np.array(row),
     )
 
 
@@ -186,21 +195,16 @@ def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
     night, 1/2.25 winter night); the synchronisation terms are not (lsq.md §6.3, verified).
     """
     h = 1e-5  # metres → units of 100 km
-    s_n = sigma_path_a(geom.d_master_m * h)
-    s_nx = np.array([sigma_path_a(b * h) for b in geom.baseline_m])
-    s_x = np.array(
-        [
-            sigma_path_a(geom.d_slave_m[0] * h),
-            sigma_path_a(geom.d_slave_m[1] * h),
-            sigma_path_b(geom.d_slave_m[2] * h),
-        ]
-    )
-    mm = np.array(MASTER_MULTIPLIER, dtype=float)
-    ms = np.array(COMPARISON_MULTIPLIER_SLAVE, dtype=float)
-    var = (mm**2 * s_n**2 + mm**2 * s_nx**2 + ms**2 * s_x**2) / cf + np.array(SYNC_SIGMA_LANES) ** 2
-    c = np.outer(mm, mm) * s_n**2 / cf
-    np.fill_diagonal(c, var)
-    return c
+    s_n2 = sigma_path_a(geom.d_master_m * h) ** 2
+    d_s = geom.d_slave_m.tolist()
+    base = geom.baseline_m.tolist()
+    s_x = (sigma_path_a(d_s[0] * h), sigma_path_a(d_s[1] * h), sigma_path_b(d_s[2] * h))
+    mm, ms = MASTER_MULTIPLIER, COMPARISON_MULTIPLIER_SLAVE
+    c = [[mm[i] * mm[j] * s_n2 / cf for j in range(3)] for i in range(3)]
+    for i in range(3):
+        sky = mm[i] ** 2 * (s_n2 + sigma_path_a(base[i] * h) ** 2) + ms[i] ** 2 * s_x[i] ** 2
+        c[i][i] = sky / cf + SYNC_SIGMA_LANES[i] ** 2
+    return np.array(c)
 
 
 def decca_vcv_m2(geom: DeccaGeometry, cf: float) -> np.ndarray:

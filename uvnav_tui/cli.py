@@ -22,7 +22,7 @@ USAGE = """usage: uvnav [--config FILE.toml] [--dev]          open the navigatio
        uvnav replay RUN [--config TOML] [--out FILE.OUT] [--jsonl FILE] [--smooth] [--force]
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
        uvnav script FILE [--headless]
-       uvnav assess OUT_or_JSONL TRUTH.csv
+       uvnav assess OUT_or_JSONL TRUTH.csv [--svg FILE] [--phases auto|none] [--poe-rate M_H]
 """
 
 
