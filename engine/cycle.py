@@ -464,9 +464,9 @@ def step(
     new_filter = pred_state
     has_fix = nav.filter_has_fix
     lse_ok = fix is not None and fix.ok and not fix.uses_prior
+    depth_rows: Measurement | None = None
     if pred_state is not None and sens.depth_m is not None:
-        rows = sensor_measurement(pred_state, depth_m=sens.depth_m, params=params)
-        new_filter = update(pred_state, rows, params).state
+        depth_rows = sensor_measurement(pred_state, depth_m=sens.depth_m, params=params)
     if new_filter is not None and fix is not None and lse_ok and not has_fix:
         # The first LSE initialises the filter position (kalman.md A3): a DR start kilometres
         # away with the thesis P0 = I would otherwise pull against every fix.
@@ -478,6 +478,8 @@ def step(
             meas = lse_measurement(fix.x_m, fix.y_m, fix.cov, params) if lse_ok else (
                 _raw_lop_measurement(fix))
         if meas is not None:
+            if depth_rows is not None:  # one update for everything measured at this epoch
+                meas, depth_rows = stack_measurements(depth_rows, meas), None
             filt_result = update(new_filter, meas, params)
             new_filter = filt_result.state
             status = "ON"
@@ -487,6 +489,10 @@ def step(
     elif new_filter is not None and fix is not None and lse_ok:
         # Filter off: dead reckoning restarts from each LSE (program.md §3 Kalman ▸ Filtering).
         new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
+    if new_filter is not None and depth_rows is not None:
+        depth_result = update(new_filter, depth_rows, params)
+        new_filter = depth_result.state
+        filt_result = filt_result or depth_result
     if new_filter is not None and status == "ON":
         kf_est = filter_estimate("KF", grid, new_filter)
     # --- MPP: filtered if the filter produced it, else the LSE, else the prediction (A6).
