@@ -30,7 +30,8 @@ STAGES = {
     "geodesy (GPS datum shift, grid)": ("_gps_input",),
     "Decca lane tracking": ("_decca_totals",),
     "LSQ fix + tests": ("compute_fix",),
-    "filter (predict, updates)": ("predict_step", "update", "sensor_measurement", "lse_measurement"),
+    "filter (predict, updates)": (
+        "predict_step", "update", "sensor_measurement", "lse_measurement", "stack_measurements"),
 }
 
 
