@@ -25,6 +25,7 @@ from textual.theme import Theme
 from textual.widgets import ContentSwitcher, Static
 from textual.worker import get_current_worker
 
+import uvnav_tui.plot_pages  # noqa: F401, E402  (registers Pg 642, 643, 710)
 from engine.commands import (
     AddObservation,
     Command,

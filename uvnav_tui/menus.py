@@ -96,6 +96,7 @@ MENU_BAR: tuple[MenuItem, ...] = (
         _page("MainPage", 100, "main page"),
     )),
     MenuItem("Demo", children=(
+        _page("Page", 710, "the demo parameters in force", hotkey="g"),
         _leaf("Parameters", "demo_params", "Sample interval, pace, plot, specific weight"),
         _leaf("Corrections", "demo_corrections", "Observation corrections (C-O)", dev=True),
         _leaf("LS params", "demo_lsq", "Least-squares and testing parameters", hotkey="l",
@@ -133,6 +134,7 @@ PAGE_TITLES: dict[int, str] = {
     830: "Weights",
     840: "Ellipsoid",
     850: "Kalman matrices",
+    710: "Demo parameters",
 }
 """Titles of the pages the menus lead to (page numbers per program.md §4.1 and A5)."""
 
