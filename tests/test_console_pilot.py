@@ -646,7 +646,8 @@ def test_developer_parameter_dialogs(data_dir: Path) -> None:
         await menu(pilot, "alt+s", "p", "r", "alt+d", "l")
         screen = app.screen
         assert isinstance(screen, PulldownScreen)  # "l" picks nothing for the navigator
-        assert [i.label for i in screen.level_items(0)] == ["Parameters"]
+        # The navigator keeps the Demo page (Pg 710) and Parameters; the rest is dev-only (A4).
+        assert [i.label for i in screen.level_items(0)] == ["Page", "Parameters"]
 
     drive(app, script)
 
