@@ -416,7 +416,7 @@ def test_develop_and_reset(data_dir: Path) -> None:
         assert " Data " in text_of(app).splitlines()[0]
         await menu(pilot, "alt+a", "w")
         assert app.page == 830
-        assert "Pg 830" in text_of(app) and "page not built yet" in text_of(app)
+        assert "Pg 830" in text_of(app) and "Weight matrix W = Cl⁻¹ :" in text_of(app)
         await menu(pilot, "alt+s", "p", "r")
         assert not app.dev_mode and app.page == 100
         assert "Data" not in text_of(app).splitlines()[0]
@@ -652,20 +652,61 @@ def test_developer_parameter_dialogs(data_dir: Path) -> None:
     drive(app, script)
 
 
-def test_statistics_pages_are_placeholders(data_dir: Path) -> None:
-    """Statistics items open their numbered page with the left status column."""
+def test_statistics_pages_and_sub_pages(data_dir: Path) -> None:
+    """Statistics items open their numbered page beside the left status column; PgDn/PgUp
+    cycle through the sub-pages of a group (program.md A5); Data pages need developer mode."""
     app = make_app(data_dir)
 
     async def script(pilot: Pilot[None]) -> None:
         await start(pilot, 2)
         await menu(pilot, "alt+t", "s", "g")
         screen = text_of(app)
-        assert app.page == 611 and "Pg 611" in screen and "page not built yet" in screen
+        assert app.page == 611 and "Pg 611" in screen and "GPS statistical data :" in screen
         assert "Systems: G...D" in screen and "LOPs : 4" in screen and "CM 005°00.00'E" in screen
+        await pilot.press("pagedown")
+        assert app.page == 615 and "Decca statistical data :" in text_of(app)
+        await pilot.press("pagedown")
+        assert app.page == 611
+        await menu(pilot, "alt+t", "l")
+        assert app.page == 631
+        await pilot.press("pagedown")
+        assert app.page == 633 and "S²" in text_of(app)
         await menu(pilot, "alt+t", "p", "l")
         assert app.page == 642
+        await pilot.press("pagedown")
+        assert app.page == 643
+        await pilot.press("pageup", "pageup")
+        assert app.page == 641 and "LSE :" in text_of(app)
+        await pilot.press("pageup")
+        assert app.page == 643
+        app.show_page(850)  # as a script's "page 850" would: refused for the navigator
+        assert app.page == 643 and "developer page" in app.message
         await menu(pilot, "alt+t", "m")
         assert app.page == 100 and "LSE" in text_of(app)
+        await pilot.press("pagedown")
+        assert app.page == 100
+
+    drive(app, script)
+
+
+def test_data_kalman_sub_pages(data_dir: Path) -> None:
+    """Data ▸ Kalman (Pg 850) and its sub-pages 851–853 by PgDn, in developer mode."""
+    app = make_app(data_dir, dev_mode=True)
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot, 2)
+        await menu(pilot, "alt+a", "k")
+        assert app.page == 850
+        seen = {app.page: text_of(app)}
+        for _ in range(3):
+            await pilot.press("pagedown")
+            seen[app.page] = text_of(app)
+        assert list(seen) == [850, 851, 852, 853]
+        assert "transition matrix" in seen[852] and "gain K" in seen[853]
+        await pilot.press("pagedown")
+        assert app.page == 850
+        await menu(pilot, "alt+s", "p", "r")
+        assert app.page == 100  # leaving developer mode leaves the Data pages
 
     drive(app, script)
 

@@ -22,7 +22,6 @@ from engine.poe import drms
 from engine.records import lse_estimate
 from engine.runconfig import RunConfig
 from engine.session import Session
-from uvnav_tui import plot_pages
 from uvnav_tui.canvas import format_distance, nice_length
 from uvnav_tui.hardcopy import screen_text
 from uvnav_tui.page_642 import (
@@ -110,9 +109,8 @@ def test_demo_run_phases(run: Run) -> None:
 
 
 def test_pages_are_registered() -> None:
-    """Importing plot_pages registers 642, 643 and 710 with the console's registry."""
-    assert set(plot_pages.PAGES) == {642, 643, 710}
-    for number, cls in plot_pages.PAGES.items():
+    """Importing the page modules registers 642, 643 and 710 with the console's registry."""
+    for number, cls in {642: PositionPlotPage, 643: HistoryPage, 710: DemoPage}.items():
         assert PAGE_FACTORIES[number] is cls
         assert isinstance(make_page(number), cls)
 
@@ -411,3 +409,11 @@ def test_snapshot_pg642_dived(snap_compare: Callable[..., bool], run: Run) -> No
 def test_snapshot_pg643_dived(snap_compare: Callable[..., bool], run: Run) -> None:
     """Pg 643 over the 50 minutes up to five minutes into the dive."""
     assert snap_compare(PageApp(HistoryPage(), run.dive, run.session), terminal_size=SNAP)
+
+
+@pytest.mark.parametrize("page_cls", [PositionPlotPage, HistoryPage, DemoPage],
+                         ids=["642", "643", "710"])
+def test_snapshot_after_600_cycles(snap_compare: Callable[..., bool], run: Run,
+                                   page_cls: type[ThrottledTextPage]) -> None:
+    """642, 643 and 710 after the first 600 cycles of the demo (surfaced, GPS + Decca)."""
+    assert snap_compare(PageApp(page_cls(), run.surface, run.session), terminal_size=SNAP)

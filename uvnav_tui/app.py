@@ -25,7 +25,7 @@ from textual.theme import Theme
 from textual.widgets import ContentSwitcher, Static
 from textual.worker import get_current_worker
 
-import uvnav_tui.plot_pages  # noqa: F401, E402  (registers Pg 642, 643, 710)
+import uvnav_tui.all_pages  # noqa: F401  (registers every page but Pg 100)
 from engine.commands import (
     AddObservation,
     Command,
@@ -62,7 +62,7 @@ from uvnav_tui.hardcopy import write_hardcopy
 from uvnav_tui.init_dialog import InitDialog
 from uvnav_tui.main_page import MainPage
 from uvnav_tui.menu_bar import MenuBar
-from uvnav_tui.menus import iter_leaves
+from uvnav_tui.menus import DEV_PAGES_FROM, PAGE_TITLES, iter_leaves, next_sub_page
 from uvnav_tui.obs_dialog import ObsDialog
 from uvnav_tui.page_frame import PageFrame
 from uvnav_tui.parameters_dialog import ParametersDialog
@@ -110,7 +110,6 @@ class UVNAVApp(App[None]):
         "main_page.tcss",
         "status_column.tcss",
         "page_frame.tcss",
-        "placeholder_page.tcss",
         "validated_field.tcss",
         "console_screen.tcss",
     ]
@@ -416,7 +415,13 @@ class UVNAVApp(App[None]):
             base.query_one("#message-line", Static).update(text)
 
     def show_page(self, number: int) -> None:
-        """Show page ``number`` (100 = main page)."""
+        """Show page ``number`` (100 = main page); Data pages (8xx) only in developer mode."""
+        if number not in PAGE_TITLES:
+            self.say(f"No page {number}")
+            return
+        if number >= DEV_PAGES_FROM and not self.dev_mode:
+            self.say(f"Pg {number} is a developer page (Setup ▸ Params ▸ Develop)")
+            return
         self.page = number
         base = self._base()
         if base is not None and base.is_mounted:
@@ -428,10 +433,17 @@ class UVNAVApp(App[None]):
                 switcher.current = "page-frame"
         self.refresh_display()
 
+    def sub_page(self, step: int) -> None:
+        """PgDn (+1) / PgUp (−1): the next or previous sub-page of the page shown (641 → 642 →
+        643 → 641, program.md A5); pages without sub-pages stay."""
+        target = next_sub_page(self.page, step)
+        if target != self.page:
+            self.show_page(target)
+
     def set_dev_mode(self, on: bool) -> None:
         """Setup ▸ Params ▸ Develop / Reset: show or hide the developer items (A4)."""
         self.dev_mode = on
-        if not on and self.page >= 800:
+        if not on and self.page >= DEV_PAGES_FROM:
             self.show_page(100)
         self.say("Developer menus on" if on else "Navigator menus")
 

@@ -23,7 +23,7 @@ from uvnav_tui.state_line import StateLine
 if TYPE_CHECKING:
     from uvnav_tui.app import UVNAVApp
 
-HINT = " F10 menu   Alt+letter a menu   Ctrl+P commands   Esc closes"
+HINT = " F10 menu  Alt+letter a menu  Ctrl+P commands  PgUp/PgDn sub-pages  Esc closes"
 
 
 class ConsoleScreen(Screen[None]):
@@ -33,6 +33,8 @@ class ConsoleScreen(Screen[None]):
         Binding("f10", "open_menu(0)", "Menu", show=False),
         Binding("enter", "open_menu(0)", "Menu", show=False),
         Binding("space", "open_menu(0)", "Menu", show=False),
+        Binding("pagedown", "sub_page(1)", "Next sub-page", show=False),
+        Binding("pageup", "sub_page(-1)", "Previous sub-page", show=False),
     ]
 
     @property
@@ -53,6 +55,10 @@ class ConsoleScreen(Screen[None]):
     def action_open_menu(self, index: int) -> None:
         """Open a pulldown (the first menu for F10/Return/Space)."""
         self.uvnav.open_menu(index)
+
+    def action_sub_page(self, step: int) -> None:
+        """PgDn / PgUp between the sub-pages of the page shown."""
+        self.uvnav.sub_page(step)
 
     def on_key(self, event: events.Key) -> None:
         """Alt+letter opens the menu with that hot-key."""

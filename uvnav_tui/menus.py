@@ -125,18 +125,41 @@ PAGE_TITLES: dict[int, str] = {
     615: "Decca statistics",
     620: "Sensor statistics",
     631: "LOP table",
-    650: "Kalman filter statistics",
+    633: "LS residuals and tests",
     641: "Positions",
     642: "Position plot",
     643: "History",
+    650: "Kalman filter statistics",
+    710: "Demo parameters",
     810: "Decca chain data",
     821: "A-prio: design matrix and a-priori VCV",
     830: "Weights",
     840: "Ellipsoid",
     850: "Kalman matrices",
-    710: "Demo parameters",
+    851: "Kalman P as correlations",
+    852: "Kalman transition matrix",
+    853: "Kalman gain, H and R",
 }
-"""Titles of the pages the menus lead to (page numbers per program.md §4.1 and A5)."""
+"""Every page of the console and its title (page numbers per program.md §4.1 and A5). 633 and
+851–853 have no menu item: they are sub-pages, reached with PgUp/PgDn."""
+
+DEV_PAGES_FROM = 800
+"""Pages from this number on (Data 8xx) are developer-only (A4)."""
+
+
+def sub_pages(number: int) -> tuple[int, ...]:
+    """The sub-pages of ``number``'s group, in order: the pages sharing its hundreds and tens
+    digit (program.md §4.1: the units digit numbers the sub-page), e.g. 641 → (641, 642, 643)."""
+    return tuple(n for n in PAGE_TITLES if n // 10 == number // 10)
+
+
+def next_sub_page(number: int, step: int) -> int:
+    """The sub-page ``step`` (+1 PgDn, −1 PgUp) away from ``number`` in its group, cycling
+    round; ``number`` itself if it has no sub-pages."""
+    group = sub_pages(number)
+    if number not in group:
+        return number
+    return group[(group.index(number) + step) % len(group)]
 
 
 def visible_bar(dev_mode: bool) -> tuple[MenuItem, ...]:

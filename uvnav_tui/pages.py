@@ -1,8 +1,8 @@
 """Registry of the numbered pages (program.md §4.1, A5): page number → page body widget.
 
-Pg 100 is :class:`uvnav_tui.main_page.MainPage`. The Statistics (6xx) and Data (8xx) pages are
-built in another issue; until a page is registered here, :class:`PlaceholderPage` stands in and
-says so. A page body is a widget with ``show(result, session)``.
+Pg 100 is :class:`uvnav_tui.main_page.MainPage`. Every other page lives in its own
+``page_nnn`` module, which registers its body here when imported (:mod:`uvnav_tui.all_pages`
+imports them all). A page body is a widget with ``show(result, session)``.
 """
 
 from __future__ import annotations
@@ -14,8 +14,6 @@ from textual.widget import Widget
 
 from engine.cycle import CycleResult
 from engine.session import Session
-from uvnav_tui.menus import PAGE_TITLES
-from uvnav_tui.placeholder_page import PlaceholderPage
 
 
 class PageBody(Protocol):
@@ -26,7 +24,7 @@ class PageBody(Protocol):
 
 
 PAGE_FACTORIES: dict[int, Callable[[], Widget]] = {}
-"""Page builders registered by the page modules (empty: every 6xx/8xx page is a placeholder)."""
+"""Page builders registered by the page modules."""
 
 
 def register_page(number: int, factory: Callable[[], Widget]) -> None:
@@ -35,8 +33,5 @@ def register_page(number: int, factory: Callable[[], Widget]) -> None:
 
 
 def make_page(number: int) -> Widget:
-    """The body widget of page ``number`` (a placeholder if none is registered)."""
-    factory = PAGE_FACTORIES.get(number)
-    if factory is not None:
-        return factory()
-    return PlaceholderPage(number, PAGE_TITLES.get(number, "page"))
+    """The body widget of page ``number``; ``KeyError`` if no module registered it."""
+    return PAGE_FACTORIES[number]()

@@ -32,7 +32,7 @@ from engine.commands import SetParameters
 from engine.errors import InputError
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.console_screen import ConsoleScreen
-from uvnav_tui.menus import find_path
+from uvnav_tui.menus import PAGE_TITLES, find_path
 
 COMMANDS = ("menu", "type", "clear", "key", "wait", "sleep", "page", "suspend", "continue",
             "hardcopy", "pace", "lop", "quit")
@@ -85,6 +85,8 @@ def parse_script(text: str) -> list[Step]:
             raise ScriptError(n, f"{command} needs an argument")
         if command in ("wait", "page"):
             _int_arg(n, arg, command)
+        if command == "page" and int(arg) not in PAGE_TITLES:
+            raise ScriptError(n, f"no page {arg} (pages: {', '.join(map(str, PAGE_TITLES))})")
         if command == "sleep":
             try:
                 float(arg)
