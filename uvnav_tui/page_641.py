@@ -83,9 +83,5 @@ class PositionsPage(TextPage):
     NUMBER = PAGE_NUMBER
     TITLE = TITLE
 
-    def page_text(self, r: CycleResult, session: Session) -> str:
-        """:func:`render`."""
-        return render(r, session)
-
 
 register_page(PAGE_NUMBER, PositionsPage)

@@ -17,7 +17,14 @@ import numpy as np
 from engine.cycle import CycleResult
 from engine.fix import SLOT_BRR0
 from engine.session import Session
-from uvnav_tui.page_text import SLOT_NAMES, TextPage, matrix_lines, num
+from uvnav_tui.page_text import (
+    SLOT_NAMES,
+    TextPage,
+    adjustment_of,
+    matrix_lines,
+    no_adjustment_text,
+    num,
+)
 from uvnav_tui.pages import register_page
 
 PAGE_NUMBER = 821
@@ -29,11 +36,9 @@ FIRST_ROWS = 5
 def render(r: CycleResult, session: Session) -> str:
     """The text of Pg 821 for cycle ``r``."""
     out = [TITLE, ""]
-    fix = r.fix
-    if fix is None or fix.tested is None:
-        reason = "no LOPs" if fix is None else (fix.reason or "no adjustment")
-        return "\n".join(out + [f"No LS adjustment this cycle: {reason}."])
-    adj = fix.tested.adjustment
+    adj = adjustment_of(r)
+    if adj is None:
+        return "\n".join(out + [no_adjustment_text(r)])
     A, b, cl, used = adj.A, adj.b, adj.Cl, adj.used
     n = used.size
     rows = list(range(min(FIRST_ROWS, n))) + [i for i in range(SLOT_BRR0, n) if used[i]]
@@ -53,7 +58,7 @@ def render(r: CycleResult, session: Session) -> str:
             f"{SLOT_NAMES[i]} {num(float(cl[i, i]), 3)}" for i in brr)]
     out += ["", f"iterations {adj.iterations}, last |δx̂| = "
             f"{num(adj.steps[-1] if adj.steps else None, 3)} m; b of the last linearisation"]
-    if fix.uses_prior:
+    if r.fix is not None and r.fix.uses_prior:
         out.append("Lat/Lon rows: the filter's prediction as two position LOPs (too few LOPs)")
     if not np.all(np.isfinite(A)):
         out.append("(non-finite entries: the adjustment failed)")
@@ -65,10 +70,6 @@ class APrioriPage(TextPage):
 
     NUMBER = PAGE_NUMBER
     TITLE = TITLE
-
-    def page_text(self, r: CycleResult, session: Session) -> str:
-        """:func:`render`."""
-        return render(r, session)
 
 
 register_page(PAGE_NUMBER, APrioriPage)

@@ -12,7 +12,13 @@ from __future__ import annotations
 
 from engine.cycle import CycleResult
 from engine.session import Session
-from uvnav_tui.page_text import SLOT_NAMES, TextPage, matrix_lines
+from uvnav_tui.page_text import (
+    SLOT_NAMES,
+    TextPage,
+    adjustment_of,
+    matrix_lines,
+    no_adjustment_text,
+)
 from uvnav_tui.pages import register_page
 
 PAGE_NUMBER = 830
@@ -24,11 +30,10 @@ COLUMNS = 5
 def render(r: CycleResult, session: Session) -> str:
     """The text of Pg 830 for cycle ``r``."""
     out = [TITLE, ""]
-    fix = r.fix
-    if fix is None or fix.tested is None:
-        reason = "no LOPs" if fix is None else (fix.reason or "no adjustment")
-        return "\n".join(out + [f"No LS adjustment this cycle: {reason}."])
-    W = fix.tested.adjustment.W
+    adj = adjustment_of(r)
+    if adj is None:
+        return "\n".join(out + [no_adjustment_text(r)])
+    W = adj.W
     n = W.shape[0]
     k = min(COLUMNS, W.shape[1])
     out.append(f"rows 1–{n}, columns 1–{k} of {W.shape[1]} (1/m²)")
@@ -43,10 +48,6 @@ class WeightsPage(TextPage):
 
     NUMBER = PAGE_NUMBER
     TITLE = TITLE
-
-    def page_text(self, r: CycleResult, session: Session) -> str:
-        """:func:`render`."""
-        return render(r, session)
 
 
 register_page(PAGE_NUMBER, WeightsPage)

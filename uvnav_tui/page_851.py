@@ -52,9 +52,5 @@ class KalmanCovariancePage(TextPage):
     NUMBER = PAGE_NUMBER
     TITLE = TITLE
 
-    def page_text(self, r: CycleResult, session: Session) -> str:
-        """:func:`render`."""
-        return render(r, session)
-
 
 register_page(PAGE_NUMBER, KalmanCovariancePage)

@@ -34,9 +34,5 @@ class KalmanTransitionPage(TextPage):
     NUMBER = PAGE_NUMBER
     TITLE = TITLE
 
-    def page_text(self, r: CycleResult, session: Session) -> str:
-        """:func:`render`."""
-        return render(r, session)
-
 
 register_page(PAGE_NUMBER, KalmanTransitionPage)

@@ -41,9 +41,5 @@ class KalmanGainPage(TextPage):
     NUMBER = PAGE_NUMBER
     TITLE = TITLE
 
-    def page_text(self, r: CycleResult, session: Session) -> str:
-        """:func:`render`."""
-        return render(r, session)
-
 
 register_page(PAGE_NUMBER, KalmanGainPage)

@@ -10,6 +10,7 @@ engine; these helpers only lay it out, with the :mod:`engine.formatting` rules (
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -17,6 +18,7 @@ from textual.app import ComposeResult
 from textual.containers import ScrollableContainer
 from textual.widgets import Static
 
+from engine.adjustment import Adjustment
 from engine.confidence import Ellipse, Ellipsoid3
 from engine.cycle import CycleResult, PositionEstimate
 from engine.formatting import format_stat
@@ -150,6 +152,18 @@ def conf_axes(est: PositionEstimate | None, level: float) -> tuple[float, float]
     return (a, b) if math.isfinite(a) and math.isfinite(b) else None
 
 
+def adjustment_of(r: CycleResult) -> Adjustment | None:
+    """The LS adjustment of cycle ``r`` (None without one: no LOPs, or no fix)."""
+    fix = r.fix
+    return None if fix is None or fix.tested is None else fix.tested.adjustment
+
+
+def no_adjustment_text(r: CycleResult) -> str:
+    """Why cycle ``r`` has no LS adjustment (for the Data pages)."""
+    reason = "no LOPs" if r.fix is None else (r.fix.reason or "no adjustment")
+    return f"No LS adjustment this cycle: {reason}."
+
+
 # --------------------------------------------------------------------------- ellipses
 def ellipse_block(label: str, e: Ellipse | Ellipsoid3, level: float) -> list[str]:
     """An ellipse (2-D) or ellipsoid (3-D) as on Pg 840: eigenvalue and row of E per axis, the
@@ -196,7 +210,7 @@ class TextPage(ScrollableContainer, can_focus=False):
     pure ``render``) when the cycle or the run context changes, in a container that scrolls
     (mouse wheel) if the text is taller or wider than the page area.  It takes no focus, so
     the console keeps every key (PgUp/PgDn between sub-pages).  Subclasses set :attr:`NUMBER`
-    and :attr:`TITLE`."""
+    and :attr:`TITLE`; their module defines ``render(r, session)``."""
 
     DEFAULT_CSS = """
     TextPage {
@@ -228,8 +242,10 @@ class TextPage(ScrollableContainer, can_focus=False):
         return f"{self.TITLE}\n\nno cycle yet"
 
     def page_text(self, r: CycleResult, session: Session) -> str:
-        """The page for cycle ``r`` of ``session`` (override: call the module's ``render``)."""
-        return ""
+        """The page for cycle ``r`` of ``session``: the ``render(r, session)`` function of the
+        module that defines the page class (looked up at call time)."""
+        render: Callable[[CycleResult, Session], str] = sys.modules[type(self).__module__].render
+        return render(r, session)
 
     def show(self, r: CycleResult | None, session: Session | None) -> None:
         """Render cycle ``r`` of ``session`` (None before the first cycle)."""
