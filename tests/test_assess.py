@@ -453,6 +453,8 @@ def test_bad_inputs_exit_2_with_a_message(tmp_path: Path,
     assert "ellipsoid" in err
     err = _run_bad([str(log), str(truth), "--poe-rate", "-5"], capsys)
     assert "--poe-rate" in err
+    err = _run_bad([str(log), str(truth), "--svg", str(tmp_path / "plot.png")], capsys)
+    assert "plot.png: the plot is SVG only" in err and not (tmp_path / "plot.png").exists()
     # the datum file fills in a missing ellipsoid
     rc = main(["assess", str(log), str(no_ell), "--datum-file", str(DATA / "TO_WGS84.DAT")])
     assert rc == 0 and "matched 10" in capsys.readouterr().out

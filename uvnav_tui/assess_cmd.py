@@ -37,7 +37,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
     p.add_argument("log", help=".OUT log or JSON-lines file written by `uvnav replay`")
     p.add_argument("truth", help="truth CSV written by `uvnav simulate`")
-    p.add_argument("--svg", help="also write a plot of the horizontal error against time")
+    p.add_argument("--svg", metavar="FILE.svg",
+                   help="also write an SVG plot of the horizontal error against time")
     p.add_argument("--phases", choices=("auto", "none"), default="auto",
                    help="auto: split surfaced / submerged / after resurfacing from the truth's "
                         "'surfaced' column (default); none: whole run only")
@@ -174,6 +175,12 @@ def run_assess(argv: list[str]) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse has printed its message
         return int(exc.code or 0)
+    if args.svg is not None and Path(args.svg).suffix.lower() != ".svg":
+        # The plot is written as SVG text only: a PNG needs a rasteriser, which is not a
+        # project dependency (docs/ASSESS.md). Refuse rather than write SVG under another name.
+        print(f"{PROG}: --svg {args.svg}: the plot is SVG only; give a .svg name and convert it "
+              "if needed, e.g. rsvg-convert -o plot.png plot.svg", file=sys.stderr)
+        return 2
     if args.poe_rate is not None and not (math.isfinite(args.poe_rate) and args.poe_rate >= 0):
         print(f"{PROG}: --poe-rate must be a finite number >= 0 (got {args.poe_rate})",
               file=sys.stderr)
