@@ -28,6 +28,31 @@ from engine.quality import (
 NOT_ENOUGH = "Not enough LOPs for a fix !"
 _MODEL_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
 
+COND_MAX = 1e10
+"""Bound on the condition number of the parameter-scaled normal matrix D^-½ N D^-½ (D = diag N).
+
+Numerical guard, independent of the parameters' units (metres, radians of an orientation
+unknown, …): the solve of (AᵀWA) δx̂ = AᵀWb and (AᵀWA)⁻¹ lose about log10 κ of the 16 significant
+digits of double precision (the 2×2 inverse cancels exactly there: det/(N11·N22) = 1 − ρ²), and
+the w-test subtracts A C_x̂ Aᵀ from C_l. κ ≤ 1e10 keeps ≥ 6 correct digits (κ·ε ≈ 1e-6).
+Jacobi scaling is the near-optimal diagonal scaling (van der Sluis 1969), so κ does not depend
+on the units chosen for each parameter. For a 2-D position κ = (1 + |ρ|)/(1 − |ρ|) with ρ the
+correlation of x̂ and ŷ. It is not rotation-invariant, hence the geometric test below.
+"""
+
+MAX_AXIS_RATIO = 1e4
+"""Bound on the axis ratio a/b of the standard error ellipse of the first two parameters (the
+horizontal position, both in metres): the geometric test for nearly parallel LOPs.
+
+a/b = sqrt(λmax/λmin) of C_x̂[:2, :2] is dimensionless, rotation-invariant and independent of the
+overall σ level; for a 2-D fix it is sqrt(cond(AᵀWA)). Two LOPs of equal σ crossing at an angle
+θ give a/b = cot(θ/2), so 1e4 is a crossing angle of 0.011°; even with a 12 m minor axis (a
+periscope bearing at 1 km, about the best a non-GPS LOP gives) the major axis would be 120 km.
+Legitimate fixes stay far below: the demo (GPS + Decca) ≤ 3.5, the thesis sample 3.5, radar
+bearing + range at 90 km 12.7, bearings at 1 km and 50 km 50, Decca Green + Purple on a winter
+night outside the 9B coverage 126. Three bearings along one meridian give 2.9e5.
+"""
+
 
 @dataclass(frozen=True, eq=False)
 class Linearisation:
@@ -65,7 +90,8 @@ class Adjustment:
     correction). ``A_used``, ``b_used``, ``Cl_used``, ``W_used`` hold the used rows/block; the
     properties ``A``, ``b``, ``Cl``, ``W`` lay them out over all n slots as the thesis program
     does: unused rows of A and b zero, unused rows/columns of C_l zero with variance 1, of W zero
-    (Pg 821/830).
+    (Pg 821/830). ``cov_v`` / ``cov_lhat`` (and their ``_used`` blocks) are the a posteriori VCVs
+    of the residuals and of the adjusted observations (5.5b–c, corrected), C_l̂ + C_v = C_l.
     """
 
     ok: bool
@@ -174,6 +200,33 @@ class Adjustment:
         out[np.ix_(self.used, self.used)] = self.W_used
         return out
 
+    @cached_property
+    def cov_lhat_used(self) -> np.ndarray:
+        """C_l̂ = A C_x̂ Aᵀ over the used slots [m²] (5.5c corrected): VCV of the adjusted
+        observations, a priori form (C_x̂ = (AᵀWA)⁻¹ unscaled; × S² for the scaled one)."""
+        return self.A_used @ self.cov_x_apriori @ self.A_used.T
+
+    @cached_property
+    def cov_v_used(self) -> np.ndarray:
+        """C_v = C_l − A C_x̂ Aᵀ over the used slots [m²] (5.5b corrected): VCV of the
+        residuals, a priori form. diag(C_v W) are the redundancy numbers (Σ = n_used − u)."""
+        return self.Cl_used - self.cov_lhat_used
+
+    @cached_property
+    def cov_lhat(self) -> np.ndarray:
+        """C_l̂ over all n slots [m²]; rows/columns of unused slots NaN."""
+        return self._spread(self.cov_lhat_used)
+
+    @cached_property
+    def cov_v(self) -> np.ndarray:
+        """C_v over all n slots [m²]; rows/columns of unused slots NaN."""
+        return self._spread(self.cov_v_used)
+
+    def _spread(self, block: np.ndarray) -> np.ndarray:
+        out = np.full((self.used.size, self.used.size), np.nan)
+        out[np.ix_(self.used, self.used)] = block
+        return out
+
 
 def gauss_newton(
     linearise: Callable[[np.ndarray], Linearisation],
@@ -184,23 +237,33 @@ def gauss_newton(
     max_iter: int = 10,
     s02: float = 1.0,
     scale_vcv: bool = False,
-    cond_max: float = 1e12,
+    cond_max: float = COND_MAX,
+    max_axis_ratio: float | None = MAX_AXIS_RATIO,
     alpha: float = 0.05,
     power: float = 0.80,
     damping: np.ndarray | None = None,
 ) -> Adjustment:
     """Iterated least squares, eq. 5.1a–g: δx̂ = (AᵀWA)⁻¹AᵀWb over the used slots, x ← x + δx̂.
 
-    Stops when every |δx̂_j| < ``epsilon`` [m] (thesis ε, default 1 m), at most ``max_iter``
-    iterations. Statistics come from the last linearisation. ``alpha``/``power`` set δ0 of the
-    MDB and the level of the unit-variance test against σ0² = ``s02``. ``damping`` (n,) in
-    (0, 1] gives M-estimation weights T: W' = T^½ W T^½.
+    Stops when every |δx̂_j| < ``epsilon`` (thesis ε, default 1 m, in the parameters' units), at
+    most ``max_iter`` iterations. Statistics come from the last linearisation. ``alpha``/``power``
+    set δ0 of the MDB and the level of the unit-variance test against σ0² = ``s02``. ``damping``
+    (n,) in (0, 1] gives M-estimation weights T: W' = T^½ W T^½. The first two parameters are
+    the horizontal position in metres (East, North); further ones (height, clock, orientation
+    unknowns) may have other units.
 
-    Never raises for bad geometry; returns ok=False with ``reason`` for: n_used < u ("Not enough
-    LOPs for a fix !"); a singular or ill-conditioned normal matrix (cond > ``cond_max``); a
-    non-invertible C_l; non-finite values; ValueError/ArithmeticError raised by ``linearise``;
-    "no convergence" (the last x is kept). Raises ValueError only for inconsistent shapes.
+    Never raises for bad geometry or data; returns ok=False with ``reason`` for: n_used < u
+    ("Not enough LOPs for a fix !"); a non-finite start point; a singular normal matrix or one
+    whose parameter-scaled condition number exceeds ``cond_max`` (:data:`COND_MAX`, checked in
+    every iteration); a horizontal error ellipse with a/b > ``max_axis_ratio``
+    (:data:`MAX_AXIS_RATIO`, nearly parallel LOPs, checked at the final point; None switches it
+    off); a non-invertible C_l; non-finite values; ValueError/ArithmeticError/LinAlgError raised
+    by ``linearise``; "no convergence" (the last x is kept). Raises ValueError only for
+    programming errors: inconsistent shapes, ``max_iter`` < 1, ``epsilon``/``s02`` not positive
+    and finite, ``cond_max`` ≤ 1, ``max_axis_ratio`` < 1, ``alpha``/``power`` outside (0, 1), a
+    ``damping`` of the wrong length.
     """
+    _check_settings(epsilon, max_iter, s02, cond_max, max_axis_ratio, alpha, power)
     x = np.array(x0, dtype=float).reshape(-1)
     used_b = np.array(used, dtype=bool).reshape(-1)
     n, u = used_b.size, x.size
@@ -215,11 +278,12 @@ def gauss_newton(
         sq = np.sqrt(np.clip(t[idx], 1e-300, 1.0))
     if m < u:
         return _failed(NOT_ENOUGH, x, used_b, n, u, 0, (), damping)
+    if not np.isfinite(x).all():
+        return _failed("provisional point not finite", x, used_b, n, u, 0, (), damping)
     steps: list[float] = []
     converged = False
     it = 0
-    Au = bu = Clu = Wu = atw = cx = gain = dx = None
-    while it < max_iter:
+    while True:
         it += 1
         try:
             lin = linearise(x)
@@ -251,7 +315,8 @@ def gauss_newton(
             elif math.isinf(cond) or math.isnan(cond):
                 reason = "singular normal matrix"
             else:
-                reason = f"ill-conditioned geometry (cond = {cond:.3g})"
+                reason = (f"ill-conditioned normal matrix (scaled condition number {cond:.3g} "
+                          f"> {cond_max:.3g})")
             return _failed(reason, x, used_b, n, u, it, steps, damping)
         if not math.isfinite(float(np.add.reduce(bu))):
             return _failed("non-finite linearisation", x, used_b, n, u, it, steps, damping)
@@ -266,8 +331,14 @@ def gauss_newton(
         if big < epsilon:
             converged = True
             break
-    assert Au is not None and bu is not None and Clu is not None and gain is not None
-    assert Wu is not None and atw is not None and cx is not None and dx is not None
+        if it >= max_iter:
+            break
+    if max_axis_ratio is not None and u >= 2:
+        ratio = _axis_ratio(cx)
+        if not ratio <= max_axis_ratio:
+            reason = (f"ill-conditioned geometry: the LOPs are nearly parallel (error ellipse "
+                      f"axis ratio a/b = {ratio:.3g} > {max_axis_ratio:.3g})")
+            return _failed(reason, x, used_b, n, u, it, steps, damping)
     vu = Au @ dx - bu  # (5.1f)
     wv = Wu @ vu
     r = m - u
@@ -319,20 +390,57 @@ def gauss_newton(
     )
 
 
+def _check_settings(
+    epsilon: float,
+    max_iter: int,
+    s02: float,
+    cond_max: float,
+    max_axis_ratio: float | None,
+    alpha: float,
+    power: float,
+) -> None:
+    """ValueError for settings no adjustment can run with (programming errors, not data)."""
+    if isinstance(max_iter, bool) or not isinstance(max_iter, int | np.integer) or max_iter < 1:
+        raise ValueError(f"max_iter must be an integer ≥ 1, got {max_iter!r}")
+    for name, val in (("epsilon", epsilon), ("s02", s02)):
+        if not (isinstance(val, int | float) and math.isfinite(val) and val > 0.0):
+            raise ValueError(f"{name} must be positive and finite, got {val!r}")
+    if not cond_max > 1.0:
+        raise ValueError(f"cond_max must be > 1, got {cond_max!r}")
+    if max_axis_ratio is not None and not max_axis_ratio >= 1.0:
+        raise ValueError(f"max_axis_ratio must be ≥ 1 or None, got {max_axis_ratio!r}")
+    for name, val in (("alpha", alpha), ("power", power)):
+        if not 0.0 < val < 1.0:
+            raise ValueError(f"{name} must be in (0, 1), got {val!r}")
+
+
+def _axis_ratio(cx: np.ndarray) -> float:
+    """a/b of the standard ellipse of the first two parameters of C_x̂ (inf if degenerate)."""
+    (a, c), (_, d) = cx[:2, :2].tolist()
+    lmax = 0.5 * (a + d) + math.hypot(0.5 * (a - d), c)
+    det = a * d - c * c
+    if not (lmax > 0.0 and det > 0.0):
+        return math.inf
+    return lmax / math.sqrt(det)  # sqrt(λmax/λmin) with λmin = det/λmax (no cancellation)
+
+
 def _inv_normal(nmat: np.ndarray) -> tuple[np.ndarray, float]:
-    """(AᵀWA)⁻¹ and its condition number λmax/λmin (inf/NaN when singular or non-finite).
+    """(AᵀWA)⁻¹ and the condition number of the parameter-scaled D^-½ N D^-½ (D = diag N; see
+    :data:`COND_MAX`); inf when singular or not positive definite, NaN when non-finite.
 
     Closed form for 2×2 (the usual 2-D fix); ``numpy.linalg`` otherwise.
     """
     if nmat.shape == (2, 2):
         (a, c), (_, d) = nmat.tolist()
-        lmax = 0.5 * (a + d) + math.hypot(0.5 * (a - d), c)
         det = a * d - c * c
-        if not (lmax > 0.0 and det > 0.0):
-            bad = math.isfinite(lmax) and math.isfinite(det)
+        if not (a > 0.0 and d > 0.0 and det > 0.0):
+            bad = math.isfinite(a) and math.isfinite(d) and math.isfinite(det)
             return nmat, (math.inf if bad else math.nan)
-        # λmin = det/λmax avoids the cancellation of (a + d)/2 − root
-        return np.array([[d, -c], [-c, a]]) / det, lmax * lmax / det
+        # scaled matrix [[1, ρ], [ρ, 1]], ρ = c/sqrt(ad): κ = (1 + |ρ|)/(1 − |ρ|)
+        # = (1 + |ρ|)²·ad/det, which avoids the cancellation of 1 − |ρ|
+        ad = a * d
+        rho = abs(c) / math.sqrt(ad)
+        return np.array([[d, -c], [-c, a]]) / det, (1.0 + rho) ** 2 * ad / det
     cond = _cond_sym(nmat)
     if not cond < math.inf:
         return nmat, cond
@@ -340,19 +448,15 @@ def _inv_normal(nmat: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def _cond_sym(nmat: np.ndarray) -> float:
-    """Condition number λmax/λmin of a symmetric normal matrix; inf if not positive definite."""
-    if nmat.shape == (2, 2):
-        a, c, d = float(nmat[0, 0]), float(nmat[0, 1]), float(nmat[1, 1])
-        half = 0.5 * (a + d)
-        root = math.hypot(0.5 * (a - d), c)
-        lmax = half + root
-        det = a * d - c * c
-        if not (lmax > 0.0 and det > 0.0):
-            return math.inf if math.isfinite(lmax) and math.isfinite(det) else math.nan
-        return lmax * lmax / det  # λmax / (det/λmax): avoids the cancellation in half − root
-    lam = np.linalg.eigvalsh(nmat)
-    if not np.all(np.isfinite(lam)):
+    """Condition number of the Jacobi-scaled symmetric normal matrix; inf if not positive
+    definite, NaN if not finite."""
+    if not np.isfinite(nmat).all():
         return math.nan
+    dg = nmat.diagonal()
+    if not (dg > 0.0).all():
+        return math.inf
+    s = 1.0 / np.sqrt(dg)
+    lam = np.linalg.eigvalsh(nmat * np.outer(s, s))
     if lam[0] <= 0.0:
         return math.inf
     return float(lam[-1] / lam[0])

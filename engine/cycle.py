@@ -565,12 +565,16 @@ def _decca_totals(
     The first reading of a pattern takes the operator's zone/lane (resolving the 10-zone cycle
     from the provisional position, lsq.md §5.3); later readings follow lane crossings
     (:func:`engine.decca.track_lane`); after a gap longer than ``DECCA_TRACK_GAP_S`` the lane is
-    identified again from the provisional position and a message says so.
+    identified again from the provisional position and a message says so. A zone/lane that puts
+    the count more than half a zone from the provisional position's count gives a warning
+    (lsq.md Q7); a provisional position where the lane model cannot be evaluated leaves the
+    pattern unavailable for this record, with a message.
     """
     totals: list[float | None] = [None, None, None]
     track = list(nav.decca_track)
     notes: list[str] = []
     geom = None
+    geom_failed = False
     for i, pattern in enumerate(PATTERNS):
         frac = rec.decca[i]
         if frac is None:
@@ -582,12 +586,25 @@ def _decca_totals(
             zl = ctx.zone_lane[i]
             if prev is None and zl is None:
                 continue  # pattern never entered by the operator: not available
+            if geom is None and not geom_failed:
+                try:
+                    geom = decca_geometry(placed, x_start[0], x_start[1], ctx.geodesic)
+                    problem = None if np.isfinite(geom.n_calc).all() else "not finite"
+                except (ValueError, ArithmeticError) as exc:
+                    problem = str(exc)
+                if problem is not None:
+                    geom, geom_failed = None, True
+                    notes.append(f"Decca: lane count not resolved at the provisional position "
+                                 f"({problem})")
             if geom is None:
-                geom = decca_geometry(placed, x_start[0], x_start[1], ctx.geodesic)
+                continue
             n_calc = float(geom.n_calc[i])
             if prev is None:
                 assert zl is not None
-                total = resolve_total_lanes(zl[0], zl[1], frac, pattern, n_calc)
+                lanes = resolve_total_lanes(zl[0], zl[1], frac, pattern, n_calc)
+                total = lanes.total
+                if lanes.warning is not None:  # more than half a zone from N_calc (lsq.md Q7)
+                    notes.append(lanes.warning)
             else:
                 total = identify_lane(n_calc, frac)
                 notes.append(f"Decca {pattern}: lane identified again from the DR position")

@@ -20,7 +20,7 @@ from engine.geodesy import (
     line_scale_factor,
     mean_radius_sq,
 )
-from engine.operator_input import lanes_from_zone_lane
+from engine.operator_input import ZONE_LETTERS, decca_pattern, lanes_from_zone_lane
 from engine.tmgrid import TMGrid
 
 PATTERNS: tuple[str, str, str] = ("red", "green", "purple")
@@ -213,16 +213,51 @@ def decca_vcv_m2(geom: DeccaGeometry, cf: float) -> np.ndarray:
     return decca_vcv_lanes(geom, cf) * np.outer(k, k)
 
 
+@dataclass(frozen=True, slots=True)
+class LaneResolution:
+    """Outcome of :func:`resolve_total_lanes`.
+
+    ``total`` the total lane count (lanes, uncorrected); ``cycle`` the chosen 10-zone cycle c;
+    ``offset_lanes`` = total − N_calc; ``warning`` an operator text when |offset| exceeds half a
+    zone (lpz/2 lanes, lsq.md Q7), else None.
+    """
+
+    total: float
+    cycle: int
+    offset_lanes: float
+    warning: str | None
+
+
 def resolve_total_lanes(
     zone: int, lane: int, fraction: float, pattern: str, n_calc: float
-) -> float:
+) -> LaneResolution:
     """Total lane count from zone, whole lane and fraction, choosing the 10-zone cycle c that puts
     it nearest to ``n_calc`` (the count computed at the provisional position; lsq.md §5.3, Q7).
+
+    The nearest cycle is always within 5 zones of ``n_calc``; a count more than half a zone
+    (lpz/2 = 12, 9 or 15 lanes for Red, Green, Purple) from it means the entered zone/lane and
+    the provisional position disagree by more than about half a zone width (Red: 12 lanes
+    ≈ 5 km on the baseline), so the result carries a warning (lsq.md Q7). ValueError for a zone,
+    lane, fraction or pattern outside its range or a non-finite ``n_calc`` (programming errors:
+    the operator's input is checked by ``parse_zone_lane``).
     """
+    if not math.isfinite(n_calc):
+        raise ValueError(f"computed lane count {n_calc!r} is not finite")
     base = lanes_from_zone_lane(zone, lane, fraction, pattern, 0)
     period = lanes_from_zone_lane(zone, lane, fraction, pattern, 1) - base
     cycle = math.floor((n_calc - base) / period + 0.5)
-    return base + cycle * period
+    total = base + cycle * period
+    offset = total - n_calc
+    spec = decca_pattern(pattern)
+    half = spec.lanes_per_zone / 2.0
+    warning = None
+    if abs(offset) > half:
+        warning = (
+            f"Decca {spec.name}: zone/lane {ZONE_LETTERS[zone]}{lane} gives {total:.3f} lanes, "
+            f"{offset:+.2f} from the {n_calc:.2f} computed at the provisional position (more "
+            f"than half a zone, {half:g} lanes): check the zone/lane or the DR position"
+        )
+    return LaneResolution(total, cycle, offset, warning)
 
 
 def _wrap_half(d: float) -> float:

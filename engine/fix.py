@@ -29,8 +29,7 @@ from engine.decca import (
     resolve_total_lanes,
 )
 from engine.geodesy import GeodesicSolver, line_scale_factor, mean_radius_sq
-from engine.quality import TestedAdjustment, adjust_with_testing, w_critical
-from engine.robust import robust_adjust
+from engine.quality import TestedAdjustment, adjust_with_testing, classify_w
 from engine.tmgrid import TMGrid
 
 N_SLOTS = 10
@@ -147,7 +146,11 @@ class LopRow:
 
 @dataclass(frozen=True)
 class FixResult:
-    """The outcome of one LS fix: position, precision, per-LOP table and the raw adjustment."""
+    """The outcome of one LS fix: position, precision, per-LOP table and the raw adjustment.
+
+    ``messages``: operator texts of this fix (Decca half-zone warnings, the tests' verdicts,
+    a robust estimator's down-weighting or fall-back); ``reason`` says why when ``ok`` is False.
+    """
 
     ok: bool
     reason: str | None
@@ -281,6 +284,11 @@ def _lop_azimuth_deg(row: np.ndarray) -> float:
     return (math.degrees(math.atan2(row[0], row[1])) + 90.0) % 360.0
 
 
+_EVAL_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
+"""What the geodesy and lane model raise for points where they cannot be evaluated (e.g. an
+OverflowError of the TM inverse far off the grid)."""
+
+
 def compute_fix(
     grid: TMGrid,
     geodesic: GeodesicSolver,
@@ -295,14 +303,30 @@ def compute_fix(
 ) -> FixResult:
     """Compute the LSE from the available LOPs, starting at provisional grid point ``x0`` (m).
 
-    The rejection policy and tests follow ``settings`` (lsq.md §8); ``excluded_slots`` are slots
-    the operator discarded (LOPReject 'A').  ``prior`` (the filter's prediction) is used as two
-    position LOPs only when GPS is absent (table 5.1 category I, lsq.md §4.8).  Never raises for
-    bad geometry: a failed fix has ``ok=False`` and a reason.
+    The rejection policy, tests and estimator follow ``settings`` (lsq.md §8; with a robust
+    estimator nothing is rejected and there is no candidate); ``excluded_slots`` are slots the
+    operator discarded (LOPReject 'A'). ``prior`` (the filter's prediction) is used as two
+    position LOPs only when GPS is absent (table 5.1 category I, lsq.md §4.8); that hybrid fix
+    is always plain LSQ with policy 'N'.
+
+    Never raises for bad geometry or data (a non-finite or far-off ``x0``, nearly parallel
+    LOPs, a point where the models cannot be evaluated): a failed fix has ``ok=False`` and a
+    reason. Besides the core's checks (engine.adjustment: scaled condition number, axis ratio),
+    a fix whose standard semi-major axis reaches the nearest station of a used bearing,
+    distance or Decca LOP is refused: each such LOP curves around its station (a circle, a
+    ray ending there, a hyperbola with the station as focus), so the linearised model and its
+    VCV do not describe an ellipse that large (not applied to the hybrid fix, whose LOPs the
+    filter linearises itself). ValueError only for invalid ``settings`` (programming errors).
     """
     if len(manual) > MAX_BRR:
         manual = manual[:MAX_BRR]
-    stations = [_Station(o, *grid.forward(o.lat_deg, o.lon_deg)) for o in manual]
+    messages: list[str] = []
+    if not (math.isfinite(x0[0]) and math.isfinite(x0[1])):
+        return _no_fix(grid, x0, "provisional position not finite", 0)
+    try:
+        stations = [_Station(o, *grid.forward(o.lat_deg, o.lon_deg)) for o in manual]
+    except _EVAL_ERRORS as exc:
+        return _no_fix(grid, x0, f"station position cannot be projected: {exc}", 0)
     used = np.zeros(N_SLOTS, dtype=bool)
     if gps is not None:
         used[[SLOT_GPS_LAT, SLOT_GPS_LON]] = True
@@ -319,9 +343,17 @@ def compute_fix(
             else:
                 if frac is None or zl is None:
                     continue
-                if geom0 is None:
-                    geom0 = decca_geometry(decca.placed, x0[0], x0[1], geodesic)
-                total = resolve_total_lanes(zl[0], zl[1], frac, pattern, float(geom0.n_calc[i]))
+                try:
+                    if geom0 is None:
+                        geom0 = decca_geometry(decca.placed, x0[0], x0[1], geodesic)
+                    res = resolve_total_lanes(zl[0], zl[1], frac, pattern,
+                                              float(geom0.n_calc[i]))
+                except _EVAL_ERRORS as exc:
+                    return _no_fix(grid, x0, "Decca lane count not resolved at the provisional "
+                                   f"position: {exc}", 0, messages=messages)
+                total = res.total
+                if res.warning is not None:
+                    messages.append(res.warning)
             decca_raw[i] = total
             decca_obs[i] = total + decca.corrections_lanes[i]
             used[SLOT_DECCA[i]] = decca.selected[i]
@@ -338,44 +370,49 @@ def compute_fix(
     n_avail = int(used.sum())
     alpha = settings.reliab_interval / 100.0
     if n_avail < 2:
-        return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail)
-    policy = "N" if uses_prior else settings.lop_reject
+        return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
+                       messages=messages)
     tested = adjust_with_testing(
         model,
         x_start,
         used,
-        policy=policy,
+        policy="N" if uses_prior else settings.lop_reject,
         alpha=alpha,
         epsilon=settings.epsilon_m,
         max_iter=settings.max_iter,
         s02=settings.s02,
         scale_vcv=settings.scale_vcv,
+        estimator="lsq" if uses_prior else settings.estimator,
     )
+    messages.extend(tested.messages)
     adj = tested.adjustment
-    if settings.estimator != "lsq" and adj.ok and adj.redundancy >= 1:
-        robust = robust_adjust(
-            model, adj.x, adj.used, psi=settings.estimator, epsilon=settings.epsilon_m
-        )
-        if robust.adjustment.ok:
-            adj = robust.adjustment
     if not adj.ok:
-        return _no_fix(grid, x0, adj.reason or "no fix", int(adj.used.sum()), tested)
+        return _no_fix(grid, x0, adj.reason or "no fix", adj.n_used, tested, messages)
     x_hat = adj.x
-    lat, lon = grid.inverse(float(x_hat[0]), float(x_hat[1]))
-    geom = (
-        decca_geometry(decca.placed, float(x_hat[0]), float(x_hat[1]), geodesic)
-        if decca is not None
-        else None
-    )
-    raw = None
-    if uses_prior:
-        lin0 = model(x_start)
-        idx = np.flatnonzero(adj.used)
-        idx = idx[idx >= 2]
-        raw = RawLops(lin0.A[idx], lin0.b[idx], lin0.Cl[np.ix_(idx, idx)], x_start,
-                      tuple(int(i) for i in idx))
-    lops = _lop_rows(grid, geodesic, adj, gps, prior if uses_prior else None, decca, decca_obs,
-                     decca_raw, geom, stations, lat, lon, alpha)
+    try:
+        lat, lon = grid.inverse(float(x_hat[0]), float(x_hat[1]))
+        geom = (
+            decca_geometry(decca.placed, float(x_hat[0]), float(x_hat[1]), geodesic)
+            if decca is not None
+            else None
+        )
+        ellipse = error_ellipse(adj.cov_x)
+        if not uses_prior:
+            problem = _beyond_linear_range(adj, stations, geom)
+            if problem is not None:
+                return _no_fix(grid, x0, problem, adj.n_used, tested, messages)
+        raw = None
+        if uses_prior:
+            lin0 = model(x_start)
+            idx = np.flatnonzero(adj.used)
+            idx = idx[idx >= 2]
+            raw = RawLops(lin0.A[idx], lin0.b[idx], lin0.Cl[np.ix_(idx, idx)], x_start,
+                          tuple(int(i) for i in idx))
+        lops = _lop_rows(grid, geodesic, adj, gps, prior if uses_prior else None, decca,
+                         decca_obs, decca_raw, geom, stations, lat, lon, alpha)
+    except _EVAL_ERRORS as exc:
+        return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
+                       tested, messages)
     return FixResult(
         ok=True,
         reason=None,
@@ -384,7 +421,7 @@ def compute_fix(
         lat_deg=lat,
         lon_deg=lon,
         cov=adj.cov_x,
-        ellipse=error_ellipse(adj.cov_x),
+        ellipse=ellipse,
         category=adj.category,
         n_used=adj.n_used,
         rms_m=adj.rms_m,
@@ -396,9 +433,34 @@ def compute_fix(
         rejected_slots=tuple(s for s, _w in tested.rejected),
         candidate_slot=tested.candidate,
         uses_prior=uses_prior,
-        messages=tuple(tested.messages),
+        messages=tuple(messages),
         raw_lops=raw,
     )
+
+
+def _beyond_linear_range(
+    adj: Adjustment, stations: Sequence[_Station], geom: DeccaGeometry | None
+) -> str | None:
+    """The "no fix" reason when the standard semi-major axis (a priori C_x̂) reaches the nearest
+    station of a used bearing/distance/Decca LOP (see :func:`compute_fix`), else None."""
+    near = math.inf
+    x_hat, y_hat = float(adj.x[0]), float(adj.x[1])
+    for i, st in enumerate(stations):
+        if adj.used[SLOT_BRR0 + i]:
+            near = min(near, math.hypot(x_hat - st.x_m, y_hat - st.y_m))
+    if geom is not None:
+        for i, slot in enumerate(SLOT_DECCA):
+            if adj.used[slot]:
+                near = min(near, geom.d_master_m, float(geom.d_slave_m[i]))
+    if near == math.inf:
+        return None
+    lam = np.linalg.eigvalsh(adj.cov_x_apriori[:2, :2])
+    a = math.sqrt(max(float(lam[-1]), 0.0))
+    if a < near:
+        return None
+    return (f"ill-conditioned geometry: the error ellipse's semi-major axis {a / 1000:.3g} km "
+            f"reaches the nearest station ({near / 1000:.3g} km; the linearised model does not "
+            "hold)")
 
 
 def _no_fix(
@@ -407,13 +469,19 @@ def _no_fix(
     reason: str,
     n_used: int,
     tested: TestedAdjustment | None = None,
+    messages: Sequence[str] = (),
 ) -> FixResult:
-    lat, lon = grid.inverse(x0[0], x0[1])
+    """A failed fix at the provisional point; its geodetic position is NaN where the grid
+    cannot be inverted there (non-finite or far-off ``x0``)."""
+    try:
+        lat, lon = grid.inverse(float(x0[0]), float(x0[1]))
+    except _EVAL_ERRORS:
+        lat = lon = math.nan
     return FixResult(
         ok=False,
         reason=reason,
-        x_m=x0[0],
-        y_m=x0[1],
+        x_m=float(x0[0]),
+        y_m=float(x0[1]),
         lat_deg=lat,
         lon_deg=lon,
         cov=np.full((2, 2), np.nan),
@@ -424,14 +492,8 @@ def _no_fix(
         s2=None,
         lops=(),
         tested=tested,
+        messages=tuple(messages),
     )
-
-
-def _verdict(w: float, k_alpha: float, bound: float = 2.576) -> str:
-    if math.isnan(w):
-        return ""
-    aw = abs(w)
-    return "accept" if aw <= k_alpha else ("monitor" if aw <= bound else "reject")
 
 
 def _lop_rows(
@@ -450,7 +512,6 @@ def _lop_rows(
     alpha: float,
 ) -> list[LopRow]:
     """Assemble the Pg 631/633 table rows from the final adjustment."""
-    k_alpha = w_critical(alpha)
     a = adj
     rows: list[LopRow] = []
 
@@ -461,7 +522,7 @@ def _lop_rows(
             "w": w,
             "tau": float(a.tau[slot]),
             "vf": float(a.vf[slot]),
-            "verdict": _verdict(w, k_alpha),
+            "verdict": classify_w(w, alpha),
         }
 
     used = a.used

@@ -62,14 +62,15 @@ def _chi2_bounds(alpha: float, dof: int) -> tuple[float, float]:
 
 
 def classify_w(w: float, alpha: float = 0.05, bound: float = REJECT_BOUND) -> str:
-    """Verdict of one w-test (thesis L6665–6669): "accept" (|w| ≤ k_α), "monitor"
-    (k_α < |w| ≤ bound), "reject" (|w| > bound); "" when w was not computed (NaN)."""
+    """Verdict of one w-test (thesis L6665–6669): "reject" (|w| > bound, the rejection loop's
+    bound, whatever α), "monitor" (k_α < |w| ≤ bound), "accept" otherwise; "" when w was not
+    computed (NaN). For α < 1 % (k_α > 2.576) the monitor band is empty."""
     if math.isnan(w):
         return ""
     aw = abs(w)
-    if aw <= w_critical(alpha):
-        return "accept"
-    return "monitor" if aw <= bound else "reject"
+    if aw > bound:
+        return "reject"
+    return "monitor" if aw > w_critical(alpha) else "accept"
 
 
 # --------------------------------------------------------------------------------------------
@@ -280,7 +281,9 @@ class TestedAdjustment:
     ``flagged``: slots with |w| > bound that were not rejected (policy "N", category III);
     ``monitor``: slots in the band k_α < |w| ≤ bound; ``not_identifiable``: category III with
     |w| > bound; ``variance_test``: unit-variance test of the final fix; ``messages``: operator
-    texts; ``policy``/``estimator`` as requested; ``robust``: the RobustAdjustment if used.
+    texts; ``policy``/``estimator`` as requested; ``robust``: the RobustAdjustment when an
+    M-estimator was requested (``robust.ok`` False: it failed and ``adjustment`` is the
+    tested plain LSQ fix, a message says so).
     """
 
     adjustment: Adjustment
@@ -326,35 +329,40 @@ def adjust_with_testing(
     from the current x̂, repeating while category IV; "N" only flags it; "A" returns it as
     ``candidate`` (the caller asks the operator and calls again with the slot excluded).
     Category III with |w| > bound: "outlier detected, not identifiable", nothing rejected.
-    ``estimator`` "huber"/"danish" replaces hard rejection by IRLS M-estimation (engine.robust).
-    Never raises for bad geometry: failures are in ``adjustment.ok``/``reason``.
+    ``estimator`` "huber"/"danish" replaces hard rejection by IRLS M-estimation (engine.robust,
+    with the same ε, max_iter, σ0², ScaleVCV and α): nothing is rejected and there is no
+    candidate; if the M-estimation fails while plain LSQ succeeds, a message says so and the
+    LSQ fix goes through the rejection loop above (``robust`` then holds the failed attempt).
+    Never raises for bad geometry: failures are in ``adjustment.ok``/``reason``. ValueError for
+    an unknown policy or estimator and for invalid settings (programming errors).
     """
     from engine.adjustment import gauss_newton  # local: engine.adjustment imports this module
 
     if policy not in ("Y", "N", "A"):
         raise ValueError(f"policy must be 'Y', 'N' or 'A', got {policy!r}")
+    if estimator not in ("lsq", "huber", "danish"):
+        raise ValueError(f"estimator must be 'lsq', 'huber' or 'danish', got {estimator!r}")
     messages: list[str] = []
     robust_result: object | None = None
+    kw = dict(epsilon=epsilon, max_iter=max_iter, s02=s02, scale_vcv=scale_vcv, alpha=alpha)
+    cur = np.array(used, dtype=bool)
     if estimator != "lsq":
         from engine.robust import robust_adjust
 
-        rob = robust_adjust(
-            linearise, x0, used, psi=estimator, epsilon=epsilon, max_iter=max_iter, s02=s02,
-            scale_vcv=scale_vcv, alpha=alpha,
-        )
+        rob = robust_adjust(linearise, x0, cur, psi=estimator, **kw)  # type: ignore[arg-type]
         robust_result = rob
-        adj = rob.adjustment
-        low = [int(k) for k in np.flatnonzero(rob.weights < 0.5)]
-        if low:
-            messages.append(f"robust ({estimator}): down-weighted slots {low}")
-        if not rob.ok and rob.reason:
-            messages.append(rob.reason)
-        return _finish(adj, (), None, None, [], False, messages, policy, estimator, alpha,
-                       reject_bound, s02, thesis_dof, robust_result)
-
-    kw = dict(epsilon=epsilon, max_iter=max_iter, s02=s02, scale_vcv=scale_vcv, alpha=alpha)
-    cur = np.array(used, dtype=bool)
-    adj = gauss_newton(linearise, x0, cur, **kw)  # type: ignore[arg-type]
+        if rob.ok:
+            low = [int(k) for k in np.flatnonzero(rob.weights < 0.5)]
+            if low:
+                messages.append(f"robust ({estimator}): down-weighted slots {low}")
+            return _finish(rob.adjustment, (), None, None, [], False, messages, policy,
+                           estimator, alpha, reject_bound, s02, thesis_dof, robust_result)
+        adj = rob.lsq
+        if adj.ok:  # the M-estimation failed, the plain fix did not: use it, tested as usual
+            messages.append(f"robust ({estimator}) not used: {rob.reason}; "
+                            "plain least squares with data snooping")
+    else:
+        adj = gauss_newton(linearise, x0, cur, **kw)  # type: ignore[arg-type]
     rejected: list[tuple[int, float]] = []
     flagged: list[int] = []
     candidate: int | None = None
@@ -388,7 +396,8 @@ def adjust_with_testing(
         messages.append(f"LOP {slot} rejected (w = {w:.2f})")
         cur, adj = trial, new
     return _finish(adj, tuple(rejected), candidate, candidate_w, flagged, not_identifiable,
-                   messages, policy, estimator, alpha, reject_bound, s02, thesis_dof, None)
+                   messages, policy, estimator, alpha, reject_bound, s02, thesis_dof,
+                   robust_result)
 
 
 def _finish(

@@ -16,7 +16,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine.adjustment import Adjustment, Linearisation, gauss_newton
+from engine.adjustment import (
+    COND_MAX,
+    MAX_AXIS_RATIO,
+    Adjustment,
+    Linearisation,
+    gauss_newton,
+)
 
 _DEFAULT_C = {"huber": 1.5, "danish": 2.0}
 #: Smallest weight factor used, so that W' stays invertible (a damped blunder is ~invisible).
@@ -103,25 +109,29 @@ def robust_adjust(
     max_iter: int = 10,
     s02: float = 1.0,
     scale_vcv: bool = False,
-    cond_max: float = 1e12,
+    cond_max: float = COND_MAX,
+    max_axis_ratio: float | None = MAX_AXIS_RATIO,
     alpha: float = 0.05,
 ) -> RobustAdjustment:
     """IRLS M-estimation of the fix (seed 003 eq. 6, kalman.md §12.3).
 
     Starts from plain LSQ (T = I); each outer step recomputes T_ii = ψ(ŵ_i) (``psi`` "huber",
     c = 1.5, or "danish", c = 2.0, unless ``c`` is given) and re-adjusts from the current
-    estimate with W' = T^½ W T^½, until max |ΔT| < ``tol`` or ``max_outer`` steps. Requires
-    redundancy ≥ 1, Σ T_ii ≥ u + 1 effective observations and a well-conditioned damped normal
-    matrix (else ok=False with a reason; the last good adjustment is returned; if the weights
-    are still moving after ``max_outer`` steps, ok=False but ``adjustment`` is the last damped
-    one, which is usually usable). When every |ŵ| ≤ c the result is the LSQ adjustment
-    itself. Never raises for bad geometry.
+    estimate with W' = T^½ W T^½, until max |ΔT| < ``tol`` or ``max_outer`` steps. The
+    settings ``epsilon``, ``max_iter``, ``s02``, ``scale_vcv``, ``cond_max``, ``max_axis_ratio``
+    and ``alpha`` are passed to every :func:`engine.adjustment.gauss_newton` call. Requires
+    Σ T_ii ≥ u + 1 effective observations and a well-conditioned damped normal matrix (else
+    ok=False with a reason; the last good adjustment is returned; if the weights are still
+    moving after ``max_outer`` steps, ok=False and ``adjustment`` is the last damped one). With
+    redundancy 0 every residual is zero, so the M-estimate IS the LSQ one (ok, weights 1).
+    When every |ŵ| ≤ c the result is the LSQ adjustment itself. Never raises for bad geometry;
+    ValueError for an unknown ``psi`` or invalid settings (programming errors).
     """
     if psi not in _DEFAULT_C:
         raise ValueError(f"psi must be 'huber' or 'danish', got {psi!r}")
     cc = float(_DEFAULT_C[psi] if c is None else c)
     kw = dict(epsilon=epsilon, max_iter=max_iter, s02=s02, scale_vcv=scale_vcv,
-              cond_max=cond_max, alpha=alpha)
+              cond_max=cond_max, max_axis_ratio=max_axis_ratio, alpha=alpha)
     used_b = np.array(used, dtype=bool)
     lsq = gauss_newton(linearise, x0, used_b, **kw)  # type: ignore[arg-type]
     n = used_b.size
@@ -139,8 +149,8 @@ def robust_adjust(
     t = np.ones(n)
     if not lsq.ok:
         return result(lsq, t, lsq.reason, 0, False, nan_n)
-    if lsq.redundancy < 1:
-        return result(lsq, t, "robust estimation needs redundancy ≥ 1", 0, False, nan_n)
+    if lsq.redundancy < 1:  # v̂ = 0: nothing to down-weight, M-estimate = LSQ
+        return result(lsq, t, None, 0, True, nan_n)
     adj = lsq
     for it in range(1, max_outer + 1):
         wstd = standardised_residuals(adj)

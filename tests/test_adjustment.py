@@ -8,11 +8,20 @@ geometry (distances to known points).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
 
-from engine.adjustment import NOT_ENOUGH, Adjustment, Linearisation, category, gauss_newton
+from engine.adjustment import (
+    COND_MAX,
+    MAX_AXIS_RATIO,
+    NOT_ENOUGH,
+    Adjustment,
+    Linearisation,
+    category,
+    gauss_newton,
+)
 
 # ------------------------------------------------------------------------------------------
 # The worked example A8.5 at matrix level (lsq.md §12, Pg 821 inputs). Slots: GPS Lat, GPS Lon,
@@ -338,3 +347,128 @@ def test_uncontrolled_observation_is_not_testable() -> None:
     # the other three: w_i = −v_i/sqrt(r_i) with v = x̂ − l
     v = 7.0 / 3.0 - l[:3]
     np.testing.assert_allclose(adj.w[:3], -v / math.sqrt(2 / 3), rtol=1e-12)
+
+
+def test_invalid_settings_are_programming_errors() -> None:
+    """Settings no adjustment can run with raise ValueError (documented); data never does."""
+    lin = _const(np.eye(3)[:, :2], np.ones(3), np.eye(3))
+    used = np.ones(3, bool)
+    for kw in ({"max_iter": 0}, {"max_iter": -1}, {"max_iter": 2.5}, {"epsilon": 0.0},
+               {"epsilon": math.nan}, {"s02": -1.0}, {"cond_max": 1.0},
+               {"max_axis_ratio": 0.5}, {"alpha": 0.0}, {"power": 1.0}):
+        with pytest.raises(ValueError):
+            gauss_newton(lin, np.zeros(2), used, **kw)  # type: ignore[arg-type]
+    one = gauss_newton(lin, np.zeros(2), used, max_iter=1, epsilon=2.0)
+    assert one.ok and one.iterations == 1  # max_iter = 1 is the smallest valid cap
+
+
+@pytest.mark.parametrize("start", [(math.nan, 0.0), (math.inf, 1.0), (1e30, 1e30)])
+def test_degenerate_start_points_do_not_raise(start: tuple[float, float]) -> None:
+    """A non-finite start is refused up front; a start 1e30 m away makes the distance model's
+    rows finite but the squared misclosures overflow to inf/NaN: ok=False, no exception."""
+    stations = np.array([[0.0, 0.0], [5000.0, 300.0], [4200.0, 6100.0], [-800.0, 4500.0]])
+    adj = gauss_newton(_distances(stations, np.array([2200.0, 2600.0])), np.array(start),
+                       np.ones(4, bool))
+    assert not adj.ok and adj.reason is not None
+    if not math.isfinite(start[0]):
+        assert adj.reason == "provisional point not finite" and adj.iterations == 0
+
+
+# ------------------------------------------------------------------------------------------
+# Conditioning: the parameter-scaled condition number and the horizontal axis ratio
+
+
+def _two_lops(theta_deg: float) -> Callable[[np.ndarray], Linearisation]:
+    """Two LOPs crossing at θ (unit normals at ±θ/2 from East), σ = 1 m, r = 0."""
+    h = math.radians(theta_deg) / 2.0
+    A = np.array([[math.cos(h), math.sin(h)], [math.cos(h), -math.sin(h)]])
+    return _const(A, np.zeros(2), np.eye(2))
+
+
+def test_axis_ratio_of_two_crossing_lops_is_cot_half_angle() -> None:
+    """Hand calculation: N = Σ n nᵀ for unit normals at ±θ/2 is diag(2cos²(θ/2), 2sin²(θ/2)),
+    so a/b = cot(θ/2). MAX_AXIS_RATIO = 1e4 ⇔ θ = 2·atan(1e-4) = 0.011459°: 0.0114° is refused
+    (a/b = 10 051), 0.0116° accepted (a/b = 9 878). This N is diagonal, so its parameter-scaled
+    condition number is 1: only the rotation-invariant axis ratio sees the degeneracy."""
+    assert 2.0 * math.degrees(math.atan(1.0 / MAX_AXIS_RATIO)) == pytest.approx(0.011459, abs=1e-6)
+    ok = gauss_newton(_two_lops(0.0116), np.zeros(2), np.ones(2, bool))
+    assert ok.ok
+    a, b = np.sqrt(np.linalg.eigvalsh(ok.cov_x)[::-1])
+    assert a / b == pytest.approx(1.0 / math.tan(math.radians(0.0116) / 2.0), rel=1e-9)
+    bad = gauss_newton(_two_lops(0.0114), np.zeros(2), np.ones(2, bool))
+    assert not bad.ok and bad.reason is not None
+    assert "nearly parallel" in bad.reason and "1.01e+04" in bad.reason
+    off = gauss_newton(_two_lops(0.0114), np.zeros(2), np.ones(2, bool), max_axis_ratio=None)
+    assert off.ok  # the numerical guard alone accepts it: the solve itself is exact
+
+
+def test_scaled_condition_number_ignores_parameter_units() -> None:
+    """u = 3, the third parameter an orientation-like unknown in units 1e8 times too small
+    (every row's third column × 1e-8): the raw normal matrix's condition number grows by 1e16,
+    the Jacobi-scaled one (COND_MAX) not at all, so the fix is accepted and the third
+    parameter is simply 1e8 times larger, the first two unchanged."""
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(8, 3))
+    l = rng.normal(size=8)
+    base = gauss_newton(lambda x: Linearisation(A, l - A @ x, np.eye(8)), np.zeros(3),
+                        np.ones(8, bool), epsilon=1e-9)
+    As = A * np.array([1.0, 1.0, 1e-8])
+    scaled = gauss_newton(lambda x: Linearisation(As, l - As @ x, np.eye(8)), np.zeros(3),
+                          np.ones(8, bool), epsilon=1e-9)
+    assert np.linalg.cond(As.T @ As) > 1e6 * COND_MAX  # an unscaled test would refuse it
+    assert base.ok and scaled.ok
+    np.testing.assert_allclose(scaled.x[:2], base.x[:2], rtol=1e-9)
+    assert scaled.x[2] == pytest.approx(base.x[2] * 1e8, rel=1e-9)
+
+
+def test_scaled_condition_number_refuses_a_nearly_dependent_column() -> None:
+    """Column 2 = column 1 + 1e-6 noise: the scaled condition number is ≈ 1e12 > COND_MAX."""
+    rng = np.random.default_rng(6)
+    c1 = rng.normal(size=6)
+    A = np.c_[c1, rng.normal(size=6), c1 + 1e-6 * rng.normal(size=6)]
+    adj = gauss_newton(_const(A, np.ones(6), np.eye(6)), np.zeros(3), np.ones(6, bool))
+    assert not adj.ok and adj.reason is not None
+    assert adj.reason.startswith("ill-conditioned normal matrix (scaled condition number")
+
+
+# ------------------------------------------------------------------------------------------
+# A posteriori VCVs of the residuals and of the adjusted observations (5.5b–c, corrected)
+
+
+def test_cov_v_and_cov_lhat_against_numpy() -> None:
+    """300 random cases (correlated blocks, exclusions, u 2/3): C_l̂ = A (AᵀWA)⁻¹ Aᵀ recomputed
+    with numpy from the used rows (1e-9 relative); C_l̂ + C_v = C_l; C_v W is idempotent (the
+    residual projector); diag(C_v W) are the redundancy numbers and sum to n_used − u;
+    diag(C_l̂)/diag(C_l) = VF (5.12). Unused rows and columns are NaN."""
+    for A, C, l, used in _cases(17, 300):
+        adj = gauss_newton(lambda x, A=A, C=C, l=l: Linearisation(A, l - A @ x, C),
+                           np.zeros(A.shape[1]), used, epsilon=1e-12, max_iter=3)
+        assert adj.ok
+        Au, Cu = A[used], C[np.ix_(used, used)]
+        Wu = np.linalg.inv(Cu)
+        lhat = Au @ np.linalg.solve(Au.T @ Wu @ Au, Au.T)
+        scale = float(np.max(np.abs(Cu)))
+        np.testing.assert_allclose(adj.cov_lhat_used, lhat, rtol=1e-9, atol=1e-12 * scale)
+        np.testing.assert_allclose(adj.cov_v_used, Cu - lhat, rtol=1e-9, atol=1e-9 * scale)
+        np.testing.assert_allclose(adj.cov_v_used + adj.cov_lhat_used, Cu, rtol=1e-12,
+                                   atol=1e-12 * scale)
+        P = adj.cov_v_used @ Wu
+        np.testing.assert_allclose(P @ P, P, atol=1e-9)
+        assert float(np.trace(P)) == pytest.approx(used.sum() - A.shape[1], abs=1e-9)
+        np.testing.assert_allclose(np.diag(P), adj.redundancy_numbers[used], atol=1e-9)
+        np.testing.assert_allclose(np.diag(adj.cov_lhat_used) / np.diag(Cu), adj.vf[used],
+                                   rtol=1e-9, atol=1e-12)
+        assert np.isnan(adj.cov_v[~used]).all() and np.isnan(adj.cov_lhat[:, ~used]).all()
+        np.testing.assert_array_equal(adj.cov_v[np.ix_(used, used)], adj.cov_v_used)
+
+
+def test_cov_lhat_of_the_worked_example(sample: Adjustment) -> None:
+    """Pg 633 inputs: VF = (C_l̂)_ii/(C_l)_ii = 0.079, 0.326, 0.638, 0.948 (lsq.md §8.3, 3 dp).
+    The GPS block of C_l̂ is C_x̂ itself, reordered (rows (0, 1) and (1, 0)): Pg 641's VCV."""
+    lhat = sample.cov_lhat_used
+    np.testing.assert_allclose(np.diag(lhat) / np.diag(sample.Cl_used),
+                               [0.079, 0.326, 0.638, 0.948], atol=0.0005)
+    np.testing.assert_allclose(lhat[:2, :2], [[196.755, -298.408], [-298.408, 814.936]],
+                               atol=0.002)
+    assert float(np.trace(sample.cov_v_used @ sample.W_used)) == pytest.approx(2.0, abs=1e-12)
+    assert np.isnan(sample.cov_v[4]).all()  # Purple deselected

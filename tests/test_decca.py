@@ -10,9 +10,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pyproj import Geod
 
 from engine.datumfile import read_datum_file
 from engine.decca import (
+    ChainOnGrid,
     decca_geometry,
     decca_vcv_lanes,
     decca_vcv_m2,
@@ -20,7 +22,7 @@ from engine.decca import (
     resolve_total_lanes,
     sigma_path_a,
 )
-from engine.deccafile import read_chain_file
+from engine.deccafile import DeccaChain, read_chain_file
 from engine.geodesy import GeodesicSolver
 from engine.tmgrid import TMGrid
 
@@ -110,9 +112,78 @@ def test_path_sigma_polynomial() -> None:
 def test_zone_cycle_resolution() -> None:
     # lsq.md §5.3: B20.862 → 44.862, F34.337 → 274.337 (second letter cycle), A51.111 → 1.111,
     # with N_calc at the DR start 44.88, 276.15, 1.05.
-    assert resolve_total_lanes(1, 20, 0.862, "red", 44.88) == pytest.approx(44.862)
-    assert resolve_total_lanes(5, 34, 0.337, "green", 276.15) == pytest.approx(274.337)
-    assert resolve_total_lanes(0, 51, 0.111, "purple", 1.05) == pytest.approx(1.111)
+    red = resolve_total_lanes(1, 20, 0.862, "red", 44.88)
+    assert red.total == pytest.approx(44.862) and red.cycle == 0 and red.warning is None
+    assert red.offset_lanes == pytest.approx(-0.018)
+    green = resolve_total_lanes(5, 34, 0.337, "green", 276.15)
+    assert green.total == pytest.approx(274.337) and green.cycle == 1 and green.warning is None
+    assert resolve_total_lanes(0, 51, 0.111, "purple", 1.05).total == pytest.approx(1.111)
     # A cycle further out is chosen when the computed count says so (10 zones × 24 lanes).
-    assert resolve_total_lanes(1, 20, 0.862, "red", 44.88 + 240) == pytest.approx(284.862)
-    assert math.isclose(resolve_total_lanes(1, 20, 0.862, "red", 44.88 - 240), -195.138)
+    assert resolve_total_lanes(1, 20, 0.862, "red", 44.88 + 240).total == pytest.approx(284.862)
+    assert math.isclose(resolve_total_lanes(1, 20, 0.862, "red", 44.88 - 240).total, -195.138)
+
+
+@pytest.mark.parametrize(
+    ("pattern", "zone", "lane", "total", "half"),
+    [("red", 1, 20, 44.862, 12.0), ("green", 5, 34, 94.337, 9.0), ("purple", 0, 51, 1.111, 15.0)],
+)
+def test_half_zone_warning(pattern: str, zone: int, lane: int, total: float, half: float) -> None:
+    """lsq.md Q7: warn when the resolved count is more than half a zone (lpz/2 = 12, 9, 15 lanes)
+    from N_calc. Hand calculation: the same reading with N_calc = total ± (half − 0.01) resolves
+    to the same cycle without a warning; ± (half + 0.01) still resolves to it (the period is
+    10 zones) but warns, naming the pattern, the zone/lane and the offset."""
+    frac = total % 1.0
+    for sign in (1.0, -1.0):
+        inside = resolve_total_lanes(zone, lane, frac, pattern, total + sign * (half - 0.01))
+        assert inside.total == pytest.approx(total) and inside.warning is None
+        outside = resolve_total_lanes(zone, lane, frac, pattern, total + sign * (half + 0.01))
+        assert outside.total == pytest.approx(total)
+        assert outside.offset_lanes == pytest.approx(-sign * (half + 0.01))
+        w = outside.warning
+        assert w is not None and w.startswith(f"Decca {pattern}: zone/lane {'ABCDEFGHIJ'[zone]}")
+        assert f"{-sign * (half + 0.01):+.2f} from" in w and f"{half:g} lanes" in w
+    with pytest.raises(ValueError):
+        resolve_total_lanes(zone, lane, frac, pattern, math.nan)
+
+
+@pytest.fixture(scope="module")
+def chain_2e() -> tuple[DeccaChain, ChainOnGrid, GeodesicSolver]:
+    ed50 = read_datum_file(DATA / "TO_WGS84.DAT").datum("ED50")
+    chain = read_chain_file(DATA / "DECCA.CHN")["2E"]
+    placed = place_chain(chain, TMGrid(ed50.ellipsoid, 5.0))
+    return chain, placed, GeodesicSolver(ed50.ellipsoid)
+
+
+def test_min_lane_count_of_chain_2e(
+    chain_2e: tuple[DeccaChain, ChainOnGrid, GeodesicSolver],
+) -> None:
+    """Chain 2E has k = −3.920 (Red), 3.205 (Green), 0 (Purple) (DECCA.CHN, lsq.md §5.1, Q8).
+
+    Hand calculation from eq. 4.9, N = (D_m − D_s + B)/λc + k, at two points on each baseline
+    extension, 5 km beyond a station along the geodesic through both (pyproj on the
+    International ellipsoid, independent of the engine):
+    * behind the master D_s = D_m + B, so N = k exactly: −3.920, 3.205, 0;
+    * behind the slave D_m = D_s + B, so N = 2B/λc + k, with λc = v/(m·f_slave), v = 299550
+      km/s, m = 3, 2, 6 (lsq.md §5.2): Red λc = 299550/(3·112.7333) = 885.719 m, B = 109 758.61
+      m → 247.841 − 3.920 = 243.921; Green 1180.958 m, 85 651.95 m → 145.055 + 3.205 =
+      148.260; Purple 708.575 m, 238 043.89 m → 671.895.
+    Tolerance 5e-4 lane: the engine's baseline is Andoyer–Lambert (lsq.md §2.4), 0.15 m shorter
+    than the geodesic for Red (1.7e-4 lane), and its distances are grid chord / L (mm). With
+    k's sign reversed Red and Green would be off by 7.8 and 6.4 lanes."""
+    chain, placed, solver = chain_2e
+    geod = Geod(a=6378388.0, rf=297.0)  # International 1924 (ED50)
+    grid = placed.grid
+    master = chain.master
+    assert chain.min_lanes == (-3.920, 3.205, 0.0)
+    expected_slave_side = (243.921, 148.260, 671.895)
+    for j, slave in enumerate((chain.red, chain.green, chain.purple)):
+        fwd, back, base = geod.inv(master.lon_deg, master.lat_deg, slave.lon_deg, slave.lat_deg)
+        lam = chain.speed_km_s / ((3, 2, 6)[j] * slave.freq_khz)  # km/s / kHz = m
+        k = chain.min_lanes[j]
+        lon, lat, _ = geod.fwd(master.lon_deg, master.lat_deg, fwd + 180.0, 5000.0)
+        behind_master = decca_geometry(placed, *grid.forward(lat, lon), solver).n_calc[j]
+        assert behind_master == pytest.approx(k, abs=5e-4)
+        lon, lat, _ = geod.fwd(slave.lon_deg, slave.lat_deg, back + 180.0, 5000.0)
+        behind_slave = decca_geometry(placed, *grid.forward(lat, lon), solver).n_calc[j]
+        assert 2.0 * base / lam + k == pytest.approx(expected_slave_side[j], abs=5e-4)
+        assert behind_slave == pytest.approx(2.0 * base / lam + k, abs=5e-4)

@@ -149,3 +149,215 @@ def test_gps_only_and_no_lops() -> None:
     assert all(math.isnan(r.w) for r in f.lops)
     none = compute_fix(GRID, GEOD, (tx, ty))
     assert not none.ok and "Not enough LOPs" in none.reason
+
+
+# ------------------------------------------------------------------------------------------
+# Degenerate geometry at compute_fix level (no fix, with the reason) and legitimate geometry
+
+
+def _bearing_to(lat: float, lon: float, sigma: float = 0.8) -> ManualObservation:
+    value, _ = GEOD.azimuth_distance(*TRUTH, lat, lon)
+    return ManualObservation("bearing", f"{lat:.3f}/{lon:.3f}", lat, lon, value, sigma)
+
+
+def _radar(lat: float, lon: float) -> list[ManualObservation]:
+    az, dist = GEOD.azimuth_distance(*TRUTH, lat, lon)
+    # the model compares the range with the spheroidal distance grid chord / L (≈ geodesic to
+    # well under the 105 m σ here)
+    return [ManualObservation("bearing", "obj", lat, lon, az, 0.85, "radar"),
+            ManualObservation("distance", "obj", lat, lon, dist, 105.0, "radar")]
+
+
+START = GRID.forward(TRUTH[0] + 0.005, TRUTH[1] + 0.005)  # ~650 m off
+
+
+def _around(az_deg: float, km: float) -> tuple[float, float]:
+    """A point ≈ ``km`` from TRUTH at azimuth ``az_deg`` (spherical approximation: exactness
+    does not matter, the observations are computed from the point actually used)."""
+    a = math.radians(az_deg)
+    return (TRUTH[0] + km / 111.2 * math.cos(a),
+            TRUTH[1] + km / (111.2 * math.cos(math.radians(TRUTH[0]))) * math.sin(a))
+
+
+@pytest.mark.parametrize("lats", [(53.0, 53.2, 53.4), (53.0, 53.2)])
+def test_bearings_along_one_meridian_give_no_fix(lats: tuple[float, ...]) -> None:
+    """Stations due north on the ship's own meridian: the bearing lines coincide. Before this
+    check the 3-bearing case returned ok, category III, a = 77 000 km (cond(N) 8.5e10). Now
+    the horizontal axis ratio a/b (2.9e5 and 4.6e5 measured) exceeds MAX_AXIS_RATIO."""
+    f = compute_fix(GRID, GEOD, START, manual=[_bearing_to(la, TRUTH[1]) for la in lats],
+                    settings=LsqSettings(lop_reject="N"))
+    assert not f.ok and f.ellipse is None and math.isnan(f.rms_m)
+    assert f.reason is not None and "nearly parallel" in f.reason
+
+
+def test_nearly_parallel_bearings_beyond_the_linear_range_give_no_fix() -> None:
+    """Two bearings 22 and 44 km away crossing at 0.09°: a/b = 1.7e3 passes the core's ratio
+    test, but the standard semi-major axis (461 km measured) reaches far past the stations, where
+    a bearing LOP ends: refused by compute_fix's linearisation check."""
+    obs = [_bearing_to(53.0, TRUTH[1]), _bearing_to(53.2, TRUTH[1] + 0.001)]
+    f = compute_fix(GRID, GEOD, START, manual=obs, settings=LsqSettings(lop_reject="N"))
+    assert not f.ok and f.reason is not None
+    assert "reaches the nearest station" in f.reason and "461 km" in f.reason
+
+
+def test_legitimate_weak_geometry_still_gives_a_fix() -> None:
+    """Poor but genuine geometry stays a fix (standard a, a/b measured with this geometry):
+    radar bearing + range to an object 90 km away (a 1336 m, a/b 12.7); bearings to objects at
+    1 km and 50 km at right angles (610 m, 50); two bearings at 20 km crossing at 5°
+    (4.5 km, 23); Decca Green + Purple on a winter night (CF 1/2.25) west of the 9B chain
+    (51.6 km, 126, nearest station 84 km)."""
+    tx, ty = GRID.forward(*TRUTH)
+    radar = compute_fix(GRID, GEOD, START, manual=_radar(TRUTH[0] + 90 / 111.2, TRUTH[1]))
+    assert radar.ok and radar.ellipse.a_m == pytest.approx(1336, rel=0.01)
+    near_far = compute_fix(GRID, GEOD, START,
+                           manual=[_bearing_to(TRUTH[0] + 0.009, TRUTH[1], 0.7),
+                                   _bearing_to(TRUTH[0], TRUTH[1] + 0.74, 0.7)])
+    assert near_far.ok
+    assert near_far.ellipse.a_m / near_far.ellipse.b_m == pytest.approx(50, rel=0.02)
+    crossing = compute_fix(GRID, GEOD, START,
+                           manual=[_bearing_to(*_around(a, 20.0)) for a in (0.0, 5.0)])
+    assert crossing.ok and crossing.ellipse.a_m == pytest.approx(4538, rel=0.01)
+    for f in (radar, near_far, crossing):  # noise-free: each is the truth
+        assert math.hypot(f.x_m - tx, f.y_m - ty) < 0.01
+    placed = place_chain(read_chain_file(DATA / "DECCA.CHN")["9B"], GRID)
+    west = GRID.forward(52.5, 3.5)
+    n = decca_geometry(placed, *west, GEOD).n_calc
+    reading = DeccaReading(placed, tuple(float(v % 1.0) for v in n), (None, None, None),
+                           (False, True, True), cf=1 / 2.25, totals=tuple(float(v) for v in n))
+    decca = compute_fix(GRID, GEOD, west, decca=reading)
+    assert decca.ok and decca.category == "II"
+    assert decca.ellipse.a_m == pytest.approx(51640, rel=0.01)
+
+
+@pytest.mark.parametrize("start", [(1e30, 1e30), (math.nan, 5.8e6), (-3e7, 9e7)])
+def test_absurd_start_points_give_no_fix_not_an_exception(start: tuple[float, float]) -> None:
+    """A start 1e30 m off (the TM inverse overflows), NaN, or 9e7 m off: before, compute_fix
+    raised OverflowError from the zone resolution or from _no_fix; now ok=False with a reason,
+    for GPS + Decca with zone/lane entry, for bearings, and for a single LOP."""
+    chain = read_chain_file(DATA / "DECCA.CHN")["9B"]
+    placed = place_chain(chain, GRID)
+    tx, ty = GRID.forward(*TRUTH)
+    gps = GpsFix(TRUTH[0], TRUTH[1], tx, ty, 2500.0)
+    reading = DeccaReading(placed, (0.862, 0.337, None), ((1, 20), (5, 34), None),
+                           (True, True, False))
+    cases = [dict(gps=gps, decca=reading),
+             dict(manual=[_bearing_to(*STATIONS[n]) for n in STATIONS]),
+             dict(manual=[_bearing_to(*STATIONS["Texel"])])]
+    for kw in cases:
+        f = compute_fix(GRID, GEOD, start, **kw)  # type: ignore[arg-type]
+        assert not f.ok and f.reason
+        assert f.lops == () and f.ellipse is None
+
+
+def test_invalid_settings_raise() -> None:
+    """max_iter = 0 (not reachable from a run configuration) is a programming error: ValueError
+    from the adjustment core instead of the former AssertionError."""
+    tx, ty = GRID.forward(*TRUTH)
+    gps = GpsFix(TRUTH[0], TRUTH[1], tx, ty, 2500.0)
+    with pytest.raises(ValueError, match="max_iter"):
+        compute_fix(GRID, GEOD, (tx, ty), gps=gps, settings=LsqSettings(max_iter=0))
+    with pytest.raises(ValueError, match="estimator"):
+        compute_fix(GRID, GEOD, (tx, ty), gps=gps, settings=LsqSettings(estimator="tukey"))
+
+
+# ------------------------------------------------------------------------------------------
+# The robust estimator honours the settings, replaces rejection, and says when it falls back
+
+
+def _blundered_obs() -> list[ManualObservation]:
+    obs = [_exact("bearing", n, 0.8) for n in ("Den Helder", "Texel", "Egmond")] + [
+        _exact("distance", n, 105.0) for n in ("Texel", "IJmuiden")]
+    bad = obs[1]
+    obs[1] = ManualObservation(bad.kind, bad.station, bad.lat_deg, bad.lon_deg, bad.value + 3.0,
+                               bad.sigma)  # ≈ 4σ on the Texel bearing (slot 6)
+    return obs
+
+
+def test_robust_fix_uses_scale_vcv_and_alpha() -> None:
+    start = GRID.forward(*TRUTH)
+    obs = _blundered_obs()
+    f = compute_fix(GRID, GEOD, start, manual=obs,
+                    settings=LsqSettings(estimator="huber", scale_vcv=True, reliab_interval=1.0))
+    adj = f.tested.adjustment
+    assert f.ok and adj.damping is not None and adj.scaled and adj.s2 is not None
+    # the fix's VCV is the scaled one of the damped model: C = S²·(AᵀW'A)⁻¹ (lsq.md §8.5)
+    np.testing.assert_allclose(f.cov, adj.cov_x_apriori * adj.s2, rtol=1e-12)
+    np.testing.assert_allclose(f.ellipse.eigenvalues, np.linalg.eigvalsh(f.cov)[::-1],
+                               rtol=1e-9)
+    # α = 1 %: the unit-variance bounds are χ²_r quantiles 0.005/0.995 over r = 3 (tables:
+    # 0.0717/3 and 12.838/3)
+    vt = f.tested.variance_test
+    assert vt is not None and vt.dof == 3
+    assert (vt.lower, vt.upper) == pytest.approx((0.0717 / 3, 12.838 / 3), abs=2e-4)
+    off = compute_fix(GRID, GEOD, start, manual=obs, settings=LsqSettings(estimator="huber"))
+    assert not off.tested.adjustment.scaled
+    np.testing.assert_allclose(off.cov, off.tested.adjustment.cov_x_apriori)
+
+
+def test_robust_fix_honours_max_iter_and_s02() -> None:
+    start = GRID.forward(TRUTH[0] + 0.03, TRUTH[1] - 0.04)  # ~5 km off: needs > 1 iteration
+    obs = _blundered_obs()
+    one = compute_fix(GRID, GEOD, start, manual=obs,
+                      settings=LsqSettings(estimator="danish", max_iter=1))
+    assert not one.ok and one.reason == "no convergence"
+    s4 = compute_fix(GRID, GEOD, start, manual=obs, settings=LsqSettings(estimator="danish",
+                                                                        s02=4.0))
+    s1 = compute_fix(GRID, GEOD, start, manual=obs, settings=LsqSettings(estimator="danish"))
+    v4, v1 = s4.tested.variance_test, s1.tested.variance_test
+    assert v4 is not None and v1 is not None
+    assert v4.upper == pytest.approx(4.0 * v1.upper, rel=1e-12)  # bounds are σ0²·χ²/r
+
+
+def test_robust_fix_replaces_rejection_under_policy_a() -> None:
+    """Policy A with Huber: the blunder is down-weighted, so no LSQ rejection candidate is
+    offered (before, the plain-LSQ candidate was still reported next to the robust fix)."""
+    start = GRID.forward(*TRUTH)
+    obs = _blundered_obs()
+    lsq = compute_fix(GRID, GEOD, start, manual=obs, settings=LsqSettings(lop_reject="A"))
+    assert lsq.candidate_slot == 6
+    rob = compute_fix(GRID, GEOD, start, manual=obs,
+                      settings=LsqSettings(lop_reject="A", estimator="huber"))
+    assert rob.ok and rob.candidate_slot is None and rob.rejected_slots == ()
+    assert rob.tested.robust is not None and rob.tested.robust.ok
+    assert int(np.nanargmin(rob.tested.robust.weights)) == 6
+    assert any("down-weighted slots [6]" in m for m in rob.messages)
+    assert not any("reject ?" in m for m in rob.messages)
+
+
+def test_robust_failure_falls_back_to_tested_lsq_with_a_message() -> None:
+    """Three LOPs (r = 1) with a blunder: every standardised residual is equally large, all
+    weights drop and Σ T_ii < u + 1 — the M-estimation fails. The fix is then the plain LSQ
+    one, tested as usual (category III: detected, not identifiable), and a message says so."""
+    start = GRID.forward(*TRUTH)
+    obs = [_bearing_to(*_around(az, 10.0)) for az in (10.0, 130.0, 250.0)]
+    bad = obs[0]
+    obs[0] = ManualObservation(bad.kind, bad.station, bad.lat_deg, bad.lon_deg, bad.value + 4.0,
+                               bad.sigma)
+    f = compute_fix(GRID, GEOD, start, manual=obs, settings=LsqSettings(estimator="huber"))
+    t = f.tested
+    assert f.ok and f.category == "III" and t.robust is not None and not t.robust.ok
+    assert t.adjustment.damping is None  # the plain LSQ adjustment
+    assert any(m.startswith("robust (huber) not used: too few effective observations")
+               for m in f.messages)
+    assert t.not_identifiable
+
+
+def test_decca_half_zone_warning_reaches_the_fix_messages() -> None:
+    """Zone/lane entered one zone (24 lanes, ≈ 10 km) off the provisional position's count: the
+    10-zone cycle still resolves, but the count is > 12 lanes from N_calc (lsq.md Q7)."""
+    chain = read_chain_file(DATA / "DECCA.CHN")["9B"]
+    placed = place_chain(chain, GRID)
+    tx, ty = GRID.forward(*TRUTH)
+    n = decca_geometry(placed, tx, ty, GEOD).n_calc
+    zone, lane = divmod(int(n[0]), 24)
+    frac = float(n[0] % 1.0)
+    gps = GpsFix(TRUTH[0], TRUTH[1], tx, ty, 2500.0)
+    good = DeccaReading(placed, (frac, None, None), ((zone % 10, lane), None, None),
+                        (True, False, False))
+    f = compute_fix(GRID, GEOD, (tx, ty), gps=gps, decca=good)
+    assert not any("half a zone" in m for m in f.messages)
+    off = DeccaReading(placed, (frac, None, None), (((zone + 1) % 10, lane), None, None),
+                       (True, False, False))
+    g = compute_fix(GRID, GEOD, (tx, ty), gps=gps, decca=off)
+    assert any(m.startswith("Decca red: zone/lane") and "more than half a zone" in m
+               for m in g.messages)

@@ -8,6 +8,7 @@ compared with the distribution theory of the w-test.
 from __future__ import annotations
 
 import math
+from statistics import NormalDist
 
 import numpy as np
 import pytest
@@ -77,6 +78,8 @@ def test_critical_values() -> None:
     assert REJECT_BOUND == 2.576
     assert [classify_w(x) for x in (0.5, -1.959, 1.961, -2.576, 2.577, math.nan)] == [
         "accept", "accept", "monitor", "monitor", "reject", ""]
+    # α = 0.1 % (k_α = 3.291 > 2.576): the verdict still follows the loop's rejection bound
+    assert [classify_w(x, 0.001) for x in (2.5, 2.6, 3.3)] == ["accept", "reject", "reject"]
 
 
 def test_unit_variance_test_sample_bounds() -> None:
@@ -152,41 +155,37 @@ def test_blunder_shifts_w_by_delta_over_sigma_d_and_x_by_ext() -> None:
 
 N_TRIALS = 1000
 N_OBS = 10
+K_05 = w_critical(0.05)  # 1.960: the w-test at α = 0.05
 
 
-def _snooping_run(mode: str, seed: int) -> tuple[float, float, float]:
-    """Return (fraction any |w| > k_α, per-slot fraction |w| > k_α, identification rate).
+def _trial(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """One geometry and noise draw: n = 10 LOPs of random azimuth, σ_i ~ U(0.5, 2) m, u = 2,
+    linear; returns (A, σ, e ~ N(0, σ²), blunder slot j)."""
+    th = rng.uniform(0.0, 2.0 * np.pi, N_OBS)
+    A_ = np.c_[np.cos(th), np.sin(th)]
+    sig = rng.uniform(0.5, 2.0, N_OBS)
+    e = rng.normal(0.0, sig)
+    return A_, sig, e, int(rng.integers(N_OBS))
 
-    Geometry per trial: n = 10 LOPs of random azimuth, σ_i ~ U(0.5, 2) m, u = 2, linear.
-    mode: "none", "5sigma" (Δ = 5σ_i), "k*mdb" (Δ = k·MDB_i, MDB_i = δ0·σ_d,i of that slot).
-    Identification = the blunder slot has the largest |w| and it exceeds k_α.
-    """
-    rng = np.random.default_rng(seed)
-    k_a = w_critical(0.05)
-    any_fa = slot_fa = ident = 0
-    used = np.ones(N_OBS, bool)
-    for _ in range(N_TRIALS):
-        th = rng.uniform(0.0, 2.0 * np.pi, N_OBS)
-        A_ = np.c_[np.cos(th), np.sin(th)]
-        sig = rng.uniform(0.5, 2.0, N_OBS)
-        C_ = np.diag(sig**2)
-        e = rng.normal(0.0, sig)
-        j = int(rng.integers(N_OBS))
-        if mode != "none":
-            if mode == "5sigma":
-                size = 5.0 * sig[j]
-            else:
-                geo = gauss_newton(_linear(A_, np.zeros(N_OBS), C_), np.zeros(2), used,
-                                   epsilon=1e-9)
-                size = float(mode.split("*")[0]) * float(geo.mdb[j])
-            e[j] += size * rng.choice([-1.0, 1.0])
-        adj = gauss_newton(_linear(A_, e, C_), np.zeros(2), used,
-                           epsilon=1e-9)
-        aw = np.abs(adj.w)
-        any_fa += bool(aw.max() > k_a)
-        slot_fa += int((aw > k_a).sum())
-        ident += bool(int(np.argmax(aw)) == j and aw.max() > k_a)
-    return any_fa / N_TRIALS, slot_fa / (N_TRIALS * N_OBS), ident / N_TRIALS
+
+def _redundancy_numbers(A_: np.ndarray, sig: np.ndarray) -> np.ndarray:
+    """r_i = 1 − a_i (AᵀWA)⁻¹ a_iᵀ / σ_i² for uncorrelated observations (numpy, not the engine)."""
+    W = np.diag(sig**-2.0)
+    return 1.0 - np.einsum("ij,jk,ik->i", A_, np.linalg.inv(A_.T @ W @ A_), A_) / sig**2
+
+
+def _power(delta: float, k: float) -> float:
+    """P(|w| > k) for w ~ N(δ, 1): the power of the two-sided w-test (eq. 5.8d, 5.10)."""
+    cdf = NormalDist().cdf
+    return cdf(delta - k) + cdf(-delta - k)
+
+
+def _first_rejected(A_: np.ndarray, sig: np.ndarray, l: np.ndarray, bound: float) -> int | None:
+    """The slot the ENGINE's data-snooping loop rejects first (policy "Y", α = 0.05 for the
+    monitor band and the MDB, rejection at ``bound``); None if it rejects nothing."""
+    t = adjust_with_testing(_linear(A_, l, np.diag(sig**2)), np.zeros(2), np.ones(N_OBS, bool),
+                            policy="Y", alpha=0.05, reject_bound=bound, epsilon=1e-9)
+    return t.rejected[0][0] if t.rejected else None
 
 
 def test_false_alarm_rate_without_blunder() -> None:
@@ -194,9 +193,17 @@ def test_false_alarm_rate_without_blunder() -> None:
     (±0.01 ≈ 4.6 binomial σ for 10 000 slot draws). The rate of 'any of 10' lies between
     α and Šidák's bound 1 − (1 − α)^10 = 0.401 (valid for correlated two-sided normal tests),
     which is tighter than Bonferroni's n·α = 0.5."""
-    any_fa, slot_fa, _ = _snooping_run("none", 101)
-    assert slot_fa == pytest.approx(0.05, abs=0.01)
-    assert 0.05 <= any_fa <= 1.0 - 0.95**10 + 0.02  # +0.02 ≈ 1 binomial σ of 1000 trials
+    rng = np.random.default_rng(101)
+    any_fa = slot_fa = 0
+    for _ in range(N_TRIALS):
+        A_, sig, e, _j = _trial(rng)
+        adj = gauss_newton(_linear(A_, e, np.diag(sig**2)), np.zeros(2), np.ones(N_OBS, bool),
+                           epsilon=1e-9)
+        aw = np.abs(adj.w)
+        any_fa += bool(aw.max() > K_05)
+        slot_fa += int((aw > K_05).sum())
+    assert slot_fa / (N_TRIALS * N_OBS) == pytest.approx(0.05, abs=0.01)
+    assert 0.05 <= any_fa / N_TRIALS <= 1.0 - 0.95**10 + 0.02  # +0.02 ≈ 1 binomial σ
 
 
 def test_detection_at_mdb_is_the_design_power() -> None:
@@ -204,46 +211,81 @@ def test_detection_at_mdb_is_the_design_power() -> None:
     — the fraction of trials where the blunder slot itself is flagged must be 0.80 ± 0.04
     (≈ 3 binomial σ). Identification (largest |w|) is lower; measured below."""
     rng = np.random.default_rng(202)
-    k_a = w_critical(0.05)
     hits = 0
     used = np.ones(N_OBS, bool)
     for _ in range(N_TRIALS):
-        th = rng.uniform(0.0, 2.0 * np.pi, N_OBS)
-        A_ = np.c_[np.cos(th), np.sin(th)]
-        sig = rng.uniform(0.5, 2.0, N_OBS)
+        A_, sig, e, j = _trial(rng)
         C_ = np.diag(sig**2)
-        geo = gauss_newton(_linear(A_, np.zeros(N_OBS), C_), np.zeros(2), used,
-                           epsilon=1e-9)
-        j = int(rng.integers(N_OBS))
-        e = rng.normal(0.0, sig)
+        geo = gauss_newton(_linear(A_, np.zeros(N_OBS), C_), np.zeros(2), used, epsilon=1e-9)
         e[j] += float(geo.mdb[j]) * rng.choice([-1.0, 1.0])
-        adj = gauss_newton(_linear(A_, e, C_), np.zeros(2), used,
-                           epsilon=1e-9)
-        hits += bool(abs(adj.w[j]) > k_a)
+        adj = gauss_newton(_linear(A_, e, C_), np.zeros(2), used, epsilon=1e-9)
+        hits += bool(abs(adj.w[j]) > K_05)
     assert hits / N_TRIALS == pytest.approx(0.80, abs=0.04)
 
 
-def test_identification_rates() -> None:
-    """Largest-|w| identification, n = 10, u = 2, α = 0.05, 1000 seeded trials per size.
+def _identification_rate(k_mdb: float, seed: int) -> float:
+    """Fraction of N_TRIALS trials whose blunder Δ = k_mdb·MDB_j is the engine loop's first
+    rejection with the bound k_α = 1.960 (the w-test at α = 0.05)."""
+    rng = np.random.default_rng(seed)
+    hit = 0
+    for _ in range(N_TRIALS):
+        A_, sig, e, j = _trial(rng)
+        mdb = delta0(0.05) * sig[j] / math.sqrt(_redundancy_numbers(A_, sig)[j])  # δ0·σ_d,j
+        e[j] += k_mdb * mdb * rng.choice([-1.0, 1.0])
+        hit += _first_rejected(A_, sig, e, K_05) == j
+    return hit / N_TRIALS
 
-    Rates estimated separately with 5000 trials (binomial σ ≈ 0.003): Δ = MDB 0.717,
-    Δ = 1.5·MDB 0.963, Δ = 1.75·MDB 0.990, Δ = 2·MDB 0.998, Δ = 5σ_i 0.968. So ≥ 95 % needs
-    Δ ≥ 1.5·MDB on average; asserted with a safe margin (≥ 5 binomial σ of 1000 trials) at
-    Δ = 1.75·MDB (≥ 0.95) and 2·MDB (≥ 0.99). Δ = 5σ_i is a fixed multiple of σ_i, not of σ_d,
-    so slots with little redundancy are covered less well; the issue's requirement (a 5σ blunder
-    identified in ≥ 95 % of trials) holds at 0.968 ± 0.003 and is asserted (0.95 lies 3 binomial
-    σ of 1000 trials below the expected rate; the RNG is seeded). At Δ = MDB the
-    rate is below the 0.80 detection power (identification is harder than detection)."""
-    _, _, at_mdb = _snooping_run("1*mdb", 303)
-    _, _, at_5s = _snooping_run("5sigma", 404)
-    _, _, at_15 = _snooping_run("1.5*mdb", 505)
-    _, _, at_175 = _snooping_run("1.75*mdb", 707)
-    _, _, at_2 = _snooping_run("2*mdb", 606)
-    assert at_175 >= 0.95
-    assert at_2 >= 0.99
-    assert at_15 >= 0.93
-    assert at_5s >= 0.95
-    assert 0.65 < at_mdb < 0.80
+
+def test_identification_rates_in_units_of_the_mdb() -> None:
+    """Identification by the engine's loop (first rejection = the blunder slot), n = 10,
+    u = 2, k_α = 1.960, 1000 seeded trials per size (binomial σ ≤ 0.015). Rates measured
+    separately with 5000 trials (σ ≈ 0.003): Δ = MDB 0.717, 1.5·MDB 0.963, 1.75·MDB 0.990,
+    2·MDB 0.998. At Δ = MDB the rate is below the 0.80 detection power: identification (the
+    blunder must also have the LARGEST |w|) is harder than detection."""
+    assert _identification_rate(1.75, 707) >= 0.95
+    assert _identification_rate(2.0, 606) >= 0.99
+    assert _identification_rate(1.5, 505) >= 0.93
+    assert 0.65 < _identification_rate(1.0, 303) < 0.80
+
+
+def test_five_sigma_blunder_is_identified_in_95_percent() -> None:
+    """Issue 3: "a planted blunder of 5 σ is identified by data snooping in ≥ 95 % of trials
+    with α = 0.05", checked with the engine's own loop (``adjust_with_testing``, policy "Y").
+
+    α = 0.05 is the w-test's level: the loop is given the bound k_α = z_0.975 = 1.960, and
+    "identified" means its first rejection is the blunder slot. Geometry as above (n = 10,
+    u = 2, σ_i ~ U(0.5, 2)); 4000 seeded trials, Δ = ±5σ_j. Theory: with r_j the blunder's
+    redundancy number (numpy, per trial) the w-test's non-centrality is δ_j = 5σ_j/σ_d,j =
+    5·sqrt(r_j) and its power P(|w_j| > k) = Φ(δ_j − k) + Φ(−δ_j − k); the trial mean is
+    0.987 at k = 1.960 and 0.955 at 2.576. Identification also needs the blunder's |w| to be
+    the largest, so its rate lies below that power. Measured (seed 404): 0.9645 at 1.960, i.e.
+    5.0 Monte-Carlo standard errors (σ = sqrt(p(1−p)/4000) = 0.0029) above 0.95.
+
+    The engine's default bound is the thesis' fixed 2.576 (α = 0.01, lsq.md §8.1): the same
+    trials give 0.940 (σ 0.0037), below 0.95 as its power 0.955 predicts. Per trial the 2.576
+    loop can only identify where the 1.960 loop does (same largest |w|, higher bound): checked.
+    """
+    n = 4000
+    rng = np.random.default_rng(404)
+    hit = {K_05: 0, REJECT_BOUND: 0}
+    power = {K_05: 0.0, REJECT_BOUND: 0.0}
+    for _ in range(n):
+        A_, sig, e, j = _trial(rng)
+        e[j] += 5.0 * sig[j] * rng.choice([-1.0, 1.0])
+        delta = 5.0 * math.sqrt(_redundancy_numbers(A_, sig)[j])
+        first = {k: _first_rejected(A_, sig, e, k) == j for k in hit}
+        assert first[K_05] or not first[REJECT_BOUND]
+        for k in hit:
+            hit[k] += first[k]
+            power[k] += _power(delta, k) / n
+    rate = {k: h / n for k, h in hit.items()}
+    se = {k: math.sqrt(r * (1.0 - r) / n) for k, r in rate.items()}
+    assert power[K_05] == pytest.approx(0.987, abs=0.001)
+    assert power[REJECT_BOUND] == pytest.approx(0.955, abs=0.001)
+    assert rate[K_05] - 4.0 * se[K_05] >= 0.95  # the requirement, with a 4σ Monte-Carlo margin
+    for k in hit:  # below the detection power (3σ allowance), but not far below (measured
+        assert rate[k] <= power[k] + 3.0 * se[k]  # gaps 0.022 and 0.015)
+        assert rate[k] >= power[k] - 0.04
 
 
 # ------------------------------------------------------------------------------------------

@@ -133,8 +133,10 @@ def test_correlated_weights_are_damped_symmetrically() -> None:
                                rtol=1e-10)
 
 
-def test_robust_needs_redundancy_and_never_raises() -> None:
-    obs = np.linalg.norm(STATIONS[:2] - TRUTH, axis=1)
+def test_zero_redundancy_is_the_lsq_fix_and_nothing_raises() -> None:
+    """r = 0: v̂ = 0, so every weight stays 1 and the M-estimate IS the LSQ estimate (ok, no
+    message to the operator); too few LOPs is the core's "no fix", not an exception."""
+    obs = np.linalg.norm(STATIONS[:2] - TRUTH, axis=1) + np.array([3.0, -2.0])
     C = np.eye(2) * SIG**2
 
     def lin(x: np.ndarray) -> Linearisation:
@@ -143,9 +145,32 @@ def test_robust_needs_redundancy_and_never_raises() -> None:
         return Linearisation(d / r[:, None], obs - r, C)
 
     rob = robust_adjust(lin, X0, np.ones(2, bool))
-    assert not rob.ok and rob.reason is not None and "redundancy" in rob.reason
+    assert rob.ok and rob.reason is None and rob.iterations == 0
+    np.testing.assert_array_equal(rob.weights, [1.0, 1.0])
+    np.testing.assert_array_equal(rob.x, gauss_newton(lin, X0, np.ones(2, bool)).x)
     bad = robust_adjust(lin, X0, np.array([True, False]))
     assert not bad.ok and bad.reason == "Not enough LOPs for a fix !"
+
+
+def test_robust_passes_the_settings_to_every_adjustment() -> None:
+    """ScaleVCV, σ0², α and max_iter reach the damped adjustments (they were ignored by the
+    fix's robust branch before): the damped C_x̂ is × S²; the unit-variance bounds follow α and
+    σ0²; a 1-iteration cap from 30 m away cannot converge to ε = 1e-4 m."""
+    rng = np.random.default_rng(12)
+    obs = np.linalg.norm(STATIONS - TRUTH, axis=1) + rng.normal(0.0, SIG, 8)
+    obs[2] += 12.0 * SIG
+    lin = _model(obs)
+    rob = robust_adjust(lin, X0, USED, psi="huber", epsilon=1e-4, scale_vcv=True, s02=2.0,
+                        alpha=0.01)
+    adj = rob.adjustment
+    assert rob.ok and adj.damping is not None and adj.scaled
+    np.testing.assert_allclose(adj.cov_x, adj.cov_x_apriori * adj.s2, rtol=1e-12)
+    vt = adj.variance_test
+    assert vt is not None and vt.dof == 6
+    # σ0²·χ²_6(α/2)/6 and σ0²·χ²_6(1 − α/2)/6 with α = 0.01 (tables: 0.6757, 18.548)
+    assert (vt.lower, vt.upper) == pytest.approx((2.0 * 0.6757 / 6, 2.0 * 18.548 / 6), abs=2e-4)
+    capped = robust_adjust(lin, X0, USED, psi="huber", epsilon=1e-4, max_iter=1)
+    assert not capped.ok and capped.reason == "no convergence"
 
 
 def test_adjust_with_testing_robust_estimator() -> None:
