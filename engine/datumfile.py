@@ -19,8 +19,9 @@ Decisions (documented behaviour):
   marker would otherwise be silently ignored); a missing end marker is tolerated.
 * A file without any datum row is an error (most likely the wrong file).
 * Plausibility: 6 300 000 m < a < 6 400 000 m (any Earth ellipsoid; catches a missing column,
-  which shifts a name digit such as ``1830`` into ``a``); 1/f = 0 (sphere) or 1/f > 1; all
-  numbers finite. Names are unique (case and spacing insensitive).
+  which shifts a name digit such as ``1830`` into ``a``); 1/f = 0 (sphere) or 1/f > 1. Every
+  number is a plain decimal in ASCII digits with an optional ``-`` (no ``+``, exponent, ``_``,
+  ``inf``/``nan``). Names are unique (case and spacing insensitive).
 * A datum's ``Ellipsoid`` is built from the datum row's own a and 1/f. It is named after the
   first spheroid of section 1 with exactly the same a and 1/f (e.g. ED50 → ``HAYFORD 1909``,
   which equals INTERNATIONAL), otherwise after the datum itself (e.g. ``WGS84``, ``OSGB 1936``,
@@ -29,13 +30,13 @@ Decisions (documented behaviour):
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 from engine.ellipsoid import Datum, Ellipsoid
 from engine.errors import InputError
+from engine.operator_input import SIGNED_DECIMAL_RE, format_decimal
 
 __all__ = [
     "DatumFile",
@@ -81,20 +82,14 @@ class DatumFile:
 
 
 def _parse_number(token: str, field: str, file: str, line: int) -> float:
-    try:
-        value = float(token)
-    except ValueError:
-        raise InputError("Not a number !", file=file, line=line, field=field, text=token) from None
-    if not math.isfinite(value):
+    """A plain decimal (optional ``-``, ASCII digits, :data:`SIGNED_DECIMAL_RE`) as a float."""
+    if SIGNED_DECIMAL_RE.fullmatch(token) is None:
         raise InputError("Not a number !", file=file, line=line, field=field, text=token)
-    return value
+    return float(token)
 
 
 def _is_number(token: str) -> bool:
-    try:
-        return math.isfinite(float(token))
-    except ValueError:
-        return False
+    return SIGNED_DECIMAL_RE.fullmatch(token) is not None
 
 
 def _check_shape(a: float, inv_f: float, tokens: list[str], file: str, line: int) -> None:
@@ -229,12 +224,6 @@ def _make_datum(name: str, v: list[float], spheroids: dict[str, Ellipsoid]) -> D
     )
 
 
-def _fmt(value: float, decimals: int) -> str:
-    """``value`` with ``decimals`` decimals when that reads back exactly, else the shortest repr."""
-    text = f"{value:.{decimals}f}"
-    return text if float(text) == value else repr(value)
-
-
 def format_datum_file(df: DatumFile) -> str:
     """Write ``df`` in the thesis layout (tab-separated, comment headers, ``* End of Data``).
 
@@ -243,15 +232,16 @@ def format_datum_file(df: DatumFile) -> str:
     """
     out = ["*", "* Parameters of reference spheroids", "*"]
     for name, ell in df.spheroids.items():
-        out.append(f"{name}\t{_fmt(ell.a_m, 3)}\t{_fmt(ell.inv_f, 7)}")
+        out.append(f"{name}\t{format_decimal(ell.a_m, 3)}\t{format_decimal(ell.inv_f, 7)}")
     out += ["*", "*", "*", "* Transformation parameters of Datums", "*", "* Datum ==> WGS84", "*"]
     for name, d in df.datums.items():
         e = d.ellipsoid
         cols = [
-            _fmt(e.a_m, 3), _fmt(e.inv_f, 7),
-            _fmt(d.dx_m, 3), _fmt(d.dy_m, 3), _fmt(d.dz_m, 3),
-            _fmt(d.rx_arcsec, 2), _fmt(d.ry_arcsec, 2), _fmt(d.rz_arcsec, 2),
-            _fmt(d.scale_ppm, 2),
+            format_decimal(e.a_m, 3), format_decimal(e.inv_f, 7),
+            format_decimal(d.dx_m, 3), format_decimal(d.dy_m, 3), format_decimal(d.dz_m, 3),
+            format_decimal(d.rx_arcsec, 2), format_decimal(d.ry_arcsec, 2),
+            format_decimal(d.rz_arcsec, 2),
+            format_decimal(d.scale_ppm, 2),
         ]
         out.append("\t".join([name, *cols]))
     out += ["*", "* End of Data"]

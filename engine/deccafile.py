@@ -22,9 +22,11 @@ Names live in comments:
   ``* Frisian Islands Chain (chain 9B)`` → ``Frisian Islands``. No such comment → ``""``.
 * Other comments (``* Geodetic Datum``, ``* Min. lanecount - Red`` …) are ignored.
 
-The datum line must not start with a number (catches a missing datum or station line);
-minimum lane counts and the speed are one number per line; the speed is checked against
-0 < v ≤ c = 299 792.458 km/s.
+The datum line must not start with a number (catches a missing datum or station line); read
+with the datum file's names (``known_datums``), it must be one of them. Minimum lane counts and
+the speed are one number per line; the speed is checked against 0 < v ≤ c = 299 792.458 km/s.
+Every number is a plain decimal in ASCII digits with an optional ``-`` (no ``+``, exponent,
+``_``, ``inf``/``nan``); degrees and minutes are whole numbers.
 
 ``* End of Data`` ends the file (data after it is an error; a missing marker is tolerated).
 Station coordinates are geodetic degrees on the chain's datum, south and west negative.
@@ -32,13 +34,13 @@ Station coordinates are geodetic degrees on the chain's datum, south and west ne
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from engine.errors import InputError
+from engine.operator_input import SIGNED_DECIMAL_RE, format_decimal, parse_datum_name
 
 __all__ = [
     "DeccaChain",
@@ -56,6 +58,7 @@ C_VACUUM_KM_S = 299_792.458
 _ROLES = ("master", "red", "green", "purple")
 _ROLE_ALIASES = {"m": "master", "r": "red", "g": "green", "p": "purple"}
 _STATION_LAYOUT = "DD MM SS.sss N DDD MM SS.sss E f[kHz]"
+_WHOLE_RE = re.compile("[0-9]+")
 
 
 # --------------------------------------------------------------------------- D M S helpers
@@ -64,30 +67,34 @@ _STATION_LAYOUT = "DD MM SS.sss N DDD MM SS.sss E f[kHz]"
 def parse_dms(d: str, m: str, s: str, h: str, is_lat: bool, field: str) -> float:
     """Degrees from the four tokens ``D M S.sss H`` (thesis .RUN / .CHN layout, §7.3.2).
 
-    D and M must be whole non-negative numbers, 0 ≤ M < 60, 0 ≤ S < 60, H ∈ {N, S} for a
-    latitude (≤ 90°) or {E, W} for a longitude (≤ 180°), any case; S and W give negative
-    degrees. Raises ``InputError`` with ``field`` and the four tokens as ``text`` (no file/line).
+    D and M must be whole numbers in ASCII digits (``52``, ``004``), S a plain decimal
+    (``33.020``, :data:`engine.operator_input.DECIMAL`: no sign, exponent, ``_`` or non-ASCII
+    digit), 0 ≤ M < 60, 0 ≤ S < 60, H ∈ {N, S} for a latitude (≤ 90°) or {E, W} for a longitude
+    (≤ 180°), any case; S and W give negative degrees. Raises ``InputError`` with ``field`` and
+    the four tokens as ``text`` (no file/line).
     """
-    try:
-        dv = float(d)
+    # Fast path for well-formed input (a replay parses two of these per record).
+    # D and M: ASCII digits; S: ASCII digits with at most one "." and at least one digit, which
+    # is exactly DECIMAL (str methods are faster than a regular expression here).
+    if (
+        d.isascii() and d.isdigit() and m.isascii() and m.isdigit()
+        and s.isascii() and s.replace(".", "", 1).isdigit()
+    ):
         mv = float(m)
         sv = float(s)
-    except ValueError:
-        return _dms_checked(d, m, s, h, is_lat, field)
-    # Fast path for well-formed input (a replay parses two of these per record).
-    if 0.0 <= mv < 60.0 and 0.0 <= sv < 60.0 and dv >= 0.0 and dv.is_integer() and mv.is_integer():
-        value = dv + mv / 60.0 + sv / 3600.0
-        if is_lat:
-            if value <= 90.0:
-                if h == "N":
+        if mv < 60.0 and sv < 60.0:
+            value = float(d) + mv / 60.0 + sv / 3600.0
+            if is_lat:
+                if value <= 90.0:
+                    if h == "N":
+                        return value
+                    if h == "S":
+                        return -value
+            elif value <= 180.0:
+                if h == "E":
                     return value
-                if h == "S":
+                if h == "W":
                     return -value
-        elif value <= 180.0:
-            if h == "E":
-                return value
-            if h == "W":
-                return -value
     return _dms_checked(d, m, s, h, is_lat, field)
 
 
@@ -95,16 +102,15 @@ def _dms_checked(d: str, m: str, s: str, h: str, is_lat: bool, field: str) -> fl
     """Slow path of :func:`parse_dms`: every check in turn, raising the first that fails."""
     text = f"{d} {m} {s} {h}"
     kind = "latitude" if is_lat else "longitude"
-    try:
-        dv = float(d)
-        mv = float(m)
-        sv = float(s)
-    except ValueError:
+    if not all(SIGNED_DECIMAL_RE.fullmatch(tok) for tok in (d, m, s)):
         raise InputError(
             f"Wrong {kind} format (D M S.sss {'N|S' if is_lat else 'E|W'}) !",
             field=field, text=text,
-        ) from None
-    if not (dv >= 0.0 and dv.is_integer() and mv >= 0.0 and mv.is_integer()):
+        )
+    dv = float(d)
+    mv = float(m)
+    sv = float(s)
+    if not (_WHOLE_RE.fullmatch(d) and _WHOLE_RE.fullmatch(m)):
         raise InputError(
             "Degrees and minutes must be whole non-negative numbers !", field=field, text=text
         )
@@ -113,7 +119,7 @@ def _dms_checked(d: str, m: str, s: str, h: str, is_lat: bool, field: str) -> fl
     if not 0.0 <= sv < 60.0:
         raise InputError("Seconds must be in [0, 60) !", field=field, text=text)
     value = dv + mv / 60.0 + sv / 3600.0
-    hem = h.upper()
+    hem = h.upper() if h.isascii() else h  # "ſ".upper() is "S": only ASCII letters count
     if is_lat:
         if value > 90.0:
             raise InputError("Latitude must be <= 90 degrees !", field=field, text=text)
@@ -206,21 +212,14 @@ _BLOCK_ITEMS = (
 
 
 def _number(token: str, field: str) -> float:
-    try:
-        value = float(token)
-    except ValueError:
-        raise InputError("Not a number !", field=field, text=token) from None
-    if not math.isfinite(value):
+    """A plain decimal (optional ``-``, ASCII digits; :data:`SIGNED_DECIMAL_RE`)."""
+    if SIGNED_DECIMAL_RE.fullmatch(token) is None:
         raise InputError("Not a number !", field=field, text=token)
-    return value
+    return float(token)
 
 
 def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
+    return SIGNED_DECIMAL_RE.fullmatch(token) is not None
 
 
 def _station(role: str, stripped: str) -> tuple[float, float, float]:
@@ -286,18 +285,25 @@ class _Block:
         )
 
 
-def parse_chain_text(text: str, filename: str = "<string>") -> dict[str, DeccaChain]:
+def parse_chain_text(
+    text: str, filename: str = "<string>", known_datums: Iterable[str] | None = None
+) -> dict[str, DeccaChain]:
     """Parse chain-file text into ``{chain_id: DeccaChain}`` in file order (module doc).
 
+    With ``known_datums`` (the datum names of ``TO_WGS84.DAT``) each chain's datum must be one
+    of them (``Unknown datum !`` at the datum line) and is returned in that file's spelling.
     Raises ``InputError`` with file, line, field (``chain id``, ``<role> station``,
     ``latitude``, ``longitude``, ``frequency``, ``datum``, ``min lane count``,
     ``propagation speed``, ``section``) and the offending text.
     """
-    return _parse_lines(text.splitlines(), filename)
+    return _parse_lines(text.splitlines(), filename, known_datums)
 
 
-def read_chain_file(path: str | os.PathLike[str]) -> dict[str, DeccaChain]:
-    """Read and parse a chain file from disk; a missing file gives ``File not found !``."""
+def read_chain_file(
+    path: str | os.PathLike[str], known_datums: Iterable[str] | None = None
+) -> dict[str, DeccaChain]:
+    """Read and parse a chain file from disk (``known_datums``: see :func:`parse_chain_text`);
+    a missing file gives ``File not found !``."""
     name = os.fspath(path)
     try:
         with open(name, encoding="utf-8-sig", errors="replace") as fh:
@@ -306,10 +312,13 @@ def read_chain_file(path: str | os.PathLike[str]) -> dict[str, DeccaChain]:
         raise InputError("File not found !", file=name) from None
     except OSError as exc:
         raise InputError("Cannot read file !", file=name, text=exc.strerror) from None
-    return _parse_lines(text.splitlines(), name)
+    return _parse_lines(text.splitlines(), name, known_datums)
 
 
-def _parse_lines(lines: Iterable[str], file: str) -> dict[str, DeccaChain]:
+def _parse_lines(
+    lines: Iterable[str], file: str, known_datums: Iterable[str] | None = None
+) -> dict[str, DeccaChain]:
+    known = None if known_datums is None else list(known_datums)
     chains: dict[str, DeccaChain] = {}
     block: _Block | None = None
     free_comments: list[str] = []
@@ -356,6 +365,8 @@ def _parse_lines(lines: Iterable[str], file: str) -> dict[str, DeccaChain]:
                 if _is_number(stripped.split()[0]):
                     raise InputError("Datum name expected !", field="datum", text=stripped)
                 block.datum = " ".join(stripped.split())
+                if known is not None:
+                    block.datum = parse_datum_name(block.datum, known, field="datum")
             elif item < 8:
                 block.min_lanes.append(_number(_single(stripped, "min lane count"),
                                                "min lane count"))
@@ -406,12 +417,6 @@ def _truncated(block: _Block, file: str, line_no: int) -> None:
 # --------------------------------------------------------------------------- writer
 
 
-def _fmt(value: float, decimals: int) -> str:
-    """``value`` with ``decimals`` decimals when that reads back exactly, else the shortest repr."""
-    text = f"{value:.{decimals}f}"
-    return text if float(text) == value else repr(value)
-
-
 _LANE_LABELS = ("Red", "Green", "Purple")
 
 
@@ -427,12 +432,12 @@ def format_chain_file(chains: Mapping[str, DeccaChain]) -> str:
         for st in (chain.master, chain.red, chain.green, chain.purple):
             out.append(
                 f"{format_dms(st.lat_deg, True)} {format_dms(st.lon_deg, False)} "
-                f"{_fmt(st.freq_khz, 4)}"
+                f"{format_decimal(st.freq_khz, 4)}"
             )
             out.append(f"* {st.role.capitalize()} : {st.name}".rstrip())
         out += [chain.datum_name, "* Geodetic Datum"]
         for k, label in zip(chain.min_lanes, _LANE_LABELS, strict=True):
-            out += ["0" if k == 0 else _fmt(k, 3), f"* Min. lanecount - {label}"]
-        out += [_fmt(chain.speed_km_s, 3), "* Assumed signal prop. speed"]
+            out += ["0" if k == 0 else format_decimal(k, 3), f"* Min. lanecount - {label}"]
+        out += [format_decimal(chain.speed_km_s, 3), "* Assumed signal prop. speed"]
     out += ["*", "*", "* End of Data"]
     return "\n".join(out) + "\n"

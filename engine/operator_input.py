@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable
+from decimal import Decimal
 from typing import NamedTuple
 
 from engine.errors import InputError
@@ -64,11 +65,30 @@ _PATTERN_ALIASES = {
     "prp": "purple",
 }
 
-_NUMBER = r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
-_NUMBER_RE = re.compile(_NUMBER)
-_POS_FIELD_RE = re.compile(rf"({_NUMBER})?([NSEWnsew])?")
-_SEPARATOR_RE = re.compile(r"\s*,\s*|\s+")
-_ZONE_LANE_RE = re.compile(r"([A-Ja-j])\s*([0-9]{1,2})")
+DECIMAL = r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
+"""Regular-expression text of an unsigned plain decimal number in ASCII digits: ``12``,
+``12.5``, ``12.``, ``.5``. Every number in UVNAV's input grammars (typed input, ``.RUN``,
+``TO_WGS84.DAT``, ``DECCA.CHN``) is this, optionally preceded by ``-`` where a sign is allowed;
+``float()`` alone would also take ``+5``, ``5_2``, ``1e3``, ``inf`` and non-ASCII digits."""
+SIGNED_DECIMAL_RE = re.compile(rf"-?{DECIMAL}")
+"""``DECIMAL`` with an optional leading ``-`` (use ``fullmatch``)."""
+BLANKS = " \t"
+"""The separators of the input grammars: ASCII space and tab (never other Unicode blanks)."""
+
+
+def format_decimal(value: float, decimals: int) -> str:
+    """``value`` written in the :data:`DECIMAL` grammar (with ``-`` if negative) so that it reads
+    back exactly: with ``decimals`` decimals when that is exact, else all the digits of the
+    shortest ``repr`` in positional notation (never an exponent). ``value`` must be finite."""
+    text = f"{value:.{decimals}f}"
+    if float(text) == value:
+        return text
+    return format(Decimal(repr(value)), "f")
+
+_NUMBER_RE = re.compile(DECIMAL)
+_POS_FIELD_RE = re.compile(rf"({DECIMAL})?([NSEWnsew])?")
+_SEPARATOR_RE = re.compile(r"[ \t]*,[ \t]*|[ \t]+")
+_ZONE_LANE_RE = re.compile(r"([A-Ja-j])[ \t]*([0-9]{1,2})")
 _RUN_NAME_RE = re.compile(r"[A-Za-z0-9_-]+")
 
 
@@ -90,7 +110,7 @@ def decca_pattern(pattern: str) -> DeccaPattern:
 def _position_groups(text: str, field: str) -> list[tuple[list[str], str]]:
     """Split a position text into groups of (number strings, hemisphere letter, upper case)."""
     bad = InputError(POSITION_MESSAGE, field=field, text=text)
-    stripped = text.strip()
+    stripped = text.strip(BLANKS)
     if not stripped:
         raise bad
     groups: list[tuple[list[str], str]] = []
@@ -185,8 +205,9 @@ def parse_position(text: str, *, field: str = "position") -> tuple[float, float]
 
 
 def _plain_number(text: str, message: str, field: str) -> float:
-    """An unsigned decimal number (``12``, ``12.5``, ``.5``); anything else is an InputError."""
-    stripped = text.strip()
+    """An unsigned decimal number (``12``, ``12.5``, ``.5``; :data:`DECIMAL`, blanks around it
+    allowed); anything else is an InputError."""
+    stripped = text.strip(BLANKS)
     if _NUMBER_RE.fullmatch(stripped) is None:
         raise InputError(message, field=field, text=text)
     value = float(stripped)
@@ -249,7 +270,7 @@ def parse_zone_lane(text: str, pattern: str, *, field: str | None = None) -> tup
     """
     spec = decca_pattern(pattern)
     name = field if field is not None else spec.name
-    match = _ZONE_LANE_RE.fullmatch(text.strip())
+    match = _ZONE_LANE_RE.fullmatch(text.strip(BLANKS))
     if match is None:
         raise InputError(ZONE_LANE_MESSAGE, field=name, text=text)
     zone = ZONE_LETTERS.index(match.group(1).upper())

@@ -17,14 +17,21 @@ One record per line, whitespace-separated (program.md §5.3, A10)::
 * Lines starting with ``*``, blank lines and the A8.4 caption line (``Date Time GPS lat …``)
   are skipped.
 
-Parsing is per line (``str.split`` + ``float``, no regular expressions) so an 86 400-line day
-replays quickly; :func:`iter_run_file` streams and turns bad lines into :class:`BadRecord`.
+Every number is a plain decimal in ASCII digits (:data:`engine.operator_input.DECIMAL`), with an
+optional ``-`` in the numeric columns (the range checks then reject a negative heading, speed
+…); ``+5``, ``5_2``, ``1e3``, ``inf``, ``nan`` and non-ASCII digits are not numbers, although
+``float()`` takes them. Fields are separated by spaces or tabs only.
+
+Parsing is per line (``str.split``, one character check of the numeric columns, ``float``; no
+regular expression on the hot path) so an 86 400-line day replays quickly;
+:func:`iter_run_file` streams and turns bad lines into :class:`BadRecord`.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -83,6 +90,12 @@ _NUMERIC_FIELDS = (
     "Decca red", "Decca green", "Decca purple", "heading", "speed", "rudder",
     "inclinometer", "pressure frequency", "echo sounder",
 )
+_NOT_NUMBER_CHARS = str.maketrans("", "", "0123456789.- ")
+"""``text.translate(_NOT_NUMBER_CHARS)`` is what is left after removing the characters of the
+numeric columns (ASCII digits, ``.``, ``-``, the joining blank): "" for well-formed columns."""
+_NOT_RECORD_CHAR_RE = re.compile(r"[^\t -~]")
+"""A character that cannot occur in a record (its line ending removed): not printable ASCII or
+tab."""
 
 
 def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord:
@@ -126,7 +139,14 @@ def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord
     if not 6 <= rest <= 9:
         raise InputError(f"Wrong number of fields ({n}) !", field="record", text=line.strip())
 
-    # --- numeric columns: one try block for all float() calls (lean hot path)
+    # --- numeric columns. Over the characters 0-9 . - float() accepts exactly the grammar's
+    # numbers (-?DECIMAL), so one character check of all columns plus float() is the strict
+    # grammar (float alone would take '+5', '5_2', '1e3', 'inf', non-ASCII digits); lean hot path.
+    if " ".join(toks[i:]).translate(_NOT_NUMBER_CHARS):
+        for k in range(rest):
+            tok = toks[i + k]
+            if tok.translate(_NOT_NUMBER_CHARS):
+                raise InputError("Not a number !", field=_NUMERIC_FIELDS[k], text=tok)
     try:
         tok = toks[i]
         fr_r = None if tok == "-" else float(tok)
@@ -183,6 +203,16 @@ def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord
         )
     if echo is not None and not (echo >= 0.0 and math.isfinite(echo)):
         raise InputError("Echo depth must be >= 0 m !", field="echo sounder", text=toks[i + 8])
+
+    # --- every token is valid ASCII now, so anything else is a separator str.split() took
+    # (a Unicode blank, form feed, U+001C …): the grammar allows spaces and tabs only.
+    body = line.rstrip("\r\n")
+    if not (body.isascii() and (body.isprintable() or body.replace("\t", " ").isprintable())):
+        odd = _NOT_RECORD_CHAR_RE.search(body)
+        raise InputError(
+            "Fields must be separated by spaces or tabs !",
+            field="record", text=odd.group() if odd is not None else body,
+        )
 
     return RunRecord(
         line_no, time, lat, lon, (fr_r, fr_g, fr_p), hdg, spd, rud, incl, pfreq, echo,

@@ -3,6 +3,17 @@ keeps the ``.OUT`` / JSON-lines logs.  The console and the headless replay both 
 
 The session is the only stateful object of the engine; it holds one run's context and state and
 nothing global.  Every completed cycle is on disk (flushed) before :meth:`Session.step` returns.
+
+**Bad records and engine errors.** A record is *bad* when the ``.RUN`` parser rejects it
+(:mod:`engine.runfile`: grammar and ranges) or when its time does not advance past the previous
+processed record's (checked here, before the cycle sees it). A bad record is skipped, kept in
+:attr:`Session.bad_records` with an :class:`~engine.errors.InputError` naming the ``.RUN`` file,
+line and field, and logged as a ``BAD`` line; the run goes on. Every other record is valid input
+for :func:`engine.cycle.step`, which must process it: an exception raised there is an engine bug,
+not a bad record, so it is *not* swallowed. It propagates with a note naming the ``.RUN`` file,
+line and text (the log keeps every cycle completed before it). Configuration and data-file names
+(datums, the Decca chain, the chains' datums) are checked when the session is built
+(:func:`check_config`, :func:`load_data`, :func:`load_run_config`), never per cycle.
 """
 
 from __future__ import annotations
@@ -31,10 +42,12 @@ from engine.cycle import (
 )
 from engine.datumfile import DatumFile, read_datum_file
 from engine.deccafile import DeccaChain, read_chain_file
+from engine.errors import InputError
 from engine.kalman import predict_horizon
-from engine.outlog import OutLogWriter
+from engine.operator_input import parse_datum_name
+from engine.outlog import OutLogWriter, free_log_path
 from engine.records import cycle_block, cycle_json
-from engine.runconfig import RunConfig, dump_config, load_config
+from engine.runconfig import RunConfig, _SourceIndex, dump_config, load_config
 from engine.runfile import BadRecord, RunRecord, iter_run_file
 from engine.smoother import SmootherRecord, rts_smooth
 
@@ -53,12 +66,99 @@ class RunSummary:
     eof: bool
 
 
+DATUM_FILE = "TO_WGS84.DAT"
+CHAIN_FILE = "DECCA.CHN"
+UNKNOWN_CHAIN_MESSAGE = "Unknown chain !"
+NOT_ADVANCING_MESSAGE = "Time does not advance !"
+
+
+def check_config(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain]) -> None:
+    """Check the names ``cfg`` takes from the data files: ``datum`` and ``run_gps_datum`` in
+    ``TO_WGS84.DAT`` (``WGS84`` is always known), ``decca.chain`` in ``DECCA.CHN``.
+
+    Raises :class:`InputError` with the configuration ``field`` and ``text`` but no file (a
+    RunConfig does not know its file; :func:`load_run_config` adds file and line).
+    """
+    parse_datum_name(cfg.datum, datums.datums, field="datum")
+    if cfg.run_gps_datum.upper() != "WGS84":
+        parse_datum_name(cfg.run_gps_datum, datums.datums, field="run_gps_datum")
+    if cfg.decca.chain not in chains:
+        raise InputError(UNKNOWN_CHAIN_MESSAGE, field="decca.chain", text=cfg.decca.chain)
+
+
+def read_data_dir(data_dir: str | os.PathLike[str]) -> tuple[DatumFile, dict[str, DeccaChain]]:
+    """Read ``TO_WGS84.DAT`` and ``DECCA.CHN`` from ``data_dir``; each chain's datum must be in
+    the datum file (an unknown one is an InputError at the chain file's datum line)."""
+    datums = read_datum_file(Path(data_dir) / DATUM_FILE)
+    chains = read_chain_file(Path(data_dir) / CHAIN_FILE, known_datums=datums.datums)
+    return datums, chains
+
+
 def load_data(cfg: RunConfig) -> tuple[DatumFile, dict[str, DeccaChain]]:
-    """Read ``TO_WGS84.DAT`` and ``DECCA.CHN`` from the configuration's data directory."""
-    return (
-        read_datum_file(cfg.data_dir / "TO_WGS84.DAT"),
-        read_chain_file(cfg.data_dir / "DECCA.CHN"),
-    )
+    """Read the data files of ``cfg``'s data directory and check ``cfg``'s names against them
+    (:func:`read_data_dir`, :func:`check_config`)."""
+    datums, chains = read_data_dir(cfg.data_dir)
+    check_config(cfg, datums, chains)
+    return datums, chains
+
+
+def load_run_config(
+    path: str | os.PathLike[str],
+) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]]]:
+    """Load a run configuration TOML and the data files it names, every name checked.
+
+    The file is read once for its ``data_dir``, the data files are read from there, and it is
+    read again with the datum names known, so an unknown ``datum`` or ``run_gps_datum`` is
+    reported as ``FILE.toml:LINE: datum: Unknown datum !``; an unknown ``decca.chain`` is
+    located the same way. Returns the configuration and ``(datums, chains)`` for
+    :class:`Session`'s ``data``.
+    """
+    cfg = load_config(path)
+    datums, chains = read_data_dir(cfg.data_dir)
+    cfg = load_config(path, known_datums=datums.datums)
+    try:
+        check_config(cfg, datums, chains)
+    except InputError as err:
+        raise _locate_in_config(err, Path(path)) from None
+    return cfg, (datums, chains)
+
+
+def _locate_in_config(err: InputError, path: Path) -> InputError:
+    """``err`` (a configuration field error) with the TOML file and the key's line filled in.
+
+    Uses the configuration loader's own key index (runconfig._SourceIndex), so the line is the
+    one load_config would report; load_config has no hook for checks against DECCA.CHN.
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return err.located(file=str(path))
+    return _SourceIndex(text).locate(err, str(path))
+
+
+def create_output(path: str | os.PathLike[str], force: bool = False) -> tuple[IO[str], Path]:
+    """Open a new text output file (UTF-8, ``\\n`` line ends) by the ``.OUT`` rule.
+
+    An existing file is never overwritten: the first free ``stem_N.suffix`` is used instead
+    (exclusive create, so two runs never share a file), unless ``force``. Returns the open
+    handle and the path actually used.
+    """
+    target = Path(path)
+    if force:
+        return open(target, "w", encoding="utf-8", newline="\n"), target  # noqa: SIM115
+    while True:
+        target = free_log_path(target)
+        try:
+            return open(target, "x", encoding="utf-8", newline="\n"), target  # noqa: SIM115
+        except FileExistsError:
+            continue
+
+
+def _logged_config(cfg: RunConfig) -> RunConfig:
+    """``cfg`` with ``run_file`` and ``data_dir`` absolute, so the TOML in a log header
+    reproduces the run wherever the log is read (relative paths would resolve against the
+    directory of whatever file the text is loaded from)."""
+    return cfg.replace(run_file=str(cfg.run_path), data_dir_text=str(cfg.data_dir))
 
 
 class Session:
@@ -75,7 +175,11 @@ class Session:
         collect_smoother: bool = False,
         data: tuple[DatumFile, dict[str, DeccaChain]] | None = None,
     ) -> None:
-        self.datums, self.chains = data if data is not None else load_data(config)
+        if data is None:
+            data = load_data(config)
+        else:
+            check_config(config, *data)
+        self.datums, self.chains = data
         self.context: RunContext = build_context(config, self.datums, self.chains)
         self.nav: NavState = initial_state(config)
         self.history: deque[CycleResult] = deque(maxlen=max(1, history))
@@ -83,7 +187,8 @@ class Session:
         self.eof = False
         self.fixes = 0
         self.rejected_lops = 0
-        self._records: Iterator[RunRecord | BadRecord] = iter_run_file(config.run_path)
+        self._run_name = os.fspath(config.run_path)
+        self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
         self._read = 0
         self._prev_nav: NavState | None = None
         self._prev_record: RunRecord | None = None
@@ -91,23 +196,31 @@ class Session:
         self._smoother_cm: float | None = None
         self._out: OutLogWriter | None = None
         self._jsonl: IO[str] | None = None
-        if out_path is not None:
-            self._out = OutLogWriter.create(
-                out_path,
-                header=[f"engine {__version__}", f"run {config.run_path}"],
-                config_text=dump_config(config),
-                force=force,
-            )
         self.jsonl_path: Path | None = None
-        if jsonl_path is not None:
-            self.jsonl_path = Path(jsonl_path)
-            mode = "w" if force else "x"
-            self._jsonl = open(self.jsonl_path, mode, encoding="utf-8")  # noqa: SIM115
+        # Both logs follow the .OUT rule (never overwritten: NAME_N; --force overwrites). If
+        # the second cannot be created, the first is removed again: no orphan header-only log.
+        try:
+            if jsonl_path is not None:
+                self._jsonl, self.jsonl_path = create_output(jsonl_path, force)
+            if out_path is not None:
+                self._out = OutLogWriter.create(
+                    out_path,
+                    header=[f"engine {__version__}", f"run {config.run_path}"],
+                    config_text=dump_config(_logged_config(config)),
+                    force=force,
+                )
+        except BaseException:
+            self.close()
+            if self.jsonl_path is not None and not force:
+                self.jsonl_path.unlink(missing_ok=True)
+            raise
 
     @classmethod
     def from_file(cls, config_path: str | os.PathLike[str], **kwargs: object) -> Session:
-        """Open a session from a run-configuration TOML file."""
-        return cls(load_config(config_path), **kwargs)  # type: ignore[arg-type]
+        """Open a session from a run-configuration TOML file (names checked and located as by
+        :func:`load_run_config`)."""
+        cfg, data = load_run_config(config_path)
+        return cls(cfg, data=data, **kwargs)  # type: ignore[arg-type]
 
     # ------------------------------------------------------------------ properties
     @property
@@ -147,21 +260,35 @@ class Session:
                                         "raw": raw})
 
     def step(self) -> CycleResult | None:
-        """Process the next good record; None at the end of the file."""
+        """Process the next good record; None at the end of the file.
+
+        A bad record (module docstring) is skipped and reported; an exception from the cycle
+        itself is an engine bug and propagates with a note naming the record.
+        """
         while True:
             rec = self._next_record()
             if rec is None:
                 return None
+            last = self.nav.last_time
+            if last is not None and rec.time <= last:
+                self._reject(rec, InputError(
+                    NOT_ADVANCING_MESSAGE, file=self._run_name, line=rec.line_no, field="time",
+                    text=rec.raw.split()[1],
+                ))
+                continue
             try:
                 nav, result = step(self.context, self.nav, rec)
-            except ValueError as exc:
-                # e.g. a time stamp that does not advance: skip the record, keep the run going.
-                self._log_bad(rec.line_no, "time", str(exc), rec.raw)
-                self.bad_records.append(BadRecord(rec.line_no, rec.raw, _as_input_error(exc)))
-                continue
+            except Exception as exc:
+                exc.add_note(f"while processing {self._run_name}:{rec.line_no}: {rec.raw!r}")
+                raise
             self._prev_nav, self._prev_record = self.nav, rec
             self._commit(nav, result)
             return result
+
+    def _reject(self, rec: RunRecord, error: InputError) -> None:
+        """Skip a parsed record the run cannot use: log it (``BAD``) and keep it."""
+        self._log_bad(rec.line_no, error.field or "record", error.message, rec.raw)
+        self.bad_records.append(BadRecord(rec.line_no, rec.raw, error))
 
     def _commit(self, nav: NavState, result: CycleResult) -> None:
         if self._smoother is not None and nav.filter is not None:
@@ -255,6 +382,7 @@ class Session:
         """Apply an operator command between cycles; logs it and returns its description."""
         cfg, nav, text = apply_command(self.context, self.nav, cmd)
         if cfg is not self.context.config:
+            check_config(cfg, self.datums, self.chains)
             old = self.context
             new = build_context(cfg, self.datums, self.chains)
             if isinstance(cmd, SetDatum):
@@ -305,10 +433,13 @@ class Session:
         self.close()
 
 
-def _as_input_error(exc: Exception) -> object:
-    from engine.errors import InputError
-
-    return InputError(str(exc), field="time")
-
-
-__all__ = ["RunSummary", "Session", "load_data", "replace"]
+__all__ = [
+    "RunSummary",
+    "Session",
+    "check_config",
+    "create_output",
+    "load_data",
+    "load_run_config",
+    "read_data_dir",
+    "replace",
+]

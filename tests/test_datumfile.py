@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import pathlib
+import re
 
 import pytest
 from hypothesis import given, settings
@@ -21,6 +22,84 @@ DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
 DAT = DATA / "TO_WGS84.DAT"
 DAT_TEXT = DAT.read_text(encoding="utf-8")
 DAT_LINES = DAT_TEXT.splitlines()
+
+# The "Geodetic datum data file" block of thesis A8.4 (seed L8802–8871), copied verbatim from
+# the thesis text (tabs and the blank lines of the extraction included), independently of
+# data/TO_WGS84.DAT. It prints "ED50 [UK00A]" with zeros; the data file reads it as UKOOA,
+# the spelling of the manual's datum list (README).
+THESIS_DAT = """\
+*
+
+* Parameters of reference spheroids
+
+*
+
+* Update : 29/01/92
+
+*
+
+AIRY 1830	6377563.396	299.3249646
+AIRY MODIFIED	6377340.189	299.3249646
+AUSTRALIAN NATIONAL	6378160	298.25
+BESSEL 1841	6377397.155	299.1528128
+BESSEL MODIFIED	6377492.018	299.1528
+CLARKE 1858	6378235.6	294.2606768
+CLARKE 1866	6378206.4	294.9786982
+CLARKE 1880	6378249.145	293.465
+CLARKE 1880 MODIFIED	6378249.145	293.4663
+EVEREST	6377276.345	300.8017
+EVEREST MODIFIED	6377304.063	300.8017
+FISCHER 1960	6378166	298.3
+FISCHER 1968	6378150	298.3
+HAYFORD 1909	6378388	297
+HELMERT 1906	6378200	298.3
+HOUGH	6378270	297
+INTERNATIONAL	6378388	297
+KRASOVSKY	6378245	298.3
+MADRID 1924	6378388	297
+
+*
+
+*
+
+*
+
+* Transformation parameters of Datums
+
+*
+
+* Datum ==> WGS84
+
+*
+
+* Update : 08/11/91
+
+*
+
+*
+
+AUSTRALIAN GEODETIC 1966	6378160.000	298.25	-133.000	-48.000	148.000	0.00	0.00	0.00	0.00
+AUSTRALIAN GEODETIC 1984	6378160.000	298.25	-134.000	-48.000	149.000	0.00	0.00	0.00	0.00
+ED50	6378388.000	297	-87.000	-98.000	-121.000	0.00	0.00	0.00	0.00
+ED50 [DMA]	6378388.000	297	-87.000	-98.000	-121.000	0.00	0.00	0.00	0.00
+ED50 [UK00A]	6378388.000	297	-86.000	-96.000	-120.000	0.00	0.00	0.00	0.00
+ED79	6378388.000	297	-86.000	-98.000	-119.000	0.00	0.00	0.00	0.00
+GRS67	6378160.000	298.247167427	59.944	-3.843	22.932	0.00	0.00	0.00	0.00
+
+NAD 1927	6378206.400	294.9786982	-8.000	160.000	176.000	0.00	0.00	0.00	0.00
+NAD 1983	6378137.000	298.257222101	0.000	0.000	0.000	0.00	0.00	0.00	0.00
+OSGB 1936	6377563.396	299.3249647	375.000	-111.000	431.000	0.00	0.00	0.00	0.00
+TOKYO	6377397.155	299.1528128	-128.000	481.000	664.000	0.00	0.00	0.00	0.00
+WGS72	6378135.000	298.26	0.000	0.000	0.000	0.00	0.00	0.00	0.00
+WGS72 [DMA]	6378135.000	298.26	0.000	0.000	4.500	0.00	0.00	0.55	0.22
+WGS84	6378137.000	298.257223563	0.000	0.000	0.000	0.00	0.00	0.00	0.00
+ZANDERIJ	6378388.000	297	-265.000	120.000	-358.000	0.00	0.00	0.00	0.00
+
+*
+
+* End of Data
+"""  # noqa: E501 (two thesis lines are wider than 100 columns with tabs of 8)
+THESIS_DAT_LINES = [ln for ln in THESIS_DAT.splitlines() if ln.strip()]
 
 
 @pytest.fixture(scope="module")
@@ -125,6 +204,47 @@ def test_file_not_found(tmp_path: pathlib.Path) -> None:
     assert info.value.file == str(missing)
 
 
+# --------------------------------------------------------------------------- transcription
+
+
+def test_data_file_is_the_thesis_block_token_by_token() -> None:
+    # Every non-blank line, token by token; the only difference allowed is UK00A -> UKOOA.
+    thesis = [ln.replace("[UK00A]", "[UKOOA]") for ln in THESIS_DAT_LINES]
+    ours = [ln for ln in DAT_LINES if ln.strip()]
+    assert len(ours) == len(thesis) == 51
+    for mine, theirs in zip(ours, thesis, strict=True):
+        assert mine.split() == theirs.split()
+    assert sum("[UK00A]" in ln for ln in THESIS_DAT_LINES) == 1
+
+
+def _thesis_rows() -> tuple[list[tuple[str, list[float]]], list[tuple[str, list[float]]]]:
+    """(spheroid rows, datum rows) of the thesis copy as (name, numbers), by a minimal reading:
+    section 2 starts at its "Transformation parameters" comment."""
+    spheroids: list[tuple[str, list[float]]] = []
+    datums: list[tuple[str, list[float]]] = []
+    rows = spheroids
+    for line in THESIS_DAT_LINES:
+        if line.startswith("*"):
+            if "Transformation parameters" in line:
+                rows = datums
+            continue
+        tokens = line.split("\t")  # the thesis separates the name and each number by a tab
+        rows.append((tokens[0].replace("[UK00A]", "[UKOOA]"), [float(t) for t in tokens[1:]]))
+    return spheroids, datums
+
+
+def test_every_value_equals_the_thesis_block(df: DatumFile) -> None:
+    spheroids, datums = _thesis_rows()
+    assert [name for name, _ in spheroids] == list(df.spheroids)
+    assert [name for name, _ in datums] == list(df.datums)
+    for name, (a, inv_f) in spheroids:
+        assert (df.spheroids[name].a_m, df.spheroids[name].inv_f) == (a, inv_f)
+    for name, values in datums:
+        d = df.datums[name]
+        assert [d.ellipsoid.a_m, d.ellipsoid.inv_f, d.dx_m, d.dy_m, d.dz_m,
+                d.rx_arcsec, d.ry_arcsec, d.rz_arcsec, d.scale_ppm] == values
+
+
 # --------------------------------------------------------------------------- writer
 
 
@@ -149,7 +269,8 @@ _FINITE = st.floats(-1e4, 1e4, allow_nan=False)
 def test_round_trip_arbitrary_floats(
     names: list[str], a: float, inv_f: float, params: list[float]
 ) -> None:
-    # Values that need more than the printed decimals are written with repr(): still exact.
+    # Values that need more than the printed decimals are written with every digit of repr(),
+    # in positional notation (the grammar has no exponent): still exact.
     datums = {
         n: Datum(n, Ellipsoid(n, a, inv_f), *params) for n in names
     }
@@ -209,6 +330,19 @@ BAD_CASES = [
      "ED50 6378388 297 -87 -98 -121 0 0 0 0"),
     ("no datums", "* reference spheroids\nHOUGH 6378270 297\n* End of Data\n",
      3, "section", "No datums in file !", None),
+    # Numbers float() takes but the grammar does not (plain ASCII decimals, '-' only):
+    ("dX plus sign", _replace(ED50, "ED50 6378388 297 +87 -98 -121 0 0 0 0"),
+     ED50, "dX", "Not a number !", "+87"),
+    ("dY underscore", _replace(ED50, "ED50 6378388 297 -87 -9_8 -121 0 0 0 0"),
+     ED50, "dY", "Not a number !", "-9_8"),
+    ("a exponent", _replace(ED50, "ED50 6.378388e6 297 -87 -98 -121 0 0 0 0"),
+     ED50, "a", "Not a number !", "6.378388e6"),
+    ("dZ Arabic-Indic digits", _replace(ED50, "ED50 6378388 297 -87 -98 -١٢١ 0 0 0 0"),
+     ED50, "dZ", "Not a number !", "-١٢١"),
+    ("Rx infinity", _replace(ED50, "ED50 6378388 297 -87 -98 -121 inf 0 0 0"),
+     ED50, "Rx", "Not a number !", "inf"),
+    ("spheroid 1/f exponent", _replace(AIRY, "AIRY 1830 6377563.396 2.993249646E2"),
+     AIRY, "1/f", "Not a number !", "2.993249646E2"),
 ]
 
 
@@ -227,19 +361,26 @@ def test_malformed(text: str, line: int, field: str, message: str, got: str | No
     assert str(err).startswith(f"TO_WGS84.DAT:{line}: {field}: {message}")
 
 
+_PLAIN = re.compile(r"-?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)")
+_NUMBER_CHARS = st.sampled_from(list("0123456789.-+eE_ ") + ["٣", "²", "inf", "nan"])
+
+
 @settings(max_examples=150, deadline=None)
 @given(st.data())
 def test_fuzz_only_input_errors(data: st.DataObject) -> None:
     lines = list(DAT_LINES)
     for _ in range(data.draw(st.integers(1, 4))):
         k = data.draw(st.integers(0, len(lines) - 1))
-        op = data.draw(st.sampled_from(["delete", "duplicate", "garble", "truncate"]))
+        op = data.draw(st.sampled_from(["delete", "duplicate", "garble", "truncate", "insert"]))
         if op == "delete":
             del lines[k]
         elif op == "duplicate":
             lines.insert(k, lines[k])
         elif op == "garble":
             lines[k] = data.draw(st.text(max_size=40))
+        elif op == "insert":  # a character float() might accept, inside a number
+            pos = data.draw(st.integers(0, len(lines[k])))
+            lines[k] = lines[k][:pos] + data.draw(_NUMBER_CHARS) + lines[k][pos:]
         else:
             lines[k] = lines[k][: data.draw(st.integers(0, len(lines[k])))]
         if not lines:
@@ -250,3 +391,8 @@ def test_fuzz_only_input_errors(data: st.DataObject) -> None:
         assert err.file == "<string>" and err.message
         return
     assert all(math.isfinite(d.ellipsoid.a_m) for d in result.datums.values())
+    # Every data line accepted ends in plain ASCII decimals (the grammar, written out here).
+    for line in lines:
+        tokens = line.split()
+        if tokens and not line.strip().startswith("*"):
+            assert all(_PLAIN.fullmatch(t) for t in tokens[-2:]), line

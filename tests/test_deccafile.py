@@ -28,6 +28,107 @@ CHN = DATA / "DECCA.CHN"
 CHN_TEXT = CHN.read_text(encoding="utf-8")
 CHN_LINES = CHN_TEXT.splitlines()
 
+# The "Decca chain data file" block of thesis A8.4 (seed L8875–8969), copied verbatim from the
+# thesis text (the blank lines of the extraction included), independently of data/DECCA.CHN.
+THESIS_CHN = """\
+* Decca chain data
+
+*
+
+* Frisian Islands Chain (chain 9B)
+
+*
+
+9B
+
+53 12 12.388 N 007 06 00.590 E 85.7200
+
+* Master : Finsterwolde
+
+55 01 07.110 N 008 41 38.420 E 114.2930
+
+* Red : Hoyer
+
+52 35 30.089 N 004 43 47.118 E 128.5800
+
+* Green : Heiloo
+
+53 17 07.219 N 009 15 48.858 E 71.4333
+
+* Purple : Zeven
+
+ED50
+
+* Geodetic Datum
+
+0
+
+* Min. lanecount - Red
+
+0
+
+* Min. lanecount - Green
+
+0
+
+* Min. Lanecount - Purple
+
+299550.000
+
+* Assumed signal prop. speed
+
+*
+
+* Holland Chain (chain 2E)
+
+*
+
+2E
+
+51 36 36.629 N 004 55 36.521 E 84.5500
+
+* Master : Gilze-Rijen
+
+52 35 24.325 N 004 44 37.086 E 112.7333
+
+* Red : Heiloo
+
+51 13 27.506 N 003 51 41.203 E 126.8250
+
+* Green : Sas v. Gent
+
+52 11 11.350 N 001 35 46.272 E 70.4583
+
+* Purple : Thorpeness
+
+ED50
+
+* Geodetic Datum
+
+-3.920
+
+* Min. lanecount - Red
+
+3.205
+
+* Min. lanecount - Green
+
+0
+
+* Min. lanecount - Purple
+
+299550.000
+
+* Assumed signal prop. speed
+
+*
+
+*
+
+* End of Data
+"""
+THESIS_CHN_LINES = [ln for ln in THESIS_CHN.splitlines() if ln.strip()]
+
 
 def dms(d: int, m: int, s: float) -> float:
     return d + m / 60 + s / 3600
@@ -126,6 +227,71 @@ def test_file_not_found(tmp_path: pathlib.Path) -> None:
     with pytest.raises(InputError) as info:
         read_chain_file(tmp_path / "NONE.CHN")
     assert info.value.message == "File not found !"
+
+
+# --------------------------------------------------------------------------- transcription
+
+
+def test_data_file_is_the_thesis_block_token_by_token() -> None:
+    ours = [ln for ln in CHN_LINES if ln.strip()]
+    assert len(ours) == len(THESIS_CHN_LINES) == 48
+    for mine, theirs in zip(ours, THESIS_CHN_LINES, strict=True):
+        assert mine.split() == theirs.split()
+
+
+def _thesis_blocks() -> list[tuple[list[str], list[str]]]:
+    """Per chain of the thesis copy: its 10 data lines (id, 4 stations, datum, 3 minimum lane
+    counts, speed) and the comment texts after the station lines (the station names)."""
+    blocks: list[tuple[list[str], list[str]]] = []
+    data: list[str] = []
+    names: list[str] = []
+    after_station = False
+    for line in THESIS_CHN_LINES:
+        if line.startswith("*"):
+            if after_station:
+                names.append(line.split(":", 1)[1].strip())
+            after_station = False
+            continue
+        data.append(line)
+        after_station = len(line.split()) == 9
+        if len(data) == 10:
+            blocks.append((data, names))
+            data, names = [], []
+    return blocks
+
+
+def test_every_value_equals_the_thesis_block(chains: dict[str, DeccaChain]) -> None:
+    blocks = _thesis_blocks()
+    assert [data[0] for data, _ in blocks] == list(chains)
+    for data, names in blocks:
+        c = chains[data[0]]
+        stations = (c.master, c.red, c.green, c.purple)
+        assert [s.name for s in stations] == names
+        for stn, line in zip(stations, data[1:5], strict=True):
+            t = line.split()
+            assert (t[3], t[7]) == ("N", "E")  # both chains lie north and east
+            # d + m/60 + s/3600 as the parser computes it: equal to 1e-12 deg (float rounding).
+            assert stn.lat_deg == pytest.approx(dms(int(t[0]), int(t[1]), float(t[2])), abs=1e-12)
+            assert stn.lon_deg == pytest.approx(dms(int(t[4]), int(t[5]), float(t[6])), abs=1e-12)
+            assert stn.freq_khz == float(t[8])
+        assert c.datum_name == data[5]
+        assert c.min_lanes == tuple(float(x) for x in data[6:9])
+        assert c.speed_km_s == float(data[9])
+
+
+# --------------------------------------------------------------------------- datums
+
+
+def test_chain_datums_are_checked_against_the_datum_file() -> None:
+    # A chain datum must be a TO_WGS84.DAT name: reported at the chain file's datum line.
+    with pytest.raises(InputError) as info:
+        parse_chain_text(_replace(14, "XX50"), "DECCA.CHN", known_datums=["ED50", "WGS84"])
+    err = info.value
+    assert (err.file, err.line, err.field, err.message, err.text) == (
+        "DECCA.CHN", 14, "datum", "Unknown datum !", "XX50")
+    # Known names are matched like the datum file's own lookup and returned in its spelling.
+    chains = parse_chain_text(_replace(36, "ed50"), known_datums=["ED50 [DMA]", "ED50"])
+    assert chains["2E"].datum_name == "ED50"
 
 
 # --------------------------------------------------------------------------- writer
@@ -240,6 +406,21 @@ BAD_CASES = [
      END + 1, "section", "Data after 'End of Data' (line 48) !", "5B"),
     ("no chains", "* Decca chain data\n* End of Data\n",
      2, "section", "No chains in file !", None),
+    # Numbers float() takes but the grammar does not (plain ASCII decimals, '-' only):
+    ("frequency exponent", _replace(MASTER, "53 12 12.388 N 007 06 00.590 E 8.572e1"),
+     MASTER, "frequency", "Not a number !", "8.572e1"),
+    ("frequency plus sign", _replace(MASTER, "53 12 12.388 N 007 06 00.590 E +85.72"),
+     MASTER, "frequency", "Not a number !", "+85.72"),
+    ("latitude degrees underscore", _replace(MASTER, "5_3 12 12.388 N 007 06 00.590 E 85.72"),
+     MASTER, "latitude", "Wrong latitude format (D M S.sss N|S) !", "5_3 12 12.388 N"),
+    ("longitude minutes Arabic-Indic",
+     _replace(MASTER, "53 12 12.388 N 007 ٠٦ 00.590 E 85.72"),
+     MASTER, "longitude", "Wrong longitude format (D M S.sss E|W) !", "007 ٠٦ 00.590 E"),
+    ("lane count underscore", _replace(16, "1_0"), 16, "min lane count", "Not a number !", "1_0"),
+    ("speed exponent", _replace(SPEED, "2.9955e5"), SPEED, "propagation speed",
+     "Not a number !", "2.9955e5"),
+    ("speed infinity", _replace(SPEED, "inf"), SPEED, "propagation speed",
+     "Not a number !", "inf"),
 ]
 
 

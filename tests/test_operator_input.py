@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 from hypothesis import given, settings
@@ -107,6 +108,22 @@ MALFORMED = [
     (parse_direction_deg, "400", "Wrong direction input !", "direction"),
     (parse_depth_m, "1000.5", "Wrong depth input !", "depth"),
     (parse_run_name, "92/09 17", "Wrong file name !", "run file"),
+    # Only ASCII digits, '.', spaces, tabs and commas belong to the numeric grammars:
+    (parse_position, "52\u200330 N 003 E", POS, "position"),  # em space
+    (parse_position, "52\xa030 N 003 E", POS, "position"),  # no-break space
+    (parse_position, "52 30 N\x1c003 E", POS, "position"),  # U+001C (str.split() splits on it)
+    (parse_position, "\u200352 30 N 003 E", POS, "position"),  # leading em space
+    (parse_position, "+52 30 N 003 E", POS, "position"),
+    (parse_position, "5_2 30 N 003 E", POS, "position"),
+    (parse_position, "٥٢ 30 N 003 E", POS, "position"),  # Arabic-Indic digits
+    (parse_position, "52 30 ſ 003 E", POS, "position"),  # 'ſ'.upper() == 'S'
+    (parse_bearing_deg, "\u200345", "Wrong bearing input !", "bearing"),
+    (parse_bearing_deg, "4_5", "Wrong bearing input !", "bearing"),
+    (parse_bearing_deg, "+45", "Wrong bearing input !", "bearing"),
+    (parse_distance_nm, "1e1", "Wrong distance input !", "distance"),
+    (parse_speed_kn, "١٢", "Wrong speed input !", "speed"),
+    (parse_depth_m, "inf", "Wrong depth input !", "depth"),
+    (parse_direction_deg, "90\xa0", "Wrong direction input !", "direction"),
 ]
 
 
@@ -131,6 +148,9 @@ def test_malformed_inputs(parser, text: str, message: str, field: str) -> None:
         ("20B", "red"),
         ("", "green"),
         ("A49", "purple"),
+        ("B\u200320", "red"),
+        ("B٢٠", "red"),
+        ("B+20", "red"),
     ],
 )
 def test_malformed_zone_lane(text: str, pattern: str) -> None:
@@ -204,7 +224,12 @@ def test_dms_input_round_trip(lat: float, lon: float) -> None:
     assert abs(got_lon - lon) <= _HALF_MILLI_ARCSEC_DEG + 1e-12
 
 
-_POSITION_ALPHABET = st.sampled_from(list("0123456789 ,.NSEWnsew-+x°'\"\t"))
+_POSITION_ALPHABET = st.sampled_from(
+    list("0123456789 ,.NSEWnsew-+x°'\"\t_e") + ["\u2003", "\xa0", "\x1c", "٣", "²", "ſ"]
+)
+# The characters of the position grammar (thesis L7728–7750): ASCII digits, '.', hemisphere
+# letters, and spaces, tabs or commas between the fields. Written out here, not imported.
+_POSITION_CHARS = set("0123456789.NSEWnsew ,\t")
 
 
 @settings(max_examples=400, deadline=None)
@@ -216,3 +241,40 @@ def test_arbitrary_text_raises_only_input_error(text: str) -> None:
         assert err.message == POS and err.text == text
     else:
         assert -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0
+        assert set(text) <= _POSITION_CHARS, text
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(_POSITION_ALPHABET, max_size=8))
+def test_accepted_plain_numbers_are_plain_decimals(text: str) -> None:
+    # Bearings, distances, speeds, depths: an accepted text is blanks + an ASCII decimal.
+    for parser in (parse_bearing_deg, parse_speed_kn, parse_depth_m, parse_distance_nm):
+        try:
+            value = parser(text)
+        except InputError:
+            continue
+        assert re.fullmatch(r"[ \t]*(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[ \t]*", text), text
+        number = float(text.strip(" \t"))
+        assert value == (number % 360.0 if parser is parse_bearing_deg else number)  # 360 → 0
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.sampled_from([t for t, _, _ in SIX_FORMS]), st.data())
+def test_mutated_positions_stay_in_the_grammar(text: str, data: st.DataObject) -> None:
+    # Valid forms with one or two characters replaced or inserted: accepted only if the result
+    # still uses the grammar's characters (random text alone rarely comes close to a position).
+    chars = list(text)
+    for _ in range(data.draw(st.integers(1, 2))):
+        k = data.draw(st.integers(0, len(chars)))
+        new = data.draw(_POSITION_ALPHABET)
+        if k < len(chars) and data.draw(st.booleans()):
+            chars[k] = new
+        else:
+            chars.insert(k, new)
+    mutated = "".join(chars)
+    try:
+        parse_position(mutated)
+    except InputError as err:
+        assert err.message == POS and err.text == mutated
+    else:
+        assert set(mutated) <= _POSITION_CHARS, mutated

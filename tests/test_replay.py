@@ -4,16 +4,21 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
+from engine.commands import SetDecca
+from engine.errors import InputError
 from engine.outlog import read_out_log
-from engine.runconfig import load_config
+from engine.runconfig import dump_config, load_config, parse_config_text
 from engine.session import Session
 from uvnav_tui.cli import main
 
@@ -105,3 +110,263 @@ def test_kill_during_long_replay_leaves_a_readable_log(tmp_path: Path) -> None:
 def test_bundled_configs_load_and_point_at_their_run(name: str) -> None:
     cfg = load_config(DATA / f"{name}.toml")
     assert cfg.run_path.exists()
+
+
+# --------------------------------------------------------------------------- located errors
+
+RUN = DATA / "920917_1.RUN"
+TOML_TEXT = (DATA / "920917_1.toml").read_text(encoding="utf-8")
+
+
+def _line_of(text: str, start: str) -> int:
+    """1-based number of the first line of ``text`` starting with ``start``."""
+    return next(i for i, ln in enumerate(text.splitlines(), 1) if ln.startswith(start))
+
+
+def _config(tmp_path: Path, old: str, new: str, name: str = "bad.toml") -> tuple[Path, int]:
+    """The sample configuration with ``old`` replaced, data_dir pointing at data/; returns the
+    file and the line of the change."""
+    assert old in TOML_TEXT
+    text = TOML_TEXT.replace(old, new).replace('data_dir = "."', f'data_dir = "{DATA}"')
+    text = text.replace('run_file = "920917_1.RUN"', f'run_file = "{RUN}"')
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path, _line_of(text, new.splitlines()[0])
+
+
+@pytest.mark.parametrize(("old", "new", "field", "message"), [
+    ('datum = "ED50"', 'datum = "ED51"', "datum", "Unknown datum !"),
+    ('run_gps_datum = "ED50"', 'run_gps_datum = "ED5O"', "run_gps_datum", "Unknown datum !"),
+    ('chain = "9B"', 'chain = "9C"', "decca.chain", "Unknown chain !"),
+])
+def test_unknown_names_are_located_in_the_config(tmp_path: Path, capsys, old: str, new: str,
+                                                 field: str, message: str) -> None:
+    cfg, line = _config(tmp_path, old, new)
+    rc = main(["replay", str(RUN), "--config", str(cfg), "--out", str(tmp_path / "X.OUT")])
+    err = capsys.readouterr().err
+    got = new.split(" = ")[1]
+    assert rc == 2 and f"uvnav replay: {cfg}:{line}: {field}: {message} (got {got!r})" in err
+    assert "Traceback" not in err and not (tmp_path / "X.OUT").exists()
+
+
+def test_session_refuses_an_unknown_chain() -> None:
+    # Not only the CLI: a Session never starts with a chain DECCA.CHN does not have (before,
+    # the run went GPS-only with a per-cycle message).
+    cfg = load_config(DATA / "920917_1.toml")
+    bad = cfg.replace(decca=replace(cfg.decca, chain="9C"))
+    with pytest.raises(InputError) as info:
+        Session(bad)
+    assert (info.value.field, info.value.message, info.value.text) == (
+        "decca.chain", "Unknown chain !", "9C")
+    # An operator command cannot switch to one either (the console shows the message).
+    s = Session(cfg)
+    with pytest.raises(InputError):
+        s.apply(SetDecca(on=True, chain="9C", red="B20", green="F34", purple="A51"))
+    assert s.config.decca.chain == "9B"
+
+
+def _data_dir_with(tmp_path: Path, chain_old: str, chain_new: str) -> Path:
+    d = tmp_path / "data"
+    d.mkdir()
+    shutil.copy(DATA / "TO_WGS84.DAT", d)
+    chn = (DATA / "DECCA.CHN").read_text(encoding="utf-8")
+    assert chain_old in chn
+    (d / "DECCA.CHN").write_text(chn.replace(chain_old, chain_new, 1), encoding="utf-8")
+    return d
+
+
+def test_unknown_chain_datum_is_reported_at_the_chain_file_line(tmp_path: Path, capsys) -> None:
+    d = _data_dir_with(tmp_path, "ED50\n* Geodetic Datum", "XX50\n* Geodetic Datum")
+    cfg, _ = _config(tmp_path, 'data_dir = "."', f'data_dir = "{d}"')
+    rc = main(["replay", str(RUN), "--config", str(cfg), "--out", str(tmp_path / "X.OUT")])
+    err = capsys.readouterr().err
+    # Line 14 of DECCA.CHN is 9B's datum line (A8.4); before: 10 × "skipped: time: datum: …".
+    assert rc == 2
+    assert f"{d / 'DECCA.CHN'}:14: datum: Unknown datum ! (got 'XX50')" in err
+    assert "skipped" not in err and not (tmp_path / "X.OUT").exists()
+
+
+# --------------------------------------------------------------------------- bad records
+
+def _run_file(tmp_path: Path, lines: list[str], name: str = "P.RUN") -> Path:
+    path = tmp_path / name
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+SAMPLE_LINES = RUN.read_text(encoding="utf-8").splitlines()  # caption + 10 records
+
+
+def test_repeated_time_names_run_file_and_line(tmp_path: Path, capsys) -> None:
+    run = _run_file(tmp_path, SAMPLE_LINES[:4] + [SAMPLE_LINES[3]] + SAMPLE_LINES[4:])
+    out = tmp_path / "P.OUT"
+    rc = main(["replay", str(run), "--config", str(DATA / "920917_1.toml"), "--out", str(out)])
+    cap = capsys.readouterr()
+    assert rc == 0 and "epochs 10" in cap.out and "skipped records 1" in cap.out
+    # Line 5 repeats 08:35:40 of line 4.
+    assert f"skipped: {run.resolve()}:5: time: Time does not advance ! (got '083540')" in cap.err
+    log = read_out_log(out)
+    assert [(b["record"], b["field"]) for b in log.bad_records] == [(5, "time")]
+
+
+def test_an_engine_error_is_not_reported_as_a_bad_record(monkeypatch, tmp_path: Path) -> None:
+    """A record that passed the parser and the time check is valid input for the cycle: an
+    exception there is a bug and must surface, naming the record, not become a BAD line."""
+    import engine.session as session_mod
+
+    def broken(*_a: object, **_k: object) -> None:
+        raise ValueError("math domain error")
+
+    monkeypatch.setattr(session_mod, "step", broken)
+    s = Session(load_config(DATA / "920917_1.toml"), out_path=tmp_path / "E.OUT")
+    with pytest.raises(ValueError, match="math domain error") as info:
+        s.step()
+    s.close()
+    assert f"{RUN}:2: " in "\n".join(getattr(info.value, "__notes__", []))
+    assert s.bad_records == [] and read_out_log(tmp_path / "E.OUT").bad_records == ()
+
+
+def test_cli_reports_an_engine_error_as_internal(monkeypatch, tmp_path: Path, capsys) -> None:
+    import engine.session as session_mod
+
+    def broken(*_a: object, **_k: object) -> None:
+        raise ValueError("math domain error")
+
+    monkeypatch.setattr(session_mod, "step", broken)
+    rc = _replay(tmp_path)
+    err = capsys.readouterr().err
+    assert rc == 4 and "internal error (ValueError: math domain error)" in err
+    assert f"while processing {RUN.resolve()}:2:" in err and "skipped" not in err
+
+
+def test_all_bad_run_exits_3_some_bad_exits_0(tmp_path: Path, capsys) -> None:
+    cfg = str(DATA / "920917_1.toml")
+    bad = [ln.replace(" N\t", " X\t") for ln in SAMPLE_LINES]  # no latitude hemisphere is valid
+    assert sum(" X\t" in ln for ln in bad) == 10
+    run = _run_file(tmp_path, bad, "ALLBAD.RUN")
+    rc = main(["replay", str(run), "--config", cfg, "--out", str(tmp_path / "A.OUT")])
+    cap = capsys.readouterr()
+    assert rc == 3 and "epochs 0" in cap.out
+    assert f"uvnav replay: {run}: no record could be processed (10 skipped) !" in cap.err
+    assert len(read_out_log(tmp_path / "A.OUT").bad_records) == 10  # the log says why
+    some = _run_file(tmp_path, SAMPLE_LINES[:2] + bad[2:], "SOMEBAD.RUN")
+    rc = main(["replay", str(some), "--config", cfg, "--out", str(tmp_path / "S.OUT")])
+    cap = capsys.readouterr()
+    assert rc == 0 and "epochs 1" in cap.out and "skipped records 9" in cap.out
+    empty = _run_file(tmp_path, ["* nothing but a comment"], "EMPTY.RUN")
+    assert main(["replay", str(empty), "--config", cfg, "--no-out"]) == 3
+
+
+# --------------------------------------------------------------------------- output files
+
+def _replay(tmp_path: Path, *extra: str) -> int:
+    return main(["replay", str(RUN), "--config", str(DATA / "920917_1.toml"),
+                 "--out", str(tmp_path / "S.OUT"), *extra])
+
+
+def test_existing_smooth_and_jsonl_files_are_kept(tmp_path: Path, capsys) -> None:
+    smo, jl = tmp_path / "S.smo", tmp_path / "S.jsonl"
+    smo.write_text("precious smooth\n")
+    jl.write_text("precious jsonl\n")
+    rc = _replay(tmp_path, "--jsonl", str(jl), "--smooth", str(smo))
+    cap = capsys.readouterr()
+    # Same rule as the .OUT: never overwritten, the next free NAME_N is used (before: the
+    # smooth file gave a traceback after the whole replay, the jsonl exit 2 + an orphan .OUT).
+    assert rc == 0 and "Traceback" not in cap.err
+    assert smo.read_text() == "precious smooth\n" and jl.read_text() == "precious jsonl\n"
+    assert len((tmp_path / "S_1.smo").read_text().splitlines()) == 10
+    assert len((tmp_path / "S_1.jsonl").read_text().splitlines()) == 10
+    assert f"smoothed positions {tmp_path / 'S_1.smo'}" in cap.out
+    assert f"json lines {tmp_path / 'S_1.jsonl'}" in cap.out
+    # --force overwrites all of them.
+    assert _replay(tmp_path, "--jsonl", str(jl), "--smooth", str(smo), "--force") == 0
+    assert len(smo.read_text().splitlines()) == 10 and len(jl.read_text().splitlines()) == 10
+
+
+def test_an_output_that_cannot_be_created_leaves_no_orphans(tmp_path: Path, capsys) -> None:
+    rc = _replay(tmp_path, "--jsonl", str(tmp_path / "nodir" / "S.jsonl"), "--smooth",
+                 str(tmp_path / "S.smo"))
+    err = capsys.readouterr().err
+    assert rc == 2 and "--jsonl: Directory not found !" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    # The engine alone: the .OUT is created after the JSON lines and removed if they fail.
+    (tmp_path / "J.jsonl").mkdir()  # a directory: opening it for writing fails
+    with pytest.raises(OSError):
+        Session(load_config(DATA / "920917_1.toml"), out_path=tmp_path / "J.OUT",
+                jsonl_path=tmp_path / "J.jsonl", force=True)
+    assert not (tmp_path / "J.OUT").exists()
+
+
+def test_outputs_must_not_be_an_input_or_each_other(tmp_path: Path, capsys) -> None:
+    run = _run_file(tmp_path, SAMPLE_LINES, "IN.RUN")
+    before = run.read_bytes()
+    cfg = str(DATA / "920917_1.toml")
+    rc = main(["replay", str(run), "--config", cfg, "--jsonl", str(run), "--force"])
+    assert rc == 2 and "--jsonl: Same file as the run file !" in capsys.readouterr().err
+    assert run.read_bytes() == before
+    rc = main(["replay", str(run), "--config", cfg, "--jsonl", str(tmp_path / "X"),
+               "--smooth", str(tmp_path / "X")])
+    assert rc == 2 and "--smooth: Same file as --jsonl !" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["IN.RUN"]
+
+
+# --------------------------------------------------------------------------- the logged config
+
+def test_logged_config_reproduces_the_run(tmp_path: Path) -> None:
+    """The header TOML, loaded from anywhere, gives the same run and data paths (before, it said
+    data_dir = "." next to an absolute run_file, so it pointed at the log's directory)."""
+    work = tmp_path / "work"
+    work.mkdir()
+    for name in ("920917_1.RUN", "920917_1.toml", "TO_WGS84.DAT", "DECCA.CHN"):
+        shutil.copy(DATA / name, work)
+    out = tmp_path / "logs" / "W.OUT"
+    out.parent.mkdir()
+    assert main(["replay", str(work / "920917_1.RUN"), "--out", str(out)]) == 0
+    logged = parse_config_text(read_out_log(out).config_text, "header",
+                               base_dir=tmp_path / "elsewhere")
+    original = load_config(work / "920917_1.toml")
+    assert logged.run_path == original.run_path == work / "920917_1.RUN"
+    assert logged.data_dir == original.data_dir == work
+    # Everything else is the same configuration too.
+    assert dump_config(logged) == dump_config(
+        original.replace(run_file=str(original.run_path), data_dir_text=str(work)))
+
+
+# --------------------------------------------------------------------------- progress bar
+
+def test_count_lines_matches_the_text_reader(tmp_path: Path) -> None:
+    from uvnav_tui.replay_cmd import count_lines
+
+    for body in ("", "a", "a\n", "a\nb", "a\nb\n", "\n\n", "x" * 3_000_000 + "\ny"):
+        p = tmp_path / "L.RUN"
+        p.write_text(body, newline="")
+        assert count_lines(p) == len(body.splitlines())
+    assert count_lines(DATA / "DEMO.RUN") == 7200
+
+
+@pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs a pseudo-terminal")
+def test_progress_bar_on_a_terminal_shows_the_total(tmp_path: Path) -> None:
+    import pty
+
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "uvnav_tui.cli", "replay", str(RUN), "--config",
+         str(DATA / "920917_1.toml"), "--out", str(tmp_path / "T.OUT")],
+        cwd=ROOT, stdin=slave, stdout=subprocess.DEVNULL, stderr=slave,
+        env={**os.environ, "COLUMNS": "100", "TERM": "xterm"},
+    )
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 4096)
+        except OSError:  # the child closed the terminal
+            break
+        if not data:
+            break
+        chunks.append(data)
+    os.close(master)
+    assert proc.wait(timeout=60) == 0
+    text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", b"".join(chunks).decode("utf-8", "replace"))
+    # 11 lines: the caption and 10 records; before, the bar had no total ("10/?").
+    assert " 0/11 lines" in text and "11/11 lines" in text and "/?" not in text

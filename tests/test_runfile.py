@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import pathlib
+import re
 import sys
 import tracemalloc
 from datetime import UTC, datetime, timedelta
@@ -26,6 +27,23 @@ DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
 RUN = DATA / "920917_1.RUN"
 RUN_LINES = RUN.read_text(encoding="utf-8").splitlines()
 SAMPLE = "920917 083538 52 50 33.020 N 004 31 51.134 E .862 .325 .109 232.4 12.7 -.2"
+
+# The "Simulation data file" block of thesis A8.4 (seed L8973–8983), copied verbatim from the
+# thesis text (its tabs included), independently of data/920917_1.RUN.
+THESIS_RUN = """\
+Date	Time	GPS lat	GPS lon	Decca	Heading	Speed	Rudder
+920917	083538	52 50 33.020 N	004 31 51.134 E	.862 .325 .109	232.4	12.7	-.2
+920917	083539	52 50 32.781 N	004 31 50.672 E	.862 .337 .111	232.3	12.7	-.2
+920917	083540	52 50 32.706 N	004 31 50.497 E	.866 .343 .115	232.2	12.7	-.2
+920917	083541	52 50 32.584 N	004 31 50.125 E	.873 .347 .118	232.1	12.7	-.4
+920917	083542	52 50 32.509 N	004 31 49.950 E	.877 .353 .118	231.8	12.6	-.5
+920917	083543	52 50 32.359 N	004 31 49.663 E	.879 .357 .116	231.7	12.6	.2
+920917	083544	52 50 32.269 N	004 31 49.489 E	.872 .361 .112	231.8	12.8	1.2
+920917	083545	52 50 32.223 N	004 31 49.289 E	.872 .368 .107	232.3	12.9	1.5
+920917	083546	52 50 32.073 N	004 31 48.973 E	.870 .372 .103	232.9	13.0	-.1
+920917	083547	52 50 31.997 N	004 31 48.798 E	.869 .376 .104	233.0	13.0	-2.4
+"""
+THESIS_RUN_LINES = THESIS_RUN.splitlines()
 
 
 def dms(d: int, m: int, s: float) -> float:
@@ -84,9 +102,45 @@ def test_sample_rudder_column() -> None:
 
 
 def test_writer_reproduces_the_thesis_lines() -> None:
-    # Same tokens as printed in A8.4 (the thesis separates some columns by tabs).
-    for rec, line in zip(records(), RUN_LINES[1:], strict=True):
+    # Same tokens as printed in A8.4 (the thesis separates some columns by tabs); compared with
+    # the copy of the thesis block above, not with the data file the records came from.
+    for rec, line in zip(records(), THESIS_RUN_LINES[1:], strict=True):
         assert format_run_record(rec) == " ".join(line.split())
+
+
+# --------------------------------------------------------------------------- transcription
+
+
+def test_data_file_is_the_thesis_block_token_by_token() -> None:
+    # Every line, every token: the caption and the 10 records (blanks between tokens are tabs in
+    # the thesis and may differ; nothing else may).
+    assert len(RUN_LINES) == len(THESIS_RUN_LINES) == 11
+    for ours, thesis in zip(RUN_LINES, THESIS_RUN_LINES, strict=True):
+        assert ours.split() == thesis.split()
+
+
+def _thesis_values(line: str) -> tuple[object, ...]:
+    """A thesis record's values computed by hand from its tokens (not by the parser)."""
+    t = line.split()
+    when = datetime(1900 + int(t[0][:2]), int(t[0][2:4]), int(t[0][4:]),
+                    int(t[1][:2]), int(t[1][2:4]), int(t[1][4:]), tzinfo=UTC)
+    assert t[5] == "N" and t[9] == "E"  # the sample is in the NE quadrant
+    lat = int(t[2]) + int(t[3]) / 60 + float(t[4]) / 3600
+    lon = int(t[6]) + int(t[7]) / 60 + float(t[8]) / 3600
+    return (when, lat, lon, tuple(float(x) for x in t[10:13]), float(t[13]), float(t[14]),
+            float(t[15]))
+
+
+def test_parsed_values_equal_the_thesis_block() -> None:
+    for rec, line in zip(records(), THESIS_RUN_LINES[1:], strict=True):
+        when, lat, lon, decca, hdg, spd, rud = _thesis_values(line)
+        assert rec.time == when
+        # D + M/60 + S/3600 in the same floating-point order as the parser: equal to the last
+        # bit, 1e-12 deg (4e-9 ") allows for a different but equivalent rounding.
+        assert rec.gps_lat_deg == pytest.approx(lat, abs=1e-12)
+        assert rec.gps_lon_deg == pytest.approx(lon, abs=1e-12)
+        assert rec.decca == decca
+        assert (rec.heading_deg, rec.speed_kn, rec.rudder_deg) == (hdg, spd, rud)
 
 
 # --------------------------------------------------------------------------- grammar details
@@ -119,7 +173,7 @@ def test_dashes_and_optional_columns() -> None:
 
 
 def test_all_optional_columns_and_southern_hemisphere() -> None:
-    rec = parse_run_line("011231 235959 33 51 35.9 s 151 12 40 e .0 .5 .999 0 0 90 -90 1e4 0")
+    rec = parse_run_line("011231 235959 33 51 35.9 s 151 12 40 e .0 .5 .999 0 0 90 -90 10000. 0")
     assert rec is not None
     assert rec.time == datetime(2001, 12, 31, 23, 59, 59, tzinfo=UTC)
     assert rec.gps_lat_deg == -dms(33, 51, 35.9) and rec.gps_lon_deg == dms(151, 12, 40)
@@ -175,8 +229,7 @@ BAD_CASES = [
     ("fraction 1.000", _sub(".862", "1.000"), "Decca red", "Decca fraction must be in [0, 1) !",
      "1.000"),
     ("fraction text", _sub(".325", "o.325"), "Decca green", "Not a number !", "o.325"),
-    ("fraction nan", _sub(".109", "nan"), "Decca purple", "Decca fraction must be in [0, 1) !",
-     "nan"),
+    ("fraction nan", _sub(".109", "nan"), "Decca purple", "Not a number !", "nan"),
     ("month 13", _sub("920917", "921317"), "date", "Wrong date (YYMMDD) !", "921317"),
     ("29 Feb 2001", _sub("920917", "010229"), "date", "Wrong date (YYMMDD) !", "010229"),
     ("date letter O", _sub("920917", "92O917"), "date", "Wrong date (YYMMDD) !", "92O917"),
@@ -208,11 +261,41 @@ BAD_CASES = [
      "Inclination must be in [-90, 90] degrees !", "95"),
     ("pressure frequency 0", SAMPLE + " 1.5 0", "pressure frequency",
      "Pressure frequency must be > 0 Hz !", "0"),
-    ("pressure frequency inf", SAMPLE + " - inf", "pressure frequency",
-     "Pressure frequency must be > 0 Hz !", "inf"),
+    ("pressure frequency inf", SAMPLE + " - inf", "pressure frequency", "Not a number !", "inf"),
     ("echo negative", SAMPLE + " - 32768 -1", "echo sounder", "Echo depth must be >= 0 m !",
      "-1"),
     ("echo text", SAMPLE + " - - 12m", "echo sounder", "Not a number !", "12m"),
+    # Numbers float() takes but the grammar does not (plain ASCII decimals, '-' only):
+    ("heading underscore", _sub("232.4", "2_32.4"), "heading", "Not a number !", "2_32.4"),
+    ("heading Arabic-Indic", _sub("232.4", "٢٣٢.٤"), "heading", "Not a number !", "٢٣٢.٤"),
+    ("heading full-width", _sub("232.4", "２３２.4"), "heading", "Not a number !", "２３２.4"),
+    ("speed plus sign", _sub("12.7", "+12.7"), "speed", "Not a number !", "+12.7"),
+    ("rudder exponent", _sub("-.2", "-2e-1"), "rudder", "Not a number !", "-2e-1"),
+    ("fraction infinity", _sub(".862", "-infinity"), "Decca red", "Not a number !", "-infinity"),
+    ("echo exponent", SAMPLE + " - - 1E2", "echo sounder", "Not a number !", "1E2"),
+    ("fraction lone dot", _sub(".325", "."), "Decca green", "Not a number !", "."),
+    ("lat D underscore", _sub("52 50 33.020", "5_2 50 33.020"), "GPS latitude",
+     "Wrong latitude format (D M S.sss N|S) !", "5_2 50 33.020 N"),
+    ("lat D plus sign", _sub("52 50 33.020", "+52 50 33.020"), "GPS latitude",
+     "Wrong latitude format (D M S.sss N|S) !", "+52 50 33.020 N"),
+    ("lat D Arabic-Indic", _sub("52 50 33.020", "٥٢ 50 33.020"), "GPS latitude",
+     "Wrong latitude format (D M S.sss N|S) !", "٥٢ 50 33.020 N"),
+    ("lat D superscript", _sub("52 50 33.020", "5² 50 33.020"), "GPS latitude",
+     "Wrong latitude format (D M S.sss N|S) !", "5² 50 33.020 N"),
+    ("lat D exponent", _sub("52 50 33.020", "5.2e1 50 33.020"), "GPS latitude",
+     "Wrong latitude format (D M S.sss N|S) !", "5.2e1 50 33.020 N"),
+    ("lon S exponent", _sub("51.134 E", "5.1134e1 E"), "GPS longitude",
+     "Wrong longitude format (D M S.sss E|W) !", "004 31 5.1134e1 E"),
+    ("lon M plus sign", _sub("004 31", "004 +31"), "GPS longitude",
+     "Wrong longitude format (D M S.sss E|W) !", "004 +31 51.134 E"),
+    ("lat M negative", _sub("52 50 33.020", "52 -0 33.020"), "GPS latitude",
+     "Degrees and minutes must be whole non-negative numbers !", "52 -0 33.020 N"),
+    ("lat hemisphere long s", _sub("33.020 N", "33.020 ſ"), "GPS latitude",
+     "Hemisphere must be N or S !", "52 50 33.020 ſ"),
+    ("em-space separator", _sub(" 232.4", "\u2003232.4"), "record",
+     "Fields must be separated by spaces or tabs !", "\u2003"),
+    ("U+001C separator", _sub(" 12.7", "\x1c12.7"), "record",
+     "Fields must be separated by spaces or tabs !", "\x1c"),
 ]
 
 
@@ -312,6 +395,18 @@ def _check_valid(rec: RunRecord) -> None:
     assert rec.echo_m is None or (0 <= rec.echo_m and math.isfinite(rec.echo_m))
 
 
+# The record grammar written out independently of the parser: ASCII digits only, numbers are
+# plain decimals (a '-' only in the numeric columns), fields separated by spaces or tabs.
+_DEC = r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
+_SEP = r"[ \t]+"
+_LAT = rf"(?:[0-9]+{_SEP}[0-9]+{_SEP}{_DEC}{_SEP}[NSns]|-)"
+_LON = rf"(?:[0-9]+{_SEP}[0-9]+{_SEP}{_DEC}{_SEP}[EWew]|-)"
+_COL = rf"(?:-?{_DEC}|-)"
+_RECORD_RE = re.compile(
+    rf"[ \t]*[0-9]{{6}}{_SEP}[0-9]{{6}}{_SEP}{_LAT}{_SEP}{_LON}(?:{_SEP}{_COL}){{6,9}}[ \t]*"
+)
+
+
 def _parse_or_input_error(line: str) -> None:
     try:
         rec = parse_run_line(line, 1, "fuzz.RUN")
@@ -321,10 +416,24 @@ def _parse_or_input_error(line: str) -> None:
         return
     if rec is not None:
         _check_valid(rec)
+        # Anything accepted is in the grammar (catches float()'s '+5', '5_2', '1e3', '٣' …).
+        assert _RECORD_RE.fullmatch(line.rstrip("\r\n")), line
+
+
+@pytest.mark.parametrize(
+    "line", [SAMPLE, _sub("-.2", "-"), _sub("52 50 33.020 N", "-") + " 1.5 - 25.",
+             "\t".join(THESIS_RUN_LINES[1].split("\t"))],
+)
+def test_grammar_of_the_fuzz_accepts_good_records(line: str) -> None:
+    # The independent grammar above must accept what it should, or the fuzz proves nothing.
+    assert parse_run_line(line) is not None and _RECORD_RE.fullmatch(line)
 
 
 _FULL = SAMPLE + " 1.5 32768.125 25.40"
-_TOKEN_CHARS = st.sampled_from(list("0123456789.-+eE NSEW*_nainf\t") + ["\x00", "٣", "½"])
+_ARABIC_INDIC = str.maketrans("0123456789", "٠١٢٣٤٥٦٧٨٩")
+_TOKEN_CHARS = st.sampled_from(
+    list("0123456789.-+eE NSEW*_nainf\t") + ["\x00", "٣", "½", "²", "ſ", "\u2003", "\x1c"]
+)
 
 
 @settings(max_examples=300, deadline=None)
@@ -339,7 +448,8 @@ def test_fuzz_mutated_lines(data: st.DataObject) -> None:
     toks = data.draw(st.sampled_from([SAMPLE, _FULL])).split()
     for _ in range(data.draw(st.integers(1, 3))):
         k = data.draw(st.integers(0, len(toks) - 1))
-        op = data.draw(st.sampled_from(["delete", "duplicate", "replace", "insert_chars", "dash"]))
+        op = data.draw(st.sampled_from(
+            ["delete", "duplicate", "replace", "insert_chars", "dash", "float_variant"]))
         if op == "delete" and len(toks) > 1:
             del toks[k]
         elif op == "duplicate":
@@ -349,6 +459,11 @@ def test_fuzz_mutated_lines(data: st.DataObject) -> None:
         elif op == "insert_chars":
             pos = data.draw(st.integers(0, len(toks[k])))
             toks[k] = toks[k][:pos] + data.draw(st.text(_TOKEN_CHARS, max_size=3)) + toks[k][pos:]
+        elif op == "float_variant":  # the same number in a spelling float() also reads
+            toks[k] = data.draw(st.sampled_from([
+                "+" + toks[k], toks[k] + "e0", toks[k].translate(_ARABIC_INDIC),
+                toks[k][:1] + "_" + toks[k][1:], toks[k] + "\u2003",
+            ]))
         else:
             toks[k] = "-"
     _parse_or_input_error(" ".join(toks))

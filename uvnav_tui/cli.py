@@ -19,7 +19,8 @@ SUBCOMMANDS = {
 }
 
 USAGE = """usage: uvnav [--config FILE.toml] [--dev]          open the navigation console
-       uvnav replay RUN [--config TOML] [--out FILE.OUT] [--jsonl FILE] [--smooth] [--force]
+       uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
+                        [--smooth [FILE]] [--force]
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
        uvnav script FILE [--headless]
        uvnav assess OUT_or_JSONL TRUTH.csv [--svg FILE] [--phases auto|none] [--poe-rate M_H]

@@ -1,24 +1,47 @@
 """``uvnav replay``: run a whole ``.RUN`` file headless, writing the ``.OUT`` log and JSON lines.
 
 Shows a rich progress bar on a terminal (silent when not a TTY) and prints a closing summary.
-Never a traceback for bad input: file, line and field are named and the exit status is 2.
+Never a traceback for bad input: file, line and field are named.
+
+Output files (the ``.OUT`` log, ``--jsonl``, ``--smooth``) all follow the ``.OUT`` rule: an
+existing file is never overwritten, the first free ``NAME_N.suffix`` is used instead, unless
+``--force``. Every output is created before the replay starts; if one cannot be, the ones
+already created are removed again and nothing runs.
+
+Exit status: 0 the run processed at least one epoch (bad records are reported and skipped);
+1 an output file cannot be written; 2 bad input (arguments, configuration, data files, output
+names that clash with the input or each other), nothing run; 3 the run file gave no epoch at
+all (every record bad, or none), the logs of the attempt are kept; 4 internal error: the engine
+failed on a record that passed every input check (a bug, not bad input: the traceback and the
+record are printed, the logs keep every cycle completed before it).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import traceback
 from pathlib import Path
+from typing import IO
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from engine.datumfile import DatumFile
+from engine.deccafile import DeccaChain
 from engine.errors import InputError
 from engine.formatting import format_lat_dms, format_lon_dms
 from engine.records import position_json
-from engine.runconfig import RunConfig, default_config, load_config
-from engine.session import RunSummary, Session
+from engine.runconfig import RunConfig, default_config
+from engine.session import RunSummary, Session, create_output, load_data, load_run_config
+
+EXIT_OK = 0
+EXIT_CANNOT_WRITE = 1
+EXIT_BAD_INPUT = 2
+EXIT_NO_EPOCH = 3
+EXIT_INTERNAL = 4
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -29,25 +52,62 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help=".OUT log to write (default: NAME.OUT next to RUN; an existing "
                    "log is never overwritten: a free NAME_N.OUT is chosen)")
     p.add_argument("--no-out", action="store_true", help="write no .OUT log")
-    p.add_argument("--jsonl", help="also write one JSON object per cycle to this file")
+    p.add_argument("--jsonl", help="also write one JSON object per cycle to this file (an "
+                   "existing file is kept: a free NAME_N.jsonl is chosen)")
     p.add_argument("--smooth", nargs="?", const="", metavar="FILE",
                    help="run the RTS smoother over the whole run afterwards and write the smoothed "
-                   "positions as JSON lines to FILE (default NAME.smooth.jsonl next to RUN)")
+                   "positions as JSON lines to FILE (default NAME.smooth.jsonl next to RUN; an "
+                   "existing file is kept: a free name is chosen)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     return p
 
 
-def _config_for(run: Path, config: str | None) -> RunConfig:
+def _config_path(run: Path, config: str | None) -> Path | None:
     if config is not None:
-        cfg = load_config(config)
+        return Path(config)
+    beside = run.with_suffix(".toml")
+    return beside if beside.exists() else None
+
+
+def _config_for(
+    run: Path, config_path: Path | None
+) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]]]:
+    """The configuration (every name checked against the data files) and the data files."""
+    if config_path is not None:
+        cfg, data = load_run_config(config_path)
     else:
-        beside = run.with_suffix(".toml")
-        cfg = load_config(beside) if beside.exists() else default_config()
+        cfg = default_config()
+        data = load_data(cfg)
     # The RUN given on the command line wins over the configuration's run_file.
-    return cfg.replace(run_file=str(run.resolve()))
+    return cfg.replace(run_file=str(run.resolve())), data
 
 
-def _summary_lines(s: RunSummary, smoothed: int | None) -> list[str]:
+def _check_outputs(inputs: list[tuple[str, Path]], outputs: list[tuple[str, Path]]) -> None:
+    """Output names must be in existing directories, differ from each other and from the
+    inputs (with --force an input would be overwritten; without, its log gets a confusing
+    free name)."""
+    seen = {p.resolve(): label for label, p in inputs}
+    for label, path in outputs:
+        if not path.parent.is_dir():
+            raise InputError("Directory not found !", file=str(path), field=label)
+        key = path.resolve()
+        if key in seen:
+            raise InputError(f"Same file as {seen[key]} !", file=str(path), field=label)
+        seen[key] = label
+
+
+def count_lines(path: Path) -> int:
+    """Number of lines of a file by a byte scan (a last line without newline counts)."""
+    n = 0
+    last = b"\n"
+    with open(path, "rb") as fh:
+        while chunk := fh.read(1 << 20):
+            n += chunk.count(b"\n")
+            last = chunk[-1:]
+    return n + (last != b"\n")
+
+
+def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str]:
     lines = [
         f"epochs {s.epochs}  fixes {s.fixes}  rejected LOPs {s.rejected_lops}  "
         f"skipped records {s.skipped_records}",
@@ -68,46 +128,91 @@ def _summary_lines(s: RunSummary, smoothed: int | None) -> list[str]:
     if s.jsonl_path is not None:
         lines.append(f"json lines {s.jsonl_path}")
     if smoothed is not None:
-        lines.append(f"smoothed epochs {smoothed}")
+        lines.append(f"smoothed epochs {smoothed[0]}")
+        lines.append(f"smoothed positions {smoothed[1]}")
     return lines
 
 
+def _run(session: Session, run: Path) -> RunSummary:
+    """Replay to the end, with a progress bar over the file's lines on a terminal."""
+    if not sys.stderr.isatty():
+        return session.run()
+    total = count_lines(run)
+    with Progress(TextColumn("replay"), BarColumn(), MofNCompleteColumn(), TextColumn("lines"),
+                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("replay", total=total)
+        summary = session.run(progress=lambda r: bar.update(task, completed=r.record))
+        bar.update(task, completed=total)
+    return summary
+
+
+def _cannot_write(exc: OSError) -> int:
+    print(f"uvnav replay: {exc.filename}: cannot write: {exc.strerror} !", file=sys.stderr)
+    return EXIT_CANNOT_WRITE
+
+
 def run_replay(argv: list[str]) -> int:
-    """Entry point of ``uvnav replay``; returns the exit status (0 ok, 2 bad input)."""
+    """Entry point of ``uvnav replay``; returns the exit status (module docstring)."""
     args = build_parser().parse_args(argv)
-    err = Console(stderr=True)
     run = Path(args.run)
+    smooth_fh: IO[str] | None = None
+    smooth_path: Path | None = None
     try:
-        if not run.exists():
+        if not run.is_file():
             raise InputError("File not found !", file=str(run), field="run file")
-        cfg = _config_for(run, args.config)
-        out = None if args.no_out else (args.out or str(run.with_suffix(".OUT")))
-        session = Session(cfg, out_path=out, force=args.force, jsonl_path=args.jsonl,
-                          collect_smoother=args.smooth is not None, history=1)
-    except InputError as exc:
-        print(f"uvnav replay: {exc}", file=sys.stderr)
-        return 2
-    except FileExistsError as exc:
-        print(f"uvnav replay: {exc.filename} exists (use --force to overwrite)", file=sys.stderr)
-        return 2
-    smoothed: int | None = None
-    with session:
-        if sys.stderr.isatty():
-            with Progress(TextColumn("replay"), BarColumn(), MofNCompleteColumn(),
-                          TimeElapsedColumn(), console=err, transient=True) as bar:
-                task = bar.add_task("replay", total=None)
-                summary = session.run(progress=lambda _r: bar.advance(task))
-        else:
-            summary = session.run()
+        config_path = _config_path(run, args.config)
+        cfg, data = _config_for(run, config_path)
+        out = None if args.no_out else Path(args.out or run.with_suffix(".OUT"))
+        jsonl = Path(args.jsonl) if args.jsonl else None
+        smooth = None
         if args.smooth is not None:
-            path = Path(args.smooth) if args.smooth else run.with_suffix(".smooth.jsonl")
-            smoothed_positions = session.smooth()
-            with open(path, "w" if args.force else "x", encoding="utf-8") as fh:
-                for p in smoothed_positions:
-                    fh.write(json.dumps(position_json(p), separators=(",", ":")) + "\n")
-            smoothed = len(smoothed_positions)
+            smooth = Path(args.smooth) if args.smooth else run.with_suffix(".smooth.jsonl")
+        inputs = [("the run file", run)]
+        if config_path is not None:
+            inputs.append(("the configuration", config_path))
+        _check_outputs(inputs, [(label, p) for label, p in
+                                (("--out", out), ("--jsonl", jsonl), ("--smooth", smooth))
+                                if p is not None])
+        if smooth is not None:
+            smooth_fh, smooth_path = create_output(smooth, args.force)
+        session = Session(cfg, out_path=out, force=args.force, jsonl_path=jsonl,
+                          collect_smoother=smooth is not None, history=1, data=data)
+    except (InputError, OSError) as exc:
+        if smooth_fh is not None and smooth_path is not None:
+            smooth_fh.close()
+            if not args.force:
+                smooth_path.unlink(missing_ok=True)
+        if isinstance(exc, InputError):
+            print(f"uvnav replay: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        return _cannot_write(exc)
+    smoothed: tuple[int, Path] | None = None
+    try:
+        with session:
+            summary = _run(session, run)
+            if smooth_fh is not None and smooth_path is not None:
+                positions = session.smooth()
+                for p in positions:
+                    smooth_fh.write(json.dumps(position_json(p), separators=(",", ":")) + "\n")
+                smooth_fh.flush()
+                os.fsync(smooth_fh.fileno())
+                smoothed = (len(positions), smooth_path)
+    except OSError as exc:  # e.g. the disk filled up: every completed cycle is on disk
+        return _cannot_write(exc)
+    except Exception as exc:  # an engine bug (engine/session.py: never a bad record)
+        traceback.print_exc()
+        print(f"uvnav replay: internal error ({type(exc).__name__}: {exc}): this is a bug, "
+              "please report it with the record above", file=sys.stderr)
+        return EXIT_INTERNAL
+    finally:
+        if smooth_fh is not None:
+            smooth_fh.close()
     for line in _summary_lines(summary, smoothed):
         print(line)
     for bad in session.bad_records:
         print(f"skipped: {bad.error}", file=sys.stderr)
-    return 0
+    if summary.epochs == 0:
+        print(f"uvnav replay: {run}: no record could be processed "
+              f"({summary.skipped_records} skipped) !", file=sys.stderr)
+        return EXIT_NO_EPOCH
+    return EXIT_OK
