@@ -149,9 +149,11 @@ class SimulationSummary:
 
 
 def read_data_files(data_dir: str | os.PathLike[str]) -> tuple[DatumFile, dict[str, DeccaChain]]:
-    """TO_WGS84.DAT and DECCA.CHN from ``data_dir`` (InputError if missing or bad)."""
+    """TO_WGS84.DAT and DECCA.CHN from ``data_dir`` (InputError if missing or bad; each chain's
+    datum must be in the datum file, as for a run)."""
     d = Path(data_dir)
-    return read_datum_file(d / "TO_WGS84.DAT"), read_chain_file(d / "DECCA.CHN")
+    datums = read_datum_file(d / "TO_WGS84.DAT")
+    return datums, read_chain_file(d / "DECCA.CHN", known_datums=datums.datums)
 
 
 def _datum(datums: DatumFile, name: str, field: str) -> Datum:

@@ -148,3 +148,27 @@ def test_console_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert main(["--config", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "bad.toml:2:" in err and "Wrong depth input !" in err
+
+
+@pytest.mark.parametrize(("line", "where", "message"), [
+    ('datum = "ED51"', "datum", "Unknown datum !"),
+    ('[decca]\nchain = "9C"', "decca.chain", "Unknown chain !"),
+])
+def test_console_and_script_locate_unknown_names(tmp_path: Path, line: str, where: str,
+                                                 message: str,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """An unknown datum or chain in the configuration is reported as FILE:LINE: field by the
+    console and by ``uvnav script`` (checked against the data files before anything opens)."""
+    from uvnav_tui.cli import main
+
+    data = copy_data(tmp_path / "data")
+    cfg = data / "bad.toml"
+    cfg.write_text(f'run_file = "920917_1.RUN"\n{line}\n', encoding="utf-8")
+    script = tmp_path / "s.script"
+    script.write_text("key enter\n", encoding="utf-8")
+    expected_line = 2 if where == "datum" else 3
+    for argv in (["--config", str(cfg)], ["script", str(script), "--config", str(cfg),
+                                          "--headless"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert f"bad.toml:{expected_line}: {where}: {message}" in err, err

@@ -11,8 +11,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from engine.datumfile import DatumFile
+from engine.deccafile import DeccaChain
 from engine.errors import InputError
-from engine.runconfig import RunConfig, load_config
+from engine.runconfig import RunConfig
+from engine.session import load_run_config
 
 DEFAULT_CONFIG_NAME = "DEMO.toml"
 
@@ -39,27 +42,24 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def resolve_config(config: str | None) -> tuple[RunConfig, Path]:
-    """Load ``config`` (or the bundled demo); raises InputError with file and line."""
+def resolve_config(
+    config: str | None,
+) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]]]:
+    """Load ``config`` (or the bundled demo) and the data files it names, every name checked
+    (:func:`engine.session.load_run_config`); raises InputError with file and line."""
     path = Path(config) if config is not None else default_config_path()
     if path is None:
         raise InputError("File not found !", file=f"data/{DEFAULT_CONFIG_NAME}",
                          text=DEFAULT_CONFIG_NAME)
-    return load_config(path), path
+    return load_run_config(path)
 
 
 def run_console(argv: list[str]) -> int:
     """Open the console; returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
-        cfg, _path = resolve_config(args.config)
-        from engine.session import load_data
-
-        data = load_data(cfg)
-    except InputError as exc:
-        print(f"uvnav: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
+        cfg, data = resolve_config(args.config)
+    except (InputError, OSError) as exc:
         print(f"uvnav: {exc}", file=sys.stderr)
         return 2
     from uvnav_tui.app import UVNAVApp

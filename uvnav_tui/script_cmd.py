@@ -39,10 +39,7 @@ def run_script(argv: list[str]) -> int:
 
     try:
         steps = load_script(Path(args.script))
-        cfg, _path = resolve_config(args.config)
-        from engine.session import load_data
-
-        data = load_data(cfg)
+        cfg, data = resolve_config(args.config)
     except ScriptError as exc:
         print(f"uvnav script: {args.script}: {exc}", file=sys.stderr)
         return 2
