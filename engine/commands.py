@@ -41,7 +41,10 @@ class SetDRPosition:
 
 @dataclass(frozen=True)
 class SetCurrent:
-    """Setup ▸ Params ▸ Current: set (degrees true, direction of flow) and drift (knots)."""
+    """Setup ▸ Params ▸ Current: set (degrees true, direction of flow) and drift (knots).
+
+    Resets the filter's current (grid East/North, m/s: the set rotated by −γ at the MPP) and its
+    covariance block to the initial value (kalman.md §6.8)."""
 
     set_deg: float
     speed_kn: float
@@ -155,7 +158,12 @@ def apply_command(
             xv = np.array(fs.x)
             P = np.array(fs.P)
             vc = knots_to_ms(cmd.speed_kn)
-            s = math.radians(cmd.set_deg)
+            # The filter's current lives in the grid, like its heading (kalman.md A1, §6.1):
+            # grid set = true set − γ, γ the convergence at the MPP on the run's CM.
+            gamma = 0.0
+            if nav.cm_deg is not None:
+                gamma = ctx.grid(nav.cm_deg).convergence_deg(nav.mpp_lat_deg, nav.mpp_lon_deg)
+            s = math.radians(cmd.set_deg - gamma)
             xv[6], xv[7] = vc * math.sin(s), vc * math.cos(s)
             P[6:8, :] = 0.0
             P[:, 6:8] = 0.0
@@ -190,6 +198,8 @@ def apply_command(
             raise ValueError(f"unknown parameter table {cmd.table!r}")
         table = replace(getattr(cfg, cmd.table), **dict(cmd.values))
         text = " ".join(f"{k}={v}" for k, v in cmd.values)
+        if cmd.table == "demo" and "press_ref_freq_hz" in dict(cmd.values):
+            nav = replace(nav, press_ref_hz=None)  # the next reading uses the new reference
         return cfg.replace(**{cmd.table: table}), nav, f"Parameters [{cmd.table}] {text}"
     if isinstance(cmd, AddObservation):
         queued = (nav.pending_obs + cmd.observations)[:MAX_BRR]

@@ -52,6 +52,7 @@ from engine.kalman import (
     lop_measurement,
     lse_measurement,
     predict_step,
+    restart_fix_states,
     sensor_measurement,
     stack_measurements,
     update,
@@ -80,6 +81,7 @@ def filter_params_from_config(cfg: RunConfig) -> FilterParams:
     f = cfg.filter
     return FilterParams(
         q_scale=f.q_scale,
+        q_mode=f.q_mode,
         turn_rate_max_deg_s=f.turn_rate_max_deg_s,
         pitch_rate_max_deg_s=f.pitch_rate_max_deg_s,
         sigma_gyro_deg=f.sigma_gyro_deg,
@@ -91,6 +93,10 @@ def filter_params_from_config(cfg: RunConfig) -> FilterParams:
         coloured=f.model == "coloured",
         fix_tau_s=f.fix_tau_s,
         fix_sigma_frac=f.fix_sigma_frac,
+        bias_noise=f.bias_noise,
+        bias_rw_log_ms_sqrth=f.log_bias_rw_ms_sqrth,
+        bias_rw_gyro_deg_sqrth=f.gyro_bias_rw_deg_sqrth,
+        bias_rw_incl_deg_sqrth=f.incl_bias_rw_deg_sqrth,
     )
 
 
@@ -255,6 +261,10 @@ class CycleResult:
     smoother_link: tuple[FilterState, FilterState, np.ndarray] | None = None
     """(state at the previous epoch after this record's gyro/log update, its prediction to this
     epoch, Φ): what the RTS smoother needs to go back over this step."""
+    sensor_update: UpdateResult | None = None
+    """The update with this record's gyro, log and inclinometer rows, made before the step into
+    this epoch (README "Sensor timing"); ``filter_update`` is the update at this epoch (fix or raw
+    LOPs, and the pressure depth). Both carry their LOM and LS tests."""
 
 
 @dataclass(frozen=True)
@@ -272,6 +282,8 @@ class NavState:
     press_ref_hz: float | None = None
     decca_track: tuple[tuple[float, datetime] | None, ...] = (None, None, None)
     filter_has_fix: bool = False
+    fix_source: tuple[object, ...] | None = None
+    """The fix source (:func:`fix_source`) the filter's Gauss–Markov fix-error states model."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -314,6 +326,9 @@ def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
               cov: np.ndarray) -> PositionEstimate:
     lat, lon = grid.inverse(x, y)
     ell = error_ellipse(cov) if np.all(np.isfinite(cov)) else None
+    cov.setflags(write=False)
+    if ell is not None:
+        ell.eigenvectors.setflags(write=False)
     return PositionEstimate(source, lat, lon, x, y, depth, cov, ell)
 
 
@@ -321,6 +336,29 @@ def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstim
     """The horizontal position of a filter state as an estimate (grid ``grid``)."""
     return _estimate(source, grid, float(fs.x[0]), float(fs.x[1]), float(fs.x[2]),
                      np.array(fs.P[:2, :2]))
+
+
+def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
+                   *updates: UpdateResult | None) -> None:
+    """Make the arrays a cycle hands out read-only, besides its estimates (see ``_estimate``)
+    and filter states (which already are): the fix's VCV, ellipse axes and raw LOPs, the
+    smoother link's Φ and each filter update's innovation, S, K and LS factors. A cycle result
+    is an immutable value (the per-slot arrays inside ``fix.tested`` belong to engine.quality)."""
+    arrays: list[np.ndarray] = []
+    if fix is not None:
+        arrays.append(fix.cov)
+        if fix.ellipse is not None:
+            arrays.append(fix.ellipse.eigenvectors)
+        if fix.raw_lops is not None:
+            raw = fix.raw_lops
+            arrays += [raw.A, raw.omc_m, raw.Cl, raw.x_ref]
+    if phi is not None:
+        arrays.append(phi)
+    for u in updates:
+        if u is not None:
+            arrays += [u.innovation, u.S, u.K, u.ls.l_inv, u.ls.w]
+    for a in arrays:
+        a.setflags(write=False)
 
 
 def _gps_input(ctx: RunContext, rec: RunRecord, grid: TMGrid) -> GpsInput | None:
@@ -390,6 +428,7 @@ def step(
     speed_ms = None if sens.speed_kn is None else knots_to_ms(sens.speed_kn)
     incl = None if sens.incl_deg is None else math.radians(sens.incl_deg)
     # --- Filter: start from the DR position, then one propagation per record (kalman.md A3).
+    initialised = False
     if fstate is None and heading_grid is not None and speed_ms is not None:
         x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
         set_rad = math.radians(cfg.current_set_deg)
@@ -399,20 +438,24 @@ def step(
             0.0, x0, y0, cfg.depth_m, speed_ms, heading_grid, incl or 0.0,
             vc * math.sin(set_rad - math.radians(gamma)),
             vc * math.cos(set_rad - math.radians(gamma)),
-            params, pos_cov=pos_cov,
+            params, pos_cov=pos_cov, from_sensors=(True, True, incl is not None),
         )
+        initialised = True
     kf_pred: PositionEstimate | None = None
     pred_state: FilterState | None = None
     link: tuple[FilterState, FilterState, np.ndarray] | None = None
+    sens_result: UpdateResult | None = None
     dr_sensors = False
     if fstate is not None:
         # Heading and speed of this record drive the step into it (program.md §10 item 6: the
-        # sample's KF row moves on the mean of the two records' gyro headings).
+        # sample's KF row moves on the mean of the two records' gyro headings). A state just
+        # initialised from this record's readings has them already (no double counting).
         sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
                                          gyro_grid_rad=heading_grid, incl_rad=incl, params=params)
         dr_sensors = sensor_rows.z.shape[0] > 0
-        if dr_sensors:
-            fstate = update(fstate, sensor_rows, params).state
+        if dr_sensors and not initialised:
+            sens_result = update(fstate, sensor_rows, params)
+            fstate = sens_result.state
         pred_state, phi = predict_step(fstate, dt, params)
         link = (fstate, pred_state, phi)
         kf_pred = filter_estimate("KF", grid, pred_state)
@@ -463,6 +506,7 @@ def step(
     status = "OFF" if not cfg.filter.on else "N/A"
     new_filter = pred_state
     has_fix = nav.filter_has_fix
+    source = nav.fix_source
     lse_ok = fix is not None and fix.ok and not fix.uses_prior
     depth_rows: Measurement | None = None
     if pred_state is not None and sens.depth_m is not None:
@@ -472,11 +516,24 @@ def step(
         # away with the thesis P0 = I would otherwise pull against every fix.
         new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
         has_fix = True
+        source = fix_source(cfg)
     elif new_filter is not None and cfg.filter.on:
         meas: Measurement | None = None
-        if fix is not None and fix.ok:
-            meas = lse_measurement(fix.x_m, fix.y_m, fix.cov, params) if lse_ok else (
-                _raw_lop_measurement(fix))
+        if fix is not None and fix.ok and lse_ok:
+            meas = lse_measurement(fix.x_m, fix.y_m, fix.cov, params)
+            if fix_source(cfg) != source:
+                # A new fix source is a new, independent error process: one Gauss–Markov pair
+                # models the LSE error of one source (README "Correlated fixes").
+                source = fix_source(cfg)
+                if meas.bias_cov is not None and link is not None:
+                    restarted, phi_r = restart_fix_states(new_filter, meas.bias_keys[:2],
+                                                          meas.bias_cov, link[2])
+                    if restarted is not new_filter and phi_r is not None:
+                        new_filter = restarted
+                        link = (link[0], restarted, phi_r)
+                        messages.append("Fix source changed: fix-error states restarted")
+        elif fix is not None and fix.ok:
+            meas = _raw_lop_measurement(fix)
         if meas is not None:
             if depth_rows is not None:  # one update for everything measured at this epoch
                 meas, depth_rows = stack_measurements(depth_rows, meas), None
@@ -535,7 +592,9 @@ def step(
         manual=manual,
         messages=tuple(messages),
         smoother_link=link,
+        sensor_update=sens_result,
     )
+    _freeze_result(fix, None if link is None else link[2], filt_result, sens_result)
     next_nav = NavState(
         n=nav.n + 1,
         last_time=rec.time,
@@ -548,6 +607,7 @@ def step(
         press_ref_hz=press_ref,
         decca_track=decca_track,
         filter_has_fix=has_fix,
+        fix_source=source,
     )
     return next_nav, result
 
@@ -611,6 +671,18 @@ def _decca_totals(
         totals[i] = total
         track[i] = (total, rec.time)
     return (totals[0], totals[1], totals[2]), tuple(track), notes
+
+
+def fix_source(cfg: RunConfig) -> tuple[object, ...]:
+    """What produces the LSE, as far as its error process is concerned: the GPS receiver type
+    (C/A or P code) when GPS is on, the Decca chain and selected patterns when Decca is on.
+
+    A change (Setup ▸ Systems) starts the filter's Gauss–Markov fix-error states afresh; a
+    single record without GPS or one LOP rejected by the w-test does not.
+    """
+    gps = ("GPS", cfg.gps.receiver) if cfg.gps.on else ()
+    decca = ("Decca", cfg.decca.chain, *cfg.decca.select) if cfg.decca.on else ()
+    return gps + decca
 
 
 def _raw_lop_measurement(fix: FixResult) -> Measurement | None:

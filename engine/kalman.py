@@ -49,6 +49,7 @@ __all__ = [
     "predict_step",
     "process_noise",
     "propagate_mean",
+    "restart_fix_states",
     "sensor_measurement",
     "stack_measurements",
     "state_transition",
@@ -123,8 +124,12 @@ class FilterParams:
 
     Rates of turn in deg/s (σ = ½ maximum, A4); σ_a² in m²/s⁴ (eq. 6.35); σ_vc² in m²/s⁴
     (thesis 2·10⁻⁸, §6.6); sensor σ in deg / m; log σ = max(frac·v, floor) m/s (eq. 4.19).
-    ``q_mode``: "thesis" = Γ of 6.32 with Q as per-step rate variances (right at Δt = 1 s);
-    "psd" = Q·(1 s/Δt) (A5); "vanloan" = exact discretisation of (F, G Q_psd Gᵀ).
+    ``q_mode`` (kalman.md A5): "vanloan" (default) takes the thesis Q values as power spectral
+    densities per 1 s and discretises (F, G Q Gᵀ) exactly, so any Δt and any Kalman ▸ Predict
+    step give the same VCV; at Δt = 1 s it equals the thesis Γ Q Γᵀ except the position term
+    F M Fᵀ Δt³/3 instead of /4 (≈ 10⁻⁴ m² per step at 6.5 m/s). "thesis" = Γ of 6.32 with Q as
+    per-step rate variances (right only at Δt = 1 s: the accumulated noise grows with the step);
+    "psd" = the thesis Γ with Q·(1 s/Δt) (rate noise step-invariant, position noise not quite).
     ``coloured`` enables Gauss–Markov fix-error states (τ ``fix_tau_s`` s; the fraction
     ``fix_sigma_frac`` of each fix variance is coloured, the rest stays white in R).
     """
@@ -140,7 +145,7 @@ class FilterParams:
     log_sigma_frac: float = 0.02  # EM log σ = 0.02 v (4.19) …
     log_sigma_floor_ms: float = 0.05  # … but at least this (m/s)
     p0: Literal["thesis", "physical"] = "thesis"  # P₀ = I₁₁ (§6.8) or A7
-    q_mode: Literal["thesis", "psd", "vanloan"] = "thesis"  # A5
+    q_mode: Literal["thesis", "psd", "vanloan"] = "vanloan"  # A5
     hold_course: bool = False  # A6: w_v = w_ψ = w_ε = 0
     coloured: bool = False  # Gauss–Markov fix-error states (§3, A6)
     fix_tau_s: float = 240.0  # their correlation time (s)
@@ -213,6 +218,24 @@ class FilterState:
         if key in self.fix_states:
             return N_NAV + self.fix_states.index(key)
         return STATE_LABELS.index(key)
+
+    def with_fix_cov(self, keys: Sequence[str], cov: np.ndarray) -> FilterState:
+        """The same estimate with the stationary VCV of fix-error states ``keys`` set to ``cov``
+        (m², over ``keys``); their covariances with the other fix-error states become 0."""
+        C = np.asarray(cov, dtype=float)
+        C = 0.5 * (C + C.T)
+        if tuple(keys) == self.fix_states:  # the usual case: the LSE pair is all there is
+            fc = C
+        else:
+            idx = [self.fix_states.index(k) for k in keys]
+            fc = np.array(self.fix_cov)
+            fc[idx, :] = 0.0
+            fc[:, idx] = 0.0
+            fc[np.ix_(idx, idx)] = C
+        new = self._with(self.t, self.x, self.P)
+        fc.flags.writeable = False
+        new.__dict__["fix_cov"] = fc
+        return new
 
     def _with(self, t: float, x: np.ndarray, P: np.ndarray) -> FilterState:
         """Same metadata, new t, x, P (fresh arrays owned by the caller; made read-only).
@@ -394,8 +417,9 @@ def process_noise(params: FilterParams, dt: float) -> np.ndarray:
 def discrete_noise(x: np.ndarray, dt: float, params: FilterParams) -> np.ndarray:
     """Discrete process-noise VCV Γ Q Γᵀ (11×11) added per step (6.20b).
 
-    In "vanloan" mode the exact ∫₀^Δt e^{Fs} M e^{Fᵀs} ds with M = G Q_psd Gᵀ, which because
-    F² = 0 is M Δt + (F M + M Fᵀ) Δt²/2 + F M Fᵀ Δt³/3 (equal to Van Loan's matrix exponential).
+    In "vanloan" mode (the default) the exact ∫₀^Δt e^{Fs} M e^{Fᵀs} ds with M = G Q_psd Gᵀ,
+    which because F² = 0 is M Δt + (F M + M Fᵀ) Δt²/2 + F M Fᵀ Δt³/3 (equal to Van Loan's matrix
+    exponential); "thesis" Γ Q Γᵀ of 6.20b/6.32; "psd" Γ Q Γᵀ/Δt (kalman.md A5).
     """
     if dt == 0.0:
         return np.zeros((N_NAV, N_NAV))
@@ -403,17 +427,20 @@ def discrete_noise(x: np.ndarray, dt: float, params: FilterParams) -> np.ndarray
 
 
 def _noise_from_phi(Phi: np.ndarray, dt: float, params: FilterParams) -> np.ndarray:
-    """:func:`discrete_noise` from the step's Φ (Δt > 0)."""
-    if params.q_mode == "vanloan":
-        F = (Phi - _EYE11) * (1.0 / dt)
-        M = np.zeros((N_NAV, N_NAV))
-        M[3:, 3:].flat[::9] = params._q
-        FM = F.dot(M)
-        return M * dt + (FM + FM.T) * (0.5 * dt * dt) + FM.dot(F.T) * (dt**3 / 3.0)
-    c = dt if params.q_mode == "thesis" else math.sqrt(dt)  # psd: Q·(1 s/Δt)
+    """:func:`discrete_noise` from the step's Φ (Δt > 0).
+
+    With A = G√q and B = F G √q (rows 0–2 only), "thesis" is U Uᵀ with U = Γ√q = AΔt + BΔt²/2;
+    "psd" the same with q/Δt, U = A√Δt + BΔt^{3/2}/2; "vanloan" is the exact integral
+    AAᵀΔt + (ABᵀ + BAᵀ)Δt²/2 + BBᵀΔt³/3 = (psd U Uᵀ) + V Vᵀ with V = BΔt^{3/2}/√12.
+    """
+    c = dt if params.q_mode == "thesis" else math.sqrt(dt)  # psd/vanloan: Q·(1 s/Δt) on Γ
     Gs = params._g8sq * c  # Γ Q^{1/2}: rows 3–10 Δt·√q, rows 0–2 F[:3, 3:] Δt²/2·√q
     Gs[:3] = Phi[:3, 3:] * (params._sq * (0.5 * c))
-    return Gs.dot(Gs.T)
+    Q = Gs.dot(Gs.T)
+    if params.q_mode == "vanloan":
+        V = Phi[:3, 3:] * (params._sq * math.sqrt(dt / 12.0))  # F[:3, 3:]√q Δt^{3/2}/√12
+        Q[:3, :3] += V.dot(V.T)
+    return Q
 
 
 def van_loan(F: np.ndarray, Qc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -451,11 +478,16 @@ def init_state(
     current_n_ms: float,
     params: FilterParams,
     pos_cov: np.ndarray | None = None,
+    from_sensors: tuple[bool, bool, bool] = (False, False, False),
 ) -> FilterState:
     """Initial state x̂₀|₀ (§6.8, biases 0) and P₀: I₁₁ ("thesis") or the A7 "physical" P₀.
 
     ``pos_cov`` (2×2, m²), e.g. the first LSE's VCV (A3), replaces the position block in either
     mode; "physical" otherwise uses ``dr_pos_sigma_m``. Heading in grid rad, wrapped to [0, 2π).
+    ``from_sensors`` says which of speed, heading and inclination are a sensor reading (log,
+    gyro, inclinometer): such a value estimates state + bias (6.27–6.29) with the sensor's σ,
+    so in "physical" mode its error is the reading's error minus the unknown bias: P_ss = σ_m² +
+    σ_b², P_sb = −σ_b², P_bb = σ_b² (σ_b the A7 bias σ) instead of independent σ_m², σ_b².
     """
     x = np.array(
         [x_m, y_m, z_m, speed_ms, heading_grid_rad % TWO_PI, incl_rad,
@@ -473,6 +505,10 @@ def init_state(
             params.p0_log_bias_ms**2, (params.p0_gyro_bias_deg * DEG) ** 2,
             (params.p0_incl_bias_deg * DEG) ** 2,
         ])
+        for on, i, b in zip(from_sensors, (IV, IPSI, IEPS), (IDV, IDPSI, IDEPS), strict=True):
+            if on:
+                P[i, i] += P[b, b]
+                P[i, b] = P[b, i] = -P[b, b]
     if pos_cov is not None:
         C = np.asarray(pos_cov, dtype=float)
         P[:2, :2] = 0.5 * (C + C.T)
@@ -520,6 +556,40 @@ def add_fix_states(
         state.t, x, P, state.fix_states + tuple(keys[i] for i in new),
         state.fix_tau_s + taus, fc,
     )
+
+
+def restart_fix_states(
+    state: FilterState,
+    keys: Sequence[str],
+    cov: np.ndarray,
+    phi: np.ndarray | None = None,
+) -> tuple[FilterState, np.ndarray | None]:
+    """Start the Gauss–Markov fix-error states ``keys`` afresh as a new, independent error
+    process (the fix source changed, e.g. C/A → P code): b = 0, P_bb = ``cov`` (its stationary
+    VCV, m²), no covariance with any other state, and ``fix_cov`` = ``cov``.
+
+    This is the prediction of a transition whose rows for b are 0 and whose process noise for b
+    is ``cov``; ``phi`` (the step's full Φ, if given) is returned with those rows zeroed, so the
+    RTS smoother sees a consistent (state, prediction, Φ) triple. Keys not in the state are
+    ignored (they are added with this prior on first use anyway).
+    """
+    present = [i for i, k in enumerate(keys) if k in state.fix_states]
+    if not present:
+        return state, phi
+    keys = [keys[i] for i in present]
+    C = np.atleast_2d(np.asarray(cov, dtype=float))[np.ix_(present, present)]
+    idx = [N_NAV + state.fix_states.index(k) for k in keys]
+    x = np.array(state.x)
+    P = np.array(state.P)
+    x[idx] = 0.0
+    P[idx, :] = 0.0
+    P[:, idx] = 0.0
+    P[np.ix_(idx, idx)] = 0.5 * (C + C.T)
+    new = state._with(state.t, x, P).with_fix_cov(keys, C)
+    if phi is not None:
+        phi = np.array(phi)
+        phi[idx, :] = 0.0
+    return new, phi
 
 
 # --------------------------------------------------------------------------------------------
@@ -889,6 +959,10 @@ def _with_bias_columns(
         taus = [rows.bias_tau_s[i] if i < len(rows.bias_tau_s) else params.fix_tau_s
                 for i in missing]
         state = add_fix_states(state, [dk[i] for i in missing], C, params, taus)
+    if rows.bias_cov is not None and len(missing) < len(dk):
+        # The fix's own VCV changes with geometry and receiver: its coloured part frac·C is the
+        # stationary VCV that drives the next prediction (no longer frozen at the first fix).
+        state = state.with_fix_cov(dk, rows.bias_cov)
     n = state.n
     H = np.zeros((rows.z.shape[0], n))
     H[:, :rows.H.shape[1]] = rows.H

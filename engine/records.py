@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from engine.cycle import CycleResult, PositionEstimate
-from engine.kalman import STATE_LABELS
+from engine.kalman import STATE_LABELS, UpdateResult
 from engine.outlog import Value
 
 P95 = 0.95
@@ -57,6 +57,31 @@ def lse_estimate(r: CycleResult) -> PositionEstimate | None:
     return PositionEstimate("LSE", f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov, f.ellipse)
 
 
+def updates(r: CycleResult) -> list[tuple[str, UpdateResult]]:
+    """The cycle's filter updates with their tests, as (kind, result): ``"epoch"`` = the update
+    at this epoch (fix or raw LOPs, pressure depth), then ``"sensors"`` = this record's gyro, log
+    and inclinometer rows, applied before the step into the epoch (README "Sensor timing")."""
+    out = []
+    if r.filter_update is not None:
+        out.append(("epoch", r.filter_update))
+    if r.sensor_update is not None:
+        out.append(("sensors", r.sensor_update))
+    return out
+
+
+def _test_json(kind: str, u: UpdateResult) -> dict[str, Any]:
+    return {
+        "upd": kind,
+        "rows": list(u.labels),
+        "lom": _num(u.lom.t, 6),
+        "lo": _num(u.lom.lower, 6),
+        "hi": _num(u.lom.upper, 6),
+        "dof": u.lom.dof,
+        "verdict": u.lom.verdict,
+        "ls": [_num(t, 3) for t in u.ls.t.tolist()],
+    }
+
+
 def cycle_json(r: CycleResult) -> dict[str, Any]:
     """The JSON-lines object of one cycle (keys documented in README, "Replay outputs")."""
     lops = []
@@ -90,6 +115,7 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
         "s2": _num(r.fix.s2, 5) if r.fix is not None else None,
         "rms": _num(r.fix.rms_m, 3) if r.fix is not None else None,
         "state": None if fs is None else [_num(v, 6) for v in fs.x[: len(STATE_LABELS)]],
+        "tests": [_test_json(kind, u) for kind, u in updates(r)],
         "messages": list(r.messages),
     }
 
@@ -168,11 +194,11 @@ def cycle_block(
         for i, name in enumerate(STATE_LABELS):
             kf["s_" + name] = float(sig[i])
         lines.append(("KF", kf))
-    u = r.filter_update
-    if u is not None:
+    for kind, u in updates(r):  # the epoch's update first: readers take the first TEST line
         lines.append(("TEST", {"lom": u.lom.t, "lo": u.lom.lower, "hi": u.lom.upper,
                                "dof": u.lom.dof, "verdict": u.lom.verdict,
-                               "ls": ",".join(f"{t:.3f}" for t in u.ls.t)}))
+                               "ls": ",".join(f"{t:.3f}" for t in u.ls.t),
+                               "upd": kind, "rows": ",".join(u.labels)}))
     lines.append(("MPP", {"source": r.mpp.source, **_pos_fields(r.mpp)}))
     for m in r.messages:
         lines.append(("MSG", {"text": m}))

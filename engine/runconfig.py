@@ -440,7 +440,9 @@ LsqConfig.KEYS = (
         '"A" ask before discarding a rejected LOP, "Y" reject automatically, "N" flag only',
         "A8.2 LOPReject = 'A' (L8776); program.md A12", _choice("A", "Y", "N", upper=True)),
     Key("reliab_interval", "reliab_interval_pct", "float", "%",
-        "significance level α of the w-test (5 % → 1.960)", "A8.2 ReliabInterval = 5.0 (L8781)",
+        "significance level α: a w-test beyond k_α (5 % → 1.960) is monitored, and α sets the "
+        "MDB (δ0) and the unit-variance test; an LOP is rejected only beyond the fixed 2.576",
+        "A8.2 ReliabInterval = 5.0 (L8781); L6665–6669",
         _between(0.0, 50.0, lo_open=True, hi_open=True)),
     Key("conf_region", "conf_region_pct", "float", "%",
         "confidence level of the displayed ellipse/ellipsoid", "A8.2 ConfRegion = 95.0 (L8782)",
@@ -483,6 +485,7 @@ class FilterConfig:
     model: str = "thesis"
     p0: str = "thesis"
     q_scale: float = 1.0
+    q_mode: str = "vanloan"
     turn_rate_max_deg_s: float = 1.0
     pitch_rate_max_deg_s: float = 0.5
     sigma_incl_deg: float = 0.5
@@ -493,6 +496,10 @@ class FilterConfig:
     fix_tau_s: float = 240.0
     fix_sigma_frac: float = 0.9
     dr_sigma_m: float = 1000.0
+    bias_noise: bool = False
+    log_bias_rw_ms_sqrth: float = 0.01
+    gyro_bias_rw_deg_sqrth: float = 0.5
+    incl_bias_rw_deg_sqrth: float = 0.1
 
     def __post_init__(self) -> None:
         _validate(self, self.TABLE, self.KEYS)
@@ -508,6 +515,12 @@ FilterConfig.KEYS = (
         "L2670; kalman.md A7", _choice("thesis", "physical")),
     Key("q_scale", "q_scale", "float", "—", "factor applied to the system noise Q_k",
         "L2779, L7579", _POSITIVE),
+    Key("q_mode", "q_mode", "str", "—",
+        'discretisation of Q: "vanloan" (thesis Q as spectral densities per 1 s, exact for any '
+        'Δt and Predict step), "thesis" (Q per step, eq. 6.32: right at Δt = 1 s only) or '
+        '"psd" (thesis Γ with Q·1 s/Δt)',
+        "L2581, L2593–2641 (Q for Δt = 1 s); kalman.md §4, A5 [recommendation]",
+        _choice("vanloan", "thesis", "psd")),
     Key("turn_rate_max_deg_s", "turn_rate_max_deg_s", "float", "deg/s",
         "maximum rate of turn; σ of the heading-rate noise is half of it",
         "L2623 (no value given); program.md A16 [assumption]", _POSITIVE),
@@ -535,6 +548,19 @@ FilterConfig.KEYS = (
     Key("dr_sigma_m", "dr_sigma_m", "float", "m",
         "accuracy (1σ) of an operator DR position (physical P0, DR Pos while submerged)",
         "kalman.md §6.8, A7 [recommendation]", _POSITIVE),
+    Key("bias_noise", "bias_noise", "bool", "—",
+        "log, gyro and inclinometer biases drift as random walks (rates below) instead of "
+        "being random constants",
+        "L2639–2641 (thesis: no bias noise); kalman.md A11 [recommendation]"),
+    Key("log_bias_rw_ms_sqrth", "log_bias_rw_ms_sqrth", "float", "m/s/√h",
+        "random-walk rate of the log bias (with bias_noise)", "kalman.md A11 [assumption]",
+        _NON_NEGATIVE),
+    Key("gyro_bias_rw_deg_sqrth", "gyro_bias_rw_deg_sqrth", "float", "deg/√h",
+        "random-walk rate of the gyro bias (with bias_noise)",
+        "kalman.md A11 (0.5 °/√h); L1425–1427 (84-min gyro oscillation)", _NON_NEGATIVE),
+    Key("incl_bias_rw_deg_sqrth", "incl_bias_rw_deg_sqrth", "float", "deg/√h",
+        "random-walk rate of the inclinometer bias (with bias_noise)",
+        "kalman.md A11 [assumption]", _NON_NEGATIVE),
 )
 # fmt: on
 

@@ -31,7 +31,8 @@ class SimRun:
     """Truth and measurements for ``runs`` Monte-Carlo runs at epochs t = 0, Δt, …, K·Δt (s).
 
     truth (runs, K+1, 11) in the filter's state order; gyro/log/depth/incl (runs, K+1);
-    fix (runs, K+1, 2) grid E/N (m) and fix_err the fix error that was added (m).
+    fix (runs, K+1, 2) grid E/N (m) and fix_err the fix error that was added (m), of which
+    fix_gm is the Gauss–Markov part (zero for white fix errors).
     """
 
     t: np.ndarray
@@ -42,6 +43,7 @@ class SimRun:
     incl: np.ndarray
     fix: np.ndarray
     fix_err: np.ndarray
+    fix_gm: np.ndarray
 
 
 def rate_sigmas(params: FilterParams) -> np.ndarray:
@@ -70,16 +72,23 @@ def simulate(
     fix_tau_s: float | None = None,
     fix_white_frac: float = 1.0,
     substeps: int = 4,
+    balanced_start: bool = False,
 ) -> SimRun:
     """Generate ``runs`` independent truths drawn from N(x0_mean, P0) and their measurements.
 
     ``fix_tau_s`` None gives white fix errors of σ ``fix_sigma_m`` per axis; otherwise the
     fix error is Gauss–Markov with variance (1 − fix_white_frac)·σ² and correlation time τ, plus
-    white noise of variance fix_white_frac·σ² (σ² total per axis).
+    white noise of variance fix_white_frac·σ² (σ² total per axis). ``balanced_start`` draws the
+    initial deviations with sample mean 0 and sample covariance exactly P0 (moment matching), so
+    the batch's initial errors carry no common offset into the states that stay unobservable.
     """
     n_ep = epochs + 1
     Lc = np.linalg.cholesky(P0)
-    s = x0_mean[None, :] + rng.standard_normal((runs, 11)) @ Lc.T
+    z0 = rng.standard_normal((runs, 11))
+    if balanced_start:
+        z0 -= z0.mean(axis=0)
+        z0 = z0 @ np.linalg.inv(np.linalg.cholesky(z0.T @ z0 / runs)).T
+    s = x0_mean[None, :] + z0 @ Lc.T
     truth = np.empty((runs, n_ep, 11))
     truth[:, 0] = s
     sig = rate_sigmas(params)
@@ -118,6 +127,7 @@ def simulate(
 
     if fix_tau_s is None:
         err = fix_sigma_m * rng.standard_normal((runs, n_ep, 2))
+        gm = np.zeros_like(err)
     else:
         s_gm = fix_sigma_m * math.sqrt(1.0 - fix_white_frac)
         s_w = fix_sigma_m * math.sqrt(fix_white_frac)
@@ -131,4 +141,4 @@ def simulate(
         err = gm + s_w * rng.standard_normal((runs, n_ep, 2))
     fix = truth[:, :, :2] + err
     t = np.arange(n_ep) * dt
-    return SimRun(t, truth, gyro, log, depth, incl, fix, err)
+    return SimRun(t, truth, gyro, log, depth, incl, fix, err, gm)

@@ -222,3 +222,142 @@ def test_cm_switches_and_reprojects(tmp_path: Path) -> None:
     dx = (b.lon_deg - a.lon_deg) * 111_000 * math.cos(math.radians(lat))
     assert math.hypot(dx, dy) < 15.0
     assert np.all(np.isfinite(res[-1].mpp.cov))
+
+
+# ------------------------------------------------------------------------------------------
+# Kalman ▸ Predict, fix sources, tests in the logs, Setup ▸ Current, immutability
+# ------------------------------------------------------------------------------------------
+
+DEMO = DATA / "DEMO.toml"
+
+
+def _demo_session(cycles: int, **filter_changes: object) -> Session:
+    cfg = load_config(DEMO)
+    if filter_changes:
+        cfg = cfg.replace(filter=replace(cfg.filter, **filter_changes))
+    s = Session(cfg)
+    s.run(max_cycles=cycles)
+    return s
+
+
+def test_predict_ellipse_does_not_depend_on_the_step() -> None:
+    """Kalman ▸ Predict over 600 s from the demo's state after 10 min (coloured model, surfaced):
+    the default q_mode "vanloan" integrates the noise exactly and Φ = I + FΔt is exact (F² = 0,
+    F constant along a prediction), so steps of 1, 10, 60 and 600 s give the same ellipse to
+    rounding (1e-9 relative; the sums of 600 steps lose ~1e-13). The thesis' per-step Q, by
+    contrast, gives an ellipse that grows with the step (the audit's 2971 … 34283 m)."""
+    s = _demo_session(600)
+    assert s.context.filter_params.q_mode == "vanloan"  # the configuration default
+    ell = [s.predict(600.0, h)[-1] for h in (1.0, 10.0, 60.0, 600.0)]
+    ref = ell[0]
+    assert ref.ellipse.a_m > 300.0  # a real prediction: 10 min of dead reckoning
+    for e in ell[1:]:
+        np.testing.assert_allclose(e.cov, ref.cov, rtol=1e-9)
+        assert (e.x_m, e.y_m) == pytest.approx((ref.x_m, ref.y_m), abs=1e-6)
+        assert e.ellipse.az_deg == pytest.approx(ref.ellipse.az_deg, abs=1e-6)
+    t = _demo_session(600, q_mode="thesis")
+    a_t = [t.predict(600.0, h)[-1].ellipse.a_m for h in (1.0, 600.0)]
+    assert a_t[0] == pytest.approx(ref.ellipse.a_m, rel=1e-3)  # same model at Δt = 1 s …
+    assert a_t[1] > 10 * a_t[0]  # … but not for a single 600-s step
+
+
+def test_gps_receiver_switch_restarts_the_fix_error_states() -> None:
+    """Coloured model (DEMO.toml): the Gauss–Markov pair's stationary VCV follows each LSE
+    (frac·C_LSE, not frozen at the first fix); switching C/A → P code starts a new error
+    process: at that epoch's prediction b = 0, P_bb = frac·C_LSE(P), no correlation with the
+    navigation states, and Φ has zero rows for b (the smoother's link stays consistent)."""
+    cfg = load_config(DEMO)
+    frac = cfg.filter.fix_sigma_frac
+    s = Session(cfg, collect_smoother=True)
+    r = None
+    for _ in range(300):
+        r = s.step()
+    fs = s.nav.filter
+    assert fs.fix_states == ("fix_e", "fix_n")
+    np.testing.assert_allclose(fs.fix_cov, frac * r.fix.cov, rtol=1e-12)  # refreshed each fix
+    s.apply(SetGps(on=True, receiver="P"))
+    r = s.step()
+    assert "Fix source changed: fix-error states restarted" in r.messages
+    start, pred, phi = r.smoother_link
+    c_p = frac * r.fix.cov
+    # P code: σ 8.9 m per axis (program.md A13) → C_LSE below (10 m)² per axis.
+    assert np.all(np.diag(r.fix.cov) < 100.0)
+    np.testing.assert_array_equal(pred.x[11:], [0.0, 0.0])
+    np.testing.assert_allclose(pred.P[11:, 11:], c_p, rtol=1e-12)
+    assert np.all(pred.P[11:, :11] == 0.0) and np.all(phi[11:, :] == 0.0)
+    np.testing.assert_allclose(s.nav.filter.fix_cov, c_p, rtol=1e-12)
+    # (start, pred, Φ) is a prediction: P_pred = Φ P Φᵀ + Q with Q_bb = frac·C_LSE(P).
+    q = pred.P - phi @ start.P @ phi.T
+    np.testing.assert_allclose(q[11:, 11:], c_p, rtol=1e-9)
+    assert np.abs(q[:11, 11:]).max() < 1e-9
+    r2 = s.step()  # the same source: no second restart
+    assert not any("restarted" in m for m in r2.messages)
+    sm = s.smooth()
+    assert len(sm) == 302 and all(np.all(np.isfinite(e.cov)) for e in sm)
+
+
+def test_sensor_update_tests_reach_the_result_the_out_log_and_jsonl(tmp_path: Path) -> None:
+    """Both filter updates of a cycle keep their LOM/LS results: the gyro/log rows (before the
+    step) and the fix rows (at the epoch). The LOM statistic is recomputed here from v̂ and S
+    (v̂ᵀS⁻¹v̂/p, bounds χ²_p(0.025, 0.975)/p from scipy, kalman.md §8/A12)."""
+    import json
+
+    from scipy.stats import chi2
+
+    from engine.outlog import read_out_log
+
+    s, res = _run(load_config(SAMPLE), out_path=tmp_path / "S.OUT",
+                  jsonl_path=tmp_path / "S.jsonl")
+    s.close()
+    r = res[4]
+    su, fu = r.sensor_update, r.filter_update
+    assert su is not None and fu is not None
+    assert su.labels == ("v_m", "psi_m") and fu.labels == ("x_LSE", "y_LSE")
+    v, S = np.asarray(su.innovation), np.asarray(su.S)
+    assert su.lom.t == pytest.approx(float(v @ np.linalg.solve(S, v)) / 2, rel=1e-10)
+    assert su.lom.upper == pytest.approx(chi2.ppf(0.975, 2) / 2, rel=1e-5)
+    cycle = read_out_log(tmp_path / "S.OUT").cycles[4]
+    tests = [f for tag, f in cycle.lines if tag == "TEST"]
+    assert [t["upd"] for t in tests] == ["epoch", "sensors"]  # epoch first (assess reads it)
+    assert tests[1]["rows"] == "v_m,psi_m" and tests[1]["dof"] == 2
+    assert tests[1]["lom"] == pytest.approx(su.lom.t, rel=1e-12)
+    assert tests[0]["lom"] == pytest.approx(fu.lom.t, rel=1e-12)
+    obj = json.loads((tmp_path / "S.jsonl").read_text().splitlines()[4])
+    assert [t["upd"] for t in obj["tests"]] == ["epoch", "sensors"]
+    assert obj["tests"][1]["rows"] == ["v_m", "psi_m"]
+    assert obj["tests"][1]["verdict"] == su.lom.verdict
+    assert obj["tests"][1]["ls"] == pytest.approx(np.round(su.ls.t, 3).tolist(), abs=1e-9)
+
+
+def test_set_current_is_rotated_to_the_grid() -> None:
+    """Setup ▸ Params ▸ Current gives the filter the current in the grid, like init_state:
+    grid set = true set − γ with γ = arctan(tan(λ − λ0) sin φ) at the MPP (kalman.md §6.1).
+    Hand calculation with the spherical formula, which differs from the TM series by < 1e-6°
+    this close to the CM (Δλ ≈ 0.47°): a 2-kn current setting 090° true."""
+    s = Session(load_config(SAMPLE))
+    s.step()
+    s.step()
+    lat, lon, cm = s.nav.mpp_lat_deg, s.nav.mpp_lon_deg, s.nav.cm_deg
+    gamma = math.degrees(math.atan(math.tan(math.radians(lon - cm))
+                                   * math.sin(math.radians(lat))))
+    assert -0.40 < gamma < -0.35  # west of 5°E at 52.8°N: grid north is east of true north
+    s.apply(SetCurrent(90.0, 2.0))
+    vc = 2.0 * 1852.0 / 3600.0
+    e, n = s.nav.filter.x[6], s.nav.filter.x[7]
+    assert e == pytest.approx(vc * math.cos(math.radians(gamma)), abs=1e-8)
+    assert n == pytest.approx(vc * math.sin(math.radians(gamma)), abs=1e-7)  # ≈ −6.6 mm/s
+    assert n < -0.006
+
+
+def test_cycle_result_arrays_are_read_only() -> None:
+    """A cycle result is an immutable value: its covariances, the fix's arrays, the update's
+    innovation/S/K and the smoother link's Φ cannot be written."""
+    s = Session(load_config(SAMPLE))
+    s.step()
+    r = s.step()
+    arrays = [r.mpp.cov, r.kf.cov, r.kf_pred.cov, r.fix.cov, r.fix.ellipse.eigenvectors,
+              r.filter_update.K, r.filter_update.S, r.filter_update.innovation,
+              r.sensor_update.K, r.smoother_link[2], r.filter_state.P]
+    for a in arrays:
+        with pytest.raises(ValueError):
+            a[(0,) * a.ndim] = 1.0

@@ -55,7 +55,8 @@ def test_phi_gamma_rows_match_section_6_10() -> None:
 
 
 def test_p_1_0_position_block_from_identity() -> None:
-    p = kf.FilterParams()
+    """§6.10's P₁|₀ is computed with the thesis Γ Q Γᵀ (6.32, q per 1-s step)."""
+    p = kf.FilterParams(q_mode="thesis")
     s = _example_state(p)
     s1 = kf.predict(s, 1.0, p)
     # kalman.md §6.10 prints 3 decimals: tolerance half a unit in the last place.
@@ -66,6 +67,16 @@ def test_p_1_0_position_block_from_identity() -> None:
     gqg = s1.P[:3, :3] - (Phi @ Phi.T)[:3, :3]
     # "The Γ Q Γᵀ contribution to that block is only about 10⁻³ m²".
     assert 1e-4 < np.abs(gqg).max() < 2e-3
+    # The default "vanloan" mode (A5) differs at Δt = 1 s only in the position block, by the
+    # exact integral's F M Fᵀ Δt³/3 instead of Γ's Δt³/4: + F[:3, 3:] diag(q) F[:3, 3:]ᵀ / 12.
+    d = kf.FilterParams()
+    assert d.q_mode == "vanloan"
+    F = kf.jacobian(s.x)[:3, 3:]
+    q = np.diag(kf.process_noise(d, 1.0))
+    extra = (F * q) @ F.T / 12.0
+    np.testing.assert_allclose(kf.predict(s, 1.0, d).P[:3, :3] - s1.P[:3, :3], extra,
+                               rtol=1e-9, atol=1e-12)
+    assert np.abs(extra).max() < 5e-4  # below the printed 3 decimals' half unit
 
 
 def test_noise_variances_recomputed_from_thesis_inputs() -> None:
@@ -560,6 +571,64 @@ def test_coloured_lse_rows_and_white_part() -> None:
     # an 11-column measurement is zero-padded onto the augmented state
     r4 = kf.update(r.state, kf.sensor_measurement(s, log_ms=6.0, params=p), p)
     assert r4.state.n == 13
+
+
+def test_fix_error_stationary_vcv_follows_each_fix() -> None:
+    """The Gauss–Markov pair's stationary VCV is frac·C of the latest LSE, not of the first:
+    after a C/A fix (C₁) and a P-code fix (C₂), the next prediction drives b towards frac·C₂,
+    P_bb(Δt) = P_bb·ρ² + frac·C₂·(1 − ρ²), ρ = e^{−Δt/τ} (kalman.md §3.2)."""
+    p = kf.FilterParams(coloured=True, fix_tau_s=240.0, fix_sigma_frac=0.9)
+    s = _moving_state(p)
+    c1 = np.array([[734.0, -200.0], [-200.0, 177.0]]) / 0.9
+    c2 = np.array([[63.0, -8.0], [-8.0, 40.0]]) / 0.9
+    s1 = kf.update(s, kf.lse_measurement(1.0, 2.0, c1, p), p).state
+    np.testing.assert_allclose(s1.fix_cov, 0.9 * c1, rtol=1e-12)
+    s2 = kf.update(kf.predict(s1, 1.0, p), kf.lse_measurement(8.0, 4.0, c2, p), p).state
+    np.testing.assert_allclose(s2.fix_cov, 0.9 * c2, rtol=1e-12)
+    rho2 = math.exp(-2 * 60.0 / 240.0)
+    s3 = kf.predict(s2, 60.0, p)
+    np.testing.assert_allclose(s3.P[11:, 11:], s2.P[11:, 11:] * rho2 + 0.9 * c2 * (1 - rho2),
+                               rtol=1e-12)
+
+
+def test_restart_fix_states_is_a_zero_row_transition() -> None:
+    """A new fix source: b = 0, P_bb = its stationary VCV, no correlation with the other states;
+    the returned Φ has zero rows for b, so P' = Φ' P Φ'ᵀ + Q' with Q'_bb = C (smoother link)."""
+    p = kf.FilterParams(coloured=True, fix_tau_s=240.0)
+    s = _moving_state(p)
+    s = kf.update(s, kf.lse_measurement(1.0, 2.0, np.eye(2) * 900.0, p), p).state
+    start = kf.update(kf.predict(s, 1.0, p), kf.lse_measurement(9.0, 1.0, np.eye(2) * 900.0, p),
+                      p).state
+    pred, phi = kf.predict_step(start, 1.0, p)
+    c = np.array([[60.0, -9.0], [-9.0, 40.0]])
+    new, phi2 = kf.restart_fix_states(pred, ("fix_e", "fix_n"), c, phi)
+    assert np.all(new.x[11:] == 0.0) and np.all(new.P[11:, :11] == 0.0)
+    np.testing.assert_array_equal(new.P[11:, 11:], c)
+    np.testing.assert_array_equal(new.fix_cov, c)
+    np.testing.assert_array_equal(new.P[:11, :11], pred.P[:11, :11])
+    assert np.all(phi2[11:] == 0.0)
+    np.testing.assert_allclose(np.diag(phi)[11:], math.exp(-1.0 / 240.0))  # input untouched
+    q = new.P - phi2 @ start.P @ phi2.T
+    np.testing.assert_allclose(q[11:, 11:], c, rtol=1e-12)
+    assert np.abs(q[:11, 11:]).max() < 1e-12
+    # keys the state does not carry are ignored (they are added on first use)
+    same, _ = kf.restart_fix_states(_moving_state(p), ("fix_e", "fix_n"), c)
+    assert same.n == 11
+
+
+def test_physical_p0_from_sensor_readings_correlates_state_and_bias() -> None:
+    """ψ̂₀ = the gyro reading = ψ + Δψ + v: its error is Δψ + v, so P_ψψ = σ_g² + σ_b²,
+    P_ψΔψ = −σ_b², while the sum ψ + Δψ keeps the reading's σ_g² (A7 values, eq. 6.28)."""
+    p = kf.FilterParams(p0="physical")
+    s = kf.init_state(0.0, 0.0, 0.0, 0.0, 6.0, 1.0, 0.0, 0.0, 0.0, p,
+                      from_sensors=(True, True, False))
+    sg, sb = (0.65 * D) ** 2, D**2
+    assert s.P[4, 4] == pytest.approx(sg + sb) and s.P[4, 9] == pytest.approx(-sb)
+    h = np.zeros(11)
+    h[4] = h[9] = 1.0
+    assert h @ s.P @ h == pytest.approx(sg, rel=1e-12)
+    assert s.P[3, 8] == pytest.approx(-0.01) and s.P[5, 10] == 0.0  # ε not from a sensor
+    assert np.linalg.eigvalsh(s.P).min() > 0.0
 
 
 # ------------------------------------------------------------------------------------------

@@ -329,7 +329,7 @@ def test_demo_page_navigator_and_developer(run: Run) -> None:
     assert "Decca.CF" not in text
     dev = "\n".join(demo_page_lines(cfg, True, 100))
     for label, value in (("ScaleVCV", "off"), ("LOPReject", "A"), ("ConfRegion", "95 %"),
-                         ("Decca.CF", "64"), ("GPS.SE_SF", "1"), ("Q scale", "1"),
+                         ("Decca.CF", "64"), ("GPS.SE_SF", "0.49"), ("Q scale", "1"),
                          ("Decca Red", "0 lanes"), ("epsilon", "1 m"), ("ReliabInterval", "5 %")):
         assert f"  {label:<15}{value}" in dev
     short = demo_page_lines(cfg, True, 62, 20)

@@ -62,6 +62,7 @@ def test_omitted_keys_take_the_a82_defaults() -> None:
     sensors = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")
     assert [cfg.sensors.status(s) for s in sensors] == [1, 1, 0, 2, 0, 2]  # L8718–8723
     assert cfg.filter.on is True  # Filtering ON (L7641)
+    assert cfg.filter.q_mode == "vanloan"  # step-size invariant Q (kalman.md A5)
     assert cfg.datum == "ED50" and cfg.run_gps_datum == "WGS84"
     assert cfg == default_config()
 
@@ -158,6 +159,8 @@ MALFORMED = [
     ("depth_m = 1500.0\n", 1, "depth_m", "Wrong depth input !"),
     ('current_speed_kn = "2"\n', 1, "current_speed_kn", "Wrong type: a number expected !"),
     ('[filter]\nmodel = "colored"\n', 2, "filter.model", 'Must be one of "thesis", "coloured" !'),
+    ('[filter]\nq_mode = "exact"\n', 2, "filter.q_mode",
+     'Must be one of "vanloan", "thesis", "psd" !'),
     ("lsq = 3\n", 1, "lsq", "Wrong type: a table expected !"),
     ('datum = "ED50"\ndepth_m = \n', 2, "depth_m", None),  # TOML syntax error
     ('datum = "ED50"\n[gps\non = true\n', 2, None, None),  # TOML syntax error in a header
@@ -286,3 +289,27 @@ def test_odd_toml_values_are_input_errors(text: str, field: str) -> None:
         parse_config_text(text)
     assert caught.value.field == field
     assert caught.value.line is not None
+
+
+def test_filter_keys_reach_the_filter_parameters() -> None:
+    """q_mode and the A11 bias random walks go from the TOML to engine.kalman: with
+    gyro_bias_rw_deg_sqrth = 0.7 the gyro-bias PSD is (0.7°)²/3600 s per s (rad²/s), and the
+    biases have no noise at all unless bias_noise is on (the thesis' random constants)."""
+    import math
+
+    import numpy as np
+
+    from engine.cycle import filter_params_from_config
+    from engine.kalman import process_noise
+
+    off = filter_params_from_config(parse_config_text(""))
+    assert off.q_mode == "vanloan" and not off.bias_noise
+    assert np.all(np.diag(process_noise(off, 1.0))[5:] == 0.0)
+    cfg = parse_config_text('[filter]\nq_mode = "THESIS"\nbias_noise = true\n'
+                            "gyro_bias_rw_deg_sqrth = 0.7\nlog_bias_rw_ms_sqrth = 0.02\n")
+    p = filter_params_from_config(cfg)
+    assert p.q_mode == "thesis" and p.bias_noise
+    q = np.diag(process_noise(p, 1.0))
+    assert q[6] == pytest.approx(math.radians(0.7) ** 2 / 3600.0, rel=1e-12)
+    assert q[5] == pytest.approx(0.02**2 / 3600.0, rel=1e-12)
+    assert q[7] == pytest.approx(math.radians(0.1) ** 2 / 3600.0, rel=1e-12)
