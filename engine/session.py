@@ -189,7 +189,8 @@ class Session:
         self.rejected_lops = 0
         self._run_name = os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
-        self._read = 0
+        self._since_processed: int | None = None
+        """Good records read since the last processed one (None before the first)."""
         self._prev_nav: NavState | None = None
         self._prev_record: RunRecord | None = None
         self._smoother: list[SmootherRecord] | None = [] if collect_smoother else None
@@ -247,9 +248,13 @@ class Session:
                               item.raw)
                 self.bad_records.append(item)
                 continue
-            self._read += 1
-            if (self._read - 1) % delta:
-                continue  # DeltaT: process every DeltaT-th record (program.md A21)
+            # DeltaT: process every DeltaT-th record (program.md A21), counted from the last
+            # processed one, so a new DeltaT takes effect from the next cycle.
+            since = delta if self._since_processed is None else self._since_processed + 1
+            if since < delta:
+                self._since_processed = since
+                continue
+            self._since_processed = 0
             return item
         self.eof = True
         return None
