@@ -127,6 +127,8 @@ class RunContext:
     chains: dict[str, DeccaChain]
     working: Datum
     gps_shift: DatumShift | None
+    gps_to_wgs84: DatumShift | None
+    """``run_gps_datum`` → WGS84 for the Pg 100 ECEF and height (None when the .RUN is WGS84)."""
     geodesic: GeodesicSolver
     filter_params: FilterParams
     lsq: LsqSettings
@@ -167,6 +169,7 @@ def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChai
     shift = None if gps_datum.name.upper() == working.name.upper() else datum_shift(
         gps_datum, working
     )
+    to_wgs = None if gps_datum is WGS84 else datum_shift(gps_datum, WGS84)
     d = cfg.decca
     zl = tuple(
         parse_zone_lane(text, pattern) if text else None
@@ -178,6 +181,7 @@ def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChai
         chains=chains,
         working=working,
         gps_shift=shift,
+        gps_to_wgs84=to_wgs,
         geodesic=GeodesicSolver(working.ellipsoid),
         filter_params=filter_params_from_config(cfg),
         lsq=lsq_settings_from_config(cfg),
@@ -295,8 +299,15 @@ def _status(cfg: RunConfig, name: str) -> int:
     return STATUS_CODE[getattr(cfg.sensors, name)]
 
 
+DEPTH_PLAUSIBLE_M = (-20.0, 11_000.0)
+"""Pressure depths (m, positive down) a reading may give: from 20 m above the surface (a wrong
+reference frequency, a crystal out of calibration) to the deepest ocean. A reading outside is
+not used; the cycle says so (a run must not take a −268 km depth into the filter)."""
+
+
 def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
-             lat: float, lon: float) -> tuple[SensorValues, float | None]:
+             lat: float, lon: float,
+             messages: list[str]) -> tuple[SensorValues, float | None]:
     cfg = ctx.config
     status = tuple(_status(cfg, n) for n in SENSOR_NAMES)
 
@@ -309,6 +320,10 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
         if ref is None:
             ref = surface_reference_hz(cfg.demo.press_ref_freq_hz)
         depth = pressure_depth_m(rec.press_freq_hz, ref, cfg.demo.s_weight)
+        if not DEPTH_PLAUSIBLE_M[0] <= depth <= DEPTH_PLAUSIBLE_M[1]:
+            messages.append(f"Pressure {rec.press_freq_hz:.3f} Hz gives depth {depth:.0f} m: "
+                            "implausible, not used")
+            depth = None
     values = SensorValues(
         status=status,
         heading_true_deg=val(0, rec.heading_deg),
@@ -371,12 +386,10 @@ def _gps_input(ctx: RunContext, rec: RunRecord, grid: TMGrid) -> GpsInput | None
     else:
         # h = 0 on the source datum for the horizontal transformation (lsq.md §2.1).
         lat, lon, h_datum = ctx.gps_shift.transform(lat_in, lon_in, 0.0)
-    if cfg.run_gps_datum.upper() == "WGS84":
+    if ctx.gps_to_wgs84 is None:
         w_lat, w_lon, hg = lat_in, lon_in, -h_datum
     else:
-        to_wgs = datum_shift(ctx.datums.datum(cfg.run_gps_datum), WGS84)
-        w_lat, w_lon, w_h = to_wgs.transform(lat, lon, 0.0)
-        hg = w_h
+        w_lat, w_lon, hg = ctx.gps_to_wgs84.transform(lat_in, lon_in, 0.0)
     ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
     x, y = grid.forward(lat, lon)
     return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y)
@@ -420,7 +433,8 @@ def step(
     if fstate is not None and nav.cm_deg is not None and cm != nav.cm_deg:
         fstate = reproject_state(fstate, ctx.grid(nav.cm_deg), grid)
         messages.append(f"CM changed to {cm:+.0f}°: grid re-projected")
-    sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg)
+    sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg,
+                               messages)
     gamma = sens.convergence_deg
     heading_grid = (
         None if sens.heading_true_deg is None else math.radians(sens.heading_true_deg - gamma)

@@ -361,3 +361,40 @@ def test_cycle_result_arrays_are_read_only() -> None:
     for a in arrays:
         with pytest.raises(ValueError):
             a[(0,) * a.ndim] = 1.0
+
+
+def test_gps_on_another_datum_than_the_working_one() -> None:
+    """The sample's .RUN positions read as ED50 (run_gps_datum) on a WGS84 working datum: the
+    WGS84 fix shown on Pg 611/100 is the *received* ED50 position shifted once to WGS84, and
+    the working-datum position is the same point (both WGS84 here). The ED50 → WGS84 shift is
+    checked against PROJ in test_geodesy; at 52.8°N it moves the point ~ 95 m."""
+    cfg = load_config(SAMPLE).replace(datum="WGS84")
+    assert cfg.run_gps_datum == "ED50"
+    s = Session(cfg)
+    r = s.step()
+    g = r.gps
+    shift = datum_shift(s.datums.datum("ED50"), s.datums.datum("WGS84"))
+    lat, lon, _h = shift.transform(g.lat_in_deg, g.lon_in_deg, 0.0)
+    assert (g.wgs84_lat_deg, g.wgs84_lon_deg) == pytest.approx((lat, lon), abs=1e-12)
+    assert (g.lat_deg, g.lon_deg) == pytest.approx((lat, lon), abs=1e-9)
+    moved_m = math.hypot((lat - g.lat_in_deg) * 111_000,
+                         (lon - g.lon_in_deg) * 111_000 * math.cos(math.radians(lat)))
+    assert 50.0 < moved_m < 150.0
+
+
+def test_implausible_pressure_depth_is_not_used(tmp_path: Path) -> None:
+    """A crystal frequency that converts to a depth outside [-20 m, 11 km] (499 980 Hz gives
+    −268 km with the demo's reference) is reported and kept out of the filter."""
+    lines = [
+        "920917 083539 - - - - - 19.0 10.0 - - 39939.662",  # the surface reference: 0 m
+        "920917 083540 - - - - - 19.0 10.0 - - 499980.000",
+        "920917 083541 - - - - - 19.0 10.0 - - 39939.662",
+    ]
+    run = tmp_path / "P.RUN"
+    run.write_text("\n".join(lines) + "\n")
+    s = Session(load_config(DATA / "DEMO.toml").replace(run_file=str(run)))
+    r1, r2, r3 = s.step(), s.step(), s.step()
+    assert r1.sensors.depth_m == pytest.approx(0.0, abs=1e-6)
+    assert r2.sensors.depth_m is None
+    assert any("implausible, not used" in m for m in r2.messages)
+    assert abs(r3.mpp.depth_m) < 5.0 and abs(r3.filter_state.x[3]) < 10.0  # depth, speed sane
