@@ -387,7 +387,8 @@ def _read_out(name: str) -> NavLog:
         mpp = c.first("MPP")
         builders["kf"].add(mpp if f.get("source") == "KF" else None)
         builders["mpp"].add(mpp)
-        test = c.first("TEST")
+        # NIS of the epoch's update (fix and depth), not of the sensor update (upd=sensors).
+        test = next((t for t in c.all("TEST") if t.get("upd") != "sensors"), None)
         p = test.get("dof") if test is not None else None
         lom = _f(test.get("lom")) if test is not None else math.nan
         if isinstance(p, int) and p > 0 and math.isfinite(lom):
