@@ -30,6 +30,7 @@ from engine.operator_input import (
     MAX_DEPTH_M,
     MAX_SPEED_KN,
     PATTERNS,
+    SIGNED_DECIMAL_RE,
     SPEED_MESSAGE,
     ZONE_LETTERS,
     parse_datum_name,
@@ -407,6 +408,38 @@ CorrectionsConfig.KEYS = (
         "fixed-error correction added to the Purple reading", "L6520; Pg 615; A7"),
 )
 # fmt: on
+
+
+DECCA_CF_CONDITIONS: dict[str, tuple[str, float]] = {
+    "SD": ("summer day", 64.0),
+    "WD": ("winter day", 4.0),
+    "SN": ("summer night", 1.0),
+    "WN": ("winter night", 1.0 / 2.25),
+}
+"""``Decca.CF`` per season and time of day (A8.2, thesis L8352; Pg 615 "(SD)"): the divisor of the
+Decca sky-wave variances. Code → (name, CF)."""
+
+
+def decca_cf_condition(cf: float) -> str | None:
+    """The condition code (``SD`` …) whose CF is ``cf``, or None for another value."""
+    for code, (_name, value) in DECCA_CF_CONDITIONS.items():
+        if math.isclose(cf, value, rel_tol=1e-9):
+            return code
+    return None
+
+
+def parse_decca_cf(text: str) -> float:
+    """``Decca.CF`` as typed: a positive number, a condition code (``SD``, ``WD``, ``SN``,
+    ``WN``) or its name (``winter night``), any case; InputError otherwise."""
+    t = " ".join(text.split()).lower()
+    for code, (name, value) in DECCA_CF_CONDITIONS.items():
+        if t in (code.lower(), name):
+            return value
+    value = float(t) if SIGNED_DECIMAL_RE.fullmatch(t) else math.nan
+    if not value > 0.0:
+        raise InputError("Decca.CF: a number > 0 or SD, WD, SN, WN !", field="decca_cf",
+                         text=text)
+    return value
 
 
 @dataclass(frozen=True)

@@ -635,6 +635,11 @@ def test_developer_parameter_dialogs(data_dir: Path) -> None:
         await menu(pilot, "alt+d", "l")
         await fill(pilot, "param-lop_reject", "Y")
         await fill(pilot, "param-conf_region_pct", "99")
+        cf = await fill(pilot, "param-decca_cf", "autumn")
+        assert message_of(cf) == "Decca.CF: a number > 0 or SD, WD, SN, WN !"
+        await menu(pilot, "enter")
+        assert isinstance(app.screen, Dialog) and cf.text == "autumn"  # kept, not applied
+        await fill(pilot, "param-decca_cf", "winter night")
         await menu(pilot, "enter")
         await menu(pilot, "alt+d", "f")
         await fill(pilot, "param-q_scale", "2")
@@ -642,6 +647,7 @@ def test_developer_parameter_dialogs(data_dir: Path) -> None:
         cfg = app.control.session.config
         assert cfg.corrections.decca_red_lanes == 0.02
         assert (cfg.lsq.lop_reject, cfg.lsq.conf_region_pct) == ("Y", 99.0)
+        assert cfg.lsq.decca_cf == 1.0 / 2.25  # winter night (A8.2)
         assert cfg.filter.q_scale == 2.0
         await menu(pilot, "alt+s", "p", "r", "alt+d", "l")
         screen = app.screen

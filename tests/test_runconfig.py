@@ -313,3 +313,24 @@ def test_filter_keys_reach_the_filter_parameters() -> None:
     assert q[6] == pytest.approx(math.radians(0.7) ** 2 / 3600.0, rel=1e-12)
     assert q[5] == pytest.approx(0.02**2 / 3600.0, rel=1e-12)
     assert q[7] == pytest.approx(math.radians(0.1) ** 2 / 3600.0, rel=1e-12)
+
+
+@pytest.mark.parametrize(("text", "cf"), [
+    ("64", 64.0), ("SD", 64.0), ("summer day", 64.0), ("wd", 4.0), ("Winter  Day", 4.0),
+    ("SN", 1.0), ("winter night", 1.0 / 2.25), ("0.5", 0.5),
+])
+def test_decca_cf_by_season_and_time_of_day(text: str, cf: float) -> None:
+    """Decca.CF as the operator types it: A8.2's four conditions by code or name, or a number."""
+    from engine.runconfig import decca_cf_condition, parse_decca_cf
+
+    assert parse_decca_cf(text) == cf
+    assert decca_cf_condition(64.0) == "SD" and decca_cf_condition(1 / 2.25) == "WN"
+    assert decca_cf_condition(2.0) is None
+
+
+@pytest.mark.parametrize("text", ["", "0", "-4", "autumn", "1e2", "inf", "nan", "٦٤"])
+def test_decca_cf_rejects(text: str) -> None:
+    from engine.runconfig import parse_decca_cf
+
+    with pytest.raises(InputError, match="Decca.CF: a number > 0 or SD, WD, SN, WN !"):
+        parse_decca_cf(text)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from engine.cycle import CycleResult
 from engine.fix import SLOT_DECCA
+from engine.runconfig import decca_cf_condition
 from engine.session import Session
 from uvnav_tui.page_text import TextPage, labelled_matrix, num
 from uvnav_tui.pages import register_page
@@ -22,16 +23,9 @@ from uvnav_tui.pages import register_page
 PAGE_NUMBER = 615
 TITLE = "Decca statistical data :"
 PATTERN_NAMES = ("Red", "Green", "Purple")
-CONDITIONS = {64.0: "SD", 4.0: "WD", 1.0: "SN", 1.0 / 2.25: "WN"}
-"""``Decca.CF`` → condition label (A8.2: summer day, winter day, summer night, winter night)."""
-
-
 def condition_label(cf: float) -> str:
     """``SD`` for Decca.CF 64 (summer's day) …, else ``CF <value>``."""
-    for value, label in CONDITIONS.items():
-        if abs(cf - value) < 1e-9:
-            return label
-    return f"CF {cf:g}"
+    return decca_cf_condition(cf) or f"CF {cf:g}"
 
 
 def render(r: CycleResult, session: Session) -> str:

@@ -11,7 +11,15 @@ the engine uses.  Editing is the console's Demo-menu dialogs' business, not this
 from __future__ import annotations
 
 from engine.cycle import CycleResult
-from engine.runconfig import CorrectionsConfig, DemoConfig, FilterConfig, Key, LsqConfig, RunConfig
+from engine.runconfig import (
+    CorrectionsConfig,
+    DemoConfig,
+    FilterConfig,
+    Key,
+    LsqConfig,
+    RunConfig,
+    decca_cf_condition,
+)
 from engine.session import Session
 from uvnav_tui.page_642 import ThrottledTextPage
 from uvnav_tui.pages import register_page
@@ -79,11 +87,20 @@ def value_text(value: object, unit: str) -> str:
     return text
 
 
+def _shown(attr: str, value: object, unit: str) -> str:
+    """:func:`value_text`, with Decca.CF's condition code (``64 SD``, A8.2)."""
+    text = value_text(value, unit)
+    if attr == "decca_cf" and isinstance(value, float):
+        code = decca_cf_condition(value)
+        text = f"{text} {code}" if code else text
+    return text
+
+
 def _rows(table: object, cls: type, rows: tuple[tuple[str, str], ...], width: int) -> list[str]:
     out = []
     for attr, label in rows:
         key = _key(cls, attr)
-        line = (f"  {label:<{LABEL_W}}{value_text(getattr(table, attr), key.unit):<{VALUE_W}}"
+        line = (f"  {label:<{LABEL_W}}{_shown(attr, getattr(table, attr), key.unit):<{VALUE_W}}"
                 f" {DOC_OVERRIDES.get(attr, key.doc)}")
         out.append(line[:width].rstrip())
     return out
@@ -103,7 +120,7 @@ def _compact_dev_rows(cfg: RunConfig, width: int) -> list[str]:
                                                                FILTER_ROWS)):
         for attr, label in rows:
             unit = _key(cls, attr).unit
-            cells.append(f"{label:<{LABEL_W}}{value_text(getattr(table, attr), unit):<{VALUE_W}}")
+            cells.append(f"{label:<{LABEL_W}}{_shown(attr, getattr(table, attr), unit):<{VALUE_W}}")
     for i in range(0, len(cells), 2):
         out.append("  " + "".join(cells[i:i + 2]).rstrip())
     return [ln[:width] for ln in out]

@@ -19,7 +19,7 @@ from textual.widgets import Checkbox
 
 from engine.commands import SetParameters
 from engine.errors import InputError
-from engine.runconfig import Key
+from engine.runconfig import DECCA_CF_CONDITIONS, Key, decca_cf_condition, parse_decca_cf
 from uvnav_tui.dialog import Dialog
 from uvnav_tui.validated_field import ValidatedField
 
@@ -46,7 +46,9 @@ def key_parser(table: Any, key: Key) -> Callable[[str], Any]:
 
     def parse(text: str) -> Any:
         raw: Any
-        if key.kind == "float":
+        if key.attr == "decca_cf":  # season × day/night by name, or a number (A8.2)
+            raw = parse_decca_cf(text)
+        elif key.kind == "float":
             try:
                 raw = float(text.strip())
             except ValueError:
@@ -81,6 +83,9 @@ class ParametersDialog(Dialog[SetParameters]):
             for key in self.keys:
                 label = key.key if key.unit in ("—", "") else f"{key.key} ({key.unit})"
                 value = getattr(self.table, key.attr)
+                if key.attr == "decca_cf":
+                    label = f"{key.key} ({', '.join(DECCA_CF_CONDITIONS)} or a number)"
+                    value = decca_cf_condition(value) or value
                 if key.kind == "bool":
                     yield Checkbox(label, value, id=f"param-{key.attr}", compact=True)
                 else:
