@@ -285,6 +285,12 @@ def test_650_state_tests_and_mpp(sample: tuple[Session, CycleResult]) -> None:
         assert re.search(rf"{label}\s+t =\s+{t:.2f}", text)
     a, b = r.kf.ellipse.scaled(0.95)  # type: ignore[union-attr]
     assert f"a {a:.2f} m  b {b:.2f} m" in text and "95.0% ellipsoid" in text
+    su = r.sensor_update  # the gyro/log update of this record (README "Sensor timing")
+    assert su is not None
+    tail = text.split("Sensor update", 1)[1]
+    assert f"T = {su.lom.t:.3f}" in tail
+    for label, t in zip(su.labels, su.ls.t, strict=True):
+        assert re.search(rf"{label}\s+t =\s+{num(float(t), 2)}", tail)
 
 
 def test_641_positions(sample: tuple[Session, CycleResult]) -> None:

@@ -64,7 +64,7 @@ def test_lines(u: UpdateResult | None) -> list[str]:
         return ["LOM test : no filter update this cycle"]
     lom = u.lom
     out = [f"LOM test : T = {num(lom.t, 3)}   {num(lom.lower, 3)} < T < {num(lom.upper, 3)}"
-           f"   (p = {lom.dof})   {VERDICTS.get(lom.verdict, lom.verdict)}"]
+           f"  (p = {lom.dof})  {VERDICTS.get(lom.verdict, lom.verdict)}"]
     t = u.ls.t
     flags = u.ls.flags
     ident = u.ls.identified
@@ -109,6 +109,9 @@ def render(r: CycleResult, session: Session) -> str:
     out += state_lines(fs)
     out.append("")
     out += test_lines(r.filter_update)
+    if r.sensor_update is not None:
+        out += ["", "Sensor update (gyro, log, inclinometer; applied at the previous epoch):"]
+        out += test_lines(r.sensor_update)
     out.append("")
     out += mpp_lines(r, session)
     return "\n".join(out)
