@@ -15,7 +15,6 @@ import dataclasses
 import math
 import os
 import re
-import tomllib
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,13 +36,17 @@ from engine.operator_input import (
     parse_position,
     parse_zone_lane,
 )
+from engine.tomlsource import (
+    UNKNOWN_KEY_MESSAGE,
+    UNKNOWN_TABLE_MESSAGE,
+    parse_located,
+    read_text,
+)
 
-UNKNOWN_KEY_MESSAGE = "Unknown key !"
-UNKNOWN_TABLE_MESSAGE = "Unknown table !"
 UNKNOWN_PATTERN_MESSAGE = "Unknown Decca pattern !"
 PATTERN_NOT_ENTERED_MESSAGE = "No zone/lane entered for this pattern !"
 PATTERN_TWICE_MESSAGE = "Pattern selected twice !"
-FILE_NOT_FOUND_MESSAGE = "File not found !"
+UNKNOWN_CHAIN_MESSAGE = "Unknown chain !"
 
 _SENSOR_CODES = {"on": 1, "off": 0, "n/a": 2}
 """Sensor state word → A8.2 status code (1 on, 0 connected but off, 2 not connected, L8729)."""
@@ -787,7 +790,10 @@ def _build_table(table: str, cls: type, data: Mapping[str, Any]) -> Any:
     return obj
 
 
-def _with_datums(cfg: RunConfig, known_datums: Iterable[str] | None) -> RunConfig:
+def _with_names(cfg: RunConfig, known_datums: Iterable[str] | None,
+                known_chains: Iterable[str] | None) -> RunConfig:
+    if known_chains is not None and cfg.decca.chain not in set(known_chains):
+        raise InputError(UNKNOWN_CHAIN_MESSAGE, field="decca.chain", text=cfg.decca.chain)
     if known_datums is None:
         return cfg
     names = list(known_datums)
@@ -802,134 +808,30 @@ def parse_config_text(
     filename: str = "<string>",
     base_dir: Path = Path("."),
     known_datums: Iterable[str] | None = None,
+    known_chains: Iterable[str] | None = None,
 ) -> RunConfig:
     """Parse TOML ``text`` into a RunConfig; omitted keys take their defaults.
 
     Relative paths resolve against ``base_dir``. If ``known_datums`` (the names of
     TO_WGS84.DAT section 2) is given, ``datum`` and ``run_gps_datum`` must be among them and
-    are returned in the file's spelling. Errors are InputErrors with ``file=filename``, the
-    1-based line of the offending key (or of the TOML syntax error), ``field`` and ``text``.
+    are returned in the file's spelling; if ``known_chains`` (DECCA.CHN ids) is given,
+    ``decca.chain`` must be one. Errors are InputErrors with ``file=filename``, the 1-based line
+    of the offending key (or of the TOML syntax error), ``field`` and ``text``.
     """
-    index = _SourceIndex(text)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise index.syntax_error(err, filename) from None
-    try:
-        return _with_datums(_build(data, Path(base_dir)), known_datums)
-    except InputError as err:
-        raise index.locate(err, filename) from None
+    return parse_located(
+        text, filename,
+        lambda data: _with_names(_build(data, Path(base_dir)), known_datums, known_chains))
 
 
 def load_config(
-    path: str | os.PathLike[str], known_datums: Iterable[str] | None = None
+    path: str | os.PathLike[str],
+    known_datums: Iterable[str] | None = None,
+    known_chains: Iterable[str] | None = None,
 ) -> RunConfig:
     """Load a TOML run configuration file (see :func:`parse_config_text`)."""
     file = Path(path)
-    try:
-        raw = file.read_bytes()
-    except OSError:
-        raise InputError(FILE_NOT_FOUND_MESSAGE, file=str(file), text=str(path)) from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as err:
-        line = raw[: err.start].count(b"\n") + 1
-        raise InputError("File is not UTF-8 text !", file=str(file), line=line) from None
-    return parse_config_text(text, str(file), file.parent, known_datums)
-
-
-# --------------------------------------------------------------------------------------------
-# Locating errors in the TOML source
-
-_KEY_PART = r"""(?:[A-Za-z0-9_-]+|"[^"\n]*"|'[^'\n]*')"""
-_KEY_LINE_RE = re.compile(rf"\s*({_KEY_PART}(?:\s*\.\s*{_KEY_PART})*)\s*=(.*)")
-_HEADER_RE = re.compile(rf"\s*\[\[?\s*({_KEY_PART}(?:\s*\.\s*{_KEY_PART})*)\s*\]\]?\s*(?:#.*)?")
-_TOML_POS_RE = re.compile(r"\s*\(at (?:line (\d+), column \d+|end of document)\)\s*$")
-
-
-def _dotted(raw: str) -> str:
-    parts = re.findall(_KEY_PART, raw)
-    return ".".join(p[1:-1] if p[:1] in "\"'" else p for p in parts)
-
-
-def _strip_comment(value: str) -> str:
-    """The value text before an end-of-line ``#`` comment (quotes respected)."""
-    quote = ""
-    i = 0
-    while i < len(value):
-        ch = value[i]
-        if quote:
-            if ch == "\\" and quote == '"':
-                i += 1
-            elif ch == quote:
-                quote = ""
-        elif ch in "\"'":
-            quote = ch
-        elif ch == "#":
-            return value[:i].strip()
-        i += 1
-    return value.strip()
-
-
-class _SourceIndex:
-    """Line numbers and value texts of every ``table.key`` in a TOML text (best effort)."""
-
-    def __init__(self, text: str) -> None:
-        self.lines = text.splitlines()
-        self.where: dict[str, tuple[int, str | None]] = {}
-        table = ""
-        in_string = ""
-        for number, line in enumerate(self.lines, start=1):
-            if in_string:
-                if in_string in line:
-                    in_string = ""
-                continue
-            header = _HEADER_RE.fullmatch(line)
-            if header is not None:
-                table = _dotted(header.group(1))
-                self.where.setdefault(table, (number, None))
-                continue
-            match = _KEY_LINE_RE.match(line)
-            if match is None:
-                continue
-            name = _field_name(table, _dotted(match.group(1)))
-            self.where.setdefault(name, (number, _strip_comment(match.group(2))))
-            for delimiter in ('"""', "'''"):
-                if match.group(2).count(delimiter) % 2 == 1:
-                    in_string = delimiter
-
-    def locate(self, err: InputError, filename: str) -> InputError:
-        """``err`` with file and line filled in (and the source text of a bad value)."""
-        name = err.field or ""
-        parts = name.split(".")
-        for n in range(len(parts), 0, -1):
-            found = self.where.get(".".join(parts[:n]))
-            if found is not None:
-                line, value_text = found
-                exact = n == len(parts)
-                keep = err.message in (UNKNOWN_KEY_MESSAGE, UNKNOWN_TABLE_MESSAGE)
-                text = value_text if exact and value_text is not None and not keep else err.text
-                return InputError(err.message, file=filename, line=line, field=err.field, text=text)
-        return err.located(file=filename)
-
-    def syntax_error(self, err: tomllib.TOMLDecodeError, filename: str) -> InputError:
-        """An InputError for a TOML syntax error, with the line taken from tomllib's message."""
-        message = str(err)
-        match = _TOML_POS_RE.search(message)
-        line = max(len(self.lines), 1)
-        if match is not None:
-            message = message[: match.start()]
-            if match.group(1) is not None:
-                line = int(match.group(1))
-        text = self.lines[line - 1] if 0 < line <= len(self.lines) else ""
-        names = [name for name, (at, val) in self.where.items() if at == line and val is not None]
-        return InputError(
-            f"TOML syntax error: {message} !",
-            file=filename,
-            line=line,
-            field=names[0] if names else None,
-            text=text,
-        )
+    return parse_config_text(read_text(file), str(file), file.parent, known_datums,
+                             known_chains)
 
 
 # --------------------------------------------------------------------------------------------

@@ -28,8 +28,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import re
-import tomllib
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
@@ -38,6 +36,7 @@ from typing import Any
 
 from engine.errors import InputError
 from engine.operator_input import parse_datum_name, parse_position
+from engine.tomlsource import UNKNOWN_KEY_MESSAGE, UNKNOWN_TABLE_MESSAGE, parse_located, read_text
 
 __all__ = [
     "Current",
@@ -55,11 +54,8 @@ __all__ = [
     "parse_scenario_text",
 ]
 
-UNKNOWN_KEY_MESSAGE = "Unknown key !"
-UNKNOWN_TABLE_MESSAGE = "Unknown table !"
 MISSING_KEY_MESSAGE = "Missing key !"
 UNKNOWN_CHAIN_MESSAGE = "Unknown Decca chain !"
-FILE_NOT_FOUND_MESSAGE = "File not found !"
 
 
 # --------------------------------------------------------------------------------------------
@@ -620,15 +616,10 @@ def parse_scenario_text(
     ``known_chains`` (DECCA.CHN ids) ``decca.chain`` must be one. Raises InputError located as
     ``filename:line: table.key: message (got 'text')``.
     """
-    index = _SourceIndex(text)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise index.syntax_error(err, filename) from None
-    try:
-        return _build(data, filename, Path(base_dir), known_datums, known_chains)
-    except InputError as err:
-        raise index.locate(err, filename) from None
+    return parse_located(
+        text, filename,
+        lambda data: _build(data, filename, Path(base_dir), known_datums, known_chains),
+        unquote=True)
 
 
 def load_scenario(
@@ -639,91 +630,9 @@ def load_scenario(
 ) -> Scenario:
     """Read and parse a scenario file (UTF-8 TOML); see :func:`parse_scenario_text`."""
     file = Path(path)
-    try:
-        raw = file.read_bytes()
-    except OSError:
-        raise InputError(FILE_NOT_FOUND_MESSAGE, file=str(file)) from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as err:
-        line = raw[: err.start].count(b"\n") + 1
-        raise InputError("File is not UTF-8 text !", file=str(file), line=line) from None
+    text = read_text(file)
     return parse_scenario_text(
         text, str(file), file.parent, known_datums=known_datums, known_chains=known_chains
     )
 
 
-_KEY_RE = re.compile(r"\s*([A-Za-z0-9_-]+)\s*=\s*(.*)")
-_HEADER_RE = re.compile(r"\s*(\[\[?)\s*([A-Za-z0-9_.-]+)\s*\]\]?\s*(?:#.*)?")
-_TOML_POS_RE = re.compile(r"\s*\(at (?:line (\d+), column \d+|end of document)\)\s*$")
-
-
-def _strip_comment(value: str) -> str:
-    """The value text before an end-of-line ``#`` comment, quotes respected and removed."""
-    quote = ""
-    out = value
-    for i, ch in enumerate(value):
-        if quote:
-            if ch == quote:
-                quote = ""
-        elif ch in "\"'":
-            quote = ch
-        elif ch == "#":
-            out = value[:i]
-            break
-    out = out.strip()
-    if len(out) >= 2 and out[0] == out[-1] and out[0] in "\"'":
-        out = out[1:-1]
-    return out
-
-
-class _SourceIndex:
-    """Line and value text of every ``table.key`` (``leg[i].key`` for the i-th ``[[leg]]``)."""
-
-    def __init__(self, text: str) -> None:
-        self.lines = text.splitlines()
-        self.where: dict[str, tuple[int, str | None]] = {}
-        prefix = ""
-        counts: dict[str, int] = {}
-        for number, line in enumerate(self.lines, start=1):
-            header = _HEADER_RE.fullmatch(line)
-            if header is not None:
-                name = header.group(2)
-                if header.group(1) == "[[":
-                    counts[name] = counts.get(name, 0) + 1
-                    self.where.setdefault(name, (number, None))
-                    name = f"{name}[{counts[name]}]"
-                self.where.setdefault(name, (number, None))
-                prefix = name + "."
-                continue
-            match = _KEY_RE.match(line)
-            if match is not None and not line.lstrip().startswith("#"):
-                key = prefix + match.group(1)
-                self.where.setdefault(key, (number, _strip_comment(match.group(2))))
-
-    def locate(self, err: InputError, filename: str) -> InputError:
-        """``err`` with the file, the line of its field (or of the enclosing table) and the
-        value text as written."""
-        name = err.field or ""
-        parts = name.split(".")
-        for n in range(len(parts), 0, -1):
-            found = self.where.get(".".join(parts[:n]))
-            if found is not None:
-                line, value_text = found
-                exact = n == len(parts)
-                keep = err.message in (UNKNOWN_KEY_MESSAGE, UNKNOWN_TABLE_MESSAGE)
-                text = value_text if exact and value_text is not None and not keep else err.text
-                return InputError(err.message, file=filename, line=line, field=err.field, text=text)
-        return err.located(file=filename)
-
-    def syntax_error(self, err: tomllib.TOMLDecodeError, filename: str) -> InputError:
-        """An InputError for a TOML syntax error, at the line tomllib reports."""
-        message = str(err)
-        match = _TOML_POS_RE.search(message)
-        line = max(len(self.lines), 1)
-        if match is not None:
-            message = message[: match.start()]
-            if match.group(1) is not None:
-                line = int(match.group(1))
-        text = self.lines[line - 1] if 0 < line <= len(self.lines) else ""
-        return InputError(f"TOML syntax error: {message} !", file=filename, line=line, text=text)

@@ -47,7 +47,7 @@ from engine.kalman import predict_horizon
 from engine.operator_input import parse_datum_name
 from engine.outlog import OutLogWriter, free_log_path
 from engine.records import cycle_block, cycle_json
-from engine.runconfig import RunConfig, _SourceIndex, dump_config, load_config
+from engine.runconfig import UNKNOWN_CHAIN_MESSAGE, RunConfig, dump_config, load_config
 from engine.runfile import BadRecord, RunRecord, iter_run_file
 from engine.smoother import SmootherRecord, rts_smooth
 
@@ -68,7 +68,6 @@ class RunSummary:
 
 DATUM_FILE = "TO_WGS84.DAT"
 CHAIN_FILE = "DECCA.CHN"
-UNKNOWN_CHAIN_MESSAGE = "Unknown chain !"
 NOT_ADVANCING_MESSAGE = "Time does not advance !"
 
 
@@ -115,25 +114,8 @@ def load_run_config(
     """
     cfg = load_config(path)
     datums, chains = read_data_dir(cfg.data_dir)
-    cfg = load_config(path, known_datums=datums.datums)
-    try:
-        check_config(cfg, datums, chains)
-    except InputError as err:
-        raise _locate_in_config(err, Path(path)) from None
+    cfg = load_config(path, known_datums=datums.datums, known_chains=chains)
     return cfg, (datums, chains)
-
-
-def _locate_in_config(err: InputError, path: Path) -> InputError:
-    """``err`` (a configuration field error) with the TOML file and the key's line filled in.
-
-    Uses the configuration loader's own key index (runconfig._SourceIndex), so the line is the
-    one load_config would report; load_config has no hook for checks against DECCA.CHN.
-    """
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
-        return err.located(file=str(path))
-    return _SourceIndex(text).locate(err, str(path))
 
 
 def create_output(path: str | os.PathLike[str], force: bool = False) -> tuple[IO[str], Path]:

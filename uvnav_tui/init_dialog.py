@@ -22,7 +22,8 @@ from engine.operator_input import (
     parse_run_name,
     parse_speed_kn,
 )
-from engine.runconfig import FILE_NOT_FOUND_MESSAGE, RunConfig
+from engine.runconfig import RunConfig
+from engine.tomlsource import FILE_NOT_FOUND_MESSAGE
 from uvnav_tui.dialog import Dialog
 from uvnav_tui.validated_field import ValidatedField
 
