@@ -307,8 +307,8 @@ def gauss_newton(
             Wu = np.linalg.inv(Clu)
         except np.linalg.LinAlgError:
             return _failed("a priori VCV not invertible", x, used_b, n, u, it, steps, damping)
-        atw = Au.T @ Wu
-        cx, cond = _inv_normal(atw @ Au)
+        atw = Au.T.dot(Wu)
+        cx, cond = _inv_normal(atw.dot(Au))
         if not cond <= cond_max:  # also catches NaN
             if not (np.isfinite(Au).all() and np.isfinite(Clu).all()):
                 reason = "non-finite linearisation"
@@ -320,8 +320,8 @@ def gauss_newton(
             return _failed(reason, x, used_b, n, u, it, steps, damping)
         if not math.isfinite(float(np.add.reduce(bu))):
             return _failed("non-finite linearisation", x, used_b, n, u, it, steps, damping)
-        gain = cx @ atw  # G = C_x̂ Aᵀ W
-        dx = gain @ bu  # (5.1c)
+        gain = cx.dot(atw)  # G = C_x̂ Aᵀ W
+        dx = gain.dot(bu)  # (5.1c)
         dxl = dx.tolist()
         big = max(map(abs, dxl))
         if not math.isfinite(big):
@@ -339,10 +339,10 @@ def gauss_newton(
             reason = (f"ill-conditioned geometry: the LOPs are nearly parallel (error ellipse "
                       f"axis ratio a/b = {ratio:.3g} > {max_axis_ratio:.3g})")
             return _failed(reason, x, used_b, n, u, it, steps, damping)
-    vu = Au @ dx - bu  # (5.1f)
-    wv = Wu @ vu
+    vu = Au.dot(dx) - bu  # (5.1f)
+    wv = Wu.dot(vu)
     r = m - u
-    s2 = float(vu @ wv) / r if r >= 1 else None  # (5.13)
+    s2 = float(vu.dot(wv)) / r if r >= 1 else None  # (5.13)
     if r >= 1:
         block = used_statistics(Au, Clu, Wu, cx, vu, delta0(alpha, power), gain, wv, atw)
         if not every:
@@ -377,7 +377,7 @@ def gauss_newton(
         dx=dx,
         v=v,
         s2=s2,
-        rms_m=math.sqrt(float(vu @ vu) / m),
+        rms_m=math.sqrt(float(vu.dot(vu)) / m),
         drms_m=math.sqrt(max(sum(cov.diagonal().tolist()), 0.0)),
         stats_block=block,
         A_used=Au,
@@ -440,7 +440,8 @@ def _inv_normal(nmat: np.ndarray) -> tuple[np.ndarray, float]:
         # = (1 + |ρ|)²·ad/det, which avoids the cancellation of 1 − |ρ|
         ad = a * d
         rho = abs(c) / math.sqrt(ad)
-        return np.array([[d, -c], [-c, a]]) / det, (1.0 + rho) ** 2 * ad / det
+        inv = np.array([d / det, -c / det, -c / det, a / det]).reshape(2, 2)
+        return inv, (1.0 + rho) ** 2 * ad / det
     cond = _cond_sym(nmat)
     if not cond < math.inf:
         return nmat, cond

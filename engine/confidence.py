@@ -53,6 +53,14 @@ class Ellipse:
         return k * self.a_m, k * self.b_m
 
 
+def eigenvalues_2x2(sxx: float, sxy: float, syy: float) -> tuple[float, float]:
+    """Eigenvalues λ1 ≥ λ2 of the symmetric 2×2 [[sxx, sxy], [sxy, syy]], closed form
+    λ1,2 = ½(sxx + syy) ± ½·sqrt((sxx − syy)² + 4 sxy²) (eq. 5.22–5.23), units of the input."""
+    half = 0.5 * (sxx + syy)
+    root = math.hypot(0.5 * (sxx - syy), sxy)
+    return half + root, half - root
+
+
 def error_ellipse(C2: np.ndarray) -> Ellipse:
     """Error ellipse of a 2×2 VCV [[σx², σxy], [σxy, σy²]] (x East, y North) [m²], closed form.
 
@@ -63,11 +71,8 @@ def error_ellipse(C2: np.ndarray) -> Ellipse:
     (sxx, sxy), (_, syy) = np.asarray(C2, dtype=float)[:2, :2].tolist()
     if not (math.isfinite(sxx) and math.isfinite(sxy) and math.isfinite(syy)):
         raise ValueError("error_ellipse: non-finite covariance")
-    half = 0.5 * (sxx + syy)
-    root = math.hypot(0.5 * (sxx - syy), sxy)
-    l1 = half + root
-    l2 = half - root
-    if root == 0.0:
+    l1, l2 = eigenvalues_2x2(sxx, sxy, syy)
+    if sxy == 0.0 and 0.5 * (sxx - syy) == 0.0:  # isotropic (the square root is 0)
         ee, en = 1.0, 0.0
     elif sxx >= syy:  # (λ1 − σy², σxy) is the better-conditioned eigenvector form here
         ee, en = l1 - syy, sxy

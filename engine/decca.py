@@ -9,7 +9,8 @@ A5.9–A5.12 (observation equation); digest ``lsq.md`` §5 and §6.3.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -53,7 +54,9 @@ class ChainOnGrid:
     ``station_latlon_deg`` rows are master, red, green, purple (geodetic, working datum);
     ``station_xy_m`` the same on the TM grid; ``baseline_m`` the Andoyer–Lambert master–slave
     lengths (lsq.md §2.4); ``wavelength_m`` the comparison wavelengths λc = v / f_c (lsq.md §5.2);
-    ``min_lanes`` the chain file's k per pattern (eq. 4.9).
+    ``min_lanes`` the chain file's k per pattern (eq. 4.9). The same numbers are also kept as
+    Python floats (``_scalars``) for the per-iteration scalar arithmetic of
+    :func:`decca_geometry`.
     """
 
     chain_id: str
@@ -63,6 +66,27 @@ class ChainOnGrid:
     baseline_m: np.ndarray
     wavelength_m: np.ndarray
     min_lanes: np.ndarray
+    _scalars: _ChainScalars = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_scalars", _ChainScalars(
+            tuple(tuple(r) for r in np.asarray(self.station_xy_m, dtype=float).tolist()),
+            tuple(tuple(r) for r in np.asarray(self.station_latlon_deg, dtype=float).tolist()),
+            tuple(np.asarray(self.wavelength_m, dtype=float).tolist()),
+            tuple(np.asarray(self.baseline_m, dtype=float).tolist()),
+            tuple(np.asarray(self.min_lanes, dtype=float).tolist()),
+        ))
+
+
+class _ChainScalars(NamedTuple):
+    """ChainOnGrid's per-station numbers as floats: grid (x, y) m and (lat, lon) degrees of
+    master, red, green, purple; λc (m), baselines (m) and k per pattern."""
+
+    xy: tuple[tuple[float, float], ...]
+    latlon: tuple[tuple[float, float], ...]
+    wavelength: tuple[float, ...]
+    baseline: tuple[float, ...]
+    min_lanes: tuple[float, ...]
 
 
 def place_chain(
@@ -131,23 +155,26 @@ def decca_geometry(
     x_m: float,
     y_m: float,
     geodesic: GeodesicSolver,
+    latlon_deg: tuple[float, float] | None = None,
 ) -> DeccaGeometry:
     """Compute lane counts, partials, LEF and LOP azimuths at grid point (x, y) (eq. 4.9, A5.9–12).
 
     N_calc = (D_m − D_s + B)/λc + k with D = grid chord / L (A5.10, L at the mean latitude of the
-    two end points, lsq.md §2.3).  Scalar arithmetic throughout: this runs in every LS iteration.
+    two end points, lsq.md §2.3).  ``latlon_deg`` is the point's geodetic (lat, lon) in degrees
+    when the caller already has it (else the grid is inverted here).  Scalar arithmetic
+    throughout: this runs in every LS iteration.
     """
-    lat0, lon0 = placed.grid.inverse(x_m, y_m)
+    lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
     ell = placed.grid.ellipsoid
-    sxy = placed.station_xy_m.tolist()
-    sll = placed.station_latlon_deg.tolist()
+    sc = placed._scalars
+    azimuth = geodesic.azimuth_distance
     dist = [0.0] * 4
     dxp = [0.0] * 4
     dyp = [0.0] * 4
     az = [0.0] * 4
     for i in range(4):
-        xs, ys = sxy[i]
-        slat, slon = sll[i]
+        xs, ys = sc.xy[i]
+        slat, slon = sc.latlon[i]
         rm2 = mean_radius_sq(ell, lat0, slat)
         chord = math.hypot(x_m - xs, y_m - ys)
         lsf = line_scale_factor(x_m, xs, rm2)
@@ -155,12 +182,12 @@ def decca_geometry(
         # ∂D/∂x including the line-scale term (A5.11), ∂D/∂y (A5.12).
         dxp[i] = (x_m - xs) / (lsf * chord) - chord * (2.0 * x_m + xs) / (lsf * lsf * 6.0 * rm2)
         dyp[i] = (y_m - ys) / (lsf * chord)
-        az[i] = math.radians(geodesic.azimuth_distance(lat0, lon0, slat, slon)[0])
-    lam = placed.wavelength_m.tolist()
-    base = placed.baseline_m.tolist()
-    kmin = placed.min_lanes.tolist()
+        az[i] = math.radians(azimuth(lat0, lon0, slat, slon)[0])
+    lam = sc.wavelength
+    base = sc.baseline
+    kmin = sc.min_lanes
     two_pi = 2.0 * math.pi
-    n_calc, row, lef, lop_az = [], [], [], []
+    n_calc, row, lef, lop_az, k = [], [], [], [], []
     for j in range(3):
         s = j + 1
         n_calc.append((dist[0] - dist[s] + base[j]) / lam[j] + kmin[j])
@@ -168,32 +195,32 @@ def decca_geometry(
         gamma = abs(az[s] - az[0]) % two_pi
         if gamma > math.pi:
             gamma = two_pi - gamma
-        lef.append(1.0 / math.sin(gamma / 2.0))
+        lef_j = 1.0 / math.sin(gamma / 2.0)
+        lef.append(lef_j)
+        k.append(lam[j] * lef_j / 2.0)  # metres per lane, λc·LEF/2 (A4.4)
         # Direction in which N increases: −ê(Az_m) + ê(Az_s); the LOP runs 90° from it (§5.7).
         gx = -math.sin(az[0]) + math.sin(az[s])
         gy = -math.cos(az[0]) + math.cos(az[s])
         lop_az.append((math.atan2(gx, gy) + math.pi / 2.0) % two_pi)
-    lef_a = np.array(lef)
+    # One conversion for all per-pattern numbers (rows of `block` are views, in this order).
+    block = np.array(dist[1:] + [a % two_pi for a in az[1:]] + lef + k + lop_az + n_calc
+                     + [r for pair in row for r in pair])
     return DeccaGeometry(
         d_master_m=dist[0],
         az_master_rad=az[0] % two_pi,
-        d_slave_m=np.array(dist[1:]),
-        az_slave_rad=np.array(az[1:]) % two_pi,
+        d_slave_m=block[0:3],
+        az_slave_rad=block[3:6],
         baseline_m=placed.baseline_m,
-        lef=lef_a,
-        metres_per_lane=placed.wavelength_m * lef_a / 2.0,
-        lop_azimuth_rad=np.array(lop_az),
-        n_calc=np.array(n_calc),
-        row=np.array(row),
+        lef=block[6:9],
+        metres_per_lane=block[9:12],
+        lop_azimuth_rad=block[12:15],
+        n_calc=block[15:18],
+        row=block[18:24].reshape(3, 2),
     )
 
 
-def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
-    """A priori 3×3 VCV of the Red, Green, Purple lane counts (lanes², A4.1–A4.3).
-
-    Sky-wave terms are divided by ``cf`` (``Decca.CF``: 64 summer day, 4 winter day, 1 summer
-    night, 1/2.25 winter night); the synchronisation terms are not (lsq.md §6.3, verified).
-    """
+def _vcv_lanes(geom: DeccaGeometry, cf: float) -> list[list[float]]:
+    """:func:`decca_vcv_lanes` as nested lists (lanes²)."""
     h = 1e-5  # metres → units of 100 km
     s_n2 = sigma_path_a(geom.d_master_m * h) ** 2
     d_s = geom.d_slave_m.tolist()
@@ -204,13 +231,23 @@ def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
     for i in range(3):
         sky = mm[i] ** 2 * (s_n2 + sigma_path_a(base[i] * h) ** 2) + ms[i] ** 2 * s_x[i] ** 2
         c[i][i] = sky / cf + SYNC_SIGMA_LANES[i] ** 2
-    return np.array(c)
+    return c
+
+
+def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
+    """A priori 3×3 VCV of the Red, Green, Purple lane counts (lanes², A4.1–A4.3).
+
+    Sky-wave terms are divided by ``cf`` (``Decca.CF``: 64 summer day, 4 winter day, 1 summer
+    night, 1/2.25 winter night); the synchronisation terms are not (lsq.md §6.3, verified).
+    """
+    return np.array(_vcv_lanes(geom, cf))
 
 
 def decca_vcv_m2(geom: DeccaGeometry, cf: float) -> np.ndarray:
     """A priori 3×3 Decca VCV in m² across the LOPs: C_ij·k_i·k_j with k = λc·LEF/2 (A4.4)."""
-    k = geom.metres_per_lane
-    return decca_vcv_lanes(geom, cf) * np.outer(k, k)
+    k = geom.metres_per_lane.tolist()
+    c = _vcv_lanes(geom, cf)
+    return np.array([[c[i][j] * (k[i] * k[j]) for j in range(3)] for i in range(3)])
 
 
 @dataclass(frozen=True, slots=True)

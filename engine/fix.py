@@ -14,12 +14,11 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
 from engine.adjustment import Adjustment, Linearisation
-from engine.confidence import Ellipse, error_ellipse
+from engine.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.decca import (
     PATTERNS,
     ChainOnGrid,
@@ -213,7 +212,7 @@ class _Model:
         gps: GpsFix | None,
         prior: PositionPrior | None,
         decca: DeccaReading | None,
-        decca_obs: np.ndarray,
+        decca_obs: list[float],
         stations: Sequence[_Station],
     ) -> None:
         self.grid = grid
@@ -226,39 +225,43 @@ class _Model:
         self.last_geometry: DeccaGeometry | None = None
 
     def __call__(self, x: np.ndarray) -> Linearisation:
-        """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N)."""
-        A = np.zeros((N_SLOTS, 2))
-        b = np.zeros(N_SLOTS)
+        """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N).
+
+        Rows and misclosures are assembled as Python floats and converted once; C_l starts
+        as the identity (unused slots: variance 1, Pg 821) with the system blocks written in.
+        """
+        A = [0.0] * (2 * N_SLOTS)  # row-major (N_SLOTS, 2): ∂/∂x, ∂/∂y of each slot
+        b = [0.0] * N_SLOTS
         Cl = np.eye(N_SLOTS)
-        x0, y0 = float(x[0]), float(x[1])
+        x0, y0 = x.tolist() if isinstance(x, np.ndarray) else (float(x[0]), float(x[1]))
         if self.gps is not None:
             g = self.gps
-            A[SLOT_GPS_LAT] = (0.0, 1.0)
-            A[SLOT_GPS_LON] = (1.0, 0.0)
+            _set_row(A, SLOT_GPS_LAT, 0.0, 1.0)
+            _set_row(A, SLOT_GPS_LON, 1.0, 0.0)
             b[SLOT_GPS_LAT] = g.y_m + g.corr_north_m - y0
             b[SLOT_GPS_LON] = g.x_m + g.corr_east_m - x0
             Cl[SLOT_GPS_LAT, SLOT_GPS_LAT] = g.var_m2
             Cl[SLOT_GPS_LON, SLOT_GPS_LON] = g.var_m2
         elif self.prior is not None:
             p = self.prior
-            A[SLOT_GPS_LAT] = (0.0, 1.0)
-            A[SLOT_GPS_LON] = (1.0, 0.0)
+            _set_row(A, SLOT_GPS_LAT, 0.0, 1.0)
+            _set_row(A, SLOT_GPS_LON, 1.0, 0.0)
             b[SLOT_GPS_LAT] = p.y_m - y0
             b[SLOT_GPS_LON] = p.x_m - x0
-            Cl[0, 0], Cl[0, 1] = p.cov[1, 1], p.cov[1, 0]
-            Cl[1, 0], Cl[1, 1] = p.cov[0, 1], p.cov[0, 0]
+            Cl[0:2, 0:2] = p.cov[::-1, ::-1]  # slot order (y, x) against the prior's (x, y)
         if self.decca is not None:
             geom = decca_geometry(self.decca.placed, x0, y0, self.geodesic)
             self.last_geometry = geom
-            k = geom.metres_per_lane
-            rows = geom.row * k[:, None]
-            omc = (self.decca_obs - geom.n_calc) * k
-            vcv = decca_vcv_m2(geom, self.decca.cf)
-            avail = ~np.isnan(self.decca_obs)
+            k = geom.metres_per_lane.tolist()
+            rows = geom.row.tolist()
+            n_calc = geom.n_calc.tolist()
+            for j, obs in enumerate(self.decca_obs):
+                if obs == obs:  # a reading (NaN: none); A5.9–A5.12 in metres across the LOP
+                    kj = k[j]
+                    _set_row(A, SLOT_DECCA[j], rows[j][0] * kj, rows[j][1] * kj)
+                    b[SLOT_DECCA[j]] = (obs - n_calc[j]) * kj
             s = slice(SLOT_DECCA[0], SLOT_DECCA[-1] + 1)
-            A[s] = np.where(avail[:, None], rows, 0.0)
-            b[s] = np.where(avail, omc, 0.0)
-            Cl[s, s] = vcv
+            Cl[s, s] = decca_vcv_m2(geom, self.decca.cf)
         if self.stations:
             lat0, lon0 = self.grid.inverse(x0, y0)
             for i, st in enumerate(self.stations):
@@ -268,18 +271,24 @@ class _Model:
                 o = st.obs
                 if o.kind == "bearing":
                     az, _ = self.geodesic.azimuth_distance(lat0, lon0, o.lat_deg, o.lon_deg)
-                    A[slot] = (dys / d0, -dxs / d0)
+                    _set_row(A, slot, dys / d0, -dxs / d0)
                     b[slot] = d0 * _wrap_pi(math.radians(o.value - az))
                     Cl[slot, slot] = (math.radians(o.sigma) * d0) ** 2
                 else:
                     rm2 = mean_radius_sq(self.grid.ellipsoid, lat0, o.lat_deg)
-                    A[slot] = (dxs / d0, dys / d0)
+                    _set_row(A, slot, dxs / d0, dys / d0)
                     b[slot] = o.value - d0 / line_scale_factor(x0, st.x_m, rm2)
                     Cl[slot, slot] = o.sigma**2
-        return Linearisation(A=A, b=b, Cl=Cl)
+        return Linearisation(A=np.array(A).reshape(N_SLOTS, 2), b=np.array(b), Cl=Cl)
 
 
-def _lop_azimuth_deg(row: np.ndarray) -> float:
+def _set_row(rows: list[float], slot: int, d_dx: float, d_dy: float) -> None:
+    """Put the design-matrix row (∂/∂x, ∂/∂y) of ``slot`` into the row-major flat ``rows``."""
+    rows[2 * slot] = d_dx
+    rows[2 * slot + 1] = d_dy
+
+
+def _lop_azimuth_deg(row: Sequence[float]) -> float:
     """Azimuth of an LOP whose metric gradient is ``row`` = (∂/∂x, ∂/∂y): gradient + 90°."""
     return (math.degrees(math.atan2(row[0], row[1])) + 90.0) % 360.0
 
@@ -327,10 +336,10 @@ def compute_fix(
         stations = [_Station(o, *grid.forward(o.lat_deg, o.lon_deg)) for o in manual]
     except _EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"station position cannot be projected: {exc}", 0)
-    used = np.zeros(N_SLOTS, dtype=bool)
+    used = [False] * N_SLOTS
     if gps is not None:
-        used[[SLOT_GPS_LAT, SLOT_GPS_LON]] = True
-    decca_obs = np.full(3, np.nan)
+        used[SLOT_GPS_LAT] = used[SLOT_GPS_LON] = True
+    decca_obs = [math.nan] * 3
     decca_raw: list[float | None] = [None, None, None]
     if decca is not None:
         geom0 = None
@@ -362,12 +371,12 @@ def compute_fix(
     for slot in excluded_slots:
         used[slot] = False
     uses_prior = False
-    if gps is None and prior is not None and 0 < int(used.sum()) < 2:
-        used[[SLOT_GPS_LAT, SLOT_GPS_LON]] = True
+    if gps is None and prior is not None and 0 < sum(used) < 2:
+        used[SLOT_GPS_LAT] = used[SLOT_GPS_LON] = True
         uses_prior = True
     model = _Model(grid, geodesic, gps, prior if uses_prior else None, decca, decca_obs, stations)
     x_start = np.array(x0, dtype=float)
-    n_avail = int(used.sum())
+    n_avail = sum(used)
     alpha = settings.reliab_interval / 100.0
     if n_avail < 2:
         return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
@@ -390,9 +399,10 @@ def compute_fix(
         return _no_fix(grid, x0, adj.reason or "no fix", adj.n_used, tested, messages)
     x_hat = adj.x
     try:
-        lat, lon = grid.inverse(float(x_hat[0]), float(x_hat[1]))
+        xe, yn = x_hat.tolist()
+        lat, lon = grid.inverse(xe, yn)
         geom = (
-            decca_geometry(decca.placed, float(x_hat[0]), float(x_hat[1]), geodesic)
+            decca_geometry(decca.placed, xe, yn, geodesic, (lat, lon))
             if decca is not None
             else None
         )
@@ -416,8 +426,8 @@ def compute_fix(
     return FixResult(
         ok=True,
         reason=None,
-        x_m=float(x_hat[0]),
-        y_m=float(x_hat[1]),
+        x_m=xe,
+        y_m=yn,
         lat_deg=lat,
         lon_deg=lon,
         cov=adj.cov_x,
@@ -444,18 +454,20 @@ def _beyond_linear_range(
     """The "no fix" reason when the standard semi-major axis (a priori C_x̂) reaches the nearest
     station of a used bearing/distance/Decca LOP (see :func:`compute_fix`), else None."""
     near = math.inf
-    x_hat, y_hat = float(adj.x[0]), float(adj.x[1])
+    x_hat, y_hat = adj.x[:2].tolist()
+    used = adj.used.tolist()
     for i, st in enumerate(stations):
-        if adj.used[SLOT_BRR0 + i]:
+        if used[SLOT_BRR0 + i]:
             near = min(near, math.hypot(x_hat - st.x_m, y_hat - st.y_m))
     if geom is not None:
+        d_slave = geom.d_slave_m.tolist()
         for i, slot in enumerate(SLOT_DECCA):
-            if adj.used[slot]:
-                near = min(near, geom.d_master_m, float(geom.d_slave_m[i]))
+            if used[slot]:
+                near = min(near, geom.d_master_m, d_slave[i])
     if near == math.inf:
         return None
-    lam = np.linalg.eigvalsh(adj.cov_x_apriori[:2, :2])
-    a = math.sqrt(max(float(lam[-1]), 0.0))
+    (sxx, sxy), (_, syy) = adj.cov_x_apriori[:2, :2].tolist()
+    a = math.sqrt(max(eigenvalues_2x2(sxx, sxy, syy)[0], 0.0))
     if a < near:
         return None
     return (f"ill-conditioned geometry: the error ellipse's semi-major axis {a / 1000:.3g} km "
@@ -503,7 +515,7 @@ def _lop_rows(
     gps: GpsFix | None,
     prior: PositionPrior | None,
     decca: DeccaReading | None,
-    decca_obs: np.ndarray,
+    decca_obs: list[float],
     decca_raw: list[float | None],
     geom: DeccaGeometry | None,
     stations: Sequence[_Station],
@@ -514,19 +526,16 @@ def _lop_rows(
     """Assemble the Pg 631/633 table rows from the final adjustment."""
     a = adj
     rows: list[LopRow] = []
+    sigma_d, w_all, tau, vf = a.stats_block[:4].tolist()
+    used = a.used.tolist()
+    v = a.v.tolist()
 
-    def stats(slot: int) -> dict[str, Any]:
-        w = float(a.w[slot])
-        return {
-            "sigma_d": float(a.sigma_d[slot]),
-            "w": w,
-            "tau": float(a.tau[slot]),
-            "vf": float(a.vf[slot]),
-            "verdict": classify_w(w, alpha),
-        }
+    def lop(slot: int, system: str, pattern: str, read: float, correction: float, calc: float,
+            az_deg: float) -> LopRow:
+        w = w_all[slot]
+        return LopRow(slot, system, pattern, read, correction, calc, v[slot], az_deg,
+                      used[slot], sigma_d[slot], w, tau[slot], vf[slot], classify_w(w, alpha))
 
-    used = a.used
-    v = a.v
     if gps is not None or prior is not None:
         system = "GPS" if gps is not None else "KF"
         if gps is not None:
@@ -535,38 +544,33 @@ def _lop_rows(
         else:
             read_lat, read_lon = grid.inverse(prior.x_m, prior.y_m)
             corr_n = corr_e = 0.0
-        rows.append(LopRow(SLOT_GPS_LAT, system, "Lat", read_lat, corr_n, lat,
-                           float(v[SLOT_GPS_LAT]), 90.0, bool(used[SLOT_GPS_LAT]),
-                           **stats(SLOT_GPS_LAT)))
-        rows.append(LopRow(SLOT_GPS_LON, system, "Lon", read_lon, corr_e, lon,
-                           float(v[SLOT_GPS_LON]), 180.0, bool(used[SLOT_GPS_LON]),
-                           **stats(SLOT_GPS_LON)))
+        rows.append(lop(SLOT_GPS_LAT, system, "Lat", read_lat, corr_n, lat, 90.0))
+        rows.append(lop(SLOT_GPS_LON, system, "Lon", read_lon, corr_e, lon, 180.0))
     if decca is not None and geom is not None:
         names = ("Red", "Grn", "Prp")
+        n_calc = geom.n_calc.tolist()
+        lop_az = geom.lop_azimuth_rad.tolist()
         for i, slot in enumerate(SLOT_DECCA):
             raw = decca_raw[i]
             if raw is None:
                 continue
-            rows.append(LopRow(slot, "Decca", names[i], raw, decca.corrections_lanes[i],
-                               float(geom.n_calc[i]), float(v[slot]),
-                               math.degrees(float(geom.lop_azimuth_rad[i])), bool(used[slot]),
-                               **stats(slot)))
-    x_hat, y_hat = float(a.x[0]), float(a.x[1])
+            rows.append(lop(slot, "Decca", names[i], raw, decca.corrections_lanes[i], n_calc[i],
+                            math.degrees(lop_az[i])))
+    x_hat, y_hat = a.x[:2].tolist()
     for i, st in enumerate(stations):
         slot = SLOT_BRR0 + i
         o = st.obs
         if o.kind == "bearing":
             calc, _ = geodesic.azimuth_distance(lat, lon, o.lat_deg, o.lon_deg)
-            row = np.array([y_hat - st.y_m, -(x_hat - st.x_m)])
+            gradient = (y_hat - st.y_m, -(x_hat - st.x_m))
             pattern = "Brg"
         else:
             rm2 = mean_radius_sq(grid.ellipsoid, lat, o.lat_deg)
             calc = math.hypot(x_hat - st.x_m, y_hat - st.y_m) / line_scale_factor(
                 x_hat, st.x_m, rm2
             )
-            row = np.array([x_hat - st.x_m, y_hat - st.y_m])
+            gradient = (x_hat - st.x_m, y_hat - st.y_m)
             pattern = "Dist"
-        rows.append(LopRow(slot, o.sensor or o.kind, pattern, o.value, 0.0, calc, float(v[slot]),
-                           _lop_azimuth_deg(row), bool(used[slot]),
-                           **stats(slot)))
+        rows.append(lop(slot, o.sensor or o.kind, pattern, o.value, 0.0, calc,
+                        _lop_azimuth_deg(gradient)))
     return rows

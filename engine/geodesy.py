@@ -344,9 +344,11 @@ def mean_radius_sq(ell: Ellipsoid, lat1_deg: float, lat2_deg: float) -> float:
 
     ρ = a(1−e²)/W³ (meridian radius), ν = a/W (prime vertical), W = √(1 − e² sin²φ).
     """
+    e2 = ell.e2
     s = math.sin(math.radians(0.5 * (lat1_deg + lat2_deg)))
-    w2 = 1.0 - ell.e2 * s * s
-    return ell.a_m * ell.a_m * (1.0 - ell.e2) / (w2 * w2)
+    w2 = 1.0 - e2 * s * s
+    a = ell.a_m
+    return a * a * (1.0 - e2) / (w2 * w2)
 
 
 def line_scale_factor(x0_m: float, xi_m: float, rm2_m2: float) -> float:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -74,7 +75,12 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 
 
 _EYE11 = _read_only(np.eye(N_NAV))
-_EYES = tuple(_read_only(np.eye(k)) for k in range(13))  # identities for p ≤ 12 rows
+_EYES = tuple(_read_only(np.eye(k)) for k in range(21))  # identities up to 20×20
+
+
+def _eye(k: int) -> np.ndarray:
+    """The k×k identity (read-only, shared for k ≤ 20: rows of an update, states)."""
+    return _EYES[k] if k < len(_EYES) else np.eye(k)
 _G8 = _read_only(np.vstack([np.zeros((3, 8)), np.eye(8)]))  # G of 6.1: w drives states 3–10
 
 # χ²_p quantiles at 0.025 and 0.975 (two-sided α = 0.05) for p = 1..20, from scipy.stats.chi2
@@ -242,8 +248,8 @@ class FilterState:
 
         Hot path: fills the instance dict directly instead of the dataclass __init__.
         """
-        x.flags.writeable = False
-        P.flags.writeable = False
+        x.setflags(write=False)
+        P.setflags(write=False)
         new = object.__new__(FilterState)
         d = new.__dict__
         d.update(self.__dict__)
@@ -297,11 +303,13 @@ class LsTest:
     w: np.ndarray
     lom_reject: bool
 
-    @property
+    @cached_property
     def t(self) -> np.ndarray:
-        """LS statistic per row (dimensionless, N(0, 1) under H0)."""
+        """LS statistic per row (dimensionless, N(0, 1) under H0; read-only, computed once)."""
         lt = self.l_inv.T
-        return lt.dot(self.w) / np.sqrt((lt * lt).sum(axis=1))
+        t = lt.dot(self.w) / np.sqrt(np.add.reduce(lt * lt, axis=1))
+        t.setflags(write=False)
+        return t
 
     @property
     def flags(self) -> tuple[str, ...]:
@@ -661,7 +669,8 @@ def _predict(
     if want_phi:
         full = np.zeros((n, n))
         full[:N_NAV, :N_NAV] = Phi
-        full[N_NAV:, N_NAV:].flat[::n - N_NAV + 1] = d
+        for i, di in enumerate(d.tolist(), start=N_NAV):
+            full[i, i] = di
         Phi = full
     return state._with(state.t + dt, xn, Pn), Phi
 
@@ -793,9 +802,11 @@ def nav_measurement(
         labels.append("eps_m")
         p += 1
     H = np.zeros((p, N_NAV))
-    H[rows, cols] = 1.0
+    for r, c in zip(rows, cols, strict=True):
+        H[r, c] = 1.0
     R = np.zeros((p, p))
-    R.flat[::p + 1] = var
+    for i, vi in enumerate(var):
+        R[i, i] = vi
     zz = np.array(z, dtype=float)
     if fix_xy is not None:
         C = np.asarray(fix_cov, dtype=float)
@@ -1013,7 +1024,7 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     B = np.zeros((p, n + 1 + p), order="F")
     B[:, :n] = HP
     B[:, n] = v
-    B[:, n + 1:] = _EYES[p] if p < len(_EYES) else np.eye(p)
+    B[:, n + 1:] = _eye(p)
     Y = blas.dtrsm(1.0, L, B, lower=1)
     LiHP, w, Li = Y[:, :n], Y[:, n], Y[:, n + 1:]
     LiHPt = LiHP.T
@@ -1021,7 +1032,7 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     xn = x + LiHPt.dot(w)
     xn[IPSI] %= TWO_PI
     if params.joseph:
-        A = (_EYE11 if n == N_NAV else np.eye(n)) - K.dot(H)
+        A = _eye(n) - K.dot(H)
         Pn = A.dot(P).dot(A.T)
         Pn += K.dot(R).dot(K.T)
     else:
@@ -1030,7 +1041,7 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     Pn *= 0.5
     new = state._with(state.t, xn, Pn)
     nis = float(w.dot(w))
-    if not (Pn.diagonal().min() > 0.0 and math.isfinite(nis)):
+    if not (np.minimum.reduce(Pn.diagonal()) > 0.0 and math.isfinite(nis)):
         raise FilterDivergence("non-positive or non-finite variance after update", new)
     lom = _lom_from_nis(nis, p, params.alpha)
     ls = LsTest(Li, w, lom.verdict == "reject")

@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterator, Mapping, Sequence
+import re
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from numbers import Integral
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 from engine.errors import InputError
 
@@ -39,19 +41,49 @@ Value = str | int | float | bool | None
 
 def format_value(value: Value) -> str:
     """Encode one value for a ``key=value`` pair (floats keep full precision, None is ``-``)."""
-    if isinstance(value, float):  # the common case first; numpy floats are floats too
-        return "nan" if value != value else float.__repr__(value)
+    fmt = _BY_TYPE.get(type(value))
+    if fmt is not None:  # the exact built-in types: float, str, int, bool, None
+        return fmt(value)
+    if isinstance(value, float):  # subclasses, e.g. numpy.float64
+        return float.__repr__(value)  # shortest round-trip text; "nan", "inf", "-inf"
     if value is None:
         return "-"
     if isinstance(value, bool):
         return "1" if value else "0"
     if isinstance(value, Integral):
         return str(int(value))
-    text = str(value)
-    special = any(c.isspace() or c in '"=\\' for c in text)
-    if text in ("", "-") or special or _looks_numeric(text):
+    return _format_text(str(value))
+
+
+_NEEDS_QUOTES = re.compile(r'[\s"=\\]').search
+"""A blank (``str.isspace``), a quote, ``=`` or a backslash: the word must be JSON-quoted."""
+
+
+@lru_cache(maxsize=1024)
+def _format_text(text: str) -> str:
+    """A string value: bare if it reads back as itself, else JSON-quoted (cached: the same
+    short words (verdicts, systems, sources) recur in every cycle)."""
+    if text in ("", "-") or _NEEDS_QUOTES(text) or _looks_numeric(text):
         return json.dumps(text, ensure_ascii=False)
     return text
+
+
+def _format_none(_value: None) -> str:
+    return "-"
+
+
+def _format_bool(value: bool) -> str:
+    return "1" if value else "0"
+
+
+_BY_TYPE: dict[type, Callable[[Any], str]] = {
+    float: repr,  # an exact float: its shortest round-trip text ("nan", "inf", "-inf" too)
+    str: _format_text,
+    int: int.__repr__,
+    bool: _format_bool,
+    type(None): _format_none,
+}
+"""Formatter per exact type (a dict look-up instead of an isinstance chain on the hot path)."""
 
 
 def _looks_numeric(text: str) -> bool:
@@ -63,10 +95,26 @@ def _looks_numeric(text: str) -> bool:
     return True
 
 
+def _append_fields(parts: list[str], fields: Mapping[str, Value]) -> None:
+    """Append ``" k=v"`` for each field to ``parts`` (a float's text is its ``repr``)."""
+    fv = format_value
+    for k, v in fields.items():
+        if type(v) is float:  # most values: skip the look-up
+            parts.append(f" {k}={v!r}")
+        else:
+            parts.append(f" {k}={fv(v)}")
+
+
+def format_fields(fields: Mapping[str, Value]) -> str:
+    """The ``" k=v k=v"`` part of a log line (each pair with its leading blank)."""
+    parts: list[str] = []
+    _append_fields(parts, fields)
+    return "".join(parts)
+
+
 def format_line(tag: str, fields: Mapping[str, Value], indent: str = "") -> str:
     """One log line: ``TAG k=v k=v`` (no newline)."""
-    fv = format_value
-    return indent + tag + "".join([f" {k}={fv(v)}" for k, v in fields.items()])
+    return indent + tag + format_fields(fields)
 
 
 def _split_tokens(text: str) -> list[str]:
@@ -228,11 +276,15 @@ class OutLogWriter:
         self, fields: Mapping[str, Value], lines: Sequence[tuple[str, Mapping[str, Value]]]
     ) -> None:
         """Write one complete cycle block (``CYCLE`` … ``END``) in a single flushed write."""
-        n = fields.get("n")
-        out = [format_line("CYCLE", fields)]
-        out.extend(format_line(tag, f, indent="  ") for tag, f in lines)
-        out.append(format_line("END", {"n": n}))
-        self._write("\n".join(out) + "\n")
+        parts = ["CYCLE"]
+        _append_fields(parts, fields)
+        for tag, f in lines:
+            parts.append("\n  " + tag)
+            _append_fields(parts, f)
+        parts.append("\nEND")
+        _append_fields(parts, {"n": fields.get("n")})
+        parts.append("\n")
+        self._write("".join(parts))
 
     def write_action(self, fields: Mapping[str, Value]) -> None:
         """Write an operator action line (``ACT``)."""

@@ -123,11 +123,11 @@ def used_statistics(
     m, u = Au.shape
     out = np.empty((7 + u, m))
     if atw is None:
-        atw = Au.T @ Wu
+        atw = Au.T.dot(Wu)
     if gain is None:
-        gain = cov_x @ atw
+        gain = cov_x.dot(atw)
     if wv is None:
-        wv = Wu @ vu
+        wv = Wu.dot(vu)
     add = np.add.reduce
     wdiag = Wu.diagonal()
     q = wdiag - add(atw * gain, axis=0)  # diag(W C_v W) = diag(W − Wᵀ A C_x̂ Aᵀ W)
@@ -141,7 +141,7 @@ def used_statistics(
     np.multiply(wv, sd, out=out[1])
     np.negative(out[1], out=out[1])  # w (5.8c)
     np.divide(sd, np.sqrt(var_l), out=out[2])  # τ (5.11)
-    np.divide(add(Au * (Au @ cov_x), axis=1), var_l, out=out[3])  # VF (5.12)
+    np.divide(add(Au * Au.dot(cov_x), axis=1), var_l, out=out[3])  # VF (5.12)
     np.subtract(1.0, add(Au * gain.T, axis=1), out=out[4])  # r_i = (C_v W)_ii
     np.multiply(sd, d0, out=out[5])  # MDB
     ext = out[7:]
@@ -302,10 +302,12 @@ class TestedAdjustment:
 
 def _worst(adj: Adjustment) -> tuple[int, float]:
     """Slot and value of the largest |w| among the used slots (w is NaN elsewhere)."""
-    aw = np.abs(adj.w)
-    aw[aw != aw] = -1.0  # NaN (unused / untestable slots) never wins
-    k = int(aw.argmax())
-    return k, float(adj.w[k])
+    w = adj.w.tolist()
+    k, best = 0, -1.0
+    for i, wi in enumerate(w):
+        if abs(wi) > best:  # NaN (unused / untestable slots) never wins; ties: the first
+            k, best = i, abs(wi)
+    return k, w[k]
 
 
 def adjust_with_testing(
@@ -421,8 +423,8 @@ def _finish(
     vt: UnitVarianceTest | None = None
     if adj.ok and adj.s2 is not None:
         k = w_critical(alpha)
-        aw = np.abs(adj.w)  # NaN compares False: unused slots are never in the band
-        monitor = tuple(int(i) for i in ((aw > k) & (aw <= bound)).nonzero()[0])
+        # NaN compares False: unused slots are never in the band
+        monitor = tuple(i for i, w in enumerate(adj.w.tolist()) if k < abs(w) <= bound)
         vt = (unit_variance_test(adj.s2, adj.redundancy, alpha, s02, thesis_dof)
               if thesis_dof else adj.variance_test)
         if vt is not None and not vt.accepted:

@@ -8,10 +8,12 @@ and the major-axis azimuth in degrees from grid north.
 from __future__ import annotations
 
 import math
+from math import isfinite, sqrt
 from typing import Any
 
 import numpy as np
 
+from engine.confidence import Ellipse
 from engine.cycle import CycleResult, PositionEstimate
 from engine.kalman import STATE_LABELS, UpdateResult
 from engine.outlog import Value
@@ -120,17 +122,34 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
     }
 
 
-def _pos_fields(p: PositionEstimate) -> dict[str, Value]:
-    out: dict[str, Value] = {
-        "lat": p.lat_deg, "lon": p.lon_deg, "x": p.x_m, "y": p.y_m, "depth": p.depth_m,
-    }
-    if p.ellipse is not None:
-        a, b = p.ellipse.scaled(P95)
-        out.update(a95=a, b95=b, az=p.ellipse.az_deg)
-    c = p.cov
-    if c is not None and np.all(np.isfinite(c)):
-        out.update(cxx=float(c[0, 0]), cxy=float(c[0, 1]), cyy=float(c[1, 1]))
+def _position_fields(lat: float, lon: float, x: float, y: float, depth: float,
+                     cov: np.ndarray | None, ellipse: Ellipse | None) -> dict[str, Value]:
+    """The position keys of an ``.OUT`` line: geodetic degrees, grid metres, depth (m), the 95 %
+    ellipse (m, degrees) and the VCV entries (m²) when finite."""
+    out: dict[str, Value] = {"lat": lat, "lon": lon, "x": x, "y": y, "depth": depth}
+    if ellipse is not None:
+        a, b = ellipse.scaled(P95)
+        out["a95"], out["b95"], out["az"] = a, b, ellipse.az_deg
+    if cov is not None:
+        (cxx, cxy), (cyx, cyy) = cov.tolist()
+        if isfinite(cxx) and isfinite(cxy) and isfinite(cyx) and isfinite(cyy):
+            out["cxx"], out["cxy"], out["cyy"] = cxx, cxy, cyy
     return out
+
+
+def _pos_fields(p: PositionEstimate) -> dict[str, Value]:
+    return _position_fields(p.lat_deg, p.lon_deg, p.x_m, p.y_m, p.depth_m, p.cov, p.ellipse)
+
+
+_KF_KEYS = STATE_LABELS + tuple("s_" + name for name in STATE_LABELS)
+"""Keys of the KF line: the 11 navigation states, then their standard deviations."""
+_SENSOR_KEYS = ("gyro", "log", "rudder", "incl", "depth", "echo", "conv")
+_GPS_KEYS = ("lat_in", "lon_in", "lat", "lon", "x", "y", "hg")
+
+
+def _sigma(var: float) -> float:
+    """Standard deviation of a variance (a negative rounding residue counts as 0; NaN stays)."""
+    return sqrt(var) if var > 0.0 else (var if var != var else 0.0)
 
 
 def cycle_block(
@@ -147,19 +166,19 @@ def cycle_block(
         "cm": r.cm_deg,
         "dt": r.dt_s,
     }
-    lines: list[tuple[str, dict[str, Value]]] = [("IN", {"raw": r.raw})]
     s = r.sensors
-    lines.append(("SYS", {"systems": r.systems, "sensors": "".join(str(c) for c in s.status)}))
-    lines.append(("SENS", {
-        "gyro": s.heading_true_deg, "log": s.speed_kn, "rudder": s.rudder_deg,
-        "incl": s.incl_deg, "depth": s.depth_m, "echo": s.echo_m, "conv": s.convergence_deg,
-    }))
+    lines: list[tuple[str, dict[str, Value]]] = [
+        ("IN", {"raw": r.raw}),
+        ("SYS", {"systems": r.systems, "sensors": "".join(map(str, s.status))}),
+        ("SENS", dict(zip(_SENSOR_KEYS, (s.heading_true_deg, s.speed_kn, s.rudder_deg,
+                                         s.incl_deg, s.depth_m, s.echo_m, s.convergence_deg),
+                          strict=True))),
+    ]
     if r.gps is not None:
         g = r.gps
-        lines.append(("GPS", {
-            "lat_in": g.lat_in_deg, "lon_in": g.lon_in_deg, "lat": g.lat_deg, "lon": g.lon_deg,
-            "x": g.x_m, "y": g.y_m, "hg": g.hg_m,
-        }))
+        lines.append(("GPS", dict(zip(_GPS_KEYS, (g.lat_in_deg, g.lon_in_deg, g.lat_deg,
+                                                  g.lon_deg, g.x_m, g.y_m, g.hg_m),
+                                      strict=True))))
     for o in r.manual:
         lines.append(("OBS", {"kind": o.kind, "station": o.station, "lat": o.lat_deg,
                               "lon": o.lon_deg, "value": o.value, "sigma": o.sigma,
@@ -176,8 +195,8 @@ def cycle_block(
             fields: dict[str, Value] = {"kind": "hybrid" if f.uses_prior else "lse",
                                         "n": f.n_used, "cat": f.category, "s2": f.s2,
                                         "rms": f.rms_m}
-            fields.update(_pos_fields(PositionEstimate(
-                "LSE", f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov, f.ellipse)))
+            fields.update(_position_fields(f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov,
+                                           f.ellipse))
             if f.rejected_slots:
                 fields["rejected"] = ",".join(str(s) for s in f.rejected_slots)
             lines.append(("LSE", fields))
@@ -187,17 +206,13 @@ def cycle_block(
         lines.append(("KFP", _pos_fields(r.kf_pred)))
     fs = r.filter_state
     if fs is not None:
-        sig = np.sqrt(np.clip(np.diag(fs.P), 0.0, None))
-        kf: dict[str, Value] = {}
-        for i, name in enumerate(STATE_LABELS):
-            kf[name] = float(fs.x[i])
-        for i, name in enumerate(STATE_LABELS):
-            kf["s_" + name] = float(sig[i])
-        lines.append(("KF", kf))
+        n_nav = len(STATE_LABELS)
+        values = fs.x[:n_nav].tolist() + [_sigma(v) for v in fs.P.diagonal()[:n_nav].tolist()]
+        lines.append(("KF", dict(zip(_KF_KEYS, values, strict=True))))
     for kind, u in updates(r):  # the epoch's update first: readers take the first TEST line
         lines.append(("TEST", {"lom": u.lom.t, "lo": u.lom.lower, "hi": u.lom.upper,
                                "dof": u.lom.dof, "verdict": u.lom.verdict,
-                               "ls": ",".join(f"{t:.3f}" for t in u.ls.t),
+                               "ls": ",".join([f"{t:.3f}" for t in u.ls.t.tolist()]),
                                "upd": kind, "rows": ",".join(u.labels)}))
     lines.append(("MPP", {"source": r.mpp.source, **_pos_fields(r.mpp)}))
     for m in r.messages:

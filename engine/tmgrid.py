@@ -98,6 +98,17 @@ def _clenshaw(coeffs: tuple[float, ...], s2: Any, c2: Any) -> tuple[Any, Any]:
     return s2 * y1, c2 * z1 - z2
 
 
+def _clenshaw_sum(coeffs: tuple[float, ...], s2: complex, c2: complex) -> complex:
+    """S = Σ c_j sin(2jζ) alone for a complex scalar ζ: the y recurrence of :func:`_clenshaw`
+    without the derivative sum (forward and inverse positions need no convergence or scale)."""
+    a = 2.0 * c2
+    y1: complex | float = 0.0
+    y2: complex | float = 0.0
+    for cj in reversed(coeffs):
+        y1, y2 = a * y1 - y2 + cj, y1
+    return s2 * y1
+
+
 @dataclass(frozen=True)
 class TMGrid:
     """TM grid with k0 = 1 and no false origin on ``ellipsoid``, central meridian ``cm_deg``.
@@ -191,8 +202,7 @@ class TMGrid:
             xip = math.atan2(taup, clam)
             etap = math.asinh(math.sin(lam) / math.hypot(taup, clam))
         zp = complex(xip, etap)
-        s, _ = _clenshaw(self._alpha, cmath.sin(2.0 * zp), cmath.cos(2.0 * zp))
-        z = zp + s
+        z = zp + _clenshaw_sum(self._alpha, cmath.sin(2.0 * zp), cmath.cos(2.0 * zp))
         return self._A * z.imag, self._A * z.real
 
     def inverse(self, x_m: float, y_m: float) -> tuple[float, float]:
@@ -201,8 +211,7 @@ class TMGrid:
         Longitude is returned wrapped into (−180, 180].
         """
         z = complex(y_m / self._A, x_m / self._A)
-        s, _ = _clenshaw(self._beta, cmath.sin(2.0 * z), cmath.cos(2.0 * z))
-        zp = z - s
+        zp = z - _clenshaw_sum(self._beta, cmath.sin(2.0 * z), cmath.cos(2.0 * z))
         xip = zp.real
         etap = zp.imag
         sxi = math.sin(xip)
@@ -219,15 +228,15 @@ class TMGrid:
     def _tau_from_taup(self, taup: float) -> float:
         """Invert τ' (tan conformal latitude) → τ = tan φ by Newton (Karney eqs. 19–21)."""
         e2m = self._e2m
+        e = self._e
+        hypot = math.hypot
         tau = taup / e2m
         tol = 1e-15 * max(1.0, abs(taup))
         for _ in range(6):
-            taupa = self._taup(tau)
-            dtau = (
-                (taup - taupa)
-                * (1.0 + e2m * tau * tau)
-                / (e2m * math.hypot(1.0, tau) * math.hypot(1.0, taupa))
-            )
+            tau1 = hypot(1.0, tau)  # τ'(τ) as in _taup, inlined (hot path)
+            sig = math.sinh(e * math.atanh(e * tau / tau1))
+            taupa = tau * hypot(1.0, sig) - sig * tau1
+            dtau = (taup - taupa) * (1.0 + e2m * tau * tau) / (e2m * tau1 * hypot(1.0, taupa))
             tau += dtau
             if abs(dtau) <= tol:
                 break
