@@ -49,6 +49,7 @@ from engine.kalman import (
     Measurement,
     UpdateResult,
     init_state,
+    innovation_distance,
     lop_measurement,
     lse_measurement,
     predict_step,
@@ -288,6 +289,8 @@ class NavState:
     filter_has_fix: bool = False
     fix_source: tuple[object, ...] | None = None
     """The fix source (:func:`fix_source`) the filter's Gauss–Markov fix-error states model."""
+    gated_fixes: int = 0
+    """Fixes in a row kept out of the filter as gross errors (:data:`GROSS_GATE_SIGMA`)."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -298,6 +301,16 @@ def initial_state(cfg: RunConfig) -> NavState:
 def _status(cfg: RunConfig, name: str) -> int:
     return STATUS_CODE[getattr(cfg.sensors, name)]
 
+
+GROSS_GATE_SIGMA = 30.0
+"""A fix whose innovation is longer than this many σ (Mahalanobis, against S = HPHᵀ + R) is a
+gross error, not a statistical one: the filter does not take it (a GPS fix 5800 km off would
+otherwise pull speed and current to hundreds of m/s). The w-tests flag anything beyond ~3 σ; the
+gate only stops what no test could make good. A lane slip of one Decca lane (~500 m) against a
+20 m filter is 25 σ and still goes in, to be flagged by the tests as the thesis does."""
+GROSS_GATE_RESET = 3
+"""After this many gated LSE fixes in a row the filter, not the fixes, is taken to be wrong: its
+position restarts from the LSE as at the start of a run (kalman.md A3)."""
 
 DEPTH_PLAUSIBLE_M = (-20.0, 11_000.0)
 """Pressure depths (m, positive down) a reading may give: from 20 m above the surface (a wrong
@@ -521,6 +534,7 @@ def step(
     new_filter = pred_state
     has_fix = nav.filter_has_fix
     source = nav.fix_source
+    gated = nav.gated_fixes
     lse_ok = fix is not None and fix.ok and not fix.uses_prior
     depth_rows: Measurement | None = None
     if pred_state is not None and sens.depth_m is not None:
@@ -549,12 +563,25 @@ def step(
         elif fix is not None and fix.ok:
             meas = _raw_lop_measurement(fix)
         if meas is not None:
-            if depth_rows is not None:  # one update for everything measured at this epoch
-                meas, depth_rows = stack_measurements(depth_rows, meas), None
-            filt_result = update(new_filter, meas, params)
-            new_filter = filt_result.state
+            n_fix = meas.z.shape[0]
+            both = meas if depth_rows is None else stack_measurements(depth_rows, meas)
+            trial = update(new_filter, both, params)  # one update for all measured at this epoch
+            d_sigma = innovation_distance(trial, slice(both.z.shape[0] - n_fix, None))
             status = "ON"
-            has_fix = True
+            if d_sigma <= GROSS_GATE_SIGMA:
+                filt_result, new_filter, depth_rows = trial, trial.state, None
+                has_fix = True
+                gated = 0
+            else:
+                gated = nav.gated_fixes + 1
+                messages.append(f"Fix {d_sigma:.3g} σ from the filter: a gross error, not used "
+                                f"({gated} in a row)")
+                if lse_ok and gated >= GROSS_GATE_RESET and fix is not None:
+                    # The filter, not the fixes, is what went wrong (kalman.md A3 start again).
+                    new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
+                    messages.append(f"Filter position re-initialised from the LSE after "
+                                    f"{gated} gated fixes")
+                    gated = 0
         elif dr_sensors:
             status = "ON"  # DR-only path: model plus bounded sensors (program.md §2.5)
     elif new_filter is not None and fix is not None and lse_ok:
@@ -622,6 +649,7 @@ def step(
         decca_track=decca_track,
         filter_has_fix=has_fix,
         fix_source=source,
+        gated_fixes=gated,
     )
     return next_nav, result
 

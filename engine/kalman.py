@@ -37,6 +37,7 @@ __all__ = [
     "add_fix_states",
     "current_rate_variance",
     "discrete_noise",
+    "innovation_distance",
     "init_state",
     "jacobian",
     "lom_test",
@@ -939,6 +940,24 @@ def lom_test(v: np.ndarray, S: np.ndarray, alpha: float = 0.05) -> LomTest:
     """LOM test of any innovation v (p,) with covariance S (p×p), A12 bounds χ²_p/p."""
     w = _factor_solve(S, np.asarray(v, dtype=float))
     return _lom_from_nis(float(w @ w), len(w), alpha)
+
+
+def innovation_distance(result: UpdateResult, rows: slice = slice(None)) -> float:
+    """Mahalanobis length √(v̂ᵀ S⁻¹ v̂) of the innovation ``rows`` of an update (in σ).
+
+    Under H0 its square is χ²_p; a length of tens of σ is no statistical question any more but
+    a gross error (a fix thousands of km away), which the cycle keeps out of the filter.
+    """
+    v = np.asarray(result.innovation[rows], dtype=float)
+    if v.shape[0] == 0:
+        return 0.0
+    S = np.asarray(result.S[rows, rows], dtype=float)
+    try:
+        w = _factor_solve(S, v)
+    except np.linalg.LinAlgError:
+        return math.inf
+    d2 = float(w @ w)
+    return math.sqrt(d2) if d2 >= 0.0 else math.inf
 
 
 def ls_test(v: np.ndarray, S: np.ndarray, lom_reject: bool) -> LsTest:

@@ -398,3 +398,56 @@ def test_implausible_pressure_depth_is_not_used(tmp_path: Path) -> None:
     assert r2.sensors.depth_m is None
     assert any("implausible, not used" in m for m in r2.messages)
     assert abs(r3.mpp.depth_m) < 5.0 and abs(r3.filter_state.x[3]) < 10.0  # depth, speed sane
+
+
+def _shift_gps(lines: list[str], rows: range, dlat_deg: int) -> list[str]:
+    """The sample lines with the GPS latitude degrees of data rows ``rows`` moved by dlat_deg."""
+    out = list(lines)
+    for i in rows:
+        f = out[i].split("\t")
+        lat = f[2].split()
+        lat[0] = f"{int(lat[0]) + dlat_deg:02d}"
+        f[2] = " ".join(lat)
+        out[i] = "\t".join(f)
+    return out
+
+
+def _gps_only_run(tmp_path: Path, lines: list[str]) -> list:
+    cfg = load_config(SAMPLE)
+    run = tmp_path / "G.RUN"
+    run.write_text("\n".join(lines) + "\n")
+    cfg = cfg.replace(run_file=str(run), decca=replace(cfg.decca, on=False))
+    return _run(cfg)[1]
+
+
+def test_a_gross_gps_error_is_kept_out_of_the_filter(tmp_path: Path) -> None:
+    """A GPS fix 1° (111 km) north of the track is a gross error: the LSE follows it (GPS alone
+    has no redundancy), the filter does not take it and says so; the MPP stays on the track."""
+    lines = (DATA / "920917_1.RUN").read_text().splitlines()
+    clean = _gps_only_run(tmp_path, lines)
+    res = _gps_only_run(tmp_path, _shift_gps(lines, range(6, 7), 1))  # record 083543
+    r = res[5]
+    assert r.fix.y_m - clean[5].fix.y_m == pytest.approx(111_000, rel=0.01)
+    assert any("gross error, not used (1 in a row)" in m for m in r.messages)
+    # The gated epoch is the prediction: within 5 m of the clean run (one 1 s step of ~6.5 m,
+    # whose clean update moves the estimate by a few metres at most).
+    assert math.hypot(r.mpp.x_m - clean[5].mpp.x_m, r.mpp.y_m - clean[5].mpp.y_m) < 5.0
+    assert res[6].mpp.source == "KF" and not any("gross" in m for m in res[6].messages)
+    assert all(np.isfinite(x.filter_state.x).all() for x in res)
+
+
+def test_three_gated_fixes_in_a_row_restart_the_filter_from_the_lse(tmp_path: Path) -> None:
+    """From the third consecutive gross fix on, the fixes are believed: the filter position
+    restarts from the LSE (kalman.md A3), so a filter that went wrong cannot shut out every
+    later fix. Records 083543–083547 are 1° south; the third, 083545, restarts the filter."""
+    lines = (DATA / "920917_1.RUN").read_text().splitlines()
+    res = _gps_only_run(tmp_path, _shift_gps(lines, range(6, 11), -1))
+    assert [sum("gross error" in m for m in r.messages) for r in res] == [0] * 5 + [1, 1, 1, 0, 0]
+    restart = res[7]
+    assert any("re-initialised from the LSE after 3 gated fixes" in m for m in restart.messages)
+    fs = restart.filter_state
+    assert (float(fs.x[0]), float(fs.x[1])) == (restart.fix.x_m, restart.fix.y_m)
+    # Afterwards the filter follows the shifted fixes: MPP within the LSE's 95 % axis.
+    for r in res[8:]:
+        assert math.hypot(r.mpp.x_m - r.fix.x_m, r.mpp.y_m - r.fix.y_m) < r.fix.ellipse.scaled(
+            0.95)[0]
