@@ -75,8 +75,8 @@ def test_whole_demo_replays_with_an_honest_mpp_and_a_dead_reckoning_dive() -> No
       (0.5 m, 198 s at 0.25 m/s) is fix-less too.
 
     Measured with the DEMO.toml of this commit (`uvnav replay` + `uvnav assess`,
-    docs/ASSESS.md): MPP RMS 22.2 m against the LSE's 28.7 m surfaced, 29.4 against 29.0 m
-    after resurfacing; coverage 93.9 %. This is one realisation (seed 1993, the lowest LSE
+    docs/ASSESS.md): MPP RMS 22.3 m against the LSE's 28.7 m surfaced, 29.2 against 29.0 m
+    after resurfacing; coverage 93.5 %. This is one realisation (seed 1993, the lowest LSE
     coverage of 20 seeds): with errors correlated over 3–4 min a phase holds only ~10
     independent samples, so per-phase claims belong to the multi-seed test
     (tests/test_demo_seeds.py); here only the targets are asserted, not these values.

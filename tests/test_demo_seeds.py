@@ -36,9 +36,14 @@ against 3 m white), and a Gauss–Markov gyro error (0.5°, τ 20 min) grows lik
 mission give coverage 93.3 ± 1.1 % over all epochs (surfaced 93.7 %, dive 91.7 %, after
 resurfacing 96.4 %), NEES 2.21 ± 0.11, and the MPP beats the LSE on 80 % of the seeds surfaced
 (by 2.7 m on average) and 82 % after resurfacing (by 5.0 m); 12 seeds of the full 2-h demo give
-coverage 98.1 % and NEES 1.72 (the longer dive makes the random walk conservative). On seeds
-1–10 here: coverage 94.5 %, NEES 2.12. The assertions fail on a wrong model (measured with
-the first settings): with
+coverage 98.1 % and NEES 1.72 (the longer dive makes the random walk conservative). But 0.99
+left no white part for the Decca lanes' 0.003-lane jitter (3–9 % of their variance), and the
+filter's innovation test rejected 28.5 % of the fix updates (60 seeds) instead of α = 5 %. With
+fix_sigma_frac 0.95 (the current DEMO.toml) seeds 1–60 give coverage 93.4 ± 1.3 % (surfaced
+92.2, dive 93.0, after resurfacing 96.7), NEES 2.24 ± 0.14, 3.9 % of the updates rejected, and
+the same RMS errors (MPP better than the LSE on 87 % / 78 % of the seeds, by 3.1 / 5.2 m); on
+seeds 1–10 here: coverage 94.1 %, NEES 2.24. The assertions fail on a wrong model (measured
+with the first settings): with
 ``model = "thesis"`` the coverage and NEES ones fail (coverage 5 %, NEES 103); with
 ``gps_se_sf = 0.1`` (coverage 52 %, NEES 7.9) too; with the gyro bias a random constant
 (``bias_noise = false``) the dive coverage falls to 75 % and the NEES test fails (3.02 ± 0.82).
