@@ -34,10 +34,23 @@ DATA_FILES = ("TO_WGS84.DAT", "DECCA.CHN", "DEMO.RUN", "DEMO.toml")
 
 
 def private_data() -> Path:
-    """A temporary copy of the demo data (the console writes its .OUT next to the .RUN)."""
+    """A temporary copy of the demo data (the console writes its .OUT next to the .RUN).
+
+    The copy's DEMO.toml flags failed w-tests (``lop_reject = "N"``) instead of asking (the
+    thesis default ``"A"``, which the demo keeps): the console stops at each "Discard LOP?"
+    question until the operator answers (6 times in the 2 h demo), and an unanswered question
+    would stall the sustained-rate run. The LSQ work per cycle is the same; only the question
+    is not put.
+    """
     target = Path(tempfile.mkdtemp(prefix="uvnav-bench-"))
     for name in DATA_FILES:
         shutil.copy(ROOT / "data" / name, target / name)
+    toml = target / "DEMO.toml"
+    text = toml.read_text(encoding="utf-8")
+    if "\n[lsq]\n" not in text:
+        raise SystemExit(f"{toml}: no [lsq] table to put lop_reject into")
+    toml.write_text(text.replace("\n[lsq]\n", '\n[lsq]\nlop_reject = "N"\n', 1),
+                    encoding="utf-8")
     return target
 
 
