@@ -34,23 +34,10 @@ DATA_FILES = ("TO_WGS84.DAT", "DECCA.CHN", "DEMO.RUN", "DEMO.toml")
 
 
 def private_data() -> Path:
-    """A temporary copy of the demo data (the console writes its .OUT next to the .RUN).
-
-    The copy's DEMO.toml flags failed w-tests (``lop_reject = "N"``) instead of asking (the
-    thesis default ``"A"``, which the demo keeps): the console stops at each "Discard LOP?"
-    question until the operator answers (6 times in the 2 h demo), and an unanswered question
-    would stall the sustained-rate run. The LSQ work per cycle is the same; only the question
-    is not put.
-    """
+    """A temporary copy of the demo data (the console writes its .OUT next to the .RUN)."""
     target = Path(tempfile.mkdtemp(prefix="uvnav-bench-"))
     for name in DATA_FILES:
         shutil.copy(ROOT / "data" / name, target / name)
-    toml = target / "DEMO.toml"
-    text = toml.read_text(encoding="utf-8")
-    if "\n[lsq]\n" not in text:
-        raise SystemExit(f"{toml}: no [lsq] table to put lop_reject into")
-    toml.write_text(text.replace("\n[lsq]\n", '\n[lsq]\nlop_reject = "N"\n', 1),
-                    encoding="utf-8")
     return target
 
 
@@ -108,8 +95,11 @@ async def _console_rate(config: Path) -> tuple[float, int]:
     from engine.runconfig import load_config
     from uvnav_tui.app import UVNAVApp
 
+    # The demo asks "Discard LOP?" 6 times (LOPReject = A, the thesis default); the app answers
+    # "no" itself, as `uvnav script` answers with `lop`, so an unanswered question cannot stall
+    # the run (it did: make bench hung at the first one).
     app = UVNAVApp(load_config(config), pace_override="fast", write_logs=False,
-                   hardcopy_dir=config.parent / "hardcopy")
+                   hardcopy_dir=config.parent / "hardcopy", lop_policy="no")
     async with app.run_test(size=(100, 30)) as pilot:
         await pilot.pause()
         await pilot.press("enter")
