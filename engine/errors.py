@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+MAX_ECHO_CHARS = 200
+"""Longest offending text quoted in a message (the rest is cut and marked with …)."""
+
 
 class InputError(ValueError):
     """Bad input, located as precisely as the source allows.
@@ -37,7 +40,10 @@ class InputError(ValueError):
         elif self.line is not None:
             where = f"line {self.line}: "
         field = f"{self.field}: " if self.field else ""
-        got = f" (got {self.text!r})" if self.text is not None else ""
+        text = self.text
+        if text is not None and len(text) > MAX_ECHO_CHARS:  # a huge value is not echoed whole
+            text = text[: MAX_ECHO_CHARS - 1] + "…"
+        got = f" (got {text!r})" if text is not None else ""
         return f"{where}{field}{self.message}{got}"
 
     def located(self, *, file: str | None = None, line: int | None = None) -> InputError:
@@ -49,3 +55,18 @@ class InputError(ValueError):
             field=self.field,
             text=self.text,
         )
+
+
+def read_error(exc: OSError, file: str, missing: str = "File not found !") -> InputError:
+    """The InputError for a file that cannot be opened for reading, by the reason: ``missing``
+    (``File not found !``), ``Is a directory, not a file !``, ``Cannot read: permission
+    denied !`` or ``Cannot read: <the system's reason> !``."""
+    if isinstance(exc, FileNotFoundError):
+        message = missing
+    elif isinstance(exc, IsADirectoryError):
+        message = "Is a directory, not a file !"
+    elif isinstance(exc, PermissionError):
+        message = "Cannot read: permission denied !"
+    else:
+        message = f"Cannot read: {exc.strerror or exc} !"
+    return InputError(message, file=file)

@@ -31,9 +31,10 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from numbers import Integral
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 from engine.errors import InputError
+from engine.outputs import OutputFile, OutputGuard, free_name
 
 FORMAT_VERSION = 1
 Value = str | int | float | bool | None
@@ -206,15 +207,10 @@ class OutLogContents:
 
 
 def free_log_path(path: Path) -> Path:
-    """``path`` if nothing is there, else the first free ``stem_N.suffix`` (N = 1, 2, …)."""
-    if not path.exists():
-        return path
-    n = 1
-    while True:
-        candidate = path.with_name(f"{path.stem}_{n}{path.suffix}")
-        if not candidate.exists():
-            return candidate
-        n += 1
+    """``path`` if nothing is there, else the first free ``stem_N.suffix`` (N = 1, 2, …); any
+    directory entry, a dangling symbolic link too, counts as taken
+    (:func:`engine.outputs.free_name`)."""
+    return free_name(path)
 
 
 class OutLogWriter:
@@ -224,7 +220,7 @@ class OutLogWriter:
     ``fsync_every`` cycles it is also forced to the disk (survives a power cut), and at close.
     """
 
-    def __init__(self, handle: IO[str], path: Path, fsync_every: int = 600) -> None:
+    def __init__(self, handle: OutputFile, path: Path, fsync_every: int = 600) -> None:
         self._fh = handle
         self.path = path
         self._fsync_every = max(1, fsync_every)
@@ -239,22 +235,18 @@ class OutLogWriter:
         config_text: str = "",
         force: bool = False,
         fsync_every: int = 600,
+        guard: OutputGuard | None = None,
+        label: str = "--out",
     ) -> OutLogWriter:
         """Create a new log at ``path``; if it exists, pick ``NAME_1.OUT`` … unless ``force``.
 
-        The file is opened in exclusive-create mode, so two runs can never share one log.
+        Opened by :meth:`engine.outputs.OutputGuard.open` (exclusive create, so two runs can
+        never share one log; never an input of ``guard``; ``force`` replaces only an earlier
+        ``.OUT`` log).
         """
-        target = Path(path)
-        if force:
-            fh = open(target, "w", encoding="utf-8", newline="\n")  # noqa: SIM115
-        else:
-            while True:
-                target = free_log_path(target)
-                try:
-                    fh = open(target, "x", encoding="utf-8", newline="\n")  # noqa: SIM115
-                    break
-                except FileExistsError:
-                    continue
+        fh = (guard if guard is not None else OutputGuard()).open(
+            path, label=label, kind="out", force=force)
+        target = fh.path
         writer = cls(fh, target, fsync_every)
         lines = [f"# UVNAV output log, format {FORMAT_VERSION}"]
         lines.extend(f"# {h}" for h in header)
@@ -269,7 +261,7 @@ class OutLogWriter:
         self._fh.flush()
         self._since_sync += 1
         if sync or self._since_sync >= self._fsync_every:
-            os.fsync(self._fh.fileno())
+            self._fh.fsync()
             self._since_sync = 0
 
     def write_cycle(
@@ -295,11 +287,8 @@ class OutLogWriter:
         self._write(format_line("BAD", fields) + "\n")
 
     def close(self) -> None:
-        """Flush, force to disk and close."""
-        if not self._fh.closed:
-            self._fh.flush()
-            os.fsync(self._fh.fileno())
-            self._fh.close()
+        """Flush, force to disk and close (an error names the file)."""
+        self._fh.close(sync=True)
 
     def __enter__(self) -> OutLogWriter:
         return self

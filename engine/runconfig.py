@@ -37,6 +37,7 @@ from engine.operator_input import (
     parse_zone_lane,
 )
 from engine.tomlsource import (
+    NUL_IN_PATH_MESSAGE,
     UNKNOWN_KEY_MESSAGE,
     UNKNOWN_TABLE_MESSAGE,
     parse_located,
@@ -126,6 +127,18 @@ def _non_empty(message: str) -> Callable[[str], str]:
         return value.strip()
 
     return check
+
+
+def _path(check: Callable[[str], str] | None = None) -> Callable[[str], str]:
+    """A file or directory name: no NUL character (no file system accepts one), then
+    ``check``."""
+
+    def path_check(value: str) -> str:
+        if "\0" in value:
+            raise _bad(NUL_IN_PATH_MESSAGE)
+        return value if check is None else check(value)
+
+    return path_check
 
 
 def _angle(value: float) -> float:
@@ -601,6 +614,11 @@ FilterConfig.KEYS = (
 # fmt: on
 
 
+MAX_DELTA_T_S = 3600
+"""Largest ``[demo] delta_t_s`` (s): one KF step of an hour at 40 kn is 74 km; a step of 10⁹ s
+carried the prediction off the TM grid (an engine failure, not an input error)."""
+
+
 @dataclass(frozen=True)
 class DemoConfig:
     """Demo-menu performance and layout parameters (L7678–7680, A8.2, program.md A21)."""
@@ -632,8 +650,8 @@ class DemoConfig:
 # fmt: off
 DemoConfig.KEYS = (
     Key("delta_t_s", "delta_t_s", "int", "s",
-        "sample interval: every DeltaT-th record is processed, KF Δt = DeltaT",
-        "A8.2 DeltaT = 1 (L8788); L7610; program.md A21", _between(1, None)),
+        "sample interval: every DeltaT-th record is processed, KF Δt = DeltaT; 1 to 3600",
+        "A8.2 DeltaT = 1 (L8788); L7610; program.md A21", _between(1, MAX_DELTA_T_S)),
     Key("s_weight", "s_weight", "float", "—", "specific weight of seawater γ (eq. 3.3)",
         "A8.2 s_weight = 1.026 (L8768)", _POSITIVE),
     Key("press_ref_freq_hz", "press_ref_freq_hz", "float", "Hz",
@@ -739,13 +757,13 @@ RunConfig.KEYS = (
         "L5493", _between(0.0, MAX_SPEED_KN, message=SPEED_MESSAGE)),
     Key("run_file", "run_file", "str", "path",
         ".RUN simulation data, relative to the configuration file's directory",
-        "L5494; A8.2 RunDataFile (L8737)", _non_empty(FILE_NAME_MESSAGE)),
+        "L5494; A8.2 RunDataFile (L8737)", _path(_non_empty(FILE_NAME_MESSAGE))),
     Key("run_gps_datum", "run_gps_datum", "str", "—",
         "datum of the GPS positions in the .RUN file", "L5547; lsq.md §13 item 2",
         _non_empty(DATUM_MESSAGE)),
     Key("data_dir", "data_dir_text", "str", "path",
         "directory of TO_WGS84.DAT and DECCA.CHN, relative to the configuration file",
-        "A8.2 (L8735–8737); program.md A1"),
+        "A8.2 (L8735–8737); program.md A1", _path()),
 )
 # fmt: on
 

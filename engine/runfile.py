@@ -32,12 +32,14 @@ from __future__ import annotations
 import math
 import os
 import re
+import stat
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from typing import IO
 
 from engine.deccafile import format_dms, parse_dms
-from engine.errors import InputError
+from engine.errors import InputError, read_error
 
 __all__ = [
     "BadRecord",
@@ -241,6 +243,21 @@ def parse_run_line(line: str, line_no: int = 0, filename: str = "<string>") -> R
         raise exc.located(file=filename, line=line_no) from None
 
 
+MAX_LINE_CHARS = 4096
+"""Longest ``.RUN`` line read (a record is under 200 characters); a longer one is a bad record
+whose text is not kept, so one huge line cannot fill the memory."""
+LINE_TOO_LONG_MESSAGE = f"Line too long (more than {MAX_LINE_CHARS} characters) !"
+RAW_KEPT_CHARS = 80
+"""Characters of an over-long line kept as its ``raw`` text."""
+
+
+def _parse_one(line: str, line_no: int, filename: str) -> RunRecord | BadRecord | None:
+    try:
+        return parse_run_line(line, line_no, filename)
+    except InputError as exc:
+        return BadRecord(line_no, line.rstrip("\r\n"), exc)
+
+
 def iter_run_lines(
     lines: Iterable[str], filename: str = "<string>"
 ) -> Iterator[RunRecord | BadRecord]:
@@ -249,31 +266,47 @@ def iter_run_lines(
     Never raises ``InputError``, so a replay does not stop on a bad line.
     """
     for line_no, line in enumerate(lines, 1):
-        try:
-            rec = parse_run_line(line, line_no, filename)
-        except InputError as exc:
-            yield BadRecord(line_no, line.rstrip("\r\n"), exc)
-            continue
-        if rec is not None:
-            yield rec
+        item = _parse_one(line, line_no, filename)
+        if item is not None:
+            yield item
 
 
 def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecord]:
     """Stream the records of a ``.RUN`` file, reading one line at a time (constant memory).
 
-    The file is checked to exist when this is called (``InputError("File not found !")``);
-    it is opened on the first ``next()`` and closed when the iterator is exhausted or closed.
-    Undecodable bytes become U+FFFD (so the line is reported as bad, never crashes the replay).
+    The file is opened when this is called, so a missing, unreadable or non-regular file is
+    an ``InputError`` before anything runs (:func:`~engine.errors.read_error`); it is closed
+    when the iterator is exhausted or closed. Undecodable bytes become U+FFFD (so the line is
+    reported as bad, never crashes the replay); a line over :data:`MAX_LINE_CHARS` characters
+    is a bad record.
     """
     name = os.fspath(path)
-    if not os.path.isfile(name):
-        raise InputError("File not found !", file=name)
-    return _stream(name)
+    if "\0" in name:
+        raise InputError("A path cannot contain a NUL character !", file=name)
+    try:
+        if not stat.S_ISDIR(mode := os.stat(name).st_mode) and not stat.S_ISREG(mode):
+            raise InputError("Not a regular file (a device or pipe) !", file=name)
+        fh = open(name, encoding="utf-8-sig", errors="replace")  # noqa: SIM115
+    except OSError as exc:
+        raise read_error(exc, name) from None
+    return _stream(fh, name)
 
 
-def _stream(name: str) -> Iterator[RunRecord | BadRecord]:
-    with open(name, encoding="utf-8-sig", errors="replace") as fh:
-        yield from iter_run_lines(fh, name)
+def _stream(fh: IO[str], name: str) -> Iterator[RunRecord | BadRecord]:
+    with fh:
+        line_no = 0
+        while line := fh.readline(MAX_LINE_CHARS + 1):
+            line_no += 1
+            if len(line) > MAX_LINE_CHARS and not line.endswith("\n"):
+                raw = line[:RAW_KEPT_CHARS] + "…"
+                while line and not line.endswith("\n"):  # skip the rest, a chunk at a time
+                    line = fh.readline(1 << 16)
+                yield BadRecord(line_no, raw, InputError(
+                    LINE_TOO_LONG_MESSAGE, file=name, line=line_no, field="record"))
+                continue
+            item = _parse_one(line, line_no, name)
+            if item is not None:
+                yield item
 
 
 # --------------------------------------------------------------------------- writer

@@ -36,7 +36,13 @@ from typing import Any
 
 from engine.errors import InputError
 from engine.operator_input import parse_datum_name, parse_position
-from engine.tomlsource import UNKNOWN_KEY_MESSAGE, UNKNOWN_TABLE_MESSAGE, parse_located, read_text
+from engine.tomlsource import (
+    NUL_IN_PATH_MESSAGE,
+    UNKNOWN_KEY_MESSAGE,
+    UNKNOWN_TABLE_MESSAGE,
+    parse_located,
+    read_text,
+)
 
 __all__ = [
     "Current",
@@ -304,6 +310,13 @@ def _non_empty(value: str) -> str:
     return value.strip()
 
 
+def _path(value: str) -> str:
+    """A directory name: not empty, no NUL character."""
+    if "\0" in value:
+        raise InputError(NUL_IN_PATH_MESSAGE)
+    return _non_empty(value)
+
+
 def _position(value: str) -> str:
     parse_position(value)
     return value
@@ -320,7 +333,7 @@ _TOP: tuple[_Spec, ...] = (
     _Spec("start_position", "str", _REQUIRED, _position),
     _Spec("sample_interval_s", "int", 1, _range(1, 3600)),
     _Spec("run_gps_datum", "str", "WGS84", _non_empty),
-    _Spec("data_dir", "str", ".", _non_empty),
+    _Spec("data_dir", "str", ".", _path),
     _Spec("water_depth_m", "float", None, _range(0.0, 11000.0, lo_open=True)),
     _Spec("fix_depth_max_m", "float", 0.5, _range(0.0, 30.0)),
     _Spec("acceleration_ms2", "float", 0.05, _range(0.0, 2.0, lo_open=True)),
@@ -374,7 +387,7 @@ _ECHO: tuple[_Spec, ...] = (
     _Spec("sigma_b", "float", 0.0045, _SIGMA),
 )
 _LEG: tuple[_Spec, ...] = (
-    _Spec("duration_s", "int", _REQUIRED, _range(0, None, lo_open=True)),
+    _Spec("duration_s", "int", _REQUIRED, _range(0, None, lo_open=True)),  # + MAX_MISSION_S
     _Spec("course_deg", "float", _REQUIRED, _angle),
     _Spec("speed_kn", "float", _REQUIRED, _range(0.0, 60.0)),
     _Spec("depth_m", "float", 0.0, _range(0.0, 1000.0)),
@@ -547,6 +560,11 @@ def _build(
     )
 
 
+MAX_MISSION_S = 30 * 86400
+"""Longest scenario (sum of the legs' ``duration_s``): 30 days, 2.6 million 1-s records, a
+``.RUN`` file of about 250 MB; longer would only fill the disk (and the memory)."""
+
+
 def _legs(
     raw: Any, top: Mapping[str, Any], current: Current, water: float | None
 ) -> tuple[Leg, ...]:
@@ -556,9 +574,16 @@ def _legs(
         raise InputError("Wrong type: array of tables [[leg]] expected !", field="leg")
     legs = []
     dt = top["sample_interval_s"]
+    total = 0
     for i, table in enumerate(raw, start=1):
         prefix = f"leg[{i}]."
         v = _read(table, _LEG, prefix)
+        total += v["duration_s"]
+        if total > MAX_MISSION_S:
+            raise InputError(
+                f"Mission too long: the legs may last {MAX_MISSION_S} s (30 days) in all !",
+                field=prefix + "duration_s", text=str(v["duration_s"]),
+            )
         if v["duration_s"] % dt:
             raise InputError(
                 "Must be a whole multiple of sample_interval_s !",

@@ -24,7 +24,6 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import IO
 
 from engine import __version__
 from engine.commands import Command, SetDatum, apply_command
@@ -45,7 +44,8 @@ from engine.deccafile import DeccaChain, read_chain_file
 from engine.errors import InputError
 from engine.kalman import predict_horizon
 from engine.operator_input import parse_datum_name
-from engine.outlog import OutLogWriter, free_log_path
+from engine.outlog import OutLogWriter
+from engine.outputs import OutputFile, OutputGuard
 from engine.records import cycle_block, cycle_json
 from engine.runconfig import UNKNOWN_CHAIN_MESSAGE, RunConfig, dump_config, load_config
 from engine.runfile import BadRecord, RunRecord, iter_run_file
@@ -69,6 +69,8 @@ class RunSummary:
 DATUM_FILE = "TO_WGS84.DAT"
 CHAIN_FILE = "DECCA.CHN"
 NOT_ADVANCING_MESSAGE = "Time does not advance !"
+BAD_RECORDS_KEPT = 100
+"""Bad records kept in :attr:`Session.bad_records` (the rest are counted and logged only)."""
 
 
 def check_config(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain]) -> None:
@@ -118,22 +120,31 @@ def load_run_config(
     return cfg, (datums, chains)
 
 
-def create_output(path: str | os.PathLike[str], force: bool = False) -> tuple[IO[str], Path]:
+def create_output(
+    path: str | os.PathLike[str],
+    force: bool = False,
+    *,
+    guard: OutputGuard | None = None,
+    label: str = "--jsonl",
+    kind: str = "jsonl",
+) -> tuple[OutputFile, Path]:
     """Open a new text output file (UTF-8, ``\\n`` line ends) by the ``.OUT`` rule.
 
     An existing file is never overwritten: the first free ``stem_N.suffix`` is used instead
-    (exclusive create, so two runs never share a file), unless ``force``. Returns the open
-    handle and the path actually used.
+    (exclusive create, so two runs never share a file), unless ``force``, which replaces only
+    an earlier output of ``kind``; never a file of ``guard`` (:mod:`engine.outputs`). Returns
+    the open file and the path actually used.
     """
-    target = Path(path)
-    if force:
-        return open(target, "w", encoding="utf-8", newline="\n"), target  # noqa: SIM115
-    while True:
-        target = free_log_path(target)
-        try:
-            return open(target, "x", encoding="utf-8", newline="\n"), target  # noqa: SIM115
-        except FileExistsError:
-            continue
+    fh = (guard if guard is not None else OutputGuard()).open(
+        path, label=label, kind=kind, force=force)
+    return fh, fh.path
+
+
+def run_inputs(cfg: RunConfig) -> list[tuple[str, Path]]:
+    """The files a run of ``cfg`` reads (labelled for messages): no output may be one of them."""
+    return [("the run file", cfg.run_path),
+            (f"the data file {DATUM_FILE}", cfg.data_dir / DATUM_FILE),
+            (f"the data file {CHAIN_FILE}", cfg.data_dir / CHAIN_FILE)]
 
 
 def _logged_config(cfg: RunConfig) -> RunConfig:
@@ -156,6 +167,7 @@ class Session:
         history: int = 3600,
         collect_smoother: bool = False,
         data: tuple[DatumFile, dict[str, DeccaChain]] | None = None,
+        guard: OutputGuard | None = None,
     ) -> None:
         if data is None:
             data = load_data(config)
@@ -166,6 +178,9 @@ class Session:
         self.nav: NavState = initial_state(config)
         self.history: deque[CycleResult] = deque(maxlen=max(1, history))
         self.bad_records: list[BadRecord] = []
+        """The first :data:`BAD_RECORDS_KEPT` bad records (all of them are ``BAD`` lines of the
+        ``.OUT`` log; :attr:`skipped_records` counts them all): memory stays bounded."""
+        self.skipped_records = 0
         self.eof = False
         self.fixes = 0
         self.rejected_lops = 0
@@ -178,19 +193,28 @@ class Session:
         self._smoother: list[SmootherRecord] | None = [] if collect_smoother else None
         self._smoother_cm: float | None = None
         self._out: OutLogWriter | None = None
-        self._jsonl: IO[str] | None = None
+        self._jsonl: OutputFile | None = None
         self.jsonl_path: Path | None = None
-        # Both logs follow the .OUT rule (never overwritten: NAME_N; --force overwrites). If
-        # the second cannot be created, the first is removed again: no orphan header-only log.
+        # Both logs follow the .OUT rule (engine/outputs.py: never an input, never overwritten:
+        # NAME_N; --force replaces an earlier output). Both names are checked before either is
+        # created; if the second still cannot be, the first is removed again.
+        if guard is None:
+            guard = OutputGuard()
+        guard.protect_all(run_inputs(config))
+        if jsonl_path is not None:
+            guard.check(jsonl_path, "--jsonl")
+        if out_path is not None:
+            guard.check(out_path, "--out")
         try:
             if jsonl_path is not None:
-                self._jsonl, self.jsonl_path = create_output(jsonl_path, force)
+                self._jsonl, self.jsonl_path = create_output(jsonl_path, force, guard=guard)
             if out_path is not None:
                 self._out = OutLogWriter.create(
                     out_path,
                     header=[f"engine {__version__}", f"run {config.run_path}"],
                     config_text=dump_config(_logged_config(config)),
                     force=force,
+                    guard=guard,
                 )
         except BaseException:
             self.close()
@@ -228,7 +252,7 @@ class Session:
             if isinstance(item, BadRecord):
                 self._log_bad(item.line_no, item.error.field or "record", item.error.message,
                               item.raw)
-                self.bad_records.append(item)
+                self._keep_bad(item)
                 continue
             # DeltaT: process every DeltaT-th record (program.md A21), counted from the last
             # processed one, so a new DeltaT takes effect from the next cycle.
@@ -275,7 +299,13 @@ class Session:
     def _reject(self, rec: RunRecord, error: InputError) -> None:
         """Skip a parsed record the run cannot use: log it (``BAD``) and keep it."""
         self._log_bad(rec.line_no, error.field or "record", error.message, rec.raw)
-        self.bad_records.append(BadRecord(rec.line_no, rec.raw, error))
+        self._keep_bad(BadRecord(rec.line_no, rec.raw, error))
+
+    def _keep_bad(self, bad: BadRecord) -> None:
+        """Count a bad record; keep only the first :data:`BAD_RECORDS_KEPT` in memory."""
+        self.skipped_records += 1
+        if len(self.bad_records) < BAD_RECORDS_KEPT:
+            self.bad_records.append(bad)
 
     def _commit(self, nav: NavState, result: CycleResult) -> None:
         if self._smoother is not None and nav.filter is not None:
@@ -357,7 +387,7 @@ class Session:
             epochs=len(self.history) if self.last is None else self.last.n,
             fixes=self.fixes,
             rejected_lops=self.rejected_lops,
-            skipped_records=len(self.bad_records),
+            skipped_records=self.skipped_records,
             last=self.last,
             out_path=self.out_path,
             jsonl_path=self.jsonl_path,
@@ -407,11 +437,14 @@ class Session:
         return [filter_estimate("SMO", grid, s) for s in rts_smooth(recs)]
 
     def close(self) -> None:
-        """Close the logs (everything written is already flushed)."""
-        if self._out is not None:
-            self._out.close()
-        if self._jsonl is not None and not self._jsonl.closed:
-            self._jsonl.close()
+        """Close the logs (everything written is already flushed); both are closed even if
+        closing one fails (the OSError names its file)."""
+        try:
+            if self._out is not None:
+                self._out.close()
+        finally:
+            if self._jsonl is not None:
+                self._jsonl.close()
 
     def __enter__(self) -> Session:
         return self
@@ -428,5 +461,6 @@ __all__ = [
     "load_data",
     "load_run_config",
     "read_data_dir",
+    "run_inputs",
     "replace",
 ]

@@ -16,12 +16,15 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
-from engine.errors import InputError
+from engine.errors import InputError, read_error
 
 T = TypeVar("T")
 
 FILE_NOT_FOUND_MESSAGE = "File not found !"
 NOT_UTF8_MESSAGE = "File is not UTF-8 text !"
+TOO_DEEP_MESSAGE = "Arrays or inline tables nested too deep !"
+TOO_LONG_NUMBER_MESSAGE = "Number too long (more than 4300 digits) !"
+NUL_IN_PATH_MESSAGE = "A path cannot contain a NUL character !"
 UNKNOWN_KEY_MESSAGE = "Unknown key !"
 UNKNOWN_TABLE_MESSAGE = "Unknown table !"
 
@@ -116,6 +119,12 @@ class SourceIndex:
                 return InputError(err.message, file=filename, line=line, field=err.field, text=text)
         return err.located(file=filename)
 
+    def at_line(self, message: str, filename: str, line: int) -> InputError:
+        """An InputError at ``line`` with the key of that line as the field, if one is known
+        (the value text is not echoed: it is what is too long or too deep)."""
+        names = [name for name, (at, val) in self.where.items() if at == line and val is not None]
+        return InputError(message, file=filename, line=line, field=names[0] if names else None)
+
     def syntax_error(self, err: tomllib.TOMLDecodeError, filename: str) -> InputError:
         """An InputError for a TOML syntax error, at the line tomllib reports (with the key of
         that line as the field, if one is known)."""
@@ -141,20 +150,65 @@ def parse_located(text: str, filename: str, build: Callable[[dict[str, Any]], T]
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise index.syntax_error(err, filename) from None
+    except RecursionError:  # tomllib recurses once per level of [ or {
+        raise index.at_line(TOO_DEEP_MESSAGE, filename, _deepest_line(text)) from None
+    except ValueError:  # an integer of more than 4300 digits (sys.get_int_max_str_digits)
+        raise index.at_line(TOO_LONG_NUMBER_MESSAGE, filename, _long_number_line(text)) from None
     try:
         return build(data)
     except InputError as err:
         raise index.locate(err, filename) from None
+    except RecursionError:
+        raise index.at_line(TOO_DEEP_MESSAGE, filename, _deepest_line(text)) from None
+
+
+def _deepest_line(text: str) -> int:
+    """The first line (1-based) reaching the deepest ``[``/``{`` nesting of ``text`` (best
+    effort: quoted strings and comments skipped, table headers count as one level)."""
+    depth = best = 0
+    best_line = line = 1
+    quote = ""
+    comment = False
+    for ch in text:
+        if ch == "\n":
+            line += 1
+            comment = False
+            continue
+        if comment:
+            continue
+        if quote:
+            if ch == quote:
+                quote = ""
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "#":
+            comment = True
+        elif ch in "[{":
+            depth += 1
+            if depth > best:
+                best, best_line = depth, line
+        elif ch in "]}":
+            depth = max(0, depth - 1)
+    return best_line
+
+
+def _long_number_line(text: str) -> int:
+    """The line of the first run of more than 4300 digits (1 if none is found)."""
+    match = re.search(r"[0-9_]{4301,}", text)
+    return 1 if match is None else text.count("\n", 0, match.start()) + 1
 
 
 def read_text(path: str | os.PathLike[str]) -> str:
-    """A UTF-8 text file (InputError ``File not found !`` or ``File is not UTF-8 text !``
+    """A UTF-8 text file (InputError ``File not found !``, ``Is a directory, not a file !``,
+    ``Cannot read: …`` (:func:`~engine.errors.read_error`) or ``File is not UTF-8 text !``
     with the line of the first bad byte)."""
     file = Path(path)
+    if "\0" in str(file):
+        raise InputError(NUL_IN_PATH_MESSAGE, file=str(file))
     try:
         raw = file.read_bytes()
-    except OSError:
-        raise InputError(FILE_NOT_FOUND_MESSAGE, file=str(file), text=str(path)) from None
+    except OSError as exc:
+        raise read_error(exc, str(file), FILE_NOT_FOUND_MESSAGE) from None
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as err:

@@ -278,9 +278,15 @@ def test_existing_smooth_and_jsonl_files_are_kept(tmp_path: Path, capsys) -> Non
     assert len((tmp_path / "S_1.jsonl").read_text().splitlines()) == 10
     assert f"smoothed positions {tmp_path / 'S_1.smo'}" in cap.out
     assert f"json lines {tmp_path / 'S_1.jsonl'}" in cap.out
-    # --force overwrites all of them.
-    assert _replay(tmp_path, "--jsonl", str(jl), "--smooth", str(smo), "--force") == 0
-    assert len(smo.read_text().splitlines()) == 10 and len(jl.read_text().splitlines()) == 10
+    # --force replaces earlier outputs, never a file UVNAV did not write (engine/outputs.py).
+    assert _replay(tmp_path, "--jsonl", str(jl), "--smooth", str(smo), "--force") == 2
+    assert "Not an earlier UVNAV output" in capsys.readouterr().err
+    assert smo.read_text() == "precious smooth\n" and jl.read_text() == "precious jsonl\n"
+    smo1, jl1 = tmp_path / "S_1.smo", tmp_path / "S_1.jsonl"
+    smo1.write_text(smo1.read_text().splitlines()[0] + "\n")  # an earlier, shorter output
+    jl1.write_text(jl1.read_text().splitlines()[0] + "\n")
+    assert _replay(tmp_path, "--jsonl", str(jl1), "--smooth", str(smo1), "--force") == 0
+    assert len(smo1.read_text().splitlines()) == 10 and len(jl1.read_text().splitlines()) == 10
 
 
 def test_an_output_that_cannot_be_created_leaves_no_orphans(tmp_path: Path, capsys) -> None:
@@ -291,7 +297,7 @@ def test_an_output_that_cannot_be_created_leaves_no_orphans(tmp_path: Path, caps
     assert sorted(p.name for p in tmp_path.iterdir()) == []
     # The engine alone: the .OUT is created after the JSON lines and removed if they fail.
     (tmp_path / "J.jsonl").mkdir()  # a directory: opening it for writing fails
-    with pytest.raises(OSError):
+    with pytest.raises(InputError, match="Is a directory"):
         Session(load_config(DATA / "920917_1.toml"), out_path=tmp_path / "J.OUT",
                 jsonl_path=tmp_path / "J.jsonl", force=True)
     assert not (tmp_path / "J.OUT").exists()

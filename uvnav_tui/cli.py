@@ -2,8 +2,9 @@
 
 ``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
 ``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
-``assess`` (accuracy against truth).  Each sub-command lives in its own module and is imported
-only when used, so ``uvnav replay`` never loads Textual.
+``assess`` (accuracy against truth).  Ctrl-C in a sub-command prints one line and exits 130
+(the files written so far are kept, complete up to the last cycle).  Each sub-command lives
+in its own module and is imported only when used, so ``uvnav replay`` never loads Textual.
 """
 
 from __future__ import annotations
@@ -17,6 +18,9 @@ SUBCOMMANDS = {
     "script": ("uvnav_tui.script_cmd", "run_script"),
     "assess": ("uvnav_tui.assess_cmd", "run_assess"),
 }
+
+EXIT_INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT, as a shell reports it)."""
 
 USAGE = """usage: uvnav [--config FILE.toml] [--dev]          open the navigation console
        uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
@@ -42,7 +46,12 @@ def main(argv: list[str] | None = None) -> int:
                 raise
             print(f"uvnav {args[0]}: not available in this build", file=sys.stderr)
             return 2
-        return int(getattr(mod, func)(args[1:]))
+        try:
+            return int(getattr(mod, func)(args[1:]))
+        except KeyboardInterrupt:
+            print(f"uvnav {args[0]}: interrupted (Ctrl-C); files written so far are kept",
+                  file=sys.stderr)
+            return EXIT_INTERRUPTED
     try:
         mod = importlib.import_module("uvnav_tui.console_cmd")
     except ModuleNotFoundError as exc:

@@ -3,39 +3,43 @@
 Shows a rich progress bar on a terminal (silent when not a TTY) and prints a closing summary.
 Never a traceback for bad input: file, line and field are named.
 
-Output files (the ``.OUT`` log, ``--jsonl``, ``--smooth``) all follow the ``.OUT`` rule: an
-existing file is never overwritten, the first free ``NAME_N.suffix`` is used instead, unless
-``--force``. Every output is created before the replay starts; if one cannot be, the ones
-already created are removed again and nothing runs.
+Output files (the ``.OUT`` log, ``--jsonl``, ``--smooth``) all follow the ``.OUT`` rule
+(engine/outputs.py, README "Output files"): never the same file (device and inode) as an input
+or another output; an existing file is never overwritten, the first free ``NAME_N.suffix`` is
+used instead; ``--force`` replaces only an earlier UVNAV output of the same kind; devices,
+pipes and directories are refused. Every output is checked, then created, before the replay
+starts; if one cannot be, the ones already created are removed again and nothing runs.
 
 Exit status: 0 the run processed at least one epoch (bad records are reported and skipped);
-1 an output file cannot be written; 2 bad input (arguments, configuration, data files, output
-names that clash with the input or each other), nothing run; 3 the run file gave no epoch at
-all (every record bad, or none), the logs of the attempt are kept; 4 internal error: the engine
-failed on a record that passed every input check (a bug, not bad input: the traceback and the
-record are printed, the logs keep every cycle completed before it).
+1 an output file cannot be written (the message names it); 2 bad input (arguments,
+configuration, data files, an unreadable run file, refused output names), nothing run; 3 the
+run file gave no epoch at all (every record bad, or none), the logs of the attempt are kept;
+4 internal error: the engine failed on a record that passed every input check (a bug, not bad
+input: the traceback and the record are printed, the logs keep every cycle completed before
+it); 130 interrupted (Ctrl-C): the logs keep every cycle completed before it.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
 import traceback
 from pathlib import Path
-from typing import IO
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from engine.datumfile import DatumFile
 from engine.deccafile import DeccaChain
-from engine.errors import InputError
+from engine.errors import InputError, read_error
 from engine.formatting import format_lat_dms, format_lon_dms
+from engine.outputs import OutputFile, OutputGuard, remove_created
 from engine.records import position_json
 from engine.runconfig import RunConfig, default_config
-from engine.session import RunSummary, Session, create_output, load_data, load_run_config
+from engine.session import RunSummary, Session, load_data, load_run_config, run_inputs
 
 EXIT_OK = 0
 EXIT_CANNOT_WRITE = 1
@@ -58,7 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run the RTS smoother over the whole run afterwards and write the smoothed "
                    "positions as JSON lines to FILE (default NAME.smooth.jsonl next to RUN; an "
                    "existing file is kept: a free name is chosen)")
-    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("--force", action="store_true",
+                   help="replace existing outputs of an earlier run (never an input, never a "
+                   "file UVNAV did not write)")
     return p
 
 
@@ -82,18 +88,30 @@ def _config_for(
     return cfg.replace(run_file=str(run.resolve())), data
 
 
-def _check_outputs(inputs: list[tuple[str, Path]], outputs: list[tuple[str, Path]]) -> None:
-    """Output names must be in existing directories, differ from each other and from the
-    inputs (with --force an input would be overwritten; without, its log gets a confusing
-    free name)."""
-    seen = {p.resolve(): label for label, p in inputs}
-    for label, path in outputs:
-        if not path.parent.is_dir():
-            raise InputError("Directory not found !", file=str(path), field=label)
-        key = path.resolve()
-        if key in seen:
-            raise InputError(f"Same file as {seen[key]} !", file=str(path), field=label)
-        seen[key] = label
+def _check_run_file(run: Path) -> None:
+    """The run file must be a readable regular file (InputError naming why, not "cannot
+    write" after the outputs exist)."""
+    if "\0" in str(run):
+        raise InputError("A path cannot contain a NUL character !", file=str(run))
+    if run.exists() and not run.is_dir() and not run.is_file():  # a FIFO would block open()
+        raise InputError("Not a regular file (a device or pipe) !", file=str(run))
+    try:
+        with open(run, "rb"):
+            pass
+    except OSError as exc:
+        raise read_error(exc, str(run)) from None
+
+
+def _guard_outputs(run: Path, config_path: Path | None, cfg: RunConfig, force: bool,
+                   outputs: list[tuple[str, Path, str]]) -> OutputGuard:
+    """Check every output (label, path, kind) against the inputs (run file, configuration,
+    data files) and each other before any is created (engine/outputs.py)."""
+    guard = OutputGuard()
+    guard.protect_all([("the run file", run), ("the configuration", config_path),
+                       *run_inputs(cfg)])
+    for label, path, kind in outputs:
+        guard.check(path, label, kind=kind, force=force)
+    return guard
 
 
 def count_lines(path: Path) -> int:
@@ -146,20 +164,33 @@ def _run(session: Session, run: Path) -> RunSummary:
     return summary
 
 
-def _cannot_write(exc: OSError) -> int:
-    print(f"uvnav replay: {exc.filename}: cannot write: {exc.strerror} !", file=sys.stderr)
+def _cannot_write(exc: OSError, run: Path) -> int:
+    """Report an OSError while running: reading the run file is bad input (2), anything else
+    is an output that cannot be written (1); the message names the file."""
+    name = exc.filename if exc.filename is not None else run
+    if exc.filename is not None and os.path.abspath(exc.filename) == os.path.abspath(run):
+        print(f"uvnav replay: {name}: cannot read: {exc.strerror or exc} !", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"uvnav replay: {name}: cannot write: {exc.strerror or exc} !", file=sys.stderr)
     return EXIT_CANNOT_WRITE
+
+
+def _more_skipped(summary: RunSummary, shown: int) -> None:
+    """One line for the bad records beyond the first ones kept in memory (session.py)."""
+    more = summary.skipped_records - shown
+    if more > 0:
+        where = (f"every one is a BAD line of {summary.out_path}" if summary.out_path is not None
+                 else "not shown: no .OUT log (--no-out)")
+        print(f"skipped: … and {more} more ({where})", file=sys.stderr)
 
 
 def run_replay(argv: list[str]) -> int:
     """Entry point of ``uvnav replay``; returns the exit status (module docstring)."""
     args = build_parser().parse_args(argv)
     run = Path(args.run)
-    smooth_fh: IO[str] | None = None
-    smooth_path: Path | None = None
+    smooth_fh: OutputFile | None = None
     try:
-        if not run.is_file():
-            raise InputError("File not found !", file=str(run), field="run file")
+        _check_run_file(run)
         config_path = _config_path(run, args.config)
         cfg, data = _config_for(run, config_path)
         out = None if args.no_out else Path(args.out or run.with_suffix(".OUT"))
@@ -167,38 +198,32 @@ def run_replay(argv: list[str]) -> int:
         smooth = None
         if args.smooth is not None:
             smooth = Path(args.smooth) if args.smooth else run.with_suffix(".smooth.jsonl")
-        inputs = [("the run file", run)]
-        if config_path is not None:
-            inputs.append(("the configuration", config_path))
-        _check_outputs(inputs, [(label, p) for label, p in
-                                (("--out", out), ("--jsonl", jsonl), ("--smooth", smooth))
-                                if p is not None])
+        guard = _guard_outputs(run, config_path, cfg, args.force, [
+            (label, p, kind) for label, p, kind in
+            (("--out", out, "out"), ("--jsonl", jsonl, "jsonl"), ("--smooth", smooth, "positions"))
+            if p is not None])
         if smooth is not None:
-            smooth_fh, smooth_path = create_output(smooth, args.force)
+            smooth_fh = guard.open(smooth, label="--smooth", kind="positions", force=args.force)
         session = Session(cfg, out_path=out, force=args.force, jsonl_path=jsonl,
-                          collect_smoother=smooth is not None, history=1, data=data)
+                          collect_smoother=smooth is not None, history=1, data=data, guard=guard)
     except (InputError, OSError) as exc:
-        if smooth_fh is not None and smooth_path is not None:
-            smooth_fh.close()
-            if not args.force:
-                smooth_path.unlink(missing_ok=True)
+        remove_created([smooth_fh], args.force)
         if isinstance(exc, InputError):
             print(f"uvnav replay: {exc}", file=sys.stderr)
             return EXIT_BAD_INPUT
-        return _cannot_write(exc)
+        return _cannot_write(exc, run)
     smoothed: tuple[int, Path] | None = None
     try:
         with session:
             summary = _run(session, run)
-            if smooth_fh is not None and smooth_path is not None:
+            if smooth_fh is not None:
                 positions = session.smooth()
                 for p in positions:
                     smooth_fh.write(json.dumps(position_json(p), separators=(",", ":")) + "\n")
-                smooth_fh.flush()
-                os.fsync(smooth_fh.fileno())
-                smoothed = (len(positions), smooth_path)
+                smooth_fh.close(sync=True)
+                smoothed = (len(positions), smooth_fh.path)
     except OSError as exc:  # e.g. the disk filled up: every completed cycle is on disk
-        return _cannot_write(exc)
+        return _cannot_write(exc, run)
     except Exception as exc:  # an engine bug (engine/session.py: never a bad record)
         traceback.print_exc()
         print(f"uvnav replay: internal error ({type(exc).__name__}: {exc}): this is a bug, "
@@ -206,11 +231,13 @@ def run_replay(argv: list[str]) -> int:
         return EXIT_INTERNAL
     finally:
         if smooth_fh is not None:
-            smooth_fh.close()
+            with contextlib.suppress(OSError):  # already reported, or closed above
+                smooth_fh.close()
     for line in _summary_lines(summary, smoothed):
         print(line)
     for bad in session.bad_records:
         print(f"skipped: {bad.error}", file=sys.stderr)
+    _more_skipped(summary, len(session.bad_records))
     if summary.epochs == 0:
         print(f"uvnav replay: {run}: no record could be processed "
               f"({summary.skipped_records} skipped) !", file=sys.stderr)
