@@ -895,6 +895,7 @@ def render_svg(a: Assessment, *, width: int = 1000, height: int = 520,
     out = [
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
         f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="12">',
+        "<!-- UVNAV assess plot -->",  # how --force recognises an earlier plot (outputs.py)
         f'<rect x="0" y="0" width="{width}" height="{height}" fill="white"/>',
     ]
     # phase shading

@@ -221,7 +221,9 @@ class OutputGuard:
     ids: dict[FileId, str] = field(default_factory=dict)
     """Identity → label (``the run file``, ``--out`` …) of every protected file."""
     names: dict[str, str] = field(default_factory=dict)
-    """Absolute real path → label, for outputs named but not created yet."""
+    """Absolute real path → label of every output checked but not opened yet."""
+    planned: dict[FileId, str] = field(default_factory=dict)
+    """Identity → label of every existing file an output name checked so far points at."""
 
     def protect(self, label: str, path: str | os.PathLike[str] | None) -> None:
         """Register an input of the run (ignored when None or missing)."""
@@ -237,11 +239,15 @@ class OutputGuard:
             self.protect(label, path)
 
     def _clash(self, path: Path, label: str) -> str | None:
+        """The label of an input or another output that ``path`` is (None if none)."""
         fid = file_id(path)
         if fid is not None and fid in self.ids:
             return self.ids[fid]
-        other = self.names.get(os.path.realpath(path))
-        return None if other == label else other
+        for other in (None if fid is None else self.planned.get(fid),
+                      self.names.get(os.path.realpath(path))):
+            if other is not None and other != label:
+                return other
+        return None
 
     def check(self, path: str | os.PathLike[str], label: str, *, kind: str | None = None,
               force: bool = False) -> Path:
@@ -277,6 +283,7 @@ class OutputGuard:
                                               SIGNATURES[kind])
                 except OSError as exc:
                     raise OSError(exc.errno, exc.strerror, str(target)) from None
+            self.planned.setdefault((st.st_dev, st.st_ino), label)
         elif force and os.path.islink(target):
             raise _refuse(DANGLING_MESSAGE, target, label)
         self.names.setdefault(os.path.realpath(target), label)

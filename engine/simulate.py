@@ -40,6 +40,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import secrets
 from collections.abc import Iterator
 from dataclasses import dataclass
 from datetime import datetime, timedelta
@@ -53,6 +54,7 @@ from engine.deccafile import DeccaChain, read_chain_file
 from engine.ellipsoid import WGS84, Datum
 from engine.errors import InputError
 from engine.geodesy import DatumShift, GeodesicSolver, datum_shift
+from engine.outputs import OutputFile
 from engine.runfile import RunRecord, format_run_record
 from engine.scenario import Leg, Scenario
 from engine.sensors import KNOT_MS, depth_to_frequency_hz, surface_reference_hz
@@ -454,6 +456,27 @@ def truth_header(scenario: Scenario, setup: SimulationSetup, seed: int) -> list[
     ]
 
 
+def _temporary(final: Path) -> Path:
+    """A new, empty temporary file in ``final``'s directory (exclusive create, so never an
+    existing file; the usual permissions, as the final file would get)."""
+    while True:
+        tmp = final.with_name(f".{final.name}.{secrets.token_hex(4)}.tmp")
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(final)) from exc
+        return tmp
+
+
+def _rename(tmp: Path, final: Path) -> None:
+    try:
+        os.replace(tmp, final)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(final)) from exc
+
+
 def write_simulation(
     scenario: Scenario,
     run_path: str | os.PathLike[str],
@@ -464,19 +487,25 @@ def write_simulation(
     chains: dict[str, DeccaChain],
 ) -> SimulationSummary:
     """Simulate and write the ``.RUN`` file (thesis grammar, LF line ends, no header) and the
-    truth CSV (``None`` = none). Files are written to ``*.tmp`` and renamed at the end, so an
-    error never leaves a half-written output. Existing files are replaced (the CLI checks)."""
+    truth CSV (``None`` = none). Files are written to new temporary files beside them
+    (``.NAME.XXXX.tmp``, exclusive create: nothing existing is touched) and renamed at the end,
+    so an error never leaves a half-written output. Existing files are replaced (the CLI checks
+    by engine/outputs.py that they are earlier outputs, not inputs). An OSError names the
+    output file it concerns."""
     setup = simulation_setup(scenario, datums, chains)
     run_file = Path(run_path)
     truth_file = None if truth_path is None else Path(truth_path)
-    run_tmp = run_file.with_name(run_file.name + ".tmp")
-    truth_tmp = None if truth_file is None else truth_file.with_name(truth_file.name + ".tmp")
+    run_tmp = _temporary(run_file)
+    truth_tmp = None
     n = 0
     try:
-        with open(run_tmp, "w", encoding="ascii", newline="\n") as run_fh:
+        truth_tmp = None if truth_file is None else _temporary(truth_file)
+        # OutputFile: a write or close error names the file asked for, not the temporary one.
+        with OutputFile(open(run_tmp, "w", encoding="ascii", newline="\n"), run_file) as run_fh:
             truth_fh = (
-                None if truth_tmp is None
-                else open(truth_tmp, "w", encoding="utf-8", newline="\n")  # noqa: SIM115
+                None if truth_tmp is None or truth_file is None
+                else OutputFile(open(truth_tmp, "w", encoding="utf-8", newline="\n"),
+                                truth_file)
             )
             try:
                 if truth_fh is not None:
@@ -489,9 +518,9 @@ def write_simulation(
             finally:
                 if truth_fh is not None:
                     truth_fh.close()
-        os.replace(run_tmp, run_file)
+        _rename(run_tmp, run_file)
         if truth_tmp is not None and truth_file is not None:
-            os.replace(truth_tmp, truth_file)
+            _rename(truth_tmp, truth_file)
     finally:
         for tmp in (run_tmp, truth_tmp):
             if tmp is not None and tmp.exists():

@@ -249,7 +249,7 @@ def test_cli_writes_refuses_to_overwrite_and_forces(tmp_path: Path, capsys) -> N
     # Refuse: exit 2, message names the file, nothing touched.
     assert run_simulate([str(scen), "--out", str(out), "--seed", "6"]) == 2
     err = capsys.readouterr().err
-    assert f"{out}: File exists (use --force to overwrite) !" in err
+    assert f"{out}: --out: File exists (use --force to replace an earlier output) !" in err
     assert out.read_bytes() == first
     # --force replaces it (a different seed gives a different file).
     assert run_simulate([str(scen), "--out", str(out), "--seed", "6", "--force"]) == 0

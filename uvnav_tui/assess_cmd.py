@@ -4,7 +4,13 @@
 [--config TOML] [--datum-file TO_WGS84.DAT]`` prints rich tables: horizontal error per phase for
 the LSE, the filter and the MPP with the 95 %-ellipse coverage and the NEES, the filter's NIS
 (``.OUT`` only) and the Pool of Errors during each dive.  Definitions: ``engine/assess.py`` and
-``docs/ASSESS.md``.  Exit status 0, or 2 for bad input (one line on stderr, never a traceback).
+``docs/ASSESS.md``.  Exit status 0, 2 for bad input (one line on stderr, never a traceback),
+1 when the SVG cannot be written (the message names it), 130 on Ctrl-C.
+
+The SVG follows the ``.OUT`` rule (engine/outputs.py, README "Output files"): never one of the
+inputs (compared by device and inode), an existing file is kept and a free ``NAME_N.svg`` is
+used instead, ``--force`` replaces only an earlier assessment plot; devices, pipes and
+directories are refused.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from engine.assess import (
 )
 from engine.ellipsoid import Ellipsoid
 from engine.errors import InputError
+from engine.outputs import OutputGuard
 
 PROG = "uvnav assess"
 
@@ -49,6 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
                                     "(useful with JSON lines, which do not embed it)")
     p.add_argument("--datum-file", help="TO_WGS84.DAT, for a truth header that does not state "
                                         "the working datum's ellipsoid")
+    p.add_argument("--force", action="store_true",
+                   help="replace an earlier plot of the same name (never an input)")
     return p
 
 
@@ -185,7 +194,13 @@ def run_assess(argv: list[str]) -> int:
         print(f"{PROG}: --poe-rate must be a finite number >= 0 (got {args.poe_rate})",
               file=sys.stderr)
         return 2
+    guard = OutputGuard()
     try:
+        if args.svg is not None:  # checked before the assessment: no long run for nothing
+            guard.protect_all([("the log", args.log), ("the truth", args.truth),
+                               ("the configuration", args.config),
+                               ("the datum file", args.datum_file)])
+            guard.check(args.svg, "--svg", kind="svg", force=args.force)
         log = read_nav_log(args.log)
         truth = read_truth(args.truth)
         rate, rate_src = args.poe_rate, "--poe-rate"
@@ -207,11 +222,16 @@ def run_assess(argv: list[str]) -> int:
     print_report(result, console)
     if svg_text is not None:
         try:
-            Path(args.svg).write_text(svg_text, encoding="utf-8")
-        except OSError as exc:
-            print(f"{PROG}: cannot write {args.svg}: {exc}", file=sys.stderr)
+            with guard.open(args.svg, label="--svg", kind="svg", force=args.force) as fh:
+                fh.write(svg_text)
+        except InputError as exc:
+            print(f"{PROG}: {exc}", file=sys.stderr)
             return 2
-        console.print(f"plot {escape(args.svg)}")
+        except OSError as exc:
+            print(f"{PROG}: {exc.filename or args.svg}: cannot write: {exc.strerror or exc} !",
+                  file=sys.stderr)
+            return 1
+        console.print(f"plot {escape(str(fh.path))}")
     return 0
 
 

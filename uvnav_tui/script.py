@@ -29,7 +29,7 @@ from pathlib import Path
 from textual.pilot import Pilot
 
 from engine.commands import SetParameters
-from engine.errors import InputError
+from engine.tomlsource import read_text
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.console_screen import ConsoleScreen
 from uvnav_tui.menus import PAGE_TITLES, find_path
@@ -178,9 +178,6 @@ class ScriptRunner:
 
 
 def load_script(path: Path) -> list[Step]:
-    """Read and parse a script file (InputError if it cannot be read)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError:
-        raise InputError("File not found !", file=str(path), text=str(path)) from None
-    return parse_script(text)
+    """Read and parse a script file (InputError if it cannot be read, saying why: not found,
+    a directory, permission, not UTF-8; engine.tomlsource.read_text)."""
+    return parse_script(read_text(path))

@@ -5,19 +5,28 @@ Usage::
     uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
                    [--data-dir DIR] [--force]
 
-Exit status 0 on success, 2 for bad input (scenario, data files, arguments, an existing output
-without ``--force``), 1 when an output cannot be written. Errors are one line on stderr in the
-form ``file:line: field: message`` — never a traceback. See docs/SIMULATOR.md.
+Exit status 0 on success, 2 for bad input (scenario, data files, arguments, a refused output),
+1 when an output cannot be written (the message names it), 130 on Ctrl-C (nothing written).
+Errors are one line on stderr in the form ``file:line: field: message`` — never a traceback.
+See docs/SIMULATOR.md.
+
+Outputs (engine/outputs.py, README "Output files"): an existing ``--out`` or ``--truth`` is
+refused unless ``--force``, which replaces only an earlier simulator output (a ``.RUN`` file,
+a truth CSV), never the scenario or a data file (compared by device and inode, so links do not
+hide them), never a device, pipe or directory.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
+from collections.abc import Iterable
 from pathlib import Path
 
 from engine.errors import InputError
+from engine.outputs import EXISTS_MESSAGE, OutputGuard
 from engine.scenario import load_scenario
 from engine.simulate import read_data_files, write_simulation
 
@@ -43,7 +52,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--data-dir",
         help="directory of TO_WGS84.DAT and DECCA.CHN (default: the scenario's data_dir)",
     )
-    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("--force", action="store_true",
+                   help="replace an earlier .RUN / truth output (never an input)")
     return p
 
 
@@ -55,6 +65,20 @@ def _truth_default(out: Path) -> Path:
 def _err(message: str) -> int:
     print(f"{PROG}: {message}", file=sys.stderr)
     return 2
+
+
+def _check_outputs(scenario: str, data_dir: Path, outputs: Iterable[tuple[Path, str, str]],
+                   force: bool) -> None:
+    """Refuse an output that is an input (scenario, data files) or the other output, a
+    device, pipe or directory, or an existing file without ``force`` (InputError)."""
+    guard = OutputGuard()
+    guard.protect_all([("the scenario", scenario),
+                       ("the data file TO_WGS84.DAT", data_dir / "TO_WGS84.DAT"),
+                       ("the data file DECCA.CHN", data_dir / "DECCA.CHN")])
+    for path, label, kind in outputs:
+        guard.check(path, label, kind=kind, force=force)
+        if not force and os.path.lexists(path):
+            raise InputError(EXISTS_MESSAGE, file=str(path), field=label)
 
 
 def run_simulate(argv: list[str]) -> int:
@@ -71,25 +95,20 @@ def run_simulate(argv: list[str]) -> int:
     seed = int(seed_text)
     out = Path(args.out)
     truth = Path(args.truth) if args.truth else _truth_default(out)
-    if out.resolve() == truth.resolve():
-        return _err(str(InputError("The .RUN and truth files must differ !", file=str(out))))
-    for path in (out, truth):
-        if not path.parent.is_dir():
-            return _err(str(InputError("Directory not found !", file=str(path))))
-        if path.exists() and not args.force:
-            return _err(str(InputError("File exists (use --force to overwrite) !",
-                                       file=str(path))))
     try:
         scenario = load_scenario(args.scenario)
         data_dir = Path(args.data_dir) if args.data_dir else scenario.data_dir
         datums, chains = read_data_files(data_dir)
         scenario = load_scenario(args.scenario, known_datums=datums.datums, known_chains=chains)
+        _check_outputs(args.scenario, data_dir, ((out, "--out", "run"),
+                                                 (truth, "--truth", "truth")), args.force)
         started = time.perf_counter()
         summary = write_simulation(scenario, out, truth, seed, datums=datums, chains=chains)
     except InputError as err:
         return _err(str(err))
     except OSError as err:
-        print(f"{PROG}: {err.filename or out}: cannot write: {err.strerror} !", file=sys.stderr)
+        print(f"{PROG}: {err.filename or out}: cannot write: {err.strerror or err} !",
+              file=sys.stderr)
         return 1
     seconds = time.perf_counter() - started
     cm = summary.cm_deg
