@@ -36,7 +36,6 @@ import stat
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from datetime import UTC, datetime
-from typing import IO
 
 from engine.deccafile import format_dms, parse_dms
 from engine.errors import InputError, read_error
@@ -274,9 +273,10 @@ def iter_run_lines(
 def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecord]:
     """Stream the records of a ``.RUN`` file, reading one line at a time (constant memory).
 
-    The file is opened when this is called, so a missing, unreadable or non-regular file is
-    an ``InputError`` before anything runs (:func:`~engine.errors.read_error`); it is closed
-    when the iterator is exhausted or closed. Undecodable bytes become U+FFFD (so the line is
+    The file is checked when this is called (opened and closed), so a missing, unreadable or
+    non-regular file is an ``InputError`` before anything runs
+    (:func:`~engine.errors.read_error`); it is opened on the first ``next()`` and closed when
+    the iterator is exhausted or closed. Undecodable bytes become U+FFFD (so the line is
     reported as bad, never crashes the replay); a line over :data:`MAX_LINE_CHARS` characters
     is a bad record.
     """
@@ -286,14 +286,15 @@ def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecor
     try:
         if not stat.S_ISDIR(mode := os.stat(name).st_mode) and not stat.S_ISREG(mode):
             raise InputError("Not a regular file (a device or pipe) !", file=name)
-        fh = open(name, encoding="utf-8-sig", errors="replace")  # noqa: SIM115
+        with open(name, "rb"):  # readable now (reopened, and closed again, by the stream)
+            pass
     except OSError as exc:
         raise read_error(exc, name) from None
-    return _stream(fh, name)
+    return _stream(name)
 
 
-def _stream(fh: IO[str], name: str) -> Iterator[RunRecord | BadRecord]:
-    with fh:
+def _stream(name: str) -> Iterator[RunRecord | BadRecord]:
+    with open(name, encoding="utf-8-sig", errors="replace") as fh:
         line_no = 0
         while line := fh.readline(MAX_LINE_CHARS + 1):
             line_no += 1
