@@ -391,3 +391,39 @@ def test_guard_check_is_read_only(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="Not an earlier UVNAV output"):
         guard.check(f, "--jsonl", kind="jsonl", force=True)
     assert f.read_text() == "not json\n"
+
+
+def test_assess_svg_is_never_an_input_and_never_overwritten(tmp_path: Path, capsys) -> None:
+    """``assess --svg`` wrote over any existing file (even a hard link of its truth)."""
+    truth = tmp_path / "T.csv"
+    shutil.copy(DATA / "DEMO.truth.csv", truth)
+    os.link(truth, tmp_path / "T.svg")
+    before = _snapshot(tmp_path)
+    rc = main(["assess", str(tmp_path / "none.OUT"), str(truth), "--svg",
+               str(tmp_path / "T.svg"), "--force"])
+    assert rc == 2  # the log is missing too: the input is named first
+    assert "none.OUT: log: File not found !" in capsys.readouterr().err
+    log = tmp_path / "L.OUT"  # the name is refused before the log is read: any file will do
+    log.write_text("")
+    rc = main(["assess", str(log), str(truth), "--svg", str(tmp_path / "T.svg"), "--force"])
+    assert rc == 2 and "--svg: Same file as the truth !" in capsys.readouterr().err
+    assert _snapshot(tmp_path) == {**before, "L.OUT": log.read_bytes()}
+    (tmp_path / "D").mkdir()
+    assert main(["assess", str(tmp_path / "D"), str(truth)]) == 2
+    assert f"{tmp_path / 'D'}: log: Is a directory, not a file !" in capsys.readouterr().err
+
+
+def test_svg_plots_follow_the_out_rule(tmp_path: Path) -> None:
+    """An earlier plot is kept (free name) or, with force, replaced; a foreign SVG is not."""
+    plot = tmp_path / "p.svg"
+    plot.write_text('<svg xmlns="http://www.w3.org/2000/svg">\n<!-- UVNAV assess plot -->\n')
+    with OutputGuard().open(plot, label="--svg", kind="svg") as fh:
+        fh.write("new")
+    assert fh.path == tmp_path / "p_1.svg" and "UVNAV" in plot.read_text()
+    with OutputGuard().open(plot, label="--svg", kind="svg", force=True) as fh:
+        fh.write("new")
+    assert fh.path == plot and plot.read_text() == "new"
+    plot.write_text('<svg xmlns="http://www.w3.org/2000/svg"><!-- a drawing --></svg>\n')
+    with pytest.raises(InputError, match="Not an earlier UVNAV output"):
+        OutputGuard().open(plot, label="--svg", kind="svg", force=True)
+    assert "a drawing" in plot.read_text()

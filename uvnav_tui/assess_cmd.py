@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -33,7 +34,7 @@ from engine.assess import (
     render_svg,
 )
 from engine.ellipsoid import Ellipsoid
-from engine.errors import InputError
+from engine.errors import InputError, read_error
 from engine.outputs import OutputGuard
 
 PROG = "uvnav assess"
@@ -177,6 +178,23 @@ def _ellipsoid_from_datum_file(path: str, datum: str) -> Ellipsoid:
     return read_datum_file(path).datum(datum).ellipsoid
 
 
+def _check_readable(path: str | None, field: str) -> None:
+    """An input file must be a readable file: say why not (missing, a directory, permission)
+    before anything else is read."""
+    if path is None:
+        return
+    if "\0" in path:
+        raise InputError("A path cannot contain a NUL character !", field=field)
+    if os.path.exists(path) and not (os.path.isfile(path) or os.path.isdir(path)):
+        return  # a pipe (e.g. <(…)): opening it here would take a reader from the real one
+    try:
+        with open(path, "rb"):
+            pass
+    except OSError as exc:
+        err = read_error(exc, path)
+        raise InputError(err.message, file=path, field=field) from None
+
+
 def run_assess(argv: list[str]) -> int:
     """Entry point of ``uvnav assess``; returns the exit status (0 ok, 2 bad input)."""
     parser = build_parser()
@@ -196,6 +214,9 @@ def run_assess(argv: list[str]) -> int:
         return 2
     guard = OutputGuard()
     try:
+        for path, field in ((args.log, "log"), (args.truth, "truth"), (args.config, "--config"),
+                            (args.datum_file, "--datum-file")):
+            _check_readable(path, field)
         if args.svg is not None:  # checked before the assessment: no long run for nothing
             guard.protect_all([("the log", args.log), ("the truth", args.truth),
                                ("the configuration", args.config),
