@@ -152,7 +152,7 @@ def _replay(
         nees=nees,
         rms_mpp={p: _rms(err[p]["mpp"]) for p in PHASES},
         rms_lse={p: _rms(err[p]["lse"]) for p in FIX_PHASES},
-        bad_records=len(session.bad_records),
+        bad_records=session.skipped_records,
     )
 
 

@@ -67,7 +67,7 @@ def replay(cfg: RunConfig, lines: list[str], tmp: Path) -> None:
                 assert -90.0 <= est.lat_deg <= 90.0
         if r.filter_state is not None:
             assert np.all(np.isfinite(r.filter_state.x)), r.n
-    assert len(cycles) + len(s.bad_records) == len(lines)
+    assert len(cycles) + s.skipped_records == len(lines)
 
 
 @pytest.mark.parametrize("name", list(CONFIGS))
