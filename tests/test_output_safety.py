@@ -315,7 +315,8 @@ def test_ctrl_c_exits_130_with_one_line(run_dir: Path, capsys, monkeypatch) -> N
     monkeypatch.setattr(Session, "run", interrupted)
     assert _replay(run_dir, "--out", str(run_dir / "C.OUT")) == 130
     err = capsys.readouterr().err
-    assert err == "uvnav replay: interrupted (Ctrl-C); files written so far are kept\n"
+    assert err == ("uvnav replay: interrupted (Ctrl-C); the logs keep every cycle completed "
+                   "before it\n")
     assert read_out_log(run_dir / "C.OUT").cycles == ()  # the log exists, closed cleanly
 
 
@@ -335,7 +336,7 @@ def test_sigint_during_a_long_replay(tmp_path: Path) -> None:
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert err.strip().splitlines() == [
-        "uvnav replay: interrupted (Ctrl-C); files written so far are kept"]
+        "uvnav replay: interrupted (Ctrl-C); the logs keep every cycle completed before it"]
     log = read_out_log(out)
     assert len(log.cycles) > 20 and not log.truncated
 

@@ -3,7 +3,7 @@
 ``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
 ``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
 ``assess`` (accuracy against truth).  Ctrl-C in a sub-command prints one line and exits 130
-(the files written so far are kept, complete up to the last cycle).  Each sub-command lives
+(a replay's logs keep every completed cycle; a simulation writes nothing).  Each sub-command lives
 in its own module and is imported only when used, so ``uvnav replay`` never loads Textual.
 """
 
@@ -21,6 +21,11 @@ SUBCOMMANDS = {
 
 EXIT_INTERRUPTED = 130
 """Exit status after Ctrl-C (128 + SIGINT, as a shell reports it)."""
+INTERRUPTED_NOTE = {
+    "replay": "; the logs keep every cycle completed before it",
+    "simulate": "; nothing written",
+}
+"""What is left on disk after Ctrl-C, per sub-command."""
 
 USAGE = """usage: uvnav [--config FILE.toml] [--dev]          open the navigation console
        uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
@@ -49,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             return int(getattr(mod, func)(args[1:]))
         except KeyboardInterrupt:
-            print(f"uvnav {args[0]}: interrupted (Ctrl-C); files written so far are kept",
+            print(f"uvnav {args[0]}: interrupted (Ctrl-C){INTERRUPTED_NOTE.get(args[0], '')}",
                   file=sys.stderr)
             return EXIT_INTERRUPTED
     try:
