@@ -6,9 +6,11 @@ nothing global.  Every completed cycle is on disk (flushed) before :meth:`Sessio
 
 **Bad records and engine errors.** A record is *bad* when the ``.RUN`` parser rejects it
 (:mod:`engine.runfile`: grammar and ranges) or when its time does not advance past the previous
-processed record's (checked here, before the cycle sees it). A bad record is skipped, kept in
-:attr:`Session.bad_records` with an :class:`~engine.errors.InputError` naming the ``.RUN`` file,
-line and field, and logged as a ``BAD`` line; the run goes on. Every other record is valid input
+processed record's (checked here, before the cycle sees it). A bad record is skipped, counted
+(:attr:`Session.skipped_records`), logged as a ``BAD`` line, and the first
+:data:`BAD_RECORDS_KEPT` are kept in :attr:`Session.bad_records` with an
+:class:`~engine.errors.InputError` naming the ``.RUN`` file, line and field (bounded memory
+however many there are); the run goes on. Every other record is valid input
 for :func:`engine.cycle.step`, which must process it: an exception raised there is an engine bug,
 not a bad record, so it is *not* swallowed. It propagates with a note naming the ``.RUN`` file,
 line and text (the log keeps every cycle completed before it). Configuration and data-file names
