@@ -428,3 +428,11 @@ def test_svg_plots_follow_the_out_rule(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="Not an earlier UVNAV output"):
         OutputGuard().open(plot, label="--svg", kind="svg", force=True)
     assert "a drawing" in plot.read_text()
+
+
+def test_hardcopy_names_skip_dangling_symlinks(tmp_path: Path) -> None:
+    """A dangling link at a hardcopy name was taken as free and written through."""
+    from uvnav_tui.hardcopy import free_stem
+
+    (tmp_path / "UVNAV_X_083538_Pg100.txt").symlink_to(tmp_path / "elsewhere.txt")
+    assert free_stem(tmp_path, "UVNAV_X_083538_Pg100") == "UVNAV_X_083538_Pg100_2"

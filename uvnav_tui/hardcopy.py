@@ -8,6 +8,7 @@ same cycle and page gets ``_2``, ``_3`` … appended. Nothing is ever overwritte
 from __future__ import annotations
 
 import io
+import os
 from pathlib import Path
 
 from rich.console import Console
@@ -20,10 +21,13 @@ def hardcopy_stem(run_name: str, time_hhmmss: str, page: int) -> str:
 
 
 def free_stem(directory: Path, stem: str) -> str:
-    """``stem`` or ``stem_N`` such that neither the .svg nor the .txt exists yet."""
+    """``stem`` or ``stem_N`` such that neither the .svg nor the .txt exists yet (any directory
+    entry counts, a dangling symbolic link too: writing through one would create a file
+    wherever it points)."""
     candidate = stem
     n = 1
-    while (directory / f"{candidate}.svg").exists() or (directory / f"{candidate}.txt").exists():
+    while (os.path.lexists(directory / f"{candidate}.svg")
+           or os.path.lexists(directory / f"{candidate}.txt")):
         n += 1
         candidate = f"{stem}_{n}"
     return candidate
