@@ -18,7 +18,7 @@ SUBCOMMANDS = {
     "assess": ("uvnav_tui.assess_cmd", "run_assess"),
 }
 
-USAGE = """usage: uvnav [--config FILE.toml] [--dev]          open the navigation console
+USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
        uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
                         [--smooth [FILE]] [--force]
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
