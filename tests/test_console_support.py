@@ -44,11 +44,13 @@ def make_app(data_dir: Path, name: str = "920917_1", **kw: object) -> UVNAVApp:
 
 async def start(pilot: object, cycles: int = 0) -> UVNAVApp:
     """Accept the Parameter Initialization dialog with Return and run ``cycles`` cycles."""
+    from uvnav_tui.init_dialog import InitDialog
+
     app = pilot.app  # type: ignore[attr-defined]
-    await pilot.pause()  # type: ignore[attr-defined]
+    await wait_for(pilot, lambda: isinstance(app.screen, InitDialog)
+                   and app.screen.is_mounted, "Parameter Initialization")
     await pilot.press("enter")  # type: ignore[attr-defined]
-    await pilot.pause()  # type: ignore[attr-defined]
-    assert app.control is not None, "the run did not start"
+    await wait_for(pilot, lambda: app.control is not None, "the run to start", 30.0)
     if cycles:
         await app.wait_cycles(cycles)
         await pilot.pause()  # type: ignore[attr-defined]
