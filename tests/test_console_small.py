@@ -17,6 +17,8 @@ from test_console_support import copy_data, freeze, make_app, start, text_of, wa
 from textual.pilot import Pilot
 
 from uvnav_tui.app import UVNAVApp
+from uvnav_tui.console_screen import ConsoleScreen
+from uvnav_tui.dialog import Dialog
 from uvnav_tui.help_screen import HelpScreen
 from uvnav_tui.menus import PAGE_TITLES
 from uvnav_tui.page_frame import PageFrame
@@ -147,3 +149,43 @@ def test_snapshot_help_80x24(snap_compare: Callable[..., bool], data_dir: Path) 
     """The help screen (F1) at 80×24."""
     app = make_app(data_dir)
     assert snap_compare(app, terminal_size=SMALL, run_before=_settle(None))
+
+
+DIALOGS = [
+    ("alt+s", "p", "d"), ("alt+s", "p", "p"), ("alt+s", "p", "c"), ("alt+s", "y", "g"),
+    ("alt+s", "y", "d"), ("alt+s", "e"), ("alt+o", "b"), ("alt+o", "d"), ("alt+o", "r"),
+    ("alt+k", "f"), ("alt+k", "p"), ("alt+d", "p"), ("alt+d", "c"), ("alt+d", "l"),
+    ("alt+d", "f"),
+]
+
+
+@pytest.mark.parametrize("keys", DIALOGS, ids=["-".join(k) for k in DIALOGS])
+def test_every_dialog_is_usable_at_80x24_by_keyboard(data_dir: Path,
+                                                     keys: tuple[str, ...]) -> None:
+    """Tab reaches every field and button of every dialog at 80×24, and each one is fully on
+    the screen when it has the focus (the dialog scrolls it into view)."""
+    app = make_app(data_dir, dev_mode=True)
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot, 2)
+        await pilot.press(*keys)
+        await wait_for(pilot, lambda: isinstance(app.screen, Dialog), "the dialog")
+        dialog = app.screen
+        focusable = list(dialog.focus_chain)
+        assert focusable
+        seen = set()
+        for _ in range(len(focusable) + 1):
+            await pilot.press("tab")
+            await pilot.pause()
+            focused = app.focused
+            assert focused is not None
+            seen.add(focused)
+            geometry = dialog.find_widget(focused)
+            visible = geometry.region.intersection(geometry.clip)
+            assert visible == geometry.region, f"{focused!r} is not fully visible"
+            assert visible.bottom <= SMALL[1] and visible.right <= SMALL[0]
+        assert seen == set(focusable)
+        await pilot.press("escape")
+        await wait_for(pilot, lambda: isinstance(app.screen, ConsoleScreen), "closed")
+
+    drive(app, script)
