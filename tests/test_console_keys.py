@@ -15,6 +15,7 @@ from test_console_support import copy_data, make_app, start, text_of, wait_for
 from textual import events
 from textual.pilot import Pilot
 
+from uvnav_tui import keys_help as kh
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.cli import main as cli_main
 from uvnav_tui.confirm_dialog import ConfirmDialog
@@ -311,3 +312,14 @@ def test_menus_and_hardcopy_over_the_tables(data_dir: Path, keys: tuple[str, ...
                        and app.page == 631, "Pg 631 instead of the table")
 
     drive(app, script)
+
+
+@pytest.mark.parametrize("hints", [
+    kh.console_hints(641, True), kh.MENU_KEYS, kh.DIALOG_KEYS, kh.CONFIRM_KEYS, kh.TABLE_KEYS,
+    kh.HELP_KEYS, kh.PALETTE_KEYS,
+], ids=["page", "menu", "dialog", "confirm", "table", "help", "palette"])
+def test_key_line_keeps_quit_at_80_columns(hints: list[kh.KeyHint]) -> None:
+    """Every context's key line names Ctrl+Q even at 80 columns, and never cuts a hint."""
+    line = kh.key_line(hints, 80)
+    assert "Ctrl+Q Quit" in line and len(line) <= 80
+    assert all(f" {key} {what}" in line for key, what in hints[: line.count("  ") + 1])

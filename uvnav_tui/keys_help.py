@@ -39,7 +39,9 @@ CONSOLE_KEYS: tuple[KeyHint, ...] = (
     ("nnn", "Go to page"),
     ("Ctrl+P", "Commands"),
 )
-"""The key line over a page (more keys are added for sub-pages and scrolling)."""
+"""The key line over a page (more keys are added for sub-pages and scrolling).  Each list is
+ordered by importance: what does not fit the width is left off from the end, so F1 and Ctrl+Q
+come early (the key line shows them even at 80 columns)."""
 SUB_PAGE_KEYS: KeyHint = ("PgUp/PgDn", "Sub-page")
 SCROLL_KEYS: KeyHint = ("←↑↓→", "Scroll")
 MENU_KEYS: tuple[KeyHint, ...] = (
@@ -55,10 +57,10 @@ DIALOG_KEYS: tuple[KeyHint, ...] = (
     ("Tab/Shift+Tab", "Field"),
     ("Enter", "OK"),
     ("Esc", "Cancel"),
-    ("Space", "Toggle"),
-    ("←→", "Choose"),
     ("F1", "Help"),
     ("Ctrl+Q", "Quit"),
+    ("Space", "Toggle"),
+    ("←→", "Choose"),
 )
 CONFIRM_KEYS: tuple[KeyHint, ...] = (
     ("Y", "Yes"),
@@ -84,6 +86,7 @@ PALETTE_KEYS: tuple[KeyHint, ...] = (
     ("↑↓", "Choose"),
     ("Enter", "Run"),
     ("Esc", "Close"),
+    ("Ctrl+Q", "Quit"),
 )
 
 
@@ -93,7 +96,7 @@ def key_line(hints: tuple[KeyHint, ...] | list[KeyHint], width: int) -> str:
     text = ""
     for key, what in hints:
         part = f" {key} {what} "
-        if len(text) + len(part) > width:
+        if len(text) + len(part) - 1 > width:  # the trailing blank may fall off the edge
             break
         text += part
     return text.rstrip()
