@@ -465,7 +465,7 @@ class UVNAVApp(App[None]):
         self.do_menu_action(action)
 
     def get_system_commands(self, screen: Screen[Any]) -> Iterable[SystemCommand]:
-        """Every menu item of the current mode, plus the palette's own key help."""
+        """Every menu item and every page (by number and title) of the current mode, and Help."""
         if isinstance(screen, ConsoleScreen):
             for path, item in iter_leaves(self.dev_mode):
                 assert item.action is not None
