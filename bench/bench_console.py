@@ -186,6 +186,38 @@ def tmux_rate(config: Path, page: int, timeout_s: float = 600.0) -> float:
         subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
 
 
+def tmux_keys(config: Path, tries: int = 10) -> tuple[int, int]:
+    """Alt+T then L sent in one write (as fast as a terminal can deliver them) during a run at
+    pace fast, ``tries`` times: (hits, tries made while the run was working).  A hit is
+    Statistics ▸ LSE (Pg 631) shown with no menu left open; between tries ``100`` returns to
+    the main page."""
+    cols, rows = TERM_SIZE
+    session = f"uvnav-keys-{os.getpid()}"
+    cmd = (f"cd {config.parent} && PYTHONPATH={ROOT} exec {sys.executable} -m uvnav_tui.cli "
+           f"--config {config} --hardcopy-dir {config.parent / 'hardcopy'}")
+    _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
+    hits = made = 0
+    try:
+        if not _wait_screen(session, "Parameter Initialization", 60.0):
+            return 0, 0
+        _tmux("send-keys", "-t", session, "Enter")
+        if not _wait_screen(session, "Working...", 60.0):
+            return 0, 0
+        for _ in range(tries):
+            _tmux("send-keys", "-t", session, "M-t", "l")
+            ok = _wait_screen(session, "Pg 631", 10.0)
+            screen = _tmux("capture-pane", "-p", "-t", session)
+            if "End of data file" in screen:
+                break
+            made += 1
+            hits += ok and "Pg 631" in screen.splitlines()[1]
+            _tmux("send-keys", "-t", session, "Escape", "1", "0", "0")
+            _wait_screen(session, "Pg 100", 10.0)
+        return hits, made
+    finally:
+        subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
+
+
 def _median(xs: list[float]) -> str:
     good = [x for x in xs if x == x]
     return f"{statistics.median(good):.2f}" if good else "n/a"
@@ -221,6 +253,9 @@ def main() -> None:
             med = f"{statistics.median(good):.0f}" if good else "n/a"
             print(f"console in tmux {cols}×{rows} at pace fast, Pg {page}: median {med} "
                   f"cycles/s (runs: {', '.join(f'{r:.0f}' for r in rates)})")
+        hits, made = tmux_keys(config)
+        print(f"keys in tmux at pace fast: Alt+T L in one write took effect {hits} of {made} "
+              "times")
     engine = [engine_rate(config) for _ in range(args.repeats)]
     print(f"bare engine, demo 7200 records: median {statistics.median(engine):.0f} cycles/s")
     console = [console_rate(config) for _ in range(args.repeats)]
