@@ -284,11 +284,13 @@ def test_uvnav_help_lists_every_console_option(capsys: pytest.CaptureFixture[str
     (("alt+k", "s"), "Smoothing"),
 ])
 def test_menus_and_hardcopy_over_the_tables(data_dir: Path, keys: tuple[str, ...],
-                                            name: str) -> None:
+                                            name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """Over Kalman ▸ Predict./Smoothing: F10 opens the menu (Esc closes it, the table stays),
     Alt+E H saves the table as ``UVNAV_<run>_<time>_<name>.svg/.txt`` with the table's
-    rows in the text; a page chosen from the menu replaces the table."""
-    app = make_app(data_dir)
+    rows in the text, and the message line under the table says so; a page chosen from the
+    menu replaces the table."""
+    monkeypatch.chdir(data_dir)
+    app = make_app(data_dir, hardcopy_dir=Path("hc"))  # a short path: a one-line message
 
     async def script(pilot: Pilot[None]) -> None:
         await start(pilot, 6)
@@ -307,6 +309,8 @@ def test_menus_and_hardcopy_over_the_tables(data_dir: Path, keys: tuple[str, ...
         text = txt.read_text(encoding="utf-8")
         assert f"Kalman ▸ {name}" in text and "Lat" in text
         assert app.screen is table
+        await pilot.pause()
+        assert f"Hardcopy {svg.name}" in text_of(app)  # the message line shows under the table
         await pilot.press("alt+t", "l")
         await wait_for(pilot, lambda: isinstance(app.screen, ConsoleScreen)
                        and app.page == 631, "Pg 631 instead of the table")
