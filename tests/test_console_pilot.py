@@ -4,14 +4,14 @@ engine state it changed (configuration, pending observations, run state)."""
 from __future__ import annotations
 
 import asyncio
-import time
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
-from test_console_support import copy_data, make_app, start, text_of
+from test_console_support import copy_data, make_app, start, text_of, wait_for
+from textual.command import CommandPalette
 from textual.pilot import Pilot
-from textual.widgets import DataTable, Input, Static
+from textual.widgets import DataTable, Input, OptionList, Static
 
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.confirm_dialog import ConfirmDialog
@@ -230,17 +230,19 @@ def test_cycles_pause_while_a_menu_is_open(data_dir: Path) -> None:
 
     async def script(pilot: Pilot[None]) -> None:
         await start(pilot)
-        await asyncio.sleep(0.2)
-        assert app.control.cycles > 0
+        run = app.control
+        await wait_for(pilot, lambda: run.cycles > 0, "a cycle")
         await menu(pilot, "f10")
-        await asyncio.sleep(0.1)
-        frozen = app.control.cycles
-        await asyncio.sleep(0.3)
-        assert app.control.cycles == frozen
+        # The worker ends before the next cycle once the menu interrupts the run; from then on
+        # no cycle may run, however long we look (a condition, then an invariant: no timing).
+        await wait_for(pilot, lambda: not run.worker_active, "the cycle worker to stop")
+        frozen = run.cycles
+        for _ in range(10):
+            await pilot.pause(0.02)
+            assert run.cycles == frozen
         assert app.state_word == "Interrupted..."
         await menu(pilot, "escape")
-        await asyncio.sleep(0.3)
-        assert app.control.cycles > frozen
+        await wait_for(pilot, lambda: run.cycles > frozen, "the run to resume")
         app.run_suspend()
 
     drive(app, script)
@@ -323,12 +325,18 @@ def test_command_palette_runs_menu_items(data_dir: Path) -> None:
         assert "Setup ▸ Systems ▸ GPS" in names and "Run ▸ Suspend" in names
         assert not any(n.startswith("Data") for n in names)
         await pilot.press("ctrl+p")
-        await pilot.pause(0.2)
+        await wait_for(pilot, lambda: isinstance(app.screen, CommandPalette), "the palette")
         await pilot.press(*"run suspend")
-        await pilot.pause(0.3)
+
+        def first_hit() -> str:
+            options = app.screen.query_one(OptionList)
+            if options.option_count == 0 or options.highlighted is None:
+                return ""
+            return str(options.get_option_at_index(options.highlighted).prompt)
+
+        await wait_for(pilot, lambda: "Run ▸ Suspend" in first_hit(), "the search result")
         await pilot.press("enter")
-        await pilot.pause(0.2)
-        assert app.state_word == "Suspended..."
+        await wait_for(pilot, lambda: app.state_word == "Suspended...", "the run suspended")
 
     drive(app, script)
 
@@ -580,11 +588,7 @@ def test_kalman_menu(data_dir: Path) -> None:
         assert app.control.cycles == before
 
         await menu(pilot, "alt+k", "s")
-        for _ in range(100):
-            if isinstance(app.screen, TableScreen):
-                break
-            await asyncio.sleep(0.02)
-        assert isinstance(app.screen, TableScreen)
+        await wait_for(pilot, lambda: isinstance(app.screen, TableScreen), "the smoothing table")
         table = app.screen.query_one(DataTable)
         assert table.row_count == 3
         assert table.get_row_at(2)[1] == "08:35:40Z"
@@ -726,16 +730,11 @@ def test_lop_reject_ask(tmp_path: Path) -> None:
 
     async def script(pilot: Pilot[None]) -> None:
         await start(pilot)
-        deadline = time.monotonic() + 10
-        while not isinstance(app.screen, ConfirmDialog):
-            assert time.monotonic() < deadline
-            await asyncio.sleep(0.01)
+        await wait_for(pilot, lambda: isinstance(app.screen, ConfirmDialog), "the LOP question")
         assert app.control.cycles == 5 and app.state_word == "Interrupted..."
         assert "Discard LOP GPS Lat?" in text_of(app)
         await pilot.press("y")
-        await pilot.pause()
-        while not app.control.eof:
-            await asyncio.sleep(0.01)
+        await wait_for(pilot, lambda: app.control.eof, "the end of the data file")
         history = list(app.control.session.history)
         assert [r.n for r in history] == list(range(1, 11))
         fix = history[4].fix

@@ -122,14 +122,14 @@ def test_demo_tour_headless(data_dir: Path, tmp_path: Path) -> None:
     texts = {p.stem: p.read_text(encoding="utf-8") for p in sorted(out.glob("*.txt"))}
     assert list(texts) == [
         "UVNAV_DEMO_100059_Pg100", "UVNAV_DEMO_100459_Pg100", "UVNAV_DEMO_100459_Pg641",
-        "UVNAV_DEMO_104959_Pg100", "UVNAV_DEMO_104959_Pg100_2", "UVNAV_DEMO_113459_Pg100",
+        "UVNAV_DEMO_104959_Pg100", "UVNAV_DEMO_104959_Predict", "UVNAV_DEMO_113459_Pg100",
         "UVNAV_DEMO_113459_Pg100_2", "UVNAV_DEMO_115959_Pg100"]
     assert "Chain 9B  off" in texts["UVNAV_DEMO_100059_Pg100"]
     assert "X 38" in texts["UVNAV_DEMO_100459_Pg100"]  # GPS fix in ECEF
     dive = texts["UVNAV_DEMO_104959_Pg100"]
     assert "Hg : -50" in dive and "no fix" in dive
-    assert "Kalman ▸ Predict." in texts["UVNAV_DEMO_104959_Pg100_2"]
-    assert "+10:00" in texts["UVNAV_DEMO_104959_Pg100_2"]
+    assert "Kalman ▸ Predict." in texts["UVNAV_DEMO_104959_Predict"]  # named after the table
+    assert "+10:00" in texts["UVNAV_DEMO_104959_Predict"]
     assert "Suspended..." in texts["UVNAV_DEMO_113459_Pg100_2"]
     final = texts["UVNAV_DEMO_115959_Pg100"]
     assert "Suspended..." in final and "End of data file" in final

@@ -4,6 +4,8 @@ tests of the console's plain-data parts: the menu tree, the run controller and t
 from __future__ import annotations
 
 import shutil
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -42,15 +44,29 @@ def make_app(data_dir: Path, name: str = "920917_1", **kw: object) -> UVNAVApp:
 
 async def start(pilot: object, cycles: int = 0) -> UVNAVApp:
     """Accept the Parameter Initialization dialog with Return and run ``cycles`` cycles."""
+    from uvnav_tui.init_dialog import InitDialog
+
     app = pilot.app  # type: ignore[attr-defined]
-    await pilot.pause()  # type: ignore[attr-defined]
+    await wait_for(pilot, lambda: isinstance(app.screen, InitDialog)
+                   and app.screen.is_mounted, "Parameter Initialization")
     await pilot.press("enter")  # type: ignore[attr-defined]
-    await pilot.pause()  # type: ignore[attr-defined]
-    assert app.control is not None, "the run did not start"
+    await wait_for(pilot, lambda: app.control is not None, "the run to start", 30.0)
     if cycles:
         await app.wait_cycles(cycles)
         await pilot.pause()  # type: ignore[attr-defined]
     return app
+
+
+async def wait_for(pilot: object, condition: Callable[[], bool], what: str,
+                   timeout_s: float = 60.0) -> None:
+    """Let the app run until ``condition()`` holds (checked after every idle point); fail
+    naming ``what`` after ``timeout_s``.  Tests wait for a condition, never for a fixed time:
+    a loaded machine makes every step slower, never a wait too short."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        await pilot.pause(0.01)  # type: ignore[attr-defined]
 
 
 def freeze(app: UVNAVApp) -> None:

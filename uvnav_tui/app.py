@@ -59,6 +59,7 @@ from uvnav_tui.decca_dialog import DeccaDialog
 from uvnav_tui.filtering_dialog import FilteringDialog
 from uvnav_tui.gps_dialog import GpsDialog
 from uvnav_tui.hardcopy import write_hardcopy
+from uvnav_tui.help_screen import HelpScreen
 from uvnav_tui.init_dialog import InitDialog
 from uvnav_tui.main_page import MainPage
 from uvnav_tui.menu_bar import MenuBar
@@ -115,6 +116,8 @@ class UVNAVApp(App[None]):
     ]
     BINDINGS = [
         Binding("ctrl+q", "quit", "Quit", show=False, priority=True),
+        Binding("ctrl+c", "quit", "Quit", show=False),
+        Binding("f1", "help", "Help", show=False),
     ]
 
     class Advanced(Message):
@@ -431,6 +434,7 @@ class UVNAVApp(App[None]):
             else:
                 base.query_one(PageFrame).select(number)
                 switcher.current = "page-frame"
+            base.page_shown()
         self.refresh_display()
 
     def sub_page(self, step: int) -> None:
@@ -451,20 +455,32 @@ class UVNAVApp(App[None]):
     def open_menu(self, index: int, path: list[int] | None = None) -> None:
         """Open pulldown ``index`` of the bar (optionally with a sub-menu path open)."""
         self.message = ""
-        self.push_screen(PulldownScreen(self.dev_mode, index, path), callback=self._chosen)
+        self.push_screen(PulldownScreen(self.dev_mode, index, path, on_choose=self._chosen))
 
     def _chosen(self, action: str | None) -> None:
-        if action:
-            self.do_menu_action(action)
+        if not action:
+            return
+        if isinstance(self.screen, TableScreen) and action not in ("hardcopy", "quit"):
+            self.screen.dismiss(None)  # a page or dialog chosen over a table replaces it
+        self.do_menu_action(action)
 
     def get_system_commands(self, screen: Screen[Any]) -> Iterable[SystemCommand]:
-        """Every menu item of the current mode, plus the palette's own key help."""
+        """Every menu item and every page (by number and title) of the current mode, and Help."""
         if isinstance(screen, ConsoleScreen):
             for path, item in iter_leaves(self.dev_mode):
                 assert item.action is not None
                 yield SystemCommand(" ▸ ".join(path), item.help,
                                     partial(self.do_menu_action, item.action))
-        yield SystemCommand("Keys", "Show the key bindings", self.action_show_help_panel)
+            for number, title in PAGE_TITLES.items():
+                if number < DEV_PAGES_FROM or self.dev_mode:
+                    yield SystemCommand(f"Pg {number} {title}", f"Show page {number}",
+                                        partial(self.show_page, number))
+        yield SystemCommand("Help", "Keys, menus and the page map (F1)", self.action_help)
+
+    def action_help(self) -> None:
+        """F1 or ``?``: the help screen (not twice)."""
+        if not isinstance(self.screen, HelpScreen):
+            self.push_screen(HelpScreen())
 
     def action_quit(self) -> None:  # type: ignore[override]
         """Quit asks for confirmation (thesis L5458)."""
@@ -619,7 +635,8 @@ class UVNAVApp(App[None]):
                 format_time_z(last.time + timedelta(seconds=t)), p, level))
         note = (f"From {format_time_z(last.time)}, step {step:g} s, interval {horizon / 60:g} min;"
                 f" ellipse axes at {self.config.lsq.conf_region_pct:g} %.")
-        self.push_screen(TableScreen("Kalman ▸ Predict.", note, PREDICT_COLUMNS, rows))
+        self.push_screen(TableScreen("Kalman ▸ Predict.", note, PREDICT_COLUMNS, rows,
+                                     hardcopy_name="Predict"))
 
     @staticmethod
     def _estimate_row(offset: str, when: str, p: Any, level: float) -> list[str]:
@@ -655,12 +672,16 @@ class UVNAVApp(App[None]):
         note = (f"Rauch-Tung-Striebel smoothing of the last {len(smoothed)} filter states "
                 "(post-processing, not in the 1993 program).")
         self.say("")
-        self.push_screen(TableScreen("Kalman ▸ Smoothing", note, SMOOTH_COLUMNS, rows))
+        self.push_screen(TableScreen("Kalman ▸ Smoothing", note, SMOOTH_COLUMNS, rows,
+                                     hardcopy_name="Smoothing"))
 
     # ------------------------------------------------------------------ run menu, hardcopy
     def run_suspend(self) -> None:
         """Run ▸ Suspend: freeze after the last cycle."""
         if self.control is not None:
+            if self.control.suspended:
+                self.say("The run is already suspended: Run ▸ Continue resumes it")
+                return
             self.control.suspended = True
             self.refresh_display()
 
@@ -671,6 +692,9 @@ class UVNAVApp(App[None]):
             return
         if run.eof:
             self.say("End of data file: Run ▸ Start begins a new run")
+            return
+        if not run.suspended:
+            self.say("The run is already working (Run ▸ Suspend freezes it)")
             return
         run.suspended = False
         run.note = ""
@@ -696,7 +720,9 @@ class UVNAVApp(App[None]):
         name = Path(self.config.run_file).stem
         when = r.time.strftime("%H%M%S") if r is not None else "000000"
         try:
-            paths = write_hardcopy(self, self.hardcopy_dir, name, when, self.page)
+            what = (self.screen.hardcopy_name if isinstance(self.screen, TableScreen)
+                    else self.page)
+            paths = write_hardcopy(self, self.hardcopy_dir, name, when, what)
         except OSError as exc:
             self.say(f"Hardcopy failed: {exc.strerror or exc}")
             return None

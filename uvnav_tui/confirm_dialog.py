@@ -16,9 +16,9 @@ class ConfirmDialog(ModalScreen[bool]):
     CSS_PATH = "dialog.tcss"
 
     BINDINGS = [
-        Binding("y", "answer(True)", "Yes", show=False),
-        Binding("n", "answer(False)", "No", show=False),
-        Binding("escape", "answer(False)", "No", show=False),
+        Binding("y", "answer(True)", "Yes", show=False, priority=True),
+        Binding("n", "answer(False)", "No", show=False, priority=True),
+        Binding("escape", "answer(False)", "No", show=False, priority=True),
     ]
 
     def __init__(self, title: str, question: str, *, default: bool = False) -> None:

@@ -9,11 +9,14 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, cast
 
 from textual import events, on
+from textual.actions import SkipAction
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.screen import Screen
 from textual.widgets import ContentSwitcher, Static
 
+from uvnav_tui.key_line import KeyLine
+from uvnav_tui.keys_help import menu_key_bindings
 from uvnav_tui.main_page import MainPage
 from uvnav_tui.menu_bar import MenuBar
 from uvnav_tui.menus import visible_bar
@@ -23,18 +26,23 @@ from uvnav_tui.state_line import StateLine
 if TYPE_CHECKING:
     from uvnav_tui.app import UVNAVApp
 
-HINT = " F10 menu  Alt+letter a menu  Ctrl+P commands  PgUp/PgDn sub-pages  Esc closes"
-
-
 class ConsoleScreen(Screen[None]):
     """Menu bar, state line, Pg 100 or a framed page, message line, key hints."""
 
+    # Keys that open another screen are *priority* bindings: they run in the app's own message
+    # loop as the key is read, so the screen is on top before the next key is dispatched.  As
+    # plain key handlers they ran later, in this screen's queue, and a hot-key typed right after
+    # Alt+letter went to this screen instead of the menu (issue 16, defect 10).
     BINDINGS = [
-        Binding("f10", "open_menu(0)", "Menu", show=False),
-        Binding("enter", "open_menu(0)", "Menu", show=False),
-        Binding("space", "open_menu(0)", "Menu", show=False),
+        *menu_key_bindings(),
+        Binding("enter", "open_menu(0)", "Menu", show=False, priority=True),
+        Binding("space", "open_menu(0)", "Menu", show=False, priority=True),
+        Binding("f1", "app.help", "Help", show=False, priority=True),
+        Binding("question_mark", "app.help", "Help", show=False, priority=True),
         Binding("pagedown", "sub_page(1)", "Next sub-page", show=False),
         Binding("pageup", "sub_page(-1)", "Previous sub-page", show=False),
+        Binding("escape", "cancel_number", "Cancel", show=False),
+        Binding("backspace", "erase_digit", "Erase", show=False),
     ]
 
     @property
@@ -50,25 +58,78 @@ class ConsoleScreen(Screen[None]):
             yield MainPage(id="page-main")
             yield PageFrame(id="page-frame")
         yield Static("", id="message-line")
-        yield Static(HINT, id="hint-line")
+        yield KeyLine(id="hint-line")
 
     def action_open_menu(self, index: int) -> None:
         """Open a pulldown (the first menu for F10/Return/Space)."""
+        self.cancel_number()
         self.uvnav.open_menu(index)
+
+    def action_open_hot(self, key: str) -> None:
+        """Alt+letter: open the bar menu with that hot-key (skipped if none is visible)."""
+        for i, item in enumerate(visible_bar(self.uvnav.dev_mode)):
+            if item.key == key:
+                self.action_open_menu(i)
+                return
+        raise SkipAction()
+
+    def page_shown(self) -> None:
+        """A page was selected: focus its body (so the cursor keys scroll it) and show its
+        keys once it is laid out."""
+        frame = self.query_one(PageFrame)
+        body = frame.body if self.uvnav.page != 100 else None
+        if body is not None and body.can_focus:
+            body.focus()
+        elif self.focused is not None:
+            self.set_focus(None)
+        self.call_after_refresh(self.key_line.sync)
+
+    # ------------------------------------------------------------------ go to page nnn
+    @property
+    def key_line(self) -> KeyLine:
+        """The bottom line."""
+        return self.query_one(KeyLine)
+
+    def type_digit(self, digit: str) -> None:
+        """A digit of a page number; the third one shows the page (``No page nnn`` if none)."""
+        line = self.key_line
+        line.typed += digit
+        if len(line.typed) == 3:
+            number = int(line.typed)
+            line.typed = ""
+            self.uvnav.show_page(number)
+        line.sync()
+
+    def cancel_number(self) -> None:
+        """Forget the digits typed so far."""
+        line = self.key_line
+        if line.typed:
+            line.typed = ""
+            line.sync()
+
+    def action_cancel_number(self) -> None:
+        """Esc: forget a page number being typed."""
+        if not self.key_line.typed:
+            raise SkipAction()
+        self.cancel_number()
+
+    def action_erase_digit(self) -> None:
+        """Backspace: erase the last digit of a page number being typed."""
+        line = self.key_line
+        if not line.typed:
+            raise SkipAction()
+        line.typed = line.typed[:-1]
+        line.sync()
 
     def action_sub_page(self, step: int) -> None:
         """PgDn / PgUp between the sub-pages of the page shown."""
         self.uvnav.sub_page(step)
 
     def on_key(self, event: events.Key) -> None:
-        """Alt+letter opens the menu with that hot-key."""
-        key = event.key
-        if key.startswith("alt+") and len(key) == 5:
-            for i, item in enumerate(visible_bar(self.uvnav.dev_mode)):
-                if item.key == key[-1]:
-                    event.stop()
-                    self.uvnav.open_menu(i)
-                    return
+        """Digits type a page number (three digits: ``6 4 2`` shows Pg 642)."""
+        if event.character is not None and event.character.isdigit() and len(event.key) == 1:
+            event.stop()
+            self.type_digit(event.character)
 
     @on(MenuBar.Opened)
     def _bar_clicked(self, event: MenuBar.Opened) -> None:

@@ -30,7 +30,7 @@ class Dialog(ModalScreen[T | None], Generic[T]):
 
     BINDINGS = [
         Binding("enter", "ok", "OK", priority=True, show=False),
-        Binding("escape", "cancel", "Cancel", show=False),
+        Binding("escape", "cancel", "Cancel", show=False, priority=True),
     ]
 
     TITLE = "Dialog"

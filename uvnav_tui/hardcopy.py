@@ -1,8 +1,9 @@
 """Edit ▸ Hardcopy: the current screen as an SVG screenshot plus a plain-text dump (A23).
 
 Files are named ``UVNAV_<run>_<time>_Pg<nnn>.svg`` / ``.txt`` after the run name, the record time
-of the last cycle (``HHMMSS``, not the wall clock) and the page number; a second hardcopy of the
-same cycle and page gets ``_2``, ``_3`` … appended. Nothing is ever overwritten.
+of the last cycle (``HHMMSS``, not the wall clock) and the page number, or after the table shown
+(``…_Predict``, ``…_Smoothing``); a second hardcopy of the same cycle and page gets ``_2``,
+``_3`` … appended. Nothing is ever overwritten.
 """
 
 from __future__ import annotations
@@ -15,9 +16,11 @@ from rich.console import Console
 from textual.app import App
 
 
-def hardcopy_stem(run_name: str, time_hhmmss: str, page: int) -> str:
-    """``UVNAV_<run>_<time>_Pg<nnn>``."""
-    return f"UVNAV_{run_name}_{time_hhmmss}_Pg{page:03d}"
+def hardcopy_stem(run_name: str, time_hhmmss: str, page: int | str) -> str:
+    """``UVNAV_<run>_<time>_Pg<nnn>`` for a page number, ``UVNAV_<run>_<time>_<what>`` for a
+    named screen (``Predict``)."""
+    what = f"Pg{page:03d}" if isinstance(page, int) else page
+    return f"UVNAV_{run_name}_{time_hhmmss}_{what}"
 
 
 def free_stem(directory: Path, stem: str) -> str:
@@ -51,7 +54,7 @@ def screen_text(app: App[object]) -> str:
 
 
 def write_hardcopy(app: App[object], directory: Path, run_name: str, time_hhmmss: str,
-                   page: int) -> tuple[Path, Path]:
+                   page: int | str) -> tuple[Path, Path]:
     """Write the SVG and text hardcopies of the current screen; returns their paths."""
     directory.mkdir(parents=True, exist_ok=True)
     stem = free_stem(directory, hardcopy_stem(run_name, time_hhmmss, page))

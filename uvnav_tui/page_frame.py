@@ -37,6 +37,11 @@ class PageFrame(Horizontal):
         self.number = number
         switcher.current = f"page-{number}"
 
+    @property
+    def body(self) -> Widget | None:
+        """The body of the selected page (None before the first)."""
+        return None if self.number is None else self._bodies.get(self.number)
+
     def show(self, r: CycleResult | None, session: Session | None) -> None:
         """Render the column and the visible body."""
         if session is not None:

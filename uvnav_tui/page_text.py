@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 from textual.app import ComposeResult
+from textual.binding import Binding
 from textual.containers import ScrollableContainer
 from textual.widgets import Static
 
@@ -205,17 +206,41 @@ def ellipse_block(label: str, e: Ellipse | Ellipsoid3, level: float) -> list[str
 
 
 # --------------------------------------------------------------------------- widget
-class TextPage(ScrollableContainer, can_focus=False):
+class TextPage(ScrollableContainer, can_focus=True, inherit_bindings=False):
     """A numbered page body: a monochrome text block rebuilt by :meth:`page_text` (the module's
     pure ``render``) when the cycle or the run context changes, in a container that scrolls
-    (mouse wheel) if the text is taller or wider than the page area.  It takes no focus, so
-    the console keeps every key (PgUp/PgDn between sub-pages).  Subclasses set :attr:`NUMBER`
-    and :attr:`TITLE`; their module defines ``render(r, session)``."""
+    if the text is taller or wider than the page area (80×24: Pg 620, 631, 650, 8xx).  It takes
+    the focus when its page is shown, so ← ↑ ↓ → Home End scroll it; PgUp/PgDn are left to the
+    console (sub-pages).  The scroll bars are one cell wide and sit beside the text, never on
+    it.  Subclasses set :attr:`NUMBER` and :attr:`TITLE`; their module defines
+    ``render(r, session)``."""
+
+    BINDINGS = [
+        Binding("up", "scroll_up", "Scroll up", show=False),
+        Binding("down", "scroll_down", "Scroll down", show=False),
+        Binding("left", "scroll_left", "Scroll left", show=False),
+        Binding("right", "scroll_right", "Scroll right", show=False),
+        Binding("home", "scroll_home", "Top", show=False),
+        Binding("end", "scroll_end", "Bottom", show=False),
+        Binding("ctrl+pageup", "page_left", "Page left", show=False),
+        Binding("ctrl+pagedown", "page_right", "Page right", show=False),
+    ]
 
     DEFAULT_CSS = """
     TextPage {
         width: 1fr;
         height: 1fr;
+        scrollbar-size: 1 1;
+        scrollbar-background: $background;
+        scrollbar-background-hover: $background;
+        scrollbar-background-active: $background;
+        scrollbar-color: $foreground 50%;
+        scrollbar-color-hover: $foreground;
+        scrollbar-color-active: $foreground;
+        scrollbar-corner-color: $background;
+    }
+    TextPage:focus {
+        background-tint: $foreground 0%;
     }
     TextPage > .page-text {
         width: auto;
@@ -226,6 +251,26 @@ class TextPage(ScrollableContainer, can_focus=False):
 
     NUMBER = 0
     TITLE = ""
+
+    H_STEP = 8
+    """Columns scrolled by one press of ← or → (a text page is read in columns of numbers)."""
+
+    def action_scroll_left(self) -> None:
+        """←: :attr:`H_STEP` columns left, at once (no animation)."""
+        self.scroll_to(x=max(self.scroll_target_x - self.H_STEP, 0), animate=False)
+
+    def action_scroll_right(self) -> None:
+        """→: :attr:`H_STEP` columns right, at once (no animation)."""
+        self.scroll_to(x=min(self.scroll_target_x + self.H_STEP, self.max_scroll_x),
+                       animate=False)
+
+    def action_scroll_up(self) -> None:
+        """↑: one line up, at once."""
+        self.scroll_to(y=max(self.scroll_target_y - 1, 0), animate=False)
+
+    def action_scroll_down(self) -> None:
+        """↓: one line down, at once."""
+        self.scroll_to(y=min(self.scroll_target_y + 1, self.max_scroll_y), animate=False)
 
     def __init__(self) -> None:
         super().__init__()

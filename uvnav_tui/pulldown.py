@@ -3,12 +3,22 @@
 Keyboard-first (thesis L5496: cursor keys and Return move and select): ↑/↓ move, → or Return
 opens a sub-menu, ← closes it, ←/→ on the top level move to the neighbouring menu, a hot-key
 letter picks an item, Esc closes one level, F10 closes all. Mouse: click a title or an item;
-a click elsewhere closes the menu. The screen is dismissed with the chosen action id (or None).
+a click elsewhere closes the menu. The screen is dismissed with the chosen action id (or None);
+with ``on_choose`` it is dismissed with None and ``on_choose(action)`` runs at once, in the same
+step, so a dialog the action opens is on top before the next key is read.
+
+The boxes hang from line 3, under the state line, so the run-state word (``Interrupted...``)
+stays visible while a menu is open.  Hot-key letters, Return and Esc are priority bindings: they
+are handled as each key is read, never after a key typed behind them (issue 16, defect 10).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from string import ascii_lowercase
+
 from textual import events, on
+from textual.actions import SkipAction
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.screen import ModalScreen
@@ -28,13 +38,22 @@ class PulldownScreen(ModalScreen[str | None]):
         Binding("down", "move(1)", "Down", show=False),
         Binding("left", "left", "Left", show=False),
         Binding("right", "right", "Right", show=False),
-        Binding("enter", "choose", "Select", show=False),
-        Binding("escape", "back", "Close", show=False),
-        Binding("f10", "close", "Close menu", show=False),
+        Binding("enter", "choose", "Select", show=False, priority=True),
+        Binding("escape", "back", "Close", show=False, priority=True),
+        Binding("f10", "close", "Close menu", show=False, priority=True),
+        *[Binding(letter, f"hot('{letter}')", "Pick", show=False, priority=True)
+          for letter in ascii_lowercase],
+        *[Binding(f"alt+{letter}", f"bar('{letter}')", "Menu", show=False, priority=True)
+          for letter in ascii_lowercase],
     ]
 
-    def __init__(self, dev_mode: bool, menu_index: int, path: list[int] | None = None) -> None:
+    BOX_TOP = 2
+    """Screen row of the first box: under the menu bar and the state line."""
+
+    def __init__(self, dev_mode: bool, menu_index: int, path: list[int] | None = None,
+                 on_choose: Callable[[str], None] | None = None) -> None:
         super().__init__()
+        self.on_choose = on_choose
         self.dev_mode = dev_mode
         self.menu_index = menu_index
         self.path: list[int] = list(path) if path else [0]
@@ -72,7 +91,7 @@ class PulldownScreen(ModalScreen[str | None]):
         bar = self.query_one(MenuBar)
         bar.active = self.menu_index
         x = title_spans(self.bar)[self.menu_index][0]
-        y = 1
+        y = self.BOX_TOP
         for level in range(len(self.path)):
             items = self.level_items(level)
             if level > 0:
@@ -129,7 +148,34 @@ class PulldownScreen(ModalScreen[str | None]):
             self.path.append(0)
             self._sync_boxes()
         else:
-            self.dismiss(item.action)
+            self._finish(item.action)
+
+    def _finish(self, action: str | None) -> None:
+        """Close with ``action`` (run at once through ``on_choose`` if given)."""
+        if self.on_choose is None or action is None:
+            self.dismiss(action)
+            return
+        self.dismiss(None)
+        self.on_choose(action)
+
+    def action_hot(self, letter: str) -> None:
+        """A hot-key letter picks the item of the open level with that key."""
+        items = self.level_items(len(self.path) - 1)
+        for i, item in enumerate(items):
+            if item.key == letter:
+                self.path[-1] = i
+                self._sync_boxes()
+                self.action_choose()
+                return
+        raise SkipAction()
+
+    def action_bar(self, letter: str) -> None:
+        """Alt+letter switches to the bar menu with that hot-key."""
+        for i, item in enumerate(self.bar):
+            if item.key == letter:
+                self._switch_menu(i)
+                return
+        raise SkipAction()
 
     def action_back(self) -> None:
         """Esc: close the deepest level; the whole menu from the top level."""
@@ -145,24 +191,14 @@ class PulldownScreen(ModalScreen[str | None]):
 
     # ------------------------------------------------------------------ events
     def on_key(self, event: events.Key) -> None:
-        """A hot-key letter picks an item; Alt+letter switches to another bar menu."""
+        """Upper-case hot-key letters pick like lower-case ones."""
         key = event.key
-        if key.startswith("alt+") and len(key) == 5:
-            for i, item in enumerate(self.bar):
-                if item.key == key[-1]:
-                    event.stop()
-                    self._switch_menu(i)
-                    return
-            return
-        if len(key) == 1 and key.isalpha():
-            items = self.level_items(len(self.path) - 1)
-            for i, item in enumerate(items):
-                if item.key == key.lower():
-                    event.stop()
-                    self.path[-1] = i
-                    self._sync_boxes()
-                    self.action_choose()
-                    return
+        if len(key) == 1 and key.isalpha() and key.isupper():
+            event.stop()
+            try:
+                self.action_hot(key.lower())
+            except SkipAction:
+                pass
 
     @on(MenuBar.Opened)
     def _bar_clicked(self, event: MenuBar.Opened) -> None:
