@@ -17,6 +17,8 @@ from textual.widgets import ContentSwitcher, Static
 from uvnav_tui.main_page import MainPage
 from uvnav_tui.menu_bar import MenuBar
 from uvnav_tui.menus import visible_bar
+from uvnav_tui.message_line import MessageLine
+from uvnav_tui.message_panel import MessagePanel, PanelArea
 from uvnav_tui.page_frame import PageFrame
 from uvnav_tui.state_line import StateLine
 
@@ -35,6 +37,7 @@ class ConsoleScreen(Screen[None]):
         Binding("space", "open_menu(0)", "Menu", show=False),
         Binding("pagedown", "sub_page(1)", "Next sub-page", show=False),
         Binding("pageup", "sub_page(-1)", "Previous sub-page", show=False),
+        Binding("f2", "messages", "Messages", show=False),
     ]
 
     @property
@@ -47,14 +50,20 @@ class ConsoleScreen(Screen[None]):
         yield MenuBar(dev_mode=self.uvnav.dev_mode, id="menu-bar")
         yield StateLine(id="state-line")
         with ContentSwitcher(initial="page-main", id="pages"):
-            yield MainPage(id="page-main")
+            with PanelArea(id="page-main"):
+                yield MainPage(id="main-page")
+                yield MessagePanel(id="message-panel")
             yield PageFrame(id="page-frame")
-        yield Static("", id="message-line")
+        yield MessageLine(id="message-line")
         yield Static(HINT, id="hint-line")
 
     def action_open_menu(self, index: int) -> None:
         """Open a pulldown (the first menu for F10/Return/Space)."""
         self.uvnav.open_menu(index)
+
+    def action_messages(self) -> None:
+        """F2: the message log (Statistics ▸ Messages)."""
+        self.uvnav.do_menu_action("messages")
 
     def action_sub_page(self, step: int) -> None:
         """PgDn / PgUp between the sub-pages of the page shown."""

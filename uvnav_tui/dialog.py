@@ -41,7 +41,7 @@ class Dialog(ModalScreen[T | None], Generic[T]):
         with Vertical(id="dialog-frame", classes="dialog-frame") as frame:
             frame.border_title = self.TITLE
             yield from self.compose_body()
-            yield Static("", id="dialog-message", classes="dialog-message")
+            yield Static("", id="dialog-message", classes="dialog-message", markup=False)
             with Horizontal(classes="dialog-buttons"):
                 yield Button(self.OK_LABEL, id="ok", compact=True)
                 yield Button("Cancel", id="cancel", compact=True)

@@ -21,6 +21,7 @@ from engine.commands import SetParameters
 from engine.errors import InputError
 from engine.runconfig import DECCA_CF_CONDITIONS, Key, decca_cf_condition, parse_decca_cf
 from uvnav_tui.dialog import Dialog
+from uvnav_tui.toggles import GlyphCheckbox
 from uvnav_tui.validated_field import ValidatedField
 
 NUMBER_MESSAGE = "Wrong number input !"
@@ -87,7 +88,7 @@ class ParametersDialog(Dialog[SetParameters]):
                     label = f"{key.key} ({', '.join(DECCA_CF_CONDITIONS)} or a number)"
                     value = decca_cf_condition(value) or value
                 if key.kind == "bool":
-                    yield Checkbox(label, value, id=f"param-{key.attr}", compact=True)
+                    yield GlyphCheckbox(label, value, id=f"param-{key.attr}", compact=True)
                 else:
                     yield ValidatedField(label, value_text(value), key_parser(self.table, key),
                                          id=f"param-{key.attr}")

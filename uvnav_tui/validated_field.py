@@ -54,10 +54,10 @@ class ValidatedField(Widget):
     def compose(self) -> ComposeResult:
         """Label and input side by side, the message below."""
         with Horizontal(classes="field-row"):
-            yield Label(self.label, classes="field-label")
+            yield Label(self.label, classes="field-label", markup=False)
             yield Input(self._initial, id=f"{self.id}-input", compact=True,
                         suggester=self._suggester)
-        yield Static("", classes="field-message")
+        yield Static("", classes="field-message", markup=False)
 
     def on_mount(self) -> None:
         """Check the pre-filled value."""
