@@ -36,7 +36,12 @@ class MessageLogView(Log):
 
 
 class MessagePanel(MessageLogView):
-    """The log under Pg 100 (shown by :class:`PanelArea` when the terminal has the rows)."""
+    """The log under Pg 100 (shown by :class:`PanelArea` when the terminal has the rows).
+
+    Not focusable: the page keys (PgUp/PgDn, Return, Space) stay with the page; F2 opens the
+    log screen for scrolling."""
+
+    can_focus = False
 
     def on_mount(self) -> None:
         """Titled frame."""

@@ -50,6 +50,8 @@ def bearing_sigma(lsq: LsqConfig, sensor: str) -> float:
 class ObsDialog(Dialog[AddObservation]):
     """``kind`` is "bearing", "distance" or "radar"; dismissed with :class:`AddObservation`."""
 
+    CANCEL_IF_UNCHANGED = False
+
     def __init__(self, kind: str, lsq: LsqConfig) -> None:
         super().__init__()
         self.kind = kind

@@ -25,6 +25,8 @@ class GlyphCheckbox(Checkbox):
 
     def __init__(self, label: str | Content = "", value: bool = False, **kwargs: object) -> None:
         super().__init__(literal(label), value, **kwargs)  # type: ignore[arg-type]
+        self.initial_value = value
+        """The state the dialog opened with (a dialog OK'd without edits changes nothing)."""
 
     @property
     def _button(self) -> Content:
@@ -39,6 +41,8 @@ class GlyphRadioButton(RadioButton):
 
     def __init__(self, label: str | Content = "", value: bool = False, **kwargs: object) -> None:
         super().__init__(literal(label), value, **kwargs)  # type: ignore[arg-type]
+        self.initial_value = value
+        """The state the dialog opened with (a dialog OK'd without edits changes nothing)."""
 
     @property
     def _button(self) -> Content:
