@@ -531,8 +531,9 @@ class UVNAVApp(App[None]):
             "messages": lambda: self.push_screen(MessageScreen(self.message_log)),
         }
 
-    def apply(self, *commands: Command) -> bool:
-        """Send operator commands to the engine; shows the log text (or the error)."""
+    def apply(self, *commands: Command, suffix: Callable[[], str] | None = None) -> bool:
+        """Send operator commands to the engine; shows the log text (or the error), followed by
+        ``suffix()`` if given (one message, not two)."""
         run = self.control
         if run is None:
             return False
@@ -543,7 +544,7 @@ class UVNAVApp(App[None]):
         except (InputError, ValueError) as exc:
             self.say(exc.message if isinstance(exc, InputError) else str(exc))
             return False
-        self.say("; ".join(texts))
+        self.say("; ".join(texts) + (suffix() if suffix is not None else ""))
         return True
 
     def _quit(self) -> None:
@@ -587,11 +588,13 @@ class UVNAVApp(App[None]):
         self.push_screen(SensorsDialog(self.config.sensors), callback=done)
 
     def _obs(self, kind: str) -> None:
+        def pending() -> str:
+            n = len(self.control.session.nav.pending_obs) if self.control is not None else 0
+            return f" — {n} observation(s) for the next cycle (at most {MAX_BRR})"
+
         def done(cmd: AddObservation | None) -> None:
-            if cmd is not None and self.apply(cmd) and self.control is not None:
-                pending = len(self.control.session.nav.pending_obs)
-                self.say(f"{self.message} — {pending} observation(s) for the next cycle "
-                         f"(at most {MAX_BRR})")
+            if cmd is not None:
+                self.apply(cmd, suffix=pending)
 
         self.push_screen(ObsDialog(kind, self.config.lsq), callback=done)
 

@@ -7,8 +7,9 @@ follows the newest line unless the operator has scrolled up.
 
 from __future__ import annotations
 
+from rich.text import Text
 from textual.containers import Vertical
-from textual.widgets import Log
+from textual.widgets import RichLog
 
 from uvnav_tui.message_log import LOG_LIMIT, MessageLog
 
@@ -16,11 +17,12 @@ PANEL_MIN_ROWS = 5
 """The panel shows only when at least this many rows are free under Pg 100."""
 
 
-class MessageLogView(Log):
-    """Appends the log's new entries on :meth:`sync`."""
+class MessageLogView(RichLog):
+    """Appends the log's new entries on :meth:`sync`; long lines wrap (literal text)."""
 
     def __init__(self, *, id: str | None = None, classes: str | None = None) -> None:
-        super().__init__(id=id, classes=classes, max_lines=LOG_LIMIT, auto_scroll=True)
+        super().__init__(id=id, classes=classes, max_lines=LOG_LIMIT, auto_scroll=True,
+                         wrap=True, markup=False, highlight=False, min_width=20)
         self._next = 0
 
     def sync(self, log: MessageLog) -> None:
@@ -28,11 +30,11 @@ class MessageLogView(Log):
         if log.total == self._next:
             return
         start, entries = log.since(self._next)
-        if start > self._next and self._next == 0 and start > 0:
-            self.write_line(f"({start} older messages no longer kept)")
+        if start > self._next:
+            self.write(Text(f"({start - self._next} older messages no longer kept)"))
         self._next = start + len(entries)
-        if entries:
-            self.write_lines(e.line() for e in entries)
+        for e in entries:
+            self.write(Text(e.line()))
 
 
 class MessagePanel(MessageLogView):
