@@ -396,6 +396,9 @@ def test_engine_messages_name_lops_as_the_dialogs(tmp_path: Path) -> None:
         assert not any("LOP 0" in t or "slot 0" in t for t in texts)
         flagged = next(e for e in entries if e.text.startswith("LOP GPS Lat fails"))
         assert flagged.stamp == "08:35:42Z"
+        out = app.control.session.out_path
+        app.stop_run()
+        assert "LOP discarded (0,): GPS Lat" in out.read_text()
 
     drive(app, script)
 
