@@ -322,7 +322,9 @@ def test_bad_record_reported_and_counted(data_dir: Path) -> None:
         await start(pilot, 3)
         texts = [e.text for e in app.message_log.since(0)[1]]
         bad = [t for t in texts if t.startswith("Bad record")]
-        assert bad == [bad[0]] and "920917_1.RUN:4 heading:" in bad[0], texts
+        assert bad == ["Bad record skipped: 920917_1.RUN:4 heading: Not a number ! "
+                       "(got '2x2.2')"], texts
+        assert "Bad record skipped: 920917_1.RUN:4" in app.screen.query_one(MessageLine).text
         app.show_page(620)
         await pilot.pause()
         assert app.screen.query_one(StatusColumn).bad_records == 1
@@ -349,7 +351,7 @@ def test_all_bad_file_says_so(data_dir: Path) -> None:
         screen = text_of(app)
         assert "no valid record (2 bad, none used)" in screen
         texts = [e.text for e in app.message_log.since(0)[1]]
-        assert sum(t.startswith("Bad record ALLBAD.RUN:") for t in texts) == 2
+        assert sum(t.startswith("Bad record skipped: ALLBAD.RUN:") for t in texts) == 2
 
     drive(app, script)
 

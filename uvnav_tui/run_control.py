@@ -35,13 +35,13 @@ PACE_SLICE_S = 0.02
 
 
 def bad_record_text(error: InputError, line_no: int) -> str:
-    """``Bad record DEMO.RUN:12 heading: Wrong heading ! (got 'x'): skipped``: file name,
-    line and field, literal (the raw text may hold anything)."""
+    """``Bad record skipped: DEMO.RUN:12 heading: Not a number ! (got 'x')``: file name, line
+    and field, literal (the raw text may hold anything)."""
     name = Path(error.file).name if error.file else "run file"
     where = f"{name}:{error.line if error.line is not None else line_no}"
     field = f" {error.field}:" if error.field else ""
     got = f" (got {error.text!r})" if error.text is not None else ""
-    return f"Bad record {where}{field} {error.message}{got}: skipped"
+    return f"Bad record skipped: {where}{field} {error.message}{got}"
 
 
 def pace_factor(pace: str) -> float:
