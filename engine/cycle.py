@@ -41,6 +41,7 @@ from engine.fix import (
     ManualObservation,
     PositionPrior,
     compute_fix,
+    lop_name,
 )
 from engine.geodesy import DatumShift, GeodesicSolver, datum_shift, geodetic_to_ecef
 from engine.kalman import (
@@ -525,7 +526,9 @@ def step(
                           manual=manual, prior=prior, settings=ctx.lsq,
                           excluded_slots=excluded_slots)
         if fix.candidate_slot is not None:
-            messages.append(f"LOP in slot {fix.candidate_slot} fails the w-test: discard it?")
+            name = lop_name(fix.candidate_slot, system="KF" if fix.uses_prior else "GPS",
+                            manual=manual)
+            messages.append(f"LOP {name} fails the w-test: discard it?")
         messages.extend(fix.messages)
     # --- Filter update with the fix (or the raw LOPs on the too-few-LOPs path, kalman.md A10).
     filt_result: UpdateResult | None = None

@@ -93,6 +93,31 @@ class ManualObservation:
     sensor: str = ""
 
 
+DECCA_PATTERN_NAMES = ("Red", "Grn", "Prp")
+"""Short Decca pattern names of the LOP tables (Pg 631) and the operator messages."""
+
+
+def lop_name(slot: int, *, system: str = "GPS",
+             manual: Sequence[ManualObservation] = ()) -> str:
+    """The name of LOP ``slot`` as the tables and dialogs give it, for operator messages.
+
+    ``GPS Lat``/``GPS Lon`` (``system`` "KF" when the filter's prediction stands in for GPS on
+    the too-few-LOPs path), ``Decca Red``/``Grn``/``Prp``, and for an Obs-menu observation its
+    sensor, ``Brg`` or ``Dist`` and the station as typed (``periscope Brg Heiloo``). Slot
+    numbers are those of :data:`SLOT_GPS_LAT` … :data:`SLOT_BRR0`.
+    """
+    if slot in (SLOT_GPS_LAT, SLOT_GPS_LON):
+        return f"{system} {'Lat' if slot == SLOT_GPS_LAT else 'Lon'}"
+    if slot in SLOT_DECCA:
+        return f"Decca {DECCA_PATTERN_NAMES[SLOT_DECCA.index(slot)]}"
+    i = slot - SLOT_BRR0
+    if 0 <= i < len(manual):
+        o = manual[i]
+        kind = "Brg" if o.kind == "bearing" else "Dist"
+        return f"{o.sensor or o.kind} {kind} {o.station}"
+    return f"slot {slot}"
+
+
 @dataclass(frozen=True, slots=True)
 class PositionPrior:
     """The filter's predicted position used as two pseudo-LOPs when too few LOPs exist (lsq.md
@@ -392,6 +417,8 @@ def compute_fix(
         s02=settings.s02,
         scale_vcv=settings.scale_vcv,
         estimator="lsq" if uses_prior else settings.estimator,
+        lop_name=lambda slot: lop_name(slot, system="KF" if uses_prior else "GPS",
+                                       manual=manual),
     )
     messages.extend(tested.messages)
     adj = tested.adjustment
@@ -547,7 +574,7 @@ def _lop_rows(
         rows.append(lop(SLOT_GPS_LAT, system, "Lat", read_lat, corr_n, lat, 90.0))
         rows.append(lop(SLOT_GPS_LON, system, "Lon", read_lon, corr_e, lon, 180.0))
     if decca is not None and geom is not None:
-        names = ("Red", "Grn", "Prp")
+        names = DECCA_PATTERN_NAMES
         n_calc = geom.n_calc.tolist()
         lop_az = geom.lop_azimuth_rad.tolist()
         for i, slot in enumerate(SLOT_DECCA):

@@ -324,8 +324,12 @@ def adjust_with_testing(
     scale_vcv: bool = False,
     estimator: str = "lsq",
     thesis_dof: bool = False,
+    lop_name: Callable[[int], str] = str,
 ) -> TestedAdjustment:
     """Adjust, then run the thesis' data-snooping loop (lsq.md §8.1, LOPReject).
+
+    ``lop_name`` names an observation slot in the messages (``LOP Decca Grn``, as the console's
+    dialogs name it; the slot number by default).
 
     Category IV and max |w| > ``reject_bound``: policy "Y" excludes that slot and re-adjusts
     from the current x̂, repeating while category IV; "N" only flags it; "A" returns it as
@@ -345,6 +349,7 @@ def adjust_with_testing(
     if estimator not in ("lsq", "huber", "danish"):
         raise ValueError(f"estimator must be 'lsq', 'huber' or 'danish', got {estimator!r}")
     messages: list[str] = []
+    name = lop_name
     robust_result: object | None = None
     kw = dict(epsilon=epsilon, max_iter=max_iter, s02=s02, scale_vcv=scale_vcv, alpha=alpha)
     cur = np.array(used, dtype=bool)
@@ -356,7 +361,8 @@ def adjust_with_testing(
         if rob.ok:
             low = [int(k) for k in np.flatnonzero(rob.weights < 0.5)]
             if low:
-                messages.append(f"robust ({estimator}): down-weighted slots {low}")
+                messages.append(f"robust ({estimator}): down-weighted "
+                                f"{', '.join(f'LOP {name(k)}' for k in low)}")
             return _finish(rob.adjustment, (), None, None, [], False, messages, policy,
                            estimator, alpha, reject_bound, s02, thesis_dof, robust_result)
         adj = rob.lsq
@@ -381,21 +387,22 @@ def adjust_with_testing(
             break
         if policy == "N":
             flagged.append(slot)
-            messages.append(f"LOP {slot}: w = {w:.2f} exceeds {reject_bound}, not rejected")
+            messages.append(f"LOP {name(slot)}: w = {w:.2f} exceeds {reject_bound}, not rejected")
             break
         if policy == "A":
             candidate, candidate_w = slot, w
-            messages.append(f"LOP {slot}: w = {w:.2f} exceeds {reject_bound}, reject ?")
+            messages.append(f"LOP {name(slot)}: w = {w:.2f} exceeds {reject_bound}, reject ?")
             break
         trial = cur.copy()
         trial[slot] = False
         new = gauss_newton(linearise, adj.x, trial, **kw)  # type: ignore[arg-type]
         if not new.ok:
             flagged.append(slot)
-            messages.append(f"LOP {slot}: w = {w:.2f}, rejection leaves no fix ({new.reason})")
+            messages.append(f"LOP {name(slot)}: w = {w:.2f}, rejection leaves no fix "
+                            f"({new.reason})")
             break
         rejected.append((slot, w))
-        messages.append(f"LOP {slot} rejected (w = {w:.2f})")
+        messages.append(f"LOP {name(slot)} rejected (w = {w:.2f})")
         cur, adj = trial, new
     return _finish(adj, tuple(rejected), candidate, candidate_w, flagged, not_identifiable,
                    messages, policy, estimator, alpha, reject_bound, s02, thesis_dof,

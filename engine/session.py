@@ -44,6 +44,7 @@ from engine.cycle import (
 from engine.datumfile import DatumFile, read_datum_file
 from engine.deccafile import DeccaChain, read_chain_file
 from engine.errors import InputError
+from engine.fix import lop_name
 from engine.kalman import predict_horizon
 from engine.operator_input import parse_datum_name
 from engine.outlog import OutLogWriter
@@ -363,7 +364,11 @@ class Session:
         if self._smoother:
             self._smoother.pop()
         if self._out is not None:
-            self._out.write_action({"cycle": result.n, "text": f"LOP discarded {excluded_slots}"})
+            system = "KF" if result.fix is not None and result.fix.uses_prior else "GPS"
+            names = ", ".join(lop_name(s, system=system, manual=result.manual)
+                              for s in excluded_slots)
+            self._out.write_action({"cycle": result.n,
+                                    "text": f"LOP discarded {excluded_slots}: {names}"})
         self._commit(nav, result)
         return result
 

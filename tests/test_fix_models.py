@@ -19,6 +19,7 @@ from engine.fix import (
     ManualObservation,
     PositionPrior,
     compute_fix,
+    lop_name,
 )
 from engine.geodesy import GeodesicSolver, line_scale_factor, mean_radius_sq
 from engine.tmgrid import TMGrid
@@ -320,7 +321,7 @@ def test_robust_fix_replaces_rejection_under_policy_a() -> None:
     assert rob.ok and rob.candidate_slot is None and rob.rejected_slots == ()
     assert rob.tested.robust is not None and rob.tested.robust.ok
     assert int(np.nanargmin(rob.tested.robust.weights)) == 6
-    assert any("down-weighted slots [6]" in m for m in rob.messages)
+    assert any(f"down-weighted LOP {lop_name(6, manual=obs)}" in m for m in rob.messages)
     assert not any("reject ?" in m for m in rob.messages)
 
 

@@ -22,7 +22,7 @@ from textual.binding import Binding
 from textual.message import Message
 from textual.screen import Screen
 from textual.theme import Theme
-from textual.widgets import ContentSwitcher, Static
+from textual.widgets import ContentSwitcher
 from textual.worker import get_current_worker
 
 import uvnav_tui.all_pages  # noqa: F401  (registers every page but Pg 100)
@@ -40,7 +40,7 @@ from engine.cycle import CycleResult
 from engine.datumfile import DatumFile
 from engine.deccafile import DeccaChain
 from engine.errors import InputError
-from engine.fix import MAX_BRR
+from engine.fix import MAX_BRR, lop_name
 from engine.formatting import (
     format_angle_deg,
     format_dms_input,
@@ -64,6 +64,10 @@ from uvnav_tui.init_dialog import InitDialog
 from uvnav_tui.main_page import MainPage
 from uvnav_tui.menu_bar import MenuBar
 from uvnav_tui.menus import DEV_PAGES_FROM, PAGE_TITLES, iter_leaves, next_sub_page
+from uvnav_tui.message_line import MessageLine
+from uvnav_tui.message_log import MessageLog
+from uvnav_tui.message_panel import MessagePanel
+from uvnav_tui.message_screen import MessageScreen
 from uvnav_tui.obs_dialog import ObsDialog
 from uvnav_tui.page_frame import PageFrame
 from uvnav_tui.parameters_dialog import ParametersDialog
@@ -73,6 +77,7 @@ from uvnav_tui.pulldown import PulldownScreen
 from uvnav_tui.run_control import RunController
 from uvnav_tui.sensors_dialog import SensorsDialog
 from uvnav_tui.state_line import StateLine
+from uvnav_tui.status_column import StatusColumn
 from uvnav_tui.table_screen import TableScreen
 
 REFRESH_S = 0.1
@@ -113,6 +118,8 @@ class UVNAVApp(App[None]):
         "page_frame.tcss",
         "validated_field.tcss",
         "console_screen.tcss",
+        "message_line.tcss",
+        "message_panel.tcss",
     ]
     BINDINGS = [
         Binding("ctrl+q", "quit", "Quit", show=False, priority=True),
@@ -160,10 +167,10 @@ class UVNAVApp(App[None]):
         self.control: RunController | None = None
         self.page = 100
         self.message = ""
+        self.message_log = MessageLog()
         self.hardcopies: list[tuple[Path, Path]] = []
         self._refresh_pending = False
         self._last_refresh = -1.0
-        self._message_shown = ""
         self._lop_excluded: tuple[int, ...] = ()
 
     # ------------------------------------------------------------------ set-up
@@ -222,7 +229,8 @@ class UVNAVApp(App[None]):
         except OSError as exc:
             return f"File error: {exc.strerror or exc}"
         self.stop_run()
-        self.control = RunController(session, pace_override=self.pace_override)
+        self.control = RunController(session, pace_override=self.pace_override,
+                                     log=self.message_log)
         if self.hold:
             self.control.budget = 0
         self.control.interrupted = len(self.screen_stack) > 1
@@ -324,7 +332,8 @@ class UVNAVApp(App[None]):
             return
         slot = fix.candidate_slot
         row = next((lop for lop in fix.lops if lop.slot == slot), None)
-        what = f"{row.system} {row.pattern}" if row is not None else f"slot {slot}"
+        what = lop_name(slot, system=row.system if row is not None else "GPS",
+                        manual=result.manual)
         w = f" (w = {row.w:.2f})" if row is not None and row.w == row.w else ""
         question = f"The w-test rejects LOP {what}{w}.\nDiscard LOP {what}?"
         if self.lop_policy in ("yes", "no"):
@@ -384,8 +393,10 @@ class UVNAVApp(App[None]):
 
     # ------------------------------------------------------------------ display
     def say(self, text: str) -> None:
-        """Show a console message on the message line."""
+        """Show a console message on the message line (and keep it in the message log)."""
         self.message = text
+        run = self.control
+        self.message_log.add(text, run.latest.time if run is not None and run.latest else None)
         self.refresh_display()
 
     def _base(self) -> ConsoleScreen | None:
@@ -410,12 +421,11 @@ class UVNAVApp(App[None]):
         base.query_one(MenuBar).dev_mode = self.dev_mode
         if self.page == 100:
             base.query_one(MainPage).show(r, self.config)
+            base.query_one(MessagePanel).sync(self.message_log)
         else:
+            base.query_one(StatusColumn).bad_records = run.bad_records if run else 0
             base.query_one(PageFrame).show(r, self.session)
-        text = self.message or ("  ".join(r.messages) if r is not None else "")
-        if text != self._message_shown:
-            self._message_shown = text
-            base.query_one("#message-line", Static).update(text)
+        base.query_one(MessageLine).show(self.message_log)
 
     def show_page(self, number: int) -> None:
         """Show page ``number`` (100 = main page); Data pages (8xx) only in developer mode."""
@@ -534,10 +544,12 @@ class UVNAVApp(App[None]):
             "run_continue": self.run_continue,
             "run_suspend": self.run_suspend,
             "run_start": self._run_start,
+            "messages": lambda: self.push_screen(MessageScreen(self.message_log)),
         }
 
-    def apply(self, *commands: Command) -> bool:
-        """Send operator commands to the engine; shows the log text (or the error)."""
+    def apply(self, *commands: Command, suffix: Callable[[], str] | None = None) -> bool:
+        """Send operator commands to the engine; shows the log text (or the error), followed by
+        ``suffix()`` if given (one message, not two)."""
         run = self.control
         if run is None:
             return False
@@ -548,7 +560,7 @@ class UVNAVApp(App[None]):
         except (InputError, ValueError) as exc:
             self.say(exc.message if isinstance(exc, InputError) else str(exc))
             return False
-        self.say("; ".join(texts))
+        self.say("; ".join(texts) + (suffix() if suffix is not None else ""))
         return True
 
     def _quit(self) -> None:
@@ -592,11 +604,13 @@ class UVNAVApp(App[None]):
         self.push_screen(SensorsDialog(self.config.sensors), callback=done)
 
     def _obs(self, kind: str) -> None:
+        def pending() -> str:
+            n = len(self.control.session.nav.pending_obs) if self.control is not None else 0
+            return f" — {n} observation(s) for the next cycle (at most {MAX_BRR})"
+
         def done(cmd: AddObservation | None) -> None:
-            if cmd is not None and self.apply(cmd) and self.control is not None:
-                pending = len(self.control.session.nav.pending_obs)
-                self.say(f"{self.message} — {pending} observation(s) for the next cycle "
-                         f"(at most {MAX_BRR})")
+            if cmd is not None:
+                self.apply(cmd, suffix=pending)
 
         self.push_screen(ObsDialog(kind, self.config.lsq), callback=done)
 

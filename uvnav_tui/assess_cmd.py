@@ -98,8 +98,8 @@ def accuracy_table(a: Assessment) -> Table:
         if last is not None and s.phase != last:
             t.add_section()
         last = s.phase
-        t.add_row(s.phase, ESTIMATOR_LABELS[s.estimator], str(s.n), _m(s.rms_m), _m(s.p95_m),
-                  _m(s.max_m), _pct(s.coverage), _band(s.coverage_band, pct=True),
+        t.add_row(escape(s.phase), ESTIMATOR_LABELS[s.estimator], str(s.n), _m(s.rms_m),
+                  _m(s.p95_m), _m(s.max_m), _pct(s.coverage), _band(s.coverage_band, pct=True),
                   _nees(s.nees), _band(s.nees_band))
     return t
 
@@ -112,7 +112,7 @@ def nis_table(a: Assessment) -> Table | None:
     for col in ("phase", "updates", "mean NIS", "expected", "iid band"):
         t.add_column(col, justify="left" if col == "phase" else "right")
     for s in a.nis:
-        t.add_row(s.phase, str(s.n), _nees(s.mean_nis), _m(s.mean_dof, 2), _band(s.band))
+        t.add_row(escape(s.phase), str(s.n), _nees(s.mean_nis), _m(s.mean_dof, 2), _band(s.band))
     return t
 
 
@@ -146,9 +146,10 @@ def print_report(a: Assessment, console: Console) -> None:
     console.print(f"epochs: log {a.n_log}, truth {a.n_truth}, matched {a.n_matched}, "
                   f"log cycles without truth {a.n_log_unmatched}"
                   + (f", on another datum {a.n_log_other_datum}" if a.n_log_other_datum else ""))
-    console.print(f"errors: {a.frame}")
+    console.print(f"errors: {escape(a.frame)}")
     console.print("phases: " + "; ".join(
-        f"{p.name} {_hms(p.start)}–{_hms(p.end)} ({p.n})" for p in a.phases if p.name != "all"
+        f"{escape(p.name)} {_hms(p.start)}–{_hms(p.end)} ({p.n})"
+        for p in a.phases if p.name != "all"
     ) if len(a.phases) > 1 else "phases: whole run only")
     console.print(accuracy_table(a))
     nt = nis_table(a)

@@ -31,7 +31,7 @@ class ConfirmDialog(ModalScreen[bool]):
         """The question and the two buttons."""
         with Vertical(classes="dialog-frame confirm-frame") as frame:
             frame.border_title = self.title_text
-            yield Static(self.question, id="question")
+            yield Static(self.question, id="question", markup=False)
             with Horizontal(classes="dialog-buttons"):
                 yield Button("Yes", id="yes", compact=True)
                 yield Button("No", id="no", compact=True)

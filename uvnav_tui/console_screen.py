@@ -13,13 +13,15 @@ from textual.actions import SkipAction
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.screen import Screen
-from textual.widgets import ContentSwitcher, Static
+from textual.widgets import ContentSwitcher
 
 from uvnav_tui.key_line import KeyLine
 from uvnav_tui.keys_help import menu_key_bindings
 from uvnav_tui.main_page import MainPage
 from uvnav_tui.menu_bar import MenuBar
 from uvnav_tui.menus import visible_bar
+from uvnav_tui.message_line import MessageLine
+from uvnav_tui.message_panel import MessagePanel, PanelArea
 from uvnav_tui.page_frame import PageFrame
 from uvnav_tui.state_line import StateLine
 
@@ -43,6 +45,7 @@ class ConsoleScreen(Screen[None]):
         Binding("pageup", "sub_page(-1)", "Previous sub-page", show=False),
         Binding("escape", "cancel_number", "Cancel", show=False),
         Binding("backspace", "erase_digit", "Erase", show=False),
+        Binding("f2", "messages", "Messages", show=False),
     ]
 
     @property
@@ -55,9 +58,11 @@ class ConsoleScreen(Screen[None]):
         yield MenuBar(dev_mode=self.uvnav.dev_mode, id="menu-bar")
         yield StateLine(id="state-line")
         with ContentSwitcher(initial="page-main", id="pages"):
-            yield MainPage(id="page-main")
+            with PanelArea(id="page-main"):
+                yield MainPage(id="main-page")
+                yield MessagePanel(id="message-panel")
             yield PageFrame(id="page-frame")
-        yield Static("", id="message-line")
+        yield MessageLine(id="message-line")
         yield KeyLine(id="hint-line")
 
     def action_open_menu(self, index: int) -> None:
@@ -120,6 +125,9 @@ class ConsoleScreen(Screen[None]):
             raise SkipAction()
         line.typed = line.typed[:-1]
         line.sync()
+    def action_messages(self) -> None:
+        """F2: the message log (Statistics ▸ Messages)."""
+        self.uvnav.do_menu_action("messages")
 
     def action_sub_page(self, step: int) -> None:
         """PgDn / PgUp between the sub-pages of the page shown."""

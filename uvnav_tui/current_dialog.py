@@ -6,8 +6,7 @@ from textual.app import ComposeResult
 
 from engine.operator_input import parse_direction_deg, parse_speed_kn
 from uvnav_tui.dialog import Dialog
-from uvnav_tui.init_dialog import number_text
-from uvnav_tui.validated_field import ValidatedField
+from uvnav_tui.validated_field import ValidatedField, number_text
 
 
 class CurrentDialog(Dialog[tuple[float, float]]):
@@ -35,6 +34,6 @@ class CurrentDialog(Dialog[tuple[float, float]]):
         """(set, speed) if both are valid."""
         if self.first_invalid() is not None:
             return None
-        speed = self.query_one("#current-speed", ValidatedField).parsed
-        set_deg = self.query_one("#current-set", ValidatedField).parsed
+        speed = self.query_one("#current-speed", ValidatedField).value_or(self.speed_kn)
+        set_deg = self.query_one("#current-set", ValidatedField).value_or(self.set_deg)
         return float(set_deg), float(speed)

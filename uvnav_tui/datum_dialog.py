@@ -30,7 +30,7 @@ class DatumDialog(Dialog[str]):
             "Geodetic datum", self.current, lambda t: parse_datum_name(t, names),
             id="datum-name", suggester=SuggestFromList(names, case_sensitive=False),
             hint=datum_hint(names))
-        yield OptionList(*names, id="datum-list", compact=True)
+        yield OptionList(*names, id="datum-list", compact=True, markup=False)
 
     def on_mount(self) -> None:
         """Highlight the datum in force; the cursor goes to the name field."""

@@ -8,13 +8,14 @@ from dataclasses import replace
 
 from textual.app import ComposeResult
 from textual.containers import Horizontal
-from textual.widgets import Checkbox, Label, RadioButton, RadioSet
+from textual.widgets import Checkbox, Label, RadioSet
 
 from engine.commands import SetDecca
 from engine.errors import InputError
 from engine.operator_input import ZONE_LETTERS, parse_zone_lane
 from engine.runconfig import DeccaConfig
 from uvnav_tui.dialog import Dialog
+from uvnav_tui.toggles import GlyphCheckbox, GlyphRadioButton
 from uvnav_tui.validated_field import ValidatedField
 
 PATTERNS = ("red", "green", "purple")
@@ -45,20 +46,20 @@ class DeccaDialog(Dialog[SetDecca]):
     def compose_body(self) -> ComposeResult:
         """Switch, chain, zone/lane fields and pattern selection."""
         d = self.decca
-        yield Checkbox("Decca on", d.on, id="decca-on", compact=True)
+        yield GlyphCheckbox("Decca on", d.on, id="decca-on", compact=True)
         with Horizontal(classes="dialog-row"):
             yield Label("Chain", classes="row-label")
             with RadioSet(id="decca-chain", compact=True, classes="inline-radio"):
                 for chain in self.chains:
-                    yield RadioButton(chain, value=chain == d.chain)
+                    yield GlyphRadioButton(chain, value=chain == d.chain)
         for pattern in PATTERNS:
             yield ValidatedField(f"{pattern.capitalize()} zone/lane", getattr(d, pattern),
                                  zone_lane_parser(pattern), id=f"decca-{pattern}")
         with Horizontal(classes="dialog-row"):
             yield Label("Use for fixing", classes="row-label")
             for pattern in PATTERNS:
-                yield Checkbox(pattern.capitalize(), pattern in d.select,
-                               id=f"decca-use-{pattern}", compact=True)
+                yield GlyphCheckbox(pattern.capitalize(), pattern in d.select,
+                                    id=f"decca-use-{pattern}", compact=True)
 
     def on_mount(self) -> None:
         """Focus the switch."""

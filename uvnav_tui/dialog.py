@@ -18,6 +18,7 @@ from textual.containers import Horizontal, Vertical
 from textual.screen import ModalScreen
 from textual.widgets import Button, Static
 
+from uvnav_tui.toggles import GlyphCheckbox, GlyphRadioButton
 from uvnav_tui.validated_field import ValidatedField
 
 T = TypeVar("T")
@@ -35,13 +36,17 @@ class Dialog(ModalScreen[T | None], Generic[T]):
 
     TITLE = "Dialog"
     OK_LABEL = "OK"
+    CANCEL_IF_UNCHANGED = True
+    """OK with nothing edited closes like Cancel: no command is sent, so nothing changes (not
+    even a value re-sent with fewer digits, a DR position reset or a filter state re-set).
+    Parameter Initialization and Predict set it False (they act without edits)."""
 
     def compose(self) -> ComposeResult:
         """Frame: title, body, message line, buttons."""
         with Vertical(id="dialog-frame", classes="dialog-frame") as frame:
             frame.border_title = self.TITLE
             yield from self.compose_body()
-            yield Static("", id="dialog-message", classes="dialog-message")
+            yield Static("", id="dialog-message", classes="dialog-message", markup=False)
             with Horizontal(classes="dialog-buttons"):
                 yield Button(self.OK_LABEL, id="ok", compact=True)
                 yield Button("Cancel", id="cancel", compact=True)
@@ -68,13 +73,26 @@ class Dialog(ModalScreen[T | None], Generic[T]):
             bad.focus_input()
         return bad
 
+    def unchanged(self) -> bool:
+        """True if no field was edited and no check box or radio button changed."""
+        if any(f.edited for f in self.query(ValidatedField)):
+            return False
+        toggles = [*self.query(GlyphCheckbox), *self.query(GlyphRadioButton)]
+        return all(t.value == t.initial_value for t in toggles)
+
+    def _ok(self) -> None:
+        if self.CANCEL_IF_UNCHANGED and self.unchanged():
+            self.dismiss(None)
+            return
+        result = self.collect()
+        if result is not None:
+            self.dismiss(result)
+
     def action_ok(self) -> None:
         """Return: collect and close if valid (a focused button gets the key instead)."""
         if isinstance(self.focused, Button):
             raise SkipAction()
-        result = self.collect()
-        if result is not None:
-            self.dismiss(result)
+        self._ok()
 
     def action_cancel(self) -> None:
         """Esc: close without changing anything."""
@@ -83,9 +101,7 @@ class Dialog(ModalScreen[T | None], Generic[T]):
     @on(Button.Pressed, "#ok")
     def _ok_pressed(self, event: Button.Pressed) -> None:
         event.stop()
-        result = self.collect()
-        if result is not None:
-            self.dismiss(result)
+        self._ok()
 
     @on(Button.Pressed, "#cancel")
     def _cancel_pressed(self, event: Button.Pressed) -> None:

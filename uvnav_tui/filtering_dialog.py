@@ -6,6 +6,7 @@ from textual.app import ComposeResult
 from textual.widgets import Checkbox, Static
 
 from uvnav_tui.dialog import Dialog
+from uvnav_tui.toggles import GlyphCheckbox
 
 
 class FilteringDialog(Dialog[bool]):
@@ -19,7 +20,7 @@ class FilteringDialog(Dialog[bool]):
 
     def compose_body(self) -> ComposeResult:
         """One switch and the thesis' advice."""
-        yield Checkbox("Kalman filtering on", self.on, id="filter-on", compact=True)
+        yield GlyphCheckbox("Kalman filtering on", self.on, id="filter-on", compact=True)
         yield Static("The filter combines the model and bounded-sensor prediction with the LSE;"
                      " it must be on when submerged.", classes="dialog-note")
 

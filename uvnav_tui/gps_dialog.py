@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from textual.app import ComposeResult
 from textual.containers import Horizontal
-from textual.widgets import Checkbox, Label, RadioButton, RadioSet
+from textual.widgets import Checkbox, Label, RadioSet
 
 from engine.commands import SetGps
 from engine.runconfig import GpsConfig
 from uvnav_tui.dialog import Dialog
+from uvnav_tui.toggles import GlyphCheckbox, GlyphRadioButton
 
 RECEIVERS = (("C/A", "C/A code (SPS)"), ("P", "P code (PPS)"))
 
@@ -24,12 +25,13 @@ class GpsDialog(Dialog[SetGps]):
 
     def compose_body(self) -> ComposeResult:
         """On/off and receiver type."""
-        yield Checkbox("GPS on", self.gps.on, id="gps-on", compact=True)
+        yield GlyphCheckbox("GPS on", self.gps.on, id="gps-on", compact=True)
         with Horizontal(classes="dialog-row"):
             yield Label("Receiver", classes="row-label")
             with RadioSet(id="gps-receiver", compact=True, classes="inline-radio"):
                 for code, label in RECEIVERS:
-                    yield RadioButton(label, value=code == self.gps.receiver, id=f"rx-{code[0]}")
+                    yield GlyphRadioButton(label, value=code == self.gps.receiver,
+                                           id=f"rx-{code[0]}")
 
     def on_mount(self) -> None:
         """Focus the switch."""

@@ -25,12 +25,7 @@ from engine.operator_input import (
 from engine.runconfig import RunConfig
 from engine.tomlsource import FILE_NOT_FOUND_MESSAGE
 from uvnav_tui.dialog import Dialog
-from uvnav_tui.validated_field import ValidatedField
-
-
-def number_text(value: float) -> str:
-    """A pre-filled number without needless decimals (``0``, ``12.5``)."""
-    return f"{value:g}"
+from uvnav_tui.validated_field import ValidatedField, number_text
 
 
 def datum_hint(names: list[str]) -> Callable[[str], str]:
@@ -50,6 +45,8 @@ def datum_hint(names: list[str]) -> Callable[[str], str]:
 
 class InitDialog(Dialog[RunConfig]):
     """Dismissed with the run's configuration once the run has been started."""
+
+    CANCEL_IF_UNCHANGED = False
 
     TITLE = "Parameter Initialization"
     OK_LABEL = "Start"
@@ -90,15 +87,18 @@ class InitDialog(Dialog[RunConfig]):
         self.query_one("#init-datum", ValidatedField).focus_input()
 
     def values(self) -> RunConfig:
-        """The configuration with the dialog's values applied (all fields valid)."""
+        """The configuration with the dialog's values applied (all fields valid); a field left
+        as pre-filled keeps the configuration's value exactly."""
         f = {w.id: w for w in self.query(ValidatedField)}
-        return self.config.replace(
-            datum=f["init-datum"].parsed,
-            dr_position=f["init-dr"].text.strip(),
-            depth_m=f["init-depth"].parsed,
-            current_speed_kn=f["init-speed"].parsed,
-            current_set_deg=f["init-set"].parsed,
-            run_file=str(self.run_dir / f"{f['init-run'].parsed}.RUN"),
+        cfg = self.config
+        run = f["init-run"]
+        return cfg.replace(
+            datum=f["init-datum"].value_or(cfg.datum),
+            dr_position=f["init-dr"].text.strip() if f["init-dr"].edited else cfg.dr_position,
+            depth_m=f["init-depth"].value_or(cfg.depth_m),
+            current_speed_kn=f["init-speed"].value_or(cfg.current_speed_kn),
+            current_set_deg=f["init-set"].value_or(cfg.current_set_deg),
+            run_file=str(self.run_dir / f"{run.parsed}.RUN") if run.edited else cfg.run_file,
         )
 
     def collect(self) -> RunConfig | None:

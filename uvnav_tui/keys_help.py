@@ -38,6 +38,7 @@ CONSOLE_KEYS: tuple[KeyHint, ...] = (
     ("Alt+letter", "Menu"),
     ("nnn", "Go to page"),
     ("Ctrl+P", "Commands"),
+    ("F2", "Messages"),
 )
 """The key line over a page (more keys are added for sub-pages and scrolling).  Each list is
 ordered by importance: what does not fit the width is left off from the end, so F1 and Ctrl+Q
@@ -177,6 +178,7 @@ def help_text() -> str:
             ("PgUp / PgDn", "Previous / next sub-page (641 → 642 → 643)"),
             ("← ↑ ↓ →  Home / End", "Scroll a page larger than the screen"),
             ("Ctrl+P", "Command palette: every menu item and every page by title"),
+            ("F2", "The message log (Statistics ▸ Messages); Esc closes it"),
             ("Ctrl+Q or Ctrl+C", "Quit (asks for confirmation)"),
         ]),
         "",

@@ -144,16 +144,16 @@ class MainPage(Widget):
     def compose(self) -> ComposeResult:
         """Boxes laid out as on the thesis page."""
         with Horizontal(id="pos-boxes"):
-            yield Static(id="box-mpp", classes="pg-box pos-box")
-            yield Static(id="box-lse", classes="pg-box pos-box")
-        yield Static(id="sensor-strip")
+            yield Static(id="box-mpp", classes="pg-box pos-box", markup=False)
+            yield Static(id="box-lse", classes="pg-box pos-box", markup=False)
+        yield Static(id="sensor-strip", markup=False)
         with Horizontal(id="sys-row-1"):
-            yield Static(id="box-gps", classes="pg-box")
-            yield Static(id="box-decca", classes="pg-box")
+            yield Static(id="box-gps", classes="pg-box", markup=False)
+            yield Static(id="box-decca", classes="pg-box", markup=False)
         with Horizontal(id="sys-row-2"):
-            yield Static("not connected", id="box-sins", classes="pg-box")
-            yield Static("not connected", id="box-omega", classes="pg-box")
-            yield Static("not connected", id="box-loran", classes="pg-box")
+            yield Static("not connected", id="box-sins", classes="pg-box", markup=False)
+            yield Static("not connected", id="box-omega", classes="pg-box", markup=False)
+            yield Static("not connected", id="box-loran", classes="pg-box", markup=False)
 
     def on_mount(self) -> None:
         """Box titles."""

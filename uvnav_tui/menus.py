@@ -94,6 +94,8 @@ MENU_BAR: tuple[MenuItem, ...] = (
             _page("History", 643, "track history"),
         )),
         _page("MainPage", 100, "main page"),
+        _leaf("Messages", "messages", "The message log: every message with its time (F2)",
+              hotkey="g"),
     )),
     MenuItem("Demo", children=(
         _page("Page", 710, "the demo parameters in force", hotkey="g"),

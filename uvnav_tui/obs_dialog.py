@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from textual.app import ComposeResult
 from textual.containers import Horizontal
-from textual.widgets import Label, RadioButton, RadioSet
+from textual.widgets import Label, RadioSet
 
 from engine.commands import AddObservation
 from engine.errors import InputError
@@ -18,6 +18,7 @@ from engine.fix import ManualObservation
 from engine.operator_input import parse_bearing_deg, parse_distance_nm, parse_position
 from engine.runconfig import LsqConfig
 from uvnav_tui.dialog import Dialog
+from uvnav_tui.toggles import GlyphRadioButton
 from uvnav_tui.validated_field import ValidatedField
 
 NM_M = 1852.0
@@ -49,6 +50,8 @@ def bearing_sigma(lsq: LsqConfig, sensor: str) -> float:
 class ObsDialog(Dialog[AddObservation]):
     """``kind`` is "bearing", "distance" or "radar"; dismissed with :class:`AddObservation`."""
 
+    CANCEL_IF_UNCHANGED = False
+
     def __init__(self, kind: str, lsq: LsqConfig) -> None:
         super().__init__()
         self.kind = kind
@@ -68,7 +71,7 @@ class ObsDialog(Dialog[AddObservation]):
                 yield Label("Taken with", classes="row-label")
                 with RadioSet(id="obs-sensor", compact=True, classes="inline-radio"):
                     for i, (_name, label) in enumerate(BEARING_SENSORS):
-                        yield RadioButton(label, value=i == 0)
+                        yield GlyphRadioButton(label, value=i == 0)
 
     def on_mount(self) -> None:
         """Cursor in the station name."""

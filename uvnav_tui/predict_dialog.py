@@ -39,6 +39,8 @@ def parse_step_s(text: str) -> float:
 class PredictDialog(Dialog[tuple[float, float]]):
     """Dismissed with (horizon in seconds, step in seconds)."""
 
+    CANCEL_IF_UNCHANGED = False
+
     TITLE = "Kalman ▸ Predict."
     OK_LABEL = "Predict"
 

@@ -15,10 +15,14 @@ import math
 import threading
 import time
 from collections.abc import Callable
+from datetime import datetime
+from pathlib import Path
 
 from engine.commands import Command
 from engine.cycle import CycleResult
+from engine.errors import InputError
 from engine.session import Session
+from uvnav_tui.message_log import MessageLog
 
 STATE_WORDS = {
     "working": "Working...",
@@ -28,6 +32,16 @@ STATE_WORDS = {
 
 PACE_SLICE_S = 0.02
 """Longest single sleep while waiting for the next cycle (so a pause takes effect at once)."""
+
+
+def bad_record_text(error: InputError, line_no: int) -> str:
+    """``Bad record skipped: DEMO.RUN:12 heading: Not a number ! (got 'x')``: file name, line
+    and field, literal (the raw text may hold anything)."""
+    name = Path(error.file).name if error.file else "run file"
+    where = f"{name}:{error.line if error.line is not None else line_no}"
+    field = f" {error.field}:" if error.field else ""
+    got = f" (got {error.text!r})" if error.text is not None else ""
+    return f"Bad record skipped: {where}{field} {error.message}{got}"
 
 
 def pace_factor(pace: str) -> float:
@@ -42,8 +56,12 @@ def pace_factor(pace: str) -> float:
 class RunController:
     """One run's state flags, cycle budget, pacing and the lock around its session."""
 
-    def __init__(self, session: Session, *, pace_override: str | None = None) -> None:
+    def __init__(self, session: Session, *, pace_override: str | None = None,
+                 log: MessageLog | None = None) -> None:
         self.session = session
+        self.log = log if log is not None else MessageLog()
+        """Where every engine message and bad record of the run goes (with its record time)."""
+        self._bad_seen = 0
         self.lock = threading.RLock()
         self.pace_override = pace_override
         self.suspended = False
@@ -144,15 +162,19 @@ class RunController:
         """Compute one cycle (caller holds :attr:`lock`); None and ``eof`` at the end."""
         result = self.session.step()
         self._last_step = time.monotonic()
+        self._log_bad_records(result.time if result is not None else None)
         if result is None:
             self.eof = True
             self.suspended = True
-            self.note = "End of data file"
+            self.note = self._end_note()
+            self.log.add(self.note, self.latest.time if self.latest is not None else None,
+                         "data")
             return None
         self.cycles += 1
         if self.budget is not None:
             self.budget -= 1
         self.latest = result
+        self._log_messages(result)
         if result.fix is not None and result.fix.candidate_slot is not None:
             self.awaiting_answer = True
         return result
@@ -163,7 +185,37 @@ class RunController:
             result = self.session.recompute_last(excluded)
             if result is not None:
                 self.latest = result
+                self._log_messages(result)
             return result
+
+    @property
+    def bad_records(self) -> int:
+        """Records of the ``.RUN`` file skipped as bad so far."""
+        return len(self.session.bad_records)
+
+    def _log_messages(self, result: CycleResult) -> None:
+        for text in result.messages:
+            self.log.add(text, result.time, "engine")
+
+    def _log_bad_records(self, when: datetime | None) -> None:
+        """Put the records skipped since the last cycle in the log, one message each."""
+        bad = self.session.bad_records
+        if when is None and self.latest is not None:
+            when = self.latest.time
+        for item in bad[self._bad_seen:]:
+            self.log.add(bad_record_text(item.error, item.line_no), when, "data")
+        self._bad_seen = len(bad)
+
+    def _end_note(self) -> str:
+        """``End of data file``, saying how many records were bad (all of them: no cycle)."""
+        n_bad = len(self.session.bad_records)
+        if self.cycles == 0 and n_bad:
+            return f"End of data file: no valid record ({n_bad} bad, none used)"
+        if self.cycles == 0:
+            return "End of data file: no records"
+        if n_bad:
+            return f"End of data file ({n_bad} bad record{'s' if n_bad > 1 else ''} skipped)"
+        return "End of data file"
 
     def apply(self, cmd: Command) -> str:
         """Apply an operator command between cycles; returns the log text."""

@@ -15,6 +15,7 @@ from textual.widgets import Checkbox, Label
 from engine.commands import SetSensor
 from engine.runconfig import SensorsConfig
 from uvnav_tui.dialog import Dialog
+from uvnav_tui.toggles import GlyphCheckbox
 
 SENSORS = (
     ("gyro", "Gyro compass"),
@@ -45,7 +46,7 @@ class SensorsDialog(Dialog[tuple[SetSensor, ...]]):
                 if state == "n/a":
                     yield Label("not connected", id=f"sensor-{name}")
                 else:
-                    yield Checkbox("on", state == "on", id=f"sensor-{name}", compact=True)
+                    yield GlyphCheckbox("on", state == "on", id=f"sensor-{name}", compact=True)
 
     def on_mount(self) -> None:
         """Focus the first switch."""

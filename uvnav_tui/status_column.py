@@ -18,10 +18,13 @@ from engine.formatting import (
 from engine.runconfig import RunConfig
 
 
-def status_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
-    """``Time``, ``Systems:``, ``LOPs :``, ``Filter :``, ``CM``, ``MPP`` block and ``RMS``."""
+def status_lines(r: CycleResult | None, cfg: RunConfig, bad_records: int = 0) -> list[str]:
+    """``Time``, ``Systems:``, ``LOPs :``, ``Filter :``, ``CM``, ``MPP`` block and ``RMS``; then
+    ``Bad rec : N`` once ``.RUN`` records have been skipped as bad (not in the thesis)."""
+    bad = [f"Bad rec : {bad_records}"] if bad_records else []
     if r is None:
-        return ["Time --:--:--Z", "Systems: .....", "LOPs : 0", "Filter : N/A", "CM", "", "MPP"]
+        return ["Time --:--:--Z", "Systems: .....", "LOPs : 0", "Filter : N/A", "CM", "", "MPP",
+                *([""] + bad if bad else [])]
     level = cfg.lsq.conf_region_pct / 100.0
     a = b = PLACEHOLDER + " m"
     az = PLACEHOLDER
@@ -49,6 +52,7 @@ def status_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
         f"Az {az}",
         "",
         f"RMS {rms}",
+        *bad,
     ]
 
 
@@ -56,12 +60,14 @@ class StatusColumn(Static):
     """The column; :meth:`show` repaints it only when its text changes."""
 
     def __init__(self, *, id: str | None = None) -> None:
-        super().__init__("", id=id)
+        super().__init__("", id=id, markup=False)
         self._text = ""
+        self.bad_records = 0
+        """Bad ``.RUN`` records skipped so far (set by the console before :meth:`show`)."""
 
     def show(self, r: CycleResult | None, cfg: RunConfig) -> None:
         """Render the cycle ``r``."""
-        text = "\n".join(status_lines(r, cfg))
+        text = "\n".join(status_lines(r, cfg, self.bad_records))
         if text != self._text:
             self._text = text
             self.update(text)

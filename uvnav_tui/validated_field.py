@@ -21,6 +21,15 @@ from engine.errors import InputError
 Parser = Callable[[str], Any]
 
 
+def number_text(value: float | int) -> str:
+    """A number as it is typed, with every digit needed to read back the same value: Python's
+    shortest round-trip form (``39939.662``, ``0.1``, ``1e-05``), without a trailing ``.0``."""
+    if isinstance(value, bool) or not isinstance(value, float):
+        return str(value)
+    text = repr(value)
+    return text[:-2] if text.endswith(".0") else text
+
+
 def error_text(exc: Exception) -> str:
     """The operator-facing message of a parser error."""
     if isinstance(exc, InputError):
@@ -54,10 +63,10 @@ class ValidatedField(Widget):
     def compose(self) -> ComposeResult:
         """Label and input side by side, the message below."""
         with Horizontal(classes="field-row"):
-            yield Label(self.label, classes="field-label")
+            yield Label(self.label, classes="field-label", markup=False)
             yield Input(self._initial, id=f"{self.id}-input", compact=True,
                         suggester=self._suggester)
-        yield Static("", classes="field-message")
+        yield Static("", classes="field-message", markup=False)
 
     def on_mount(self) -> None:
         """Check the pre-filled value."""
@@ -72,6 +81,16 @@ class ValidatedField(Widget):
     def text(self) -> str:
         """What is typed."""
         return self.input.value
+
+    @property
+    def edited(self) -> bool:
+        """True if the text differs from the pre-filled one."""
+        return self.text != self._initial
+
+    def value_or(self, original: Any) -> Any:
+        """The parsed value if the field was edited, else ``original`` untouched (a dialog never
+        changes a value nobody edited, not even by rounding it for display)."""
+        return self.parsed if self.edited else original
 
     def focus_input(self) -> None:
         """Put the cursor in this field."""
