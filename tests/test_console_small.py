@@ -117,7 +117,7 @@ def test_long_message_wraps_at_80_columns(data_dir: Path) -> None:
         app.say(" ".join(words))
         await pilot.pause()
         screen = text_of(app)
-        assert all(w in screen for w in words)
+        assert all(w in screen for w in words), screen
         assert "Ctrl+Q Quit" in screen.splitlines()[-1]
 
     drive(app, script)

@@ -53,7 +53,7 @@ class MessageLine(Widget):
         text = e.line() if e is not None and now_s - e.wall_s <= MESSAGE_TTL_S else ""
         if text != self._text:
             self._text = text
-            self.refresh()
+            self.refresh(layout=True)
 
     def render(self) -> Content:
         """The text as literal content, wrapped; cut with an ellipsis past three lines."""
