@@ -313,7 +313,7 @@ class _Block:
                 f"{F0_RANGE_KHZ[1]}] kHz ({6 * F0_RANGE_KHZ[0]:.1f}-"
                 f"{6 * F0_RANGE_KHZ[1]:.1f} kHz) !",
                 file=file, line=self.lines[0], field="frequency",
-                text=format_decimal(self.stations[0][2], 4),
+                text=self.last_tokens[0],
             )
         lat0, lon0 = self.stations[0][0], self.stations[0][1]
         baselines = []
