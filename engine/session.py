@@ -64,6 +64,8 @@ class RunSummary:
     out_path: Path | None
     jsonl_path: Path | None
     eof: bool
+    failed_fixes: int = 0
+    """LSE fixes that failed their tests (:func:`engine.cycle.fix_fit`): used with VCV × S²."""
 
 
 DATUM_FILE = "TO_WGS84.DAT"
@@ -169,6 +171,7 @@ class Session:
         self.eof = False
         self.fixes = 0
         self.rejected_lops = 0
+        self.failed_fixes = 0
         self._run_name = os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
         self._since_processed: int | None = None
@@ -286,6 +289,7 @@ class Session:
             self.fixes += 1
         if result.fix is not None:
             self.rejected_lops += len(result.fix.rejected_slots)
+        self.failed_fixes += result.fix_fails_tests
         if self._out is not None:
             head, lines = cycle_block(result)
             self._out.write_cycle(head, lines)
@@ -328,6 +332,7 @@ class Session:
         if dropped.fix is not None:
             self.fixes -= int(dropped.fix.ok and not dropped.fix.uses_prior)
             self.rejected_lops -= len(dropped.fix.rejected_slots)
+        self.failed_fixes -= dropped.fix_fails_tests
         if self._smoother:
             self._smoother.pop()
         if self._out is not None:
@@ -362,6 +367,7 @@ class Session:
             out_path=self.out_path,
             jsonl_path=self.jsonl_path,
             eof=self.eof,
+            failed_fixes=self.failed_fixes,
         )
 
     # ------------------------------------------------------------------ operator

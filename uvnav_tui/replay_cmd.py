@@ -107,11 +107,19 @@ def count_lines(path: Path) -> int:
     return n + (last != b"\n")
 
 
+def _failed_fixes_line(s: RunSummary) -> str:
+    """The summary's count of fixes that failed their tests (engine.cycle.fix_fit)."""
+    return (f"fixes failing their tests {s.failed_fixes} of {s.fixes} (unit-variance or every "
+            "w-test rejected; the filter took them with VCV × S²)")
+
+
 def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str]:
     lines = [
         f"epochs {s.epochs}  fixes {s.fixes}  rejected LOPs {s.rejected_lops}  "
         f"skipped records {s.skipped_records}",
     ]
+    if s.failed_fixes:
+        lines.append(_failed_fixes_line(s))
     r = s.last
     if r is not None:
         m = r.mpp
