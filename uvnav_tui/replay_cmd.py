@@ -199,12 +199,13 @@ def run_replay(argv: list[str]) -> int:
         with session:
             summary = _run(session, run)
             if smooth_fh is not None and smooth_path is not None:
-                positions = session.smooth()
-                for p in positions:
+                n_smoothed = 0  # streamed: memory flat in the run length (issue 15 item 9)
+                for p in session.iter_smoothed():
                     smooth_fh.write(json.dumps(position_json(p), separators=(",", ":")) + "\n")
+                    n_smoothed += 1
                 smooth_fh.flush()
                 os.fsync(smooth_fh.fileno())
-                smoothed = (len(positions), smooth_path)
+                smoothed = (n_smoothed, smooth_path)
     except OSError as exc:  # e.g. the disk filled up: every completed cycle is on disk
         return _cannot_write(exc)
     except Exception as exc:  # an engine bug (engine/session.py: never a bad record)
