@@ -45,6 +45,7 @@ from engine.cycle import (
     reproject_state,
     step,
 )
+from engine.datafile_io import modified_bundled
 from engine.datumfile import DatumFile, read_datum_file
 from engine.deccafile import DeccaChain, read_chain_file
 from engine.errors import InputError
@@ -98,6 +99,12 @@ def read_data_dir(data_dir: str | os.PathLike[str]) -> tuple[DatumFile, dict[str
     datums = read_datum_file(Path(data_dir) / DATUM_FILE)
     chains = read_chain_file(Path(data_dir) / CHAIN_FILE, known_datums=datums.datums)
     return datums, chains
+
+
+def data_file_warnings(data_dir: str | os.PathLike[str]) -> tuple[str, ...]:
+    """Warnings for the data files of ``data_dir`` that differ from the bundled ones."""
+    found = (modified_bundled(Path(data_dir) / name) for name in (DATUM_FILE, CHAIN_FILE))
+    return tuple(w for w in found if w is not None)
 
 
 def load_data(cfg: RunConfig) -> tuple[DatumFile, dict[str, DeccaChain]]:
@@ -177,6 +184,9 @@ class Session:
         self.fixes = 0
         self.rejected_lops = 0
         self.failed_fixes = 0
+        self.data_warnings: tuple[str, ...] = data_file_warnings(config.data_dir)
+        """Data files that differ from the bundled ones (engine.datafile_io.modified_bundled);
+        written to the .OUT header, shown by the replay."""
         self._run_name = os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
         self._since_processed: int | None = None
@@ -195,7 +205,8 @@ class Session:
             if out_path is not None:
                 self._out = OutLogWriter.create(
                     out_path,
-                    header=[f"engine {__version__}", f"run {config.run_path}"],
+                    header=[f"engine {__version__}", f"run {config.run_path}",
+                            *(f"warning {w}" for w in self.data_warnings)],
                     config_text=dump_config(_logged_config(config)),
                     force=force,
                 )
@@ -472,6 +483,7 @@ __all__ = [
     "Session",
     "check_config",
     "create_output",
+    "data_file_warnings",
     "load_data",
     "load_run_config",
     "read_data_dir",

@@ -171,3 +171,66 @@ def test_issue_cut_at_byte_398_is_refused(tmp_path: pathlib.Path) -> None:
         read_chain_file(tmp_path / "DECCA.CHN", known_datums=DATUMS.datums)
     assert info.value.file == str(tmp_path / "DECCA.CHN")
     assert info.value.line is not None and info.value.field is not None
+
+
+# --------------------------------------------------------------------------- through the CLI
+
+
+def _replay_with_data(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str],
+                      datum: bytes | None = None, chain: bytes | None = None,
+                      link_datum_to: str | None = None) -> tuple[int, str, pathlib.Path]:
+    from uvnav_tui.cli import main
+
+    d = tmp_path / "data"
+    d.mkdir()
+    if link_datum_to is not None:
+        (d / "TO_WGS84.DAT").symlink_to(link_datum_to)
+    else:
+        (d / "TO_WGS84.DAT").write_bytes(datum or (DATA / "TO_WGS84.DAT").read_bytes())
+    (d / "DECCA.CHN").write_bytes(chain or (DATA / "DECCA.CHN").read_bytes())
+    text = (DATA / "920917_1.toml").read_text(encoding="utf-8")
+    text = text.replace('data_dir = "."', f'data_dir = "{d}"').replace(
+        'run_file = "920917_1.RUN"', f'run_file = "{DATA / "920917_1.RUN"}"')
+    cfg = tmp_path / "R.toml"
+    cfg.write_text(text, encoding="utf-8")
+    out = tmp_path / "R.OUT"
+    rc = main(["replay", str(DATA / "920917_1.RUN"), "--config", str(cfg), "--out", str(out)])
+    return rc, capsys.readouterr().err, d
+
+
+def test_replay_refuses_the_issues_cut_chain_file(tmp_path: pathlib.Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    chain = (DATA / "DECCA.CHN").read_bytes()[:398]
+    rc, err, d = _replay_with_data(tmp_path, capsys, chain=chain)
+    assert rc == 2 and "Traceback" not in err
+    assert f"{d / 'DECCA.CHN'}:22: propagation speed: Propagation speed must be in" in err
+    assert not (tmp_path / "R.OUT").exists()
+
+
+def test_replay_refuses_a_datum_file_linked_to_dev_zero(
+        tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Issue 15 item 7: it read until MemoryError.
+    rc, err, d = _replay_with_data(tmp_path, capsys, link_datum_to="/dev/zero")
+    assert rc == 2 and f"{d / 'TO_WGS84.DAT'}: Not a regular file !" in err
+    assert "Traceback" not in err
+
+
+def test_replay_refuses_an_oversized_datum_file(tmp_path: pathlib.Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    big = (DATA / "TO_WGS84.DAT").read_bytes() + b"*" * (1 << 20)
+    rc, err, d = _replay_with_data(tmp_path, capsys, datum=big)
+    assert rc == 2 and "File too large (more than 1048576 bytes) !" in err
+
+
+def test_replay_warns_about_a_modified_but_valid_chain_file(
+        tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # One digit of the Hoyer seconds (0.01″, 30 cm): inside every range, so only the checksum
+    # can tell. The run goes on, warned on stderr and in the .OUT header.
+    chain = (DATA / "DECCA.CHN").read_bytes().replace(b"08 41 38.420", b"08 41 38.430")
+    rc, err, d = _replay_with_data(tmp_path, capsys, chain=chain)
+    assert rc == 0
+    assert f"uvnav replay: warning: {d / 'DECCA.CHN'}: differs from the bundled DECCA.CHN" in err
+    from engine.outlog import read_out_log
+
+    header = read_out_log(tmp_path / "R.OUT").header
+    assert any(h.startswith(f"warning {d / 'DECCA.CHN'}: differs") for h in header)

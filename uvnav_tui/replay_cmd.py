@@ -194,6 +194,8 @@ def run_replay(argv: list[str]) -> int:
             print(f"uvnav replay: {exc}", file=sys.stderr)
             return EXIT_BAD_INPUT
         return _cannot_write(exc)
+    for warning in session.data_warnings:  # a modified data file (docs/DATAFILES.md)
+        print(f"uvnav replay: warning: {warning}", file=sys.stderr)
     smoothed: tuple[int, Path] | None = None
     try:
         with session:
