@@ -118,3 +118,43 @@ def test_streaming_reader_matches(tmp_path: pathlib.Path) -> None:
     assert [b for k, b in got if k == "bad"] == list(whole.bad_records)
     assert tuple(state.header) == whole.header and not state.truncated
     assert whole.cycles[-1] == whole.cycles[1] and whole.cycles[0:1] == [whole.cycles[0]]
+
+
+def _log_with_cycles(path: pathlib.Path, n: int) -> None:
+    with OutLogWriter.create(path, header=["engine test"], config_text="", force=True) as w:
+        for i in range(1, n + 1):
+            w.write_cycle({"n": i, "t": "1992-09-17T08:35:38Z"},
+                          [("MPP", {"x": 1.5 * i, "y": -2.25, "a95": 3.0, "b95": 2.0}),
+                           ("MSG", {"text": "a message of some length " * 4})])
+
+
+def _peak_bytes(fn: object) -> int:
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        fn()  # type: ignore[operator]
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_reading_memory_is_flat_in_the_run_length(tmp_path: pathlib.Path) -> None:
+    # Issue 15 item 9: read_out_log held every cycle (1.73 GB for 24 h). Now 8 bytes per
+    # cycle stay (the offsets): 4× the cycles may add at most 8 B per extra cycle plus 16 kB.
+    small, large = tmp_path / "S.OUT", tmp_path / "L.OUT"
+    _log_with_cycles(small, 500)
+    _log_with_cycles(large, 2000)
+
+    def walk(p: pathlib.Path) -> None:
+        log = read_out_log(p)
+        assert sum(1 for _c in log.cycles) == len(log.cycles)
+
+    def stream(p: pathlib.Path) -> None:
+        _state, events = iter_out_log(p)
+        for _e in events:
+            pass
+
+    for fn in (walk, stream):
+        grow = _peak_bytes(lambda fn=fn: fn(large)) - _peak_bytes(lambda fn=fn: fn(small))
+        assert grow < 8 * 1500 + 16_384, (fn.__name__, grow)

@@ -276,3 +276,28 @@ def test_spilled_session_smoothing_equals_the_in_memory_pass() -> None:
         ref = q.P[:2, :2]  # within 0.5 % of its largest entry (measured 0.1 %)
         assert np.abs(p.cov - ref).max() <= 5e-3 * np.abs(ref).max()
     s.close()
+
+
+def test_spill_memory_is_flat_in_the_run_length(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """Issue 15 item 9: --smooth kept every epoch's records in memory (865 MB for 24 h). The
+    spill keeps one record in memory whatever the count (traced peak within 64 kB)."""
+    import tracemalloc
+
+    from engine.smoother import SmootherSpill
+
+    recs, _m, _f = _run(kf.FilterParams(p0="physical"), 40, {5, 20})
+    recs = [_as_rec(r) for r in recs]
+
+    def peak(n: int) -> int:
+        spill = SmootherSpill(tmp_path)
+        tracemalloc.start()
+        try:
+            for i in range(n):
+                spill.append(recs[i % len(recs)], 5.0)
+            assert sum(1 for _ in spill.newest_first()) == n
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+            spill.close()
+
+    assert peak(800) - peak(100) < 65_536
