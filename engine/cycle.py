@@ -456,10 +456,11 @@ def fix_fit(fix: FixResult | None) -> tuple[float, str | None]:
     if global_fail and vt is not None and s2 is not None:
         parts.append(f"S² {s2:.3g} > {vt.upper:.3g}")
     if all_flagged:
-        parts.append(f"{len(w)}/{len(w)} LOPs fail the w-test")
+        parts.append(f"{len(w)}/{len(w)} w-tests fail")
+    # Short enough for the console's 80-column message line (shown first of the cycle's).
     if fix.tested.adjustment.scaled or s2 is None or s2 <= 1.0:
-        return 1.0, f"Fix fails its tests ({', '.join(parts)})"
-    return s2, f"Fix fails its tests ({', '.join(parts)}): its VCV × S² for filter/MPP"
+        return 1.0, f"Fix fails its tests ({'; '.join(parts)})"
+    return s2, f"Fix fails its tests ({'; '.join(parts)}): VCV × S² used"
 
 
 def step(
@@ -574,7 +575,7 @@ def step(
     # --- A fix that fails its tests is not taken at face value (fix_fit, issue 15 item 6).
     fit_scale, fit_note = fix_fit(fix)
     if fit_note is not None:
-        messages.append(fit_note)
+        messages.insert(0, fit_note)  # first: the console's message line shows it at 80 columns
     fix_cov = _NO_COV if fix is None else (fix.cov if fit_scale == 1.0 else fix.cov * fit_scale)
     # --- Filter update with the fix (or the raw LOPs on the too-few-LOPs path, kalman.md A10).
     filt_result: UpdateResult | None = None

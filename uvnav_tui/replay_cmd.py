@@ -110,7 +110,7 @@ def count_lines(path: Path) -> int:
 def _failed_fixes_line(s: RunSummary) -> str:
     """The summary's count of fixes that failed their tests (engine.cycle.fix_fit)."""
     return (f"fixes failing their tests {s.failed_fixes} of {s.fixes} (unit-variance or every "
-            "w-test rejected; the filter took them with VCV × S²)")
+            "w-test rejected; used with VCV × S²)")
 
 
 def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str]:
