@@ -5,8 +5,9 @@ Two property tests over the bundled ``TO_WGS84.DAT`` and ``DECCA.CHN``, exhausti
 sampled: the file cut at every byte, and every digit replaced by each of the nine others. For the
 digit changes that pass every range check, the position effect is computed (a datum: the shift of
 a point at 52.8° N 4.5° E to WGS84; a chain: the fix moved by the changed lane counts at that
-point, through the lane gradients of engine.decca) and every one must be flagged by
-:func:`engine.datafile_io.modified_bundled`. ``UVNAV_DAMAGE_TABLE=1`` prints the table of cases.
+point, through the lane gradients of engine.decca; computed only for the printed table) and
+every one must be flagged by :func:`engine.datafile_io.modified_bundled`.
+``UVNAV_DAMAGE_TABLE=1`` prints the table of cases (docs/DATAFILES.md).
 """
 
 from __future__ import annotations
@@ -123,6 +124,9 @@ def _damage_table(
                 continue
             target.write_text(damaged, encoding="utf-8")
             assert modified_bundled(target) is not None, (pos, digit)
+            if not SHOW:  # the position effect is for the printed table only (slow)
+                table["digit"]["accepted, warned (checksum)"] += 1
+                continue
             e = effect(got)
             line = text.count("\n", 0, pos) + 1
             effects.append((e, f"line {line} col {pos - text.rfind(chr(10), 0, pos)}: "
