@@ -60,7 +60,7 @@ from engine.kalman import (
     update,
 )
 from engine.operator_input import parse_zone_lane
-from engine.quality import CumulativeVariance
+from engine.quality import REJECT_BOUND, CumulativeVariance
 from engine.runconfig import RunConfig
 from engine.runfile import RunRecord
 from engine.sensors import knots_to_ms, pressure_depth_m, surface_reference_hz
@@ -271,6 +271,10 @@ class CycleResult:
     """The update with this record's gyro, log and inclinometer rows, made before the step into
     this epoch (README "Sensor timing"); ``filter_update`` is the update at this epoch (fix or raw
     LOPs, and the pressure depth). Both carry their LOM and LS tests."""
+    fix_fails_tests: bool = False
+    """The LSE failed its tests (:func:`fix_fit`): a message says so; .OUT/JSONL record it."""
+    fix_cov_scale: float = 1.0
+    """The factor the LSE's VCV was multiplied by before the filter and the MPP used it."""
 
 
 @dataclass(frozen=True)
@@ -419,6 +423,47 @@ def _cm_for(nav: NavState, lon: float) -> float:
     return cm
 
 
+_NO_COV = np.full((2, 2), np.nan)
+"""Placeholder VCV of a cycle without a fix (never used: every use is behind ``fix``)."""
+
+
+def fix_fit(fix: FixResult | None) -> tuple[float, str | None]:
+    """How far the filter and the MPP may trust an LSE that fails its own tests.
+
+    A fix fails when the unit-variance test rejects S² on the high side (eq. 5.15–5.17: the
+    residuals are larger than its a priori VCV allows) or when every tested LOP fails the
+    w-test (|w| > 2.576, eq. 5.10). Returns (factor, message): the fix's VCV C_x̂ is to be
+    multiplied by the a posteriori variance factor S² (> the test's upper bound > 1), the
+    estimate of how much C_l understates the errors (the thesis' own ScaleVCV remedy, A8.2; the
+    "advice: scale the a priori VCV by S²" of engine.quality). The filter then weighs the fix
+    by what its residuals show instead of what was assumed: a fix whose LOPs are hundreds of σ
+    apart (a damaged chain file, S² ~ 10⁵) moves the filter by ~1/S² of what it would have, and
+    its ellipse as the MPP is S² larger in area. Dropping such fixes instead would lose every
+    fix of a run whose a priori VCV is merely optimistic (Decca at night); scaling degrades
+    gracefully and the message says what happened. A fix already scaled by ScaleVCV keeps its
+    factor 1 (scaled once); a hybrid fix (filter prediction as LOPs) is the filter's to test.
+    ``(1.0, None)`` when the fix passes.
+    """
+    if fix is None or not fix.ok or fix.uses_prior or fix.tested is None:
+        return 1.0, None
+    vt = fix.tested.variance_test
+    s2 = fix.s2
+    global_fail = vt is not None and s2 is not None and s2 > vt.upper
+    w = [abs(lop.w) for lop in fix.lops if lop.used and math.isfinite(lop.w)]
+    all_flagged = bool(w) and all(v > REJECT_BOUND for v in w)
+    if not (global_fail or all_flagged):
+        return 1.0, None
+    parts = []
+    if global_fail and vt is not None and s2 is not None:
+        parts.append(f"S² {s2:.3g} > {vt.upper:.3g}")
+    if all_flagged:
+        parts.append(f"{len(w)}/{len(w)} w-tests fail")
+    # Short enough for the console's 80-column message line (shown first of the cycle's).
+    if fix.tested.adjustment.scaled or s2 is None or s2 <= 1.0:
+        return 1.0, f"Fix fails its tests ({'; '.join(parts)})"
+    return s2, f"Fix fails its tests ({'; '.join(parts)}): VCV × S² used"
+
+
 def step(
     ctx: RunContext,
     nav: NavState,
@@ -530,6 +575,11 @@ def step(
                             manual=manual)
             messages.append(f"LOP {name} fails the w-test: discard it?")
         messages.extend(fix.messages)
+    # --- A fix that fails its tests is not taken at face value (fix_fit, issue 15 item 6).
+    fit_scale, fit_note = fix_fit(fix)
+    if fit_note is not None:
+        messages.insert(0, fit_note)  # first: the console's message line shows it at 80 columns
+    fix_cov = _NO_COV if fix is None else (fix.cov if fit_scale == 1.0 else fix.cov * fit_scale)
     # --- Filter update with the fix (or the raw LOPs on the too-few-LOPs path, kalman.md A10).
     filt_result: UpdateResult | None = None
     kf_est: PositionEstimate | None = None
@@ -545,13 +595,13 @@ def step(
     if new_filter is not None and fix is not None and lse_ok and not has_fix:
         # The first LSE initialises the filter position (kalman.md A3): a DR start kilometres
         # away with the thesis P0 = I would otherwise pull against every fix.
-        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
+        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix_cov)
         has_fix = True
         source = fix_source(cfg)
     elif new_filter is not None and cfg.filter.on:
         meas: Measurement | None = None
         if fix is not None and fix.ok and lse_ok:
-            meas = lse_measurement(fix.x_m, fix.y_m, fix.cov, params)
+            meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
             if fix_source(cfg) != source:
                 # A new fix source is a new, independent error process: one Gauss–Markov pair
                 # models the LSE error of one source (README "Correlated fixes").
@@ -589,7 +639,7 @@ def step(
             status = "ON"  # DR-only path: model plus bounded sensors (program.md §2.5)
     elif new_filter is not None and fix is not None and lse_ok:
         # Filter off: dead reckoning restarts from each LSE (program.md §3 Kalman ▸ Filtering).
-        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
+        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix_cov)
     if new_filter is not None and depth_rows is not None:
         depth_result = update(new_filter, depth_rows, params)
         new_filter = depth_result.state
@@ -601,7 +651,7 @@ def step(
         mpp = kf_est
     elif fix is not None and lse_ok:
         depth = cfg.depth_m if new_filter is None else float(new_filter.x[2])
-        mpp = _estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix.cov)
+        mpp = _estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix_cov)
     elif new_filter is not None:
         mpp = filter_estimate("DR", grid, new_filter)
     else:
@@ -637,6 +687,8 @@ def step(
         messages=tuple(messages),
         smoother_link=link,
         sensor_update=sens_result,
+        fix_fails_tests=fit_note is not None,
+        fix_cov_scale=fit_scale,
     )
     _freeze_result(fix, None if link is None else link[2], filt_result, sens_result)
     next_nav = NavState(

@@ -15,13 +15,21 @@ Decisions (documented behaviour):
 * A section starts at a header comment: a comment mentioning ``datum`` starts section 2;
   otherwise one mentioning ``spheroid`` or ``ellipsoid`` starts section 1. A data line before
   any header is an error (field ``section``).
-* ``* End of Data`` ends the file. Data after it is an error (a datum appended after the end
-  marker would otherwise be silently ignored); a missing end marker is tolerated.
+* ``* End of Data`` ends the file and is required: a file without it was cut short (a copy
+  interrupted, a disk full), and a cut inside the last number would otherwise read as a
+  different number. Data after it is an error (a datum appended after the end marker would
+  otherwise be silently ignored).
 * A file without any datum row is an error (most likely the wrong file).
-* Plausibility: 6 300 000 m < a < 6 400 000 m (any Earth ellipsoid; catches a missing column,
-  which shifts a name digit such as ``1830`` into ``a``); 1/f = 0 (sphere) or 1/f > 1. Every
-  number is a plain decimal in ASCII digits with an optional ``-`` (no ``+``, exponent, ``_``,
+* Physical ranges (docs/DATAFILES.md gives the sources): semi-major axis
+  6 376 000 ≤ a ≤ 6 379 000 m and inverse flattening 290 ≤ 1/f ≤ 310 (every reference
+  ellipsoid in use lies inside: Everest 1830 a = 6 377 276.345 m, 1/f = 300.8017 to
+  International 1924 a = 6 378 388 m, Clarke 1880 1/f = 293.465); shifts |dX|, |dY|, |dZ| ≤
+  1000 m; rotations |Rx|, |Ry|, |Rz| ≤ 30″ (≈ 930 m at the Earth's surface); scale |ds| ≤ 50 ppm
+  (≈ 320 m; OSGB 1936's −20.5 ppm is among the largest in use). A mistyped or cut digit in any
+  of the leading figures falls outside and is an error at its line and field. Every number is a
+  plain decimal in ASCII digits with an optional ``-`` (no ``+``, exponent, ``_``,
   ``inf``/``nan``). Names are unique (case and spacing insensitive).
+* At most :data:`engine.datafile_io.MAX_DATA_FILE_BYTES` are read, from a regular file only.
 * A datum's ``Ellipsoid`` is built from the datum row's own a and 1/f. It is named after the
   first spheroid of section 1 with exactly the same a and 1/f (e.g. ED50 → ``HAYFORD 1909``,
   which equals INTERNATIONAL), otherwise after the datum itself (e.g. ``WGS84``, ``OSGB 1936``,
@@ -34,7 +42,16 @@ import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from engine.ellipsoid import Datum, Ellipsoid
+from engine.datafile_io import read_data_text
+from engine.ellipsoid import (
+    A_RANGE_M,
+    INV_F_RANGE,
+    ROTATION_MAX_ARCSEC,
+    SCALE_MAX_PPM,
+    SHIFT_MAX_M,
+    Datum,
+    Ellipsoid,
+)
 from engine.errors import InputError
 from engine.operator_input import SIGNED_DECIMAL_RE, format_decimal
 
@@ -47,8 +64,11 @@ __all__ = [
 
 _SPHEROID_FIELDS = ("a", "1/f")
 _DATUM_FIELDS = ("a", "1/f", "dX", "dY", "dZ", "Rx", "Ry", "Rz", "scale")
-_A_MIN_M = 6_300_000.0
-_A_MAX_M = 6_400_000.0
+_DATUM_LIMITS = (
+    ("dX", SHIFT_MAX_M, "m"), ("dY", SHIFT_MAX_M, "m"), ("dZ", SHIFT_MAX_M, "m"),
+    ("Rx", ROTATION_MAX_ARCSEC, '"'), ("Ry", ROTATION_MAX_ARCSEC, '"'),
+    ("Rz", ROTATION_MAX_ARCSEC, '"'), ("scale", SCALE_MAX_PPM, "ppm"),
+)
 
 
 def _key(name: str) -> str:
@@ -93,16 +113,28 @@ def _is_number(token: str) -> bool:
 
 
 def _check_shape(a: float, inv_f: float, tokens: list[str], file: str, line: int) -> None:
-    if not _A_MIN_M < a < _A_MAX_M:
+    if not A_RANGE_M[0] <= a <= A_RANGE_M[1]:
         raise InputError(
-            f"Semi-major axis must be between {_A_MIN_M:.0f} and {_A_MAX_M:.0f} m !",
+            f"Semi-major axis must be between {A_RANGE_M[0]:.0f} and {A_RANGE_M[1]:.0f} m !",
             file=file, line=line, field="a", text=tokens[0],
         )
-    if not (inv_f == 0.0 or inv_f > 1.0):
+    if not INV_F_RANGE[0] <= inv_f <= INV_F_RANGE[1]:
         raise InputError(
-            "Inverse flattening must be 0 (sphere) or > 1 !",
+            f"Inverse flattening must be between {INV_F_RANGE[0]:.0f} and "
+            f"{INV_F_RANGE[1]:.0f} !",
             file=file, line=line, field="1/f", text=tokens[1],
         )
+
+
+def _check_transformation(values: list[float], tokens: list[str], file: str, line: int) -> None:
+    """Shifts, rotations and scale of a datum row within their physical ranges (module doc)."""
+    for (fld, limit, unit), value, token in zip(_DATUM_LIMITS, values[2:], tokens[2:],
+                                                strict=True):
+        if abs(value) > limit:
+            raise InputError(
+                f"{fld} must be between -{limit:g} and {limit:g} {unit} !",
+                file=file, line=line, field=fld, text=token,
+            )
 
 
 def parse_datum_text(text: str, filename: str = "<string>") -> DatumFile:
@@ -117,17 +149,11 @@ def parse_datum_text(text: str, filename: str = "<string>") -> DatumFile:
 def read_datum_file(path: str | os.PathLike[str]) -> DatumFile:
     """Read and parse a datum file from disk (UTF-8, undecodable bytes replaced).
 
-    A missing file gives ``InputError("File not found !")`` (program.md §5.7).
+    A missing file gives ``InputError("File not found !")`` (program.md §5.7); a device, FIFO
+    or directory, or a file over 1 MiB, is refused (:func:`engine.datafile_io.read_data_text`).
     """
     name = os.fspath(path)
-    try:
-        with open(name, encoding="utf-8-sig", errors="replace") as fh:
-            text = fh.read()
-    except FileNotFoundError:
-        raise InputError("File not found !", file=name) from None
-    except OSError as exc:
-        raise InputError("Cannot read file !", file=name, text=exc.strerror) from None
-    return _parse_lines(text.splitlines(), name)
+    return _parse_lines(read_data_text(name).text.splitlines(), name)
 
 
 def _parse_lines(lines: Iterable[str], file: str) -> DatumFile:
@@ -187,6 +213,8 @@ def _parse_lines(lines: Iterable[str], file: str) -> DatumFile:
             _parse_number(tok, fld, file, line_no) for tok, fld in zip(numbers, fields, strict=True)
         ]
         _check_shape(values[0], values[1], numbers, file, line_no)
+        if section == 2:
+            _check_transformation(values, numbers, file, line_no)
         key = _key(name)
         if section == 1:
             if key in spheroid_keys:
@@ -206,6 +234,11 @@ def _parse_lines(lines: Iterable[str], file: str) -> DatumFile:
     if not datum_rows:
         raise InputError(
             "No datums in file !", file=file, line=last_line or None, field="section"
+        )
+    if ended_at is None:
+        raise InputError(
+            "No '* End of Data' line: the file is cut short !",
+            file=file, line=last_line or None, field="section",
         )
     datums = {name: _make_datum(name, values, spheroids) for name, values in datum_rows}
     return DatumFile(spheroids=spheroids, datums=datums)

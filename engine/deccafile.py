@@ -24,21 +24,37 @@ Names live in comments:
 
 The datum line must not start with a number (catches a missing datum or station line); read
 with the datum file's names (``known_datums``), it must be one of them. Minimum lane counts and
-the speed are one number per line; the speed is checked against 0 < v ≤ c = 299 792.458 km/s.
-Every number is a plain decimal in ASCII digits with an optional ``-`` (no ``+``, exponent,
-``_``, ``inf``/``nan``); degrees and minutes are whole numbers.
+the speed are one number per line. Every number is a plain decimal in ASCII digits with an
+optional ``-`` (no ``+``, exponent, ``_``, ``inf``/``nan``); degrees and minutes are whole
+numbers.
 
-``* End of Data`` ends the file (data after it is an error; a missing marker is tolerated).
+Physical ranges (docs/DATAFILES.md), each reported at its own line and field:
+
+* propagation speed :data:`SPEED_RANGE_KM_S`: 299 000 ≤ v ≤ c = 299 792.458 km/s (the ground
+  wave at 70–130 kHz travels a few hundred km/s below c over sea and land);
+* frequencies: the master's f/6 is the chain's fundamental f0, in :data:`F0_RANGE_KHZ` (the
+  Decca allocations, 14.0–14.33 kHz, with a margin); each slave is its harmonic of f0 (Red 8,
+  Green 9, Purple 5; thesis §4) to :data:`F0_TOLERANCE_KHZ` (the file's 4 decimals in kHz);
+* baselines: the master–slave distance in :data:`BASELINE_RANGE_KM` (a slave on its master or
+  a continent away is a mistyped coordinate);
+* minimum lane counts: |k| below the number of lanes on that pattern's baseline, 2B/λc
+  (eq. 4.9/4.10: k shifts the count by whole lanes along the baseline).
+
+``* End of Data`` ends the file and is required (a file without it was cut short: a cut inside
+the last speed would otherwise read as another speed); data after it is an error. At most
+:data:`engine.datafile_io.MAX_DATA_FILE_BYTES` are read, from a regular file only.
 Station coordinates are geodetic degrees on the chain's datum, south and west negative.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
+from engine.datafile_io import read_data_text
 from engine.errors import InputError
 from engine.operator_input import SIGNED_DECIMAL_RE, format_decimal, parse_datum_name
 
@@ -54,6 +70,19 @@ __all__ = [
 
 #: Upper bound for the propagation speed: the speed of light in vacuum [km/s].
 C_VACUUM_KM_S = 299_792.458
+SPEED_RANGE_KM_S = (299_000.0, C_VACUUM_KM_S)
+"""Accepted assumed propagation speeds [km/s] (the thesis' chains use 299 550)."""
+F0_RANGE_KHZ = (13.9, 14.5)
+"""Accepted fundamental frequencies f0 = f_master / 6 [kHz]."""
+F0_TOLERANCE_KHZ = 1e-4
+"""Largest difference between f_slave / harmonic and f0 [kHz]."""
+BASELINE_RANGE_KM = (40.0, 300.0)
+"""Accepted master–slave distances [km] (great circle on a 6371 km sphere, a range check)."""
+HARMONICS = (6, 8, 9, 5)
+"""Harmonic numbers of master, red, green, purple (f = n·f0)."""
+COMPARISON_HARMONICS = (24, 18, 30)
+"""Comparison frequencies of red, green, purple as multiples of f0 (λc = v / (n·f0))."""
+_EARTH_RADIUS_KM = 6371.0
 
 _ROLES = ("master", "red", "green", "purple")
 _ROLE_ALIASES = {"m": "master", "r": "red", "g": "green", "p": "purple"}
@@ -272,6 +301,49 @@ class _Block:
         self.min_lanes: list[float] = []
         self.speed = 0.0
         self.items = 0  # data lines read after the id
+        self.lines: list[int] = []  # line of each item
+        self.last_tokens: list[str] = []  # last token of each item's line, as written
+
+    def check(self, file: str) -> None:
+        """Frequencies, baselines and minimum lane counts against each other (module doc)."""
+        f0 = self.stations[0][2] / HARMONICS[0]
+        if not F0_RANGE_KHZ[0] <= f0 <= F0_RANGE_KHZ[1]:
+            raise InputError(
+                f"Master frequency must be 6 f0 with f0 in [{F0_RANGE_KHZ[0]}, "
+                f"{F0_RANGE_KHZ[1]}] kHz ({6 * F0_RANGE_KHZ[0]:.1f}-"
+                f"{6 * F0_RANGE_KHZ[1]:.1f} kHz) !",
+                file=file, line=self.lines[0], field="frequency",
+                text=self.last_tokens[0],
+            )
+        lat0, lon0 = self.stations[0][0], self.stations[0][1]
+        baselines = []
+        for i in (1, 2, 3):
+            lat, lon, freq = self.stations[i]
+            n = HARMONICS[i]
+            if abs(freq / n - f0) > F0_TOLERANCE_KHZ:
+                raise InputError(
+                    f"{_ROLES[i].capitalize()} frequency must be {n} f0 = {n * f0:.4f} kHz "
+                    f"(f0 = master / 6) !",
+                    file=file, line=self.lines[i], field="frequency", text=self.last_tokens[i],
+                )
+            b_km = _sphere_distance_km(lat0, lon0, lat, lon)
+            if not BASELINE_RANGE_KM[0] <= b_km <= BASELINE_RANGE_KM[1]:
+                raise InputError(
+                    f"{_ROLES[i].capitalize()} slave {b_km:.1f} km from the master: a baseline "
+                    f"must be {BASELINE_RANGE_KM[0]:.0f}-{BASELINE_RANGE_KM[1]:.0f} km !",
+                    file=file, line=self.lines[i], field=f"{_ROLES[i]} station",
+                )
+            baselines.append(b_km)
+        for j, (k, b_km) in enumerate(zip(self.min_lanes, baselines, strict=True)):
+            lam_km = self.speed / (COMPARISON_HARMONICS[j] * f0 * 1000.0)
+            lanes = 2.0 * b_km / lam_km
+            if abs(k) >= lanes:
+                raise InputError(
+                    f"Min. lane count must be smaller than the {lanes:.0f} lanes on the "
+                    f"{_ROLES[j + 1]} baseline !",
+                    file=file, line=self.lines[5 + j], field="min lane count",
+                    text=self.last_tokens[5 + j],
+                )
 
     def build(self) -> DeccaChain:
         made = [
@@ -283,6 +355,15 @@ class _Block:
             self.chain_id, self.name, made[0], made[1], made[2], made[3],
             self.datum, (k[0], k[1], k[2]), self.speed,
         )
+
+
+def _sphere_distance_km(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    """Great-circle distance on a 6371 km sphere (km; within 0.5 % of the geodesic: a range
+    check, not a baseline for the lane model)."""
+    p1, p2 = math.radians(lat1), math.radians(lat2)
+    h = (math.sin((p2 - p1) / 2.0) ** 2
+         + math.cos(p1) * math.cos(p2) * math.sin(math.radians(lon2 - lon1) / 2.0) ** 2)
+    return 2.0 * _EARTH_RADIUS_KM * math.asin(min(1.0, math.sqrt(h)))
 
 
 def parse_chain_text(
@@ -303,16 +384,10 @@ def read_chain_file(
     path: str | os.PathLike[str], known_datums: Iterable[str] | None = None
 ) -> dict[str, DeccaChain]:
     """Read and parse a chain file from disk (``known_datums``: see :func:`parse_chain_text`);
-    a missing file gives ``File not found !``."""
+    a missing file gives ``File not found !``; a device, FIFO or directory, or a file over
+    1 MiB, is refused (:func:`engine.datafile_io.read_data_text`)."""
     name = os.fspath(path)
-    try:
-        with open(name, encoding="utf-8-sig", errors="replace") as fh:
-            text = fh.read()
-    except FileNotFoundError:
-        raise InputError("File not found !", file=name) from None
-    except OSError as exc:
-        raise InputError("Cannot read file !", file=name, text=exc.strerror) from None
-    return _parse_lines(text.splitlines(), name, known_datums)
+    return _parse_lines(read_data_text(name).text.splitlines(), name, known_datums)
 
 
 def _parse_lines(
@@ -373,23 +448,32 @@ def _parse_lines(
             else:
                 token = _single(stripped, "propagation speed")
                 speed = _number(token, "propagation speed")
-                if not 0.0 < speed <= C_VACUUM_KM_S:
+                lo, hi = SPEED_RANGE_KM_S
+                if not lo <= speed <= hi:
                     raise InputError(
-                        f"Propagation speed must be in (0, {C_VACUUM_KM_S}] km/s !",
+                        f"Propagation speed must be in [{lo:.0f}, {hi}] km/s !",
                         field="propagation speed", text=token,
                     )
                 block.speed = speed
             block.items += 1
-            if block.items == len(_BLOCK_ITEMS):
-                chains[block.chain_id] = block.build()
-                block = None
+            block.lines.append(line_no)
+            block.last_tokens.append(stripped.split()[-1])
         except InputError as exc:
             raise exc.located(file=file, line=line_no) from None
+        if block is not None and block.items == len(_BLOCK_ITEMS):
+            block.check(file)  # located at the line of the item at fault
+            chains[block.chain_id] = block.build()
+            block = None
 
     if block is not None:
         _truncated(block, file, last_line)
     if not chains:
         raise InputError("No chains in file !", file=file, line=last_line or None, field="section")
+    if ended_at is None:
+        raise InputError(
+            "No '* End of Data' line: the file is cut short !",
+            file=file, line=last_line or None, field="section",
+        )
     return chains
 
 

@@ -55,5 +55,18 @@ class Datum:
         return self.rx_arcsec == self.ry_arcsec == self.rz_arcsec == self.scale_ppm == 0.0
 
 
+A_RANGE_M = (6_376_000.0, 6_379_000.0)
+"""Semi-major axes of Earth reference ellipsoids in use (m): Everest 1830 6 377 276.345 to
+International 1924 6 378 388 lie inside (docs/DATAFILES.md)."""
+INV_F_RANGE = (290.0, 310.0)
+"""Inverse flattenings of Earth reference ellipsoids in use: Clarke 1880 293.465 to Everest
+300.8017 lie inside (docs/DATAFILES.md)."""
+SHIFT_MAX_M = 1000.0
+"""Largest |dX|, |dY|, |dZ| of a datum → WGS84 shift accepted (m)."""
+ROTATION_MAX_ARCSEC = 30.0
+"""Largest |Rx|, |Ry|, |Rz| accepted (arc-seconds; 30″ moves a surface point ≈ 930 m)."""
+SCALE_MAX_PPM = 50.0
+"""Largest |scale| accepted (ppm; 50 ppm ≈ 320 m at the Earth's surface)."""
+
 WGS84_ELLIPSOID = Ellipsoid("WGS84", 6378137.0, 298.257223563)
 WGS84 = Datum("WGS84", WGS84_ELLIPSOID)

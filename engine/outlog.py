@@ -26,12 +26,13 @@ from __future__ import annotations
 import json
 import os
 import re
+from array import array
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from numbers import Integral
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 from engine.errors import InputError
 from engine.outputs import OutputFile, OutputGuard, free_name
@@ -199,7 +200,7 @@ class OutLogContents:
 
     header: tuple[str, ...]
     config_text: str
-    cycles: tuple[OutCycle, ...]
+    cycles: Sequence[OutCycle]
     actions: tuple[dict[str, Value], ...]
     bad_records: tuple[dict[str, Value], ...]
     truncated: bool = False
@@ -297,30 +298,126 @@ class OutLogWriter:
         self.close()
 
 
+def _raw_lines(path: str | os.PathLike[str], name: str,
+               start: int = 0) -> Iterator[tuple[int, int, str | None, bool]]:
+    """Yield (byte offset, line number, text without newline, complete) of a log file.
+
+    Read in binary, one line at a time (memory bounded by the longest line). ``complete`` is
+    False only for a last line without its newline: every write ends in one, so such a line is
+    a write cut short, and its text is None when the cut split a UTF-8 character. A complete
+    line that is not UTF-8 is corruption (InputError naming file and line). ``start``: byte
+    offset to begin at (line numbers then count from 1 there).
+    """
+    with open(path, "rb") as fh:
+        fh.seek(start)
+        offset = start
+        for i, raw in enumerate(fh, start=1):
+            complete = raw.endswith(b"\n")
+            try:
+                text: str | None = raw.decode("utf-8")
+            except UnicodeDecodeError:
+                if complete:
+                    raise InputError("Not UTF-8 text !", file=name, line=i, field="line",
+                                     text=raw[:80].decode("utf-8", "replace")) from None
+                text = None
+            if text is not None and complete:
+                text = text[:-1]
+            yield offset, i, text, complete
+            offset += len(raw)
+
+
 def iter_out_lines(path: str | os.PathLike[str]) -> Iterator[tuple[int, str]]:
-    """Yield (line number, line without newline) of a log file."""
-    with open(path, encoding="utf-8") as fh:
-        for i, line in enumerate(fh, start=1):
-            yield i, line.rstrip("\n")
+    """Yield (line number, line without newline) of a log file (a cut UTF-8 character at the
+    very end is replaced by U+FFFD; a bad one elsewhere raises InputError)."""
+    for _off, i, text, _complete in _raw_lines(path, str(path)):
+        yield i, "\ufffd" if text is None else text
 
 
-def read_out_log(path: str | os.PathLike[str]) -> OutLogContents:
-    """Read a ``.OUT`` log back.  A final block cut off by a crash sets ``truncated``; a line that
-    cannot be parsed raises :class:`InputError` naming file and line (a log is machine-written,
-    so anything else is corruption)."""
+class OutCycles(Sequence[OutCycle]):
+    """The cycles of a ``.OUT`` log, read from the file on demand (nothing is kept in memory
+    but one byte offset per cycle, 8 bytes): iterate, index or take ``len``. The file was
+    checked whole by :func:`read_out_log`; only the cycles found then are served."""
+
+    def __init__(self, path: str, offsets: array[int]) -> None:
+        self._path = path
+        self._offsets = offsets
+
+    def __len__(self) -> int:
+        return len(self._offsets)
+
+    @overload
+    def __getitem__(self, index: int) -> OutCycle: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[OutCycle]: ...
+
+    def __getitem__(self, index: int | slice) -> OutCycle | list[OutCycle]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        n = len(self._offsets)
+        if index < 0:
+            index += n
+        if not 0 <= index < n:
+            raise IndexError("cycle index out of range")
+        return next(self._read(index, index + 1))
+
+    def __iter__(self) -> Iterator[OutCycle]:
+        return self._read(0, len(self._offsets))
+
+    def _read(self, first: int, stop: int) -> Iterator[OutCycle]:
+        if first >= stop:
+            return
+        left = stop - first
+        current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]]] | None = None
+        for _off, _i, text, _complete in _raw_lines(self._path, self._path,
+                                                     self._offsets[first]):
+            if text is None or not text.strip() or text.startswith("#"):
+                continue
+            tag, fields = parse_line(text)
+            if tag == "CYCLE":
+                current = (fields, [])
+            elif tag == "END" and current is not None:
+                yield OutCycle(current[0], tuple(current[1]))
+                current = None
+                left -= 1
+                if left == 0:
+                    return
+            elif current is not None:
+                current[1].append((tag, fields))
+
+
+@dataclass
+class _ScanState:
+    """What a scan of a log has found besides the cycles (filled while iterating)."""
+
+    header: list[str] = field(default_factory=list)
+    config: list[str] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    truncated: bool = False
+
+
+def _scan(
+    path: str | os.PathLike[str], state: _ScanState,
+) -> Iterator[tuple[str, int, dict[str, Value] | OutCycle]]:
+    """Yield ("cycle", offset, OutCycle), ("action", offset, fields), ("bad", offset, fields) in
+    file order; header, configuration, problems and ``truncated`` go to ``state``.
+
+    A last line without its newline is a write cut short (a crash, a full disk, a copy cut):
+    it is not parsed and the log is ``truncated``, whatever the cut left (``B``, ``CYCL``, half
+    a UTF-8 character). A complete line that cannot be parsed is corruption: InputError naming
+    file and line, unless only a cut-short line follows it.
+    """
     name = str(path)
-    header: list[str] = []
-    config: list[str] = []
-    cycles: list[OutCycle] = []
-    actions: list[dict[str, Value]] = []
-    bad: list[dict[str, Value]] = []
     in_config = False
-    current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]]] | None = None
-    problems: list[str] = []
+    current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]], int] | None = None
     last_line = 0
-    pending: tuple[int, str, str] | None = None
-    for ln, text in iter_out_lines(path):
+    pending: tuple[int, str, str, str, str] | None = None  # line, text, message, field, got
+    cut = False
+    for off, ln, text, complete in _raw_lines(path, name):
         last_line = ln
+        if not complete:
+            cut = True
+            break
+        assert text is not None
         if text.startswith("#"):
             body = text[2:] if text.startswith("# ") else text[1:]
             if body == "config-begin":
@@ -328,47 +425,86 @@ def read_out_log(path: str | os.PathLike[str]) -> OutLogContents:
             elif body == "config-end":
                 in_config = False
             elif in_config:
-                config.append(body)
+                state.config.append(body)
             else:
-                header.append(body)
+                state.header.append(body)
             continue
         if not text.strip():
             continue
         if pending is not None:
-            # An unreadable line followed by more lines is corruption, not a crash cut-off.
-            p_ln, p_text, p_msg = pending
-            raise InputError(p_msg, file=name, line=p_ln, field="line", text=p_text[:80])
+            raise InputError(pending[2], file=name, line=pending[0], field=pending[3],
+                             text=pending[4])
         try:
             tag, fields = parse_line(text)
         except ValueError as exc:
-            pending = (ln, text, str(exc))
+            pending = (ln, text, str(exc), "line", text[:80])
             continue
         if tag == "CYCLE":
             if current is not None:
-                problems.append(f"{name}:{ln}: cycle block without END before this line")
-            current = (fields, [])
+                state.problems.append(f"{name}:{ln}: cycle block without END before this line")
+            current = (fields, [], off)
         elif tag == "END":
             if current is None:
                 raise InputError("END without CYCLE", file=name, line=ln, field="END", text=text)
-            cycles.append(OutCycle(current[0], tuple(current[1])))
+            yield "cycle", current[2], OutCycle(current[0], tuple(current[1]))
             current = None
         elif current is not None:
             current[1].append((tag, fields))
         elif tag == "ACT":
-            actions.append(fields)
+            yield "action", off, fields
         elif tag == "BAD":
-            bad.append(fields)
+            yield "bad", off, fields
         else:
-            raise InputError("unknown line tag", file=name, line=ln, field="tag", text=tag)
-    truncated = current is not None or pending is not None
-    if truncated:
-        problems.append(f"{name}:{last_line}: last cycle block is incomplete (run interrupted)")
+            pending = (ln, text, "unknown line tag", "tag", tag)
+    if pending is not None and not cut:
+        raise InputError(pending[2], file=name, line=pending[0], field=pending[3],
+                         text=pending[4])
+    if current is not None or cut or in_config:
+        state.truncated = True
+        what = "last cycle block" if current is not None else "last line"
+        state.problems.append(f"{name}:{last_line}: {what} is incomplete (run interrupted)")
+
+
+def iter_out_log(
+    path: str | os.PathLike[str],
+) -> tuple[_ScanState, Iterator[tuple[str, dict[str, Value] | OutCycle]]]:
+    """Stream a ``.OUT`` log: (state, events). ``events`` yields ("cycle", OutCycle),
+    ("action", fields) and ("bad", fields) in file order, one at a time (memory flat in the
+    length of the run); ``state.header``, ``state.config``, ``state.problems`` and
+    ``state.truncated`` are complete once ``events`` is exhausted (the header already after the
+    first event). Errors as :func:`read_out_log`."""
+    state = _ScanState()
+    return state, ((kind, item) for kind, _off, item in _scan(path, state))
+
+
+def read_out_log(path: str | os.PathLike[str]) -> OutLogContents:
+    """Read a ``.OUT`` log back.  A final block cut off by a crash (or any last line without its
+    newline: ``B``, ``CYCL``, half a UTF-8 character) sets ``truncated``; a complete line that
+    cannot be parsed raises :class:`InputError` naming file and line (a log is machine-written,
+    so anything else is corruption).
+
+    The whole file is checked, but the cycles are not kept: ``cycles`` is an :class:`OutCycles`
+    that reads them from the file on demand (8 bytes per cycle in memory). Actions and bad
+    records are kept (they are few; a run's bad records are capped by the writer).
+    """
+    name = str(path)
+    state = _ScanState()
+    offsets: array[int] = array("q")
+    actions: list[dict[str, Value]] = []
+    bad: list[dict[str, Value]] = []
+    for kind, off, item in _scan(path, state):
+        if kind == "cycle":
+            offsets.append(off)
+        elif kind == "action":
+            actions.append(item)  # type: ignore[arg-type]
+        else:
+            bad.append(item)  # type: ignore[arg-type]
     return OutLogContents(
-        header=tuple(header),
-        config_text="\n".join(config) + ("\n" if config else ""),
-        cycles=tuple(cycles),
+        header=tuple(state.header),
+        config_text="\n".join(state.config) + ("\n" if state.config else ""),
+        cycles=OutCycles(name, offsets),
         actions=tuple(actions),
         bad_records=tuple(bad),
-        truncated=truncated,
-        problems=tuple(problems),
+        truncated=state.truncated,
+        problems=tuple(state.problems),
     )

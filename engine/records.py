@@ -116,6 +116,9 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
         "lops": lops,
         "s2": _num(r.fix.s2, 5) if r.fix is not None else None,
         "rms": _num(r.fix.rms_m, 3) if r.fix is not None else None,
+        "fix_tests": None if r.fix is None or not r.fix.ok else (
+            {"failed": True, "cov_scale": _num(r.fix_cov_scale, 6)} if r.fix_fails_tests
+            else {"failed": False}),
         "state": None if fs is None else [_num(v, 6) for v in fs.x[: len(STATE_LABELS)]],
         "tests": [_test_json(kind, u) for kind, u in updates(r)],
         "messages": list(r.messages),
@@ -199,6 +202,9 @@ def cycle_block(
                                            f.ellipse))
             if f.rejected_slots:
                 fields["rejected"] = ",".join(str(s) for s in f.rejected_slots)
+            if r.fix_fails_tests:  # issue 15: the fix failed its tests; VCV × scale downstream
+                fields["tests"] = "fail"
+                fields["cov_scale"] = r.fix_cov_scale
             lines.append(("LSE", fields))
         else:
             lines.append(("NOFIX", {"reason": f.reason}))

@@ -22,13 +22,18 @@ from __future__ import annotations
 
 import json
 import os
+import struct
+import tempfile
 from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from engine import __version__
 from engine.commands import Command, SetDatum, apply_command
+from engine.confidence import error_ellipse
 from engine.cycle import (
     CycleResult,
     NavState,
@@ -41,18 +46,19 @@ from engine.cycle import (
     reproject_state,
     step,
 )
+from engine.datafile_io import modified_bundled
 from engine.datumfile import DatumFile, read_datum_file
 from engine.deccafile import DeccaChain, read_chain_file
 from engine.errors import InputError
 from engine.fix import lop_name
-from engine.kalman import predict_horizon
+from engine.kalman import FilterState, predict_horizon
 from engine.operator_input import parse_datum_name
 from engine.outlog import OutLogWriter
 from engine.outputs import OutputFile, OutputGuard
 from engine.records import cycle_block, cycle_json
 from engine.runconfig import UNKNOWN_CHAIN_MESSAGE, RunConfig, dump_config, load_config
 from engine.runfile import BadRecord, RunRecord, iter_run_file
-from engine.smoother import SmootherRecord, rts_smooth
+from engine.smoother import SmootherRecord, SmootherSpill, rts_smooth_backward
 
 
 @dataclass(frozen=True)
@@ -67,6 +73,8 @@ class RunSummary:
     out_path: Path | None
     jsonl_path: Path | None
     eof: bool
+    failed_fixes: int = 0
+    """LSE fixes that failed their tests (:func:`engine.cycle.fix_fit`): used with VCV × S²."""
 
 
 DATUM_FILE = "TO_WGS84.DAT"
@@ -96,6 +104,12 @@ def read_data_dir(data_dir: str | os.PathLike[str]) -> tuple[DatumFile, dict[str
     datums = read_datum_file(Path(data_dir) / DATUM_FILE)
     chains = read_chain_file(Path(data_dir) / CHAIN_FILE, known_datums=datums.datums)
     return datums, chains
+
+
+def data_file_warnings(data_dir: str | os.PathLike[str]) -> tuple[str, ...]:
+    """Warnings for the data files of ``data_dir`` that differ from the bundled ones."""
+    found = (modified_bundled(Path(data_dir) / name) for name in (DATUM_FILE, CHAIN_FILE))
+    return tuple(w for w in found if w is not None)
 
 
 def load_data(cfg: RunConfig) -> tuple[DatumFile, dict[str, DeccaChain]]:
@@ -187,14 +201,17 @@ class Session:
         self.eof = False
         self.fixes = 0
         self.rejected_lops = 0
+        self.failed_fixes = 0
+        self.data_warnings: tuple[str, ...] = data_file_warnings(config.data_dir)
+        """Data files that differ from the bundled ones (engine.datafile_io.modified_bundled);
+        written to the .OUT header, shown by the replay."""
         self._run_name = os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
         self._since_processed: int | None = None
         """Good records read since the last processed one (None before the first)."""
         self._prev_nav: NavState | None = None
         self._prev_record: RunRecord | None = None
-        self._smoother: list[SmootherRecord] | None = [] if collect_smoother else None
-        self._smoother_cm: float | None = None
+        self._smoother: SmootherSpill | None = SmootherSpill() if collect_smoother else None
         self._out: OutLogWriter | None = None
         self._jsonl: OutputFile | None = None
         self.jsonl_path: Path | None = None
@@ -214,7 +231,8 @@ class Session:
             if out_path is not None:
                 self._out = OutLogWriter.create(
                     out_path,
-                    header=[f"engine {__version__}", f"run {config.run_path}"],
+                    header=[f"engine {__version__}", f"run {config.run_path}",
+                            *(f"warning {w}" for w in self.data_warnings)],
                     config_text=dump_config(_logged_config(config)),
                     force=force,
                     guard=guard,
@@ -319,6 +337,7 @@ class Session:
             self.fixes += 1
         if result.fix is not None:
             self.rejected_lops += len(result.fix.rejected_slots)
+        self.failed_fixes += result.fix_fails_tests
         if self._out is not None:
             head, lines = cycle_block(result)
             self._out.write_cycle(head, lines)
@@ -328,28 +347,23 @@ class Session:
 
     def _collect_smoother(self, nav: NavState, result: CycleResult) -> None:
         """Keep what the RTS smoother needs: per epoch the final filter state, and for the step
-        into the next epoch the state it started from, the prediction and Φ."""
+        into the next epoch the state it started from, the prediction and Φ, each record with
+        the CM of its grid (spilled to disk: engine.smoother.SmootherSpill)."""
         assert self._smoother is not None and nav.filter is not None
         recs = self._smoother
         link = result.smoother_link
-        if recs and self._smoother_cm is not None and result.cm_deg != self._smoother_cm:
-            old = self.context.grid(self._smoother_cm)
-            new = self.context.grid(result.cm_deg)
-            recs[:] = [SmootherRecord(reproject_state(r.filtered, old, new),
-                                      None if r.predicted_next is None
-                                      else reproject_state(r.predicted_next, old, new), r.phi)
-                       for r in recs]
-        self._smoother_cm = result.cm_deg
-        if recs and link is not None:
+        last = recs.last
+        if last is not None and link is not None:
             start, pred, phi = link
-            prev = recs[-1].filtered
+            prev = last[0].filtered
             if start.n == prev.n and start.fix_states == prev.fix_states:
-                recs[-1] = SmootherRecord(start, pred, phi)
+                # The link is on this cycle's grid (the cycle re-projected a CM change).
+                recs.replace_last(SmootherRecord(start, pred, phi), result.cm_deg)
             else:
                 recs.clear()  # the state changed shape (fix states added): restart the span
         elif link is None:
             recs.clear()
-        recs.append(SmootherRecord(nav.filter))
+        recs.append(SmootherRecord(nav.filter), result.cm_deg)
 
     def recompute_last(self, excluded_slots: tuple[int, ...]) -> CycleResult | None:
         """Redo the last cycle with LOPs discarded (``LOPReject = 'A'``, the operator said yes)."""
@@ -361,6 +375,7 @@ class Session:
         if dropped.fix is not None:
             self.fixes -= int(dropped.fix.ok and not dropped.fix.uses_prior)
             self.rejected_lops -= len(dropped.fix.rejected_slots)
+        self.failed_fixes -= dropped.fix_fails_tests
         if self._smoother:
             self._smoother.pop()
         if self._out is not None:
@@ -399,6 +414,7 @@ class Session:
             out_path=self.out_path,
             jsonl_path=self.jsonl_path,
             eof=self.eof,
+            failed_fixes=self.failed_fixes,
         )
 
     # ------------------------------------------------------------------ operator
@@ -434,24 +450,68 @@ class Session:
         return out
 
     def smooth(self) -> list[PositionEstimate]:
-        """Kalman ▸ Smoothing: RTS-smoothed positions of the collected span (oldest first)."""
+        """Kalman ▸ Smoothing: RTS-smoothed positions of the collected span (oldest first, on
+        the grid of the current CM). A list: for a long run use :meth:`iter_smoothed`."""
+        return list(self.iter_smoothed())
+
+    def iter_smoothed(self) -> Iterator[PositionEstimate]:
+        """The smoothed positions of the collected span, oldest first, on the grid of the
+        current CM, streamed: the backward pass writes 7 numbers per epoch to a temporary file
+        and this reads them back in time order (memory flat in the run length, ~56 bytes of
+        disk per epoch besides the records' spill)."""
         if not self._smoother or self.nav.cm_deg is None:
-            return []
-        recs = list(self._smoother)
-        if recs[-1].predicted_next is not None:
-            recs[-1] = SmootherRecord(recs[-1].filtered)
-        grid = self.context.grid(self.nav.cm_deg)
-        return [filter_estimate("SMO", grid, s) for s in rts_smooth(recs)]
+            return
+        ctx = self.context
+        final_cm = self.nav.cm_deg
+
+        def convert(fs: FilterState, old: object, new: object) -> FilterState:
+            return reproject_state(fs, ctx.grid(float(old)),  # type: ignore[arg-type]
+                                   ctx.grid(float(new)))  # type: ignore[arg-type]
+
+        def records() -> Iterator[tuple[SmootherRecord, float]]:
+            first = True
+            for rec, cm in self._smoother.newest_first():  # type: ignore[union-attr]
+                if first and rec.predicted_next is not None:
+                    rec = SmootherRecord(rec.filtered)
+                first = False
+                yield rec, cm
+
+        packed = struct.Struct("<7d")
+        with tempfile.TemporaryFile() as fh:
+            n = 0
+            for fs, cm in rts_smooth_backward(records(), convert):
+                if cm != final_cm:
+                    fs = convert(fs, cm, final_cm)
+                P = fs.P
+                fh.write(packed.pack(fs.t, fs.x[0], fs.x[1], fs.x[2], P[0, 0], P[0, 1],
+                                     P[1, 1]))
+                n += 1
+            grid = ctx.grid(final_cm)
+            for i in range(n - 1, -1, -1):
+                fh.seek(i * packed.size)
+                _t, x, y, z, pxx, pxy, pyy = packed.unpack(fh.read(packed.size))
+                cov = np.array([[pxx, pxy], [pxy, pyy]])
+                lat, lon = grid.inverse(x, y)
+                ell = error_ellipse(cov) if np.all(np.isfinite(cov)) else None
+                cov.setflags(write=False)  # as engine.cycle's estimates: immutable values
+                if ell is not None:
+                    ell.eigenvectors.setflags(write=False)
+                yield PositionEstimate("SMO", lat, lon, x, y, z, cov, ell)
 
     def close(self) -> None:
-        """Close the logs (everything written is already flushed); both are closed even if
-        closing one fails (the OSError names its file)."""
+        """Close the logs (everything written is already flushed) and drop the smoother's
+        spill file; every one is closed even if closing another fails (the OSError names its
+        file)."""
         try:
-            if self._out is not None:
-                self._out.close()
+            if self._smoother is not None:
+                self._smoother.close()
         finally:
-            if self._jsonl is not None:
-                self._jsonl.close()
+            try:
+                if self._out is not None:
+                    self._out.close()
+            finally:
+                if self._jsonl is not None:
+                    self._jsonl.close()
 
     def __enter__(self) -> Session:
         return self
@@ -465,6 +525,7 @@ __all__ = [
     "Session",
     "check_config",
     "create_output",
+    "data_file_warnings",
     "load_data",
     "load_run_config",
     "read_data_dir",

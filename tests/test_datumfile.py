@@ -191,9 +191,18 @@ def test_unknown_datum(df: DatumFile) -> None:
     assert (err.message, err.field, err.text) == ("Unknown datum !", "datum", "ED87")
 
 
-def test_tolerates_crlf_blank_lines_and_missing_end_marker() -> None:
-    text = "\r\n\r\n".join(line for line in DAT_LINES if "End of Data" not in line)
-    assert parse_datum_text(text) == read_datum_file(DAT)
+def test_tolerates_crlf_and_blank_lines() -> None:
+    assert parse_datum_text("\r\n\r\n".join(DAT_LINES)) == read_datum_file(DAT)
+
+
+def test_missing_end_marker_is_an_error() -> None:
+    # Issue 15: a file cut short must not load (a cut inside a number reads another number).
+    text = "\n".join(line for line in DAT_LINES if "End of Data" not in line)
+    with pytest.raises(InputError) as info:
+        parse_datum_text(text, "TO_WGS84.DAT")
+    err = info.value
+    assert (err.line, err.field, err.message) == (
+        50, "section", "No '* End of Data' line: the file is cut short !")
 
 
 def test_file_not_found(tmp_path: pathlib.Path) -> None:
@@ -256,15 +265,15 @@ _NAME = st.lists(
     st.text(alphabet="ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789[]-", min_size=1, max_size=8),
     min_size=1, max_size=3,
 ).map(" ".join).filter(lambda s: not s.startswith("-"))
-_FINITE = st.floats(-1e4, 1e4, allow_nan=False)
+_FINITE = st.floats(-1000, 1000, allow_nan=False)
 
 
 @settings(max_examples=60, deadline=None)
 @given(
     names=st.lists(_NAME, min_size=1, max_size=4, unique_by=str.upper),
-    a=st.floats(6_350_000, 6_390_000),
-    inv_f=st.floats(250, 320),
-    params=st.lists(_FINITE, min_size=7, max_size=7),
+    a=st.floats(6_376_000, 6_379_000),
+    inv_f=st.floats(290, 310),
+    params=st.tuples(*[_FINITE] * 3, *[st.floats(-30, 30)] * 3, st.floats(-50, 50)),
 )
 def test_round_trip_arbitrary_floats(
     names: list[str], a: float, inv_f: float, params: list[float]
@@ -306,11 +315,24 @@ BAD_CASES = [
     ("scale not a number", _replace(ED50, "ED50 6378388 297 -87 -98 -121 0 0 0 0.2.2"),
      ED50, "scale", "Not a number !", "0.2.2"),
     ("a negative", _replace(ED50, "ED50 -6378388 297 -87 -98 -121 0 0 0 0"),
-     ED50, "a", "Semi-major axis must be between 6300000 and 6400000 m !", "-6378388"),
+     ED50, "a", "Semi-major axis must be between 6376000 and 6379000 m !", "-6378388"),
     ("spheroid 1/f missing", _replace(AIRY, "AIRY 1830 6377563.396"),
-     AIRY, "a", "Semi-major axis must be between 6300000 and 6400000 m !", "1830"),
+     AIRY, "a", "Semi-major axis must be between 6376000 and 6379000 m !", "1830"),
     ("1/f below 1", _replace(AIRY, "AIRY 1830 6377563.396 0.5"),
-     AIRY, "1/f", "Inverse flattening must be 0 (sphere) or > 1 !", "0.5"),
+     AIRY, "1/f", "Inverse flattening must be between 290 and 310 !", "0.5"),
+    # Issue 15: values the parser accepted before, each putting the MPP thousands of km off.
+    ("a digit flipped", _replace(ED50, "ED50 6373388 297 -87 -98 -121 0 0 0 0"),
+     ED50, "a", "Semi-major axis must be between 6376000 and 6379000 m !", "6373388"),
+    ("1/f digit flipped", _replace(ED50, "ED50 6378388 397 -87 -98 -121 0 0 0 0"),
+     ED50, "1/f", "Inverse flattening must be between 290 and 310 !", "397"),
+    ("dX a million metres", _replace(ED50, "ED50 6378388 297 -1000000 -98 -121 0 0 0 0"),
+     ED50, "dX", "dX must be between -1000 and 1000 m !", "-1000000"),
+    ("dZ digit added", _replace(ED50, "ED50 6378388 297 -87 -98 -1121 0 0 0 0"),
+     ED50, "dZ", "dZ must be between -1000 and 1000 m !", "-1121"),
+    ("rotation 9999999", _replace(ED50, "ED50 6378388 297 -87 -98 -121 0 0 9999999 0"),
+     ED50, "Rz", 'Rz must be between -30 and 30 " !', "9999999"),
+    ("scale 99999999", _replace(ED50, "ED50 6378388 297 -87 -98 -121 0 0 0 99999999"),
+     ED50, "scale", "scale must be between -50 and 50 ppm !", "99999999"),
     ("datum row too short", _replace(ED50, "ED50 6378388 297 -87 -98 -121 0 0 0"),
      ED50, "record", "Too few fields, expected NAME a 1/f dX dY dZ Rx Ry Rz scale !",
      "ED50 6378388 297 -87 -98 -121 0 0 0"),

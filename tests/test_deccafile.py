@@ -6,6 +6,7 @@ L4090–4186), plus the Decca frequency ratios of §4 (master 6f0, red 8f0, gree
 
 from __future__ import annotations
 
+import math
 import pathlib
 
 import pytest
@@ -218,9 +219,18 @@ def test_dms_helpers() -> None:
     assert format_dms(dms(52, 59, 59.9996), True) == "53 00 00.000 N"
 
 
-def test_tolerates_crlf_and_missing_end_marker() -> None:
-    text = "\r\n".join(line for line in CHN_LINES if "End of Data" not in line)
-    assert parse_chain_text(text) == read_chain_file(CHN)
+def test_tolerates_crlf() -> None:
+    assert parse_chain_text("\r\n".join(CHN_LINES)) == read_chain_file(CHN)
+
+
+def test_missing_end_marker_is_an_error() -> None:
+    # Issue 15: a file cut short must not load (a cut inside the last speed read "29955").
+    text = "\n".join(line for line in CHN_LINES if "End of Data" not in line)
+    with pytest.raises(InputError) as info:
+        parse_chain_text(text, "DECCA.CHN")
+    err = info.value
+    assert (err.line, err.field, err.message) == (
+        47, "section", "No '* End of Data' line: the file is cut short !")
 
 
 def test_file_not_found(tmp_path: pathlib.Path) -> None:
@@ -308,26 +318,40 @@ def test_round_trip_bundled(chains: dict[str, DeccaChain]) -> None:
 _WORDS = st.text(alphabet="abcdefghijklmnopqrstuvwxyzABC.-' ", min_size=0, max_size=20).map(
     lambda s: " ".join(s.split())
 )
-_MS = st.integers(0, 90 * 3_600_000)  # latitude in milliseconds of arc
 
 
-@st.composite
-def _stations(draw: st.DrawFn, role: str) -> DeccaStation:
-    lat = draw(_MS) / 3_600_000 * draw(st.sampled_from([1, -1]))
-    lon = draw(st.integers(0, 180 * 3_600_000)) / 3_600_000 * draw(st.sampled_from([1, -1]))
-    # Go through the text form once so the float is the one a chain file yields.
-    lat = parse_dms(*format_dms(lat, True).split(), True, "latitude")
-    lon = parse_dms(*format_dms(lon, False).split(), False, "longitude")
-    return DeccaStation(role, draw(_WORDS), lat, lon, draw(st.floats(10, 200)))
+def _dms_float(value: float, is_lat: bool) -> float:
+    """The float a chain file yields for ``value`` (written to 0.001″ and read back)."""
+    return parse_dms(*format_dms(value, is_lat).split(), is_lat, "latitude" if is_lat else "x")
 
 
 @st.composite
 def _chain(draw: st.DrawFn, chain_id: str) -> DeccaChain:
-    roles = [draw(_stations(r)) for r in ("master", "red", "green", "purple")]
-    k = st.floats(-50, 50)
+    # Only physically valid chains (docs/DATAFILES.md): f0 in 13.9-14.5 kHz with the slaves its
+    # harmonics, baselines 40-300 km, |k| below the lanes on the baseline (>= 66 for 40 km).
+    mas = 3_600_000
+    lat0 = draw(st.integers(-70 * mas, 70 * mas)) / mas
+    lon0 = draw(st.integers(-170 * mas, 170 * mas)) / mas
+    f0 = draw(st.integers(139_000, 145_000)) / 10_000
+    freqs = [round(n * f0, 4) for n in (6, 8, 9, 5)]
+    positions = [(_dms_float(lat0, True), _dms_float(lon0, False))]
+    for _ in range(3):
+        # A slave 45-290 km away on a random bearing (spherical direct problem, 6371 km).
+        d = draw(st.floats(45.0, 290.0)) / 6371.0
+        az = math.radians(draw(st.floats(0.0, 360.0)))
+        p1 = math.radians(positions[0][0])
+        p2 = math.asin(math.sin(p1) * math.cos(d) + math.cos(p1) * math.sin(d) * math.cos(az))
+        dl = math.atan2(math.sin(az) * math.sin(d) * math.cos(p1),
+                        math.cos(d) - math.sin(p1) * math.sin(p2))
+        lat, lon = _dms_float(math.degrees(p2), True), _dms_float(lon0 + math.degrees(dl), False)
+        positions.append((lat, lon))
+    roles = [DeccaStation(r, draw(_WORDS), lat, lon, f)
+             for r, (lat, lon), f in zip(("master", "red", "green", "purple"), positions, freqs,
+                                         strict=True)]
+    k = st.floats(-30, 30)
     return DeccaChain(
         chain_id, draw(_WORDS), *roles, draw(st.sampled_from(["ED50", "WGS84", "ED50 [DMA]"])),
-        (draw(k), draw(k), draw(k)), draw(st.floats(1e5, 299792.458)),
+        (draw(k), draw(k), draw(k)), draw(st.floats(299_000, 299_792.458)),
     )
 
 
@@ -388,9 +412,26 @@ BAD_CASES = [
     ("lane counts on one line", _replace(16, "0 0 0"),
      16, "min lane count", "Expected one number on this line !", "0 0 0"),
     ("speed negative", _replace(SPEED, "-299550"), SPEED, "propagation speed",
-     "Propagation speed must be in (0, 299792.458] km/s !", "-299550"),
+     "Propagation speed must be in [299000, 299792.458] km/s !", "-299550"),
     ("speed above c", _replace(SPEED, "300000"), SPEED, "propagation speed",
-     "Propagation speed must be in (0, 299792.458] km/s !", "300000"),
+     "Propagation speed must be in [299000, 299792.458] km/s !", "300000"),
+    # Issue 15: DECCA.CHN cut at byte 398 read the 9B speed as 29955 (a 24 km error).
+    ("speed cut short", _replace(SPEED, "29955"), SPEED, "propagation speed",
+     "Propagation speed must be in [299000, 299792.458] km/s !", "29955"),
+    ("master frequency off the Decca band",
+     _replace(MASTER, "53 12 12.388 N 007 06 00.590 E 8.572"), MASTER, "frequency",
+     "Master frequency must be 6 f0 with f0 in [13.9, 14.5] kHz (83.4-87.0 kHz) !", "8.572"),
+    ("red frequency not 8 f0", _replace(8, "55 01 07.110 N 008 41 38.420 E 114.2830"),
+     8, "frequency", "Red frequency must be 8 f0 = 114.2933 kHz (f0 = master / 6) !",
+     "114.2830"),
+    ("purple slave on the master", _replace(12, "53 12 12.388 N 007 06 00.590 E 71.4333"),
+     12, "purple station",
+     "Purple slave 0.0 km from the master: a baseline must be 40-300 km !", None),
+    ("green slave a continent away", _replace(10, "12 35 30.089 N 004 43 47.118 E 128.5800"),
+     10, "green station",
+     "Green slave 4520.7 km from the master: a baseline must be 40-300 km !", None),
+    ("min lane count beyond the baseline", _replace(16, "600"), 16, "min lane count",
+     "Min. lane count must be smaller than the 520 lanes on the red baseline !", "600"),
     ("chain id two words", _replace(5, "9 B"),
      5, "chain id", "Chain id expected (one word, e.g. 9B) !", "9 B"),
     ("chain id numeric", _replace(5, "9"),

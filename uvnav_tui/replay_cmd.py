@@ -125,11 +125,19 @@ def count_lines(path: Path) -> int:
     return n + (last != b"\n")
 
 
+def _failed_fixes_line(s: RunSummary) -> str:
+    """The summary's count of fixes that failed their tests (engine.cycle.fix_fit)."""
+    return (f"fixes failing their tests {s.failed_fixes} of {s.fixes} (unit-variance or every "
+            "w-test rejected; used with VCV × S²)")
+
+
 def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str]:
     lines = [
         f"epochs {s.epochs}  fixes {s.fixes}  rejected LOPs {s.rejected_lops}  "
         f"skipped records {s.skipped_records}",
     ]
+    if s.failed_fixes:
+        lines.append(_failed_fixes_line(s))
     r = s.last
     if r is not None:
         m = r.mpp
@@ -212,16 +220,19 @@ def run_replay(argv: list[str]) -> int:
             print(f"uvnav replay: {exc}", file=sys.stderr)
             return EXIT_BAD_INPUT
         return _cannot_write(exc, run)
+    for warning in session.data_warnings:  # a modified data file (docs/DATAFILES.md)
+        print(f"uvnav replay: warning: {warning}", file=sys.stderr)
     smoothed: tuple[int, Path] | None = None
     try:
         with session:
             summary = _run(session, run)
             if smooth_fh is not None:
-                positions = session.smooth()
-                for p in positions:
+                n_smoothed = 0  # streamed: memory flat in the run length (issue 15 item 9)
+                for p in session.iter_smoothed():
                     smooth_fh.write(json.dumps(position_json(p), separators=(",", ":")) + "\n")
+                    n_smoothed += 1
                 smooth_fh.close(sync=True)
-                smoothed = (len(positions), smooth_fh.path)
+                smoothed = (n_smoothed, smooth_fh.path)
     except OSError as exc:  # e.g. the disk filled up: every completed cycle is on disk
         return _cannot_write(exc, run)
     except Exception as exc:  # an engine bug (engine/session.py: never a bad record)
