@@ -214,7 +214,9 @@ _positive = st.floats(min_value=1e-6, max_value=1e6, allow_nan=False)
     lon=st.floats(min_value=-180, max_value=180),
     depth=st.floats(min_value=0, max_value=1000),
     chain=st.text(min_size=1, max_size=12).filter(lambda s: s.strip() == s and s != ""),
-    run_file=st.text(min_size=1, max_size=12).filter(lambda s: s.strip() == s and s != ""),
+    run_file=st.text(min_size=1, max_size=12).filter(
+        lambda s: s.strip() == s and s != "" and "\x00" not in s
+    ),
     reject=st.sampled_from(["A", "Y", "N"]),
     delta_t=st.integers(min_value=1, max_value=3600),
     correction=_finite,
