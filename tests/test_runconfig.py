@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from engine.errors import InputError
 from engine.formatting import format_dms_input
 from engine.runconfig import (
+    FilterConfig,
     RunConfig,
     all_keys,
     default_config,
@@ -302,7 +303,7 @@ def test_filter_keys_reach_the_filter_parameters() -> None:
     from engine.cycle import filter_params_from_config
     from engine.kalman import process_noise
 
-    off = filter_params_from_config(parse_config_text(""))
+    off = filter_params_from_config(parse_config_text('[filter]\npreset = "thesis"\n'))
     assert off.q_mode == "vanloan" and not off.bias_noise
     assert np.all(np.diag(process_noise(off, 1.0))[5:] == 0.0)
     cfg = parse_config_text('[filter]\nq_mode = "THESIS"\nbias_noise = true\n'
@@ -334,3 +335,54 @@ def test_decca_cf_rejects(text: str) -> None:
 
     with pytest.raises(InputError, match="Decca.CF: a number > 0 or SD, WD, SN, WN !"):
         parse_decca_cf(text)
+
+
+def test_empty_filter_table_is_the_honest_preset() -> None:
+    """Issue 11: with no [filter] keys the filter is the honest one (coloured fix errors,
+    physical P0, drifting biases); "thesis" is one key away and restores the thesis' three
+    choices (L2291 white noise, L2670 P0 = I, L2639–2641 constant biases); a key set in the file
+    wins over its preset; an unknown preset is located."""
+    from engine.cycle import filter_params_from_config
+
+    honest = parse_config_text("[filter]\n").filter
+    assert (honest.preset, honest.model, honest.p0, honest.bias_noise) == (
+        "honest", "coloured", "physical", True)
+    assert honest == FilterConfig() == default_config().filter
+    thesis = parse_config_text('[filter]\npreset = "Thesis"\n').filter
+    assert (thesis.preset, thesis.model, thesis.p0, thesis.bias_noise) == (
+        "thesis", "thesis", "thesis", False)
+    assert thesis == FilterConfig.from_preset("thesis")
+    mixed = parse_config_text('[filter]\npreset = "thesis"\nmodel = "coloured"\n').filter
+    assert (mixed.model, mixed.p0) == ("coloured", "thesis")
+    p = filter_params_from_config(parse_config_text(""))
+    assert p.coloured and p.p0 == "physical" and p.bias_noise
+    with pytest.raises(InputError) as caught:
+        parse_config_text('[filter]\n\npreset = "faithful"\n', "x.toml")
+    assert (caught.value.field, caught.value.line) == ("filter.preset", 3)
+
+
+@pytest.mark.parametrize(("systems", "tau", "frac"), [
+    # C/A: SA τ 240 s; white 5 m against the program's 50 m → 1 − 25/2500 = 0.99.
+    ('[gps]\non = true\n', 240.0, 0.99),
+    # P: τ 600 s; white 0.5 m against 8.9 m → 0.9968, capped at 0.99 (white floor 1 %).
+    ('[gps]\non = true\nreceiver = "P"\n', 600.0, 0.99),
+    # Decca only: sky-wave τ 180 s, white floor.
+    ('[decca]\non = true\nred = "B20"\n', 180.0, 0.99),
+    # Both: the longer τ, the smaller fraction.
+    ('[gps]\non = true\n[decca]\non = true\nred = "B20"\n', 240.0, 0.99),
+    # GPS.SE_SF 0.04 makes the C/A σ 10 m: 1 − 25/100 = 0.75.
+    ('[gps]\non = true\n[lsq]\ngps_se_sf = 0.04\n', 240.0, 0.75),
+])
+def test_auto_fix_model_follows_the_systems(systems: str, tau: float, frac: float) -> None:
+    """fix_tau_s / fix_sigma_frac "auto" are derived from the receiver and chain (hand values
+    from engine.kalman's documented constants); a number in the file is used as it is."""
+    from engine.cycle import filter_params_from_config
+
+    p = filter_params_from_config(parse_config_text(systems))
+    assert p.fix_tau_s == tau and p.fix_sigma_frac == pytest.approx(frac, abs=1e-12)
+    given = parse_config_text(systems + '[filter]\nfix_tau_s = 60\nfix_sigma_frac = "AUTO"\n')
+    assert given.filter.fix_sigma_frac == "auto"
+    assert filter_params_from_config(given).fix_tau_s == 60.0
+    with pytest.raises(InputError) as caught:
+        parse_config_text('[filter]\nfix_tau_s = "soon"\n')
+    assert caught.value.field == "filter.fix_tau_s"
