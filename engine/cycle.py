@@ -274,6 +274,12 @@ class CycleResult:
     """The update with this record's gyro, log and inclinometer rows, made before the step into
     this epoch (README "Sensor timing"); ``filter_update`` is the update at this epoch (fix or raw
     LOPs, and the pressure depth). Both carry their LOM and LS tests."""
+    fix_gate: str = ""
+    """Why this epoch's fix is marked: "gross" (kept out by the gross-error gate,
+    :data:`GROSS_GATE_SIGMA`), "innovation" (taken, but the filter's innovation (LOM) test
+    rejects it), "" otherwise. The messages say the same in words."""
+    lane_slips: int = 0
+    """Decca lane slips corrected against GPS this cycle (one per pattern)."""
 
 
 @dataclass(frozen=True)
@@ -506,10 +512,11 @@ def step(
         prior = None
     decca_reading = None
     decca_track = nav.decca_track
+    lane_slips = 0
     if cfg.decca.on:
         placed = ctx.placed_chain(cm)
         if placed is not None:
-            totals, decca_track, notes = _decca_totals(
+            totals, decca_track, notes, lane_slips = _decca_totals(
                 ctx, nav, rec, placed, x_start,
                 None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
                 None if gps_fix is None else LaneSource(
@@ -547,6 +554,7 @@ def step(
     has_fix = nav.filter_has_fix
     source = nav.fix_source
     gated = nav.gated_fixes
+    fix_gate = ""
     lse_ok = fix is not None and fix.ok and not fix.uses_prior
     depth_rows: Measurement | None = None
     if pred_state is not None and sens.depth_m is not None:
@@ -584,7 +592,11 @@ def step(
                 filt_result, new_filter, depth_rows = trial, trial.state, None
                 has_fix = True
                 gated = 0
+                if trial.lom.verdict == "reject":
+                    fix_gate = "innovation"
+                    messages.append(innovation_message(trial))
             else:
+                fix_gate = "gross"
                 gated = nav.gated_fixes + 1
                 messages.append(f"Fix {d_sigma:.3g} σ from the filter: a gross error, not used "
                                 f"({gated} in a row)")
@@ -646,6 +658,8 @@ def step(
         messages=tuple(messages),
         smoother_link=link,
         sensor_update=sens_result,
+        fix_gate=fix_gate,
+        lane_slips=lane_slips,
     )
     _freeze_result(fix, None if link is None else link[2], filt_result, sens_result)
     next_nav = NavState(
@@ -718,7 +732,7 @@ def _decca_totals(
     position: LaneSource | None = None,
     gps: LaneSource | None = None,
 ) -> tuple[tuple[float | None, float | None, float | None],
-           tuple[tuple[float, datetime] | None, ...], list[str]]:
+           tuple[tuple[float, datetime] | None, ...], list[str], int]:
     """Total lane counts of this record's fractions, tracked like a decometer, with lane
     integrity (issue 11; thesis §4.2.3 on lane identification).
 
@@ -733,8 +747,9 @@ def _decca_totals(
     lane with a message. A zone/lane that puts the count more than half a zone from the
     provisional position's count gives a warning (lsq.md Q7); a provisional position where the
     lane model cannot be evaluated leaves the pattern unavailable for this record, with a
-    message.
+    message. Returns (totals, new track, messages, number of slips corrected).
     """
+    slips = 0
     totals: list[float | None] = [None, None, None]
     track = list(nav.decca_track)
     notes: list[str] = []
@@ -802,9 +817,20 @@ def _decca_totals(
                                  f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
                                  f"({total:.2f} → {expected:.2f})")
                     total = expected
+                    slips += 1
         totals[i] = total
         track[i] = (total, rec.time)
-    return (totals[0], totals[1], totals[2]), tuple(track), notes
+    return (totals[0], totals[1], totals[2]), tuple(track), notes, slips
+
+
+def innovation_message(u: UpdateResult) -> str:
+    """The message line for a fix update whose innovation (LOM) test rejects it (thesis
+    eq. 6.38–6.40): the statistic against its upper bound and the most suspect row."""
+    t = u.ls.t
+    worst = int(np.argmax(np.abs(t))) if t.size else None
+    row = "" if worst is None else f", worst {u.labels[worst]} w = {float(t[worst]):+.1f}"
+    return (f"Fix fails the innovation test: T = {u.lom.t:.2f} > {u.lom.upper:.2f}{row} "
+            "(taken; check it)")
 
 
 def gps_voted_out(fix: FixResult) -> str | None:

@@ -64,6 +64,24 @@ class RunSummary:
     out_path: Path | None
     jsonl_path: Path | None
     eof: bool
+    flagged_lops: int = 0
+    """LOPs whose w-test failed but were kept (LOPReject 'N', or 'A' not yet answered)."""
+    gated_fixes: int = 0
+    """Fixes kept out of the filter by the gross-error gate."""
+    innovation_rejects: int = 0
+    """Fixes the filter took although its innovation (LOM) test rejected them."""
+    lane_slips: int = 0
+    """Decca lane slips corrected against GPS."""
+
+
+def cycle_counts(r: CycleResult) -> tuple[int, int, int, int]:
+    """(flagged LOPs, gated fix, innovation-rejected fix, lane slips) of one cycle (issue 11:
+    what the replay summary counts)."""
+    flagged = 0
+    if r.fix is not None and r.fix.tested is not None:
+        flagged = len(r.fix.tested.flagged) + (r.fix.candidate_slot is not None)
+    return (flagged, int(r.fix_gate == "gross"), int(r.fix_gate == "innovation"),
+            r.lane_slips)
 
 
 DATUM_FILE = "TO_WGS84.DAT"
@@ -169,6 +187,7 @@ class Session:
         self.eof = False
         self.fixes = 0
         self.rejected_lops = 0
+        self._counts = [0, 0, 0, 0]  # cycle_counts summed
         self._run_name = os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
         self._since_processed: int | None = None
@@ -286,6 +305,8 @@ class Session:
             self.fixes += 1
         if result.fix is not None:
             self.rejected_lops += len(result.fix.rejected_slots)
+        for i, c in enumerate(cycle_counts(result)):
+            self._counts[i] += c
         if self._out is not None:
             head, lines = cycle_block(result)
             self._out.write_cycle(head, lines)
@@ -328,6 +349,8 @@ class Session:
         if dropped.fix is not None:
             self.fixes -= int(dropped.fix.ok and not dropped.fix.uses_prior)
             self.rejected_lops -= len(dropped.fix.rejected_slots)
+        for i, c in enumerate(cycle_counts(dropped)):
+            self._counts[i] -= c
         if self._smoother:
             self._smoother.pop()
         if self._out is not None:
@@ -362,6 +385,10 @@ class Session:
             out_path=self.out_path,
             jsonl_path=self.jsonl_path,
             eof=self.eof,
+            flagged_lops=self._counts[0],
+            gated_fixes=self._counts[1],
+            innovation_rejects=self._counts[2],
+            lane_slips=self._counts[3],
         )
 
     # ------------------------------------------------------------------ operator
