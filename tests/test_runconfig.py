@@ -386,3 +386,19 @@ def test_auto_fix_model_follows_the_systems(systems: str, tau: float, frac: floa
     with pytest.raises(InputError) as caught:
         parse_config_text('[filter]\nfix_tau_s = "soon"\n')
     assert caught.value.field == "filter.fix_tau_s"
+
+
+def test_switching_the_preset_in_the_dialog_changes_only_what_the_preset_decides() -> None:
+    """Demo ▸ Filter params, preset → "thesis": model, p0 and bias_noise follow the preset; a
+    key changed earlier (q_scale 2) stays, since nobody edited it now."""
+    from engine.commands import SetParameters, apply_command
+    from engine.cycle import build_context, initial_state
+    from engine.session import read_data_dir
+
+    cfg = parse_config_text("[filter]\nq_scale = 2.0\n")
+    ctx = build_context(cfg, *read_data_dir(ROOT / "data"))
+    new, _nav, _text = apply_command(ctx, initial_state(cfg),
+                                     SetParameters("filter", (("preset", "thesis"),)))
+    f = new.filter
+    assert (f.preset, f.model, f.p0, f.bias_noise, f.q_scale) == (
+        "thesis", "thesis", "thesis", False, 2.0)
