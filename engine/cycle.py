@@ -785,7 +785,8 @@ def _decca_totals(
                 why = ("no position" if not math.isfinite(worst) else
                        f"position ±{3 * worst:.1f} lanes (3σ) along the lane gradient")
                 notes.append(f"Decca {pattern}: lane not identified after the gap ({why}): "
-                             "kept out of the fix until GPS or a better position settles it")
+                             "kept out of the fix until GPS, a better position or a zone/lane "
+                             "entered in Setup > Decca settles it")
                 continue  # the stale track stays: the next record tries again
         else:
             zl = ctx.zone_lane[i]
