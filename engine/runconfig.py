@@ -463,7 +463,7 @@ class LsqConfig:
     epsilon_m: float = 1.0
     s02: float = 1.0
     decca_cf: float = 64.0
-    gps_se_sf: float = 1.0
+    gps_se_sf: float = 0.5
     estimator: str = "lsq"
     sigma_compass_deg: float = 0.8
     sigma_periscope_deg: float = 0.7
@@ -497,8 +497,11 @@ LsqConfig.KEYS = (
     Key("decca_cf", "decca_cf", "float", "—",
         "Decca VCV divisor: 64 summer day, 4 winter day, 1 summer night, 1/2.25 winter night",
         "A8.2 Decca.CF = 64 (L8763–8764); L8352", _POSITIVE),
-    Key("gps_se_sf", "gps_se_sf", "float", "—", "scale factor on the GPS error VCV",
-        "A8.2 GPS.SE_SF = 1 (L8759)", _POSITIVE),
+    Key("gps_se_sf", "gps_se_sf", "float", "—",
+        "scale factor on the GPS error VCV (C/A 2500 m², P 79.2 m² per axis): 0.5 reads the "
+        "thesis' 2 d_rms (100 m C/A, 17.8 m P) as d_rms² = σx² + σy² (σ 35.4 m C/A); the "
+        "thesis program's 1 (σ = d_rms per axis) is in data/920917_1.toml",
+        "A8.2 GPS.SE_SF = 1 (L8759); program.md A13; docs/CONFIG.md", _POSITIVE),
     Key("estimator", "estimator", "str", "—",
         '"lsq" (thesis) or the robust "huber" / "danish" alternatives', "not in the thesis",
         _choice("lsq", "huber", "danish")),

@@ -54,7 +54,9 @@ def test_omitted_keys_take_the_a82_defaults() -> None:
     assert cfg.lsq.reliab_interval_pct == 5.0  # ReliabInterval (L8781)
     assert cfg.lsq.conf_region_pct == 95.0  # ConfRegion (L8782)
     assert cfg.lsq.lop_reject == "A"  # LOPReject (L8776)
-    assert cfg.lsq.epsilon_m == 1.0 and cfg.lsq.s02 == 1.0 and cfg.lsq.gps_se_sf == 1.0
+    assert cfg.lsq.epsilon_m == 1.0 and cfg.lsq.s02 == 1.0
+    # Not A8.2's 1 (kept in 920917_1.toml): the thesis' 2 d_rms = 100 m read as σ 35.4 m/axis.
+    assert cfg.lsq.gps_se_sf == 0.5
     assert cfg.lsq.scale_vcv is False
     assert cfg.demo.delta_t_s == 1  # DeltaT (L8788)
     assert cfg.demo.s_weight == 1.026  # s_weight (L8768)
@@ -362,14 +364,14 @@ def test_empty_filter_table_is_the_honest_preset() -> None:
 
 
 @pytest.mark.parametrize(("systems", "tau", "frac"), [
-    # C/A: SA τ 240 s; white 5 m against the program's 50 m → 1 − 25/2500 = 0.99.
-    ('[gps]\non = true\n', 240.0, 0.99),
-    # P: τ 600 s; white 0.5 m against 8.9 m → 0.9968, capped at 0.99 (white floor 1 %).
+    # C/A: SA τ 240 s; white 5 m against 2500 m² × GPS.SE_SF 0.5 → 1 − 25/1250 = 0.98.
+    ('[gps]\non = true\n', 240.0, 0.98),
+    # P: τ 600 s; white 0.5 m against 79.2 m² × 0.5 → 0.9937, capped at 0.99 (white floor 1 %).
     ('[gps]\non = true\nreceiver = "P"\n', 600.0, 0.99),
     # Decca only: sky-wave τ 180 s, white floor.
     ('[decca]\non = true\nred = "B20"\n', 180.0, 0.99),
     # Both: the longer τ, the smaller fraction.
-    ('[gps]\non = true\n[decca]\non = true\nred = "B20"\n', 240.0, 0.99),
+    ('[gps]\non = true\n[decca]\non = true\nred = "B20"\n', 240.0, 0.98),
     # GPS.SE_SF 0.04 makes the C/A σ 10 m: 1 − 25/100 = 0.75.
     ('[gps]\non = true\n[lsq]\ngps_se_sf = 0.04\n', 240.0, 0.75),
 ])
