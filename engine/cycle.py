@@ -22,6 +22,7 @@ from engine.datumfile import DatumFile
 from engine.decca import (
     PATTERNS,
     ChainOnGrid,
+    DeccaGeometry,
     decca_geometry,
     identify_lane,
     place_chain,
@@ -705,22 +706,21 @@ class LaneSource:
 
 
 def _lane_at(ctx: RunContext, placed: ChainOnGrid, src: LaneSource, pattern_index: int,
-             cache: dict[str, object]) -> tuple[float, float] | None:
+             cache: dict[str, DeccaGeometry | None]) -> tuple[float, float] | None:
     """(N_calc, σ along the gradient) of pattern ``pattern_index`` at ``src`` (lanes), or None
     where the lane model cannot be evaluated; geometries are cached per source name."""
-    geom = cache.get(src.name)
-    if geom is None:
+    if src.name not in cache:
         try:
-            geom = decca_geometry(placed, src.x_m, src.y_m, ctx.geodesic)
+            geom: DeccaGeometry | None = decca_geometry(placed, src.x_m, src.y_m, ctx.geodesic)
         except (ValueError, ArithmeticError):
-            geom = False
-        if geom is not False and not np.isfinite(geom.n_calc).all():  # type: ignore[union-attr]
-            geom = False
+            geom = None
+        if geom is not None and not np.isfinite(geom.n_calc).all():
+            geom = None
         cache[src.name] = geom
-    if geom is False:
+    g = cache[src.name]
+    if g is None:
         return None
-    g = geom  # type: ignore[assignment]
-    return float(g.n_calc[pattern_index]), lane_sigma(g.row[pattern_index], src.cov)  # type: ignore[attr-defined]
+    return float(g.n_calc[pattern_index]), lane_sigma(g.row[pattern_index], src.cov)
 
 
 def _decca_totals(
@@ -755,7 +755,7 @@ def _decca_totals(
     notes: list[str] = []
     geom = None
     geom_failed = False
-    cache: dict[str, object] = {}
+    cache: dict[str, DeccaGeometry | None] = {}
     for i, pattern in enumerate(PATTERNS):
         frac = rec.decca[i]
         if frac is None:
