@@ -519,7 +519,12 @@ LsqConfig.KEYS = (
 
 @dataclass(frozen=True)
 class FilterConfig:
-    """Kalman filter switches and noise parameters (chapter 6; kalman.md §6, A7, A16)."""
+    """Kalman filter switches and noise parameters (chapter 6; kalman.md §6, A7, A16).
+
+    The defaults are the "honest" preset; ``preset = "thesis"`` in a TOML ``[filter]`` table
+    (or :meth:`from_preset`) gives the thesis-literal filter (:data:`FILTER_PRESETS`).
+    ``fix_tau_s`` and ``fix_sigma_frac`` are a number or ``"auto"`` (derived from the systems
+    on by ``engine.kalman.derived_fix_model``)."""
 
     TABLE: ClassVar[str] = "filter"
     KEYS: ClassVar[tuple[Key, ...]]
@@ -626,7 +631,7 @@ FilterConfig.KEYS = (
         _auto_or(_POSITIVE)),
     Key("fix_sigma_frac", "fix_sigma_frac", "float_auto", "—",
         'fraction of the fix variance that is time-correlated ("coloured" model); "auto" = '
-        "1 − receiver white variance / fix variance, at most 0.99 (C/A 0.99, P 0.987, Decca 0.99)",
+        "1 − receiver white variance / fix variance, at most 0.99 (C/A 0.98, P and Decca 0.99)",
         "thesis L2287–2291 (keep a white part); docs/CONFIG.md \"The filter decision\"",
         _auto_or(_between(0.0, 1.0, hi_open=True))),
     Key("dr_sigma_m", "dr_sigma_m", "float", "m",
