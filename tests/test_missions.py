@@ -80,18 +80,7 @@ def test_mpp_ellipse_coverage_at_least_90_percent(figures: dict[str, list[Missio
         assert m + h >= 0.90, (name, phase, m, h)
 
 
-CONSERVATIVE = {"M3_GPS_CM_MIDNIGHT", "M4_GPS_SW_WGS84"}
-"""Missions whose surfaced coverage is above the issue's 99 % (a known miss, docs/ASSESS.md):
-GPS only, long steady legs. The fix model matches the simulated receiver exactly (35.4 m
-Gauss–Markov, τ 240 s, 5 m white), but the thesis' manoeuvre noise (turn-rate σ ½ · 1 °/s,
-acceleration eq. 6.35, all the time) makes the filter doubt its dead reckoning on a steady
-course, so its P is an upper bound of its error (NEES ≈ 1 instead of 2)."""
-
-
-@pytest.mark.parametrize("name", [
-    pytest.param(n, marks=pytest.mark.xfail(
-        strict=True, reason="known miss: conservative on steady GPS-only legs")) if n in
-    CONSERVATIVE else n for n in MISSIONS])
+@pytest.mark.parametrize("name", MISSIONS)
 def test_mpp_ellipse_coverage_at_most_99_percent(figures: dict[str, list[MissionFigures]],
                                                  name: str) -> None:
     """Surfaced coverage consistent with ≤ 99 % (an ellipse not uselessly large)."""
