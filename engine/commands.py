@@ -16,7 +16,7 @@ import numpy as np
 from engine.cycle import NavState, RunContext
 from engine.fix import MAX_BRR, ManualObservation
 from engine.formatting import format_lat_dms, format_lon_dms
-from engine.runconfig import RunConfig
+from engine.runconfig import FILTER_PRESETS, RunConfig
 from engine.sensors import knots_to_ms
 
 
@@ -196,7 +196,12 @@ def apply_command(
     if isinstance(cmd, SetParameters):
         if cmd.table not in TABLES:
             raise ValueError(f"unknown parameter table {cmd.table!r}")
-        table = replace(getattr(cfg, cmd.table), **dict(cmd.values))
+        values = dict(cmd.values)
+        if cmd.table == "filter" and "preset" in values:
+            # A preset switch sets the keys the preset decides; the other keys stay as they are
+            # unless edited in the same command (docs/CONFIG.md "The filter decision").
+            values = {**FILTER_PRESETS[str(values["preset"]).lower()], **values}
+        table = replace(getattr(cfg, cmd.table), **values)
         text = " ".join(f"{k}={v}" for k, v in cmd.values)
         if cmd.table == "demo" and "press_ref_freq_hz" in dict(cmd.values):
             nav = replace(nav, press_ref_hz=None)  # the next reading uses the new reference

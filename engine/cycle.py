@@ -22,6 +22,7 @@ from engine.datumfile import DatumFile
 from engine.decca import (
     PATTERNS,
     ChainOnGrid,
+    DeccaGeometry,
     decca_geometry,
     identify_lane,
     place_chain,
@@ -49,6 +50,7 @@ from engine.kalman import (
     FilterState,
     Measurement,
     UpdateResult,
+    derived_fix_model,
     init_state,
     innovation_distance,
     lop_measurement,
@@ -79,8 +81,11 @@ STATUS_CODE = {"off": 0, "on": 1, "n/a": 2}
 
 
 def filter_params_from_config(cfg: RunConfig) -> FilterParams:
-    """The filter parameters of a run configuration (kalman.md §6.6–§6.8, §14)."""
+    """The filter parameters of a run configuration (kalman.md §6.6–§6.8, §14); ``"auto"``
+    fix-error τ and fraction follow from the systems on (``engine.kalman.derived_fix_model``)."""
     f = cfg.filter
+    gps_var = (GPS_VAR_P_M2 if cfg.gps.p_code else GPS_VAR_CA_M2) * cfg.lsq.gps_se_sf
+    tau, frac = derived_fix_model(cfg.gps.on, gps_var, cfg.decca.on, cfg.gps.p_code)
     return FilterParams(
         q_scale=f.q_scale,
         q_mode=f.q_mode,
@@ -93,8 +98,8 @@ def filter_params_from_config(cfg: RunConfig) -> FilterParams:
         log_sigma_floor_ms=f.log_sigma_floor_ms,
         p0=f.p0,
         coloured=f.model == "coloured",
-        fix_tau_s=f.fix_tau_s,
-        fix_sigma_frac=f.fix_sigma_frac,
+        fix_tau_s=tau if f.fix_tau_s == "auto" else float(f.fix_tau_s),
+        fix_sigma_frac=frac if f.fix_sigma_frac == "auto" else float(f.fix_sigma_frac),
         bias_noise=f.bias_noise,
         bias_rw_log_ms_sqrth=f.log_bias_rw_ms_sqrth,
         bias_rw_gyro_deg_sqrth=f.gyro_bias_rw_deg_sqrth,
@@ -275,6 +280,12 @@ class CycleResult:
     """The LSE failed its tests (:func:`fix_fit`): a message says so; .OUT/JSONL record it."""
     fix_cov_scale: float = 1.0
     """The factor the LSE's VCV was multiplied by before the filter and the MPP used it."""
+    fix_gate: str = ""
+    """Why this epoch's fix is marked: "gross" (kept out by the gross-error gate,
+    :data:`GROSS_GATE_SIGMA`), "innovation" (taken, but the filter's innovation (LOM) test
+    rejects it), "" otherwise. The messages say the same in words."""
+    lane_slips: int = 0
+    """Decca lane slips corrected against GPS this cycle (one per pattern)."""
 
 
 @dataclass(frozen=True)
@@ -548,10 +559,16 @@ def step(
         prior = None
     decca_reading = None
     decca_track = nav.decca_track
+    lane_slips = 0
     if cfg.decca.on:
         placed = ctx.placed_chain(cm)
         if placed is not None:
-            totals, decca_track, notes = _decca_totals(ctx, nav, rec, placed, x_start)
+            totals, decca_track, notes, lane_slips = _decca_totals(
+                ctx, nav, rec, placed, x_start,
+                None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
+                None if gps_fix is None else LaneSource(
+                    "GPS", gps_fix.x_m + gps_fix.corr_east_m, gps_fix.y_m + gps_fix.corr_north_m,
+                    np.eye(2) * gps_fix.var_m2))
             messages.extend(notes)
             sel = tuple(p in cfg.decca.select for p in PATTERNS)
             c = cfg.corrections
@@ -575,6 +592,9 @@ def step(
                             manual=manual)
             messages.append(f"LOP {name} fails the w-test: discard it?")
         messages.extend(fix.messages)
+        voted = gps_voted_out(fix)
+        if voted is not None:
+            messages.append(voted)
     # --- A fix that fails its tests is not taken at face value (fix_fit, issue 15 item 6).
     fit_scale, fit_note = fix_fit(fix)
     if fit_note is not None:
@@ -588,6 +608,7 @@ def step(
     has_fix = nav.filter_has_fix
     source = nav.fix_source
     gated = nav.gated_fixes
+    fix_gate = ""
     lse_ok = fix is not None and fix.ok and not fix.uses_prior
     depth_rows: Measurement | None = None
     if pred_state is not None and sens.depth_m is not None:
@@ -625,7 +646,11 @@ def step(
                 filt_result, new_filter, depth_rows = trial, trial.state, None
                 has_fix = True
                 gated = 0
+                if trial.lom.verdict == "reject":
+                    fix_gate = "innovation"
+                    messages.append(innovation_message(trial))
             else:
+                fix_gate = "gross"
                 gated = nav.gated_fixes + 1
                 messages.append(f"Fix {d_sigma:.3g} σ from the filter: a gross error, not used "
                                 f"({gated} in a row)")
@@ -689,6 +714,8 @@ def step(
         sensor_update=sens_result,
         fix_fails_tests=fit_note is not None,
         fix_cov_scale=fit_scale,
+        fix_gate=fix_gate,
+        lane_slips=lane_slips,
     )
     _freeze_result(fix, None if link is None else link[2], filt_result, sens_result)
     next_nav = NavState(
@@ -709,39 +736,116 @@ def step(
     return next_nav, result
 
 
+LANE_SIGMA_MAX = 0.5 / 3.0
+"""Largest 1σ (lanes) along a pattern's lane gradient of a position an integer lane may be taken
+from: 3σ < 0.5 lane, so the nearest whole lane is the right one with probability ≥ 99.7 %
+(Gaussian). Applies to lane identification after a gap (a dive) and to the GPS lane check."""
+
+
+def lane_sigma(row: np.ndarray, cov: np.ndarray) -> float:
+    """1σ (lanes) along a lane gradient ``row`` (lanes/m, ∂N/∂(x, y)) of a position whose 2×2
+    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ)."""
+    r = np.asarray(row, dtype=float)
+    return math.sqrt(max(float(r @ np.asarray(cov, dtype=float) @ r), 0.0))
+
+
+@dataclass(frozen=True, slots=True)
+class LaneSource:
+    """A position that may settle Decca integer lanes: grid (x, y) m, its 2×2 VCV (m²) and the
+    name the messages use ("GPS", "the DR position")."""
+
+    name: str
+    x_m: float
+    y_m: float
+    cov: np.ndarray
+
+
+def _lane_at(ctx: RunContext, placed: ChainOnGrid, src: LaneSource, pattern_index: int,
+             cache: dict[str, DeccaGeometry | None]) -> tuple[float, float] | None:
+    """(N_calc, σ along the gradient) of pattern ``pattern_index`` at ``src`` (lanes), or None
+    where the lane model cannot be evaluated; geometries are cached per source name."""
+    if src.name not in cache:
+        try:
+            geom: DeccaGeometry | None = decca_geometry(placed, src.x_m, src.y_m, ctx.geodesic)
+        except (ValueError, ArithmeticError):
+            geom = None
+        if geom is not None and not np.isfinite(geom.n_calc).all():
+            geom = None
+        cache[src.name] = geom
+    g = cache[src.name]
+    if g is None:
+        return None
+    return float(g.n_calc[pattern_index]), lane_sigma(g.row[pattern_index], src.cov)
+
+
 def _decca_totals(
     ctx: RunContext,
     nav: NavState,
     rec: RunRecord,
     placed: ChainOnGrid,
     x_start: tuple[float, float],
+    position: LaneSource | None = None,
+    gps: LaneSource | None = None,
 ) -> tuple[tuple[float | None, float | None, float | None],
-           tuple[tuple[float, datetime] | None, ...], list[str]]:
-    """Total lane counts of this record's fractions, tracked like a decometer.
+           tuple[tuple[float, datetime] | None, ...], list[str], int]:
+    """Total lane counts of this record's fractions, tracked like a decometer, with lane
+    integrity (issue 11; thesis §4.2.3 on lane identification).
 
     The first reading of a pattern takes the operator's zone/lane (resolving the 10-zone cycle
-    from the provisional position, lsq.md §5.3); later readings follow lane crossings
-    (:func:`engine.decca.track_lane`); after a gap longer than ``DECCA_TRACK_GAP_S`` the lane is
-    identified again from the provisional position and a message says so. A zone/lane that puts
-    the count more than half a zone from the provisional position's count gives a warning
-    (lsq.md Q7); a provisional position where the lane model cannot be evaluated leaves the
-    pattern unavailable for this record, with a message.
+    from the provisional position ``x_start``, lsq.md §5.3); later readings follow lane
+    crossings (:func:`engine.decca.track_lane`). After a gap longer than ``DECCA_TRACK_GAP_S``
+    (a dive) the integer lane is identified again only from a source precise enough along the
+    lane gradient (1σ ≤ :data:`LANE_SIGMA_MAX`): this record's ``gps``, else the filter's
+    ``position`` (prediction with its VCV); while neither is, the pattern stays out of the fix
+    and a message says why. Whenever ``gps`` is in the record and precise enough, every count
+    is checked against it: a count a whole lane or more off is a lane slip, corrected to GPS's
+    lane with a message. A zone/lane that puts the count more than half a zone from the
+    provisional position's count gives a warning (lsq.md Q7); a provisional position where the
+    lane model cannot be evaluated leaves the pattern unavailable for this record, with a
+    message. Returns (totals, new track, messages, number of slips corrected).
     """
+    slips = 0
     totals: list[float | None] = [None, None, None]
     track = list(nav.decca_track)
     notes: list[str] = []
     geom = None
     geom_failed = False
+    cache: dict[str, DeccaGeometry | None] = {}
     for i, pattern in enumerate(PATTERNS):
         frac = rec.decca[i]
         if frac is None:
             continue
         prev = track[i]
+        checked = False
         if prev is not None and (rec.time - prev[1]).total_seconds() <= DECCA_TRACK_GAP_S:
             total = track_lane(prev[0], frac)
+        elif prev is not None:
+            # After a gap: identify the lane again, but only from a position that can settle it.
+            total = None
+            worst = math.inf
+            for src in (gps, position):
+                if src is None:
+                    continue
+                at = _lane_at(ctx, placed, src, i, cache)
+                if at is None:
+                    continue
+                if at[1] <= LANE_SIGMA_MAX:
+                    total = identify_lane(at[0], frac)
+                    notes.append(f"Decca {pattern}: lane identified again from {src.name} "
+                                 f"(±{3 * at[1]:.2f} lane, 3σ)")
+                    checked = src is gps
+                    break
+                worst = min(worst, at[1])
+            if total is None:
+                why = ("no position" if not math.isfinite(worst) else
+                       f"position ±{3 * worst:.1f} lanes (3σ) along the lane gradient")
+                notes.append(f"Decca {pattern}: lane not identified after the gap ({why}): "
+                             "kept out of the fix until GPS, a better position or a zone/lane "
+                             "entered in Setup > Decca settles it")
+                continue  # the stale track stays: the next record tries again
         else:
             zl = ctx.zone_lane[i]
-            if prev is None and zl is None:
+            if zl is None:
                 continue  # pattern never entered by the operator: not available
             if geom is None and not geom_failed:
                 try:
@@ -755,19 +859,48 @@ def _decca_totals(
                                  f"({problem})")
             if geom is None:
                 continue
-            n_calc = float(geom.n_calc[i])
-            if prev is None:
-                assert zl is not None
-                lanes = resolve_total_lanes(zl[0], zl[1], frac, pattern, n_calc)
-                total = lanes.total
-                if lanes.warning is not None:  # more than half a zone from N_calc (lsq.md Q7)
-                    notes.append(lanes.warning)
-            else:
-                total = identify_lane(n_calc, frac)
-                notes.append(f"Decca {pattern}: lane identified again from the DR position")
+            lanes = resolve_total_lanes(zl[0], zl[1], frac, pattern, float(geom.n_calc[i]))
+            total = lanes.total
+            if lanes.warning is not None:  # more than half a zone from N_calc (lsq.md Q7)
+                notes.append(lanes.warning)
+        if gps is not None and not checked:
+            at = _lane_at(ctx, placed, gps, i, cache)
+            if at is not None and at[1] <= LANE_SIGMA_MAX:
+                expected = identify_lane(at[0], frac)
+                slip = round(total - expected)
+                if slip != 0:
+                    notes.append(f"Decca {pattern}: lane slip of {slip:+d} lane"
+                                 f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
+                                 f"({total:.2f} → {expected:.2f})")
+                    total = expected
+                    slips += 1
         totals[i] = total
         track[i] = (total, rec.time)
-    return (totals[0], totals[1], totals[2]), tuple(track), notes
+    return (totals[0], totals[1], totals[2]), tuple(track), notes, slips
+
+
+def innovation_message(u: UpdateResult) -> str:
+    """The message line for a fix update whose innovation (LOM) test rejects it (thesis
+    eq. 6.38–6.40): the statistic against its upper bound and the most suspect row."""
+    t = u.ls.t
+    worst = int(np.argmax(np.abs(t))) if t.size else None
+    row = "" if worst is None else f", worst {u.labels[worst]} w = {float(t[worst]):+.1f}"
+    return (f"Fix fails the innovation test: T = {u.lom.t:.2f} > {u.lom.upper:.2f}{row} "
+            "(taken; check it)")
+
+
+def gps_voted_out(fix: FixResult) -> str | None:
+    """The message for a fix whose w-test rejected (or, under LOPReject 'A', proposes to
+    reject) a GPS LOP while Decca lanes are in it: GPS has no integer ambiguity, Decca has, so
+    the likelier culprit is a wrong Decca lane and the operator must hear of it (issue 11)."""
+    gps_slots = {0, 1}
+    out = gps_slots & set(fix.rejected_slots)
+    if fix.candidate_slot in gps_slots:
+        out.add(fix.candidate_slot)  # type: ignore[arg-type]
+    if not out or all(t is None for t in fix.decca_observed):
+        return None
+    return ("GPS voted out by the w-test against Decca: GPS has no lane ambiguity, "
+            "check the Decca lanes")
 
 
 def fix_source(cfg: RunConfig) -> tuple[object, ...]:

@@ -36,6 +36,7 @@ __all__ = [
     "accel_variance",
     "add_fix_states",
     "current_rate_variance",
+    "derived_fix_model",
     "discrete_noise",
     "innovation_distance",
     "init_state",
@@ -106,6 +107,56 @@ def current_rate_variance(v_cm_ms: float, period_s: float) -> float:
     """σ_vc² (m²/s⁴) per current component, §6.6: σ = ½ V_cm (ω_v + ω_ψ), ω = 2π/period."""
     omega = TWO_PI / period_s
     return (0.5 * v_cm_ms * 2.0 * omega) ** 2
+
+
+FIX_TAU_GPS_CA_S = 240.0
+"""Correlation time (s) of a C/A (SPS) GPS fix error in the SA era: Selective Availability, a
+Gauss–Markov process of a few minutes (docs/SIMULATOR.md ``gps.tau_s``; thesis A6 for the model)."""
+FIX_TAU_GPS_P_S = 600.0
+"""Correlation time (s) of a P-code (PPS, no SA) fix error: ionosphere, troposphere and ephemeris
+errors, slower than SA (an assumption, not in the thesis: a longer τ is the cautious side, the
+filter then averages less)."""
+FIX_TAU_DECCA_S = 180.0
+"""Correlation time (s) of the Decca sky-wave error (docs/SIMULATOR.md ``decca.tau_s``, "a few
+minutes"; the A4 VCV gives its size, thesis A4.1–A4.3)."""
+GPS_WHITE_SIGMA_M = 5.0
+"""White receiver noise per grid axis (m) of a C/A receiver (docs/SIMULATOR.md
+``gps.white_sigma_m``): the only part of a GPS fix error that averages out within seconds. A
+P-code receiver's is a tenth of it (code noise scales with the chip length: 10.23 against
+1.023 Mchip/s)."""
+FIX_WHITE_FLOOR = 0.01
+"""Least white share of a fix variance the coloured model keeps in R, so that R stays non-singular
+(thesis L2287–2291: the augmented R is singular otherwise; option (a): 1–10 % white)."""
+
+
+def derived_fix_model(gps_on: bool, gps_var_m2: float, decca_on: bool,
+                      p_code: bool = False) -> tuple[float, float]:
+    """(τ in s, coloured fraction) of the LSE error for the systems switched on.
+
+    τ: the longest correlation time among the systems on (:data:`FIX_TAU_GPS_CA_S`,
+    :data:`FIX_TAU_GPS_P_S`, :data:`FIX_TAU_DECCA_S`): a filter that assumed a shorter one would
+    average a slow error down too soon. Fraction: 1 − (white variance / fix variance) per
+    system, at most 1 − :data:`FIX_WHITE_FLOOR`; for GPS the white part is the receiver noise
+    (:data:`GPS_WHITE_SIGMA_M`, a tenth of it for P code) squared against the program's a priori
+    variance ``gps_var_m2`` (C/A at GPS.SE_SF 0.5: 1 − 25/1250 = 0.98; P: 1 − 0.25/39.6 → the
+    floor, 0.99); the Decca
+    reading's only white error is the 0.001-lane quantisation of the ``.RUN``
+    format (σ 0.0003 lane against ≥ 0.01 lane of sky-wave), so the floor decides (0.99). With
+    both on, the smaller fraction (the larger white share) is kept. Neither on: (C/A τ, floor).
+    """
+    taus: list[float] = []
+    fracs: list[float] = []
+    top = 1.0 - FIX_WHITE_FLOOR
+    if gps_on:
+        taus.append(FIX_TAU_GPS_P_S if p_code else FIX_TAU_GPS_CA_S)
+        white = GPS_WHITE_SIGMA_M / 10.0 if p_code else GPS_WHITE_SIGMA_M
+        fracs.append(min(top, max(0.0, 1.0 - white**2 / gps_var_m2)))
+    if decca_on:
+        taus.append(FIX_TAU_DECCA_S)
+        fracs.append(top)
+    if not taus:
+        return FIX_TAU_GPS_CA_S, top
+    return max(taus), min(fracs)
 
 
 def wrap_pi(a: float | np.ndarray) -> float | np.ndarray:

@@ -214,6 +214,10 @@ def _typed(value: Any, kind: str) -> Any:
         if not isinstance(value, str):
             raise _type_error(kind)
         return value
+    if kind == "float_auto":
+        if isinstance(value, bool) or not isinstance(value, str | int | float):
+            raise _bad('Wrong type: "auto" or a number expected !')
+        return value
     if kind == "str_list":
         if not isinstance(value, list | tuple) or not all(isinstance(v, str) for v in value):
             raise _type_error(kind)
@@ -472,7 +476,7 @@ class LsqConfig:
     epsilon_m: float = 1.0
     s02: float = 1.0
     decca_cf: float = 64.0
-    gps_se_sf: float = 1.0
+    gps_se_sf: float = 0.5
     estimator: str = "lsq"
     sigma_compass_deg: float = 0.8
     sigma_periscope_deg: float = 0.7
@@ -506,8 +510,11 @@ LsqConfig.KEYS = (
     Key("decca_cf", "decca_cf", "float", "—",
         "Decca VCV divisor: 64 summer day, 4 winter day, 1 summer night, 1/2.25 winter night",
         "A8.2 Decca.CF = 64 (L8763–8764); L8352", _POSITIVE),
-    Key("gps_se_sf", "gps_se_sf", "float", "—", "scale factor on the GPS error VCV",
-        "A8.2 GPS.SE_SF = 1 (L8759)", _POSITIVE),
+    Key("gps_se_sf", "gps_se_sf", "float", "—",
+        "scale factor on the GPS error VCV (C/A 2500 m², P 79.2 m² per axis): 0.5 reads the "
+        "thesis' 2 d_rms (100 m C/A, 17.8 m P) as d_rms² = σx² + σy² (σ 35.4 m C/A); the "
+        "thesis program's 1 (σ = d_rms per axis) is in data/920917_1.toml",
+        "A8.2 GPS.SE_SF = 1 (L8759); program.md A13; docs/CONFIG.md", _POSITIVE),
     Key("estimator", "estimator", "str", "—",
         '"lsq" (thesis) or the robust "huber" / "danish" alternatives', "not in the thesis",
         _choice("lsq", "huber", "danish")),
@@ -525,14 +532,20 @@ LsqConfig.KEYS = (
 
 @dataclass(frozen=True)
 class FilterConfig:
-    """Kalman filter switches and noise parameters (chapter 6; kalman.md §6, A7, A16)."""
+    """Kalman filter switches and noise parameters (chapter 6; kalman.md §6, A7, A16).
+
+    The defaults are the "honest" preset; ``preset = "thesis"`` in a TOML ``[filter]`` table
+    (or :meth:`from_preset`) gives the thesis-literal filter (:data:`FILTER_PRESETS`).
+    ``fix_tau_s`` and ``fix_sigma_frac`` are a number or ``"auto"`` (derived from the systems
+    on by ``engine.kalman.derived_fix_model``)."""
 
     TABLE: ClassVar[str] = "filter"
     KEYS: ClassVar[tuple[Key, ...]]
 
     on: bool = True
-    model: str = "thesis"
-    p0: str = "thesis"
+    preset: str = "honest"
+    model: str = "coloured"
+    p0: str = "physical"
     q_scale: float = 1.0
     q_mode: str = "vanloan"
     turn_rate_max_deg_s: float = 1.0
@@ -542,25 +555,62 @@ class FilterConfig:
     sigma_press_m: float = 1.45
     log_sigma_frac: float = 0.02
     log_sigma_floor_ms: float = 0.05
-    fix_tau_s: float = 240.0
-    fix_sigma_frac: float = 0.9
+    fix_tau_s: float | str = "auto"
+    fix_sigma_frac: float | str = "auto"
     dr_sigma_m: float = 1000.0
-    bias_noise: bool = False
+    bias_noise: bool = True
     log_bias_rw_ms_sqrth: float = 0.01
-    gyro_bias_rw_deg_sqrth: float = 0.5
+    gyro_bias_rw_deg_sqrth: float = 1.2
     incl_bias_rw_deg_sqrth: float = 0.1
 
     def __post_init__(self) -> None:
         _validate(self, self.TABLE, self.KEYS)
 
+    @classmethod
+    def from_preset(cls, preset: str, **changes: Any) -> FilterConfig:
+        """The ``[filter]`` table of ``preset`` ("honest" or "thesis") with ``changes`` on top:
+        what a TOML ``[filter]`` table with ``preset = …`` and those keys gives."""
+        name = _PRESET_CHECK(preset)
+        return cls(**{**FILTER_PRESETS[name], "preset": name, **changes})
+
+
+FILTER_PRESETS: dict[str, dict[str, Any]] = {
+    "honest": {},
+    "thesis": {"model": "thesis", "p0": "thesis", "bias_noise": False},
+}
+"""Values a ``filter.preset`` gives to the keys the file does not set (docs/CONFIG.md, "The
+filter decision"). "honest" is the class defaults: time-correlated fix errors with parameters
+derived from the configured receiver and chain, P0 from sensor accuracies, drifting biases.
+"thesis" is the thesis-literal filter of ch. 6: white fix noise (L2291), P0 = I (L2670) and
+the biases random constants (L2639–2641)."""
+
+_PRESET_CHECK = _choice("honest", "thesis")
+
+
+def _auto_or(check: Callable[[float], float]) -> Callable[[Any], Any]:
+    """A check for a key that takes ``"auto"`` (any case) or a number passing ``check``."""
+
+    def run(value: Any) -> Any:
+        if isinstance(value, str):
+            if value.strip().lower() != "auto":
+                raise _bad('Must be "auto" or a number !')
+            return "auto"
+        return check(_typed(value, "float"))
+
+    return run
+
 
 # fmt: off
 FilterConfig.KEYS = (
     Key("on", "on", "bool", "—", "Kalman filtering on (Kalman ▸ Filtering)", "L7641"),
+    Key("preset", "preset", "str", "—",
+        '"honest" (default: the keys below as listed) or "thesis" (model, p0 "thesis", '
+        'bias_noise false: the thesis-literal filter); keys set in the file override it',
+        "docs/CONFIG.md \"The filter decision\" [not in the thesis]", _PRESET_CHECK),
     Key("model", "model", "str", "—",
-        '"thesis" (white noise) or "coloured" (time-correlated fix error, state augmented)',
+        '"coloured" (time-correlated fix error, state augmented) or "thesis" (white noise)',
         "L2291 (no coloured noise implemented); kalman.md §3", _choice("thesis", "coloured")),
-    Key("p0", "p0", "str", "—", '"thesis" P0 = I or "physical" P0 in consistent units',
+    Key("p0", "p0", "str", "—", '"physical" P0 in consistent units or "thesis" P0 = I',
         "L2670; kalman.md A7", _choice("thesis", "physical")),
     Key("q_scale", "q_scale", "float", "—", "factor applied to the system noise Q_k",
         "L2779, L7579", _POSITIVE),
@@ -587,13 +637,16 @@ FilterConfig.KEYS = (
     Key("log_sigma_floor_ms", "log_sigma_floor_ms", "float", "m/s",
         "lower bound of the log σ (keeps R positive definite when stopped)",
         "kalman.md §6.7 [recommendation]", _POSITIVE),
-    Key("fix_tau_s", "fix_tau_s", "float", "s",
-        'correlation time of the coloured fix error ("coloured" model)',
-        "kalman.md §3.2, A17 [not in the thesis]", _POSITIVE),
-    Key("fix_sigma_frac", "fix_sigma_frac", "float", "—",
-        'fraction of the fix variance that is time-correlated ("coloured" model)',
-        "kalman.md §3.1 (keep a white part) [not in the thesis]",
-        _between(0.0, 1.0, hi_open=True)),
+    Key("fix_tau_s", "fix_tau_s", "float_auto", "s",
+        'correlation time of the coloured fix error ("coloured" model); "auto" = from the '
+        "systems on: GPS C/A 240, P 600, Decca 180, the longest of those on",
+        "thesis A6 (L8574–8650); docs/CONFIG.md \"The filter decision\" [not in the thesis]",
+        _auto_or(_POSITIVE)),
+    Key("fix_sigma_frac", "fix_sigma_frac", "float_auto", "—",
+        'fraction of the fix variance that is time-correlated ("coloured" model); "auto" = '
+        "1 − receiver white variance / fix variance, at most 0.99 (C/A 0.98, P and Decca 0.99)",
+        "thesis L2287–2291 (keep a white part); docs/CONFIG.md \"The filter decision\"",
+        _auto_or(_between(0.0, 1.0, hi_open=True))),
     Key("dr_sigma_m", "dr_sigma_m", "float", "m",
         "accuracy (1σ) of an operator DR position (physical P0, DR Pos while submerged)",
         "kalman.md §6.8, A7 [recommendation]", _POSITIVE),
@@ -605,8 +658,9 @@ FilterConfig.KEYS = (
         "random-walk rate of the log bias (with bias_noise)", "kalman.md A11 [assumption]",
         _NON_NEGATIVE),
     Key("gyro_bias_rw_deg_sqrth", "gyro_bias_rw_deg_sqrth", "float", "deg/√h",
-        "random-walk rate of the gyro bias (with bias_noise)",
-        "kalman.md A11 (0.5 °/√h); L1425–1427 (84-min gyro oscillation)", _NON_NEGATIVE),
+        "random-walk rate of the gyro bias (with bias_noise): the thesis' slowly varying gyro "
+        "error, 0.5° over a quarter of its 84-min period, √(2·0.5²/0.35 h) = 1.2",
+        "L1425–1429 (84-min oscillation, 0.65° in all); docs/CONFIG.md", _NON_NEGATIVE),
     Key("incl_bias_rw_deg_sqrth", "incl_bias_rw_deg_sqrth", "float", "deg/√h",
         "random-walk rate of the inclinometer bias (with bias_noise)",
         "kalman.md A11 [assumption]", _NON_NEGATIVE),
@@ -798,6 +852,14 @@ def _build(data: Mapping[str, Any], config_dir: Path) -> RunConfig:
 def _build_table(table: str, cls: type, data: Mapping[str, Any]) -> Any:
     keys = {key.key: key for key in cls.KEYS}  # type: ignore[attr-defined]
     kwargs: dict[str, Any] = {}
+    if cls is FilterConfig and "preset" in data:
+        # The preset fills the keys the file leaves out; a key in the file wins.
+        try:
+            preset = _PRESET_CHECK(_typed(data["preset"], "str"))
+        except InputError as err:
+            raise InputError(err.message, field="filter.preset",
+                             text=_toml_value(data["preset"])) from None
+        kwargs.update(FILTER_PRESETS[preset])
     for name, value in data.items():
         if name not in keys:
             raise InputError(UNKNOWN_KEY_MESSAGE, field=f"{table}.{name}", text=name)

@@ -75,6 +75,24 @@ class RunSummary:
     eof: bool
     failed_fixes: int = 0
     """LSE fixes that failed their tests (:func:`engine.cycle.fix_fit`): used with VCV × S²."""
+    flagged_lops: int = 0
+    """LOPs whose w-test failed but were kept (LOPReject 'N', or 'A' not yet answered)."""
+    gated_fixes: int = 0
+    """Fixes kept out of the filter by the gross-error gate."""
+    innovation_rejects: int = 0
+    """Fixes the filter took although its innovation (LOM) test rejected them."""
+    lane_slips: int = 0
+    """Decca lane slips corrected against GPS."""
+
+
+def cycle_counts(r: CycleResult) -> tuple[int, int, int, int]:
+    """(flagged LOPs, gated fix, innovation-rejected fix, lane slips) of one cycle (issue 11:
+    what the replay summary counts)."""
+    flagged = 0
+    if r.fix is not None and r.fix.tested is not None:
+        flagged = len(r.fix.tested.flagged) + (r.fix.candidate_slot is not None)
+    return (flagged, int(r.fix_gate == "gross"), int(r.fix_gate == "innovation"),
+            r.lane_slips)
 
 
 DATUM_FILE = "TO_WGS84.DAT"
@@ -205,6 +223,7 @@ class Session:
         self.data_warnings: tuple[str, ...] = data_file_warnings(config.data_dir)
         """Data files that differ from the bundled ones (engine.datafile_io.modified_bundled);
         written to the .OUT header, shown by the replay."""
+        self._counts = [0, 0, 0, 0]  # cycle_counts summed
         self._run_name = os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
         self._since_processed: int | None = None
@@ -338,6 +357,8 @@ class Session:
         if result.fix is not None:
             self.rejected_lops += len(result.fix.rejected_slots)
         self.failed_fixes += result.fix_fails_tests
+        for i, c in enumerate(cycle_counts(result)):
+            self._counts[i] += c
         if self._out is not None:
             head, lines = cycle_block(result)
             self._out.write_cycle(head, lines)
@@ -376,6 +397,8 @@ class Session:
             self.fixes -= int(dropped.fix.ok and not dropped.fix.uses_prior)
             self.rejected_lops -= len(dropped.fix.rejected_slots)
         self.failed_fixes -= dropped.fix_fails_tests
+        for i, c in enumerate(cycle_counts(dropped)):
+            self._counts[i] -= c
         if self._smoother:
             self._smoother.pop()
         if self._out is not None:
@@ -415,6 +438,10 @@ class Session:
             jsonl_path=self.jsonl_path,
             eof=self.eof,
             failed_fixes=self.failed_fixes,
+            flagged_lops=self._counts[0],
+            gated_fixes=self._counts[1],
+            innovation_rejects=self._counts[2],
+            lane_slips=self._counts[3],
         )
 
     # ------------------------------------------------------------------ operator

@@ -647,8 +647,16 @@ def test_developer_parameter_dialogs(data_dir: Path) -> None:
         await menu(pilot, "enter")
         await menu(pilot, "alt+d", "f")
         await fill(pilot, "param-q_scale", "2")
+        tau = await fill(pilot, "param-fix_tau_s", "soon")
+        assert message_of(tau) == '"auto" or a number !'
+        await fill(pilot, "param-fix_tau_s", "300")
+        await fill(pilot, "param-preset", "thesis")  # issue 11: sets model, p0, bias_noise
         await menu(pilot, "enter")
         cfg = app.control.session.config
+        f = cfg.filter
+        assert (f.preset, f.model, f.p0, f.bias_noise, f.fix_tau_s) == (
+            "thesis", "thesis", "thesis", False, 300.0)
+        assert f.fix_sigma_frac == "auto"  # not edited, not changed
         assert cfg.corrections.decca_red_lanes == 0.02
         assert (cfg.lsq.lop_reject, cfg.lsq.conf_region_pct) == ("Y", 99.0)
         assert cfg.lsq.decca_cf == 1.0 / 2.25  # winter night (A8.2)

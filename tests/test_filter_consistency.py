@@ -237,7 +237,13 @@ on = true
 [sensors]
 inclinometer = "on"
 pressure = "on"
+[lsq]
+# The simulated fixes are white with σ 50 m per axis: the thesis program's C/A variance.
+gps_se_sf = 1.0
 [filter]
+# The white-noise model these simulated fixes follow, with physical P0 (not the default
+# honest preset, whose coloured fix model and drifting biases these runs do not simulate).
+preset = "thesis"
 p0 = "physical"
 """
 

@@ -333,9 +333,12 @@ def test_logged_config_reproduces_the_run(tmp_path: Path) -> None:
     original = load_config(work / "920917_1.toml")
     assert logged.run_path == original.run_path == work / "920917_1.RUN"
     assert logged.data_dir == original.data_dir == work
-    # Everything else is the same configuration too.
+    # Everything else is the same configuration too, but for the LOP rule the headless run
+    # followed: "A" (ask) has nobody to ask and runs as "N"; the log records what was done.
+    assert original.lsq.lop_reject == "A" and logged.lsq.lop_reject == "N"
     assert dump_config(logged) == dump_config(
-        original.replace(run_file=str(original.run_path), data_dir_text=str(work)))
+        original.replace(run_file=str(original.run_path), data_dir_text=str(work),
+                         lsq=replace(original.lsq, lop_reject="N")))
 
 
 # --------------------------------------------------------------------------- progress bar

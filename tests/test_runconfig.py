@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from engine.errors import InputError
 from engine.formatting import format_dms_input
 from engine.runconfig import (
+    FilterConfig,
     RunConfig,
     all_keys,
     default_config,
@@ -53,7 +54,9 @@ def test_omitted_keys_take_the_a82_defaults() -> None:
     assert cfg.lsq.reliab_interval_pct == 5.0  # ReliabInterval (L8781)
     assert cfg.lsq.conf_region_pct == 95.0  # ConfRegion (L8782)
     assert cfg.lsq.lop_reject == "A"  # LOPReject (L8776)
-    assert cfg.lsq.epsilon_m == 1.0 and cfg.lsq.s02 == 1.0 and cfg.lsq.gps_se_sf == 1.0
+    assert cfg.lsq.epsilon_m == 1.0 and cfg.lsq.s02 == 1.0
+    # Not A8.2's 1 (kept in 920917_1.toml): the thesis' 2 d_rms = 100 m read as σ 35.4 m/axis.
+    assert cfg.lsq.gps_se_sf == 0.5
     assert cfg.lsq.scale_vcv is False
     assert cfg.demo.delta_t_s == 1  # DeltaT (L8788)
     assert cfg.demo.s_weight == 1.026  # s_weight (L8768)
@@ -304,7 +307,7 @@ def test_filter_keys_reach_the_filter_parameters() -> None:
     from engine.cycle import filter_params_from_config
     from engine.kalman import process_noise
 
-    off = filter_params_from_config(parse_config_text(""))
+    off = filter_params_from_config(parse_config_text('[filter]\npreset = "thesis"\n'))
     assert off.q_mode == "vanloan" and not off.bias_noise
     assert np.all(np.diag(process_noise(off, 1.0))[5:] == 0.0)
     cfg = parse_config_text('[filter]\nq_mode = "THESIS"\nbias_noise = true\n'
@@ -336,3 +339,70 @@ def test_decca_cf_rejects(text: str) -> None:
 
     with pytest.raises(InputError, match="Decca.CF: a number > 0 or SD, WD, SN, WN !"):
         parse_decca_cf(text)
+
+
+def test_empty_filter_table_is_the_honest_preset() -> None:
+    """Issue 11: with no [filter] keys the filter is the honest one (coloured fix errors,
+    physical P0, drifting biases); "thesis" is one key away and restores the thesis' three
+    choices (L2291 white noise, L2670 P0 = I, L2639–2641 constant biases); a key set in the file
+    wins over its preset; an unknown preset is located."""
+    from engine.cycle import filter_params_from_config
+
+    honest = parse_config_text("[filter]\n").filter
+    assert (honest.preset, honest.model, honest.p0, honest.bias_noise) == (
+        "honest", "coloured", "physical", True)
+    assert honest == FilterConfig() == default_config().filter
+    thesis = parse_config_text('[filter]\npreset = "Thesis"\n').filter
+    assert (thesis.preset, thesis.model, thesis.p0, thesis.bias_noise) == (
+        "thesis", "thesis", "thesis", False)
+    assert thesis == FilterConfig.from_preset("thesis")
+    mixed = parse_config_text('[filter]\npreset = "thesis"\nmodel = "coloured"\n').filter
+    assert (mixed.model, mixed.p0) == ("coloured", "thesis")
+    p = filter_params_from_config(parse_config_text(""))
+    assert p.coloured and p.p0 == "physical" and p.bias_noise
+    with pytest.raises(InputError) as caught:
+        parse_config_text('[filter]\n\npreset = "faithful"\n', "x.toml")
+    assert (caught.value.field, caught.value.line) == ("filter.preset", 3)
+
+
+@pytest.mark.parametrize(("systems", "tau", "frac"), [
+    # C/A: SA τ 240 s; white 5 m against 2500 m² × GPS.SE_SF 0.5 → 1 − 25/1250 = 0.98.
+    ('[gps]\non = true\n', 240.0, 0.98),
+    # P: τ 600 s; white 0.5 m against 79.2 m² × 0.5 → 0.9937, capped at 0.99 (white floor 1 %).
+    ('[gps]\non = true\nreceiver = "P"\n', 600.0, 0.99),
+    # Decca only: sky-wave τ 180 s, white floor.
+    ('[decca]\non = true\nred = "B20"\n', 180.0, 0.99),
+    # Both: the longer τ, the smaller fraction.
+    ('[gps]\non = true\n[decca]\non = true\nred = "B20"\n', 240.0, 0.98),
+    # GPS.SE_SF 0.04 makes the C/A σ 10 m: 1 − 25/100 = 0.75.
+    ('[gps]\non = true\n[lsq]\ngps_se_sf = 0.04\n', 240.0, 0.75),
+])
+def test_auto_fix_model_follows_the_systems(systems: str, tau: float, frac: float) -> None:
+    """fix_tau_s / fix_sigma_frac "auto" are derived from the receiver and chain (hand values
+    from engine.kalman's documented constants); a number in the file is used as it is."""
+    from engine.cycle import filter_params_from_config
+
+    p = filter_params_from_config(parse_config_text(systems))
+    assert p.fix_tau_s == tau and p.fix_sigma_frac == pytest.approx(frac, abs=1e-12)
+    given = parse_config_text(systems + '[filter]\nfix_tau_s = 60\nfix_sigma_frac = "AUTO"\n')
+    assert given.filter.fix_sigma_frac == "auto"
+    assert filter_params_from_config(given).fix_tau_s == 60.0
+    with pytest.raises(InputError) as caught:
+        parse_config_text('[filter]\nfix_tau_s = "soon"\n')
+    assert caught.value.field == "filter.fix_tau_s"
+
+
+def test_switching_the_preset_in_the_dialog_changes_only_what_the_preset_decides() -> None:
+    """Demo ▸ Filter params, preset → "thesis": model, p0 and bias_noise follow the preset; a
+    key changed earlier (q_scale 2) stays, since nobody edited it now."""
+    from engine.commands import SetParameters, apply_command
+    from engine.cycle import build_context, initial_state
+    from engine.session import read_data_dir
+
+    cfg = parse_config_text("[filter]\nq_scale = 2.0\n")
+    ctx = build_context(cfg, *read_data_dir(ROOT / "data"))
+    new, _nav, _text = apply_command(ctx, initial_state(cfg),
+                                     SetParameters("filter", (("preset", "thesis"),)))
+    f = new.filter
+    assert (f.preset, f.model, f.p0, f.bias_noise, f.q_scale) == (
+        "thesis", "thesis", "thesis", False, 2.0)

@@ -116,6 +116,12 @@ def key_parser(table: Any, key: Key) -> Callable[[str], Any]:
                 raw = float(text.strip())
             except ValueError:
                 raise InputError(NUMBER_MESSAGE, field=key.key, text=text) from None
+        elif key.kind == "float_auto":  # "auto" or a number
+            word = text.strip()
+            try:
+                raw = word if word.lower() == "auto" else float(word)
+            except ValueError:
+                raise InputError('"auto" or a number !', field=key.key, text=text) from None
         elif key.kind == "int":
             try:
                 raw = int(text.strip())
@@ -145,7 +151,7 @@ class ParametersDialog(Dialog[SetParameters]):
         self.table = table
         self.TITLE = TABLE_TITLES.get(table_name, table_name)
         self.keys: tuple[Key, ...] = tuple(
-            k for k in type(table).KEYS if k.kind in ("float", "int", "str", "bool"))
+            k for k in type(table).KEYS if k.kind in ("float", "float_auto", "int", "str", "bool"))
 
     def compose_body(self) -> ComposeResult:
         """The fields in the table's key order, then the help line of the focused field."""

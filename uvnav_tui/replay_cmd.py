@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import json
 import os
 import sys
@@ -38,8 +39,8 @@ from engine.errors import InputError, read_error
 from engine.formatting import format_lat_dms, format_lon_dms
 from engine.outputs import OutputFile, OutputGuard, remove_created
 from engine.records import position_json
-from engine.runconfig import RunConfig, default_config
-from engine.session import RunSummary, Session, load_data, load_run_config, run_inputs
+from engine.runconfig import RunConfig
+from engine.session import RunSummary, Session, load_run_config, run_inputs
 
 EXIT_OK = 0
 EXIT_CANNOT_WRITE = 1
@@ -65,7 +66,36 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true",
                    help="replace existing outputs of an earlier run (never an input, never a "
                    "file UVNAV did not write)")
+    p.add_argument("--lop-reject", choices=("Y", "N", "y", "n"), metavar="Y|N",
+                   help="what to do with an LOP that fails the w-test when lsq.lop_reject is "
+                   '"A" (ask: there is no operator here): Y reject it, N keep it flagged '
+                   "(default N, said in the summary); overrides lsq.lop_reject")
     return p
+
+
+NO_CONFIG_MESSAGE = ("No configuration beside the run file: give --config FILE (without one "
+                     "every system would be off and the run would have no fix) !")
+
+
+def headless_lop_policy(cfg: RunConfig, option: str | None) -> tuple[RunConfig, str]:
+    """The configuration with an LOPReject policy a run without an operator can follow, and
+    the summary's words for it (issue 11, docs/CONFIG.md ``lop_reject``): ``--lop-reject``
+    wins; ``"A"`` (ask) without it becomes ``"N"`` (keep the LOP, flagged)."""
+    asked = cfg.lsq.lop_reject
+    policy = option.upper() if option else ("N" if asked == "A" else asked)
+    words = {"Y": "rejected", "N": "kept"}[policy]
+    source = "--lop-reject" if option else (
+        'lsq.lop_reject "A" with no operator' if asked == "A" else "lsq.lop_reject")
+    if policy != asked:
+        cfg = cfg.replace(lsq=dataclasses.replace(cfg.lsq, lop_reject=policy))
+    return cfg, f"{words} ({source} = {policy})"
+
+
+def integrity_summary_line(s: RunSummary, policy: str) -> str:
+    """The summary line of what the tests flagged and what was done (issue 11)."""
+    return (f"w-test: {s.flagged_lops + s.rejected_lops} LOPs flagged, {policy}  "
+            f"gross-error fixes kept out {s.gated_fixes}  innovation-test fails "
+            f"{s.innovation_rejects}  Decca lane slips corrected {s.lane_slips}")
 
 
 def _config_path(run: Path, config: str | None) -> Path | None:
@@ -79,11 +109,10 @@ def _config_for(
     run: Path, config_path: Path | None
 ) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]]]:
     """The configuration (every name checked against the data files) and the data files."""
-    if config_path is not None:
-        cfg, data = load_run_config(config_path)
-    else:
-        cfg = default_config()
-        data = load_data(cfg)
+    if config_path is None:
+        raise InputError(NO_CONFIG_MESSAGE, file=str(run.with_suffix(".toml")),
+                         field="configuration")
+    cfg, data = load_run_config(config_path)
     # The RUN given on the command line wins over the configuration's run_file.
     return cfg.replace(run_file=str(run.resolve())), data
 
@@ -201,6 +230,7 @@ def run_replay(argv: list[str]) -> int:
         _check_run_file(run)
         config_path = _config_path(run, args.config)
         cfg, data = _config_for(run, config_path)
+        cfg, lop_policy = headless_lop_policy(cfg, args.lop_reject)
         out = None if args.no_out else Path(args.out or run.with_suffix(".OUT"))
         jsonl = Path(args.jsonl) if args.jsonl else None
         smooth = None
@@ -246,6 +276,7 @@ def run_replay(argv: list[str]) -> int:
                 smooth_fh.close()
     for line in _summary_lines(summary, smoothed):
         print(line)
+    print(integrity_summary_line(summary, lop_policy))
     for bad in session.bad_records:
         print(f"skipped: {bad.error}", file=sys.stderr)
     _more_skipped(summary, len(session.bad_records))
