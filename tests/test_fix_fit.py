@@ -64,18 +64,21 @@ def test_filter_gain_shrinks_by_the_variance_factor(tmp_path: pathlib.Path) -> N
         s.run(max_cycles=5)
         ctx = s.context
         chains = dict(ctx.chains)
-        # 295 000 km/s: 1.5 % slow, the fix jumps 4.4 km and still converges (29955 does not).
+        # 295 000 km/s: 1.5 % slow. The GPS lane check (issue 11) corrects the integer part of
+        # the damage (Red -1, Green -4 lanes), so the fix jumps ~400 m rather than 4.4 km; the
+        # fractional part still fails the unit-variance test by an order of magnitude.
         chains["9B"] = dataclasses.replace(chains["9B"], speed_km_s=295_000.0)
         s.context = build_context(ctx.config, ctx.datums, chains)
         before = s.nav.filter
         r = s.step()
     assert r is not None and r.fix is not None and r.fix_fails_tests and before is not None
-    assert r.filter_update is not None and r.fix.s2 is not None and r.fix.s2 > 1e3
+    assert r.filter_update is not None and r.fix.s2 is not None and r.fix.s2 > 10.0 * 3.689
+    assert r.lane_slips > 0
     k = np.asarray(r.filter_update.K)[:2, :2]
     assert np.abs(k).max() < 10.0 / r.fix.s2
     jump = np.hypot(r.fix.x_m - before.x[0], r.fix.y_m - before.x[1])
     moved = np.hypot(r.mpp.x_m - before.x[0], r.mpp.y_m - before.x[1])
-    assert jump > 1000.0 and moved < 20.0
+    assert jump > 300.0 and moved < 20.0
 
 
 def test_good_run_has_no_failed_fixes(tmp_path: pathlib.Path) -> None:
