@@ -15,6 +15,7 @@ from engine.runconfig import RunConfig, load_config
 from engine.session import Session
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.hardcopy import free_stem, hardcopy_stem, screen_text
+from uvnav_tui.key_line import KeyLine
 from uvnav_tui.main_page import decca_box_lines, position_box_lines, sensor_strip
 from uvnav_tui.menus import MENU_BAR, find_path, item_at, iter_leaves, visible_bar
 from uvnav_tui.run_control import RunController, pace_factor
@@ -70,9 +71,14 @@ async def wait_for(pilot: object, condition: Callable[[], bool], what: str,
 
 
 def freeze(app: UVNAVApp) -> None:
-    """No blinking cursors (snapshots and text dumps must not depend on timing)."""
+    """No blinking cursors, and the key lines of every screen brought up to date now rather
+    than by their 0.5-s timer (whether a page shows "Scroll" depends on its laid-out size):
+    snapshots and text dumps must not depend on timing."""
     for field in app.screen.query(Input):
         field.cursor_blink = False
+    for screen in app.screen_stack:
+        for line in screen.query(KeyLine):
+            line.sync()
 
 
 def text_of(app: UVNAVApp) -> str:
