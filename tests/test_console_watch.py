@@ -505,3 +505,23 @@ def test_parameter_labels_and_sizes(data_dir: Path) -> None:
             assert dialog.query_one("#dialog-frame").region.bottom <= size[1]
 
         drive(app, script, size=size)
+
+
+def test_modified_data_file_is_warned_on_the_console(tmp_path: Path) -> None:
+    """A DECCA.CHN that differs from the bundled one (here only a comment line is added, so it
+    still loads) is said on the message line and kept in the log when the run starts, as
+    `uvnav replay` says it on standard error (issue 15 item 5)."""
+    data = copy_data(tmp_path / "data")
+    chn = data / "DECCA.CHN"
+    chn.write_bytes(b"* a local edit\n" + chn.read_bytes())
+    app = make_app(data)
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot, 1)
+        await pilot.pause()
+        log = [e.text for e in app.message_log.since(0)[1]]
+        assert any(t.startswith("Warning: ") and "DECCA.CHN: differs from the bundled" in t
+                   for t in log), log
+        assert not any("TO_WGS84.DAT" in t for t in log)  # the datum file is the shipped one
+
+    drive(app, script)

@@ -237,6 +237,8 @@ class UVNAVApp(App[None]):
         self.message = ""
         self.show_page(100)
         self.refresh_display()
+        for warning in session.data_warnings:  # a modified data file (docs/DATAFILES.md)
+            self.say(f"Warning: {warning}")
         self._kick()
         return None
 
