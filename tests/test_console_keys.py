@@ -6,12 +6,16 @@ Every wait is for a condition (:func:`test_console_support.wait_for`), never a f
 
 from __future__ import annotations
 
-import asyncio
-from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
-from test_console_support import copy_data, make_app, start, text_of, wait_for
+from test_console_support import (
+    drive,
+    make_app,
+    start,
+    text_of,
+    wait_for,
+)
 from textual import events
 from textual.pilot import Pilot
 
@@ -28,21 +32,6 @@ from uvnav_tui.table_screen import TableScreen
 SIZE = (100, 30)
 
 
-def drive(app: UVNAVApp, script: Callable[[Pilot[None]], Awaitable[None]],
-          size: tuple[int, int] = SIZE) -> None:
-    """Run ``script`` against ``app`` in a headless terminal."""
-
-    async def main() -> None:
-        async with app.run_test(size=size) as pilot:
-            await script(pilot)
-
-    asyncio.run(main())
-
-
-@pytest.fixture
-def data_dir(tmp_path: Path) -> Path:
-    """A private copy of the data files."""
-    return copy_data(tmp_path / "data")
 
 
 def type_at_once(app: UVNAVApp, *keys: str) -> None:

@@ -3,17 +3,21 @@ engine state it changed (configuration, pending observations, run state)."""
 
 from __future__ import annotations
 
-import asyncio
-from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
-from test_console_support import copy_data, make_app, start, text_of, wait_for
+from test_console_support import (
+    copy_data,
+    drive,
+    make_app,
+    start,
+    text_of,
+    wait_for,
+)
 from textual.command import CommandPalette
 from textual.pilot import Pilot
 from textual.widgets import DataTable, Input, OptionList, Static
 
-from uvnav_tui.app import UVNAVApp
 from uvnav_tui.confirm_dialog import ConfirmDialog
 from uvnav_tui.console_screen import ConsoleScreen
 from uvnav_tui.dialog import Dialog
@@ -25,20 +29,6 @@ from uvnav_tui.validated_field import ValidatedField
 SIZE = (100, 30)
 
 
-def drive(app: UVNAVApp, script: Callable[[Pilot[None]], Awaitable[None]]) -> None:
-    """Run ``script`` against ``app`` in a headless terminal."""
-
-    async def main() -> None:
-        async with app.run_test(size=SIZE) as pilot:
-            await script(pilot)
-
-    asyncio.run(main())
-
-
-@pytest.fixture
-def data_dir(tmp_path: Path) -> Path:
-    """A private copy of the data files."""
-    return copy_data(tmp_path / "data")
 
 
 async def goto(pilot: Pilot[None], field_id: str) -> Input:

@@ -7,13 +7,19 @@ Waits are for conditions, never for a fixed time."""
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
 from rich.cells import cell_len
-from test_console_support import copy_data, freeze, make_app, start, text_of, wait_for
+from test_console_support import drive as support_drive
+from test_console_support import (
+    freeze,
+    make_app,
+    start,
+    text_of,
+    wait_for,
+)
 from textual.pilot import Pilot
 
 from uvnav_tui.app import UVNAVApp
@@ -29,20 +35,10 @@ SMALL = (80, 24)
 PAGES = sorted(PAGE_TITLES)
 
 
-@pytest.fixture
-def data_dir(tmp_path: Path) -> Path:
-    """A private copy of the data files."""
-    return copy_data(tmp_path / "data")
-
 
 def drive(app: UVNAVApp, script: Callable[[Pilot[None]], Awaitable[None]]) -> None:
     """Run ``script`` against ``app`` at 80×24."""
-
-    async def main() -> None:
-        async with app.run_test(size=SMALL) as pilot:
-            await script(pilot)
-
-    asyncio.run(main())
+    support_drive(app, script, SMALL)
 
 
 async def goto_page(pilot: Pilot[None], number: int) -> None:

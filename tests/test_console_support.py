@@ -3,12 +3,14 @@ tests of the console's plain-data parts: the menu tree, the run controller and t
 
 from __future__ import annotations
 
+import asyncio
 import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
+from textual.pilot import Pilot
 from textual.widgets import Input
 
 from engine.runconfig import RunConfig, load_config
@@ -81,15 +83,22 @@ def freeze(app: UVNAVApp) -> None:
             line.sync()
 
 
+def drive(app: UVNAVApp, script: Callable[[Pilot[None]], Awaitable[None]],
+          size: tuple[int, int] = (100, 30)) -> None:
+    """Run ``script`` against ``app`` in a headless terminal of ``size`` (columns, rows)."""
+
+    async def main() -> None:
+        async with app.run_test(size=size) as pilot:
+            await script(pilot)
+
+    asyncio.run(main())
+
+
 def text_of(app: UVNAVApp) -> str:
     """The visible screen as text."""
     return screen_text(app)
 
 
-@pytest.fixture
-def data_dir(tmp_path: Path) -> Path:
-    """A private copy of the data files."""
-    return copy_data(tmp_path / "data")
 
 
 # ------------------------------------------------------------------------------------------

@@ -6,15 +6,19 @@ Each test here failed before its fix (noted per test)."""
 
 from __future__ import annotations
 
-import asyncio
 import dataclasses
-from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from test_console_support import copy_data, make_app, start, text_of
+from test_console_support import (
+    copy_data,
+    drive,
+    make_app,
+    start,
+    text_of,
+)
 from textual.pilot import Pilot
 from textual.widgets import Static
 
@@ -44,21 +48,6 @@ NASTY = [
 """Operator text that Rich/Textual markup would eat, misread or choke on."""
 
 
-def drive(app: UVNAVApp, script: Callable[[Pilot[None]], Awaitable[None]],
-          size: tuple[int, int] = SIZE) -> None:
-    """Run ``script`` against ``app`` in a headless terminal of ``size``."""
-
-    async def main() -> None:
-        async with app.run_test(size=size) as pilot:
-            await script(pilot)
-
-    asyncio.run(main())
-
-
-@pytest.fixture
-def data_dir(tmp_path: Path) -> Path:
-    """A private copy of the data files."""
-    return copy_data(tmp_path / "data")
 
 
 async def paste(pilot: Pilot[None], text: str) -> None:

@@ -1,0 +1,15 @@
+"""Fixtures shared by the test modules (pytest loads this file first)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from test_console_support import copy_data
+
+
+@pytest.fixture
+def data_dir(tmp_path: Path) -> Path:
+    """A private copy of the bundled data files (``data/``) in ``tmp_path/data``; a module may
+    define its own ``data_dir`` instead."""
+    return copy_data(tmp_path / "data")
