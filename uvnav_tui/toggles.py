@@ -20,33 +20,33 @@ def literal(text: str | Content) -> Content:
     return text if isinstance(text, Content) else Content(text)
 
 
-class GlyphCheckbox(Checkbox):
-    """A check box drawn as ``[x] label`` / ``[ ] label``."""
+class _GlyphToggle:
+    """Mixin for a Textual toggle button drawn with text glyphs: ``ON`` / ``OFF`` (the state is
+    readable without colour, also in text hardcopies)."""
+
+    ON = ""
+    OFF = ""
 
     def __init__(self, label: str | Content = "", value: bool = False, **kwargs: object) -> None:
-        super().__init__(literal(label), value, **kwargs)  # type: ignore[arg-type]
+        super().__init__(literal(label), value, **kwargs)  # type: ignore[call-arg]
         self.initial_value = value
         """The state the dialog opened with (a dialog OK'd without edits changes nothing)."""
 
     @property
     def _button(self) -> Content:
         """The state glyph (bold when on, so it also stands out in colour)."""
-        if self.value:
-            return Content.styled(CHECK_ON, "bold")
-        return Content(CHECK_OFF)
+        if self.value:  # type: ignore[attr-defined]
+            return Content.styled(self.ON, "bold")
+        return Content(self.OFF)
 
 
-class GlyphRadioButton(RadioButton):
+class GlyphCheckbox(_GlyphToggle, Checkbox):
+    """A check box drawn as ``[x] label`` / ``[ ] label``."""
+
+    ON, OFF = CHECK_ON, CHECK_OFF
+
+
+class GlyphRadioButton(_GlyphToggle, RadioButton):
     """A radio button drawn as ``(•) label`` / ``( ) label``."""
 
-    def __init__(self, label: str | Content = "", value: bool = False, **kwargs: object) -> None:
-        super().__init__(literal(label), value, **kwargs)  # type: ignore[arg-type]
-        self.initial_value = value
-        """The state the dialog opened with (a dialog OK'd without edits changes nothing)."""
-
-    @property
-    def _button(self) -> Content:
-        """The state glyph."""
-        if self.value:
-            return Content.styled(RADIO_ON, "bold")
-        return Content(RADIO_OFF)
+    ON, OFF = RADIO_ON, RADIO_OFF
