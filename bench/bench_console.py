@@ -71,7 +71,7 @@ def startup_once(config: Path, timeout_s: float = 30.0, pycache: Path | None = N
         env["PYTHONPYCACHEPREFIX"] = str(pycache)
     t0 = time.perf_counter()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "uvnav_tui.cli", "--config", str(config),
+        [sys.executable, "-m", "uvnav_tui.cli.main", "--config", str(config),
          "--hardcopy-dir", str(config.parent / "hardcopy")],
         stdin=slave, stdout=slave, stderr=slave, cwd=ROOT, env=env, start_new_session=True)
     os.close(slave)
@@ -104,7 +104,7 @@ def startup_once(config: Path, timeout_s: float = 30.0, pycache: Path | None = N
 def engine_rate(config: Path) -> float:
     """Cycles/s of the bare engine over the whole demo (with smoother collection, as the
     console runs it)."""
-    from engine.session import Session
+    from engine.run.session import Session
 
     session = Session.from_file(config, collect_smoother=True)
     t0 = time.perf_counter()
@@ -115,7 +115,7 @@ def engine_rate(config: Path) -> float:
 
 
 async def _console_rate(config: Path) -> tuple[float, int]:
-    from engine.runconfig import load_config
+    from engine.run.config import load_config
     from uvnav_tui.app import UVNAVApp
 
     # The demo asks "Discard LOP?" 6 times (LOPReject = A, the thesis default); the app answers
@@ -165,7 +165,7 @@ def tmux_rate(config: Path, page: int, timeout_s: float = 600.0) -> float:
     :data:`TERM_SIZE`, showing ``page`` (typed as its number right after the start)."""
     cols, rows = TERM_SIZE
     session = f"uvnav-bench-{os.getpid()}"
-    cmd = (f"cd {config.parent} && PYTHONPATH={ROOT} exec {sys.executable} -m uvnav_tui.cli "
+    cmd = (f"cd {config.parent} && PYTHONPATH={ROOT} exec {sys.executable} -m uvnav_tui.cli.main "
            f"--config {config} --hardcopy-dir {config.parent / 'hardcopy'}")
     _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
     try:
@@ -193,7 +193,7 @@ def tmux_keys(config: Path, tries: int = 10) -> tuple[int, int]:
     the main page."""
     cols, rows = TERM_SIZE
     session = f"uvnav-keys-{os.getpid()}"
-    cmd = (f"cd {config.parent} && PYTHONPATH={ROOT} exec {sys.executable} -m uvnav_tui.cli "
+    cmd = (f"cd {config.parent} && PYTHONPATH={ROOT} exec {sys.executable} -m uvnav_tui.cli.main "
            f"--config {config} --hardcopy-dir {config.parent / 'hardcopy'}")
     _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
     hits = made = 0

@@ -5,9 +5,9 @@ the first ``N_EPOCHS`` records of the bundled demo (surfaced: GPS + Decca + filt
 
 The headline is a plain replay (``Session.run`` with the ``.OUT`` log, nothing instrumented).
 The stage split comes from the same replay with timers around the stage functions: the names
-in ``STAGES`` as the cycle (``engine.cycle``) calls them, and the session's ``.OUT`` block and
-write (``engine.session.cycle_block``, ``OutLogWriter.write_cycle``); parsing the ``.RUN`` is
-timed on its own. "rest of the cycle" is the time inside ``engine.cycle.step`` outside the
+in ``STAGES`` as the cycle (``engine.run.cycle``) calls them, and the session's ``.OUT`` block and
+write (``engine.run.session.cycle_block``, ``OutLogWriter.write_cycle``); parsing the ``.RUN`` is
+timed on its own. "rest of the cycle" is the time inside ``engine.run.cycle.step`` outside the
 stage functions; the session's own bookkeeping (history, counters) is in no row. The timers
 cost about a microsecond per call, so the rows add up to a little more than the headline.
 """
@@ -23,12 +23,12 @@ from contextlib import contextmanager
 from itertools import islice
 from pathlib import Path
 
-import engine.cycle as cycle_mod
-import engine.session as session_mod
-from engine.outlog import OutLogWriter
-from engine.runconfig import RunConfig, load_config
-from engine.runfile import RunRecord, iter_run_file
-from engine.session import Session
+import engine.run.cycle as cycle_mod
+import engine.run.session as session_mod
+from engine.io.outlog import OutLogWriter
+from engine.io.runfile import RunRecord, iter_run_file
+from engine.run.config import RunConfig, load_config
+from engine.run.session import Session
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "data" / "DEMO.toml"
@@ -42,7 +42,7 @@ STAGES = {
     "filter (predict, updates)": (
         "predict_step", "update", "sensor_measurement", "lse_measurement", "stack_measurements"),
 }
-"""Stage → the functions of ``engine.cycle`` (as ``step`` calls them) whose time it is."""
+"""Stage → the functions of ``engine.run.cycle`` (as ``step`` calls them) whose time it is."""
 LOG_STAGE = ".OUT block + write"
 CYCLE = "cycle total"
 
@@ -77,7 +77,7 @@ def _instrumented(acc: dict[str, float]) -> Iterator[None]:
     for stage, names in STAGES.items():
         patches += [(cycle_mod, name, _timed(getattr(cycle_mod, name), acc, stage))
                     for name in names]
-    # session.step calls engine.cycle.step through its own imported name.
+    # session.step calls engine.run.cycle.step through its own imported name.
     patches.append((session_mod, "step", _timed(session_mod.step, acc, CYCLE)))
     patches.append((session_mod, "cycle_block", _timed(session_mod.cycle_block, acc, LOG_STAGE)))
     patches.append((OutLogWriter, "write_cycle",

@@ -27,5 +27,5 @@ for n in 2 24; do
     "$V/uvnav" replay "D$n.RUN" --config "D$n.cfg.toml" --out "D$n.OUT" --smooth "D$n.smooth.jsonl" >/dev/null
   /usr/bin/time -f "assess D$n peak_rss_kb=%M wall_s=%e" "$V/uvnav" assess "D$n.OUT" "D$n.truth.csv" >/dev/null
   /usr/bin/time -f "read_out_log D$n peak_rss_kb=%M wall_s=%e" "$V/python" -c \
-    "from engine.outlog import read_out_log; log = read_out_log('D$n.OUT'); print(sum(1 for c in log.cycles))" >/dev/null
+    "from engine.io.outlog import read_out_log; log = read_out_log('D$n.OUT'); print(sum(1 for c in log.cycles))" >/dev/null
 done

@@ -1,13 +1,15 @@
 """The engine's navigation filter vectorised over Monte-Carlo runs (a test helper, not engine).
 
-:mod:`engine.kalman` steps one :class:`~engine.kalman.FilterState` at a time, which is right for
+:mod:`engine.filter.kalman` steps one :class:`~engine.filter.kalman.FilterState` at a time, which
+is right for
 the program but makes a 200-run Monte-Carlo cost tens of seconds. This module applies the same
 equations to a batch of runs at once with numpy broadcasting: Φ = I + FΔt (eq. 6.31), the
 process noise of ``params.q_mode`` (thesis Γ Q Γᵀ of 6.32, or the exact Van Loan integral of
 the PSD), the exact Gauss–Markov discretisation of the augmented fix-error states (kalman.md
 §3.2) and the Joseph-form update (6.21, kalman.md §7). ``tests/test_filter_consistency.py``
-checks that a batch of one run reproduces :func:`engine.kalman.predict` /
-:func:`engine.kalman.update` to rounding, so the Monte-Carlo statistics are those of the engine.
+checks that a batch of one run reproduces :func:`engine.filter.kalman.predict` /
+:func:`engine.filter.kalman.update` to rounding, so the Monte-Carlo statistics are those of the
+engine.
 
 Shapes: x (R, n), P (R, n, n) with n = 11 nav states (kalman.md §6.3) plus m fix-error states;
 units as in the engine (m, m/s, rad, s).
@@ -20,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine import kalman as kf
+from engine.filter import kalman as kf
 
 TWO_PI = 2.0 * math.pi
 
@@ -143,7 +145,7 @@ def smooth(filt_x: np.ndarray, filt_P: np.ndarray, pred_x: np.ndarray, pred_P: n
 
 def nav_rows(params: kf.FilterParams, n: int, *, fix: bool, sensors: bool,
              fix_cov: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
-    """H (p, n) and the constant part of R (p, p) of :func:`engine.kalman.nav_measurement`
+    """H (p, n) and the constant part of R (p, p) of :func:`engine.filter.kalman.nav_measurement`
     rows: x, y (+ b_e, b_n when n > 11; R the white part (1 − frac)·C) if ``fix``, then z_p,
     v_m, ψ_m, ε_m if ``sensors`` (the log row's R is filled per run by :func:`log_variance`).
     Returns H, R and the angle rows."""

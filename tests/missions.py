@@ -4,8 +4,8 @@ Each mission is a pair in ``data/scenarios/``: ``NAME.scenario.toml`` (the true 
 sensor error models, docs/SIMULATOR.md) and ``NAME.toml`` (what an operator enters at start-up:
 datum, DR position, depth, current, GPS on, Decca chain, zone/lanes and selected patterns; no
 ``[filter]``, ``[lsq]`` or ``[demo]`` table). A seed is simulated in memory
-(:func:`engine.simulate.simulate`), written to a ``.RUN`` in a scratch directory, replayed
-through :class:`engine.session.Session` with that configuration (only ``run_file`` changed,
+(:func:`engine.sim.simulate.simulate`), written to a ``.RUN`` in a scratch directory, replayed
+through :class:`engine.run.session.Session` with that configuration (only ``run_file`` changed,
 plus optional ``[filter]`` overrides for comparisons) and every cycle is scored against the
 simulator's truth: the MPP (with its own 2×2 covariance) and the LSE against the true position
 projected on the cycle's grid, and each Decca total lane count used against the count of the
@@ -32,13 +32,13 @@ from typing import Any
 
 import numpy as np
 
-from engine.datumfile import DatumFile
-from engine.decca import decca_geometry
-from engine.deccafile import DeccaChain
-from engine.runconfig import RunConfig, load_config
-from engine.scenario import load_scenario
-from engine.session import Session, read_data_dir
-from engine.simulate import simulate
+from engine.io.datumfile import DatumFile
+from engine.io.deccafile import DeccaChain
+from engine.run.config import RunConfig, load_config
+from engine.run.session import Session, read_data_dir
+from engine.sim.scenario import load_scenario
+from engine.sim.simulate import simulate
+from engine.systems.decca import decca_geometry
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 SCENARIOS = DATA / "scenarios"

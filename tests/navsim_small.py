@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine.kalman import FilterParams
+from engine.filter.kalman import FilterParams
 
 DEG = math.pi / 180.0
 

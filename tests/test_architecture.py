@@ -42,7 +42,7 @@ def test_engine_never_prints() -> None:
 
 def test_every_config_key_is_in_the_readme() -> None:
     """The README documents every run-configuration key (the brief asks for it)."""
-    from engine.runconfig import all_keys
+    from engine.run.config import all_keys
 
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     missing = [name for name, _key, _default in all_keys() if f"`{name}`" not in readme]

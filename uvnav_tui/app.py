@@ -25,8 +25,20 @@ from textual.theme import Theme
 from textual.widgets import ContentSwitcher
 from textual.worker import get_current_worker
 
-import uvnav_tui.all_pages  # noqa: F401  (registers every page but Pg 100)
-from engine.commands import (
+import uvnav_tui.pages.all_pages  # noqa: F401  (registers every page but Pg 100)
+from engine.errors import InputError
+from engine.io.datumfile import DatumFile
+from engine.io.deccafile import DeccaChain
+from engine.io.formatting import (
+    format_angle_deg,
+    format_dms_input,
+    format_lat_dms,
+    format_lon_dms,
+    format_metres,
+    format_time_z,
+)
+from engine.lsq.fix import MAX_BRR, lop_name
+from engine.run.commands import (
     AddObservation,
     Command,
     SetCurrent,
@@ -36,49 +48,37 @@ from engine.commands import (
     SetParameters,
     SetSensor,
 )
-from engine.cycle import CycleResult
-from engine.datumfile import DatumFile
-from engine.deccafile import DeccaChain
-from engine.errors import InputError
-from engine.fix import MAX_BRR, lop_name
-from engine.formatting import (
-    format_angle_deg,
-    format_dms_input,
-    format_lat_dms,
-    format_lon_dms,
-    format_metres,
-    format_time_z,
-)
-from engine.runconfig import RunConfig
-from engine.session import Session, load_data
-from uvnav_tui.confirm_dialog import ConfirmDialog
-from uvnav_tui.console_screen import ConsoleScreen
-from uvnav_tui.current_dialog import CurrentDialog
-from uvnav_tui.datum_dialog import DatumDialog
-from uvnav_tui.decca_dialog import DeccaDialog
-from uvnav_tui.filtering_dialog import FilteringDialog
-from uvnav_tui.gps_dialog import GpsDialog
+from engine.run.config import RunConfig
+from engine.run.cycle import CycleResult
+from engine.run.session import Session, load_data
+from uvnav_tui.dialogs.confirm_dialog import ConfirmDialog
+from uvnav_tui.dialogs.current_dialog import CurrentDialog
+from uvnav_tui.dialogs.datum_dialog import DatumDialog
+from uvnav_tui.dialogs.decca_dialog import DeccaDialog
+from uvnav_tui.dialogs.filtering_dialog import FilteringDialog
+from uvnav_tui.dialogs.gps_dialog import GpsDialog
+from uvnav_tui.dialogs.init_dialog import InitDialog
+from uvnav_tui.dialogs.obs_dialog import ObsDialog
+from uvnav_tui.dialogs.parameters_dialog import ParametersDialog
+from uvnav_tui.dialogs.position_dialog import PositionDialog
+from uvnav_tui.dialogs.predict_dialog import PredictDialog
+from uvnav_tui.dialogs.sensors_dialog import SensorsDialog
 from uvnav_tui.hardcopy import write_hardcopy
-from uvnav_tui.help_screen import HelpScreen
-from uvnav_tui.init_dialog import InitDialog
-from uvnav_tui.main_page import MainPage
-from uvnav_tui.menu_bar import MenuBar
 from uvnav_tui.menus import DEV_PAGES_FROM, PAGE_TITLES, iter_leaves, next_sub_page
-from uvnav_tui.message_line import MessageLine
-from uvnav_tui.message_log import MessageLog
-from uvnav_tui.message_panel import MessagePanel
-from uvnav_tui.message_screen import MessageScreen
-from uvnav_tui.obs_dialog import ObsDialog
-from uvnav_tui.page_frame import PageFrame
-from uvnav_tui.parameters_dialog import ParametersDialog
-from uvnav_tui.position_dialog import PositionDialog
-from uvnav_tui.predict_dialog import PredictDialog
-from uvnav_tui.pulldown import PulldownScreen
+from uvnav_tui.pages.main_page import MainPage
+from uvnav_tui.pages.page_frame import PageFrame
 from uvnav_tui.run_control import RunController
-from uvnav_tui.sensors_dialog import SensorsDialog
-from uvnav_tui.state_line import StateLine
-from uvnav_tui.status_column import StatusColumn
-from uvnav_tui.table_screen import TableScreen
+from uvnav_tui.screens.console_screen import ConsoleScreen
+from uvnav_tui.screens.help_screen import HelpScreen
+from uvnav_tui.screens.message_screen import MessageScreen
+from uvnav_tui.screens.table_screen import TableScreen
+from uvnav_tui.widgets.menu_bar import MenuBar
+from uvnav_tui.widgets.message_line import MessageLine
+from uvnav_tui.widgets.message_log import MessageLog
+from uvnav_tui.widgets.message_panel import MessagePanel
+from uvnav_tui.widgets.pulldown import PulldownScreen
+from uvnav_tui.widgets.state_line import StateLine
+from uvnav_tui.widgets.status_column import StatusColumn
 
 REFRESH_S = 0.1
 """Shortest time between two display refreshes while cycles run (≤ 10 Hz)."""
@@ -111,15 +111,15 @@ class UVNAVApp(App[None]):
     TITLE = "UVNAV"
     CSS_PATH = [
         "app.tcss",
-        "menu_bar.tcss",
-        "state_line.tcss",
-        "main_page.tcss",
-        "status_column.tcss",
-        "page_frame.tcss",
-        "validated_field.tcss",
-        "console_screen.tcss",
-        "message_line.tcss",
-        "message_panel.tcss",
+        "widgets/menu_bar.tcss",
+        "widgets/state_line.tcss",
+        "pages/main_page.tcss",
+        "widgets/status_column.tcss",
+        "pages/page_frame.tcss",
+        "widgets/validated_field.tcss",
+        "screens/console_screen.tcss",
+        "widgets/message_line.tcss",
+        "widgets/message_panel.tcss",
     ]
     BINDINGS = [
         Binding("ctrl+q", "quit", "Quit", show=False, priority=True),

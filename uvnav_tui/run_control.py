@@ -18,11 +18,11 @@ from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
 
-from engine.commands import Command
-from engine.cycle import CycleResult
 from engine.errors import InputError
-from engine.session import Session
-from uvnav_tui.message_log import MessageLog
+from engine.run.commands import Command
+from engine.run.cycle import CycleResult
+from engine.run.session import Session
+from uvnav_tui.widgets.message_log import MessageLog
 
 STATE_WORDS = {
     "working": "Working...",

@@ -28,11 +28,11 @@ from pathlib import Path
 
 from textual.pilot import Pilot
 
-from engine.commands import SetParameters
-from engine.tomlsource import read_text
+from engine.io.tomlsource import read_text
+from engine.run.commands import SetParameters
 from uvnav_tui.app import UVNAVApp
-from uvnav_tui.console_screen import ConsoleScreen
 from uvnav_tui.menus import PAGE_TITLES, find_path
+from uvnav_tui.screens.console_screen import ConsoleScreen
 
 COMMANDS = ("menu", "type", "clear", "key", "wait", "sleep", "page", "suspend", "continue",
             "hardcopy", "pace", "lop", "quit")
@@ -179,5 +179,5 @@ class ScriptRunner:
 
 def load_script(path: Path) -> list[Step]:
     """Read and parse a script file (InputError if it cannot be read, saying why: not found,
-    a directory, permission, not UTF-8; engine.tomlsource.read_text)."""
+    a directory, permission, not UTF-8; engine.io.tomlsource.read_text)."""
     return parse_script(read_text(path))

@@ -1,0 +1,510 @@
+"""The ``.OUT`` log: a plain-text, human-readable and machine-parseable record of a run.
+
+Layout (program.md §5.4, A1)::
+
+    # UVNAV output log, format 1            header lines start with '#'
+    # engine 0.1.0
+    # config-begin                          the start-up configuration, verbatim TOML
+    # datum = "ED50"
+    # config-end
+    ACT t=1992-09-17T08:35:40Z cycle=3 text="Setup > Systems > GPS on"      operator action
+    BAD record=7 field=heading message="..." raw="..."                      rejected input record
+    CYCLE n=1 t=1992-09-17T08:35:38Z record=2                               one block per cycle
+      IN raw="920917 083538 ..."
+      LSE lat=52.842 ...
+    END n=1
+
+Every line after the header is ``TAG key=value ...``; a value with blanks, quotes or ``=`` is
+written as a JSON string.  Each cycle block is written with one ``write`` and flushed, so a killed
+process leaves every completed cycle readable; the reader reports a trailing block without its
+``END`` line as truncated instead of failing.  An existing log is never overwritten unless the
+caller asks for it explicitly (``force=True``): otherwise a new name is chosen.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from array import array
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from numbers import Integral
+from pathlib import Path
+from typing import Any, overload
+
+from engine.errors import InputError
+from engine.io.outputs import OutputFile, OutputGuard, free_name
+
+FORMAT_VERSION = 1
+Value = str | int | float | bool | None
+
+
+def format_value(value: Value) -> str:
+    """Encode one value for a ``key=value`` pair (floats keep full precision, None is ``-``)."""
+    fmt = _BY_TYPE.get(type(value))
+    if fmt is not None:  # the exact built-in types: float, str, int, bool, None
+        return fmt(value)
+    if isinstance(value, float):  # subclasses, e.g. numpy.float64
+        return float.__repr__(value)  # shortest round-trip text; "nan", "inf", "-inf"
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, Integral):
+        return str(int(value))
+    return _format_text(str(value))
+
+
+_NEEDS_QUOTES = re.compile(r'[\s"=\\]').search
+"""A blank (``str.isspace``), a quote, ``=`` or a backslash: the word must be JSON-quoted."""
+
+
+@lru_cache(maxsize=1024)
+def _format_text(text: str) -> str:
+    """A string value: bare if it reads back as itself, else JSON-quoted (cached: the same
+    short words (verdicts, systems, sources) recur in every cycle)."""
+    if text in ("", "-") or _NEEDS_QUOTES(text) or _looks_numeric(text):
+        return json.dumps(text, ensure_ascii=False)
+    return text
+
+
+def _format_none(_value: None) -> str:
+    return "-"
+
+
+def _format_bool(value: bool) -> str:
+    return "1" if value else "0"
+
+
+_BY_TYPE: dict[type, Callable[[Any], str]] = {
+    float: repr,  # an exact float: its shortest round-trip text ("nan", "inf", "-inf" too)
+    str: _format_text,
+    int: int.__repr__,
+    bool: _format_bool,
+    type(None): _format_none,
+}
+"""Formatter per exact type (a dict look-up instead of an isinstance chain on the hot path)."""
+
+
+def _looks_numeric(text: str) -> bool:
+    """True if a bare word would be read back as a number (so it must be quoted)."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _append_fields(parts: list[str], fields: Mapping[str, Value]) -> None:
+    """Append ``" k=v"`` for each field to ``parts`` (a float's text is its ``repr``)."""
+    fv = format_value
+    for k, v in fields.items():
+        if type(v) is float:  # most values: skip the look-up
+            parts.append(f" {k}={v!r}")
+        else:
+            parts.append(f" {k}={fv(v)}")
+
+
+def format_fields(fields: Mapping[str, Value]) -> str:
+    """The ``" k=v k=v"`` part of a log line (each pair with its leading blank)."""
+    parts: list[str] = []
+    _append_fields(parts, fields)
+    return "".join(parts)
+
+
+def format_line(tag: str, fields: Mapping[str, Value], indent: str = "") -> str:
+    """One log line: ``TAG k=v k=v`` (no newline)."""
+    return indent + tag + format_fields(fields)
+
+
+def _split_tokens(text: str) -> list[str]:
+    tokens: list[str] = []
+    i, n = 0, len(text)
+    while i < n:
+        while i < n and text[i] == " ":
+            i += 1
+        if i >= n:
+            break
+        start = i
+        in_quote = False
+        while i < n and (in_quote or text[i] != " "):
+            if text[i] == '"':
+                in_quote = not in_quote
+            elif text[i] == "\\" and in_quote:
+                i += 1
+            i += 1
+        if in_quote:
+            raise ValueError("unterminated quoted value")
+        tokens.append(text[start:i])
+    return tokens
+
+
+def parse_value(text: str) -> Value:
+    """Decode a value written by :func:`format_value` (numbers come back as int or float)."""
+    if text == "-":
+        return None
+    if text.startswith('"'):
+        return str(json.loads(text))
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def parse_line(line: str) -> tuple[str, dict[str, Value]]:
+    """Split a log line into its tag and fields; raises ValueError on a malformed line."""
+    tokens = _split_tokens(line.strip())
+    if not tokens:
+        raise ValueError("empty line")
+    tag, fields = tokens[0], {}
+    for tok in tokens[1:]:
+        key, sep, raw = tok.partition("=")
+        if not sep or not key:
+            raise ValueError(f"token without key=value: {tok!r}")
+        fields[key] = parse_value(raw)
+    return tag, fields
+
+
+@dataclass(frozen=True)
+class OutCycle:
+    """One cycle block read back: the CYCLE line's fields and the tagged lines inside it.
+
+    ``lines`` keeps every inner line in order as (tag, fields); :meth:`first` and :meth:`all`
+    look lines up by tag.
+    """
+
+    fields: dict[str, Value]
+    lines: tuple[tuple[str, dict[str, Value]], ...]
+
+    def first(self, tag: str) -> dict[str, Value] | None:
+        """The fields of the first inner line with ``tag``, or None."""
+        for t, f in self.lines:
+            if t == tag:
+                return f
+        return None
+
+    def all(self, tag: str) -> list[dict[str, Value]]:
+        """The fields of every inner line with ``tag``, in order."""
+        return [f for t, f in self.lines if t == tag]
+
+
+@dataclass(frozen=True)
+class OutLogContents:
+    """A whole ``.OUT`` file read back."""
+
+    header: tuple[str, ...]
+    config_text: str
+    cycles: Sequence[OutCycle]
+    actions: tuple[dict[str, Value], ...]
+    bad_records: tuple[dict[str, Value], ...]
+    truncated: bool = False
+    problems: tuple[str, ...] = field(default=())
+
+
+def free_log_path(path: Path) -> Path:
+    """``path`` if nothing is there, else the first free ``stem_N.suffix`` (N = 1, 2, …); any
+    directory entry, a dangling symbolic link too, counts as taken
+    (:func:`engine.io.outputs.free_name`)."""
+    return free_name(path)
+
+
+class OutLogWriter:
+    """Append-only writer of a ``.OUT`` log.  Use :meth:`create`; close with :meth:`close`.
+
+    Every block is flushed to the operating system when written (survives a killed process);
+    ``fsync_every`` cycles it is also forced to the disk (survives a power cut), and at close.
+    """
+
+    def __init__(self, handle: OutputFile, path: Path, fsync_every: int = 600) -> None:
+        self._fh = handle
+        self.path = path
+        self._fsync_every = max(1, fsync_every)
+        self._since_sync = 0
+
+    @classmethod
+    def create(
+        cls,
+        path: str | os.PathLike[str],
+        *,
+        header: Sequence[str] = (),
+        config_text: str = "",
+        force: bool = False,
+        fsync_every: int = 600,
+        guard: OutputGuard | None = None,
+        label: str = "--out",
+    ) -> OutLogWriter:
+        """Create a new log at ``path``; if it exists, pick ``NAME_1.OUT`` … unless ``force``.
+
+        Opened by :meth:`engine.io.outputs.OutputGuard.open` (exclusive create, so two runs can
+        never share one log; never an input of ``guard``; ``force`` replaces only an earlier
+        ``.OUT`` log).
+        """
+        fh = (guard if guard is not None else OutputGuard()).open(
+            path, label=label, kind="out", force=force)
+        target = fh.path
+        writer = cls(fh, target, fsync_every)
+        lines = [f"# UVNAV output log, format {FORMAT_VERSION}"]
+        lines.extend(f"# {h}" for h in header)
+        lines.append("# config-begin")
+        lines.extend(f"# {ln}" if ln else "#" for ln in config_text.splitlines())
+        lines.append("# config-end")
+        writer._write("\n".join(lines) + "\n", sync=True)
+        return writer
+
+    def _write(self, text: str, sync: bool = False) -> None:
+        self._fh.write(text)
+        self._fh.flush()
+        self._since_sync += 1
+        if sync or self._since_sync >= self._fsync_every:
+            self._fh.fsync()
+            self._since_sync = 0
+
+    def write_cycle(
+        self, fields: Mapping[str, Value], lines: Sequence[tuple[str, Mapping[str, Value]]]
+    ) -> None:
+        """Write one complete cycle block (``CYCLE`` … ``END``) in a single flushed write."""
+        parts = ["CYCLE"]
+        _append_fields(parts, fields)
+        for tag, f in lines:
+            parts.append("\n  " + tag)
+            _append_fields(parts, f)
+        parts.append("\nEND")
+        _append_fields(parts, {"n": fields.get("n")})
+        parts.append("\n")
+        self._write("".join(parts))
+
+    def write_action(self, fields: Mapping[str, Value]) -> None:
+        """Write an operator action line (``ACT``)."""
+        self._write(format_line("ACT", fields) + "\n")
+
+    def write_bad_record(self, fields: Mapping[str, Value]) -> None:
+        """Write a rejected input record line (``BAD``)."""
+        self._write(format_line("BAD", fields) + "\n")
+
+    def close(self) -> None:
+        """Flush, force to disk and close (an error names the file)."""
+        self._fh.close(sync=True)
+
+    def __enter__(self) -> OutLogWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _raw_lines(path: str | os.PathLike[str], name: str,
+               start: int = 0) -> Iterator[tuple[int, int, str | None, bool]]:
+    """Yield (byte offset, line number, text without newline, complete) of a log file.
+
+    Read in binary, one line at a time (memory bounded by the longest line). ``complete`` is
+    False only for a last line without its newline: every write ends in one, so such a line is
+    a write cut short, and its text is None when the cut split a UTF-8 character. A complete
+    line that is not UTF-8 is corruption (InputError naming file and line). ``start``: byte
+    offset to begin at (line numbers then count from 1 there).
+    """
+    with open(path, "rb") as fh:
+        fh.seek(start)
+        offset = start
+        for i, raw in enumerate(fh, start=1):
+            complete = raw.endswith(b"\n")
+            try:
+                text: str | None = raw.decode("utf-8")
+            except UnicodeDecodeError:
+                if complete:
+                    raise InputError("Not UTF-8 text !", file=name, line=i, field="line",
+                                     text=raw[:80].decode("utf-8", "replace")) from None
+                text = None
+            if text is not None and complete:
+                text = text[:-1]
+            yield offset, i, text, complete
+            offset += len(raw)
+
+
+def iter_out_lines(path: str | os.PathLike[str]) -> Iterator[tuple[int, str]]:
+    """Yield (line number, line without newline) of a log file (a cut UTF-8 character at the
+    very end is replaced by U+FFFD; a bad one elsewhere raises InputError)."""
+    for _off, i, text, _complete in _raw_lines(path, str(path)):
+        yield i, "\ufffd" if text is None else text
+
+
+class OutCycles(Sequence[OutCycle]):
+    """The cycles of a ``.OUT`` log, read from the file on demand (nothing is kept in memory
+    but one byte offset per cycle, 8 bytes): iterate, index or take ``len``. The file was
+    checked whole by :func:`read_out_log`; only the cycles found then are served."""
+
+    def __init__(self, path: str, offsets: array[int]) -> None:
+        self._path = path
+        self._offsets = offsets
+
+    def __len__(self) -> int:
+        return len(self._offsets)
+
+    @overload
+    def __getitem__(self, index: int) -> OutCycle: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[OutCycle]: ...
+
+    def __getitem__(self, index: int | slice) -> OutCycle | list[OutCycle]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        n = len(self._offsets)
+        if index < 0:
+            index += n
+        if not 0 <= index < n:
+            raise IndexError("cycle index out of range")
+        return next(self._read(index, index + 1))
+
+    def __iter__(self) -> Iterator[OutCycle]:
+        return self._read(0, len(self._offsets))
+
+    def _read(self, first: int, stop: int) -> Iterator[OutCycle]:
+        if first >= stop:
+            return
+        left = stop - first
+        current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]]] | None = None
+        for _off, _i, text, _complete in _raw_lines(self._path, self._path,
+                                                     self._offsets[first]):
+            if text is None or not text.strip() or text.startswith("#"):
+                continue
+            tag, fields = parse_line(text)
+            if tag == "CYCLE":
+                current = (fields, [])
+            elif tag == "END" and current is not None:
+                yield OutCycle(current[0], tuple(current[1]))
+                current = None
+                left -= 1
+                if left == 0:
+                    return
+            elif current is not None:
+                current[1].append((tag, fields))
+
+
+@dataclass
+class _ScanState:
+    """What a scan of a log has found besides the cycles (filled while iterating)."""
+
+    header: list[str] = field(default_factory=list)
+    config: list[str] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    truncated: bool = False
+
+
+def _scan(
+    path: str | os.PathLike[str], state: _ScanState,
+) -> Iterator[tuple[str, int, dict[str, Value] | OutCycle]]:
+    """Yield ("cycle", offset, OutCycle), ("action", offset, fields), ("bad", offset, fields) in
+    file order; header, configuration, problems and ``truncated`` go to ``state``.
+
+    A last line without its newline is a write cut short (a crash, a full disk, a copy cut):
+    it is not parsed and the log is ``truncated``, whatever the cut left (``B``, ``CYCL``, half
+    a UTF-8 character). A complete line that cannot be parsed is corruption: InputError naming
+    file and line, unless only a cut-short line follows it.
+    """
+    name = str(path)
+    in_config = False
+    current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]], int] | None = None
+    last_line = 0
+    pending: tuple[int, str, str, str, str] | None = None  # line, text, message, field, got
+    cut = False
+    for off, ln, text, complete in _raw_lines(path, name):
+        last_line = ln
+        if not complete:
+            cut = True
+            break
+        assert text is not None
+        if text.startswith("#"):
+            body = text[2:] if text.startswith("# ") else text[1:]
+            if body == "config-begin":
+                in_config = True
+            elif body == "config-end":
+                in_config = False
+            elif in_config:
+                state.config.append(body)
+            else:
+                state.header.append(body)
+            continue
+        if not text.strip():
+            continue
+        if pending is not None:
+            raise InputError(pending[2], file=name, line=pending[0], field=pending[3],
+                             text=pending[4])
+        try:
+            tag, fields = parse_line(text)
+        except ValueError as exc:
+            pending = (ln, text, str(exc), "line", text[:80])
+            continue
+        if tag == "CYCLE":
+            if current is not None:
+                state.problems.append(f"{name}:{ln}: cycle block without END before this line")
+            current = (fields, [], off)
+        elif tag == "END":
+            if current is None:
+                raise InputError("END without CYCLE", file=name, line=ln, field="END", text=text)
+            yield "cycle", current[2], OutCycle(current[0], tuple(current[1]))
+            current = None
+        elif current is not None:
+            current[1].append((tag, fields))
+        elif tag == "ACT":
+            yield "action", off, fields
+        elif tag == "BAD":
+            yield "bad", off, fields
+        else:
+            pending = (ln, text, "unknown line tag", "tag", tag)
+    if pending is not None and not cut:
+        raise InputError(pending[2], file=name, line=pending[0], field=pending[3],
+                         text=pending[4])
+    if current is not None or cut or in_config:
+        state.truncated = True
+        what = "last cycle block" if current is not None else "last line"
+        state.problems.append(f"{name}:{last_line}: {what} is incomplete (run interrupted)")
+
+
+def iter_out_log(
+    path: str | os.PathLike[str],
+) -> tuple[_ScanState, Iterator[tuple[str, dict[str, Value] | OutCycle]]]:
+    """Stream a ``.OUT`` log: (state, events). ``events`` yields ("cycle", OutCycle),
+    ("action", fields) and ("bad", fields) in file order, one at a time (memory flat in the
+    length of the run); ``state.header``, ``state.config``, ``state.problems`` and
+    ``state.truncated`` are complete once ``events`` is exhausted (the header already after the
+    first event). Errors as :func:`read_out_log`."""
+    state = _ScanState()
+    return state, ((kind, item) for kind, _off, item in _scan(path, state))
+
+
+def read_out_log(path: str | os.PathLike[str]) -> OutLogContents:
+    """Read a ``.OUT`` log back.  A final block cut off by a crash (or any last line without its
+    newline: ``B``, ``CYCL``, half a UTF-8 character) sets ``truncated``; a complete line that
+    cannot be parsed raises :class:`InputError` naming file and line (a log is machine-written,
+    so anything else is corruption).
+
+    The whole file is checked, but the cycles are not kept: ``cycles`` is an :class:`OutCycles`
+    that reads them from the file on demand (8 bytes per cycle in memory). Actions and bad
+    records are kept (they are few; a run's bad records are capped by the writer).
+    """
+    name = str(path)
+    state = _ScanState()
+    offsets: array[int] = array("q")
+    actions: list[dict[str, Value]] = []
+    bad: list[dict[str, Value]] = []
+    for kind, off, item in _scan(path, state):
+        if kind == "cycle":
+            offsets.append(off)
+        elif kind == "action":
+            actions.append(item)  # type: ignore[arg-type]
+        else:
+            bad.append(item)  # type: ignore[arg-type]
+    return OutLogContents(
+        header=tuple(state.header),
+        config_text="\n".join(state.config) + ("\n" if state.config else ""),
+        cycles=OutCycles(name, offsets),
+        actions=tuple(actions),
+        bad_records=tuple(bad),
+        truncated=state.truncated,
+        problems=tuple(state.problems),
+    )

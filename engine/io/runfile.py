@@ -1,0 +1,375 @@
+"""Reader and writer for ``*.RUN`` simulation data files (thesis A8.4, L8971–8985; L5560–5566).
+
+One record per line, whitespace-separated (program.md §5.3, A10)::
+
+    YYMMDD HHMMSS LAT LON R G P HDG SPD RUD [INCL [PFREQ [ECHO]]]
+    920917 083538 52 50 33.020 N 004 31 51.134 E .862 .325 .109 232.4 12.7 -.2
+
+* date/time: UTC; two-digit years 70–99 → 19xx, 00–69 → 20xx.
+* LAT ``D M S.sss N|S`` and LON ``D M S.sss E|W`` (4 tokens each): the GPS receiver's WGS84
+  position string (thesis L5564).
+* R G P: Decca lane fractions of the Red, Green, Purple patterns, in [0, 1) (``.862``).
+* HDG gyro heading [deg true, 0–360); SPD EM-log speed through the water [kn, 0–60];
+  RUD rudder angle [deg, −90…90, sign only displayed].
+* Optional trailing columns (A10): INCL inclinometer [deg, −90…90], PFREQ pressure-sensor
+  crystal frequency [Hz, > 0], ECHO echo-sounder depth [m, ≥ 0].
+* Any field whose sensor gave nothing is the single token ``-`` (also for LAT/LON: one ``-``).
+* Lines starting with ``*``, blank lines and the A8.4 caption line (``Date Time GPS lat …``)
+  are skipped.
+
+Every number is a plain decimal in ASCII digits (:data:`engine.io.operator_input.DECIMAL`), with an
+optional ``-`` in the numeric columns (the range checks then reject a negative heading, speed
+…); ``+5``, ``5_2``, ``1e3``, ``inf``, ``nan`` and non-ASCII digits are not numbers, although
+``float()`` takes them. Fields are separated by spaces or tabs only.
+
+Parsing is per line (``str.split``, one character check of the numeric columns, ``float``; no
+regular expression on the hot path) so an 86 400-line day replays quickly;
+:func:`iter_run_file` streams and turns bad lines into :class:`BadRecord`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import stat
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from datetime import UTC, datetime
+
+from engine.errors import InputError, read_error
+from engine.io.deccafile import format_dms, parse_dms
+
+__all__ = [
+    "BadRecord",
+    "RunRecord",
+    "format_run_record",
+    "iter_run_file",
+    "iter_run_lines",
+    "parse_run_line",
+]
+
+MAX_SPEED_KN = 60.0
+"""Log speeds above this are rejected as implausible [kn]."""
+
+
+@dataclass(frozen=True, slots=True)
+class RunRecord:
+    """One parsed ``.RUN`` line (units: degrees, knots, hertz, metres; time tz-aware UTC).
+
+    ``gps_lat_deg``/``gps_lon_deg`` are geodetic WGS84 degrees (south/west negative);
+    ``decca`` holds the Red, Green, Purple lane fractions. ``None`` means the sensor gave
+    nothing (``-``) or, for ``incl_deg``/``press_freq_hz``/``echo_m``, that the optional
+    column is absent: the caller treats an absent column as "sensor not connected"
+    (status 2, program.md A10). ``raw`` is the line without its line ending.
+    """
+
+    line_no: int
+    time: datetime
+    gps_lat_deg: float | None
+    gps_lon_deg: float | None
+    decca: tuple[float | None, float | None, float | None]
+    heading_deg: float | None
+    speed_kn: float | None
+    rudder_deg: float | None
+    incl_deg: float | None = None
+    press_freq_hz: float | None = None
+    echo_m: float | None = None
+    raw: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class BadRecord:
+    """A line that could not be parsed: its 1-based number, text and the located error."""
+
+    line_no: int
+    raw: str
+    error: InputError
+
+
+_NUMERIC_FIELDS = (
+    "Decca red", "Decca green", "Decca purple", "heading", "speed", "rudder",
+    "inclinometer", "pressure frequency", "echo sounder",
+)
+_NOT_NUMBER_CHARS = str.maketrans("", "", "0123456789.- ")
+"""``text.translate(_NOT_NUMBER_CHARS)`` is what is left after removing the characters of the
+numeric columns (ASCII digits, ``.``, ``-``, the joining blank): "" for well-formed columns."""
+_NOT_RECORD_CHAR_RE = re.compile(r"[^\t -~]")
+"""A character that cannot occur in a record (its line ending removed): not printable ASCII or
+tab."""
+
+
+def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord:
+    if not 10 <= n <= 19:
+        raise InputError(f"Wrong number of fields ({n}) !", field="record", text=line.strip())
+
+    # --- date and time (UTC)
+    d = toks[0]
+    if len(d) != 6 or not (d.isascii() and d.isdigit()):
+        raise InputError("Wrong date (YYMMDD) !", field="date", text=d)
+    t = toks[1]
+    if len(t) != 6 or not (t.isascii() and t.isdigit()):
+        raise InputError("Wrong time (HHMMSS) !", field="time", text=t)
+    yy, mmdd = divmod(int(d), 10000)
+    month, day = divmod(mmdd, 100)
+    hh, mmss = divmod(int(t), 10000)
+    minute, second = divmod(mmss, 100)
+    if hh > 23 or minute > 59 or second > 59:
+        raise InputError("Wrong time (HHMMSS) !", field="time", text=t)
+    try:
+        time = datetime(
+            yy + (1900 if yy >= 70 else 2000), month, day, hh, minute, second, tzinfo=UTC
+        )
+    except ValueError:
+        raise InputError("Wrong date (YYMMDD) !", field="date", text=d) from None
+
+    # --- GPS position: one '-' or four tokens each
+    if toks[2] == "-":
+        lat = None
+        i = 3
+    else:
+        lat = parse_dms(toks[2], toks[3], toks[4], toks[5], True, "GPS latitude")
+        i = 6
+    if toks[i] == "-":
+        lon = None
+        i += 1
+    else:
+        lon = parse_dms(toks[i], toks[i + 1], toks[i + 2], toks[i + 3], False, "GPS longitude")
+        i += 4
+    rest = n - i
+    if not 6 <= rest <= 9:
+        raise InputError(f"Wrong number of fields ({n}) !", field="record", text=line.strip())
+
+    # --- numeric columns. Over the characters 0-9 . - float() accepts exactly the grammar's
+    # numbers (-?DECIMAL), so one character check of all columns plus float() is the strict
+    # grammar (float alone would take '+5', '5_2', '1e3', 'inf', non-ASCII digits); lean hot path.
+    if " ".join(toks[i:]).translate(_NOT_NUMBER_CHARS):
+        for k in range(rest):
+            tok = toks[i + k]
+            if tok.translate(_NOT_NUMBER_CHARS):
+                raise InputError("Not a number !", field=_NUMERIC_FIELDS[k], text=tok)
+    try:
+        tok = toks[i]
+        fr_r = None if tok == "-" else float(tok)
+        tok = toks[i + 1]
+        fr_g = None if tok == "-" else float(tok)
+        tok = toks[i + 2]
+        fr_p = None if tok == "-" else float(tok)
+        tok = toks[i + 3]
+        hdg = None if tok == "-" else float(tok)
+        tok = toks[i + 4]
+        spd = None if tok == "-" else float(tok)
+        tok = toks[i + 5]
+        rud = None if tok == "-" else float(tok)
+        incl = pfreq = echo = None
+        if rest > 6:
+            tok = toks[i + 6]
+            incl = None if tok == "-" else float(tok)
+            if rest > 7:
+                tok = toks[i + 7]
+                pfreq = None if tok == "-" else float(tok)
+                if rest > 8:
+                    tok = toks[i + 8]
+                    echo = None if tok == "-" else float(tok)
+    except ValueError:
+        bad = toks.index(tok, i)
+        raise InputError("Not a number !", field=_NUMERIC_FIELDS[bad - i], text=tok) from None
+
+    # --- range checks (NaN fails every comparison, so it is rejected too)
+    if fr_r is not None and not 0.0 <= fr_r < 1.0:
+        raise InputError("Decca fraction must be in [0, 1) !", field="Decca red", text=toks[i])
+    if fr_g is not None and not 0.0 <= fr_g < 1.0:
+        raise InputError(
+            "Decca fraction must be in [0, 1) !", field="Decca green", text=toks[i + 1]
+        )
+    if fr_p is not None and not 0.0 <= fr_p < 1.0:
+        raise InputError(
+            "Decca fraction must be in [0, 1) !", field="Decca purple", text=toks[i + 2]
+        )
+    if hdg is not None and not 0.0 <= hdg < 360.0:
+        raise InputError("Heading must be in [0, 360) degrees !", field="heading", text=toks[i + 3])
+    if spd is not None and not 0.0 <= spd <= MAX_SPEED_KN:
+        raise InputError("Speed must be in [0, 60] knots !", field="speed", text=toks[i + 4])
+    if rud is not None and not -90.0 <= rud <= 90.0:
+        raise InputError(
+            "Rudder angle must be in [-90, 90] degrees !", field="rudder", text=toks[i + 5]
+        )
+    if incl is not None and not -90.0 <= incl <= 90.0:
+        raise InputError(
+            "Inclination must be in [-90, 90] degrees !", field="inclinometer", text=toks[i + 6]
+        )
+    if pfreq is not None and not (pfreq > 0.0 and math.isfinite(pfreq)):
+        raise InputError(
+            "Pressure frequency must be > 0 Hz !", field="pressure frequency", text=toks[i + 7]
+        )
+    if echo is not None and not (echo >= 0.0 and math.isfinite(echo)):
+        raise InputError("Echo depth must be >= 0 m !", field="echo sounder", text=toks[i + 8])
+
+    # --- every token is valid ASCII now, so anything else is a separator str.split() took
+    # (a Unicode blank, form feed, U+001C …): the grammar allows spaces and tabs only.
+    body = line.rstrip("\r\n")
+    if not (body.isascii() and (body.isprintable() or body.replace("\t", " ").isprintable())):
+        odd = _NOT_RECORD_CHAR_RE.search(body)
+        raise InputError(
+            "Fields must be separated by spaces or tabs !",
+            field="record", text=odd.group() if odd is not None else body,
+        )
+
+    return RunRecord(
+        line_no, time, lat, lon, (fr_r, fr_g, fr_p), hdg, spd, rud, incl, pfreq, echo,
+        line.rstrip("\r\n"),
+    )
+
+
+def parse_run_line(line: str, line_no: int = 0, filename: str = "<string>") -> RunRecord | None:
+    """Parse one ``.RUN`` line (grammar in the module docstring).
+
+    Returns ``None`` for a blank, comment (``*``) or caption (``Date Time …``) line. Raises
+    ``InputError`` naming ``filename``, ``line_no`` and the field (``record``, ``date``,
+    ``time``, ``GPS latitude``, ``GPS longitude``, ``Decca red|green|purple``, ``heading``,
+    ``speed``, ``rudder``, ``inclinometer``, ``pressure frequency``, ``echo sounder``).
+    """
+    toks = line.split()
+    n = len(toks)
+    if n == 0:
+        return None
+    first = toks[0]
+    if first[0] == "*" or (first[0] in "Dd" and first.lower() == "date"):
+        return None
+    try:
+        return _parse_tokens(toks, n, line, line_no)
+    except InputError as exc:
+        raise exc.located(file=filename, line=line_no) from None
+
+
+MAX_LINE_CHARS = 4096
+"""Longest ``.RUN`` line read (a record is under 200 characters); a longer one is a bad record
+whose text is not kept, so one huge line cannot fill the memory."""
+LINE_TOO_LONG_MESSAGE = f"Line too long (more than {MAX_LINE_CHARS} characters) !"
+RAW_KEPT_CHARS = 80
+"""Characters of an over-long line kept as its ``raw`` text."""
+
+
+def _parse_one(line: str, line_no: int, filename: str) -> RunRecord | BadRecord | None:
+    try:
+        return parse_run_line(line, line_no, filename)
+    except InputError as exc:
+        return BadRecord(line_no, line.rstrip("\r\n"), exc)
+
+
+def iter_run_lines(
+    lines: Iterable[str], filename: str = "<string>"
+) -> Iterator[RunRecord | BadRecord]:
+    """Parse lines lazily (line numbers from 1); a bad line gives a :class:`BadRecord`.
+
+    Never raises ``InputError``, so a replay does not stop on a bad line.
+    """
+    for line_no, line in enumerate(lines, 1):
+        item = _parse_one(line, line_no, filename)
+        if item is not None:
+            yield item
+
+
+def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecord]:
+    """Stream the records of a ``.RUN`` file, reading one line at a time (constant memory).
+
+    The file is checked when this is called (opened and closed), so a missing, unreadable or
+    non-regular file is an ``InputError`` before anything runs
+    (:func:`~engine.errors.read_error`); it is opened on the first ``next()`` and closed when
+    the iterator is exhausted or closed. Undecodable bytes become U+FFFD (so the line is
+    reported as bad, never crashes the replay); a line over :data:`MAX_LINE_CHARS` characters
+    is a bad record.
+    """
+    name = os.fspath(path)
+    if "\0" in name:
+        raise InputError("A path cannot contain a NUL character !", file=name)
+    try:
+        if not stat.S_ISDIR(mode := os.stat(name).st_mode) and not stat.S_ISREG(mode):
+            raise InputError("Not a regular file (a device or pipe) !", file=name)
+        with open(name, "rb"):  # readable now (reopened, and closed again, by the stream)
+            pass
+    except OSError as exc:
+        raise read_error(exc, name) from None
+    return _stream(name)
+
+
+def _stream(name: str) -> Iterator[RunRecord | BadRecord]:
+    with open(name, encoding="utf-8-sig", errors="replace") as fh:
+        line_no = 0
+        while line := fh.readline(MAX_LINE_CHARS + 1):
+            line_no += 1
+            if len(line) > MAX_LINE_CHARS and not line.endswith("\n"):
+                raw = line[:RAW_KEPT_CHARS] + "…"
+                while line and not line.endswith("\n"):  # skip the rest, a chunk at a time
+                    line = fh.readline(1 << 16)
+                yield BadRecord(line_no, raw, InputError(
+                    LINE_TOO_LONG_MESSAGE, file=name, line=line_no, field="record"))
+                continue
+            item = _parse_one(line, line_no, name)
+            if item is not None:
+                yield item
+
+
+# --------------------------------------------------------------------------- writer
+
+
+def _strip0(text: str) -> str:
+    """Drop the leading zero of a magnitude below 1, as the thesis prints: 0.2 → .2, -0.2 → -.2."""
+    if text.startswith("0."):
+        return text[1:]
+    if text.startswith("-0."):
+        return "-" + text[2:]
+    return text
+
+
+def _opt(value: float | None, spec: str) -> str:
+    return "-" if value is None else _strip0(format(value, spec))
+
+
+def _fraction(value: float | None) -> str:
+    if value is None:
+        return "-"
+    text = f"{value:.3f}"
+    if text == "1.000":  # 0.9995 ≤ v < 1 would round out of [0, 1): clamp to the last step
+        text = "0.999"
+    return _strip0(text)
+
+
+def _heading(value: float | None) -> str:
+    if value is None:
+        return "-"
+    text = f"{value:.1f}"
+    if text == "360.0":  # 359.95 ≤ v < 360 wraps to north
+        text = "0.0"
+    return _strip0(text)
+
+
+def format_run_record(rec: RunRecord) -> str:
+    """One ``.RUN`` line in the thesis layout, single-space separated (no line ending).
+
+    Precision: seconds of arc 0.001″, fractions 0.001 lane (≥ .9995 clamped to .999), heading,
+    speed and rudder 0.1 (heading 359.95+ wraps to 0.0), inclination 0.01°, pressure frequency
+    0.001 Hz, echo depth 0.01 m. Optional columns are written up to the last present one,
+    with ``-`` for a ``None`` before it.
+    """
+    t = rec.time.astimezone(UTC) if rec.time.tzinfo is not None else rec.time
+    parts = [
+        f"{t.year % 100:02d}{t.month:02d}{t.day:02d}",
+        f"{t.hour:02d}{t.minute:02d}{t.second:02d}",
+        "-" if rec.gps_lat_deg is None else format_dms(rec.gps_lat_deg, True),
+        "-" if rec.gps_lon_deg is None else format_dms(rec.gps_lon_deg, False),
+        _fraction(rec.decca[0]),
+        _fraction(rec.decca[1]),
+        _fraction(rec.decca[2]),
+        _heading(rec.heading_deg),
+        _opt(rec.speed_kn, ".1f"),
+        _opt(rec.rudder_deg, ".1f"),
+    ]
+    optional = [
+        _opt(rec.incl_deg, ".2f"),
+        _opt(rec.press_freq_hz, ".3f"),
+        _opt(rec.echo_m, ".2f"),
+    ]
+    while optional and optional[-1] == "-":
+        optional.pop()
+    return " ".join(parts + optional)

@@ -1,0 +1,999 @@
+"""The processing cycle: one ``.RUN`` record in, one immutable :class:`CycleResult` out.
+
+Functional core (program.md §2.3–§2.5, kalman.md §10): ``step(context, state, record)`` returns the
+next :class:`NavState` and the cycle's result without touching anything else, so the console, the
+headless replay and the tests all drive the same code, and a cycle can be recomputed (e.g. after
+the operator discards an LOP under ``LOPReject = 'A'``) simply by calling ``step`` again.
+Frames: the TM grid of the working datum with CM = MPP longitude rounded (program.md A11);
+geodetic positions on the working datum; headings true outside the filter, grid inside it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from datetime import datetime
+
+import numpy as np
+
+from engine.filter.kalman import (
+    FilterParams,
+    FilterState,
+    Measurement,
+    UpdateResult,
+    derived_fix_model,
+    init_state,
+    innovation_distance,
+    lop_measurement,
+    lse_measurement,
+    predict_step,
+    restart_fix_states,
+    sensor_measurement,
+    stack_measurements,
+    update,
+)
+from engine.geodesy.ellipsoid import WGS84, Datum
+from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift, geodetic_to_ecef
+from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
+from engine.io.datumfile import DatumFile
+from engine.io.deccafile import DeccaChain
+from engine.io.operator_input import parse_zone_lane
+from engine.io.runfile import RunRecord
+from engine.lsq.confidence import Ellipse, error_ellipse
+from engine.lsq.fix import (
+    GPS_VAR_CA_M2,
+    GPS_VAR_P_M2,
+    SLOT_BRR0,
+    DeccaReading,
+    FixResult,
+    GpsFix,
+    LsqSettings,
+    ManualObservation,
+    PositionPrior,
+    compute_fix,
+    lop_name,
+)
+from engine.lsq.quality import REJECT_BOUND, CumulativeVariance
+from engine.run.config import RunConfig
+from engine.systems.decca import (
+    PATTERNS,
+    ChainOnGrid,
+    DeccaGeometry,
+    decca_geometry,
+    identify_lane,
+    place_chain,
+    resolve_total_lanes,
+    track_lane,
+)
+from engine.systems.sensors import knots_to_ms, pressure_depth_m, surface_reference_hz
+
+DECCA_TRACK_GAP_S = 30.0
+"""Longest gap in a pattern's readings over which its lane count is still tracked (s); after a
+longer gap (a dive) the lane is identified again from the provisional position."""
+
+CM_HYSTERESIS_DEG = 0.05
+"""Extra margin beyond 0.5° before the CM switches, so a ship on a half-degree meridian does not
+make the grid flip every cycle (program.md A11 gives 0.5°; kalman.md A18 asks for stability)."""
+
+SENSOR_NAMES = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")
+STATUS_CODE = {"off": 0, "on": 1, "n/a": 2}
+
+
+def filter_params_from_config(cfg: RunConfig) -> FilterParams:
+    """The filter parameters of a run configuration (kalman.md §6.6–§6.8, §14); ``"auto"``
+    fix-error τ and fraction follow from the systems on
+    (``engine.filter.kalman.derived_fix_model``)."""
+    f = cfg.filter
+    gps_var = (GPS_VAR_P_M2 if cfg.gps.p_code else GPS_VAR_CA_M2) * cfg.lsq.gps_se_sf
+    tau, frac = derived_fix_model(cfg.gps.on, gps_var, cfg.decca.on, cfg.gps.p_code)
+    return FilterParams(
+        q_scale=f.q_scale,
+        q_mode=f.q_mode,
+        turn_rate_max_deg_s=f.turn_rate_max_deg_s,
+        pitch_rate_max_deg_s=f.pitch_rate_max_deg_s,
+        sigma_gyro_deg=f.sigma_gyro_deg,
+        sigma_incl_deg=f.sigma_incl_deg,
+        sigma_press_m=f.sigma_press_m,
+        log_sigma_frac=f.log_sigma_frac,
+        log_sigma_floor_ms=f.log_sigma_floor_ms,
+        p0=f.p0,
+        coloured=f.model == "coloured",
+        fix_tau_s=tau if f.fix_tau_s == "auto" else float(f.fix_tau_s),
+        fix_sigma_frac=frac if f.fix_sigma_frac == "auto" else float(f.fix_sigma_frac),
+        bias_noise=f.bias_noise,
+        bias_rw_log_ms_sqrth=f.log_bias_rw_ms_sqrth,
+        bias_rw_gyro_deg_sqrth=f.gyro_bias_rw_deg_sqrth,
+        bias_rw_incl_deg_sqrth=f.incl_bias_rw_deg_sqrth,
+    )
+
+
+def lsq_settings_from_config(cfg: RunConfig) -> LsqSettings:
+    """The LS parameters of a run configuration (A8.2)."""
+    q = cfg.lsq
+    return LsqSettings(
+        epsilon_m=q.epsilon_m,
+        s02=q.s02,
+        lop_reject=q.lop_reject,
+        reliab_interval=q.reliab_interval_pct,
+        scale_vcv=q.scale_vcv,
+        estimator=q.estimator,
+        conf_region=q.conf_region_pct,
+    )
+
+
+@dataclass
+class RunContext:
+    """What a run needs besides its state: configuration, data files and derived solvers.
+
+    Rebuilt (cheaply) whenever the operator changes the set-up; holds small per-run caches of TM
+    grids and Decca chains placed on them, keyed by central meridian.
+    """
+
+    config: RunConfig
+    datums: DatumFile
+    chains: dict[str, DeccaChain]
+    working: Datum
+    gps_shift: DatumShift | None
+    gps_to_wgs84: DatumShift | None
+    """``run_gps_datum`` → WGS84 for the Pg 100 ECEF and height (None when the .RUN is WGS84)."""
+    geodesic: GeodesicSolver
+    filter_params: FilterParams
+    lsq: LsqSettings
+    zone_lane: tuple[tuple[int, int] | None, tuple[int, int] | None, tuple[int, int] | None]
+    _grids: dict[float, TMGrid] = field(default_factory=dict)
+    _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
+
+    def grid(self, cm_deg: float) -> TMGrid:
+        """The TM grid of the working datum at central meridian ``cm_deg``."""
+        g = self._grids.get(cm_deg)
+        if g is None:
+            g = TMGrid(self.working.ellipsoid, cm_deg)
+            self._grids[cm_deg] = g
+        return g
+
+    def placed_chain(self, cm_deg: float) -> ChainOnGrid | None:
+        """The selected Decca chain on the grid of ``cm_deg`` (None if Decca has no chain)."""
+        if cm_deg in self._placed:
+            return self._placed[cm_deg]
+        chain = self.chains.get(self.config.decca.chain)
+        placed = None
+        if chain is not None:
+            latlon = np.array([[s.lat_deg, s.lon_deg] for s in
+                               (chain.master, chain.red, chain.green, chain.purple)])
+            if chain.datum_name.upper() != self.working.name.upper():
+                shift = datum_shift(self.datums.datum(chain.datum_name), self.working)
+                latlon = np.array([shift.transform(float(a), float(b), 0.0)[:2]
+                                   for a, b in latlon])
+            placed = place_chain(chain, self.grid(cm_deg), latlon)
+        self._placed[cm_deg] = placed
+        return placed
+
+
+def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain]) -> RunContext:
+    """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain)."""
+    working = datums.datum(cfg.datum)
+    gps_datum = datums.datum(cfg.run_gps_datum) if cfg.run_gps_datum.upper() != "WGS84" else WGS84
+    shift = None if gps_datum.name.upper() == working.name.upper() else datum_shift(
+        gps_datum, working
+    )
+    to_wgs = None if gps_datum is WGS84 else datum_shift(gps_datum, WGS84)
+    d = cfg.decca
+    zl = tuple(
+        parse_zone_lane(text, pattern) if text else None
+        for text, pattern in ((d.red, "red"), (d.green, "green"), (d.purple, "purple"))
+    )
+    return RunContext(
+        config=cfg,
+        datums=datums,
+        chains=chains,
+        working=working,
+        gps_shift=shift,
+        gps_to_wgs84=to_wgs,
+        geodesic=GeodesicSolver(working.ellipsoid),
+        filter_params=filter_params_from_config(cfg),
+        lsq=lsq_settings_from_config(cfg),
+        zone_lane=(zl[0], zl[1], zl[2]),
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class PositionEstimate:
+    """A position with its precision: geodetic (degrees, working datum), TM grid (m) on the
+    cycle's CM, depth (m, positive down), the 2×2 horizontal VCV (m², x/y) and its ellipse."""
+
+    source: str
+    lat_deg: float
+    lon_deg: float
+    x_m: float
+    y_m: float
+    depth_m: float
+    cov: np.ndarray
+    ellipse: Ellipse | None
+
+
+@dataclass(frozen=True, slots=True)
+class GpsInput:
+    """The GPS record of a cycle: as received (on ``run_gps_datum``), its WGS84 ECEF for Pg 100,
+    the displayed WGS84 height ``hg_m`` (program.md §4.3), on the working datum, and on the grid."""
+
+    lat_in_deg: float
+    lon_in_deg: float
+    wgs84_lat_deg: float
+    wgs84_lon_deg: float
+    hg_m: float
+    ecef_m: tuple[float, float, float]
+    lat_deg: float
+    lon_deg: float
+    x_m: float
+    y_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class SensorValues:
+    """Converted sensor values of a cycle (None = not available) and each sensor's status code
+    (A8.2: 0 connected-off, 1 on, 2 not connected) in the order of ``SENSOR_NAMES``."""
+
+    status: tuple[int, ...]
+    heading_true_deg: float | None
+    speed_kn: float | None
+    rudder_deg: float | None
+    incl_deg: float | None
+    depth_m: float | None
+    echo_m: float | None
+    convergence_deg: float
+
+
+@dataclass(frozen=True)
+class CycleResult:
+    """Everything one cycle produced (immutable; the pages, logs and tests read only this)."""
+
+    n: int
+    record: int
+    time: datetime
+    raw: str
+    dt_s: float
+    datum: str
+    cm_deg: float
+    systems: str
+    sensors: SensorValues
+    gps: GpsInput | None
+    decca_fractions: tuple[float | None, float | None, float | None]
+    decca_on: bool
+    fix: FixResult | None
+    kf_pred: PositionEstimate | None
+    kf: PositionEstimate | None
+    mpp: PositionEstimate
+    filter_status: str
+    filter_state: FilterState | None
+    filter_update: UpdateResult | None
+    cumulative: CumulativeVariance
+    manual: tuple[ManualObservation, ...] = ()
+    messages: tuple[str, ...] = ()
+    smoother_link: tuple[FilterState, FilterState, np.ndarray] | None = None
+    """(state at the previous epoch after this record's gyro/log update, its prediction to this
+    epoch, Φ): what the RTS smoother needs to go back over this step."""
+    sensor_update: UpdateResult | None = None
+    """The update with this record's gyro, log and inclinometer rows, made before the step into
+    this epoch (README "Sensor timing"); ``filter_update`` is the update at this epoch (fix or raw
+    LOPs, and the pressure depth). Both carry their LOM and LS tests."""
+    fix_fails_tests: bool = False
+    """The LSE failed its tests (:func:`fix_fit`): a message says so; .OUT/JSONL record it."""
+    fix_cov_scale: float = 1.0
+    """The factor the LSE's VCV was multiplied by before the filter and the MPP used it."""
+    fix_gate: str = ""
+    """Why this epoch's fix is marked: "gross" (kept out by the gross-error gate,
+    :data:`GROSS_GATE_SIGMA`), "innovation" (taken, but the filter's innovation (LOM) test
+    rejects it), "" otherwise. The messages say the same in words."""
+    lane_slips: int = 0
+    """Decca lane slips corrected against GPS this cycle (one per pattern)."""
+
+
+@dataclass(frozen=True)
+class NavState:
+    """What one cycle hands to the next (the thesis' "common block", minus configuration)."""
+
+    n: int = 0
+    last_time: datetime | None = None
+    cm_deg: float | None = None
+    mpp_lat_deg: float = 0.0
+    mpp_lon_deg: float = 0.0
+    filter: FilterState | None = None
+    cumulative: CumulativeVariance = field(default_factory=CumulativeVariance)
+    pending_obs: tuple[ManualObservation, ...] = ()
+    press_ref_hz: float | None = None
+    decca_track: tuple[tuple[float, datetime] | None, ...] = (None, None, None)
+    filter_has_fix: bool = False
+    fix_source: tuple[object, ...] | None = None
+    """The fix source (:func:`fix_source`) the filter's Gauss–Markov fix-error states model."""
+    gated_fixes: int = 0
+    """Fixes in a row kept out of the filter as gross errors (:data:`GROSS_GATE_SIGMA`)."""
+
+
+def initial_state(cfg: RunConfig) -> NavState:
+    """The state before the first record: the operator's DR position, no filter yet."""
+    return NavState(mpp_lat_deg=cfg.dr_lat_deg, mpp_lon_deg=cfg.dr_lon_deg)
+
+
+def _status(cfg: RunConfig, name: str) -> int:
+    return STATUS_CODE[getattr(cfg.sensors, name)]
+
+
+GROSS_GATE_SIGMA = 30.0
+"""A fix whose innovation is longer than this many σ (Mahalanobis, against S = HPHᵀ + R) is a
+gross error, not a statistical one: the filter does not take it (a GPS fix 5800 km off would
+otherwise pull speed and current to hundreds of m/s). The w-tests flag anything beyond ~3 σ; the
+gate only stops what no test could make good. A lane slip of one Decca lane (~500 m) against a
+20 m filter is 25 σ and still goes in, to be flagged by the tests as the thesis does."""
+GROSS_GATE_RESET = 3
+"""After this many gated LSE fixes in a row the filter, not the fixes, is taken to be wrong: its
+position restarts from the LSE as at the start of a run (kalman.md A3)."""
+
+DEPTH_PLAUSIBLE_M = (-20.0, 11_000.0)
+"""Pressure depths (m, positive down) a reading may give: from 20 m above the surface (a wrong
+reference frequency, a crystal out of calibration) to the deepest ocean. A reading outside is
+not used; the cycle says so (a run must not take a −268 km depth into the filter)."""
+
+
+def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
+             lat: float, lon: float,
+             messages: list[str]) -> tuple[SensorValues, float | None]:
+    cfg = ctx.config
+    status = tuple(_status(cfg, n) for n in SENSOR_NAMES)
+
+    def val(i: int, v: float | None) -> float | None:
+        return v if status[i] == 1 else None
+
+    depth = None
+    ref = nav.press_ref_hz
+    if status[4] == 1 and rec.press_freq_hz is not None:
+        if ref is None:
+            ref = surface_reference_hz(cfg.demo.press_ref_freq_hz)
+        depth = pressure_depth_m(rec.press_freq_hz, ref, cfg.demo.s_weight)
+        if not DEPTH_PLAUSIBLE_M[0] <= depth <= DEPTH_PLAUSIBLE_M[1]:
+            messages.append(f"Pressure {rec.press_freq_hz:.3f} Hz gives depth {depth:.0f} m: "
+                            "implausible, not used")
+            depth = None
+    values = SensorValues(
+        status=status,
+        heading_true_deg=val(0, rec.heading_deg),
+        speed_kn=val(1, rec.speed_kn),
+        rudder_deg=val(2, rec.rudder_deg),
+        incl_deg=val(3, rec.incl_deg),
+        depth_m=depth,
+        echo_m=val(5, rec.echo_m),
+        convergence_deg=grid.convergence_deg(lat, lon),
+    )
+    return values, ref
+
+
+def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
+              cov: np.ndarray) -> PositionEstimate:
+    lat, lon = grid.inverse(x, y)
+    ell = error_ellipse(cov) if np.all(np.isfinite(cov)) else None
+    cov.setflags(write=False)
+    if ell is not None:
+        ell.eigenvectors.setflags(write=False)
+    return PositionEstimate(source, lat, lon, x, y, depth, cov, ell)
+
+
+def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstimate:
+    """The horizontal position of a filter state as an estimate (grid ``grid``)."""
+    return _estimate(source, grid, float(fs.x[0]), float(fs.x[1]), float(fs.x[2]),
+                     np.array(fs.P[:2, :2]))
+
+
+def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
+                   *updates: UpdateResult | None) -> None:
+    """Make the arrays a cycle hands out read-only, besides its estimates (see ``_estimate``)
+    and filter states (which already are): the fix's VCV, ellipse axes and raw LOPs, the
+    smoother link's Φ and each filter update's innovation, S, K and LS factors. A cycle result
+    is an immutable value (the per-slot arrays inside ``fix.tested`` belong to
+    engine.lsq.quality)."""
+    arrays: list[np.ndarray] = []
+    if fix is not None:
+        arrays.append(fix.cov)
+        if fix.ellipse is not None:
+            arrays.append(fix.ellipse.eigenvectors)
+        if fix.raw_lops is not None:
+            raw = fix.raw_lops
+            arrays += [raw.A, raw.omc_m, raw.Cl, raw.x_ref]
+    if phi is not None:
+        arrays.append(phi)
+    for u in updates:
+        if u is not None:
+            arrays += [u.innovation, u.S, u.K, u.ls.l_inv, u.ls.w]
+    for a in arrays:
+        a.setflags(write=False)
+
+
+def _gps_input(ctx: RunContext, rec: RunRecord, grid: TMGrid) -> GpsInput | None:
+    cfg = ctx.config
+    if not cfg.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
+        return None
+    lat_in, lon_in = rec.gps_lat_deg, rec.gps_lon_deg
+    if ctx.gps_shift is None:
+        lat, lon, h_datum = lat_in, lon_in, 0.0
+    else:
+        # h = 0 on the source datum for the horizontal transformation (lsq.md §2.1).
+        lat, lon, h_datum = ctx.gps_shift.transform(lat_in, lon_in, 0.0)
+    if ctx.gps_to_wgs84 is None:
+        w_lat, w_lon, hg = lat_in, lon_in, -h_datum
+    else:
+        w_lat, w_lon, hg = ctx.gps_to_wgs84.transform(lat_in, lon_in, 0.0)
+    ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
+    x, y = grid.forward(lat, lon)
+    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y)
+
+
+def _cm_for(nav: NavState, lon: float) -> float:
+    cm = nav.cm_deg
+    if cm is None:
+        return central_meridian_deg(lon)
+    diff = (lon - cm + 180.0) % 360.0 - 180.0
+    if abs(diff) > 0.5 + CM_HYSTERESIS_DEG:
+        return central_meridian_deg(lon)
+    return cm
+
+
+_NO_COV = np.full((2, 2), np.nan)
+"""Placeholder VCV of a cycle without a fix (never used: every use is behind ``fix``)."""
+
+
+def fix_fit(fix: FixResult | None) -> tuple[float, str | None]:
+    """How far the filter and the MPP may trust an LSE that fails its own tests.
+
+    A fix fails when the unit-variance test rejects S² on the high side (eq. 5.15–5.17: the
+    residuals are larger than its a priori VCV allows) or when every tested LOP fails the
+    w-test (|w| > 2.576, eq. 5.10). Returns (factor, message): the fix's VCV C_x̂ is to be
+    multiplied by the a posteriori variance factor S² (> the test's upper bound > 1), the
+    estimate of how much C_l understates the errors (the thesis' own ScaleVCV remedy, A8.2; the
+    "advice: scale the a priori VCV by S²" of engine.lsq.quality). The filter then weighs the fix
+    by what its residuals show instead of what was assumed: a fix whose LOPs are hundreds of σ
+    apart (a damaged chain file, S² ~ 10⁵) moves the filter by ~1/S² of what it would have, and
+    its ellipse as the MPP is S² larger in area. Dropping such fixes instead would lose every
+    fix of a run whose a priori VCV is merely optimistic (Decca at night); scaling degrades
+    gracefully and the message says what happened. A fix already scaled by ScaleVCV keeps its
+    factor 1 (scaled once); a hybrid fix (filter prediction as LOPs) is the filter's to test.
+    ``(1.0, None)`` when the fix passes.
+    """
+    if fix is None or not fix.ok or fix.uses_prior or fix.tested is None:
+        return 1.0, None
+    vt = fix.tested.variance_test
+    s2 = fix.s2
+    global_fail = vt is not None and s2 is not None and s2 > vt.upper
+    w = [abs(lop.w) for lop in fix.lops if lop.used and math.isfinite(lop.w)]
+    all_flagged = bool(w) and all(v > REJECT_BOUND for v in w)
+    if not (global_fail or all_flagged):
+        return 1.0, None
+    parts = []
+    if global_fail and vt is not None and s2 is not None:
+        parts.append(f"S² {s2:.3g} > {vt.upper:.3g}")
+    if all_flagged:
+        parts.append(f"{len(w)}/{len(w)} w-tests fail")
+    # Short enough for the console's 80-column message line (shown first of the cycle's).
+    if fix.tested.adjustment.scaled or s2 is None or s2 <= 1.0:
+        return 1.0, f"Fix fails its tests ({'; '.join(parts)})"
+    return s2, f"Fix fails its tests ({'; '.join(parts)}): VCV × S² used"
+
+
+def step(
+    ctx: RunContext,
+    nav: NavState,
+    rec: RunRecord,
+    *,
+    excluded_slots: Sequence[int] = (),
+) -> tuple[NavState, CycleResult]:
+    """Process one record: sensors, LOPs, LSE (or too-few-LOPs / DR-only path), filter, MPP.
+
+    Raises nothing for bad data (the parser already rejected malformed records); a record whose
+    time does not advance raises :class:`ValueError`, which the replay loop logs and skips.
+    """
+    cfg = ctx.config
+    if nav.last_time is None:
+        dt = float(cfg.demo.delta_t_s)
+    else:
+        dt = (rec.time - nav.last_time).total_seconds()
+        if dt <= 0.0:
+            raise ValueError(f"record time {rec.time:%H:%M:%S} does not advance")
+    messages: list[str] = []
+    params = ctx.filter_params
+    # Central meridian from the provisional position (the last MPP, program.md A11).
+    cm = _cm_for(nav, nav.mpp_lon_deg)
+    grid = ctx.grid(cm)
+    fstate = nav.filter
+    if fstate is not None and nav.cm_deg is not None and cm != nav.cm_deg:
+        fstate = reproject_state(fstate, ctx.grid(nav.cm_deg), grid)
+        messages.append(f"CM changed to {cm:+.0f}°: grid re-projected")
+    sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg,
+                               messages)
+    gamma = sens.convergence_deg
+    heading_grid = (
+        None if sens.heading_true_deg is None else math.radians(sens.heading_true_deg - gamma)
+    )
+    speed_ms = None if sens.speed_kn is None else knots_to_ms(sens.speed_kn)
+    incl = None if sens.incl_deg is None else math.radians(sens.incl_deg)
+    # --- Filter: start from the DR position, then one propagation per record (kalman.md A3).
+    initialised = False
+    if fstate is None and heading_grid is not None and speed_ms is not None:
+        x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
+        set_rad = math.radians(cfg.current_set_deg)
+        vc = knots_to_ms(cfg.current_speed_kn)
+        pos_cov = None if cfg.filter.p0 == "thesis" else np.eye(2) * cfg.filter.dr_sigma_m**2
+        fstate = init_state(
+            0.0, x0, y0, cfg.depth_m, speed_ms, heading_grid, incl or 0.0,
+            vc * math.sin(set_rad - math.radians(gamma)),
+            vc * math.cos(set_rad - math.radians(gamma)),
+            params, pos_cov=pos_cov, from_sensors=(True, True, incl is not None),
+        )
+        initialised = True
+    kf_pred: PositionEstimate | None = None
+    pred_state: FilterState | None = None
+    link: tuple[FilterState, FilterState, np.ndarray] | None = None
+    sens_result: UpdateResult | None = None
+    dr_sensors = False
+    if fstate is not None:
+        # Heading and speed of this record drive the step into it (program.md §10 item 6: the
+        # sample's KF row moves on the mean of the two records' gyro headings). A state just
+        # initialised from this record's readings has them already (no double counting).
+        sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
+                                         gyro_grid_rad=heading_grid, incl_rad=incl, params=params)
+        dr_sensors = sensor_rows.z.shape[0] > 0
+        if dr_sensors and not initialised:
+            sens_result = update(fstate, sensor_rows, params)
+            fstate = sens_result.state
+        pred_state, phi = predict_step(fstate, dt, params)
+        link = (fstate, pred_state, phi)
+        kf_pred = filter_estimate("KF", grid, pred_state)
+    # --- LOPs and the least-squares fix.
+    gps = _gps_input(ctx, rec, grid)
+    gps_fix = None
+    if gps is not None:
+        var = (GPS_VAR_P_M2 if cfg.gps.receiver == "P" else GPS_VAR_CA_M2) * cfg.lsq.gps_se_sf
+        gps_fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var,
+                         cfg.corrections.gps_north_m, cfg.corrections.gps_east_m)
+    if pred_state is not None:
+        x_start = (float(pred_state.x[0]), float(pred_state.x[1]))
+        prior: PositionPrior | None = PositionPrior(x_start[0], x_start[1],
+                                                    np.array(pred_state.P[:2, :2]))
+    else:
+        x_start = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
+        prior = None
+    decca_reading = None
+    decca_track = nav.decca_track
+    lane_slips = 0
+    if cfg.decca.on:
+        placed = ctx.placed_chain(cm)
+        if placed is not None:
+            totals, decca_track, notes, lane_slips = _decca_totals(
+                ctx, nav, rec, placed, x_start,
+                None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
+                None if gps_fix is None else LaneSource(
+                    "GPS", gps_fix.x_m + gps_fix.corr_east_m, gps_fix.y_m + gps_fix.corr_north_m,
+                    np.eye(2) * gps_fix.var_m2))
+            messages.extend(notes)
+            sel = tuple(p in cfg.decca.select for p in PATTERNS)
+            c = cfg.corrections
+            decca_reading = DeccaReading(
+                placed, rec.decca, ctx.zone_lane, (sel[0], sel[1], sel[2]),
+                (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes), cfg.lsq.decca_cf,
+                totals=totals,
+            )
+        else:
+            messages.append(f"Decca chain {cfg.decca.chain} not in the chain file")
+    manual = nav.pending_obs
+    fix: FixResult | None = None
+    decca_any = decca_reading is not None and any(
+        t is not None for t in (decca_reading.totals or (None,)))
+    if gps_fix is not None or decca_any or manual:
+        fix = compute_fix(grid, ctx.geodesic, x_start, gps=gps_fix, decca=decca_reading,
+                          manual=manual, prior=prior, settings=ctx.lsq,
+                          excluded_slots=excluded_slots)
+        if fix.candidate_slot is not None:
+            name = lop_name(fix.candidate_slot, system="KF" if fix.uses_prior else "GPS",
+                            manual=manual)
+            messages.append(f"LOP {name} fails the w-test: discard it?")
+        messages.extend(fix.messages)
+        voted = gps_voted_out(fix)
+        if voted is not None:
+            messages.append(voted)
+    # --- A fix that fails its tests is not taken at face value (fix_fit, issue 15 item 6).
+    fit_scale, fit_note = fix_fit(fix)
+    if fit_note is not None:
+        messages.insert(0, fit_note)  # first: the console's message line shows it at 80 columns
+    fix_cov = _NO_COV if fix is None else (fix.cov if fit_scale == 1.0 else fix.cov * fit_scale)
+    # --- Filter update with the fix (or the raw LOPs on the too-few-LOPs path, kalman.md A10).
+    filt_result: UpdateResult | None = None
+    kf_est: PositionEstimate | None = None
+    status = "OFF" if not cfg.filter.on else "N/A"
+    new_filter = pred_state
+    has_fix = nav.filter_has_fix
+    source = nav.fix_source
+    gated = nav.gated_fixes
+    fix_gate = ""
+    lse_ok = fix is not None and fix.ok and not fix.uses_prior
+    depth_rows: Measurement | None = None
+    if pred_state is not None and sens.depth_m is not None:
+        depth_rows = sensor_measurement(pred_state, depth_m=sens.depth_m, params=params)
+    if new_filter is not None and fix is not None and lse_ok and not has_fix:
+        # The first LSE initialises the filter position (kalman.md A3): a DR start kilometres
+        # away with the thesis P0 = I would otherwise pull against every fix.
+        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix_cov)
+        has_fix = True
+        source = fix_source(cfg)
+    elif new_filter is not None and cfg.filter.on:
+        meas: Measurement | None = None
+        if fix is not None and fix.ok and lse_ok:
+            meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
+            if fix_source(cfg) != source:
+                # A new fix source is a new, independent error process: one Gauss–Markov pair
+                # models the LSE error of one source (README "Correlated fixes").
+                source = fix_source(cfg)
+                if meas.bias_cov is not None and link is not None:
+                    restarted, phi_r = restart_fix_states(new_filter, meas.bias_keys[:2],
+                                                          meas.bias_cov, link[2])
+                    if restarted is not new_filter and phi_r is not None:
+                        new_filter = restarted
+                        link = (link[0], restarted, phi_r)
+                        messages.append("Fix source changed: fix-error states restarted")
+        elif fix is not None and fix.ok:
+            meas = _raw_lop_measurement(fix)
+        if meas is not None:
+            n_fix = meas.z.shape[0]
+            both = meas if depth_rows is None else stack_measurements(depth_rows, meas)
+            trial = update(new_filter, both, params)  # one update for all measured at this epoch
+            d_sigma = innovation_distance(trial, slice(both.z.shape[0] - n_fix, None))
+            status = "ON"
+            if d_sigma <= GROSS_GATE_SIGMA:
+                filt_result, new_filter, depth_rows = trial, trial.state, None
+                has_fix = True
+                gated = 0
+                if trial.lom.verdict == "reject":
+                    fix_gate = "innovation"
+                    messages.append(innovation_message(trial))
+            else:
+                fix_gate = "gross"
+                gated = nav.gated_fixes + 1
+                messages.append(f"Fix {d_sigma:.3g} σ from the filter: a gross error, not used "
+                                f"({gated} in a row)")
+                if lse_ok and gated >= GROSS_GATE_RESET and fix is not None:
+                    # The filter, not the fixes, is what went wrong (kalman.md A3 start again).
+                    new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
+                    messages.append(f"Filter position re-initialised from the LSE after "
+                                    f"{gated} gated fixes")
+                    gated = 0
+        elif dr_sensors:
+            status = "ON"  # DR-only path: model plus bounded sensors (program.md §2.5)
+    elif new_filter is not None and fix is not None and lse_ok:
+        # Filter off: dead reckoning restarts from each LSE (program.md §3 Kalman ▸ Filtering).
+        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix_cov)
+    if new_filter is not None and depth_rows is not None:
+        depth_result = update(new_filter, depth_rows, params)
+        new_filter = depth_result.state
+        filt_result = filt_result or depth_result
+    if new_filter is not None and status == "ON":
+        kf_est = filter_estimate("KF", grid, new_filter)
+    # --- MPP: filtered if the filter produced it, else the LSE, else the prediction (A6).
+    if kf_est is not None:
+        mpp = kf_est
+    elif fix is not None and lse_ok:
+        depth = cfg.depth_m if new_filter is None else float(new_filter.x[2])
+        mpp = _estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix_cov)
+    elif new_filter is not None:
+        mpp = filter_estimate("DR", grid, new_filter)
+    else:
+        x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
+        mpp = _estimate("DR", grid, x0, y0, cfg.depth_m, np.full((2, 2), np.nan))
+        messages.append("No MPP: gyro and log must stay switched on !")
+    cumulative = nav.cumulative
+    if fix is not None and fix.ok and fix.s2 is not None and not fix.uses_prior:
+        cumulative = cumulative.update(fix.s2, fix.n_used - 2)
+    systems = ("G" if cfg.gps.on else ".") + "..." + ("D" if cfg.decca.on else ".")
+    result = CycleResult(
+        n=nav.n + 1,
+        record=rec.line_no,
+        time=rec.time,
+        raw=rec.raw,
+        dt_s=dt,
+        datum=ctx.working.name,
+        cm_deg=cm,
+        systems=systems,
+        sensors=sens,
+        gps=gps,
+        decca_fractions=rec.decca,
+        decca_on=cfg.decca.on,
+        fix=fix,
+        kf_pred=kf_pred,
+        kf=kf_est,
+        mpp=mpp,
+        filter_status=status,
+        filter_state=new_filter,
+        filter_update=filt_result,
+        cumulative=cumulative,
+        manual=manual,
+        messages=tuple(messages),
+        smoother_link=link,
+        sensor_update=sens_result,
+        fix_fails_tests=fit_note is not None,
+        fix_cov_scale=fit_scale,
+        fix_gate=fix_gate,
+        lane_slips=lane_slips,
+    )
+    _freeze_result(fix, None if link is None else link[2], filt_result, sens_result)
+    next_nav = NavState(
+        n=nav.n + 1,
+        last_time=rec.time,
+        cm_deg=cm,
+        mpp_lat_deg=mpp.lat_deg,
+        mpp_lon_deg=mpp.lon_deg,
+        filter=new_filter,
+        cumulative=cumulative,
+        pending_obs=(),
+        press_ref_hz=press_ref,
+        decca_track=decca_track,
+        filter_has_fix=has_fix,
+        fix_source=source,
+        gated_fixes=gated,
+    )
+    return next_nav, result
+
+
+LANE_SIGMA_MAX = 0.5 / 3.0
+"""Largest 1σ (lanes) along a pattern's lane gradient of a position an integer lane may be taken
+from: 3σ < 0.5 lane, so the nearest whole lane is the right one with probability ≥ 99.7 %
+(Gaussian). Applies to lane identification after a gap (a dive) and to the GPS lane check."""
+
+
+def lane_sigma(row: np.ndarray, cov: np.ndarray) -> float:
+    """1σ (lanes) along a lane gradient ``row`` (lanes/m, ∂N/∂(x, y)) of a position whose 2×2
+    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ)."""
+    r = np.asarray(row, dtype=float)
+    return math.sqrt(max(float(r @ np.asarray(cov, dtype=float) @ r), 0.0))
+
+
+@dataclass(frozen=True, slots=True)
+class LaneSource:
+    """A position that may settle Decca integer lanes: grid (x, y) m, its 2×2 VCV (m²) and the
+    name the messages use ("GPS", "the DR position")."""
+
+    name: str
+    x_m: float
+    y_m: float
+    cov: np.ndarray
+
+
+def _lane_at(ctx: RunContext, placed: ChainOnGrid, src: LaneSource, pattern_index: int,
+             cache: dict[str, DeccaGeometry | None]) -> tuple[float, float] | None:
+    """(N_calc, σ along the gradient) of pattern ``pattern_index`` at ``src`` (lanes), or None
+    where the lane model cannot be evaluated; geometries are cached per source name."""
+    if src.name not in cache:
+        try:
+            geom: DeccaGeometry | None = decca_geometry(placed, src.x_m, src.y_m, ctx.geodesic)
+        except (ValueError, ArithmeticError):
+            geom = None
+        if geom is not None and not np.isfinite(geom.n_calc).all():
+            geom = None
+        cache[src.name] = geom
+    g = cache[src.name]
+    if g is None:
+        return None
+    return float(g.n_calc[pattern_index]), lane_sigma(g.row[pattern_index], src.cov)
+
+
+def _decca_totals(
+    ctx: RunContext,
+    nav: NavState,
+    rec: RunRecord,
+    placed: ChainOnGrid,
+    x_start: tuple[float, float],
+    position: LaneSource | None = None,
+    gps: LaneSource | None = None,
+) -> tuple[tuple[float | None, float | None, float | None],
+           tuple[tuple[float, datetime] | None, ...], list[str], int]:
+    """Total lane counts of this record's fractions, tracked like a decometer, with lane
+    integrity (issue 11; thesis §4.2.3 on lane identification).
+
+    The first reading of a pattern takes the operator's zone/lane (resolving the 10-zone cycle
+    from the provisional position ``x_start``, lsq.md §5.3); later readings follow lane
+    crossings (:func:`engine.systems.decca.track_lane`). After a gap longer than
+    ``DECCA_TRACK_GAP_S``
+    (a dive) the integer lane is identified again only from a source precise enough along the
+    lane gradient (1σ ≤ :data:`LANE_SIGMA_MAX`): this record's ``gps``, else the filter's
+    ``position`` (prediction with its VCV); while neither is, the pattern stays out of the fix
+    and a message says why. Whenever ``gps`` is in the record and precise enough, every count
+    is checked against it: a count a whole lane or more off is a lane slip, corrected to GPS's
+    lane with a message. A zone/lane that puts the count more than half a zone from the
+    provisional position's count gives a warning (lsq.md Q7); a provisional position where the
+    lane model cannot be evaluated leaves the pattern unavailable for this record, with a
+    message. Returns (totals, new track, messages, number of slips corrected).
+    """
+    slips = 0
+    totals: list[float | None] = [None, None, None]
+    track = list(nav.decca_track)
+    notes: list[str] = []
+    geom = None
+    geom_failed = False
+    cache: dict[str, DeccaGeometry | None] = {}
+    for i, pattern in enumerate(PATTERNS):
+        frac = rec.decca[i]
+        if frac is None:
+            continue
+        prev = track[i]
+        checked = False
+        if prev is not None and (rec.time - prev[1]).total_seconds() <= DECCA_TRACK_GAP_S:
+            total = track_lane(prev[0], frac)
+        elif prev is not None:
+            # After a gap: identify the lane again, but only from a position that can settle it.
+            total = None
+            worst = math.inf
+            for src in (gps, position):
+                if src is None:
+                    continue
+                at = _lane_at(ctx, placed, src, i, cache)
+                if at is None:
+                    continue
+                if at[1] <= LANE_SIGMA_MAX:
+                    total = identify_lane(at[0], frac)
+                    notes.append(f"Decca {pattern}: lane identified again from {src.name} "
+                                 f"(±{3 * at[1]:.2f} lane, 3σ)")
+                    checked = src is gps
+                    break
+                worst = min(worst, at[1])
+            if total is None:
+                why = ("no position" if not math.isfinite(worst) else
+                       f"position ±{3 * worst:.1f} lanes (3σ) along the lane gradient")
+                notes.append(f"Decca {pattern}: lane not identified after the gap ({why}): "
+                             "kept out of the fix until GPS, a better position or a zone/lane "
+                             "entered in Setup > Decca settles it")
+                continue  # the stale track stays: the next record tries again
+        else:
+            zl = ctx.zone_lane[i]
+            if zl is None:
+                continue  # pattern never entered by the operator: not available
+            if geom is None and not geom_failed:
+                try:
+                    geom = decca_geometry(placed, x_start[0], x_start[1], ctx.geodesic)
+                    problem = None if np.isfinite(geom.n_calc).all() else "not finite"
+                except (ValueError, ArithmeticError) as exc:
+                    problem = str(exc)
+                if problem is not None:
+                    geom, geom_failed = None, True
+                    notes.append(f"Decca: lane count not resolved at the provisional position "
+                                 f"({problem})")
+            if geom is None:
+                continue
+            lanes = resolve_total_lanes(zl[0], zl[1], frac, pattern, float(geom.n_calc[i]))
+            total = lanes.total
+            if lanes.warning is not None:  # more than half a zone from N_calc (lsq.md Q7)
+                notes.append(lanes.warning)
+        if gps is not None and not checked:
+            at = _lane_at(ctx, placed, gps, i, cache)
+            if at is not None and at[1] <= LANE_SIGMA_MAX:
+                expected = identify_lane(at[0], frac)
+                slip = round(total - expected)
+                if slip != 0:
+                    notes.append(f"Decca {pattern}: lane slip of {slip:+d} lane"
+                                 f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
+                                 f"({total:.2f} → {expected:.2f})")
+                    total = expected
+                    slips += 1
+        totals[i] = total
+        track[i] = (total, rec.time)
+    return (totals[0], totals[1], totals[2]), tuple(track), notes, slips
+
+
+def innovation_message(u: UpdateResult) -> str:
+    """The message line for a fix update whose innovation (LOM) test rejects it (thesis
+    eq. 6.38–6.40): the statistic against its upper bound and the most suspect row."""
+    t = u.ls.t
+    worst = int(np.argmax(np.abs(t))) if t.size else None
+    row = "" if worst is None else f", worst {u.labels[worst]} w = {float(t[worst]):+.1f}"
+    return (f"Fix fails the innovation test: T = {u.lom.t:.2f} > {u.lom.upper:.2f}{row} "
+            "(taken; check it)")
+
+
+def gps_voted_out(fix: FixResult) -> str | None:
+    """The message for a fix whose w-test rejected (or, under LOPReject 'A', proposes to
+    reject) a GPS LOP while Decca lanes are in it: GPS has no integer ambiguity, Decca has, so
+    the likelier culprit is a wrong Decca lane and the operator must hear of it (issue 11)."""
+    gps_slots = {0, 1}
+    out = gps_slots & set(fix.rejected_slots)
+    if fix.candidate_slot in gps_slots:
+        out.add(fix.candidate_slot)  # type: ignore[arg-type]
+    if not out or all(t is None for t in fix.decca_observed):
+        return None
+    return ("GPS voted out by the w-test against Decca: GPS has no lane ambiguity, "
+            "check the Decca lanes")
+
+
+def fix_source(cfg: RunConfig) -> tuple[object, ...]:
+    """What produces the LSE, as far as its error process is concerned: the GPS receiver type
+    (C/A or P code) when GPS is on, the Decca chain and selected patterns when Decca is on.
+
+    A change (Setup ▸ Systems) starts the filter's Gauss–Markov fix-error states afresh; a
+    single record without GPS or one LOP rejected by the w-test does not.
+    """
+    gps = ("GPS", cfg.gps.receiver) if cfg.gps.on else ()
+    decca = ("Decca", cfg.decca.chain, *cfg.decca.select) if cfg.decca.on else ()
+    return gps + decca
+
+
+def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
+    """The too-few-LOPs path: feed the real LOPs (not the hybrid LSE) to the filter (A10)."""
+    raw = fix.raw_lops
+    if raw is None or not raw.slots:
+        return None
+    return lop_measurement(raw.A, raw.omc_m, raw.x_ref, raw.Cl,
+                           labels=tuple(f"lop{s}" for s in raw.slots))
+
+
+def reproject_state(
+    fs: FilterState,
+    old: TMGrid,
+    new: TMGrid,
+    shift: DatumShift | None = None,
+) -> FilterState:
+    """Move a filter state from grid ``old`` to grid ``new`` (another CM and/or datum).
+
+    Position goes through geodetic coordinates (and the datum ``shift`` when the datum changes);
+    the grid heading, the current and the horizontal covariance rotate by the change of grid
+    convergence Δγ (kalman.md A18: ψ_grid = ψ_true − γ).  Grid scale differences (< 2·10⁻⁵ within
+    ±0.5° of the CM) are ignored.
+    """
+    lat, lon = old.inverse(float(fs.x[0]), float(fs.x[1]))
+    g_old = old.convergence_deg(lat, lon)
+    if shift is not None:
+        lat, lon, _h = shift.transform(lat, lon, 0.0)
+    x_new, y_new = new.forward(lat, lon)
+    d = math.radians(new.convergence_deg(lat, lon) - g_old)
+    c, s_ = math.cos(d), math.sin(d)
+    # A grid azimuth α becomes α − Δγ: (e, n) → (e cosΔ − n sinΔ, n cosΔ + e sinΔ).
+    rot = np.array([[c, -s_], [s_, c]])
+    J = np.eye(fs.n)
+    J[0:2, 0:2] = rot
+    J[6:8, 6:8] = rot
+    x = np.array(fs.x, dtype=float)
+    x[0], x[1] = x_new, y_new
+    x[4] = (x[4] - d) % (2.0 * math.pi)
+    x[6:8] = rot @ x[6:8]
+    P = J @ fs.P @ J.T
+    return replace(fs, x=x, P=0.5 * (P + P.T))
+
+
+def rebase_state(nav: NavState, old: RunContext, new: RunContext) -> NavState:
+    """Carry a navigation state over to a new context whose working datum differs (Setup ▸
+    Params ▸ Datum): the MPP and the filter are transformed; the cumulative variance is kept."""
+    if old.working == new.working:
+        return nav
+    shift = datum_shift(old.working, new.working)
+    lat, lon, _h = shift.transform(nav.mpp_lat_deg, nav.mpp_lon_deg, 0.0)
+    fs = nav.filter
+    if fs is not None and nav.cm_deg is not None:
+        fs = reproject_state(fs, old.grid(nav.cm_deg), new.grid(nav.cm_deg), shift)
+    return replace(nav, mpp_lat_deg=lat, mpp_lon_deg=lon, filter=fs)
+
+
+def replace_position(fs: FilterState, x_m: float, y_m: float, cov: np.ndarray) -> FilterState:
+    """Put the filter's horizontal position at (x, y) with VCV ``cov`` and no cross-covariance."""
+    x = fs.x.copy()
+    P = fs.P.copy()
+    x[0], x[1] = x_m, y_m
+    P[:2, :] = 0.0
+    P[:, :2] = 0.0
+    P[:2, :2] = cov
+    return replace(fs, x=x, P=P)
+
+
+__all__ = [
+    "CycleResult",
+    "GpsInput",
+    "NavState",
+    "PositionEstimate",
+    "RunContext",
+    "SLOT_BRR0",
+    "SensorValues",
+    "build_context",
+    "initial_state",
+    "step",
+    "stack_measurements",
+]

@@ -1,0 +1,562 @@
+"""A run in progress: reads the ``.RUN`` file, steps the cycle, applies operator commands and
+keeps the ``.OUT`` / JSON-lines logs.  The console and the headless replay both drive this.
+
+The session is the only stateful object of the engine; it holds one run's context and state and
+nothing global.  Every completed cycle is on disk (flushed) before :meth:`Session.step` returns.
+
+**Bad records and engine errors.** A record is *bad* when the ``.RUN`` parser rejects it
+(:mod:`engine.io.runfile`: grammar and ranges) or when its time does not advance past the previous
+processed record's (checked here, before the cycle sees it). A bad record is skipped, counted
+(:attr:`Session.skipped_records`), logged as a ``BAD`` line, and the first
+:data:`BAD_RECORDS_KEPT` are kept in :attr:`Session.bad_records` with an
+:class:`~engine.errors.InputError` naming the ``.RUN`` file, line and field (bounded memory
+however many there are); the run goes on. Every other record is valid input
+for :func:`engine.run.cycle.step`, which must process it: an exception raised there is an engine
+bug,
+not a bad record, so it is *not* swallowed. It propagates with a note naming the ``.RUN`` file,
+line and text (the log keeps every cycle completed before it). Configuration and data-file names
+(datums, the Decca chain, the chains' datums) are checked when the session is built
+(:func:`check_config`, :func:`load_data`, :func:`load_run_config`), never per cycle.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import struct
+import tempfile
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from engine import __version__
+from engine.errors import InputError
+from engine.filter.kalman import FilterState, predict_horizon
+from engine.filter.smoother import SmootherRecord, SmootherSpill, rts_smooth_backward
+from engine.io.datafile_io import modified_bundled
+from engine.io.datumfile import DatumFile, read_datum_file
+from engine.io.deccafile import DeccaChain, read_chain_file
+from engine.io.operator_input import parse_datum_name
+from engine.io.outlog import OutLogWriter
+from engine.io.outputs import OutputFile, OutputGuard
+from engine.io.runfile import BadRecord, RunRecord, iter_run_file
+from engine.lsq.confidence import error_ellipse
+from engine.lsq.fix import lop_name
+from engine.run.commands import Command, SetDatum, apply_command
+from engine.run.config import UNKNOWN_CHAIN_MESSAGE, RunConfig, dump_config, load_config
+from engine.run.cycle import (
+    CycleResult,
+    NavState,
+    PositionEstimate,
+    RunContext,
+    build_context,
+    filter_estimate,
+    initial_state,
+    rebase_state,
+    reproject_state,
+    step,
+)
+from engine.run.records import cycle_block, cycle_json
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What a replay did: counts, the last cycle and where the logs went."""
+
+    epochs: int
+    fixes: int
+    rejected_lops: int
+    skipped_records: int
+    last: CycleResult | None
+    out_path: Path | None
+    jsonl_path: Path | None
+    eof: bool
+    failed_fixes: int = 0
+    """LSE fixes that failed their tests (:func:`engine.run.cycle.fix_fit`): used with VCV × S²."""
+    flagged_lops: int = 0
+    """LOPs whose w-test failed but were kept (LOPReject 'N', or 'A' not yet answered)."""
+    gated_fixes: int = 0
+    """Fixes kept out of the filter by the gross-error gate."""
+    innovation_rejects: int = 0
+    """Fixes the filter took although its innovation (LOM) test rejected them."""
+    lane_slips: int = 0
+    """Decca lane slips corrected against GPS."""
+
+
+def cycle_counts(r: CycleResult) -> tuple[int, int, int, int]:
+    """(flagged LOPs, gated fix, innovation-rejected fix, lane slips) of one cycle (issue 11:
+    what the replay summary counts)."""
+    flagged = 0
+    if r.fix is not None and r.fix.tested is not None:
+        flagged = len(r.fix.tested.flagged) + (r.fix.candidate_slot is not None)
+    return (flagged, int(r.fix_gate == "gross"), int(r.fix_gate == "innovation"),
+            r.lane_slips)
+
+
+DATUM_FILE = "TO_WGS84.DAT"
+CHAIN_FILE = "DECCA.CHN"
+NOT_ADVANCING_MESSAGE = "Time does not advance !"
+BAD_RECORDS_KEPT = 100
+"""Bad records kept in :attr:`Session.bad_records` (the rest are counted and logged only)."""
+
+
+def check_config(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain]) -> None:
+    """Check the names ``cfg`` takes from the data files: ``datum`` and ``run_gps_datum`` in
+    ``TO_WGS84.DAT`` (``WGS84`` is always known), ``decca.chain`` in ``DECCA.CHN``.
+
+    Raises :class:`InputError` with the configuration ``field`` and ``text`` but no file (a
+    RunConfig does not know its file; :func:`load_run_config` adds file and line).
+    """
+    parse_datum_name(cfg.datum, datums.datums, field="datum")
+    if cfg.run_gps_datum.upper() != "WGS84":
+        parse_datum_name(cfg.run_gps_datum, datums.datums, field="run_gps_datum")
+    if cfg.decca.chain not in chains:
+        raise InputError(UNKNOWN_CHAIN_MESSAGE, field="decca.chain", text=cfg.decca.chain)
+
+
+def read_data_dir(data_dir: str | os.PathLike[str]) -> tuple[DatumFile, dict[str, DeccaChain]]:
+    """Read ``TO_WGS84.DAT`` and ``DECCA.CHN`` from ``data_dir``; each chain's datum must be in
+    the datum file (an unknown one is an InputError at the chain file's datum line)."""
+    datums = read_datum_file(Path(data_dir) / DATUM_FILE)
+    chains = read_chain_file(Path(data_dir) / CHAIN_FILE, known_datums=datums.datums)
+    return datums, chains
+
+
+def data_file_warnings(data_dir: str | os.PathLike[str]) -> tuple[str, ...]:
+    """Warnings for the data files of ``data_dir`` that differ from the bundled ones."""
+    found = (modified_bundled(Path(data_dir) / name) for name in (DATUM_FILE, CHAIN_FILE))
+    return tuple(w for w in found if w is not None)
+
+
+def load_data(cfg: RunConfig) -> tuple[DatumFile, dict[str, DeccaChain]]:
+    """Read the data files of ``cfg``'s data directory and check ``cfg``'s names against them
+    (:func:`read_data_dir`, :func:`check_config`)."""
+    datums, chains = read_data_dir(cfg.data_dir)
+    check_config(cfg, datums, chains)
+    return datums, chains
+
+
+def load_run_config(
+    path: str | os.PathLike[str],
+) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]]]:
+    """Load a run configuration TOML and the data files it names, every name checked.
+
+    The file is read once for its ``data_dir``, the data files are read from there, and it is
+    read again with the datum names known, so an unknown ``datum`` or ``run_gps_datum`` is
+    reported as ``FILE.toml:LINE: datum: Unknown datum !``; an unknown ``decca.chain`` is
+    located the same way. Returns the configuration and ``(datums, chains)`` for
+    :class:`Session`'s ``data``.
+    """
+    cfg = load_config(path)
+    datums, chains = read_data_dir(cfg.data_dir)
+    cfg = load_config(path, known_datums=datums.datums, known_chains=chains)
+    return cfg, (datums, chains)
+
+
+def create_output(
+    path: str | os.PathLike[str],
+    force: bool = False,
+    *,
+    guard: OutputGuard | None = None,
+    label: str = "--jsonl",
+    kind: str = "jsonl",
+) -> tuple[OutputFile, Path]:
+    """Open a new text output file (UTF-8, ``\\n`` line ends) by the ``.OUT`` rule.
+
+    An existing file is never overwritten: the first free ``stem_N.suffix`` is used instead
+    (exclusive create, so two runs never share a file), unless ``force``, which replaces only
+    an earlier output of ``kind``; never a file of ``guard`` (:mod:`engine.io.outputs`). Returns
+    the open file and the path actually used.
+    """
+    fh = (guard if guard is not None else OutputGuard()).open(
+        path, label=label, kind=kind, force=force)
+    return fh, fh.path
+
+
+def run_inputs(cfg: RunConfig) -> list[tuple[str, Path]]:
+    """The files a run of ``cfg`` reads (labelled for messages): no output may be one of them."""
+    return [("the run file", cfg.run_path),
+            (f"the data file {DATUM_FILE}", cfg.data_dir / DATUM_FILE),
+            (f"the data file {CHAIN_FILE}", cfg.data_dir / CHAIN_FILE)]
+
+
+def _logged_config(cfg: RunConfig) -> RunConfig:
+    """``cfg`` with ``run_file`` and ``data_dir`` absolute, so the TOML in a log header
+    reproduces the run wherever the log is read (relative paths would resolve against the
+    directory of whatever file the text is loaded from)."""
+    return cfg.replace(run_file=str(cfg.run_path), data_dir_text=str(cfg.data_dir))
+
+
+class Session:
+    """One run: configuration, context, navigation state, logs and a bounded history."""
+
+    def __init__(
+        self,
+        config: RunConfig,
+        *,
+        out_path: str | os.PathLike[str] | None = None,
+        force: bool = False,
+        jsonl_path: str | os.PathLike[str] | None = None,
+        history: int = 3600,
+        collect_smoother: bool = False,
+        data: tuple[DatumFile, dict[str, DeccaChain]] | None = None,
+        guard: OutputGuard | None = None,
+    ) -> None:
+        if data is None:
+            data = load_data(config)
+        else:
+            check_config(config, *data)
+        self.datums, self.chains = data
+        self.context: RunContext = build_context(config, self.datums, self.chains)
+        self.nav: NavState = initial_state(config)
+        self.history: deque[CycleResult] = deque(maxlen=max(1, history))
+        self.bad_records: list[BadRecord] = []
+        """The first :data:`BAD_RECORDS_KEPT` bad records (all of them are ``BAD`` lines of the
+        ``.OUT`` log; :attr:`skipped_records` counts them all): memory stays bounded."""
+        self.skipped_records = 0
+        self.eof = False
+        self.fixes = 0
+        self.rejected_lops = 0
+        self.failed_fixes = 0
+        self.data_warnings: tuple[str, ...] = data_file_warnings(config.data_dir)
+        """Data files that differ from the bundled ones (engine.io.datafile_io.modified_bundled);
+        written to the .OUT header, shown by the replay."""
+        self._counts = [0, 0, 0, 0]  # cycle_counts summed
+        self._run_name = os.fspath(config.run_path)
+        self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
+        self._since_processed: int | None = None
+        """Good records read since the last processed one (None before the first)."""
+        self._prev_nav: NavState | None = None
+        self._prev_record: RunRecord | None = None
+        self._smoother: SmootherSpill | None = SmootherSpill() if collect_smoother else None
+        self._out: OutLogWriter | None = None
+        self._jsonl: OutputFile | None = None
+        self.jsonl_path: Path | None = None
+        # Both logs follow the .OUT rule (engine/io/outputs.py: never an input, never overwritten:
+        # NAME_N; --force replaces an earlier output). Both names are checked before either is
+        # created; if the second still cannot be, the first is removed again.
+        if guard is None:
+            guard = OutputGuard()
+        guard.protect_all(run_inputs(config))
+        if jsonl_path is not None:
+            guard.check(jsonl_path, "--jsonl")
+        if out_path is not None:
+            guard.check(out_path, "--out")
+        try:
+            if jsonl_path is not None:
+                self._jsonl, self.jsonl_path = create_output(jsonl_path, force, guard=guard)
+            if out_path is not None:
+                self._out = OutLogWriter.create(
+                    out_path,
+                    header=[f"engine {__version__}", f"run {config.run_path}",
+                            *(f"warning {w}" for w in self.data_warnings)],
+                    config_text=dump_config(_logged_config(config)),
+                    force=force,
+                    guard=guard,
+                )
+        except BaseException:
+            self.close()
+            if self.jsonl_path is not None and not force:
+                self.jsonl_path.unlink(missing_ok=True)
+            raise
+
+    @classmethod
+    def from_file(cls, config_path: str | os.PathLike[str], **kwargs: object) -> Session:
+        """Open a session from a run-configuration TOML file (names checked and located as by
+        :func:`load_run_config`)."""
+        cfg, data = load_run_config(config_path)
+        return cls(cfg, data=data, **kwargs)  # type: ignore[arg-type]
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def config(self) -> RunConfig:
+        """The configuration in force (changes with every set-up command)."""
+        return self.context.config
+
+    @property
+    def last(self) -> CycleResult | None:
+        """The most recent cycle, or None before the first."""
+        return self.history[-1] if self.history else None
+
+    @property
+    def out_path(self) -> Path | None:
+        """Where the ``.OUT`` log is written (None when not logging)."""
+        return self._out.path if self._out is not None else None
+
+    # ------------------------------------------------------------------ running
+    def _next_record(self) -> RunRecord | None:
+        delta = self.config.demo.delta_t_s
+        for item in self._records:
+            if isinstance(item, BadRecord):
+                self._log_bad(item.line_no, item.error.field or "record", item.error.message,
+                              item.raw)
+                self._keep_bad(item)
+                continue
+            # DeltaT: process every DeltaT-th record (program.md A21), counted from the last
+            # processed one, so a new DeltaT takes effect from the next cycle.
+            since = delta if self._since_processed is None else self._since_processed + 1
+            if since < delta:
+                self._since_processed = since
+                continue
+            self._since_processed = 0
+            return item
+        self.eof = True
+        return None
+
+    def _log_bad(self, line_no: int, field: str, message: str, raw: str) -> None:
+        if self._out is not None:
+            self._out.write_bad_record({"record": line_no, "field": field, "message": message,
+                                        "raw": raw})
+
+    def step(self) -> CycleResult | None:
+        """Process the next good record; None at the end of the file.
+
+        A bad record (module docstring) is skipped and reported; an exception from the cycle
+        itself is an engine bug and propagates with a note naming the record.
+        """
+        while True:
+            rec = self._next_record()
+            if rec is None:
+                return None
+            last = self.nav.last_time
+            if last is not None and rec.time <= last:
+                self._reject(rec, InputError(
+                    NOT_ADVANCING_MESSAGE, file=self._run_name, line=rec.line_no, field="time",
+                    text=rec.raw.split()[1],
+                ))
+                continue
+            try:
+                nav, result = step(self.context, self.nav, rec)
+            except Exception as exc:
+                exc.add_note(f"while processing {self._run_name}:{rec.line_no}: {rec.raw!r}")
+                raise
+            self._prev_nav, self._prev_record = self.nav, rec
+            self._commit(nav, result)
+            return result
+
+    def _reject(self, rec: RunRecord, error: InputError) -> None:
+        """Skip a parsed record the run cannot use: log it (``BAD``) and keep it."""
+        self._log_bad(rec.line_no, error.field or "record", error.message, rec.raw)
+        self._keep_bad(BadRecord(rec.line_no, rec.raw, error))
+
+    def _keep_bad(self, bad: BadRecord) -> None:
+        """Count a bad record; keep only the first :data:`BAD_RECORDS_KEPT` in memory."""
+        self.skipped_records += 1
+        if len(self.bad_records) < BAD_RECORDS_KEPT:
+            self.bad_records.append(bad)
+
+    def _commit(self, nav: NavState, result: CycleResult) -> None:
+        if self._smoother is not None and nav.filter is not None:
+            self._collect_smoother(nav, result)
+        self.nav = nav
+        self.history.append(result)
+        if result.fix is not None and result.fix.ok and not result.fix.uses_prior:
+            self.fixes += 1
+        if result.fix is not None:
+            self.rejected_lops += len(result.fix.rejected_slots)
+        self.failed_fixes += result.fix_fails_tests
+        for i, c in enumerate(cycle_counts(result)):
+            self._counts[i] += c
+        if self._out is not None:
+            head, lines = cycle_block(result)
+            self._out.write_cycle(head, lines)
+        if self._jsonl is not None:
+            self._jsonl.write(json.dumps(cycle_json(result), separators=(",", ":")) + "\n")
+            self._jsonl.flush()
+
+    def _collect_smoother(self, nav: NavState, result: CycleResult) -> None:
+        """Keep what the RTS smoother needs: per epoch the final filter state, and for the step
+        into the next epoch the state it started from, the prediction and Φ, each record with
+        the CM of its grid (spilled to disk: engine.filter.smoother.SmootherSpill)."""
+        assert self._smoother is not None and nav.filter is not None
+        recs = self._smoother
+        link = result.smoother_link
+        last = recs.last
+        if last is not None and link is not None:
+            start, pred, phi = link
+            prev = last[0].filtered
+            if start.n == prev.n and start.fix_states == prev.fix_states:
+                # The link is on this cycle's grid (the cycle re-projected a CM change).
+                recs.replace_last(SmootherRecord(start, pred, phi), result.cm_deg)
+            else:
+                recs.clear()  # the state changed shape (fix states added): restart the span
+        elif link is None:
+            recs.clear()
+        recs.append(SmootherRecord(nav.filter), result.cm_deg)
+
+    def recompute_last(self, excluded_slots: tuple[int, ...]) -> CycleResult | None:
+        """Redo the last cycle with LOPs discarded (``LOPReject = 'A'``, the operator said yes)."""
+        if self._prev_record is None or self._prev_nav is None:
+            return None
+        nav, result = step(self.context, self._prev_nav, self._prev_record,
+                           excluded_slots=excluded_slots)
+        dropped = self.history.pop()
+        if dropped.fix is not None:
+            self.fixes -= int(dropped.fix.ok and not dropped.fix.uses_prior)
+            self.rejected_lops -= len(dropped.fix.rejected_slots)
+        self.failed_fixes -= dropped.fix_fails_tests
+        for i, c in enumerate(cycle_counts(dropped)):
+            self._counts[i] -= c
+        if self._smoother:
+            self._smoother.pop()
+        if self._out is not None:
+            system = "KF" if result.fix is not None and result.fix.uses_prior else "GPS"
+            names = ", ".join(lop_name(s, system=system, manual=result.manual)
+                              for s in excluded_slots)
+            self._out.write_action({"cycle": result.n,
+                                    "text": f"LOP discarded {excluded_slots}: {names}"})
+        self._commit(nav, result)
+        return result
+
+    def run(
+        self,
+        max_cycles: int | None = None,
+        progress: Callable[[CycleResult], None] | None = None,
+    ) -> RunSummary:
+        """Step until the end of the file (or ``max_cycles``); returns the summary."""
+        n = 0
+        while max_cycles is None or n < max_cycles:
+            r = self.step()
+            if r is None:
+                break
+            n += 1
+            if progress is not None:
+                progress(r)
+        return self.summary()
+
+    def summary(self) -> RunSummary:
+        """Counts so far."""
+        return RunSummary(
+            epochs=len(self.history) if self.last is None else self.last.n,
+            fixes=self.fixes,
+            rejected_lops=self.rejected_lops,
+            skipped_records=self.skipped_records,
+            last=self.last,
+            out_path=self.out_path,
+            jsonl_path=self.jsonl_path,
+            eof=self.eof,
+            failed_fixes=self.failed_fixes,
+            flagged_lops=self._counts[0],
+            gated_fixes=self._counts[1],
+            innovation_rejects=self._counts[2],
+            lane_slips=self._counts[3],
+        )
+
+    # ------------------------------------------------------------------ operator
+    def apply(self, cmd: Command) -> str:
+        """Apply an operator command between cycles; logs it and returns its description."""
+        cfg, nav, text = apply_command(self.context, self.nav, cmd)
+        if cfg is not self.context.config:
+            check_config(cfg, self.datums, self.chains)
+            old = self.context
+            new = build_context(cfg, self.datums, self.chains)
+            if isinstance(cmd, SetDatum):
+                nav = rebase_state(nav, old, new)
+            self.context = new
+        self.nav = nav
+        if self._out is not None:
+            self._out.write_action({
+                "cycle": self.nav.n,
+                "t": None if nav.last_time is None else nav.last_time.strftime("%H:%M:%SZ"),
+                "text": text,
+            })
+        return text
+
+    def predict(self, horizon_s: float, step_s: float) -> list[PositionEstimate]:
+        """Kalman ▸ Predict: positions and ellipses every ``step_s`` s up to ``horizon_s`` s,
+        from the current filter state (which is not changed)."""
+        fs = self.nav.filter
+        if fs is None or self.nav.cm_deg is None:
+            return []
+        grid = self.context.grid(self.nav.cm_deg)
+        out = []
+        for s in predict_horizon(fs, horizon_s, step_s, self.context.filter_params):
+            out.append(filter_estimate("KF", grid, s))
+        return out
+
+    def smooth(self) -> list[PositionEstimate]:
+        """Kalman ▸ Smoothing: RTS-smoothed positions of the collected span (oldest first, on
+        the grid of the current CM). A list: for a long run use :meth:`iter_smoothed`."""
+        return list(self.iter_smoothed())
+
+    def iter_smoothed(self) -> Iterator[PositionEstimate]:
+        """The smoothed positions of the collected span, oldest first, on the grid of the
+        current CM, streamed: the backward pass writes 7 numbers per epoch to a temporary file
+        and this reads them back in time order (memory flat in the run length, ~56 bytes of
+        disk per epoch besides the records' spill)."""
+        if not self._smoother or self.nav.cm_deg is None:
+            return
+        ctx = self.context
+        final_cm = self.nav.cm_deg
+
+        def convert(fs: FilterState, old: object, new: object) -> FilterState:
+            return reproject_state(fs, ctx.grid(float(old)),  # type: ignore[arg-type]
+                                   ctx.grid(float(new)))  # type: ignore[arg-type]
+
+        def records() -> Iterator[tuple[SmootherRecord, float]]:
+            first = True
+            for rec, cm in self._smoother.newest_first():  # type: ignore[union-attr]
+                if first and rec.predicted_next is not None:
+                    rec = SmootherRecord(rec.filtered)
+                first = False
+                yield rec, cm
+
+        packed = struct.Struct("<7d")
+        with tempfile.TemporaryFile() as fh:
+            n = 0
+            for fs, cm in rts_smooth_backward(records(), convert):
+                if cm != final_cm:
+                    fs = convert(fs, cm, final_cm)
+                P = fs.P
+                fh.write(packed.pack(fs.t, fs.x[0], fs.x[1], fs.x[2], P[0, 0], P[0, 1],
+                                     P[1, 1]))
+                n += 1
+            grid = ctx.grid(final_cm)
+            for i in range(n - 1, -1, -1):
+                fh.seek(i * packed.size)
+                _t, x, y, z, pxx, pxy, pyy = packed.unpack(fh.read(packed.size))
+                cov = np.array([[pxx, pxy], [pxy, pyy]])
+                lat, lon = grid.inverse(x, y)
+                ell = error_ellipse(cov) if np.all(np.isfinite(cov)) else None
+                cov.setflags(write=False)  # as engine.run.cycle's estimates: immutable values
+                if ell is not None:
+                    ell.eigenvectors.setflags(write=False)
+                yield PositionEstimate("SMO", lat, lon, x, y, z, cov, ell)
+
+    def close(self) -> None:
+        """Close the logs (everything written is already flushed) and drop the smoother's
+        spill file; every one is closed even if closing another fails (the OSError names its
+        file)."""
+        try:
+            if self._smoother is not None:
+                self._smoother.close()
+        finally:
+            try:
+                if self._out is not None:
+                    self._out.close()
+            finally:
+                if self._jsonl is not None:
+                    self._jsonl.close()
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+__all__ = [
+    "RunSummary",
+    "Session",
+    "check_config",
+    "create_output",
+    "data_file_warnings",
+    "load_data",
+    "load_run_config",
+    "read_data_dir",
+    "run_inputs",
+    "replace",
+]

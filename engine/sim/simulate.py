@@ -1,0 +1,529 @@
+"""Sensor simulator: a scenario (:mod:`engine.sim.scenario`) → ``.RUN`` records plus the truth.
+
+The true vessel is propagated kinematically on the TM grid of the working datum (k0 = 1, no
+false origin, CM fixed for the whole run at the start longitude rounded, thesis L6482–6490):
+grid heading = true heading − convergence γ, velocity through the water v·cos ε along it, plus
+the current (true set rotated by −γ), all times the point scale k (kalman.md §6.1–6.2, eq. 6.25).
+Heading, speed and depth follow each leg's targets as rate-limited ramps (turn rate, acceleration,
+dive/climb rate; pitch ε = asin(ż/v), bow-down positive, |ε| ≤ ``max_pitch_deg``); positions are
+integrated with the midpoint rule on ≤ 0.25-s sub-steps.
+
+Each record's readings come from the truth at that epoch with the scenario's error models:
+
+* GPS: grid error (E, N) = first-order Gauss–Markov (exact discretisation e_{k+1} = ρe_k + w,
+  ρ = e^{−Δt/τ}, Var w = σ²(1 − ρ²), stationary start; kalman.md §3.2) + white; the erroneous
+  point is converted to ``run_gps_datum`` so that the program's conversion (h = 0 on the GPS
+  datum, lsq.md §2.1) gives it back exactly.
+* Decca: total lane counts N from :func:`engine.systems.decca.decca_geometry` at the truth plus
+  σ_scale·L·u + white, where L is the Cholesky factor of the A4 lane VCV
+  (:func:`engine.systems.decca.decca_vcv_lanes`, thesis A4.1–A4.3) at the true position and u a
+  vector
+  of three unit Gauss–Markov processes: the error has exactly the A4 covariance at every epoch and
+  the patterns are correlated through the shared master term. The fraction written is N mod 1.
+* gyro: bias + Gauss–Markov + white (deg); EM log: v(1 + s) + b + N(0, (σ_f v)²) (kn, ≥ 0);
+  inclinometer: pitch + bias + white (deg); pressure: depth + bias + white (m) written as the
+  crystal frequency (eq. 3.2–3.3 inverted, :func:`engine.systems.sensors.depth_to_frequency_hz`);
+  echo sounder: water depth − depth + N(0, (a + b·d)²) (m, ≥ 0); rudder: ``rudder_gain_s`` ×
+  rate of turn (deg, +starboard, ±35°, display only).
+
+GPS and Decca are written only on surfaced legs while depth ≤ ``fix_depth_max_m``; otherwise
+``-``. The yielded :class:`engine.io.runfile.RunRecord` holds the *unquantised* readings (for
+statistics) and ``raw`` = the line :func:`engine.io.runfile.format_run_record` writes (quantised to
+0.001″, 0.001 lane, 0.1°, 0.1 kn, 0.01°, 0.001 Hz, 0.01 m).
+
+Randomness: ``numpy.random.default_rng(seed)`` only, 6 draws for the stationary starts, then 16
+per epoch in a fixed layout whether or not a sensor is used, so the same seed always gives the
+same bytes (on the same platform and library versions).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import secrets
+from collections.abc import Iterator
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+from pathlib import Path
+
+import numpy as np
+
+from engine.errors import InputError
+from engine.geodesy.ellipsoid import WGS84, Datum
+from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
+from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
+from engine.io.datumfile import DatumFile, read_datum_file
+from engine.io.deccafile import DeccaChain, read_chain_file
+from engine.io.outputs import OutputFile
+from engine.io.runfile import RunRecord, format_run_record
+from engine.sim.scenario import Leg, Scenario
+from engine.systems.decca import ChainOnGrid, decca_geometry, decca_vcv_lanes, place_chain
+from engine.systems.sensors import KNOT_MS, depth_to_frequency_hz, surface_reference_hz
+
+__all__ = [
+    "TRUTH_COLUMNS",
+    "SimulationSetup",
+    "SimulationSummary",
+    "TruthRow",
+    "format_truth_row",
+    "read_data_files",
+    "simulate",
+    "simulation_setup",
+    "truth_header",
+    "write_simulation",
+]
+
+SUBSTEP_S = 0.25
+"""Longest integration sub-step (s)."""
+
+RUDDER_LIMIT_DEG = 35.0
+"""Largest rudder angle written (deg)."""
+
+N_DRAWS = 16
+"""Standard normal draws per epoch (fixed layout, see :func:`_run`)."""
+
+_CHUNK = 1024
+
+TRUTH_COLUMNS: tuple[str, ...] = (
+    "time", "lat_wgs84", "lon_wgs84", "lat", "lon", "x", "y", "depth_m", "heading_true_deg",
+    "speed_kn", "current_e_ms", "current_n_ms", "surfaced", "pitch_deg",
+)
+"""Columns of the truth CSV (units in :func:`truth_header`)."""
+
+
+@dataclass(frozen=True, slots=True)
+class TruthRow:
+    """The true state at one record's epoch.
+
+    ``lat_deg``/``lon_deg`` geodetic on the working datum; ``lat_wgs84_deg``/``lon_wgs84_deg`` the
+    WGS84 position that the program's h = 0 conversion maps onto it; ``x_m``/``y_m`` TM grid of the
+    working datum on the run's fixed CM (m); ``depth_m`` positive down; ``heading_true_deg``
+    [0, 360); ``speed_kn`` through the water along the hull; ``current_e_ms``/``current_n_ms``
+    true east/north (m/s); ``surfaced`` = GPS and Decca received; ``pitch_deg`` bow-down positive.
+    """
+
+    time: datetime
+    lat_wgs84_deg: float
+    lon_wgs84_deg: float
+    lat_deg: float
+    lon_deg: float
+    x_m: float
+    y_m: float
+    depth_m: float
+    heading_true_deg: float
+    speed_kn: float
+    current_e_ms: float
+    current_n_ms: float
+    surfaced: bool
+    pitch_deg: float
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationSetup:
+    """Everything the run needs besides the random numbers: datums, the fixed grid (CM deg), the
+    Decca chain placed on it (None when Decca is off) and the pressure reference frequency (Hz)."""
+
+    working: Datum
+    gps_datum: Datum
+    grid: TMGrid
+    geodesic: GeodesicSolver
+    placed: ChainOnGrid | None
+    press_ref_hz: float
+
+    @property
+    def cm_deg(self) -> float:
+        """Central meridian of the truth grid (deg)."""
+        return self.grid.cm_deg
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationSummary:
+    """What :func:`write_simulation` wrote: record count, CM (deg) and the paths."""
+
+    n_records: int
+    cm_deg: float
+    run_path: Path
+    truth_path: Path | None
+
+
+# --------------------------------------------------------------------------------------------
+# Set-up
+
+
+def read_data_files(data_dir: str | os.PathLike[str]) -> tuple[DatumFile, dict[str, DeccaChain]]:
+    """TO_WGS84.DAT and DECCA.CHN from ``data_dir`` (InputError if missing or bad; each chain's
+    datum must be in the datum file, as for a run)."""
+    d = Path(data_dir)
+    datums = read_datum_file(d / "TO_WGS84.DAT")
+    return datums, read_chain_file(d / "DECCA.CHN", known_datums=datums.datums)
+
+
+def _datum(datums: DatumFile, name: str, field: str) -> Datum:
+    try:
+        return datums.datum(name)
+    except InputError as err:
+        if name.strip().upper() == "WGS84":
+            return WGS84
+        raise InputError(err.message, field=field, text=name) from None
+
+
+def simulation_setup(
+    scenario: Scenario, datums: DatumFile, chains: dict[str, DeccaChain]
+) -> SimulationSetup:
+    """Resolve datums, build the fixed TM grid (CM = start longitude rounded, A11) and place the
+    Decca chain on it (station coordinates shifted to the working datum if the chain's differs).
+
+    Raises InputError (field ``datum``, ``run_gps_datum`` or ``decca.chain``) for unknown names.
+    """
+    working = _datum(datums, scenario.datum, "datum")
+    gps_datum = _datum(datums, scenario.run_gps_datum, "run_gps_datum")
+    grid = TMGrid(working.ellipsoid, central_meridian_deg(scenario.start_lon_deg))
+    placed = None
+    if scenario.decca.on:
+        chain = chains.get(scenario.decca.chain)
+        if chain is None:
+            raise InputError(
+                "Unknown Decca chain !", field="decca.chain", text=scenario.decca.chain
+            )
+        stations = (chain.master, chain.red, chain.green, chain.purple)
+        latlon = np.array([[s.lat_deg, s.lon_deg] for s in stations])
+        if chain.datum_name.strip().upper() != working.name.strip().upper():
+            shift = datum_shift(_datum(datums, chain.datum_name, "decca.chain"), working)
+            latlon = np.array([shift.transform(float(a), float(b), 0.0)[:2] for a, b in latlon])
+        placed = place_chain(chain, grid, latlon)
+    return SimulationSetup(
+        working=working,
+        gps_datum=gps_datum,
+        grid=grid,
+        geodesic=GeodesicSolver(working.ellipsoid),
+        placed=placed,
+        press_ref_hz=surface_reference_hz(scenario.pressure.ref_freq_hz),
+    )
+
+
+class _FromWorking:
+    """Working-datum (lat, lon) → (lat, lon) on ``target`` such that the program's conversion
+    target → working with h = 0 on the target datum (lsq.md §2.1) returns the input (to < 1 nm;
+    two Newton steps on the horizontal residual, whose Jacobian is the identity to ~1e-5)."""
+
+    def __init__(self, working: Datum, target: Datum) -> None:
+        same = working.name.strip().upper() == target.name.strip().upper()
+        self._shift: DatumShift | None = None if same else datum_shift(target, working)
+
+    def __call__(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+        shift = self._shift
+        if shift is None:
+            return lat_deg, lon_deg
+        la, lo, _h = shift.inverse(lat_deg, lon_deg, 0.0)
+        for _ in range(2):
+            f_la, f_lo, _h = shift.transform(la, lo, 0.0)
+            la -= f_la - lat_deg
+            lo -= f_lo - lon_deg
+        return la, lo
+
+
+# --------------------------------------------------------------------------------------------
+# Kinematics
+
+
+def _wrap180(angle_deg: float) -> float:
+    """Angle difference (deg) in (−180, 180]; exactly ±180 becomes +180 (turn to starboard)."""
+    w = math.remainder(angle_deg, 360.0)
+    return 180.0 if w == -180.0 else w
+
+
+def _vertical_rate(speed_ms: float, depth_m: float, leg: Leg, sin_max_pitch: float) -> float:
+    """Signed depth rate (m/s, + down) towards the leg's depth, limited by the pitch bound."""
+    diff = leg.depth_m - depth_m
+    if abs(diff) < 1e-9:
+        return 0.0
+    rate = leg.dive_rate_ms if diff > 0.0 else leg.climb_rate_ms
+    return math.copysign(min(rate, speed_ms * sin_max_pitch), diff)
+
+
+def _advance(
+    heading: float, speed: float, depth: float, leg: Leg, accel: float, sin_max: float, h: float
+) -> tuple[float, float, float]:
+    """(true heading deg, speed m/s, depth m) after ``h`` seconds of the leg's ramps."""
+    diff = _wrap180(leg.course_deg - heading)
+    step = leg.turn_rate_deg_s * h
+    new_heading = leg.course_deg if abs(diff) <= step else (heading + math.copysign(step, diff))
+    new_heading %= 360.0
+    target = leg.speed_kn * KNOT_MS
+    dv = target - speed
+    new_speed = target if abs(dv) <= accel * h else speed + math.copysign(accel * h, dv)
+    move = _vertical_rate(speed, depth, leg, sin_max) * h
+    dz = leg.depth_m - depth
+    new_depth = leg.depth_m if abs(dz) <= abs(move) + 1e-9 else depth + move
+    return new_heading, new_speed, new_depth
+
+
+def _leg_schedule(scenario: Scenario) -> list[Leg]:
+    """The leg active at each record epoch (leg durations are multiples of the interval)."""
+    out: list[Leg] = []
+    for leg in scenario.legs:
+        out.extend([leg] * (leg.duration_s // scenario.sample_interval_s))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# The run
+
+
+def simulate(
+    scenario: Scenario,
+    datums: DatumFile,
+    chains: dict[str, DeccaChain],
+    seed: int,
+) -> Iterator[tuple[TruthRow, RunRecord]]:
+    """Stream (truth, record) pairs, one per epoch t = k·Δt, k = 0 … ``scenario.n_records`` − 1.
+
+    The set-up (datums, grid, chain) is resolved before the first item, so an InputError for an
+    unknown datum or chain is raised by this call, not by ``next()``. Same ``seed`` → same output.
+    """
+    setup = simulation_setup(scenario, datums, chains)
+    return _run(scenario, setup, seed)
+
+
+def _run(
+    scenario: Scenario, setup: SimulationSetup, seed: int
+) -> Iterator[tuple[TruthRow, RunRecord]]:
+    rng = np.random.default_rng(seed)
+    grid = setup.grid
+    to_wgs84 = _FromWorking(setup.working, WGS84)
+    to_gps = _FromWorking(setup.working, setup.gps_datum)
+    dt = float(scenario.sample_interval_s)
+    n_sub = max(1, math.ceil(dt / SUBSTEP_S - 1e-12))
+    h = dt / n_sub
+    accel = scenario.acceleration_ms2
+    sin_max = math.sin(math.radians(scenario.max_pitch_deg))
+    sens = scenario.sensors
+    g, dc, gy, lg = scenario.gps, scenario.decca, scenario.gyro, scenario.log
+    inc, pr, ec = scenario.inclinometer, scenario.pressure, scenario.echosounder
+    rho_gps = math.exp(-dt / g.tau_s)
+    rho_dec = math.exp(-dt / dc.tau_s)
+    rho_gyr = math.exp(-dt / gy.gm_tau_s)
+    q_gps = math.sqrt(1.0 - rho_gps * rho_gps)
+    q_dec = math.sqrt(1.0 - rho_dec * rho_dec)
+    q_gyr = math.sqrt(1.0 - rho_gyr * rho_gyr)
+    # Stationary starts of the unit Gauss–Markov processes: GPS (E, N), Decca (R, G, P), gyro.
+    init = rng.standard_normal(6)
+    u_gps = init[0:2].copy()
+    u_dec = init[2:5].copy()
+    u_gyr = float(init[5])
+
+    schedule = _leg_schedule(scenario)
+    first = scenario.legs[0]
+    x, y = grid.forward(scenario.start_lat_deg, scenario.start_lon_deg)
+    heading, speed, depth = first.course_deg % 360.0, first.speed_kn * KNOT_MS, first.depth_m
+    draws = np.empty((0, N_DRAWS))
+    for k, leg in enumerate(schedule):
+        row = k % _CHUNK
+        if row == 0:
+            draws = rng.standard_normal((_CHUNK, N_DRAWS))
+        n = draws[row]
+        if k > 0:
+            u_gps = rho_gps * u_gps + q_gps * n[0:2]
+            u_dec = rho_dec * u_dec + q_dec * n[4:7]
+            u_gyr = rho_gyr * u_gyr + q_gyr * float(n[10])
+        time = scenario.start_time + timedelta(seconds=k * dt)
+
+        # --- truth at this epoch
+        lat, lon = grid.inverse(x, y)
+        _x, _y, gamma, kscale = grid.forward_full(lat, lon)
+        w_lat, w_lon = to_wgs84(lat, lon)
+        rate_z = _vertical_rate(speed, depth, leg, sin_max)
+        pitch = math.degrees(math.asin(rate_z / speed)) if speed > 0.0 else 0.0
+        ce, cn = leg.current.east_north_ms()
+        fixes = leg.surfaced and depth <= scenario.fix_depth_max_m + 1e-9
+        truth = TruthRow(
+            time, w_lat, w_lon, lat, lon, x, y, depth, heading, speed / KNOT_MS, ce, cn, fixes,
+            pitch,
+        )
+
+        # --- readings
+        gps_lat = gps_lon = None
+        if g.on and fixes:
+            e_x = g.sigma_m * float(u_gps[0]) + g.white_sigma_m * float(n[2])
+            e_y = g.sigma_m * float(u_gps[1]) + g.white_sigma_m * float(n[3])
+            gps_lat, gps_lon = to_gps(*grid.inverse(x + e_x, y + e_y))
+        decca: tuple[float | None, float | None, float | None] = (None, None, None)
+        if setup.placed is not None and fixes:
+            geom = decca_geometry(setup.placed, x, y, setup.geodesic)
+            total = geom.n_calc.copy()
+            if dc.sigma_scale > 0.0:
+                chol = np.linalg.cholesky(decca_vcv_lanes(geom, dc.cf))
+                total += dc.sigma_scale * (chol @ u_dec)
+            if dc.white_sigma_lanes > 0.0:
+                total += dc.white_sigma_lanes * n[7:10]
+            fr = [float(v) % 1.0 for v in total]
+            fr = [0.0 if f >= 1.0 else f for f in fr]
+            decca = (fr[0], fr[1], fr[2])
+        hdg = spd = rud = incl = pfreq = echo = None
+        if sens.gyro:
+            hdg = (heading + gy.bias_deg + gy.gm_sigma_deg * u_gyr + gy.sigma_deg * float(n[11]))
+            hdg %= 360.0
+            if hdg >= 360.0:
+                hdg = 0.0
+        if sens.log:
+            v_kn = speed / KNOT_MS
+            spd = v_kn * (1.0 + lg.scale_factor) + lg.bias_kn + lg.sigma_frac * v_kn * float(n[12])
+            spd = min(max(spd, 0.0), 60.0)
+        if sens.rudder:
+            diff = _wrap180(leg.course_deg - heading)
+            turn = 0.0 if abs(diff) < 1e-9 else math.copysign(leg.turn_rate_deg_s, diff)
+            rud = max(-RUDDER_LIMIT_DEG, min(RUDDER_LIMIT_DEG, scenario.rudder_gain_s * turn))
+        if sens.inclinometer:
+            incl = pitch + inc.bias_deg + inc.sigma_deg * float(n[13])
+            incl = max(-90.0, min(90.0, incl))
+        if sens.pressure:
+            measured = depth + pr.bias_m + pr.sigma_m * float(n[14])
+            pfreq = depth_to_frequency_hz(measured, setup.press_ref_hz, pr.s_weight)
+        if sens.echosounder and scenario.water_depth_m is not None:
+            under = scenario.water_depth_m - depth
+            echo = max(0.0, under + (ec.sigma_a_m + ec.sigma_b * under) * float(n[15]))
+        rec = RunRecord(k + 1, time, gps_lat, gps_lon, decca, hdg, spd, rud, incl, pfreq, echo)
+        yield truth, dataclasses.replace(rec, raw=format_run_record(rec))
+
+        # --- propagate to the next epoch (midpoint rule on sub-steps)
+        ang = math.radians(leg.current.set_deg - gamma)
+        vc = leg.current.speed_kn * KNOT_MS
+        cgx, cgy = vc * math.sin(ang), vc * math.cos(ang)
+        for _ in range(n_sub):
+            m_head, m_speed, m_depth = _advance(heading, speed, depth, leg, accel, sin_max, h / 2)
+            r = _vertical_rate(m_speed, m_depth, leg, sin_max)
+            v_h = math.sqrt(max(m_speed * m_speed - r * r, 0.0))
+            psi = math.radians(m_head - gamma)
+            x += h * kscale * (v_h * math.sin(psi) + cgx)
+            y += h * kscale * (v_h * math.cos(psi) + cgy)
+            heading, speed, depth = _advance(m_head, m_speed, m_depth, leg, accel, sin_max, h / 2)
+
+
+# --------------------------------------------------------------------------------------------
+# Output
+
+
+def _num(value: float, decimals: int) -> str:
+    """Fixed-point text without a negative zero."""
+    text = f"{value:.{decimals}f}"
+    if text.startswith("-") and float(text) == 0.0:
+        text = text[1:]
+    return text
+
+
+def format_truth_row(row: TruthRow) -> str:
+    """One truth CSV line (no line ending): degrees to 1e-9, metres to 1 mm (see header)."""
+    return ",".join(
+        (
+            row.time.strftime("%Y-%m-%dT%H:%M:%SZ"),
+            _num(row.lat_wgs84_deg, 9),
+            _num(row.lon_wgs84_deg, 9),
+            _num(row.lat_deg, 9),
+            _num(row.lon_deg, 9),
+            _num(row.x_m, 3),
+            _num(row.y_m, 3),
+            _num(row.depth_m, 3),
+            _num(row.heading_true_deg, 4),
+            _num(row.speed_kn, 4),
+            _num(row.current_e_ms, 4),
+            _num(row.current_n_ms, 4),
+            "1" if row.surfaced else "0",
+            _num(row.pitch_deg, 3),
+        )
+    )
+
+
+def truth_header(scenario: Scenario, setup: SimulationSetup, seed: int) -> list[str]:
+    """Comment lines (``#``) describing the truth file, then the column-name line."""
+    ell = setup.working.ellipsoid
+    cm = setup.cm_deg
+    cm_text = f"{abs(cm):g} {'W' if cm < 0 else 'E'}"
+    return [
+        f"# UVNAV simulator truth for scenario {Path(scenario.source).name}"
+        + (f" ({scenario.name})" if scenario.name else ""),
+        f"# seed {seed}; {scenario.n_records} records every {scenario.sample_interval_s} s from "
+        f"{scenario.start_time:%Y-%m-%dT%H:%M:%SZ}",
+        f"# lat, lon: geodetic degrees on the working datum {setup.working.name} "
+        f"(ellipsoid {ell.name}, a = {ell.a_m:.3f} m, 1/f = {ell.inv_f:.9g})",
+        "# lat_wgs84, lon_wgs84: the WGS84 point whose h = 0 conversion to the working datum "
+        "gives lat, lon",
+        f"# x, y: TM grid on the working datum, k0 = 1, no false origin, CM {cm_text} "
+        f"(cm_deg = {cm:g}), metres",
+        "# depth_m positive down; heading_true_deg; speed_kn through the water; current_e_ms, "
+        "current_n_ms true east/north m/s",
+        "# surfaced: 1 = GPS and Decca received; pitch_deg bow-down positive",
+        ",".join(TRUTH_COLUMNS),
+    ]
+
+
+def _temporary(final: Path) -> Path:
+    """A new, empty temporary file in ``final``'s directory (exclusive create, so never an
+    existing file; the usual permissions, as the final file would get)."""
+    while True:
+        tmp = final.with_name(f".{final.name}.{secrets.token_hex(4)}.tmp")
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(final)) from exc
+        return tmp
+
+
+def _rename(tmp: Path, final: Path) -> None:
+    try:
+        os.replace(tmp, final)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(final)) from exc
+
+
+def write_simulation(
+    scenario: Scenario,
+    run_path: str | os.PathLike[str],
+    truth_path: str | os.PathLike[str] | None,
+    seed: int,
+    *,
+    datums: DatumFile,
+    chains: dict[str, DeccaChain],
+) -> SimulationSummary:
+    """Simulate and write the ``.RUN`` file (thesis grammar, LF line ends, no header) and the
+    truth CSV (``None`` = none). Files are written to new temporary files beside them
+    (``.NAME.XXXX.tmp``, exclusive create: nothing existing is touched) and renamed at the end,
+    so an error never leaves a half-written output. Existing files are replaced (the CLI checks
+    by engine/io/outputs.py that they are earlier outputs, not inputs). An OSError names the
+    output file it concerns."""
+    setup = simulation_setup(scenario, datums, chains)
+    run_file = Path(run_path)
+    truth_file = None if truth_path is None else Path(truth_path)
+    run_tmp = _temporary(run_file)
+    truth_tmp = None
+    n = 0
+    try:
+        truth_tmp = None if truth_file is None else _temporary(truth_file)
+        # OutputFile: a write or close error names the file asked for, not the temporary one.
+        with OutputFile(open(run_tmp, "w", encoding="ascii", newline="\n"), run_file) as run_fh:
+            truth_fh = (
+                None if truth_tmp is None or truth_file is None
+                else OutputFile(open(truth_tmp, "w", encoding="utf-8", newline="\n"),
+                                truth_file)
+            )
+            try:
+                if truth_fh is not None:
+                    truth_fh.write("\n".join(truth_header(scenario, setup, seed)) + "\n")
+                for truth, rec in _run(scenario, setup, seed):
+                    run_fh.write(rec.raw + "\n")
+                    if truth_fh is not None:
+                        truth_fh.write(format_truth_row(truth) + "\n")
+                    n += 1
+            finally:
+                if truth_fh is not None:
+                    truth_fh.close()
+        _rename(run_tmp, run_file)
+        if truth_tmp is not None and truth_file is not None:
+            _rename(truth_tmp, truth_file)
+    finally:
+        for tmp in (run_tmp, truth_tmp):
+            if tmp is not None and tmp.exists():
+                tmp.unlink()
+    return SimulationSummary(n, setup.cm_deg, run_file, truth_file)

@@ -1,0 +1,73 @@
+"""``uvnav [--config FILE.toml] [--dev]``: open the navigation console.
+
+Without ``--config`` the bundled demo ``data/DEMO.toml`` is used: first the one in the ``data``
+directory next to the installed package (the repository checkout), then ``./data/DEMO.toml``.
+Bad input is reported with file, line and field and exit status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from engine.errors import InputError
+from engine.io.datumfile import DatumFile
+from engine.io.deccafile import DeccaChain
+from engine.run.config import RunConfig
+from engine.run.session import load_run_config
+
+DEFAULT_CONFIG_NAME = "DEMO.toml"
+
+
+def default_config_path() -> Path | None:
+    """The bundled demo configuration, or None if it cannot be found."""
+    candidates = [
+        Path(__file__).resolve().parents[2] / "data" / DEFAULT_CONFIG_NAME,
+        Path.cwd() / "data" / DEFAULT_CONFIG_NAME,
+    ]
+    for path in candidates:
+        if path.is_file():
+            return path
+    return None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the console command."""
+    p = argparse.ArgumentParser(prog="uvnav", description="Open the UVNAV navigation console.")
+    p.add_argument("--config", help=f"run configuration TOML (default: data/{DEFAULT_CONFIG_NAME})")
+    p.add_argument("--dev", action="store_true", help="start in developer mode (A4)")
+    p.add_argument("--hardcopy-dir", default="hardcopy",
+                   help="directory for Edit ▸ Hardcopy files (default: ./hardcopy)")
+    return p
+
+
+def resolve_config(
+    config: str | None,
+) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]]]:
+    """Load ``config`` (or the bundled demo) and the data files it names, every name checked
+    (:func:`engine.run.session.load_run_config`); raises InputError with file and line."""
+    path = Path(config) if config is not None else default_config_path()
+    if path is None:
+        raise InputError("File not found !", file=f"data/{DEFAULT_CONFIG_NAME}",
+                         text=DEFAULT_CONFIG_NAME)
+    return load_run_config(path)
+
+
+def run_console(argv: list[str]) -> int:
+    """Open the console; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        cfg, data = resolve_config(args.config)
+    except (InputError, OSError) as exc:
+        print(f"uvnav: {exc}", file=sys.stderr)
+        return 2
+    from uvnav_tui.app import UVNAVApp
+
+    app = UVNAVApp(cfg, dev_mode=args.dev, hardcopy_dir=Path(args.hardcopy_dir), data=data)
+    app.run()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(run_console(sys.argv[1:]))

@@ -1,0 +1,71 @@
+"""Command line entry point ``uvnav``.
+
+``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
+``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
+``assess`` (accuracy against truth).  Ctrl-C in a sub-command prints one line and exits 130
+(a replay's logs keep every completed cycle; a simulation writes nothing).  Each sub-command lives
+in its own module and is imported only when used, so ``uvnav replay`` never loads Textual.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+SUBCOMMANDS = {
+    "replay": ("uvnav_tui.cli.replay", "run_replay"),
+    "simulate": ("uvnav_tui.cli.simulate", "run_simulate"),
+    "script": ("uvnav_tui.cli.script", "run_script"),
+    "assess": ("uvnav_tui.cli.assess", "run_assess"),
+}
+
+EXIT_INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT, as a shell reports it)."""
+INTERRUPTED_NOTE = {
+    "replay": "; the logs keep every cycle completed before it",
+    "simulate": "; nothing written",
+}
+"""What is left on disk after Ctrl-C, per sub-command."""
+
+USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
+       uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
+                        [--smooth [FILE]] [--force]
+       uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
+       uvnav script FILE [--headless]
+       uvnav assess OUT_or_JSONL TRUTH.csv [--svg FILE] [--phases auto|none] [--poe-rate M_H]
+"""
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Dispatch to the sub-command (or the console); returns the exit status."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if args and args[0] in ("-h", "--help"):
+        print(USAGE)
+        return 0
+    if args and args[0] in SUBCOMMANDS:
+        module, func = SUBCOMMANDS[args[0]]
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+            print(f"uvnav {args[0]}: not available in this build", file=sys.stderr)
+            return 2
+        try:
+            return int(getattr(mod, func)(args[1:]))
+        except KeyboardInterrupt:
+            print(f"uvnav {args[0]}: interrupted (Ctrl-C){INTERRUPTED_NOTE.get(args[0], '')}",
+                  file=sys.stderr)
+            return EXIT_INTERRUPTED
+    try:
+        mod = importlib.import_module("uvnav_tui.cli.console")
+    except ModuleNotFoundError as exc:
+        if exc.name != "uvnav_tui.cli.console":
+            raise
+        print("uvnav: the console is not available in this build", file=sys.stderr)
+        return 2
+    return int(mod.run_console(args))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,287 @@
+"""``uvnav replay``: run a whole ``.RUN`` file headless, writing the ``.OUT`` log and JSON lines.
+
+Shows a rich progress bar on a terminal (silent when not a TTY) and prints a closing summary.
+Never a traceback for bad input: file, line and field are named.
+
+Output files (the ``.OUT`` log, ``--jsonl``, ``--smooth``) all follow the ``.OUT`` rule
+(engine/io/outputs.py, README "Output files"): never the same file (device and inode) as an input
+or another output; an existing file is never overwritten, the first free ``NAME_N.suffix`` is
+used instead; ``--force`` replaces only an earlier UVNAV output of the same kind; devices,
+pipes and directories are refused. Every output is checked, then created, before the replay
+starts; if one cannot be, the ones already created are removed again and nothing runs.
+
+Exit status: 0 the run processed at least one epoch (bad records are reported and skipped);
+1 an output file cannot be written (the message names it); 2 bad input (arguments,
+configuration, data files, an unreadable run file, refused output names), nothing run; 3 the
+run file gave no epoch at all (every record bad, or none), the logs of the attempt are kept;
+4 internal error: the engine failed on a record that passed every input check (a bug, not bad
+input: the traceback and the record are printed, the logs keep every cycle completed before
+it); 130 interrupted (Ctrl-C): the logs keep every cycle completed before it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import json
+import os
+import sys
+import traceback
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from engine.errors import InputError, read_error
+from engine.io.datumfile import DatumFile
+from engine.io.deccafile import DeccaChain
+from engine.io.formatting import format_lat_dms, format_lon_dms
+from engine.io.outputs import OutputFile, OutputGuard, remove_created
+from engine.run.config import RunConfig
+from engine.run.records import position_json
+from engine.run.session import RunSummary, Session, load_run_config, run_inputs
+
+EXIT_OK = 0
+EXIT_CANNOT_WRITE = 1
+EXIT_BAD_INPUT = 2
+EXIT_NO_EPOCH = 3
+EXIT_INTERNAL = 4
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``uvnav replay``."""
+    p = argparse.ArgumentParser(prog="uvnav replay", description=__doc__.splitlines()[0])
+    p.add_argument("run", help=".RUN file to replay (its config: --config, or NAME.toml beside it)")
+    p.add_argument("--config", help="run configuration TOML (default: NAME.toml next to RUN)")
+    p.add_argument("--out", help=".OUT log to write (default: NAME.OUT next to RUN; an existing "
+                   "log is never overwritten: a free NAME_N.OUT is chosen)")
+    p.add_argument("--no-out", action="store_true", help="write no .OUT log")
+    p.add_argument("--jsonl", help="also write one JSON object per cycle to this file (an "
+                   "existing file is kept: a free NAME_N.jsonl is chosen)")
+    p.add_argument("--smooth", nargs="?", const="", metavar="FILE",
+                   help="run the RTS smoother over the whole run afterwards and write the smoothed "
+                   "positions as JSON lines to FILE (default NAME.smooth.jsonl next to RUN; an "
+                   "existing file is kept: a free name is chosen)")
+    p.add_argument("--force", action="store_true",
+                   help="replace existing outputs of an earlier run (never an input, never a "
+                   "file UVNAV did not write)")
+    p.add_argument("--lop-reject", choices=("Y", "N", "y", "n"), metavar="Y|N",
+                   help="what to do with an LOP that fails the w-test when lsq.lop_reject is "
+                   '"A" (ask: there is no operator here): Y reject it, N keep it flagged '
+                   "(default N, said in the summary); overrides lsq.lop_reject")
+    return p
+
+
+NO_CONFIG_MESSAGE = ("No configuration beside the run file: give --config FILE (without one "
+                     "every system would be off and the run would have no fix) !")
+
+
+def headless_lop_policy(cfg: RunConfig, option: str | None) -> tuple[RunConfig, str]:
+    """The configuration with an LOPReject policy a run without an operator can follow, and
+    the summary's words for it (issue 11, docs/CONFIG.md ``lop_reject``): ``--lop-reject``
+    wins; ``"A"`` (ask) without it becomes ``"N"`` (keep the LOP, flagged)."""
+    asked = cfg.lsq.lop_reject
+    policy = option.upper() if option else ("N" if asked == "A" else asked)
+    words = {"Y": "rejected", "N": "kept"}[policy]
+    source = "--lop-reject" if option else (
+        'lsq.lop_reject "A" with no operator' if asked == "A" else "lsq.lop_reject")
+    if policy != asked:
+        cfg = cfg.replace(lsq=dataclasses.replace(cfg.lsq, lop_reject=policy))
+    return cfg, f"{words} ({source} = {policy})"
+
+
+def integrity_summary_line(s: RunSummary, policy: str) -> str:
+    """The summary line of what the tests flagged and what was done (issue 11)."""
+    return (f"w-test: {s.flagged_lops + s.rejected_lops} LOPs flagged, {policy}  "
+            f"gross-error fixes kept out {s.gated_fixes}  innovation-test fails "
+            f"{s.innovation_rejects}  Decca lane slips corrected {s.lane_slips}")
+
+
+def _config_path(run: Path, config: str | None) -> Path | None:
+    if config is not None:
+        return Path(config)
+    beside = run.with_suffix(".toml")
+    return beside if beside.exists() else None
+
+
+def _config_for(
+    run: Path, config_path: Path | None
+) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]]]:
+    """The configuration (every name checked against the data files) and the data files."""
+    if config_path is None:
+        raise InputError(NO_CONFIG_MESSAGE, file=str(run.with_suffix(".toml")),
+                         field="configuration")
+    cfg, data = load_run_config(config_path)
+    # The RUN given on the command line wins over the configuration's run_file.
+    return cfg.replace(run_file=str(run.resolve())), data
+
+
+def _check_run_file(run: Path) -> None:
+    """The run file must be a readable regular file (InputError naming why, not "cannot
+    write" after the outputs exist)."""
+    if "\0" in str(run):
+        raise InputError("A path cannot contain a NUL character !", file=str(run))
+    if run.exists() and not run.is_dir() and not run.is_file():  # a FIFO would block open()
+        raise InputError("Not a regular file (a device or pipe) !", file=str(run))
+    try:
+        with open(run, "rb"):
+            pass
+    except OSError as exc:
+        raise read_error(exc, str(run)) from None
+
+
+def _guard_outputs(run: Path, config_path: Path | None, cfg: RunConfig, force: bool,
+                   outputs: list[tuple[str, Path, str]]) -> OutputGuard:
+    """Check every output (label, path, kind) against the inputs (run file, configuration,
+    data files) and each other before any is created (engine/io/outputs.py)."""
+    guard = OutputGuard()
+    guard.protect_all([("the run file", run), ("the configuration", config_path),
+                       *run_inputs(cfg)])
+    for label, path, kind in outputs:
+        guard.check(path, label, kind=kind, force=force)
+    return guard
+
+
+def count_lines(path: Path) -> int:
+    """Number of lines of a file by a byte scan (a last line without newline counts)."""
+    n = 0
+    last = b"\n"
+    with open(path, "rb") as fh:
+        while chunk := fh.read(1 << 20):
+            n += chunk.count(b"\n")
+            last = chunk[-1:]
+    return n + (last != b"\n")
+
+
+def _failed_fixes_line(s: RunSummary) -> str:
+    """The summary's count of fixes that failed their tests (engine.run.cycle.fix_fit)."""
+    return (f"fixes failing their tests {s.failed_fixes} of {s.fixes} (unit-variance or every "
+            "w-test rejected; used with VCV × S²)")
+
+
+def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str]:
+    lines = [
+        f"epochs {s.epochs}  fixes {s.fixes}  rejected LOPs {s.rejected_lops}  "
+        f"skipped records {s.skipped_records}",
+    ]
+    if s.failed_fixes:
+        lines.append(_failed_fixes_line(s))
+    r = s.last
+    if r is not None:
+        m = r.mpp
+        ell = ""
+        if m.ellipse is not None:
+            a, b = m.ellipse.scaled(0.95)
+            ell = f"  95% a/b {a:.2f} m {b:.2f} m  Az {m.ellipse.az_deg:.1f}°"
+        lines.append(
+            f"final MPP ({m.source}, filter {r.filter_status}) {r.time:%H:%M:%S}Z  "
+            f"{format_lat_dms(m.lat_deg)} {format_lon_dms(m.lon_deg)} {r.datum}{ell}"
+        )
+    if s.out_path is not None:
+        lines.append(f"log {s.out_path}")
+    if s.jsonl_path is not None:
+        lines.append(f"json lines {s.jsonl_path}")
+    if smoothed is not None:
+        lines.append(f"smoothed epochs {smoothed[0]}")
+        lines.append(f"smoothed positions {smoothed[1]}")
+    return lines
+
+
+def _run(session: Session, run: Path) -> RunSummary:
+    """Replay to the end, with a progress bar over the file's lines on a terminal."""
+    if not sys.stderr.isatty():
+        return session.run()
+    total = count_lines(run)
+    with Progress(TextColumn("replay"), BarColumn(), MofNCompleteColumn(), TextColumn("lines"),
+                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("replay", total=total)
+        summary = session.run(progress=lambda r: bar.update(task, completed=r.record))
+        bar.update(task, completed=total)
+    return summary
+
+
+def _cannot_write(exc: OSError, run: Path) -> int:
+    """Report an OSError while running: reading the run file is bad input (2), anything else
+    is an output that cannot be written (1); the message names the file."""
+    name = exc.filename if exc.filename is not None else run
+    if exc.filename is not None and os.path.abspath(exc.filename) == os.path.abspath(run):
+        print(f"uvnav replay: {name}: cannot read: {exc.strerror or exc} !", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"uvnav replay: {name}: cannot write: {exc.strerror or exc} !", file=sys.stderr)
+    return EXIT_CANNOT_WRITE
+
+
+def _more_skipped(summary: RunSummary, shown: int) -> None:
+    """One line for the bad records beyond the first ones kept in memory (session.py)."""
+    more = summary.skipped_records - shown
+    if more > 0:
+        where = (f"every one is a BAD line of {summary.out_path}" if summary.out_path is not None
+                 else "not shown: no .OUT log (--no-out)")
+        print(f"skipped: … and {more} more ({where})", file=sys.stderr)
+
+
+def run_replay(argv: list[str]) -> int:
+    """Entry point of ``uvnav replay``; returns the exit status (module docstring)."""
+    args = build_parser().parse_args(argv)
+    run = Path(args.run)
+    smooth_fh: OutputFile | None = None
+    try:
+        _check_run_file(run)
+        config_path = _config_path(run, args.config)
+        cfg, data = _config_for(run, config_path)
+        cfg, lop_policy = headless_lop_policy(cfg, args.lop_reject)
+        out = None if args.no_out else Path(args.out or run.with_suffix(".OUT"))
+        jsonl = Path(args.jsonl) if args.jsonl else None
+        smooth = None
+        if args.smooth is not None:
+            smooth = Path(args.smooth) if args.smooth else run.with_suffix(".smooth.jsonl")
+        guard = _guard_outputs(run, config_path, cfg, args.force, [
+            (label, p, kind) for label, p, kind in
+            (("--out", out, "out"), ("--jsonl", jsonl, "jsonl"), ("--smooth", smooth, "positions"))
+            if p is not None])
+        if smooth is not None:
+            smooth_fh = guard.open(smooth, label="--smooth", kind="positions", force=args.force)
+        session = Session(cfg, out_path=out, force=args.force, jsonl_path=jsonl,
+                          collect_smoother=smooth is not None, history=1, data=data, guard=guard)
+    except (InputError, OSError) as exc:
+        remove_created([smooth_fh], args.force)
+        if isinstance(exc, InputError):
+            print(f"uvnav replay: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        return _cannot_write(exc, run)
+    for warning in session.data_warnings:  # a modified data file (docs/DATAFILES.md)
+        print(f"uvnav replay: warning: {warning}", file=sys.stderr)
+    smoothed: tuple[int, Path] | None = None
+    try:
+        with session:
+            summary = _run(session, run)
+            if smooth_fh is not None:
+                n_smoothed = 0  # streamed: memory flat in the run length (issue 15 item 9)
+                for p in session.iter_smoothed():
+                    smooth_fh.write(json.dumps(position_json(p), separators=(",", ":")) + "\n")
+                    n_smoothed += 1
+                smooth_fh.close(sync=True)
+                smoothed = (n_smoothed, smooth_fh.path)
+    except OSError as exc:  # e.g. the disk filled up: every completed cycle is on disk
+        return _cannot_write(exc, run)
+    except Exception as exc:  # an engine bug (engine/run/session.py: never a bad record)
+        traceback.print_exc()
+        print(f"uvnav replay: internal error ({type(exc).__name__}: {exc}): this is a bug, "
+              "please report it with the record above", file=sys.stderr)
+        return EXIT_INTERNAL
+    finally:
+        if smooth_fh is not None:
+            with contextlib.suppress(OSError):  # already reported, or closed above
+                smooth_fh.close()
+    for line in _summary_lines(summary, smoothed):
+        print(line)
+    print(integrity_summary_line(summary, lop_policy))
+    for bad in session.bad_records:
+        print(f"skipped: {bad.error}", file=sys.stderr)
+    _more_skipped(summary, len(session.bad_records))
+    if summary.epochs == 0:
+        print(f"uvnav replay: {run}: no record could be processed "
+              f"({summary.skipped_records} skipped) !", file=sys.stderr)
+        return EXIT_NO_EPOCH
+    return EXIT_OK

@@ -1,0 +1,123 @@
+"""``uvnav simulate``: turn a scenario (TOML) into a ``.RUN`` file and its truth CSV.
+
+Usage::
+
+    uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
+                   [--data-dir DIR] [--force]
+
+Exit status 0 on success, 2 for bad input (scenario, data files, arguments, a refused output),
+1 when an output cannot be written (the message names it), 130 on Ctrl-C (nothing written).
+Errors are one line on stderr in the form ``file:line: field: message`` — never a traceback.
+See docs/SIMULATOR.md.
+
+Outputs (engine/io/outputs.py, README "Output files"): an existing ``--out`` or ``--truth`` is
+refused unless ``--force``, which replaces only an earlier simulator output (a ``.RUN`` file,
+a truth CSV), never the scenario or a data file (compared by device and inode, so links do not
+hide them), never a device, pipe or directory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Iterable
+from pathlib import Path
+
+from engine.errors import InputError
+from engine.io.outputs import EXISTS_MESSAGE, OutputGuard
+from engine.sim.scenario import load_scenario
+from engine.sim.simulate import read_data_files, write_simulation
+
+__all__ = ["build_parser", "run_simulate"]
+
+PROG = "uvnav simulate"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the sub-command."""
+    p = argparse.ArgumentParser(
+        prog=PROG,
+        description="Simulate a mission: write a .RUN file (thesis A8.4 grammar) and the truth.",
+    )
+    p.add_argument("scenario", help="scenario file (TOML, see docs/SIMULATOR.md)")
+    p.add_argument("--out", required=True, help="the .RUN file to write")
+    p.add_argument(
+        "--truth",
+        help="the truth CSV to write (default: the --out name with .truth.csv instead of .RUN)",
+    )
+    p.add_argument("--seed", default="0", help="random seed, a whole number >= 0 (default 0)")
+    p.add_argument(
+        "--data-dir",
+        help="directory of TO_WGS84.DAT and DECCA.CHN (default: the scenario's data_dir)",
+    )
+    p.add_argument("--force", action="store_true",
+                   help="replace an earlier .RUN / truth output (never an input)")
+    return p
+
+
+def _truth_default(out: Path) -> Path:
+    stem = out.name[:-4] if out.name.upper().endswith(".RUN") else out.name
+    return out.with_name(stem + ".truth.csv")
+
+
+def _err(message: str) -> int:
+    print(f"{PROG}: {message}", file=sys.stderr)
+    return 2
+
+
+def _check_outputs(scenario: str, data_dir: Path, outputs: Iterable[tuple[Path, str, str]],
+                   force: bool) -> None:
+    """Refuse an output that is an input (scenario, data files) or the other output, a
+    device, pipe or directory, or an existing file without ``force`` (InputError)."""
+    guard = OutputGuard()
+    guard.protect_all([("the scenario", scenario),
+                       ("the data file TO_WGS84.DAT", data_dir / "TO_WGS84.DAT"),
+                       ("the data file DECCA.CHN", data_dir / "DECCA.CHN")])
+    for path, label, kind in outputs:
+        guard.check(path, label, kind=kind, force=force)
+        if not force and os.path.lexists(path):
+            raise InputError(EXISTS_MESSAGE, file=str(path), field=label)
+
+
+def run_simulate(argv: list[str]) -> int:
+    """Run ``uvnav simulate`` with the arguments after the sub-command; returns the exit status."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse has printed the usage and the problem
+        return exc.code if isinstance(exc.code, int) else 2
+    seed_text = str(args.seed).strip()
+    if not (seed_text.isascii() and seed_text.isdigit()):
+        return _err(str(InputError("Must be a whole number >= 0 !", field="--seed",
+                                   text=args.seed)))
+    seed = int(seed_text)
+    out = Path(args.out)
+    truth = Path(args.truth) if args.truth else _truth_default(out)
+    try:
+        scenario = load_scenario(args.scenario)
+        data_dir = Path(args.data_dir) if args.data_dir else scenario.data_dir
+        datums, chains = read_data_files(data_dir)
+        scenario = load_scenario(args.scenario, known_datums=datums.datums, known_chains=chains)
+        _check_outputs(args.scenario, data_dir, ((out, "--out", "run"),
+                                                 (truth, "--truth", "truth")), args.force)
+        started = time.perf_counter()
+        summary = write_simulation(scenario, out, truth, seed, datums=datums, chains=chains)
+    except InputError as err:
+        return _err(str(err))
+    except OSError as err:
+        print(f"{PROG}: {err.filename or out}: cannot write: {err.strerror or err} !",
+              file=sys.stderr)
+        return 1
+    seconds = time.perf_counter() - started
+    cm = summary.cm_deg
+    print(
+        f"{PROG}: wrote {summary.n_records} records to {out} and the truth to {truth} "
+        f"(seed {seed}, CM {abs(cm):g}{'W' if cm < 0 else 'E'}, {seconds:.1f} s)"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(run_simulate(sys.argv[1:]))

@@ -1,0 +1,84 @@
+"""Setup ▸ Systems ▸ Decca: on/off, chain (``DECCA.CHN``), zone + whole lane per pattern
+(e.g. B20, F34, A51) and the patterns used for fixing (L5424, L5526–5531; program.md A14)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+from textual.app import ComposeResult
+from textual.containers import Horizontal
+from textual.widgets import Checkbox, Label, RadioSet
+
+from engine.errors import InputError
+from engine.io.operator_input import ZONE_LETTERS, parse_zone_lane
+from engine.run.commands import SetDecca
+from engine.run.config import DeccaConfig
+from uvnav_tui.dialogs.dialog import Dialog
+from uvnav_tui.widgets.toggles import GlyphCheckbox, GlyphRadioButton
+from uvnav_tui.widgets.validated_field import ValidatedField
+
+PATTERNS = ("red", "green", "purple")
+
+
+def zone_lane_parser(pattern: str) -> Callable[[str], str]:
+    """Parser of a zone/lane entry for ``pattern``; blank means "not entered"."""
+
+    def parse(text: str) -> str:
+        if not text.strip():
+            return ""
+        zone, lane = parse_zone_lane(text, pattern)
+        return f"{ZONE_LETTERS[zone]}{lane}"
+
+    return parse
+
+
+class DeccaDialog(Dialog[SetDecca]):
+    """Dismissed with the :class:`SetDecca` command."""
+
+    TITLE = "Setup ▸ Systems ▸ Decca"
+
+    def __init__(self, decca: DeccaConfig, chains: list[str]) -> None:
+        super().__init__()
+        self.decca = decca
+        self.chains = chains
+
+    def compose_body(self) -> ComposeResult:
+        """Switch, chain, zone/lane fields and pattern selection."""
+        d = self.decca
+        yield GlyphCheckbox("Decca on", d.on, id="decca-on", compact=True)
+        with Horizontal(classes="dialog-row"):
+            yield Label("Chain", classes="row-label")
+            with RadioSet(id="decca-chain", compact=True, classes="inline-radio"):
+                for chain in self.chains:
+                    yield GlyphRadioButton(chain, value=chain == d.chain)
+        for pattern in PATTERNS:
+            yield ValidatedField(f"{pattern.capitalize()} zone/lane", getattr(d, pattern),
+                                 zone_lane_parser(pattern), id=f"decca-{pattern}")
+        with Horizontal(classes="dialog-row"):
+            yield Label("Use for fixing", classes="row-label")
+            for pattern in PATTERNS:
+                yield GlyphCheckbox(pattern.capitalize(), pattern in d.select,
+                                    id=f"decca-use-{pattern}", compact=True)
+
+    def on_mount(self) -> None:
+        """Focus the switch."""
+        self.query_one("#decca-on", Checkbox).focus()
+
+    def collect(self) -> SetDecca | None:
+        """The command, or None (with the message shown) if an entry is wrong."""
+        if self.first_invalid() is not None:
+            return None
+        index = self.query_one("#decca-chain", RadioSet).pressed_index
+        chain = self.chains[index] if index >= 0 else self.decca.chain
+        zl = {p: str(self.query_one(f"#decca-{p}", ValidatedField).parsed) for p in PATTERNS}
+        select = tuple(p for p in PATTERNS
+                       if self.query_one(f"#decca-use-{p}", Checkbox).value)
+        on = self.query_one("#decca-on", Checkbox).value
+        try:
+            replace(self.decca, on=on, chain=chain, select=select, **zl)
+        except InputError as exc:
+            self.set_message(exc.message)
+            return None
+        return SetDecca(on=on, chain=chain, red=zl["red"], green=zl["green"],
+                        purple=zl["purple"], select=select)

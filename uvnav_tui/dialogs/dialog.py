@@ -1,0 +1,109 @@
+"""Base of every console dialog ("cadre"): a framed box over the page with OK and Cancel.
+
+Keyboard-first: Tab/Shift+Tab move between fields, Return is OK from any field (on a focused
+button it presses that button), Esc cancels. Subclasses build the body in
+:meth:`Dialog.compose_body` and return the dialog's result from :meth:`Dialog.collect`, or
+None when a field is invalid (the field keeps the typed text and shows its message).
+"""
+
+from __future__ import annotations
+
+from typing import Generic, TypeVar
+
+from textual import on
+from textual.actions import SkipAction
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal, Vertical
+from textual.screen import ModalScreen
+from textual.widgets import Button, Static
+
+from uvnav_tui.widgets.toggles import GlyphCheckbox, GlyphRadioButton
+from uvnav_tui.widgets.validated_field import ValidatedField
+
+T = TypeVar("T")
+
+
+class Dialog(ModalScreen[T | None], Generic[T]):
+    """A modal dialog; dismissed with the collected result, or None on Cancel/Esc."""
+
+    CSS_PATH = "dialog.tcss"
+
+    BINDINGS = [
+        Binding("enter", "ok", "OK", priority=True, show=False),
+        Binding("escape", "cancel", "Cancel", show=False, priority=True),
+    ]
+
+    TITLE = "Dialog"
+    OK_LABEL = "OK"
+    CANCEL_IF_UNCHANGED = True
+    """OK with nothing edited closes like Cancel: no command is sent, so nothing changes (not
+    even a value re-sent with fewer digits, a DR position reset or a filter state re-set).
+    Parameter Initialization and Predict set it False (they act without edits)."""
+
+    def compose(self) -> ComposeResult:
+        """Frame: title, body, message line, buttons."""
+        with Vertical(id="dialog-frame", classes="dialog-frame") as frame:
+            frame.border_title = self.TITLE
+            yield from self.compose_body()
+            yield Static("", id="dialog-message", classes="dialog-message", markup=False)
+            with Horizontal(classes="dialog-buttons"):
+                yield Button(self.OK_LABEL, id="ok", compact=True)
+                yield Button("Cancel", id="cancel", compact=True)
+
+    def compose_body(self) -> ComposeResult:
+        """The dialog's fields (override)."""
+        yield from ()
+
+    def collect(self) -> T | None:
+        """The dialog's result, or None if something is invalid (override)."""
+        return None
+
+    def set_message(self, text: str) -> None:
+        """Show a dialog-wide message (e.g. a warning) above the buttons."""
+        self.query_one("#dialog-message", Static).update(text)
+
+    def first_invalid(self) -> ValidatedField | None:
+        """Validate every field; focus and return the first invalid one."""
+        bad = None
+        for field in self.query(ValidatedField):
+            if not field.validate(show=True) and bad is None:
+                bad = field
+        if bad is not None:
+            bad.focus_input()
+        return bad
+
+    def unchanged(self) -> bool:
+        """True if no field was edited and no check box or radio button changed."""
+        if any(f.edited for f in self.query(ValidatedField)):
+            return False
+        toggles = [*self.query(GlyphCheckbox), *self.query(GlyphRadioButton)]
+        return all(t.value == t.initial_value for t in toggles)
+
+    def _ok(self) -> None:
+        if self.CANCEL_IF_UNCHANGED and self.unchanged():
+            self.dismiss(None)
+            return
+        result = self.collect()
+        if result is not None:
+            self.dismiss(result)
+
+    def action_ok(self) -> None:
+        """Return: collect and close if valid (a focused button gets the key instead)."""
+        if isinstance(self.focused, Button):
+            raise SkipAction()
+        self._ok()
+
+    def action_cancel(self) -> None:
+        """Esc: close without changing anything."""
+        self.dismiss(None)
+
+    @on(Button.Pressed, "#ok")
+    def _ok_pressed(self, event: Button.Pressed) -> None:
+        event.stop()
+        self._ok()
+
+    @on(Button.Pressed, "#cancel")
+    def _cancel_pressed(self, event: Button.Pressed) -> None:
+        event.stop()
+        self.dismiss(None)

@@ -1,0 +1,117 @@
+"""The 'Parameter Initialization' cadre shown over the main page at start-up (program.md §2.2).
+
+Asks, in the thesis' order, for the geodetic datum (choices from ``TO_WGS84.DAT``), the initial
+DR position, the depth, the current speed and direction (the set) and the ``.RUN`` file name
+without extension. Every field is checked as it is typed; Return starts the run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from textual.app import ComposeResult
+from textual.suggester import SuggestFromList
+
+from engine.errors import InputError
+from engine.io.operator_input import (
+    parse_datum_name,
+    parse_depth_m,
+    parse_direction_deg,
+    parse_position,
+    parse_run_name,
+    parse_speed_kn,
+)
+from engine.io.tomlsource import FILE_NOT_FOUND_MESSAGE
+from engine.run.config import RunConfig
+from uvnav_tui.dialogs.dialog import Dialog
+from uvnav_tui.widgets.validated_field import ValidatedField, number_text
+
+
+def datum_hint(names: list[str]) -> Callable[[str], str]:
+    """A hint listing the datums that start with what is typed (when it is not one yet)."""
+
+    def hint(text: str) -> str:
+        wanted = " ".join(text.split()).upper()
+        if any(" ".join(n.split()).upper() == wanted for n in names):
+            return ""
+        matches = [n for n in names if n.upper().startswith(wanted)] if wanted else names
+        if not matches:
+            return ""
+        return "(" + ", ".join(matches[:6]) + (", …" if len(matches) > 6 else "") + ")"
+
+    return hint
+
+
+class InitDialog(Dialog[RunConfig]):
+    """Dismissed with the run's configuration once the run has been started."""
+
+    CANCEL_IF_UNCHANGED = False
+
+    TITLE = "Parameter Initialization"
+    OK_LABEL = "Start"
+
+    def __init__(self, config: RunConfig, datum_names: list[str],
+                 start: Callable[[RunConfig], str | None]) -> None:
+        super().__init__()
+        self.config = config
+        self.datum_names = datum_names
+        self.start = start
+        self.run_dir = config.run_path.parent
+
+    def _run_name(self, text: str) -> str:
+        name = parse_run_name(text, field="run file")
+        if not (self.run_dir / f"{name}.RUN").is_file():
+            raise InputError(FILE_NOT_FOUND_MESSAGE, field="run file", text=text)
+        return name
+
+    def compose_body(self) -> ComposeResult:
+        """The six start-up questions, pre-filled from the configuration."""
+        cfg = self.config
+        names = self.datum_names
+        yield ValidatedField(
+            "Geodetic datum", cfg.datum, lambda t: parse_datum_name(t, names), id="init-datum",
+            suggester=SuggestFromList(names, case_sensitive=False), hint=datum_hint(names))
+        yield ValidatedField("DR position", cfg.dr_position, parse_position, id="init-dr")
+        yield ValidatedField("Depth (m)", number_text(cfg.depth_m), parse_depth_m,
+                             id="init-depth")
+        yield ValidatedField("Current speed (kn)", number_text(cfg.current_speed_kn),
+                             parse_speed_kn, id="init-speed")
+        yield ValidatedField("Current direction (°)", number_text(cfg.current_set_deg),
+                             parse_direction_deg, id="init-set")
+        yield ValidatedField("Run file (no .RUN)", Path(cfg.run_file).stem, self._run_name,
+                             id="init-run")
+
+    def on_mount(self) -> None:
+        """The cursor starts in the datum field."""
+        self.query_one("#init-datum", ValidatedField).focus_input()
+
+    def values(self) -> RunConfig:
+        """The configuration with the dialog's values applied (all fields valid); a field left
+        as pre-filled keeps the configuration's value exactly."""
+        f = {w.id: w for w in self.query(ValidatedField)}
+        cfg = self.config
+        run = f["init-run"]
+        return cfg.replace(
+            datum=f["init-datum"].value_or(cfg.datum),
+            dr_position=f["init-dr"].text.strip() if f["init-dr"].edited else cfg.dr_position,
+            depth_m=f["init-depth"].value_or(cfg.depth_m),
+            current_speed_kn=f["init-speed"].value_or(cfg.current_speed_kn),
+            current_set_deg=f["init-set"].value_or(cfg.current_set_deg),
+            run_file=str(self.run_dir / f"{run.parsed}.RUN") if run.edited else cfg.run_file,
+        )
+
+    def collect(self) -> RunConfig | None:
+        """Start the run with the typed values; None (dialog stays) on any error."""
+        if self.first_invalid() is not None:
+            return None
+        try:
+            cfg = self.values()
+        except InputError as exc:
+            self.set_message(exc.message)
+            return None
+        error = self.start(cfg)
+        if error is not None:
+            self.set_message(error)
+            return None
+        return cfg

@@ -1,0 +1,69 @@
+"""Kalman ▸ Predict.: time interval (minutes) and step size (seconds) of a prediction of the
+filter state and its VCV (thesis §6.3.3, L7095–7101, L7643)."""
+
+from __future__ import annotations
+
+from textual.app import ComposeResult
+from textual.widgets import Static
+
+from engine.errors import InputError
+from uvnav_tui.dialogs.dialog import Dialog
+from uvnav_tui.widgets.validated_field import ValidatedField
+
+INTERVAL_MESSAGE = "Wrong time interval input !"
+STEP_MESSAGE = "Wrong step size input !"
+MAX_INTERVAL_MIN = 24 * 60.0
+MAX_ROWS = 2000
+
+
+def _positive(text: str, message: str, limit: float) -> float:
+    try:
+        value = float(text.strip())
+    except ValueError:
+        raise InputError(message, text=text) from None
+    if not 0.0 < value <= limit:
+        raise InputError(message, text=text)
+    return value
+
+
+def parse_interval_min(text: str) -> float:
+    """Prediction interval in minutes, 0 < t ≤ 24 h."""
+    return _positive(text, INTERVAL_MESSAGE, MAX_INTERVAL_MIN)
+
+
+def parse_step_s(text: str) -> float:
+    """Step size in seconds, 0 < s ≤ 24 h."""
+    return _positive(text, STEP_MESSAGE, MAX_INTERVAL_MIN * 60.0)
+
+
+class PredictDialog(Dialog[tuple[float, float]]):
+    """Dismissed with (horizon in seconds, step in seconds)."""
+
+    CANCEL_IF_UNCHANGED = False
+
+    TITLE = "Kalman ▸ Predict."
+    OK_LABEL = "Predict"
+
+    def compose_body(self) -> ComposeResult:
+        """Interval and step fields."""
+        yield ValidatedField("Time interval (min)", "10", parse_interval_min, id="predict-interval")
+        yield ValidatedField("Step size (s)", "60", parse_step_s, id="predict-step")
+        yield Static("Predicts from the last cycle's filter state; the run is not changed.",
+                     classes="dialog-note")
+
+    def on_mount(self) -> None:
+        """Cursor in the interval field."""
+        self.query_one("#predict-interval", ValidatedField).focus_input()
+
+    def collect(self) -> tuple[float, float] | None:
+        """(horizon, step) in seconds if valid (step ≤ interval, at most 2000 steps)."""
+        if self.first_invalid() is not None:
+            return None
+        horizon = float(self.query_one("#predict-interval", ValidatedField).parsed) * 60.0
+        step_field = self.query_one("#predict-step", ValidatedField)
+        step = float(step_field.parsed)
+        if step > horizon or horizon / step > MAX_ROWS:
+            self.set_message(f"{STEP_MESSAGE} (step ≤ interval, at most {MAX_ROWS} steps)")
+            step_field.focus_input()
+            return None
+        return horizon, step

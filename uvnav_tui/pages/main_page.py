@@ -1,0 +1,183 @@
+"""Pg 100, the main page (program.md §4.2; thesis A8.5 L8991–8997).
+
+Two boxes MPP and LSE (``Datum :``, ``Lat :``, ``Lon :``, ``Hg :``, ``RMS :``, ``a / b :``,
+``Az :``), the sensor strip (``GYRO 232.3°  LOG 12.7kts  RUDR OFF  INCL N/A  PRESS OFF``) and the
+five system boxes GPS, SINS, OMEGA, LORAN-C and DECCA. Every number is an engine value in the
+engine's thesis format; each box is repainted only when its text changes (no flicker).
+"""
+
+from __future__ import annotations
+
+import math
+
+from textual.app import ComposeResult
+from textual.containers import Horizontal
+from textual.widget import Widget
+from textual.widgets import Static
+
+from engine.io.formatting import (
+    PLACEHOLDER,
+    format_angle_deg,
+    format_lat_dm,
+    format_lat_dms,
+    format_lon_dm,
+    format_lon_dms,
+    format_metres,
+    format_speed_kn,
+    format_zone_lane,
+)
+from engine.run.config import RunConfig
+from engine.run.cycle import CycleResult, PositionEstimate
+from engine.run.records import lse_estimate
+
+SENSOR_LABELS = (("GYRO", 0), ("LOG", 1), ("RUDR", 2), ("INCL", 3), ("PRESS", 4), ("ECHO", 5))
+"""Sensor strip labels and their index in ``SensorValues.status``."""
+PATTERN_LABELS = (("Red", "red"), ("Green", "green"), ("Purple", "purple"))
+
+
+def _ellipse_text(p: PositionEstimate | None, level: float) -> tuple[str, str]:
+    """(``a / b`` text, ``Az`` text) of an estimate's ellipse at ``level``, or placeholders."""
+    if p is None or p.ellipse is None:
+        return f"{PLACEHOLDER}m {PLACEHOLDER}m", PLACEHOLDER
+    a, b = p.ellipse.scaled(level)
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return f"{PLACEHOLDER}m {PLACEHOLDER}m", PLACEHOLDER
+    return (f"{format_metres(a, space=False)} {format_metres(b, space=False)}",
+            format_angle_deg(p.ellipse.az_deg))
+
+
+def position_box_lines(p: PositionEstimate | None, datum: str, rms_m: float | None,
+                       level: float) -> list[str]:
+    """The five lines of the MPP or LSE box (blank values when there is no estimate)."""
+    if p is None:
+        lat = lon = hg = ""
+    else:
+        lat = format_lat_dms(p.lat_deg)
+        lon = format_lon_dms(p.lon_deg)
+        hg = format_metres(-p.depth_m, decimals=1)
+    rms = (format_metres(rms_m, space=False)
+           if rms_m is not None and math.isfinite(rms_m) else PLACEHOLDER)
+    ab, az = _ellipse_text(p, level)
+    return [
+        f"Datum : {datum}".ljust(22) + f"Hg : {hg}",
+        f"Lat : {lat}",
+        f"Lon : {lon}",
+        f"RMS : {rms}".ljust(22) + f"Az : {az}",
+        f"a / b : {ab}",
+    ]
+
+
+def _sensor_value(r: CycleResult, index: int) -> str:
+    s = r.sensors
+    status = s.status[index]
+    if status == 0:
+        return "OFF"
+    if status == 2:
+        return "N/A"
+    value = (s.heading_true_deg, s.speed_kn, s.rudder_deg, s.incl_deg, s.depth_m, s.echo_m)[index]
+    if value is None:
+        return "N/A"
+    if index == 1:
+        return format_speed_kn(value)
+    if index >= 4:
+        return format_metres(value, decimals=1, space=False)
+    return format_angle_deg(value)
+
+
+def sensor_strip(r: CycleResult | None, cfg: RunConfig) -> str:
+    """``GYRO 232.3°  LOG 12.7kts  RUDR OFF  INCL N/A  PRESS OFF  ECHO N/A``."""
+    parts = []
+    for label, i in SENSOR_LABELS:
+        if r is None:
+            name = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")[i]
+            state = cfg.sensors.status(name)
+            value = {0: "OFF", 1: "---", 2: "N/A"}[state]
+        else:
+            value = _sensor_value(r, i)
+        parts.append(f"{label} {value}")
+    return "  ".join(parts)
+
+
+def gps_box_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
+    """WGS84 ECEF and the raw WGS84 fix (``X 3848703.06 … Lat 52°50.50' N``)."""
+    if not cfg.gps.on:
+        return ["off", "", ""]
+    if r is None or r.gps is None:
+        return ["no fix", "", ""]
+    g = r.gps
+    x, y, z = g.ecef_m
+    return [
+        f"X {x:.2f}".ljust(15) + f"Lat {format_lat_dm(g.wgs84_lat_deg, space=True)}",
+        f"Y {y:.2f}".ljust(15) + f"Lon {format_lon_dm(g.wgs84_lon_deg, space=True)}",
+        f"Z {z:.2f}",
+    ]
+
+
+def decca_box_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
+    """``Chain 9B``, then zone+lane per pattern (``Red B20.9 *``; * = selected)."""
+    d = cfg.decca
+    lines = [f"Chain {d.chain}" + ("" if d.on else "  off")]
+    observed: tuple[float | None, ...] = (None, None, None)
+    if r is not None and r.decca_on and r.fix is not None:
+        observed = r.fix.decca_observed
+    for (label, pattern), total in zip(PATTERN_LABELS, observed, strict=True):
+        value = format_zone_lane(total, pattern) if total is not None else "---"
+        star = " *" if pattern in d.select else ""
+        lines.append(f"{label:<7}{value}{star}")
+    return lines
+
+
+def mpp_rms(r: CycleResult) -> float | None:
+    """RMS of the LOP residuals of this cycle's fix (None without a fix)."""
+    if r.fix is None or not r.fix.ok:
+        return None
+    return r.fix.rms_m
+
+
+class MainPage(Widget):
+    """Pg 100; call :meth:`show` with the latest cycle."""
+
+    def __init__(self, *, id: str | None = None) -> None:
+        super().__init__(id=id)
+        self._texts: dict[str, str] = {}
+
+    def compose(self) -> ComposeResult:
+        """Boxes laid out as on the thesis page."""
+        with Horizontal(id="pos-boxes"):
+            yield Static(id="box-mpp", classes="pg-box pos-box", markup=False)
+            yield Static(id="box-lse", classes="pg-box pos-box", markup=False)
+        yield Static(id="sensor-strip", markup=False)
+        with Horizontal(id="sys-row-1"):
+            yield Static(id="box-gps", classes="pg-box", markup=False)
+            yield Static(id="box-decca", classes="pg-box", markup=False)
+        with Horizontal(id="sys-row-2"):
+            yield Static("not connected", id="box-sins", classes="pg-box", markup=False)
+            yield Static("not connected", id="box-omega", classes="pg-box", markup=False)
+            yield Static("not connected", id="box-loran", classes="pg-box", markup=False)
+
+    def on_mount(self) -> None:
+        """Box titles."""
+        for box, title in (("mpp", "MPP"), ("lse", "LSE"), ("gps", "GPS"), ("decca", "DECCA"),
+                           ("sins", "SINS"), ("omega", "OMEGA"), ("loran", "LORAN-C")):
+            self.query_one(f"#box-{box}", Static).border_title = title
+
+    def _set(self, box: str, text: str) -> None:
+        if self._texts.get(box) != text:
+            self._texts[box] = text
+            self.query_one(f"#{box}", Static).update(text)
+
+    def show(self, r: CycleResult | None, cfg: RunConfig) -> None:
+        """Render the cycle ``r`` (None before the first cycle) with the run's settings."""
+        level = cfg.lsq.conf_region_pct / 100.0
+        datum = r.datum if r is not None else cfg.datum
+        mpp = r.mpp if r is not None else None
+        lse = lse_estimate(r) if r is not None else None
+        rms = mpp_rms(r) if r is not None else None
+        self._set("box-mpp", "\n".join(position_box_lines(mpp, datum, rms, level)))
+        self._set("box-lse", "\n".join(position_box_lines(
+            lse, datum, rms if lse is not None else None, level)))
+        mpp_box = self.query_one("#box-mpp", Static)
+        mpp_box.border_subtitle = mpp.source if mpp is not None else ""
+        self._set("sensor-strip", sensor_strip(r, cfg))
+        self._set("box-gps", "\n".join(gps_box_lines(r, cfg)))
+        self._set("box-decca", "\n".join(decca_box_lines(r, cfg)))

@@ -1,0 +1,80 @@
+"""Pg 611, Statistics ▸ Systems ▸ GPS (program.md §4.3; thesis L9001–9004, lsq.md §12).
+
+The GPS fix on WGS84 (with the height that puts it at height 0 on the working datum) and on the
+working datum, the grid observed / calculated values (obs = the converted fix, calc = the LSE),
+the operator's corrections (C-O) and the a priori VCV of the two GPS LOPs (m²)::
+
+    GPS statistical data :
+    datum    lat                lon                 Hg
+    WGS84    52°50'30.000" N    004°31'46.200" E    39.5
+    ED50     52°50'32.777" N    004°31'51.052" E    0.00
+    x : -31613.554 / -31615.400
+    y : 5857312.625 / 5857300.165
+    a priori VCV matrix :   2500.000     0.000
+                               0.000  2500.000
+"""
+
+from __future__ import annotations
+
+from engine.io.formatting import format_lat_dms, format_lon_dms
+from engine.lsq.fix import SLOT_GPS_LAT, SLOT_GPS_LON
+from engine.run.cycle import CycleResult
+from engine.run.records import lse_estimate
+from engine.run.session import Session
+from uvnav_tui.pages.page_text import TextPage, labelled_matrix, num
+from uvnav_tui.pages.pages import register_page
+
+PAGE_NUMBER = 611
+TITLE = "GPS statistical data :"
+
+
+def render(r: CycleResult, session: Session) -> str:
+    """The text of Pg 611 for cycle ``r``."""
+    cfg = session.config
+    out = [TITLE, ""]
+    if not cfg.gps.on:
+        return "\n".join(out + ["GPS is off (Setup ▸ Systems ▸ GPS)."])
+    g = r.gps
+    if g is None:
+        return "\n".join(out + ["No GPS fix in this record."])
+    out += [
+        f"{'datum':<9}{'lat':<19}{'lon':<20}Hg",
+        f"{'WGS84':<9}{format_lat_dms(g.wgs84_lat_deg):<19}{format_lon_dms(g.wgs84_lon_deg):<20}"
+        f"{num(g.hg_m, 1)}",
+        # Hg on the working datum is 0 by construction (program.md §4.3: hg_m is the WGS84 height
+        # that puts the fix at height 0 on the working datum).
+        f"{r.datum:<9}{format_lat_dms(g.lat_deg):<19}{format_lon_dms(g.lon_deg):<20}0.00",
+        "",
+        f"input : .RUN record on {cfg.run_gps_datum}, receiver {cfg.gps.receiver}",
+        "",
+        "    obs / calc (LSE)",
+    ]
+    lse = lse_estimate(r)
+    calc_x = num(lse.x_m, 3) if lse is not None else num(None)
+    calc_y = num(lse.y_m, 3) if lse is not None else num(None)
+    out += [f"x : {num(g.x_m, 3)} / {calc_x}", f"y : {num(g.y_m, 3)} / {calc_y}"]
+    fix = r.fix
+    rows = {lop.slot: lop for lop in fix.lops if lop.system == "GPS"} if fix is not None else {}
+    if SLOT_GPS_LAT in rows and SLOT_GPS_LON in rows:
+        out.append(f"C-O : north {num(rows[SLOT_GPS_LAT].correction, 2)} m   "
+                   f"east {num(rows[SLOT_GPS_LON].correction, 2)} m")
+    out.append("")
+    tested = fix.tested if fix is not None else None
+    if tested is not None and SLOT_GPS_LAT in rows:
+        cl = tested.adjustment.Cl[SLOT_GPS_LAT:SLOT_GPS_LON + 1, SLOT_GPS_LAT:SLOT_GPS_LON + 1]
+        out += labelled_matrix("a priori VCV matrix :", cl, 3, 10)
+    else:
+        out.append("a priori VCV matrix : (GPS not in the LS fix)")
+    if lse is None:
+        out.append("calc : no LSE this cycle")
+    return "\n".join(out)
+
+
+class GpsStatisticsPage(TextPage):
+    """Pg 611 body."""
+
+    NUMBER = PAGE_NUMBER
+    TITLE = TITLE
+
+
+register_page(PAGE_NUMBER, GpsStatisticsPage)

@@ -1,0 +1,137 @@
+"""Pg 620, Statistics ▸ Sensors (program.md §4.12, A5; kalman.md §10.5 "Other pages", §11).
+
+Per bounded sensor: its status, the raw value of the ``.RUN`` record, the converted value the
+program uses (gyro: grid heading ψ − γ; log: m/s; pressure: depth from the crystal frequency),
+the sensor's a priori σ in the filter (R of eqs. 6.26b–6.29), and the filter's estimate of its
+systematic error with √P: Δψ (gyro, state 9), Δv (log, state 8), Δε (inclinometer, state 10).
+Rudder and echo sounder are displayed only; the pressure sensor has no bias state.
+"""
+
+from __future__ import annotations
+
+import math
+
+from engine.errors import InputError
+from engine.filter.kalman import IDEPS, IDPSI, IDV, FilterState, sensor_measurement
+from engine.io.formatting import format_angle_deg, format_speed_kn
+from engine.io.runfile import RunRecord, parse_run_line
+from engine.run.cycle import CycleResult
+from engine.run.session import Session
+from engine.systems.sensors import knots_to_ms
+from uvnav_tui.pages.page_text import MISSING, TextPage, num
+from uvnav_tui.pages.pages import register_page
+
+PAGE_NUMBER = 620
+TITLE = "Sensor statistics :"
+STATUS = {0: "off", 1: "on", 2: "n/a"}
+HEADER = ("Sensor".ljust(8) + "Stat".ljust(5) + "Raw".ljust(13) + "Converted".ljust(15)
+          + "σ".ljust(11) + "KF syst. error".ljust(16) + "   √P")
+
+
+def raw_record(r: CycleResult) -> RunRecord | None:
+    """The cycle's ``.RUN`` record parsed again (None if it cannot be)."""
+    try:
+        return parse_run_line(r.raw, r.record)
+    except (InputError, ValueError, IndexError):
+        return None
+
+
+def sensor_sigmas(r: CycleResult, session: Session) -> dict[str, float]:
+    """The filter's a priori σ per measured sensor this cycle (labels z_p, v_m, psi_m, eps_m;
+    m, m/s, rad, rad) from the engine's own measurement model."""
+    fs: FilterState | None = r.filter_state
+    s = r.sensors
+    if fs is None:
+        return {}
+    grid_heading = (None if s.heading_true_deg is None
+                    else math.radians(s.heading_true_deg - s.convergence_deg))
+    meas = sensor_measurement(
+        fs,
+        depth_m=s.depth_m,
+        log_ms=None if s.speed_kn is None else knots_to_ms(s.speed_kn),
+        gyro_grid_rad=grid_heading,
+        incl_rad=None if s.incl_deg is None else math.radians(s.incl_deg),
+        params=session.context.filter_params,
+    )
+    return {label: math.sqrt(float(meas.R[i, i])) for i, label in enumerate(meas.labels)}
+
+
+def _bias(fs: FilterState | None, index: int, angle: bool) -> tuple[str, str]:
+    """(estimate, √P) of a bias state in degrees or m/s."""
+    if fs is None:
+        return MISSING, MISSING
+    x, sd = float(fs.x[index]), math.sqrt(max(float(fs.P[index, index]), 0.0))
+    if angle:
+        return f"{num(math.degrees(x), 3, 7)}°", f"{num(math.degrees(sd), 3, 7)}°"
+    return f"{num(x, 3, 7)} m/s", f"{num(sd, 3, 7)} m/s"
+
+
+def _line(name: str, status: int, raw: str, conv: str, sigma: str, syst: str,
+          sd: str) -> str:
+    if status != 1:
+        raw = conv = MISSING
+    return (name.ljust(8) + STATUS.get(status, "?").ljust(5) + raw.ljust(13) + conv.ljust(15)
+            + sigma.ljust(11) + syst.ljust(16) + sd).rstrip()
+
+
+def render(r: CycleResult, session: Session) -> str:
+    """The text of Pg 620 for cycle ``r``."""
+    s = r.sensors
+    rec = raw_record(r)
+    fs = r.filter_state
+    sig = sensor_sigmas(r, session)
+    st = s.status
+    out = [TITLE, "",
+           f"Filter : {r.filter_status}    grid convergence γ : {num(s.convergence_deg, 2)}°",
+           "", HEADER]
+
+    def raw(value: float | None, fmt: str) -> str:
+        return MISSING if rec is None or value is None else fmt.format(value)
+
+    # Gyro: raw true heading, converted grid heading ψ − γ; bias Δψ.
+    grid = (MISSING if s.heading_true_deg is None
+            else f"{format_angle_deg((s.heading_true_deg - s.convergence_deg) % 360.0)} grid")
+    b, sd = _bias(fs, IDPSI, True)
+    sigma = f"{num(math.degrees(sig['psi_m']), 2)}°" if "psi_m" in sig else MISSING
+    out.append(_line("Gyro", st[0], raw(rec and rec.heading_deg, "{:.1f}°"), grid, sigma,
+                     f"Δψ {b}", sd))
+    # Log: raw knots, converted m/s; bias Δv.
+    conv = MISSING if s.speed_kn is None else f"{num(knots_to_ms(s.speed_kn), 3)} m/s"
+    raw_kn = MISSING if rec is None or rec.speed_kn is None else format_speed_kn(rec.speed_kn)
+    b, sd = _bias(fs, IDV, False)
+    sigma = f"{num(sig['v_m'], 3)} m/s" if "v_m" in sig else MISSING
+    out.append(_line("Log", st[1], raw_kn, conv, sigma, f"Δv {b}", sd))
+    # Rudder: displayed only.
+    conv = MISSING if s.rudder_deg is None else format_angle_deg(s.rudder_deg)
+    out.append(_line("Rudder", st[2], raw(rec and rec.rudder_deg, "{:.1f}°"), conv, "", "", ""))
+    # Inclinometer: degrees; bias Δε.
+    conv = MISSING if s.incl_deg is None else f"{num(s.incl_deg, 2)}°"
+    b, sd = _bias(fs, IDEPS, True)
+    sigma = f"{num(math.degrees(sig['eps_m']), 2)}°" if "eps_m" in sig else MISSING
+    out.append(_line("Incl.", st[3], raw(rec and rec.incl_deg, "{:.2f}°"), conv, sigma,
+                     f"Δε {b}", sd))
+    # Pressure: crystal frequency → depth (eq. 3.3); no bias state.
+    conv = MISSING if s.depth_m is None else f"{num(s.depth_m, 2)} m depth"
+    sigma = f"{num(sig['z_p'], 2)} m" if "z_p" in sig else MISSING
+    out.append(_line("Press.", st[4], raw(rec and rec.press_freq_hz, "{:.3f} Hz"), conv, sigma,
+                     "(no bias state)", ""))
+    # Echo sounder: displayed only.
+    conv = MISSING if s.echo_m is None else f"{num(s.echo_m, 2)} m"
+    out.append(_line("Echo", st[5], raw(rec and rec.echo_m, "{:.2f} m"), conv, "", "", ""))
+    out += ["",
+            "σ: the sensor's a priori σ in the filter (R).  Δψ, Δv, Δε: the filter's",
+            "estimates of the systematic errors (states 9, 8, 10), σ = √P.",
+            "Rudder and echo sounder: display only."]
+    if fs is None:
+        out.append("The filter has not started: no estimates yet.")
+    return "\n".join(out)
+
+
+class SensorStatisticsPage(TextPage):
+    """Pg 620 body."""
+
+    NUMBER = PAGE_NUMBER
+    TITLE = TITLE
+
+
+register_page(PAGE_NUMBER, SensorStatisticsPage)

@@ -1,0 +1,1 @@
+"""uvnav_tui.screens."""

@@ -1,0 +1,153 @@
+"""The console's base screen: menu bar, state line, the current page, message and key lines.
+
+Whenever another screen (a pulldown, a dialog, the command palette) covers it, the run is
+*interrupted*; when it is uncovered the run resumes (program.md §2.1, A22).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, cast
+
+from textual import events, on
+from textual.actions import SkipAction
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.screen import Screen
+from textual.widgets import ContentSwitcher
+
+from uvnav_tui.keys_help import menu_key_bindings
+from uvnav_tui.menus import visible_bar
+from uvnav_tui.pages.main_page import MainPage
+from uvnav_tui.pages.page_frame import PageFrame
+from uvnav_tui.widgets.key_line import KeyLine
+from uvnav_tui.widgets.menu_bar import MenuBar
+from uvnav_tui.widgets.message_line import MessageLine
+from uvnav_tui.widgets.message_panel import MessagePanel, PanelArea
+from uvnav_tui.widgets.state_line import StateLine
+
+if TYPE_CHECKING:
+    from uvnav_tui.app import UVNAVApp
+
+class ConsoleScreen(Screen[None]):
+    """Menu bar, state line, Pg 100 or a framed page, message line, key hints."""
+
+    # Keys that open another screen are *priority* bindings: they run in the app's own message
+    # loop as the key is read, so the screen is on top before the next key is dispatched.  As
+    # plain key handlers they ran later, in this screen's queue, and a hot-key typed right after
+    # Alt+letter went to this screen instead of the menu (issue 16, defect 10).
+    BINDINGS = [
+        *menu_key_bindings(),
+        Binding("enter", "open_menu(0)", "Menu", show=False, priority=True),
+        Binding("space", "open_menu(0)", "Menu", show=False, priority=True),
+        Binding("f1", "app.help", "Help", show=False, priority=True),
+        Binding("question_mark", "app.help", "Help", show=False, priority=True),
+        Binding("pagedown", "sub_page(1)", "Next sub-page", show=False),
+        Binding("pageup", "sub_page(-1)", "Previous sub-page", show=False),
+        Binding("escape", "cancel_number", "Cancel", show=False),
+        Binding("backspace", "erase_digit", "Erase", show=False),
+        Binding("f2", "messages", "Messages", show=False),
+    ]
+
+    @property
+    def uvnav(self) -> UVNAVApp:
+        """The console application."""
+        return cast("UVNAVApp", self.app)
+
+    def compose(self) -> ComposeResult:
+        """The fixed frame of every page."""
+        yield MenuBar(dev_mode=self.uvnav.dev_mode, id="menu-bar")
+        yield StateLine(id="state-line")
+        with ContentSwitcher(initial="page-main", id="pages"):
+            with PanelArea(id="page-main"):
+                yield MainPage(id="main-page")
+                yield MessagePanel(id="message-panel")
+            yield PageFrame(id="page-frame")
+        yield MessageLine(id="message-line")
+        yield KeyLine(id="hint-line")
+
+    def action_open_menu(self, index: int) -> None:
+        """Open a pulldown (the first menu for F10/Return/Space)."""
+        self.cancel_number()
+        self.uvnav.open_menu(index)
+
+    def action_open_hot(self, key: str) -> None:
+        """Alt+letter: open the bar menu with that hot-key (skipped if none is visible)."""
+        for i, item in enumerate(visible_bar(self.uvnav.dev_mode)):
+            if item.key == key:
+                self.action_open_menu(i)
+                return
+        raise SkipAction()
+
+    def page_shown(self) -> None:
+        """A page was selected: focus its body (so the cursor keys scroll it) and show its
+        keys once it is laid out."""
+        frame = self.query_one(PageFrame)
+        body = frame.body if self.uvnav.page != 100 else None
+        if body is not None and body.can_focus:
+            body.focus()
+        elif self.focused is not None:
+            self.set_focus(None)
+        self.call_after_refresh(self.key_line.sync)
+
+    # ------------------------------------------------------------------ go to page nnn
+    @property
+    def key_line(self) -> KeyLine:
+        """The bottom line."""
+        return self.query_one(KeyLine)
+
+    def type_digit(self, digit: str) -> None:
+        """A digit of a page number; the third one shows the page (``No page nnn`` if none)."""
+        line = self.key_line
+        line.typed += digit
+        if len(line.typed) == 3:
+            number = int(line.typed)
+            line.typed = ""
+            self.uvnav.show_page(number)
+        line.sync()
+
+    def cancel_number(self) -> None:
+        """Forget the digits typed so far."""
+        line = self.key_line
+        if line.typed:
+            line.typed = ""
+            line.sync()
+
+    def action_cancel_number(self) -> None:
+        """Esc: forget a page number being typed."""
+        if not self.key_line.typed:
+            raise SkipAction()
+        self.cancel_number()
+
+    def action_erase_digit(self) -> None:
+        """Backspace: erase the last digit of a page number being typed."""
+        line = self.key_line
+        if not line.typed:
+            raise SkipAction()
+        line.typed = line.typed[:-1]
+        line.sync()
+    def action_messages(self) -> None:
+        """F2: the message log (Statistics ▸ Messages)."""
+        self.uvnav.do_menu_action("messages")
+
+    def action_sub_page(self, step: int) -> None:
+        """PgDn / PgUp between the sub-pages of the page shown."""
+        self.uvnav.sub_page(step)
+
+    def on_key(self, event: events.Key) -> None:
+        """Digits type a page number (three digits: ``6 4 2`` shows Pg 642)."""
+        if event.character is not None and event.character.isdigit() and len(event.key) == 1:
+            event.stop()
+            self.type_digit(event.character)
+
+    @on(MenuBar.Opened)
+    def _bar_clicked(self, event: MenuBar.Opened) -> None:
+        event.stop()
+        self.uvnav.open_menu(event.index)
+
+    def on_screen_suspend(self) -> None:
+        """Covered by a menu or dialog: the run is interrupted."""
+        self.uvnav.set_interrupted(True)
+
+    def on_screen_resume(self) -> None:
+        """Uncovered: the run resumes as soon as possible."""
+        self.uvnav.set_interrupted(False)

@@ -1,0 +1,70 @@
+"""The message log as a scrollable view: the Pg 100 panel on tall terminals, and the body of
+the message-log screen (:mod:`uvnav_tui.screens.message_screen`).
+
+Lines are ``HH:MM:SSZ text`` (record time of the cycle), oldest first, literal text. The view
+follows the newest line unless the operator has scrolled up.
+"""
+
+from __future__ import annotations
+
+from rich.text import Text
+from textual.containers import Vertical
+from textual.widgets import RichLog
+
+from uvnav_tui.widgets.message_log import LOG_LIMIT, MessageLog
+
+PANEL_MIN_ROWS = 5
+"""The panel shows only when at least this many rows are free under Pg 100."""
+
+
+class MessageLogView(RichLog):
+    """Appends the log's new entries on :meth:`sync`; long lines wrap (literal text)."""
+
+    def __init__(self, *, id: str | None = None, classes: str | None = None) -> None:
+        super().__init__(id=id, classes=classes, max_lines=LOG_LIMIT, auto_scroll=True,
+                         wrap=True, markup=False, highlight=False, min_width=20)
+        self._next = 0
+
+    def sync(self, log: MessageLog) -> None:
+        """Write the entries added since the last call."""
+        if log.total == self._next:
+            return
+        start, entries = log.since(self._next)
+        if start > self._next:
+            self.write(Text(f"({start - self._next} older messages no longer kept)"))
+        self._next = start + len(entries)
+        for e in entries:
+            self.write(Text(e.line()))
+
+
+class MessagePanel(MessageLogView):
+    """The log under Pg 100 (shown by :class:`PanelArea` when the terminal has the rows).
+
+    Not focusable: the page keys (PgUp/PgDn, Return, Space) stay with the page; F2 opens the
+    log screen for scrolling."""
+
+    can_focus = False
+
+    def on_mount(self) -> None:
+        """Titled frame."""
+        self.border_title = "Messages (F2: all)"
+
+
+class PanelArea(Vertical):
+    """A page with a :class:`MessagePanel` under it; the panel shows only when at least
+    :data:`PANEL_MIN_ROWS` rows are left under the page."""
+
+    def on_resize(self) -> None:
+        """Re-fit after the terminal size changed."""
+        self.fit()
+
+    def fit(self) -> None:
+        """Show or hide the panel for the rows the other children leave."""
+        panels = list(self.query_children(MessagePanel))
+        if not panels:
+            return
+        used = sum(w.outer_size.height for w in self.children
+                   if not isinstance(w, MessagePanel) and w.display)
+        show = self.size.height - used >= PANEL_MIN_ROWS
+        for panel in panels:
+            panel.display = show
