@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from test_console_support import copy_data
+
+from tests.tui.test_console_support import copy_data
 
 
 @pytest.fixture

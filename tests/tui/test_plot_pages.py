@@ -24,6 +24,7 @@ from engine.run.cycle import CycleResult, RunContext
 from engine.run.records import lse_estimate
 from engine.run.session import Session
 from uvnav_tui.hardcopy import screen_text
+from uvnav_tui.pages import page_642
 from uvnav_tui.pages.page_642 import (
     LEGEND_WIDTH,
     PositionPlotPage,
@@ -35,7 +36,7 @@ from uvnav_tui.pages.page_642 import (
 )
 from uvnav_tui.pages.page_643 import HistoryPage, history_page_lines, history_series
 from uvnav_tui.pages.page_710 import DemoPage, demo_page_lines
-from uvnav_tui.pages.pages import PAGE_FACTORIES, make_page, page_642
+from uvnav_tui.pages.pages import PAGE_FACTORIES, make_page
 from uvnav_tui.widgets.canvas import format_distance, nice_length
 
 ROOT = Path(__file__).resolve().parents[2]
