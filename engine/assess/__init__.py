@@ -1,1 +1,1 @@
-"""engine.assess.accuracy."""
+"""Accuracy of a replayed run against the simulator's truth (``uvnav assess``)."""

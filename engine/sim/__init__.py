@@ -1,1 +1,1 @@
-"""engine.sim."""
+"""The simulator: a mission scenario (TOML) turned into ``.RUN`` records and the truth."""

@@ -50,7 +50,7 @@ TEXT_PAGES = (611, 615, 620, 631, 633, 641, 650, 810, 821, 830, 840, 850, 851, 8
 
 def mod(number: int) -> ModuleType:
     """The module of page ``number`` (imported here, not at collection: see ``registry``)."""
-    return importlib.import_module(f"uvnav_tui.page_{number}")
+    return importlib.import_module(f"uvnav_tui.pages.page_{number}")
 
 
 PRINTED_DECCA_VCV = np.array([[916.877, 18.050, 0.0], [18.050, 83.585, 0.0], [0.0, 0.0, 1.0]])

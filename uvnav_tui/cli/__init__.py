@@ -1,1 +1,2 @@
-"""uvnav_tui.cli.main."""
+"""The headless commands (``uvnav replay``, ``simulate``, ``script``, ``assess``) and the
+console's entry point."""

@@ -1,1 +1,1 @@
-"""uvnav_tui.dialogs."""
+"""The console's dialogs (Setup, Obs, Kalman and Demo menus), one module per dialog."""

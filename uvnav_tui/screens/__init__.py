@@ -1,1 +1,1 @@
-"""uvnav_tui.screens."""
+"""Full screens of the console: the main console screen, help, message log and tables."""

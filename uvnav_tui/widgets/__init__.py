@@ -1,1 +1,2 @@
-"""uvnav_tui.widgets."""
+"""Widgets of the console: menu bar, pulldowns, state line, status column, message line and
+panel, validated fields, toggles and the braille canvas."""
