@@ -93,6 +93,10 @@ _WHOLE_RE = re.compile("[0-9]+")
 # --------------------------------------------------------------------------- D M S helpers
 
 
+_AXES = {True: ("Latitude", 90, "N", "S"), False: ("Longitude", 180, "E", "W")}
+"""Per axis (is_lat): name, largest value [deg], positive and negative hemisphere letters."""
+
+
 def parse_dms(d: str, m: str, s: str, h: str, is_lat: bool, field: str) -> float:
     """Degrees from the four tokens ``D M S.sss H`` (thesis .RUN / .CHN layout, §7.3.2).
 
@@ -149,20 +153,13 @@ def _dms_checked(d: str, m: str, s: str, h: str, is_lat: bool, field: str) -> fl
         raise InputError("Seconds must be in [0, 60) !", field=field, text=text)
     value = dv + mv / 60.0 + sv / 3600.0
     hem = h.upper() if h.isascii() else h  # "ſ".upper() is "S": only ASCII letters count
-    if is_lat:
-        if value > 90.0:
-            raise InputError("Latitude must be <= 90 degrees !", field=field, text=text)
-        if hem == "S":
-            return -value
-        if hem != "N":
-            raise InputError("Hemisphere must be N or S !", field=field, text=text)
-    else:
-        if value > 180.0:
-            raise InputError("Longitude must be <= 180 degrees !", field=field, text=text)
-        if hem == "W":
-            return -value
-        if hem != "E":
-            raise InputError("Hemisphere must be E or W !", field=field, text=text)
+    name, limit, plus, minus = _AXES[is_lat]
+    if value > limit:
+        raise InputError(f"{name} must be <= {limit} degrees !", field=field, text=text)
+    if hem == minus:
+        return -value
+    if hem != plus:
+        raise InputError(f"Hemisphere must be {plus} or {minus} !", field=field, text=text)
     return value
 
 

@@ -48,11 +48,7 @@ def format_value(value: Value) -> str:
         return fmt(value)
     if isinstance(value, float):  # subclasses, e.g. numpy.float64
         return float.__repr__(value)  # shortest round-trip text; "nan", "inf", "-inf"
-    if value is None:
-        return "-"
-    if isinstance(value, bool):
-        return "1" if value else "0"
-    if isinstance(value, Integral):
+    if isinstance(value, Integral):  # None and bool (not subclassable) are in _BY_TYPE
         return str(int(value))
     return _format_text(str(value))
 
