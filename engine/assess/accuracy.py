@@ -179,43 +179,56 @@ def read_truth(path: str | os.PathLike[str]) -> Truth:
         cells = [c.strip() for c in s.split(",")]
         if columns is None:
             columns, header_line = cells, ln
-            for col in REQUIRED_TRUTH_COLUMNS:
-                if col not in columns:
-                    raise InputError(f"Truth column '{col}' missing !", file=name, line=ln,
-                                     field=col, text=s[:80])
-            idx = {c: columns.index(c) for c in REQUIRED_TRUTH_COLUMNS}
+            idx = _truth_columns(columns, name, ln, s)
             continue
         if len(cells) != len(columns):
             raise InputError(f"Wrong number of columns: {len(columns)} expected !", file=name,
                              line=ln, text=s[:80])
-        t = _time_ms(cells[idx["time"]], name, ln, "time")
-        if t in seen:
-            raise InputError(f"Duplicate time (also on line {seen[t]}) !", file=name, line=ln,
-                             field="time", text=cells[idx["time"]])
-        seen[t] = ln
-        try:
-            la = float(cells[idx["lat"]])
-            lo = float(cells[idx["lon"]])
-        except ValueError:
-            raise InputError("Not a number !", file=name, line=ln, field="lat/lon",
-                             text=f"{cells[idx['lat']]},{cells[idx['lon']]}") from None
-        if not (math.isfinite(la) and math.isfinite(lo)) or abs(la) > 90.0:
-            raise InputError("Not a valid position !", file=name, line=ln, field="lat/lon",
-                             text=f"{cells[idx['lat']]},{cells[idx['lon']]}")
-        sf = cells[idx["surfaced"]]
-        if sf not in ("0", "1"):
-            raise InputError("surfaced must be 0 or 1 !", file=name, line=ln, field="surfaced",
-                             text=sf)
+        t, la, lo, surfaced = _truth_row(cells, idx, seen, name, ln)
         t_ms.append(t)
         lat.append(la)
         lon.append(lo)
-        surf.append(sf == "1")
+        surf.append(surfaced)
     if columns is None:
         raise InputError("No header row in the truth file !", file=name)
     if not t_ms:
         raise InputError("No truth rows !", file=name, line=header_line)
     return Truth(name, np.array(t_ms, dtype=np.int64), np.array(lat), np.array(lon),
                  np.array(surf, dtype=bool), datum, ellipsoid, cm)
+
+
+def _truth_columns(columns: list[str], name: str, ln: int, s: str) -> dict[str, int]:
+    """Index of each required column in the header row (InputError naming a missing one)."""
+    for col in REQUIRED_TRUTH_COLUMNS:
+        if col not in columns:
+            raise InputError(f"Truth column '{col}' missing !", file=name, line=ln,
+                             field=col, text=s[:80])
+    return {c: columns.index(c) for c in REQUIRED_TRUTH_COLUMNS}
+
+
+def _truth_row(cells: list[str], idx: Mapping[str, int], seen: dict[int, int], name: str,
+               ln: int) -> tuple[int, float, float, bool]:
+    """One truth row: time [ms since the epoch, UTC], lat, lon [deg], surfaced; ``seen`` maps
+    each time read so far to its line (a repeated time is an error)."""
+    t = _time_ms(cells[idx["time"]], name, ln, "time")
+    if t in seen:
+        raise InputError(f"Duplicate time (also on line {seen[t]}) !", file=name, line=ln,
+                         field="time", text=cells[idx["time"]])
+    seen[t] = ln
+    try:
+        la = float(cells[idx["lat"]])
+        lo = float(cells[idx["lon"]])
+    except ValueError:
+        raise InputError("Not a number !", file=name, line=ln, field="lat/lon",
+                         text=f"{cells[idx['lat']]},{cells[idx['lon']]}") from None
+    if not (math.isfinite(la) and math.isfinite(lo)) or abs(la) > 90.0:
+        raise InputError("Not a valid position !", file=name, line=ln, field="lat/lon",
+                         text=f"{cells[idx['lat']]},{cells[idx['lon']]}")
+    sf = cells[idx["surfaced"]]
+    if sf not in ("0", "1"):
+        raise InputError("surfaced must be 0 or 1 !", file=name, line=ln, field="surfaced",
+                         text=sf)
+    return t, la, lo, sf == "1"
 
 
 def cov_from_ellipse95(a95_m: float, b95_m: float, az_deg: float) -> FloatArray:
