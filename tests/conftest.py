@@ -1,4 +1,8 @@
-"""Fixtures shared by the test modules (pytest loads this file first)."""
+"""Fixtures shared by the test modules (pytest loads this file first).
+
+Paths (``ROOT``, ``DATA``) and ``copy_data`` live in :mod:`tests.paths`, which test modules
+import (they cannot import this file).
+"""
 
 from __future__ import annotations
 
@@ -6,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.tui.test_console_support import copy_data
+from tests.paths import copy_data
 
 
 @pytest.fixture

@@ -39,8 +39,8 @@ from engine.run.session import Session, read_data_dir
 from engine.sim.scenario import load_scenario
 from engine.sim.simulate import simulate
 from engine.systems.decca import decca_geometry
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[1] / "data"
 SCENARIOS = DATA / "scenarios"
 MISSIONS = ("M1_SURF9B", "M2_DECCA2E", "M3_GPS_CM_MIDNIGHT", "M4_GPS_SW_WGS84", "M5_DIVE30",
             "M6_DIVE150")

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import ast
+import functools
 import pathlib
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+import pytest
+
+from tests.paths import ROOT
 
 
 def _imports(path: pathlib.Path) -> set[str]:
@@ -47,3 +50,240 @@ def test_every_config_key_is_in_the_readme() -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     missing = [name for name, _key, _default in all_keys() if f"`{name}`" not in readme]
     assert missing == []
+
+
+# --------------------------------------------------------------------------- layers and cycles
+#
+# The engine's rooms, lowest first (docs/ARCHITECTURE.md). A module may import its own package
+# and any package of a lower rank; packages that share a rank are independent of each other
+# (lsq and filter; sim and assess). ``engine.api`` is the face, the top. The package root
+# ``engine`` (its ``__init__``: the version only) is matched exactly and sits at the bottom.
+ENGINE_ROOT = "engine"
+ENGINE_LAYERS: tuple[tuple[str, ...], ...] = (
+    (ENGINE_ROOT, "engine.errors"),
+    ("engine.geodesy",),
+    ("engine.io",),
+    ("engine.systems",),
+    ("engine.lsq", "engine.filter"),
+    ("engine.run",),
+    ("engine.sim", "engine.assess"),
+    ("engine.api",),
+)
+"""Rank (index) of each engine package; see the comment above."""
+
+UI_MAY_IMPORT = (ENGINE_ROOT, "engine.api", "engine.errors")
+"""The engine modules the console (``uvnav_tui``) may import: the face, the error type and the
+package root (the version)."""
+
+PACKAGES = ("engine", "uvnav_tui")
+"""The packages whose modules the import graph covers."""
+
+
+def _module_name(path: pathlib.Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _project_modules() -> dict[str, pathlib.Path]:
+    """Every module of the covered packages: dotted name → file."""
+    return {
+        _module_name(p): p
+        for pkg in PACKAGES
+        for p in sorted((ROOT / pkg).rglob("*.py"))
+    }
+
+
+def _resolve(name: str, modules: dict[str, pathlib.Path]) -> str | None:
+    """The project module ``name`` denotes: itself, else its longest existing prefix (a name
+    imported from a module); None outside the project."""
+    while name:
+        if name in modules:
+            return name
+        name = name.rpartition(".")[0]
+    return None
+
+
+def _module_imports(name: str, path: pathlib.Path, modules: dict[str, pathlib.Path]
+                    ) -> dict[str, int]:
+    """Project modules imported anywhere in ``path`` (also inside functions and under
+    ``TYPE_CHECKING``: each is a dependency), with the line of the first import."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found: dict[str, int] = {}
+    for node in ast.walk(tree):
+        targets: list[str] = []
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")
+                anchor = anchor[: len(anchor) - (node.level - 1)]
+                base = ".".join([*anchor, base] if base else anchor)
+            targets = [f"{base}.{alias.name}" for alias in node.names]
+        for target in targets:
+            resolved = _resolve(target, modules)
+            if resolved is not None and resolved != name:
+                found.setdefault(resolved, node.lineno)
+    return found
+
+
+@functools.cache
+def _import_graph() -> tuple[dict[str, dict[str, int]], dict[str, pathlib.Path]]:
+    modules = _project_modules()
+    graph = {name: _module_imports(name, path, modules) for name, path in modules.items()}
+    return graph, modules
+
+
+def _cycles(graph: dict[str, dict[str, int]]) -> list[tuple[list[str], list[str]]]:
+    """The strongly connected components with more than one module (Tarjan): each as its
+    sorted modules and one cycle through the first (a shortest path back, by BFS)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    components: list[list[str]] = []
+
+    def connect(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                connect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                components.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            connect(v)
+    return [(c, _cycle_in(graph, set(c), c[0])) for c in sorted(components)]
+
+
+def _cycle_in(graph: dict[str, dict[str, int]], component: set[str], start: str) -> list[str]:
+    """One cycle start → … → start inside a strongly connected component (BFS back to start)."""
+    parent: dict[str, str] = {}
+    queue = [start]
+    while queue:
+        v = queue.pop(0)
+        for w in sorted(graph[v]):
+            if w not in component:
+                continue
+            if w == start:
+                path = [v]
+                while path[-1] != start:
+                    path.append(parent[path[-1]])
+                return [*reversed(path), start]
+            if w not in parent:
+                parent[w] = v
+                queue.append(w)
+    return [start]
+
+
+def _layer_of(module: str) -> tuple[int, str] | None:
+    """(rank, package) of an engine module from :data:`ENGINE_LAYERS` (longest match)."""
+    best: tuple[int, str] | None = None
+    for rank, packages in enumerate(ENGINE_LAYERS):
+        for pkg in packages:
+            inside = module == pkg or (pkg != ENGINE_ROOT and module.startswith(pkg + "."))
+            if inside and (best is None or len(pkg) > len(best[1])):
+                best = (rank, pkg)
+    return best
+
+
+def _where(modules: dict[str, pathlib.Path], name: str, line: int) -> str:
+    return f"{modules[name].relative_to(ROOT)}:{line}"
+
+
+def _layer_violations() -> list[str]:
+    graph, modules = _import_graph()
+    found = []
+    for name, imports in sorted(graph.items()):
+        own = _layer_of(name)
+        if own is None:
+            continue
+        for target, line in sorted(imports.items()):
+            other = _layer_of(target)
+            if other is None or other[1] == own[1]:
+                continue
+            if other[0] >= own[0]:
+                found.append(f"{_where(modules, name, line)}: {name} ({own[1]}, rank {own[0]}) "
+                             f"imports {target} ({other[1]}, rank {other[0]})")
+    return found
+
+
+def _ui_violations() -> list[str]:
+    graph, modules = _import_graph()
+    found = []
+    for name, imports in sorted(graph.items()):
+        if not name.startswith("uvnav_tui"):
+            continue
+        for target, line in sorted(imports.items()):
+            in_engine = target == ENGINE_ROOT or target.startswith(ENGINE_ROOT + ".")
+            allowed = any(target == ok or (ok != ENGINE_ROOT and target.startswith(ok + "."))
+                          for ok in UI_MAY_IMPORT)
+            if in_engine and not allowed:
+                found.append(f"{_where(modules, name, line)}: {name} imports {target}")
+    return found
+
+
+def test_every_engine_module_has_a_layer() -> None:
+    """A new engine package must be given its place in :data:`ENGINE_LAYERS`."""
+    _graph, modules = _import_graph()
+    missing = [m for m in sorted(modules) if m.startswith("engine") and _layer_of(m) is None]
+    assert missing == [], f"engine modules without a layer in ENGINE_LAYERS: {missing}"
+
+
+@pytest.mark.xfail(strict=False, reason="issue 12: lands with the merge")
+def test_no_import_cycles() -> None:
+    """No cycle among the modules of engine/ and uvnav_tui/ (every import counts, also the
+    ones inside functions: a lazy import hides a cycle, it does not remove it)."""
+    graph, modules = _import_graph()
+    cycles = _cycles(graph)
+    report = [
+        " -> ".join(cycle)
+        + "  (imports at " + ", ".join(_where(modules, a, graph[a][b])
+                                       for a, b in zip(cycle, cycle[1:], strict=False))
+        + f"; modules on a cycle together: {', '.join(members)})"
+        for members, cycle in cycles
+    ]
+    assert cycles == [], f"{len(cycles)} import cycles:\n  " + "\n  ".join(report)
+
+
+def test_engine_layers() -> None:
+    """An engine module imports only its own package and lower layers (ENGINE_LAYERS)."""
+    found = _layer_violations()
+    assert found == [], f"{len(found)} imports against the layers:\n  " + "\n  ".join(found)
+
+
+@pytest.mark.xfail(strict=False, reason="issue 12: lands with the merge")
+def test_ui_imports_only_the_engine_face() -> None:
+    """The console imports only engine.api (and engine.errors) from the engine."""
+    found = _ui_violations()
+    assert found == [], (f"{len(found)} console imports past the engine's face "
+                         f"({', '.join(UI_MAY_IMPORT)}):\n  " + "\n  ".join(found))
+
+
+def test_the_checks_find_a_cycle_and_a_layer_breach() -> None:
+    """The cycle finder and the layer table work on a made-up graph (the rules are not vacuous)."""
+    graph = {"a": {"b": 1}, "b": {"c": 1}, "c": {"a": 1}, "d": {"a": 1}}
+    assert _cycles(graph) == [(["a", "b", "c"], ["a", "b", "c", "a"])]
+    assert _cycles({"a": {"b": 1}, "b": {}}) == []
+    assert _layer_of("engine.io.runfile") == (2, "engine.io")
+    assert _layer_of("engine") == (0, "engine")
+    assert _layer_of("engine.newroom.x") is None
+    lsq, flt = _layer_of("engine.lsq.fix"), _layer_of("engine.filter.kalman")
+    assert lsq is not None and flt is not None and lsq[0] == flt[0]  # independent rooms

@@ -179,43 +179,56 @@ def read_truth(path: str | os.PathLike[str]) -> Truth:
         cells = [c.strip() for c in s.split(",")]
         if columns is None:
             columns, header_line = cells, ln
-            for col in REQUIRED_TRUTH_COLUMNS:
-                if col not in columns:
-                    raise InputError(f"Truth column '{col}' missing !", file=name, line=ln,
-                                     field=col, text=s[:80])
-            idx = {c: columns.index(c) for c in REQUIRED_TRUTH_COLUMNS}
+            idx = _truth_columns(columns, name, ln, s)
             continue
         if len(cells) != len(columns):
             raise InputError(f"Wrong number of columns: {len(columns)} expected !", file=name,
                              line=ln, text=s[:80])
-        t = _time_ms(cells[idx["time"]], name, ln, "time")
-        if t in seen:
-            raise InputError(f"Duplicate time (also on line {seen[t]}) !", file=name, line=ln,
-                             field="time", text=cells[idx["time"]])
-        seen[t] = ln
-        try:
-            la = float(cells[idx["lat"]])
-            lo = float(cells[idx["lon"]])
-        except ValueError:
-            raise InputError("Not a number !", file=name, line=ln, field="lat/lon",
-                             text=f"{cells[idx['lat']]},{cells[idx['lon']]}") from None
-        if not (math.isfinite(la) and math.isfinite(lo)) or abs(la) > 90.0:
-            raise InputError("Not a valid position !", file=name, line=ln, field="lat/lon",
-                             text=f"{cells[idx['lat']]},{cells[idx['lon']]}")
-        sf = cells[idx["surfaced"]]
-        if sf not in ("0", "1"):
-            raise InputError("surfaced must be 0 or 1 !", file=name, line=ln, field="surfaced",
-                             text=sf)
+        t, la, lo, surfaced = _truth_row(cells, idx, seen, name, ln)
         t_ms.append(t)
         lat.append(la)
         lon.append(lo)
-        surf.append(sf == "1")
+        surf.append(surfaced)
     if columns is None:
         raise InputError("No header row in the truth file !", file=name)
     if not t_ms:
         raise InputError("No truth rows !", file=name, line=header_line)
     return Truth(name, np.array(t_ms, dtype=np.int64), np.array(lat), np.array(lon),
                  np.array(surf, dtype=bool), datum, ellipsoid, cm)
+
+
+def _truth_columns(columns: list[str], name: str, ln: int, s: str) -> dict[str, int]:
+    """Index of each required column in the header row (InputError naming a missing one)."""
+    for col in REQUIRED_TRUTH_COLUMNS:
+        if col not in columns:
+            raise InputError(f"Truth column '{col}' missing !", file=name, line=ln,
+                             field=col, text=s[:80])
+    return {c: columns.index(c) for c in REQUIRED_TRUTH_COLUMNS}
+
+
+def _truth_row(cells: list[str], idx: Mapping[str, int], seen: dict[int, int], name: str,
+               ln: int) -> tuple[int, float, float, bool]:
+    """One truth row: time [ms since the epoch, UTC], lat, lon [deg], surfaced; ``seen`` maps
+    each time read so far to its line (a repeated time is an error)."""
+    t = _time_ms(cells[idx["time"]], name, ln, "time")
+    if t in seen:
+        raise InputError(f"Duplicate time (also on line {seen[t]}) !", file=name, line=ln,
+                         field="time", text=cells[idx["time"]])
+    seen[t] = ln
+    try:
+        la = float(cells[idx["lat"]])
+        lo = float(cells[idx["lon"]])
+    except ValueError:
+        raise InputError("Not a number !", file=name, line=ln, field="lat/lon",
+                         text=f"{cells[idx['lat']]},{cells[idx['lon']]}") from None
+    if not (math.isfinite(la) and math.isfinite(lo)) or abs(la) > 90.0:
+        raise InputError("Not a valid position !", file=name, line=ln, field="lat/lon",
+                         text=f"{cells[idx['lat']]},{cells[idx['lon']]}")
+    sf = cells[idx["surfaced"]]
+    if sf not in ("0", "1"):
+        raise InputError("surfaced must be 0 or 1 !", file=name, line=ln, field="surfaced",
+                         text=sf)
+    return t, la, lo, sf == "1"
 
 
 def cov_from_ellipse95(a95_m: float, b95_m: float, az_deg: float) -> FloatArray:
@@ -682,6 +695,62 @@ def assess(
         raise InputError("The truth header does not state the working datum's ellipsoid "
                          "(give a datum file) !", file=truth.path)
     notes: list[str] = list(log.notes)
+    same, datum_name = _same_datum(log, truth)
+    n_other = int((~same).sum())
+    if n_other:
+        notes.append(f"{n_other} log cycles on another datum than {datum_name} left out")
+    sel, tidx, has_truth = _match_epochs(log, truth, same, notes)
+    t_ms = log.t_ms[sel]
+    lat_t, lon_t = truth.lat_deg[tidx], truth.lon_deg[tidx]
+    cm = log.cm_deg[sel]
+    if (~np.isfinite(cm)).any():
+        raise InputError("Log cycle without a central meridian !", file=log.path, field="cm")
+    phase = _phases(truth, tidx, t_ms)
+    errors: dict[str, FloatArray] = {}
+    nees: dict[str, FloatArray] = {}
+    for est in ESTIMATORS:
+        tr = log.tracks[est]
+        errors[est] = _grid_errors(ell, cm, lat_t, lon_t, tr, sel)
+        nees[est] = _nees(errors[est], tr.cov[sel])
+    masks = {"all": np.ones(sel.size, dtype=bool)}
+    if split_phases:
+        masks = {name: phase == i for i, name in enumerate(PHASES[:3])} | masks
+    stats, spans = _phase_stats(masks, t_ms, errors, nees)
+    rate, rate_src = _poe_rate(log, poe_rate_m_h, poe_rate_source)
+    poe, kf_a95, dives = _pool_of_errors(log, truth, sel, t_ms, errors, rate, step_min)
+    series = AssessmentSeries(t_ms, phase, errors, nees, kf_a95, poe)
+    frame = (f"TM grid of each cycle's CM on {datum_name} ({ell.name}), k0 = 1: truth and "
+             "estimate both projected; x east, y north")
+    return Assessment(
+        log_path=log.path, log_kind=log.kind, truth_path=truth.path, datum=datum_name,
+        ellipsoid=ell.name, frame=frame, n_log=int(log.t_ms.size), n_truth=int(truth.t_ms.size),
+        n_matched=int(sel.size), n_log_unmatched=int((same & ~has_truth).sum()),
+        n_log_other_datum=n_other, phases=spans, stats=stats,
+        nis=_nis_stats(log, sel, masks), poe_rate_m_h=rate,
+        poe_rate_source=rate_src, dives=dives, series=series, notes=tuple(notes),
+    )
+
+
+def _phase_stats(
+    masks: Mapping[str, BoolArray], t_ms: IntArray, errors: Mapping[str, FloatArray],
+    nees: Mapping[str, FloatArray],
+) -> tuple[tuple[ErrorStats, ...], tuple[PhaseSpan, ...]]:
+    """Error statistics per phase and estimator, and each phase's epoch count and time span."""
+    stats = tuple(
+        _error_stats(ph, est, errors[est][m], nees[est][m])
+        for ph, m in masks.items() for est in ESTIMATORS
+    )
+    spans = tuple(
+        PhaseSpan(ph, int(m.sum()), _utc(int(t_ms[m][0])) if m.any() else None,
+                  _utc(int(t_ms[m][-1])) if m.any() else None)
+        for ph, m in masks.items()
+    )
+    return stats, spans
+
+
+def _same_datum(log: NavLog, truth: Truth) -> tuple[BoolArray, str]:
+    """Which log cycles are on the truth's working datum, and that datum's name (the log's when
+    the truth does not state it). Raises InputError when none is, or the log changes datum."""
     log_datums = {d.strip().upper() for d in log.datum if d.strip()}
     if truth.datum is not None:
         tdat = truth.datum.strip().upper()
@@ -690,17 +759,21 @@ def assess(
             raise InputError(f"The log's datum ({', '.join(sorted(log_datums))}) is not the "
                              f"truth's working datum ({truth.datum}) !", file=log.path,
                              field="datum")
-        datum_name = truth.datum
-    else:
-        same = np.ones(log.t_ms.size, dtype=bool)
-        datum_name = ", ".join(sorted(log_datums)) or "?"
-        if len(log_datums) > 1:
-            raise InputError("The log changes datum and the truth does not state its own !",
-                             file=log.path, field="datum")
-    n_other = int((~same).sum())
-    if n_other:
-        notes.append(f"{n_other} log cycles on another datum than {datum_name} left out")
-    # --- match epochs by time (first occurrence of a repeated log time)
+        return same, truth.datum
+    if len(log_datums) > 1:
+        raise InputError("The log changes datum and the truth does not state its own !",
+                         file=log.path, field="datum")
+    return np.ones(log.t_ms.size, dtype=bool), ", ".join(sorted(log_datums)) or "?"
+
+
+def _match_epochs(
+    log: NavLog, truth: Truth, same: BoolArray, notes: list[str]
+) -> tuple[IntArray, IntArray, BoolArray]:
+    """Match log cycles to truth epochs by time (first occurrence of a repeated log time).
+
+    Returns the matched log indices and their truth indices, both in time order, and which log
+    cycles have a truth epoch at all; a note is added for repeated log times.
+    """
     order = np.argsort(truth.t_ms, kind="stable")
     tt = truth.t_ms[order]
     pos = np.searchsorted(tt, log.t_ms)
@@ -719,79 +792,62 @@ def assess(
         raise InputError("No epochs in common: no log cycle time matches a truth time !",
                          file=log.path, field="time")
     tidx = order[pos_c[sel]]
-    # time order of the matched epochs
     o = np.argsort(log.t_ms[sel], kind="stable")
-    sel, tidx = sel[o], tidx[o]
-    t_ms = log.t_ms[sel]
-    lat_t, lon_t = truth.lat_deg[tidx], truth.lon_deg[tidx]
-    cm = log.cm_deg[sel]
-    bad_cm = ~np.isfinite(cm)
-    if bad_cm.any():
-        raise InputError("Log cycle without a central meridian !", file=log.path, field="cm")
-    # --- phases from the truth
+    return sel[o], tidx[o], has_truth
+
+
+def _phases(truth: Truth, tidx: IntArray, t_ms: IntArray) -> IntArray:
+    """Phase index (into :data:`PHASES`) of each matched epoch, from the truth: 0 before the
+    first submerged epoch, 1 submerged, 2 surfaced after it."""
     surfaced = truth.surfaced[tidx]
     sub_t = truth.t_ms[~truth.surfaced]
     t_first_sub = int(sub_t.min()) if sub_t.size else None
-    phase = np.full(sel.size, 0, dtype=np.int64)
+    phase = np.full(tidx.size, 0, dtype=np.int64)
     phase[~surfaced] = 1
     if t_first_sub is not None:
         phase[surfaced & (t_ms > t_first_sub)] = 2
-    # --- errors, NEES
-    errors: dict[str, FloatArray] = {}
-    nees: dict[str, FloatArray] = {}
-    for est in ESTIMATORS:
-        tr = log.tracks[est]
-        e = _grid_errors(ell, cm, lat_t, lon_t, tr, sel)
-        errors[est] = e
-        nees[est] = _nees(e, tr.cov[sel])
-    masks = {"all": np.ones(sel.size, dtype=bool)}
-    if split_phases:
-        masks = {name: phase == i for i, name in enumerate(PHASES[:3])} | masks
-    stats = tuple(
-        _error_stats(ph, est, errors[est][m], nees[est][m])
-        for ph, m in masks.items() for est in ESTIMATORS
-    )
-    spans = tuple(
-        PhaseSpan(ph, int(m.sum()), _utc(int(t_ms[m][0])) if m.any() else None,
-                  _utc(int(t_ms[m][-1])) if m.any() else None)
-        for ph, m in masks.items()
-    )
-    # --- NIS (filter fix updates, .OUT only)
-    nis_stats: tuple[NisStats, ...] | None = None
-    if log.nis is not None and log.nis_dof is not None:
-        v, p = log.nis[sel], log.nis_dof[sel]
-        rows = []
-        for ph, m in masks.items():
-            mm = m & np.isfinite(v) & (p > 0)
-            n = int(mm.sum())
-            dof = int(p[mm].sum())
-            rows.append(NisStats(ph, n, float(v[mm].mean()) if n else math.nan,
-                                 dof / n if n else math.nan,
-                                 _chi2_band(dof, n) if n else (math.nan, math.nan)))
-        nis_stats = tuple(rows)
-    # --- Pool of Errors
-    if poe_rate_m_h is not None:
-        rate, rate_src = float(poe_rate_m_h), poe_rate_source
-    elif log.poe_rate_m_h is not None:
-        rate, rate_src = log.poe_rate_m_h, "log configuration"
-    else:
-        rate, rate_src = 1800.0, "default"
+    return phase
+
+
+def _nis_stats(
+    log: NavLog, sel: IntArray, masks: Mapping[str, BoolArray]
+) -> tuple[NisStats, ...] | None:
+    """NIS of the filter's fix updates per phase (``.OUT`` logs only, else None)."""
+    if log.nis is None or log.nis_dof is None:
+        return None
+    v, p = log.nis[sel], log.nis_dof[sel]
+    rows = []
+    for ph, m in masks.items():
+        mm = m & np.isfinite(v) & (p > 0)
+        n = int(mm.sum())
+        dof = int(p[mm].sum())
+        rows.append(NisStats(ph, n, float(v[mm].mean()) if n else math.nan,
+                             dof / n if n else math.nan,
+                             _chi2_band(dof, n) if n else (math.nan, math.nan)))
+    return tuple(rows)
+
+
+def _poe_rate(log: NavLog, rate_m_h: float | None, source: str) -> tuple[float, str]:
+    """POE growth rate ε [m/h] and where it came from: the option, the log, else 1800."""
+    if rate_m_h is not None:
+        return float(rate_m_h), source
+    if log.poe_rate_m_h is not None:
+        return log.poe_rate_m_h, "log configuration"
+    return 1800.0, "default"
+
+
+def _pool_of_errors(
+    log: NavLog, truth: Truth, sel: IntArray, t_ms: IntArray, errors: Mapping[str, FloatArray],
+    rate: float, step_min: float,
+) -> tuple[FloatArray, FloatArray, tuple[DiveReport, ...]]:
+    """POE radius [m] per matched epoch, the filter's 95 % semi-major axis [m] and the dives."""
     lse_cov = log.tracks["lse"].cov[sel]
     lse_drms = np.sqrt(lse_cov[:, 0, 0] + lse_cov[:, 1, 1])
     lse_ok = np.all(np.isfinite(errors["lse"]), axis=1) & np.isfinite(lse_drms)
     poe, last = _poe_series(t_ms, lse_ok, lse_drms, rate)
     kf_a95 = _a95(log.tracks["kf"].cov[sel])
     dives = _dives(truth, t_ms, poe, last, lse_drms, kf_a95, errors, step_min)
-    series = AssessmentSeries(t_ms, phase, errors, nees, kf_a95, poe)
-    frame = (f"TM grid of each cycle's CM on {datum_name} ({ell.name}), k0 = 1: truth and "
-             "estimate both projected; x east, y north")
-    return Assessment(
-        log_path=log.path, log_kind=log.kind, truth_path=truth.path, datum=datum_name,
-        ellipsoid=ell.name, frame=frame, n_log=int(log.t_ms.size), n_truth=int(truth.t_ms.size),
-        n_matched=int(sel.size), n_log_unmatched=int((same & ~has_truth).sum()),
-        n_log_other_datum=n_other, phases=spans, stats=stats, nis=nis_stats, poe_rate_m_h=rate,
-        poe_rate_source=rate_src, dives=dives, series=series, notes=tuple(notes),
-    )
+    return poe, kf_a95, dives
 
 
 def _dives(truth: Truth, t_ms: IntArray, poe: FloatArray, last: IntArray, lse_drms: FloatArray,

@@ -52,8 +52,8 @@ from engine.geodesy.ellipsoid import (
     Datum,
     Ellipsoid,
 )
-from engine.io.datafile_io import read_data_text
-from engine.io.operator_input import SIGNED_DECIMAL_RE, format_decimal
+from engine.io.datafile_io import DataLines, is_plain_number, plain_number, read_data_text
+from engine.io.operator_input import format_decimal
 
 __all__ = [
     "DatumFile",
@@ -101,39 +101,29 @@ class DatumFile:
         raise InputError("Unknown datum !", field="datum", text=name)
 
 
-def _parse_number(token: str, field: str, file: str, line: int) -> float:
-    """A plain decimal (optional ``-``, ASCII digits, :data:`SIGNED_DECIMAL_RE`) as a float."""
-    if SIGNED_DECIMAL_RE.fullmatch(token) is None:
-        raise InputError("Not a number !", file=file, line=line, field=field, text=token)
-    return float(token)
-
-
-def _is_number(token: str) -> bool:
-    return SIGNED_DECIMAL_RE.fullmatch(token) is not None
-
-
-def _check_shape(a: float, inv_f: float, tokens: list[str], file: str, line: int) -> None:
+def _check_shape(a: float, inv_f: float, tokens: list[str]) -> None:
+    """Semi-major axis and inverse flattening within their physical ranges (module doc)."""
     if not A_RANGE_M[0] <= a <= A_RANGE_M[1]:
         raise InputError(
             f"Semi-major axis must be between {A_RANGE_M[0]:.0f} and {A_RANGE_M[1]:.0f} m !",
-            file=file, line=line, field="a", text=tokens[0],
+            field="a", text=tokens[0],
         )
     if not INV_F_RANGE[0] <= inv_f <= INV_F_RANGE[1]:
         raise InputError(
             f"Inverse flattening must be between {INV_F_RANGE[0]:.0f} and "
             f"{INV_F_RANGE[1]:.0f} !",
-            file=file, line=line, field="1/f", text=tokens[1],
+            field="1/f", text=tokens[1],
         )
 
 
-def _check_transformation(values: list[float], tokens: list[str], file: str, line: int) -> None:
+def _check_transformation(values: list[float], tokens: list[str]) -> None:
     """Shifts, rotations and scale of a datum row within their physical ranges (module doc)."""
     for (fld, limit, unit), value, token in zip(_DATUM_LIMITS, values[2:], tokens[2:],
                                                 strict=True):
         if abs(value) > limit:
             raise InputError(
                 f"{fld} must be between -{limit:g} and {limit:g} {unit} !",
-                file=file, line=line, field=fld, text=token,
+                field=fld, text=token,
             )
 
 
@@ -156,92 +146,86 @@ def read_datum_file(path: str | os.PathLike[str]) -> DatumFile:
     return _parse_lines(read_data_text(name).text.splitlines(), name)
 
 
-def _parse_lines(lines: Iterable[str], file: str) -> DatumFile:
-    section = 0
-    ended_at: int | None = None
-    last_line = 0
-    spheroids: dict[str, Ellipsoid] = {}
-    spheroid_keys: set[str] = set()
-    datum_rows: list[tuple[str, list[float]]] = []
-    datum_keys: set[str] = set()
+class _Sections:
+    """Rows of a datum file collected per section while parsing (local to one parse call)."""
 
-    for line_no, raw in enumerate(lines, 1):
-        last_line = line_no
-        stripped = raw.strip()
-        if not stripped:
-            continue
-        if stripped.startswith("*"):
-            body = stripped[1:].strip().lower()
-            if " ".join(body.split()) == "end of data":
-                ended_at = line_no
-            elif "datum" in body:
-                section = 2
-            elif "spheroid" in body or "ellipsoid" in body:
-                section = 1
-            continue
-        if ended_at is not None:
-            raise InputError(
-                f"Data after 'End of Data' (line {ended_at}) !",
-                file=file, line=line_no, field="section", text=stripped,
-            )
-        if section == 0:
-            raise InputError(
-                "Data line before any section header !",
-                file=file, line=line_no, field="section", text=stripped,
-            )
-        tokens = stripped.split()
-        fields = _SPHEROID_FIELDS if section == 1 else _DATUM_FIELDS
-        count = len(fields)
-        if len(tokens) < count + 1:
-            layout = "NAME a 1/f" if section == 1 else "NAME a 1/f dX dY dZ Rx Ry Rz scale"
-            raise InputError(
-                f"Too few fields, expected {layout} !",
-                file=file, line=line_no, field="record", text=stripped,
-            )
-        if (
-            section == 1
-            and len(tokens) >= len(_DATUM_FIELDS) + 1
-            and all(_is_number(t) for t in tokens[-len(_DATUM_FIELDS):])
-        ):
-            raise InputError(
-                "Datum row in the spheroid section (missing section header?) !",
-                file=file, line=line_no, field="section", text=stripped,
-            )
-        name = " ".join(tokens[:-count])
-        numbers = tokens[-count:]
-        values = [
-            _parse_number(tok, fld, file, line_no) for tok, fld in zip(numbers, fields, strict=True)
-        ]
-        _check_shape(values[0], values[1], numbers, file, line_no)
-        if section == 2:
-            _check_transformation(values, numbers, file, line_no)
+    def __init__(self) -> None:
+        self.section = 0
+        self.spheroids: dict[str, Ellipsoid] = {}
+        self.spheroid_keys: set[str] = set()
+        self.datum_rows: list[tuple[str, list[float]]] = []
+        self.datum_keys: set[str] = set()
+
+    def header(self, body: str) -> None:
+        """A comment: one mentioning ``datum`` starts section 2, ``spheroid``/``ellipsoid`` 1."""
+        body = body.lower()
+        if "datum" in body:
+            self.section = 2
+        elif "spheroid" in body or "ellipsoid" in body:
+            self.section = 1
+
+    def row(self, stripped: str) -> None:
+        """One data line of the current section, checked and stored."""
+        if self.section == 0:
+            raise InputError("Data line before any section header !", field="section",
+                             text=stripped)
+        name, numbers, values = _split_row(stripped, self.section)
+        _check_shape(values[0], values[1], numbers)
         key = _key(name)
-        if section == 1:
-            if key in spheroid_keys:
-                raise InputError(
-                    "Duplicate spheroid name !", file=file, line=line_no, field="name", text=name
-                )
-            spheroid_keys.add(key)
-            spheroids[name] = Ellipsoid(name, values[0], values[1])
+        if self.section == 1:
+            if key in self.spheroid_keys:
+                raise InputError("Duplicate spheroid name !", field="name", text=name)
+            self.spheroid_keys.add(key)
+            self.spheroids[name] = Ellipsoid(name, values[0], values[1])
         else:
-            if key in datum_keys:
-                raise InputError(
-                    "Duplicate datum name !", file=file, line=line_no, field="name", text=name
-                )
-            datum_keys.add(key)
-            datum_rows.append((name, values))
+            _check_transformation(values, numbers)
+            if key in self.datum_keys:
+                raise InputError("Duplicate datum name !", field="name", text=name)
+            self.datum_keys.add(key)
+            self.datum_rows.append((name, values))
 
-    if not datum_rows:
+
+def _split_row(stripped: str, section: int) -> tuple[str, list[str], list[float]]:
+    """A row's name (the leading tokens, single-spaced), its number tokens and their values."""
+    tokens = stripped.split()
+    fields = _SPHEROID_FIELDS if section == 1 else _DATUM_FIELDS
+    count = len(fields)
+    if len(tokens) < count + 1:
+        layout = "NAME a 1/f" if section == 1 else "NAME a 1/f dX dY dZ Rx Ry Rz scale"
+        raise InputError(f"Too few fields, expected {layout} !", field="record", text=stripped)
+    if (
+        section == 1
+        and len(tokens) >= len(_DATUM_FIELDS) + 1
+        and all(is_plain_number(t) for t in tokens[-len(_DATUM_FIELDS):])
+    ):
         raise InputError(
-            "No datums in file !", file=file, line=last_line or None, field="section"
+            "Datum row in the spheroid section (missing section header?) !",
+            field="section", text=stripped,
         )
-    if ended_at is None:
+    numbers = tokens[-count:]
+    values = [plain_number(tok, fld) for tok, fld in zip(numbers, fields, strict=True)]
+    return " ".join(tokens[:-count]), numbers, values
+
+
+def _parse_lines(lines: Iterable[str], file: str) -> DatumFile:
+    scan = DataLines(lines, file)
+    rows = _Sections()
+    for line in scan:
+        if line.comment is not None:
+            if not scan.is_end(line):
+                rows.header(line.comment)
+            continue
+        try:
+            rows.row(line.text)
+        except InputError as exc:
+            raise exc.located(file=file, line=line.line_no) from None
+    if not rows.datum_rows:
         raise InputError(
-            "No '* End of Data' line: the file is cut short !",
-            file=file, line=last_line or None, field="section",
+            "No datums in file !", file=file, line=scan.last_line or None, field="section"
         )
-    datums = {name: _make_datum(name, values, spheroids) for name, values in datum_rows}
-    return DatumFile(spheroids=spheroids, datums=datums)
+    scan.require_end()
+    datums = {name: _make_datum(name, values, rows.spheroids) for name, values in rows.datum_rows}
+    return DatumFile(spheroids=rows.spheroids, datums=datums)
 
 
 def _make_datum(name: str, v: list[float], spheroids: dict[str, Ellipsoid]) -> Datum:

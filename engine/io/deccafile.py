@@ -55,7 +55,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from engine.errors import InputError
-from engine.io.datafile_io import read_data_text
+from engine.io.datafile_io import DataLines, is_plain_number, plain_number, read_data_text
 from engine.io.operator_input import SIGNED_DECIMAL_RE, format_decimal, parse_datum_name
 
 __all__ = [
@@ -91,6 +91,10 @@ _WHOLE_RE = re.compile("[0-9]+")
 
 
 # --------------------------------------------------------------------------- D M S helpers
+
+
+_AXES = {True: ("Latitude", 90, "N", "S"), False: ("Longitude", 180, "E", "W")}
+"""Per axis (is_lat): name, largest value [deg], positive and negative hemisphere letters."""
 
 
 def parse_dms(d: str, m: str, s: str, h: str, is_lat: bool, field: str) -> float:
@@ -149,20 +153,13 @@ def _dms_checked(d: str, m: str, s: str, h: str, is_lat: bool, field: str) -> fl
         raise InputError("Seconds must be in [0, 60) !", field=field, text=text)
     value = dv + mv / 60.0 + sv / 3600.0
     hem = h.upper() if h.isascii() else h  # "ſ".upper() is "S": only ASCII letters count
-    if is_lat:
-        if value > 90.0:
-            raise InputError("Latitude must be <= 90 degrees !", field=field, text=text)
-        if hem == "S":
-            return -value
-        if hem != "N":
-            raise InputError("Hemisphere must be N or S !", field=field, text=text)
-    else:
-        if value > 180.0:
-            raise InputError("Longitude must be <= 180 degrees !", field=field, text=text)
-        if hem == "W":
-            return -value
-        if hem != "E":
-            raise InputError("Hemisphere must be E or W !", field=field, text=text)
+    name, limit, plus, minus = _AXES[is_lat]
+    if value > limit:
+        raise InputError(f"{name} must be <= {limit} degrees !", field=field, text=text)
+    if hem == minus:
+        return -value
+    if hem != plus:
+        raise InputError(f"Hemisphere must be {plus} or {minus} !", field=field, text=text)
     return value
 
 
@@ -240,17 +237,6 @@ _BLOCK_ITEMS = (
 )
 
 
-def _number(token: str, field: str) -> float:
-    """A plain decimal (optional ``-``, ASCII digits; :data:`SIGNED_DECIMAL_RE`)."""
-    if SIGNED_DECIMAL_RE.fullmatch(token) is None:
-        raise InputError("Not a number !", field=field, text=token)
-    return float(token)
-
-
-def _is_number(token: str) -> bool:
-    return SIGNED_DECIMAL_RE.fullmatch(token) is not None
-
-
 def _station(role: str, stripped: str) -> tuple[float, float, float]:
     tokens = stripped.split()
     if len(tokens) != 9:
@@ -260,7 +246,7 @@ def _station(role: str, stripped: str) -> tuple[float, float, float]:
         )
     lat = parse_dms(*tokens[0:4], True, "latitude")
     lon = parse_dms(*tokens[4:8], False, "longitude")
-    freq = _number(tokens[8], "frequency")
+    freq = plain_number(tokens[8], "frequency")
     if freq <= 0.0:
         raise InputError("Frequency must be > 0 kHz !", field="frequency", text=tokens[8])
     return lat, lon, freq
@@ -303,6 +289,33 @@ class _Block:
         self.items = 0  # data lines read after the id
         self.lines: list[int] = []  # line of each item
         self.last_tokens: list[str] = []  # last token of each item's line, as written
+
+    def add(self, stripped: str, line_no: int, known: list[str] | None) -> int | None:
+        """Read the block's next item from a data line; the station's index for a station line
+        (its name may follow in a comment), else None."""
+        item = self.items
+        station = None
+        if item < 4:
+            self.stations.append(_station(_ROLES[item], stripped))
+            self.station_names.append("")
+            station = item
+        elif item == 4:
+            self.datum = _datum(stripped, known)
+        elif item < 8:
+            self.min_lanes.append(plain_number(_single(stripped, "min lane count"),
+                                               "min lane count"))
+        else:
+            self.speed = _speed(stripped)
+        self.items += 1
+        self.lines.append(line_no)
+        self.last_tokens.append(stripped.split()[-1])
+        return station
+
+    def name_station(self, index: int, comment: str) -> None:
+        """Name station ``index`` from the comment after its line (``* Master : Finsterwolde``
+        → text after the first ``:``, else the whole comment)."""
+        head, colon, tail = comment.partition(":")
+        self.station_names[index] = tail.strip() if colon else head
 
     def check(self, file: str) -> None:
         """Frequencies, baselines and minimum lane counts against each other (module doc)."""
@@ -398,90 +411,71 @@ def _parse_lines(
     block: _Block | None = None
     free_comments: list[str] = []
     name_station: int | None = None  # index of the station waiting for its name comment
-    ended_at: int | None = None
-    last_line = 0
-
-    for line_no, raw in enumerate(lines, 1):
-        last_line = line_no
-        stripped = raw.strip()
-        if not stripped:
-            continue
-        if stripped.startswith("*"):
-            body = stripped[1:].strip()
-            if " ".join(body.lower().split()) == "end of data":
+    scan = DataLines(lines, file)
+    for line in scan:
+        if line.comment is not None:
+            if scan.is_end(line):
                 if block is not None:
-                    _truncated(block, file, line_no)
-                ended_at = line_no
-            elif body:
+                    _truncated(block, file, line.line_no)
+            elif line.comment:
                 if block is None:
-                    free_comments.append(body)
+                    free_comments.append(line.comment)
                 elif name_station is not None:
-                    head, colon, tail = body.partition(":")
-                    block.station_names[name_station] = tail.strip() if colon else head
+                    block.name_station(name_station, line.comment)
                 name_station = None
             continue
-        if ended_at is not None:
-            raise InputError(
-                f"Data after 'End of Data' (line {ended_at}) !",
-                file=file, line=line_no, field="section", text=stripped,
-            )
         name_station = None
         try:
             if block is None:
-                block = _start_block(stripped, chains, free_comments, line_no)
+                block = _start_block(line.text, chains, free_comments, line.line_no)
                 free_comments = []
                 continue
-            item = block.items
-            if item < 4:
-                block.stations.append(_station(_ROLES[item], stripped))
-                block.station_names.append("")
-                name_station = item
-            elif item == 4:
-                if _is_number(stripped.split()[0]):
-                    raise InputError("Datum name expected !", field="datum", text=stripped)
-                block.datum = " ".join(stripped.split())
-                if known is not None:
-                    block.datum = parse_datum_name(block.datum, known, field="datum")
-            elif item < 8:
-                block.min_lanes.append(_number(_single(stripped, "min lane count"),
-                                               "min lane count"))
-            else:
-                token = _single(stripped, "propagation speed")
-                speed = _number(token, "propagation speed")
-                lo, hi = SPEED_RANGE_KM_S
-                if not lo <= speed <= hi:
-                    raise InputError(
-                        f"Propagation speed must be in [{lo:.0f}, {hi}] km/s !",
-                        field="propagation speed", text=token,
-                    )
-                block.speed = speed
-            block.items += 1
-            block.lines.append(line_no)
-            block.last_tokens.append(stripped.split()[-1])
+            name_station = block.add(line.text, line.line_no, known)
         except InputError as exc:
-            raise exc.located(file=file, line=line_no) from None
-        if block is not None and block.items == len(_BLOCK_ITEMS):
+            raise exc.located(file=file, line=line.line_no) from None
+        if block.items == len(_BLOCK_ITEMS):
             block.check(file)  # located at the line of the item at fault
             chains[block.chain_id] = block.build()
             block = None
 
     if block is not None:
-        _truncated(block, file, last_line)
+        _truncated(block, file, scan.last_line)
     if not chains:
-        raise InputError("No chains in file !", file=file, line=last_line or None, field="section")
-    if ended_at is None:
         raise InputError(
-            "No '* End of Data' line: the file is cut short !",
-            file=file, line=last_line or None, field="section",
+            "No chains in file !", file=file, line=scan.last_line or None, field="section"
         )
+    scan.require_end()
     return chains
+
+
+def _datum(stripped: str, known: list[str] | None) -> str:
+    """The datum line: a name (not a number), in the datum file's spelling when ``known``."""
+    if is_plain_number(stripped.split()[0]):
+        raise InputError("Datum name expected !", field="datum", text=stripped)
+    datum = " ".join(stripped.split())
+    if known is not None:
+        datum = parse_datum_name(datum, known, field="datum")
+    return datum
+
+
+def _speed(stripped: str) -> float:
+    """The propagation speed line [km/s], within :data:`SPEED_RANGE_KM_S`."""
+    token = _single(stripped, "propagation speed")
+    speed = plain_number(token, "propagation speed")
+    lo, hi = SPEED_RANGE_KM_S
+    if not lo <= speed <= hi:
+        raise InputError(
+            f"Propagation speed must be in [{lo:.0f}, {hi}] km/s !",
+            field="propagation speed", text=token,
+        )
+    return speed
 
 
 def _start_block(
     stripped: str, chains: Mapping[str, DeccaChain], comments: list[str], line_no: int
 ) -> _Block:
     tokens = stripped.split()
-    if len(tokens) != 1 or _is_number(tokens[0]):
+    if len(tokens) != 1 or is_plain_number(tokens[0]):
         raise InputError("Chain id expected (one word, e.g. 9B) !", field="chain id",
                          text=stripped)
     chain_id = tokens[0]

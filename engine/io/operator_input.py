@@ -163,22 +163,23 @@ def parse_latitude(text: str, *, field: str = "latitude") -> float:
     spaces or commas as separators and optional leading zeros (thesis L7728–7750).
     Raises ``InputError("Wrong position input format !")``.
     """
-    bad = InputError(POSITION_MESSAGE, field=field, text=text)
-    groups = _position_groups(text, field)
-    if len(groups) != 1 or groups[0][1] not in "NS":
-        raise bad
-    numbers, letter = groups[0]
-    return _signed(_group_degrees(numbers, 90.0, bad), letter)
+    return _parse_coordinate(text, field, "NS", 90.0)
 
 
 def parse_longitude(text: str, *, field: str = "longitude") -> float:
     """Longitude in degrees (west negative), same forms as :func:`parse_latitude` with E or W."""
+    return _parse_coordinate(text, field, "EW", 180.0)
+
+
+def _parse_coordinate(text: str, field: str, letters: str, limit_deg: float) -> float:
+    """One coordinate: a single group whose hemisphere letter is in ``letters``, signed,
+    at most ``limit_deg`` degrees."""
     bad = InputError(POSITION_MESSAGE, field=field, text=text)
     groups = _position_groups(text, field)
-    if len(groups) != 1 or groups[0][1] not in "EW":
+    if len(groups) != 1 or groups[0][1] not in letters:
         raise bad
     numbers, letter = groups[0]
-    return _signed(_group_degrees(numbers, 180.0, bad), letter)
+    return _signed(_group_degrees(numbers, limit_deg, bad), letter)
 
 
 def parse_position(text: str, *, field: str = "position") -> tuple[float, float]:

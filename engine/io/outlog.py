@@ -48,11 +48,7 @@ def format_value(value: Value) -> str:
         return fmt(value)
     if isinstance(value, float):  # subclasses, e.g. numpy.float64
         return float.__repr__(value)  # shortest round-trip text; "nan", "inf", "-inf"
-    if value is None:
-        return "-"
-    if isinstance(value, bool):
-        return "1" if value else "0"
-    if isinstance(value, Integral):
+    if isinstance(value, Integral):  # None and bool (not subclassable) are in _BY_TYPE
         return str(int(value))
     return _format_text(str(value))
 
@@ -393,6 +389,20 @@ class _ScanState:
     config: list[str] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
     truncated: bool = False
+    in_config: bool = False
+
+    def comment(self, text: str) -> None:
+        """A ``#`` line: the configuration between ``config-begin`` and ``config-end``, the
+        header otherwise (the ``#`` and one blank after it removed)."""
+        body = text[2:] if text.startswith("# ") else text[1:]
+        if body == "config-begin":
+            self.in_config = True
+        elif body == "config-end":
+            self.in_config = False
+        elif self.in_config:
+            self.config.append(body)
+        else:
+            self.header.append(body)
 
 
 def _scan(
@@ -407,7 +417,6 @@ def _scan(
     file and line, unless only a cut-short line follows it.
     """
     name = str(path)
-    in_config = False
     current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]], int] | None = None
     last_line = 0
     pending: tuple[int, str, str, str, str] | None = None  # line, text, message, field, got
@@ -419,15 +428,7 @@ def _scan(
             break
         assert text is not None
         if text.startswith("#"):
-            body = text[2:] if text.startswith("# ") else text[1:]
-            if body == "config-begin":
-                in_config = True
-            elif body == "config-end":
-                in_config = False
-            elif in_config:
-                state.config.append(body)
-            else:
-                state.header.append(body)
+            state.comment(text)
             continue
         if not text.strip():
             continue
@@ -459,7 +460,7 @@ def _scan(
     if pending is not None and not cut:
         raise InputError(pending[2], file=name, line=pending[0], field=pending[3],
                          text=pending[4])
-    if current is not None or cut or in_config:
+    if current is not None or cut or state.in_config:
         state.truncated = True
         what = "last cycle block" if current is not None else "last line"
         state.problems.append(f"{name}:{last_line}: {what} is incomplete (run interrupted)")

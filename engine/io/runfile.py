@@ -100,14 +100,25 @@ tab."""
 
 
 def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord:
+    """One record's tokens (``n`` of them) to a :class:`RunRecord`, checked field by field."""
     if not 10 <= n <= 19:
         raise InputError(f"Wrong number of fields ({n}) !", field="record", text=line.strip())
+    time = _parse_time(toks[0], toks[1])
+    lat, lon, i = _parse_gps(toks)
+    if not 6 <= n - i <= 9:
+        raise InputError(f"Wrong number of fields ({n}) !", field="record", text=line.strip())
+    fr_r, fr_g, fr_p, hdg, spd, rud, incl, pfreq, echo = _parse_numbers(toks, i)
+    _check_separators(line)
+    return RunRecord(
+        line_no, time, lat, lon, (fr_r, fr_g, fr_p), hdg, spd, rud, incl, pfreq, echo,
+        line.rstrip("\r\n"),
+    )
 
-    # --- date and time (UTC)
-    d = toks[0]
+
+def _parse_time(d: str, t: str) -> datetime:
+    """Date ``YYMMDD`` and time ``HHMMSS`` (UTC; years 70–99 → 19xx, 00–69 → 20xx)."""
     if len(d) != 6 or not (d.isascii() and d.isdigit()):
         raise InputError("Wrong date (YYMMDD) !", field="date", text=d)
-    t = toks[1]
     if len(t) != 6 or not (t.isascii() and t.isdigit()):
         raise InputError("Wrong time (HHMMSS) !", field="time", text=t)
     yy, mmdd = divmod(int(d), 10000)
@@ -117,13 +128,16 @@ def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord
     if hh > 23 or minute > 59 or second > 59:
         raise InputError("Wrong time (HHMMSS) !", field="time", text=t)
     try:
-        time = datetime(
+        return datetime(
             yy + (1900 if yy >= 70 else 2000), month, day, hh, minute, second, tzinfo=UTC
         )
     except ValueError:
         raise InputError("Wrong date (YYMMDD) !", field="date", text=d) from None
 
-    # --- GPS position: one '-' or four tokens each
+
+def _parse_gps(toks: list[str]) -> tuple[float | None, float | None, int]:
+    """GPS latitude and longitude [deg] (one ``-`` or four tokens each) from ``toks[2]`` on,
+    and the index of the first numeric column."""
     if toks[2] == "-":
         lat = None
         i = 3
@@ -136,77 +150,64 @@ def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord
     else:
         lon = parse_dms(toks[i], toks[i + 1], toks[i + 2], toks[i + 3], False, "GPS longitude")
         i += 4
-    rest = n - i
-    if not 6 <= rest <= 9:
-        raise InputError(f"Wrong number of fields ({n}) !", field="record", text=line.strip())
+    return lat, lon, i
 
-    # --- numeric columns. Over the characters 0-9 . - float() accepts exactly the grammar's
-    # numbers (-?DECIMAL), so one character check of all columns plus float() is the strict
-    # grammar (float alone would take '+5', '5_2', '1e3', 'inf', non-ASCII digits); lean hot path.
-    if " ".join(toks[i:]).translate(_NOT_NUMBER_CHARS):
-        for k in range(rest):
-            tok = toks[i + k]
+
+def _parse_numbers(toks: list[str], i: int) -> list[float | None]:
+    """The 6 to 9 numeric columns from ``toks[i]`` on, range-checked, padded with None to 9.
+
+    Over the characters 0-9 . - float() accepts exactly the grammar's numbers (-?DECIMAL), so
+    one character check of all columns plus float() is the strict grammar (float alone would
+    take '+5', '5_2', '1e3', 'inf', non-ASCII digits); lean hot path.
+    """
+    cols = toks[i:]
+    if " ".join(cols).translate(_NOT_NUMBER_CHARS):
+        for k, tok in enumerate(cols):
             if tok.translate(_NOT_NUMBER_CHARS):
                 raise InputError("Not a number !", field=_NUMERIC_FIELDS[k], text=tok)
-    try:
-        tok = toks[i]
-        fr_r = None if tok == "-" else float(tok)
-        tok = toks[i + 1]
-        fr_g = None if tok == "-" else float(tok)
-        tok = toks[i + 2]
-        fr_p = None if tok == "-" else float(tok)
-        tok = toks[i + 3]
-        hdg = None if tok == "-" else float(tok)
-        tok = toks[i + 4]
-        spd = None if tok == "-" else float(tok)
-        tok = toks[i + 5]
-        rud = None if tok == "-" else float(tok)
-        incl = pfreq = echo = None
-        if rest > 6:
-            tok = toks[i + 6]
-            incl = None if tok == "-" else float(tok)
-            if rest > 7:
-                tok = toks[i + 7]
-                pfreq = None if tok == "-" else float(tok)
-                if rest > 8:
-                    tok = toks[i + 8]
-                    echo = None if tok == "-" else float(tok)
-    except ValueError:
-        bad = toks.index(tok, i)
-        raise InputError("Not a number !", field=_NUMERIC_FIELDS[bad - i], text=tok) from None
+    values: list[float | None] = []
+    for k, tok in enumerate(cols):
+        try:
+            values.append(None if tok == "-" else float(tok))
+        except ValueError:
+            raise InputError("Not a number !", field=_NUMERIC_FIELDS[k], text=tok) from None
+    values += [None] * (9 - len(values))
+    _check_ranges(values, cols)
+    return values
 
-    # --- range checks (NaN fails every comparison, so it is rejected too)
+
+def _check_ranges(v: list[float | None], cols: list[str]) -> None:
+    """Range checks of the numeric columns (NaN fails every comparison, so it is rejected)."""
+    fr_r, fr_g, fr_p, hdg, spd, rud, incl, pfreq, echo = v
     if fr_r is not None and not 0.0 <= fr_r < 1.0:
-        raise InputError("Decca fraction must be in [0, 1) !", field="Decca red", text=toks[i])
+        raise InputError("Decca fraction must be in [0, 1) !", field="Decca red", text=cols[0])
     if fr_g is not None and not 0.0 <= fr_g < 1.0:
-        raise InputError(
-            "Decca fraction must be in [0, 1) !", field="Decca green", text=toks[i + 1]
-        )
+        raise InputError("Decca fraction must be in [0, 1) !", field="Decca green", text=cols[1])
     if fr_p is not None and not 0.0 <= fr_p < 1.0:
-        raise InputError(
-            "Decca fraction must be in [0, 1) !", field="Decca purple", text=toks[i + 2]
-        )
+        raise InputError("Decca fraction must be in [0, 1) !", field="Decca purple", text=cols[2])
     if hdg is not None and not 0.0 <= hdg < 360.0:
-        raise InputError("Heading must be in [0, 360) degrees !", field="heading", text=toks[i + 3])
+        raise InputError("Heading must be in [0, 360) degrees !", field="heading", text=cols[3])
     if spd is not None and not 0.0 <= spd <= MAX_SPEED_KN:
-        raise InputError("Speed must be in [0, 60] knots !", field="speed", text=toks[i + 4])
+        raise InputError("Speed must be in [0, 60] knots !", field="speed", text=cols[4])
     if rud is not None and not -90.0 <= rud <= 90.0:
         raise InputError(
-            "Rudder angle must be in [-90, 90] degrees !", field="rudder", text=toks[i + 5]
+            "Rudder angle must be in [-90, 90] degrees !", field="rudder", text=cols[5]
         )
     if incl is not None and not -90.0 <= incl <= 90.0:
         raise InputError(
-            "Inclination must be in [-90, 90] degrees !", field="inclinometer", text=toks[i + 6]
+            "Inclination must be in [-90, 90] degrees !", field="inclinometer", text=cols[6]
         )
     if pfreq is not None and not (pfreq > 0.0 and math.isfinite(pfreq)):
         raise InputError(
-            "Pressure frequency must be > 0 Hz !", field="pressure frequency", text=toks[i + 7]
+            "Pressure frequency must be > 0 Hz !", field="pressure frequency", text=cols[7]
         )
     if echo is not None and not (echo >= 0.0 and math.isfinite(echo)):
-        raise InputError("Echo depth must be >= 0 m !", field="echo sounder", text=toks[i + 8])
+        raise InputError("Echo depth must be >= 0 m !", field="echo sounder", text=cols[8])
 
-    # --- every token is valid ASCII now, so anything else is a separator str.split() took
-    # (a Unicode blank, form feed, U+001C …): the grammar allows spaces and tabs only.
+
+def _check_separators(line: str) -> None:
+    """Every token is valid ASCII by now, so anything else is a separator ``str.split()`` took
+    (a Unicode blank, form feed, U+001C …): the grammar allows spaces and tabs only."""
     body = line.rstrip("\r\n")
     if not (body.isascii() and (body.isprintable() or body.replace("\t", " ").isprintable())):
         odd = _NOT_RECORD_CHAR_RE.search(body)
@@ -214,11 +215,6 @@ def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord
             "Fields must be separated by spaces or tabs !",
             field="record", text=odd.group() if odd is not None else body,
         )
-
-    return RunRecord(
-        line_no, time, lat, lon, (fr_r, fr_g, fr_p), hdg, spd, rud, incl, pfreq, echo,
-        line.rstrip("\r\n"),
-    )
 
 
 def parse_run_line(line: str, line_no: int = 0, filename: str = "<string>") -> RunRecord | None:

@@ -573,7 +573,6 @@ def _legs(
     if not isinstance(raw, list) or not all(isinstance(t, dict) for t in raw):
         raise InputError("Wrong type: array of tables [[leg]] expected !", field="leg")
     legs = []
-    dt = top["sample_interval_s"]
     total = 0
     for i, table in enumerate(raw, start=1):
         prefix = f"leg[{i}]."
@@ -584,42 +583,49 @@ def _legs(
                 f"Mission too long: the legs may last {MAX_MISSION_S} s (30 days) in all !",
                 field=prefix + "duration_s", text=str(v["duration_s"]),
             )
-        if v["duration_s"] % dt:
-            raise InputError(
-                "Must be a whole multiple of sample_interval_s !",
-                field=prefix + "duration_s", text=str(v["duration_s"]),
-            )
-        if water is not None and v["depth_m"] >= water:
-            raise InputError(
-                "Must be shallower than water_depth_m !",
-                field=prefix + "depth_m", text=str(table["depth_m"]),
-            )
-        surfaced = v["surfaced"]
-        if surfaced is None:
-            surfaced = v["depth_m"] <= top["fix_depth_max_m"]
-        elif surfaced and v["depth_m"] > top["fix_depth_max_m"]:
-            raise InputError(
-                "A surfaced leg needs depth_m <= fix_depth_max_m !",
-                field=prefix + "surfaced", text="true",
-            )
-        set_deg = current.set_deg if v["current_set_deg"] is None else v["current_set_deg"]
-        speed = current.speed_kn if v["current_speed_kn"] is None else v["current_speed_kn"]
-        legs.append(
-            Leg(
-                duration_s=v["duration_s"],
-                course_deg=v["course_deg"],
-                speed_kn=v["speed_kn"],
-                depth_m=v["depth_m"],
-                surfaced=surfaced,
-                turn_rate_deg_s=v["turn_rate_deg_s"],
-                dive_rate_ms=v["dive_rate_ms"],
-                climb_rate_ms=v["climb_rate_ms"],
-                current=Current(set_deg, speed),
-            )
-        )
+        legs.append(_leg(v, table, prefix, top, current, water))
     if not legs:
         raise InputError("No [[leg]] table: a scenario needs at least one leg !", field="leg")
     return tuple(legs)
+
+
+def _leg(
+    v: Mapping[str, Any], table: Mapping[str, Any], prefix: str, top: Mapping[str, Any],
+    current: Current, water: float | None,
+) -> Leg:
+    """One leg from its read values ``v`` (raw ``table``), checked against the scenario's
+    sample interval, water depth and fix depth; the scenario's current unless it sets its own."""
+    if v["duration_s"] % top["sample_interval_s"]:
+        raise InputError(
+            "Must be a whole multiple of sample_interval_s !",
+            field=prefix + "duration_s", text=str(v["duration_s"]),
+        )
+    if water is not None and v["depth_m"] >= water:
+        raise InputError(
+            "Must be shallower than water_depth_m !",
+            field=prefix + "depth_m", text=str(table["depth_m"]),
+        )
+    surfaced = v["surfaced"]
+    if surfaced is None:
+        surfaced = v["depth_m"] <= top["fix_depth_max_m"]
+    elif surfaced and v["depth_m"] > top["fix_depth_max_m"]:
+        raise InputError(
+            "A surfaced leg needs depth_m <= fix_depth_max_m !",
+            field=prefix + "surfaced", text="true",
+        )
+    set_deg = current.set_deg if v["current_set_deg"] is None else v["current_set_deg"]
+    speed = current.speed_kn if v["current_speed_kn"] is None else v["current_speed_kn"]
+    return Leg(
+        duration_s=v["duration_s"],
+        course_deg=v["course_deg"],
+        speed_kn=v["speed_kn"],
+        depth_m=v["depth_m"],
+        surfaced=surfaced,
+        turn_rate_deg_s=v["turn_rate_deg_s"],
+        dive_rate_ms=v["dive_rate_ms"],
+        climb_rate_ms=v["climb_rate_ms"],
+        current=Current(set_deg, speed),
+    )
 
 
 # --------------------------------------------------------------------------------------------

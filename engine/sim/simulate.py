@@ -286,118 +286,185 @@ def simulate(
     return _run(scenario, setup, seed)
 
 
-def _run(
-    scenario: Scenario, setup: SimulationSetup, seed: int
-) -> Iterator[tuple[TruthRow, RunRecord]]:
-    rng = np.random.default_rng(seed)
-    grid = setup.grid
-    to_wgs84 = _FromWorking(setup.working, WGS84)
-    to_gps = _FromWorking(setup.working, setup.gps_datum)
-    dt = float(scenario.sample_interval_s)
-    n_sub = max(1, math.ceil(dt / SUBSTEP_S - 1e-12))
-    h = dt / n_sub
-    accel = scenario.acceleration_ms2
-    sin_max = math.sin(math.radians(scenario.max_pitch_deg))
-    sens = scenario.sensors
-    g, dc, gy, lg = scenario.gps, scenario.decca, scenario.gyro, scenario.log
-    inc, pr, ec = scenario.inclinometer, scenario.pressure, scenario.echosounder
-    rho_gps = math.exp(-dt / g.tau_s)
-    rho_dec = math.exp(-dt / dc.tau_s)
-    rho_gyr = math.exp(-dt / gy.gm_tau_s)
-    q_gps = math.sqrt(1.0 - rho_gps * rho_gps)
-    q_dec = math.sqrt(1.0 - rho_dec * rho_dec)
-    q_gyr = math.sqrt(1.0 - rho_gyr * rho_gyr)
-    # Stationary starts of the unit Gauss–Markov processes: GPS (E, N), Decca (R, G, P), gyro.
-    init = rng.standard_normal(6)
-    u_gps = init[0:2].copy()
-    u_dec = init[2:5].copy()
-    u_gyr = float(init[5])
+@dataclass(slots=True)
+class _Processes:
+    """The unit first-order Gauss–Markov processes of the correlated errors, GPS (E, N), Decca
+    (R, G, P) and gyro, with their one-epoch factors ρ = e^{−Δt/τ} and q = √(1 − ρ²)."""
 
-    schedule = _leg_schedule(scenario)
-    first = scenario.legs[0]
-    x, y = grid.forward(scenario.start_lat_deg, scenario.start_lon_deg)
-    heading, speed, depth = first.course_deg % 360.0, first.speed_kn * KNOT_MS, first.depth_m
-    draws = np.empty((0, N_DRAWS))
-    for k, leg in enumerate(schedule):
-        row = k % _CHUNK
-        if row == 0:
-            draws = rng.standard_normal((_CHUNK, N_DRAWS))
-        n = draws[row]
-        if k > 0:
-            u_gps = rho_gps * u_gps + q_gps * n[0:2]
-            u_dec = rho_dec * u_dec + q_dec * n[4:7]
-            u_gyr = rho_gyr * u_gyr + q_gyr * float(n[10])
-        time = scenario.start_time + timedelta(seconds=k * dt)
+    rho: tuple[float, float, float]
+    q: tuple[float, float, float]
+    u_gps: np.ndarray
+    u_dec: np.ndarray
+    u_gyr: float
 
-        # --- truth at this epoch
-        lat, lon = grid.inverse(x, y)
-        _x, _y, gamma, kscale = grid.forward_full(lat, lon)
-        w_lat, w_lon = to_wgs84(lat, lon)
-        rate_z = _vertical_rate(speed, depth, leg, sin_max)
-        pitch = math.degrees(math.asin(rate_z / speed)) if speed > 0.0 else 0.0
-        ce, cn = leg.current.east_north_ms()
-        fixes = leg.surfaced and depth <= scenario.fix_depth_max_m + 1e-9
-        truth = TruthRow(
-            time, w_lat, w_lon, lat, lon, x, y, depth, heading, speed / KNOT_MS, ce, cn, fixes,
-            pitch,
-        )
+    @classmethod
+    def start(cls, scenario: Scenario, dt: float, rng: np.random.Generator) -> _Processes:
+        """Stationary starts (6 draws) for an epoch interval ``dt`` [s]."""
+        taus = (scenario.gps.tau_s, scenario.decca.tau_s, scenario.gyro.gm_tau_s)
+        rho = tuple(math.exp(-dt / tau) for tau in taus)
+        q = tuple(math.sqrt(1.0 - r * r) for r in rho)
+        init = rng.standard_normal(6)
+        return cls((rho[0], rho[1], rho[2]), (q[0], q[1], q[2]),
+                   init[0:2].copy(), init[2:5].copy(), float(init[5]))
 
-        # --- readings
-        gps_lat = gps_lon = None
-        if g.on and fixes:
-            e_x = g.sigma_m * float(u_gps[0]) + g.white_sigma_m * float(n[2])
-            e_y = g.sigma_m * float(u_gps[1]) + g.white_sigma_m * float(n[3])
-            gps_lat, gps_lon = to_gps(*grid.inverse(x + e_x, y + e_y))
-        decca: tuple[float | None, float | None, float | None] = (None, None, None)
-        if setup.placed is not None and fixes:
-            geom = decca_geometry(setup.placed, x, y, setup.geodesic)
-            total = geom.n_calc.copy()
-            if dc.sigma_scale > 0.0:
-                chol = np.linalg.cholesky(decca_vcv_lanes(geom, dc.cf))
-                total += dc.sigma_scale * (chol @ u_dec)
-            if dc.white_sigma_lanes > 0.0:
-                total += dc.white_sigma_lanes * n[7:10]
-            fr = [float(v) % 1.0 for v in total]
-            fr = [0.0 if f >= 1.0 else f for f in fr]
-            decca = (fr[0], fr[1], fr[2])
-        hdg = spd = rud = incl = pfreq = echo = None
-        if sens.gyro:
-            hdg = (heading + gy.bias_deg + gy.gm_sigma_deg * u_gyr + gy.sigma_deg * float(n[11]))
-            hdg %= 360.0
-            if hdg >= 360.0:
-                hdg = 0.0
-        if sens.log:
-            v_kn = speed / KNOT_MS
-            spd = v_kn * (1.0 + lg.scale_factor) + lg.bias_kn + lg.sigma_frac * v_kn * float(n[12])
-            spd = min(max(spd, 0.0), 60.0)
-        if sens.rudder:
-            diff = _wrap180(leg.course_deg - heading)
-            turn = 0.0 if abs(diff) < 1e-9 else math.copysign(leg.turn_rate_deg_s, diff)
-            rud = max(-RUDDER_LIMIT_DEG, min(RUDDER_LIMIT_DEG, scenario.rudder_gain_s * turn))
-        if sens.inclinometer:
-            incl = pitch + inc.bias_deg + inc.sigma_deg * float(n[13])
-            incl = max(-90.0, min(90.0, incl))
-        if sens.pressure:
-            measured = depth + pr.bias_m + pr.sigma_m * float(n[14])
-            pfreq = depth_to_frequency_hz(measured, setup.press_ref_hz, pr.s_weight)
-        if sens.echosounder and scenario.water_depth_m is not None:
-            under = scenario.water_depth_m - depth
-            echo = max(0.0, under + (ec.sigma_a_m + ec.sigma_b * under) * float(n[15]))
-        rec = RunRecord(k + 1, time, gps_lat, gps_lon, decca, hdg, spd, rud, incl, pfreq, echo)
-        yield truth, dataclasses.replace(rec, raw=format_run_record(rec))
+    def advance(self, n: np.ndarray) -> None:
+        """One epoch on, driven by this epoch's draws ``n`` (layout: module doc)."""
+        (r_gps, r_dec, r_gyr), (q_gps, q_dec, q_gyr) = self.rho, self.q
+        self.u_gps = r_gps * self.u_gps + q_gps * n[0:2]
+        self.u_dec = r_dec * self.u_dec + q_dec * n[4:7]
+        self.u_gyr = r_gyr * self.u_gyr + q_gyr * float(n[10])
 
-        # --- propagate to the next epoch (midpoint rule on sub-steps)
+
+@dataclass(slots=True)
+class _Vessel:
+    """The true vessel on the working grid: x, y [m], heading [deg true], speed through the water
+    [m/s], depth [m]."""
+
+    x: float
+    y: float
+    heading: float
+    speed: float
+    depth: float
+
+    def propagate(self, scenario: Scenario, leg: Leg, gamma: float, kscale: float) -> None:
+        """One epoch Δt on (midpoint rule on sub-steps ≤ :data:`SUBSTEP_S`); ``gamma`` is the
+        grid convergence [deg] and ``kscale`` the point scale at the epoch's position."""
+        dt = float(scenario.sample_interval_s)
+        n_sub = max(1, math.ceil(dt / SUBSTEP_S - 1e-12))
+        h = dt / n_sub
+        accel = scenario.acceleration_ms2
+        sin_max = math.sin(math.radians(scenario.max_pitch_deg))
         ang = math.radians(leg.current.set_deg - gamma)
         vc = leg.current.speed_kn * KNOT_MS
         cgx, cgy = vc * math.sin(ang), vc * math.cos(ang)
+        heading, speed, depth = self.heading, self.speed, self.depth
         for _ in range(n_sub):
             m_head, m_speed, m_depth = _advance(heading, speed, depth, leg, accel, sin_max, h / 2)
             r = _vertical_rate(m_speed, m_depth, leg, sin_max)
             v_h = math.sqrt(max(m_speed * m_speed - r * r, 0.0))
             psi = math.radians(m_head - gamma)
-            x += h * kscale * (v_h * math.sin(psi) + cgx)
-            y += h * kscale * (v_h * math.cos(psi) + cgy)
+            self.x += h * kscale * (v_h * math.sin(psi) + cgx)
+            self.y += h * kscale * (v_h * math.cos(psi) + cgy)
             heading, speed, depth = _advance(m_head, m_speed, m_depth, leg, accel, sin_max, h / 2)
+        self.heading, self.speed, self.depth = heading, speed, depth
+
+
+def _run(
+    scenario: Scenario, setup: SimulationSetup, seed: int
+) -> Iterator[tuple[TruthRow, RunRecord]]:
+    rng = np.random.default_rng(seed)
+    dt = float(scenario.sample_interval_s)
+    to_wgs84 = _FromWorking(setup.working, WGS84)
+    to_gps = _FromWorking(setup.working, setup.gps_datum)
+    proc = _Processes.start(scenario, dt, rng)
+    first = scenario.legs[0]
+    x, y = setup.grid.forward(scenario.start_lat_deg, scenario.start_lon_deg)
+    vessel = _Vessel(x, y, first.course_deg % 360.0, first.speed_kn * KNOT_MS, first.depth_m)
+    draws = np.empty((0, N_DRAWS))
+    for k, leg in enumerate(_leg_schedule(scenario)):
+        row = k % _CHUNK
+        if row == 0:
+            draws = rng.standard_normal((_CHUNK, N_DRAWS))
+        n = draws[row]
+        if k > 0:
+            proc.advance(n)
+        time = scenario.start_time + timedelta(seconds=k * dt)
+        truth, gamma, kscale = _truth(scenario, setup, to_wgs84, vessel, leg, time)
+        gps_lat, gps_lon = _gps_reading(scenario, setup, to_gps, vessel, truth.surfaced, proc, n)
+        decca = _decca_reading(scenario, setup, vessel, truth.surfaced, proc, n)
+        rec = RunRecord(k + 1, time, gps_lat, gps_lon, decca,
+                        *_sensor_readings(scenario, setup, vessel, leg, truth.pitch_deg, proc, n))
+        yield truth, dataclasses.replace(rec, raw=format_run_record(rec))
+        vessel.propagate(scenario, leg, gamma, kscale)
+
+
+def _truth(
+    scenario: Scenario, setup: SimulationSetup, to_wgs84: _FromWorking, v: _Vessel, leg: Leg,
+    time: datetime,
+) -> tuple[TruthRow, float, float]:
+    """The truth row at this epoch, the grid convergence γ [deg] and point scale k there."""
+    lat, lon = setup.grid.inverse(v.x, v.y)
+    _x, _y, gamma, kscale = setup.grid.forward_full(lat, lon)
+    w_lat, w_lon = to_wgs84(lat, lon)
+    sin_max = math.sin(math.radians(scenario.max_pitch_deg))
+    rate_z = _vertical_rate(v.speed, v.depth, leg, sin_max)
+    pitch = math.degrees(math.asin(rate_z / v.speed)) if v.speed > 0.0 else 0.0
+    ce, cn = leg.current.east_north_ms()
+    fixes = leg.surfaced and v.depth <= scenario.fix_depth_max_m + 1e-9
+    truth = TruthRow(
+        time, w_lat, w_lon, lat, lon, v.x, v.y, v.depth, v.heading, v.speed / KNOT_MS, ce, cn,
+        fixes, pitch,
+    )
+    return truth, gamma, kscale
+
+
+def _gps_reading(
+    scenario: Scenario, setup: SimulationSetup, to_gps: _FromWorking, v: _Vessel, fixes: bool,
+    proc: _Processes, n: np.ndarray,
+) -> tuple[float | None, float | None]:
+    """GPS latitude, longitude [deg on the GPS datum], or None when off or submerged."""
+    g = scenario.gps
+    if not (g.on and fixes):
+        return None, None
+    e_x = g.sigma_m * float(proc.u_gps[0]) + g.white_sigma_m * float(n[2])
+    e_y = g.sigma_m * float(proc.u_gps[1]) + g.white_sigma_m * float(n[3])
+    return to_gps(*setup.grid.inverse(v.x + e_x, v.y + e_y))
+
+
+def _decca_reading(
+    scenario: Scenario, setup: SimulationSetup, v: _Vessel, fixes: bool, proc: _Processes,
+    n: np.ndarray,
+) -> tuple[float | None, float | None, float | None]:
+    """Decca lane fractions (Red, Green, Purple) in [0, 1), or None when off or submerged."""
+    dc = scenario.decca
+    if setup.placed is None or not fixes:
+        return (None, None, None)
+    geom = decca_geometry(setup.placed, v.x, v.y, setup.geodesic)
+    total = geom.n_calc.copy()
+    if dc.sigma_scale > 0.0:
+        chol = np.linalg.cholesky(decca_vcv_lanes(geom, dc.cf))
+        total += dc.sigma_scale * (chol @ proc.u_dec)
+    if dc.white_sigma_lanes > 0.0:
+        total += dc.white_sigma_lanes * n[7:10]
+    fr = [float(val) % 1.0 for val in total]
+    fr = [0.0 if f >= 1.0 else f for f in fr]
+    return (fr[0], fr[1], fr[2])
+
+
+def _sensor_readings(
+    scenario: Scenario, setup: SimulationSetup, v: _Vessel, leg: Leg, pitch: float,
+    proc: _Processes, n: np.ndarray,
+) -> tuple[float | None, ...]:
+    """Heading, log speed, rudder, inclination, pressure frequency and echo depth readings
+    (the RunRecord's fields after Decca; None for a sensor not fitted)."""
+    sens = scenario.sensors
+    gy, lg, inc, pr, ec = (scenario.gyro, scenario.log, scenario.inclinometer,
+                           scenario.pressure, scenario.echosounder)
+    hdg = spd = rud = incl = pfreq = echo = None
+    if sens.gyro:
+        hdg = (v.heading + gy.bias_deg + gy.gm_sigma_deg * proc.u_gyr
+               + gy.sigma_deg * float(n[11]))
+        hdg %= 360.0
+        if hdg >= 360.0:
+            hdg = 0.0
+    if sens.log:
+        v_kn = v.speed / KNOT_MS
+        spd = v_kn * (1.0 + lg.scale_factor) + lg.bias_kn + lg.sigma_frac * v_kn * float(n[12])
+        spd = min(max(spd, 0.0), 60.0)
+    if sens.rudder:
+        diff = _wrap180(leg.course_deg - v.heading)
+        turn = 0.0 if abs(diff) < 1e-9 else math.copysign(leg.turn_rate_deg_s, diff)
+        rud = max(-RUDDER_LIMIT_DEG, min(RUDDER_LIMIT_DEG, scenario.rudder_gain_s * turn))
+    if sens.inclinometer:
+        incl = pitch + inc.bias_deg + inc.sigma_deg * float(n[13])
+        incl = max(-90.0, min(90.0, incl))
+    if sens.pressure:
+        measured = v.depth + pr.bias_m + pr.sigma_m * float(n[14])
+        pfreq = depth_to_frequency_hz(measured, setup.press_ref_hz, pr.s_weight)
+    if sens.echosounder and scenario.water_depth_m is not None:
+        under = scenario.water_depth_m - v.depth
+        echo = max(0.0, under + (ec.sigma_a_m + ec.sigma_b * under) * float(n[15]))
+    return hdg, spd, rud, incl, pfreq, echo
 
 
 # --------------------------------------------------------------------------------------------

@@ -30,10 +30,9 @@ from engine.geodesy.ellipsoid import Ellipsoid
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.outlog import OutLogWriter
 from engine.lsq.confidence import error_ellipse
+from tests.paths import DATA
 from uvnav_tui.cli.main import main
 
-ROOT = Path(__file__).resolve().parents[2]
-DATA = ROOT / "data"
 HAYFORD = Ellipsoid("HAYFORD 1909", 6378388.0, 297.0)
 T0 = datetime(1992, 9, 17, 10, 0, 0, tzinfo=UTC)
 CM = 4.0  # the cycles' grid; the truth header states CM 5 (its own grid is never used)

@@ -14,14 +14,13 @@ from __future__ import annotations
 
 import csv
 import math
-from pathlib import Path
 
 import numpy as np
 
 from engine.run.config import load_config
 from engine.run.session import Session
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 N = 1800
 K95_SQ = -2.0 * math.log(0.05)  # 2-D 95 % ellipse: eᵀC⁻¹e ≤ 5.991
 SENSOR_ROWS = {"z_p", "v_m", "psi_m", "eps_m"}  # filter rows of the bounded sensors (no fix)

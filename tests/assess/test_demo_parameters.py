@@ -27,8 +27,8 @@ from engine.run.commands import SetParameters
 from engine.run.config import RunConfig, load_config
 from engine.run.cycle import CycleResult
 from engine.run.session import Session
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 SAMPLE = DATA / "920917_1.toml"
 K = 3
 """The cycle the change applies to (the sample run: GPS + Red + Green, four LOPs, category IV)."""

@@ -67,8 +67,10 @@ from engine.run.config import load_config
 from engine.run.session import Session, read_data_dir
 from engine.sim.scenario import Scenario, load_scenario
 from engine.sim.simulate import simulate
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
+pytestmark = pytest.mark.slow  # ten seeds simulated and replayed: > 2 min under load
+
 SEEDS = tuple(range(1, 11))
 """Fixed seeds: the figures are reproducible; the list was not chosen by looking at results."""
 

@@ -20,10 +20,8 @@ from engine.io.outlog import read_out_log
 from engine.run.commands import SetDecca
 from engine.run.config import dump_config, load_config, parse_config_text
 from engine.run.session import Session
+from tests.paths import DATA, ROOT
 from uvnav_tui.cli.main import main
-
-ROOT = Path(__file__).resolve().parents[2]
-DATA = ROOT / "data"
 
 
 def test_replay_sample_writes_out_and_jsonl(tmp_path: Path, capsys) -> None:

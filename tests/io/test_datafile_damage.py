@@ -29,8 +29,8 @@ from engine.io.datafile_io import BUNDLED_SHA256, modified_bundled, read_data_te
 from engine.io.datumfile import DatumFile, parse_datum_text
 from engine.io.deccafile import DeccaChain, parse_chain_text
 from engine.systems.decca import decca_geometry, place_chain
+from tests.paths import DATA
 
-DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 DAT_TEXT = (DATA / "TO_WGS84.DAT").read_text(encoding="utf-8")
 CHN_TEXT = (DATA / "DECCA.CHN").read_text(encoding="utf-8")
 DATUMS = parse_datum_text(DAT_TEXT, "TO_WGS84.DAT")

@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 from engine.errors import InputError
 from engine.geodesy.ellipsoid import WGS84, Datum, Ellipsoid
 from engine.io.datumfile import DatumFile, format_datum_file, parse_datum_text, read_datum_file
+from tests.paths import DATA
 
-DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 DAT = DATA / "TO_WGS84.DAT"
 DAT_TEXT = DAT.read_text(encoding="utf-8")
 DAT_LINES = DAT_TEXT.splitlines()

@@ -23,8 +23,8 @@ from engine.io.deccafile import (
     parse_dms,
     read_chain_file,
 )
+from tests.paths import DATA
 
-DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 CHN = DATA / "DECCA.CHN"
 CHN_TEXT = CHN.read_text(encoding="utf-8")
 CHN_LINES = CHN_TEXT.splitlines()

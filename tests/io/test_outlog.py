@@ -21,6 +21,7 @@ from engine.io.outlog import (
     parse_line,
     read_out_log,
 )
+from tests.paths import ROOT
 
 scalars = st.one_of(
     st.none(),
@@ -115,7 +116,7 @@ def test_kill_minus_nine_leaves_every_completed_cycle(tmp_path: Path) -> None:
                 print("ready", flush=True)
     """)
     proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
-                            cwd=Path(__file__).resolve().parents[2])
+                            cwd=ROOT)
     assert proc.stdout is not None
     assert proc.stdout.readline().strip() == b"ready"
     proc.kill()

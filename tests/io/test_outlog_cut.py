@@ -14,8 +14,7 @@ import pytest
 
 from engine.io.outlog import OutLogWriter, iter_out_log, read_out_log
 from engine.run.session import Session, load_run_config
-
-DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
+from tests.paths import DATA
 
 
 def _synthetic(path: pathlib.Path) -> None:

@@ -27,10 +27,9 @@ from engine.io.outputs import OutputFile, OutputGuard
 from engine.io.runfile import LINE_TOO_LONG_MESSAGE, MAX_LINE_CHARS, iter_run_file
 from engine.run.config import load_config
 from engine.run.session import BAD_RECORDS_KEPT, Session
+from tests.paths import DATA, ROOT
 from uvnav_tui.cli.main import main
 
-ROOT = Path(__file__).resolve().parents[2]
-DATA = ROOT / "data"
 SCENARIO = ('data_dir = "."\nstart_time = "1992-09-17T08:00:00Z"\n'
             'start_position = "52 50 00 N 004 30 00 E"\n'
             "[[leg]]\nduration_s = 60\ncourse_deg = 232\nspeed_kn = 10\n")

@@ -22,8 +22,8 @@ from engine.io.runfile import (
     iter_run_lines,
     parse_run_line,
 )
+from tests.paths import DATA
 
-DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 RUN = DATA / "920917_1.RUN"
 RUN_LINES = RUN.read_text(encoding="utf-8").splitlines()
 SAMPLE = "920917 083538 52 50 33.020 N 004 31 51.134 E .862 .325 .109 232.4 12.7 -.2"

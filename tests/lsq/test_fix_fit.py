@@ -19,8 +19,7 @@ from scipy.stats import chi2
 from engine.io.outlog import read_out_log
 from engine.run.cycle import build_context, fix_fit
 from engine.run.session import Session, load_run_config
-
-DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
+from tests.paths import DATA
 
 
 def _session(tmp_path: pathlib.Path, speed: float | None) -> Session:

@@ -4,7 +4,6 @@ pseudo-LOPs, rejection policies and the robust estimator, on noise-free syntheti
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,8 +22,8 @@ from engine.lsq.fix import (
     lop_name,
 )
 from engine.systems.decca import decca_geometry, place_chain
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 ED50 = read_datum_file(DATA / "TO_WGS84.DAT").datum("ED50")
 GRID = TMGrid(ED50.ellipsoid, 5.0)
 GEOD = GeodesicSolver(ED50.ellipsoid)

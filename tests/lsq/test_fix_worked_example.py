@@ -10,8 +10,6 @@ here the computed Decca VCV is 0.1–0.4 % off the printed one (lsq.md Q1), whic
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -22,9 +20,7 @@ from engine.io.deccafile import read_chain_file
 from engine.io.formatting import format_lat_dm, format_lat_dms, format_lon_dm, format_lon_dms
 from engine.lsq.fix import DeccaReading, FixResult, GpsFix, LsqSettings, compute_fix
 from engine.systems.decca import DeccaGeometry, place_chain
-
-DATA = Path(__file__).resolve().parents[2] / "data"
-
+from tests.paths import DATA
 
 ED50 = read_datum_file(DATA / "TO_WGS84.DAT").datum("ED50")
 GRID = TMGrid(ED50.ellipsoid, 5.0)

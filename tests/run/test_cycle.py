@@ -26,8 +26,8 @@ from engine.run.commands import (
 )
 from engine.run.config import load_config
 from engine.run.session import Session
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 SAMPLE = DATA / "920917_1.toml"
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import cmath
 import math
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -28,8 +27,8 @@ from engine.io.outlog import _NEEDS_QUOTES, format_value
 from engine.lsq.confidence import eigenvalues_2x2, error_ellipse
 from engine.lsq.quality import _worst
 from engine.systems.decca import decca_geometry, decca_vcv_lanes, decca_vcv_m2, place_chain
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 ED50 = read_datum_file(DATA / "TO_WGS84.DAT").datum("ED50")
 GRID = TMGrid(ED50.ellipsoid, 5.0)
 GEOD = GeodesicSolver(ED50.ellipsoid)

@@ -21,9 +21,9 @@ import pytest
 
 from engine.run.config import load_config
 from engine.run.session import Session
+from tests.paths import DATA
 from uvnav_tui.cli.replay import run_replay
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 JUMP_AT, GROSS_AT = 100, 120  # 1-based line numbers in the cut run
 
 

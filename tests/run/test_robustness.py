@@ -22,8 +22,8 @@ from hypothesis import strategies as st
 from engine.io.runfile import RunRecord, format_run_record
 from engine.run.config import RunConfig, load_config
 from engine.run.session import Session
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 CONFIGS = {name: load_config(DATA / name) for name in ("920917_1.toml", "DEMO.toml")}
 
 

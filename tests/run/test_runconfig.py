@@ -21,8 +21,8 @@ from engine.run.config import (
     load_config,
     parse_config_text,
 )
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "data" / "920917_1.toml"
 DATUMS = ["ED50", "ED50 [DMA]", "ED50 [UKOOA]", "NAD 1927", "WGS84"]
 

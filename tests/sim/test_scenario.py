@@ -17,10 +17,9 @@ from engine.sim.scenario import (
     parse_scenario_text,
 )
 from engine.sim.simulate import read_data_files
+from tests.paths import DATA
 from uvnav_tui.cli.simulate import run_simulate
 
-ROOT = Path(__file__).resolve().parents[2]
-DATA = ROOT / "data"
 DEMO = DATA / "DEMO.scenario.toml"
 
 HEAD = 'start_time = "1992-09-17T08:00:00Z"\nstart_position = "52 50 00 N 004 30 00 E"\n'

@@ -31,10 +31,9 @@ from engine.sim.scenario import parse_scenario_text
 from engine.sim.simulate import TRUTH_COLUMNS, TruthRow, read_data_files, simulate, write_simulation
 from engine.systems.decca import decca_geometry, decca_vcv_lanes, place_chain
 from engine.systems.sensors import KNOT_MS, pressure_depth_m, surface_reference_hz
+from tests.paths import DATA
 from uvnav_tui.cli.simulate import run_simulate
 
-ROOT = Path(__file__).resolve().parents[2]
-DATA = ROOT / "data"
 ARCSEC = math.pi / (180.0 * 3600.0)
 
 HEAD = 'start_time = "1992-09-17T08:00:00Z"\nstart_position = "52 50 00 N 004 30 00 E"\n'

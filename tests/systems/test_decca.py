@@ -6,7 +6,6 @@ The receiver is the LSE of the sample, grid (−31615.400, 5857300.165) on ED50,
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,8 +24,8 @@ from engine.systems.decca import (
     resolve_total_lanes,
     sigma_path_a,
 )
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 RX = (-31615.400, 5857300.165)
 
 

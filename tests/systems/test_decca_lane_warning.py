@@ -10,12 +10,12 @@ DR (68.862 against 44.88, 24 lanes ≈ 10.5 km on the baseline) but is more than
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 from engine.run.config import RunConfig, load_config
 from engine.run.session import Session
+from tests.paths import DATA
 
-SAMPLE = Path(__file__).resolve().parents[2] / "data" / "920917_1.toml"
+SAMPLE = DATA / "920917_1.toml"
 
 
 def _messages(cfg: RunConfig) -> list[tuple[str, ...]]:

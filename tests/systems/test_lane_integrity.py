@@ -12,7 +12,6 @@ from __future__ import annotations
 import dataclasses
 import math
 from datetime import UTC, datetime, timedelta
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,8 +31,8 @@ from engine.run.cycle import (
 )
 from engine.run.session import read_data_dir
 from engine.systems.decca import ChainOnGrid, decca_geometry
+from tests.paths import DATA
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 T0 = datetime(1992, 9, 17, 11, 0, 0, tzinfo=UTC)
 
 

@@ -4,7 +4,6 @@ tests of the console's plain-data parts: the menu tree, the run controller and t
 from __future__ import annotations
 
 import asyncio
-import shutil
 import time
 from collections.abc import Awaitable, Callable
 from pathlib import Path
@@ -15,6 +14,7 @@ from textual.widgets import Input
 
 from engine.run.config import RunConfig, load_config
 from engine.run.session import Session
+from tests.paths import DATA, copy_data  # noqa: F401 (re-exported to the test_console_* modules)
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.hardcopy import free_stem, hardcopy_stem, screen_text
 from uvnav_tui.menus import MENU_BAR, find_path, item_at, iter_leaves, visible_bar
@@ -22,19 +22,6 @@ from uvnav_tui.pages.main_page import decca_box_lines, position_box_lines, senso
 from uvnav_tui.run_control import RunController, pace_factor
 from uvnav_tui.widgets.key_line import KeyLine
 from uvnav_tui.widgets.status_column import status_lines
-
-ROOT = Path(__file__).resolve().parents[2]
-DATA = ROOT / "data"
-DATA_FILES = ("TO_WGS84.DAT", "DECCA.CHN", "920917_1.RUN", "920917_1.toml", "DEMO.RUN",
-              "DEMO.toml")
-
-
-def copy_data(target: Path) -> Path:
-    """A private copy of the data directory (the console writes .OUT logs next to the .RUN)."""
-    target.mkdir(parents=True, exist_ok=True)
-    for name in DATA_FILES:
-        shutil.copy(DATA / name, target / name)
-    return target
 
 
 def make_app(data_dir: Path, name: str = "920917_1", **kw: object) -> UVNAVApp:

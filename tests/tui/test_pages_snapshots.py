@@ -11,7 +11,6 @@ the SVGs in tests/__snapshots__/test_pages_snapshots/.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 import pytest
 from textual.app import App, ComposeResult
@@ -20,10 +19,10 @@ import uvnav_tui.pages.all_pages  # noqa: F401  (registers the pages)
 from engine.run.config import load_config
 from engine.run.cycle import CycleResult
 from engine.run.session import Session
+from tests.paths import DATA
 from uvnav_tui.pages.page_text import TextPage
 from uvnav_tui.pages.pages import make_page
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 SIZE = (100, 34)
 TEXT_PAGE_NUMBERS = [611, 615, 620, 631, 633, 641, 650, 810, 821, 830, 840, 850, 851, 852, 853]
 """The text pages (642/643 are plots with their own tests)."""

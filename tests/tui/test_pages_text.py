@@ -24,7 +24,6 @@ import importlib
 import math
 import re
 from collections.abc import Iterator
-from pathlib import Path
 from types import ModuleType
 
 import numpy as np
@@ -39,11 +38,11 @@ from engine.run.config import load_config
 from engine.run.cycle import CycleResult
 from engine.run.records import lse_estimate
 from engine.run.session import Session
+from tests.paths import DATA
 from uvnav_tui.menus import PAGE_TITLES
 from uvnav_tui.pages.page_text import TextPage, compact, corr_text, num
 from uvnav_tui.pages.pages import PAGE_FACTORIES, make_page
 
-DATA = Path(__file__).resolve().parents[2] / "data"
 TEXT_PAGES = (611, 615, 620, 631, 633, 641, 650, 810, 821, 830, 840, 850, 851, 852, 853)
 """The text pages (642/643 are plots, tested elsewhere)."""
 

@@ -12,7 +12,6 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 import pytest
 from test_console_support import wait_for
@@ -23,6 +22,7 @@ from engine.run.config import RunConfig
 from engine.run.cycle import CycleResult, RunContext
 from engine.run.records import lse_estimate
 from engine.run.session import Session
+from tests.paths import ROOT
 from uvnav_tui.hardcopy import screen_text
 from uvnav_tui.pages import page_642
 from uvnav_tui.pages.page_642 import (
@@ -39,7 +39,6 @@ from uvnav_tui.pages.page_710 import DemoPage, demo_page_lines
 from uvnav_tui.pages.pages import PAGE_FACTORIES, make_page
 from uvnav_tui.widgets.canvas import format_distance, nice_length
 
-ROOT = Path(__file__).resolve().parents[2]
 BODY = (62, 20)
 """The page body of the 80×24 console (status column 18 wide, four lines of frame)."""
 SNAP = (100, 34)
