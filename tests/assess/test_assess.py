@@ -23,13 +23,13 @@ from engine.assess.accuracy import (
     cov_from_ellipse95,
     read_nav_log,
     read_truth,
-    render_svg,
 )
 from engine.errors import InputError
 from engine.geodesy.ellipsoid import Ellipsoid
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.outlog import OutLogWriter
 from engine.lsq.confidence import error_ellipse
+from uvnav_tui.cli.assess_svg import render_svg
 from uvnav_tui.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -16,12 +16,11 @@ from pathlib import Path
 import pytest
 from textual.app import App, ComposeResult
 
-import uvnav_tui.pages.all_pages  # noqa: F401  (registers the pages)
 from engine.run.config import load_config
 from engine.run.cycle import CycleResult
 from engine.run.session import Session
 from uvnav_tui.pages.page_text import TextPage
-from uvnav_tui.pages.pages import make_page
+from uvnav_tui.pages.registry import make_page
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 SIZE = (100, 34)

@@ -1,1 +1,2 @@
-"""uvnav_tui.pages.pages."""
+"""The console's pages: Pg 100 (``main_page``), one ``pNNN_…`` module per numbered page, and
+their registry (``registry``)."""
