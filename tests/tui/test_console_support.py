@@ -13,9 +13,7 @@ import pytest
 from textual.pilot import Pilot
 from textual.widgets import Input
 
-from engine.api import pace_factor
-from engine.run.config import RunConfig, load_config
-from engine.run.session import Session
+from engine.api import RunConfig, Session, load_config, pace_factor
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.hardcopy import free_stem, hardcopy_stem, screen_text
 from uvnav_tui.menus import MENU_BAR, find_path, item_at, iter_leaves, visible_bar

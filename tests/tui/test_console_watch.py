@@ -22,7 +22,7 @@ from test_console_support import (
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-from engine.lsq.fix import ManualObservation, lop_name
+from engine.api import ManualObservation, lop_name
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.dialogs.parameters_dialog import ParametersDialog

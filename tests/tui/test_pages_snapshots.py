@@ -16,9 +16,7 @@ from pathlib import Path
 import pytest
 from textual.app import App, ComposeResult
 
-from engine.run.config import load_config
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
+from engine.api import CycleResult, Session, load_config
 from uvnav_tui.pages.page_text import TextPage
 from uvnav_tui.pages.registry import make_page
 

@@ -31,13 +31,16 @@ import numpy as np
 import pytest
 
 import engine.lsq.fix as engine_fix
-from engine.filter.kalman import STATE_LABELS
-from engine.io.formatting import format_stat
-from engine.lsq.fix import DeccaReading, FixResult, GpsFix, LsqSettings, compute_fix
-from engine.run.config import load_config
-from engine.run.cycle import CycleResult
-from engine.run.records import lse_estimate
-from engine.run.session import Session
+from engine.api import (
+    STATE_LABELS,
+    CycleResult,
+    FixResult,
+    Session,
+    format_stat,
+    load_config,
+    lse_estimate,
+)
+from engine.lsq.fix import DeccaReading, GpsFix, LsqSettings, compute_fix
 from uvnav_tui.pages.page_text import TextPage, compact, corr_text, num
 from uvnav_tui.pages.registry import make_page, page_titles, pages
 

@@ -18,11 +18,7 @@ import pytest
 from test_console_support import wait_for
 from textual.app import App, ComposeResult
 
-from engine.filter.poe import drms
-from engine.run.config import RunConfig
-from engine.run.cycle import CycleResult, RunContext
-from engine.run.records import lse_estimate
-from engine.run.session import Session
+from engine.api import CycleResult, RunConfig, RunContext, Session, drms, lse_estimate
 from uvnav_tui.hardcopy import screen_text
 from uvnav_tui.pages import throttled_page
 from uvnav_tui.pages.p642_position_plot import (
