@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from textual.binding import Binding
 
-from uvnav_tui.menus import DEV_PAGES_FROM, MENU_BAR, PAGE_TITLES, MenuItem, sub_pages
+from uvnav_tui.menus import MENU_BAR, MenuItem
+from uvnav_tui.pages.registry import DEV_PAGES_FROM, page_titles, sub_pages
 
 HOT_KEYS = sorted({item.key for item in MENU_BAR})
 """The Alt+letter hot-keys of the bar titles (either mode)."""
@@ -150,7 +151,7 @@ def page_map_lines() -> list[str]:
     """Every page: number, title and how to reach it (menu path, or PgDn from its group)."""
     paths = _page_paths()
     out = []
-    for number, title in PAGE_TITLES.items():
+    for number, title in page_titles().items():
         how = paths.get(number)
         if how is None:
             first = sub_pages(number)[0]

@@ -1,15 +1,20 @@
-"""The console's menu tree (program.md §3, A4, A5): a plain data model, no widgets.
+"""The console's action registry: the menu tree (program.md §3, A4, A5) as plain data, no widgets.
 
-The thesis' ``UVNAV.MNU`` layout file is lost (A8.3), so the tree is built in here. Each item has
-a hot-key letter, an optional action id (what the console does when it is chosen) and the
+The thesis' ``UVNAV.MNU`` layout file is lost (A8.3), so the tree is built in here. Each leaf
+carries everything the console needs to know about one action: its label and hot-key letter,
+its action id (the handler: the method of that name of :class:`uvnav_tui.actions.MenuActions`,
+or ``page:nnn`` to show a page), whether it needs a run, its help text, and the
 navigator/developer partition: ``dev=True`` items show only in developer mode, ``dev=False``
-items only in navigator mode, ``dev=None`` items always (A4).
+items only in navigator mode, ``dev=None`` items always (A4).  The pulldowns, the command
+palette, the help screen and the needs-a-run check all read this one tree.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+
+from uvnav_tui.pages.registry import DEV_PAGES_FROM, page_titles
 
 
 @dataclass(frozen=True)
@@ -22,6 +27,8 @@ class MenuItem:
     hotkey: str = ""
     dev: bool | None = None
     help: str = ""
+    needs_run: bool = False
+    """True if the action acts on the run (refused with ``No run: …`` before the first one)."""
 
     @property
     def key(self) -> str:
@@ -39,7 +46,14 @@ class MenuItem:
 
 def _leaf(label: str, action: str, help: str, *, hotkey: str = "",
           dev: bool | None = None) -> MenuItem:
+    """An item that works with or without a run."""
     return MenuItem(label, action=action, hotkey=hotkey, dev=dev, help=help)
+
+
+def _run(label: str, action: str, help: str, *, hotkey: str = "",
+         dev: bool | None = None) -> MenuItem:
+    """An item that acts on the run (``No run: …`` before the first one)."""
+    return MenuItem(label, action=action, hotkey=hotkey, dev=dev, help=help, needs_run=True)
 
 
 def _page(label: str, page: int, help: str, *, hotkey: str = "") -> MenuItem:
@@ -55,30 +69,30 @@ MENU_BAR: tuple[MenuItem, ...] = (
     )),
     MenuItem("Setup", children=(
         MenuItem("Params", children=(
-            _leaf("Datum", "datum", "Choose a new working datum"),
-            _leaf("DR Pos", "dr_pos", "Enter a new dead-reckoning position", hotkey="p"),
-            _leaf("Current", "current", "Change the current set and speed"),
+            _run("Datum", "datum", "Choose a new working datum"),
+            _run("DR Pos", "dr_pos", "Enter a new dead-reckoning position", hotkey="p"),
+            _run("Current", "current", "Change the current set and speed"),
             _leaf("Develop", "develop", "Switch to the developer menus", hotkey="v", dev=False),
             _leaf("Reset", "reset", "Return to the navigator menus", dev=True),
         )),
         MenuItem("Systems", hotkey="y", children=(
-            _leaf("GPS", "gps", "GPS on/off and receiver type"),
-            _leaf("Decca", "decca", "Decca on/off, chain, zone/lane and patterns"),
+            _run("GPS", "gps", "GPS on/off and receiver type"),
+            _run("Decca", "decca", "Decca on/off, chain, zone/lane and patterns"),
             _leaf("SINS", "sins", "SINS (not connected)"),
             _leaf("Omega", "omega", "Omega (not connected)"),
             _leaf("Loran-C", "loran", "Loran-C (not connected)"),
         )),
-        _leaf("Sensors", "sensors", "Switch the bounded sensors on/off", hotkey="e"),
+        _run("Sensors", "sensors", "Switch the bounded sensors on/off", hotkey="e"),
     )),
     MenuItem("Obs", children=(
-        _leaf("Bearing", "obs_bearing", "A bearing to a charted station"),
-        _leaf("Distance", "obs_distance", "A radar distance to a charted station"),
-        _leaf("Radar", "obs_radar", "Radar bearing and distance to one station"),
+        _run("Bearing", "obs_bearing", "A bearing to a charted station"),
+        _run("Distance", "obs_distance", "A radar distance to a charted station"),
+        _run("Radar", "obs_radar", "Radar bearing and distance to one station"),
     )),
     MenuItem("Kalman", children=(
-        _leaf("Filtering", "filtering", "Kalman filter on/off"),
-        _leaf("Predict.", "predict", "Predict position and ellipse over a time interval"),
-        _leaf("Smoothing", "smoothing", "Smoothed positions of the run so far"),
+        _run("Filtering", "filtering", "Kalman filter on/off"),
+        _run("Predict.", "predict", "Predict position and ellipse over a time interval"),
+        _run("Smoothing", "smoothing", "Smoothed positions of the run so far"),
     )),
     MenuItem("Statistics", hotkey="t", children=(
         MenuItem("Systems", children=(
@@ -99,11 +113,11 @@ MENU_BAR: tuple[MenuItem, ...] = (
     )),
     MenuItem("Demo", children=(
         _page("Page", 710, "the demo parameters in force", hotkey="g"),
-        _leaf("Parameters", "demo_params", "Sample interval, pace, plot, specific weight"),
-        _leaf("Corrections", "demo_corrections", "Observation corrections (C-O)", dev=True),
-        _leaf("LS params", "demo_lsq", "Least-squares and testing parameters", hotkey="l",
-              dev=True),
-        _leaf("Filter params", "demo_filter", "Kalman filter parameters", hotkey="f", dev=True),
+        _run("Parameters", "demo_params", "Sample interval, pace, plot, specific weight"),
+        _run("Corrections", "demo_corrections", "Observation corrections (C-O)", dev=True),
+        _run("LS params", "demo_lsq", "Least-squares and testing parameters", hotkey="l",
+             dev=True),
+        _run("Filter params", "demo_filter", "Kalman filter parameters", hotkey="f", dev=True),
     )),
     MenuItem("Data", hotkey="a", dev=True, children=(
         _page("Decca", 810, "Decca chain data"),
@@ -113,56 +127,13 @@ MENU_BAR: tuple[MenuItem, ...] = (
         _page("Kalman", 850, "Kalman matrices and vectors"),
     )),
     MenuItem("Run", children=(
-        _leaf("Continue", "run_continue", "Leave the suspended state"),
-        _leaf("Suspend", "run_suspend", "Freeze the display after the last cycle"),
+        _run("Continue", "run_continue", "Leave the suspended state"),
+        _run("Suspend", "run_suspend", "Freeze the display after the last cycle"),
         _leaf("Start", "run_start", "New run: back to Parameter Initialization (confirm)",
               hotkey="t"),
     )),
 )
 """The bar ``Quit Edit Setup Obs Kalman Statistics Demo Data Run`` and its pulldowns."""
-
-PAGE_TITLES: dict[int, str] = {
-    100: "Main page",
-    611: "GPS statistics",
-    615: "Decca statistics",
-    620: "Sensor statistics",
-    631: "LOP table",
-    633: "LS residuals and tests",
-    641: "Positions",
-    642: "Position plot",
-    643: "History",
-    650: "Kalman filter statistics",
-    710: "Demo parameters",
-    810: "Decca chain data",
-    821: "A-prio: design matrix and a-priori VCV",
-    830: "Weights",
-    840: "Ellipsoid",
-    850: "Kalman matrices",
-    851: "Kalman P as correlations",
-    852: "Kalman transition matrix",
-    853: "Kalman gain, H and R",
-}
-"""Every page of the console and its title (page numbers per program.md §4.1 and A5). 633 and
-851–853 have no menu item: they are sub-pages, reached with PgUp/PgDn."""
-
-DEV_PAGES_FROM = 800
-"""Pages from this number on (Data 8xx) are developer-only (A4)."""
-
-
-def sub_pages(number: int) -> tuple[int, ...]:
-    """The sub-pages of ``number``'s group, in order: the pages sharing its hundreds and tens
-    digit (program.md §4.1: the units digit numbers the sub-page), e.g. 641 → (641, 642, 643)."""
-    return tuple(n for n in PAGE_TITLES if n // 10 == number // 10)
-
-
-def next_sub_page(number: int, step: int) -> int:
-    """The sub-page ``step`` (+1 PgDn, −1 PgUp) away from ``number`` in its group, cycling
-    round; ``number`` itself if it has no sub-pages."""
-    group = sub_pages(number)
-    if number not in group:
-        return number
-    return group[(group.index(number) + step) % len(group)]
-
 
 def visible_bar(dev_mode: bool) -> tuple[MenuItem, ...]:
     """The bar titles shown in the given mode (the Data title is developer-only, A4)."""
@@ -181,6 +152,28 @@ def iter_leaves(dev_mode: bool,
             yield from iter_leaves(dev_mode, item.children, here)
         else:
             yield here, item
+
+
+def _all_leaves(items: tuple[MenuItem, ...]) -> Iterator[MenuItem]:
+    for item in items:
+        yield from _all_leaves(item.children) if item.children else (item,)
+
+
+ACTIONS: dict[str, MenuItem] = {
+    item.action: item for item in _all_leaves(MENU_BAR) if item.action is not None
+}
+"""Every leaf of either mode by its action id."""
+
+
+def palette_entries(dev_mode: bool) -> Iterator[tuple[str, str, str]]:
+    """(title, help, action id) of every command-palette entry in the given mode: each visible
+    menu leaf (titled by its path), then each page (``Pg nnn title``)."""
+    for path, item in iter_leaves(dev_mode):
+        assert item.action is not None
+        yield " ▸ ".join(path), item.help, item.action
+    for number, title in page_titles().items():
+        if number < DEV_PAGES_FROM or dev_mode:
+            yield f"Pg {number} {title}", f"Show page {number}", f"page:{number}"
 
 
 def find_path(labels: list[str], dev_mode: bool) -> list[int]:

@@ -11,6 +11,7 @@ a cycle is being computed.
 
 from __future__ import annotations
 
+import asyncio
 import math
 import threading
 import time
@@ -18,10 +19,16 @@ from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
 
-from engine.errors import InputError
-from engine.run.commands import Command
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
+from engine.api import (
+    Command,
+    CycleResult,
+    DatumFile,
+    DeccaChain,
+    InputError,
+    RunConfig,
+    Session,
+    pace_factor,
+)
 from uvnav_tui.widgets.message_log import MessageLog
 
 STATE_WORDS = {
@@ -44,13 +51,17 @@ def bad_record_text(error: InputError, line_no: int) -> str:
     return f"Bad record skipped: {where}{field} {error.message}{got}"
 
 
-def pace_factor(pace: str) -> float:
-    """Playback speed relative to real time for a pace word (``real``, ``fast``, ``xN``)."""
-    if pace == "real":
-        return 1.0
-    if pace == "fast":
-        return math.inf
-    return float(pace[1:])
+def open_session(cfg: RunConfig, data: tuple[DatumFile, dict[str, DeccaChain]], *,
+                 write_out: bool) -> Session | str:
+    """A session for ``cfg`` (its ``.OUT`` next to the ``.RUN`` file under a free name if
+    ``write_out``), or the message saying why it cannot be opened."""
+    out = cfg.run_path.with_suffix(".OUT") if write_out else None
+    try:
+        return Session(cfg, out_path=out, collect_smoother=True, data=data)
+    except InputError as exc:
+        return exc.message
+    except OSError as exc:
+        return f"File error: {exc.strerror or exc}"
 
 
 class RunController:
@@ -178,6 +189,50 @@ class RunController:
         if result.fix is not None and result.fix.candidate_slot is not None:
             self.awaiting_answer = True
         return result
+
+    def run_cycles(self, cancelled: Callable[[], bool], *, advanced: Callable[[], None],
+                   ended: Callable[[], None], question: Callable[[CycleResult], None]) -> None:
+        """The cycle worker's loop (worker thread): compute cycles while the run may advance,
+        at its pace, until ``cancelled()``.  Calls ``advanced()`` after each cycle,
+        ``question(result)`` when a cycle flags an LOP for rejection and ``ended()`` at the end
+        of the data or on an engine error (the run is then suspended with a note)."""
+        try:
+            while self.worker_may_continue() and not cancelled():
+                if not self.wait_due(lambda: cancelled() or not self.can_run()):
+                    continue
+                with self.lock:
+                    if not self.can_run():
+                        continue
+                    result = self.step()
+                if result is None:
+                    ended()
+                    continue
+                advanced()
+                if self.awaiting_answer:
+                    question(result)
+        except Exception as exc:  # noqa: BLE001 - an engine failure must not kill the console
+            self.fail(exc)
+            ended()
+        finally:
+            self.end_worker()
+
+    async def wait_cycles(self, n: int, kick: Callable[[], None], timeout_s: float) -> int:
+        """Let ``n`` more cycles run (granting them when the run is held; ``kick()`` starts the
+        worker) and wait for them (scripts, tests).
+
+        Returns the number of cycles done; stops early at the end of the data file or when the
+        run is suspended. Raises ``TimeoutError`` after ``timeout_s``.
+        """
+        start = self.cycles
+        if self.budget is not None:
+            self.grant(n)
+        kick()
+        deadline = time.monotonic() + timeout_s
+        while self.cycles < start + n and not self.eof and not self.suspended:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"{self.cycles - start} of {n} cycles after {timeout_s} s")
+            await asyncio.sleep(0.005)
+        return self.cycles - start
 
     def recompute(self, excluded: tuple[int, ...]) -> CycleResult | None:
         """Redo the last cycle without the ``excluded`` LOP slots (LOPReject 'A', yes)."""

@@ -28,10 +28,10 @@ from pathlib import Path
 
 from textual.pilot import Pilot
 
-from engine.io.tomlsource import read_text
-from engine.run.commands import SetParameters
+from engine.api import SetParameters, read_text
 from uvnav_tui.app import UVNAVApp
-from uvnav_tui.menus import PAGE_TITLES, find_path
+from uvnav_tui.menus import find_path
+from uvnav_tui.pages.registry import page_titles
 from uvnav_tui.screens.console_screen import ConsoleScreen
 
 COMMANDS = ("menu", "type", "clear", "key", "wait", "sleep", "page", "suspend", "continue",
@@ -85,8 +85,8 @@ def parse_script(text: str) -> list[Step]:
             raise ScriptError(n, f"{command} needs an argument")
         if command in ("wait", "page"):
             _int_arg(n, arg, command)
-        if command == "page" and int(arg) not in PAGE_TITLES:
-            raise ScriptError(n, f"no page {arg} (pages: {', '.join(map(str, PAGE_TITLES))})")
+        if command == "page" and int(arg) not in page_titles():
+            raise ScriptError(n, f"no page {arg} (pages: {', '.join(map(str, page_titles()))})")
         if command == "sleep":
             try:
                 float(arg)
@@ -108,6 +108,15 @@ class ScriptRunner:
         assert isinstance(app, UVNAVApp)
         self.app: UVNAVApp = app
         self.log: list[str] = []
+
+    def release_hold(self) -> None:
+        """End scripted stepping: the run advances freely again (LOP questions are asked)."""
+        app = self.app
+        app.hold = False
+        app.lop_policy = "ask"
+        if app.control is not None:
+            app.control.budget = None
+            app.kick()
 
     async def run(self, steps: list[Step]) -> None:
         """Run every step; raises :class:`ScriptError` on the first failure."""
@@ -160,15 +169,15 @@ class ScriptRunner:
             self._base_only(step)
             app.show_page(int(arg))
         elif cmd == "suspend":
-            app.run_suspend()
+            app.actions.run_suspend()
         elif cmd == "continue":
-            app.run_continue()
+            app.actions.run_continue()
         elif cmd == "hardcopy":
             await pilot.pause()
-            if app.hardcopy() is None:
+            if app.actions.write_hardcopy() is None:
                 raise ScriptError(step.line_no, f"hardcopy failed: {app.message}")
         elif cmd == "pace":
-            if not app.apply(SetParameters("demo", (("pace", arg.lower()),))):
+            if not app.actions.apply(SetParameters("demo", (("pace", arg.lower()),))):
                 raise ScriptError(step.line_no, f"pace: {app.message}")
         elif cmd == "lop":
             app.lop_policy = arg.lower()

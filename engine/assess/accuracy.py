@@ -33,8 +33,9 @@ Pool of Errors (program.md §9, eq. 2.1): R = a + ε·Δt (m) with a = d_rms = s
 last LSE at or before the epoch, ε in m/h and Δt the time since that LSE.  Each dive (run of
 submerged truth epochs) is sampled at its start, every ``step_min`` minutes and its end.
 
-Everything here is pure: readers return frozen dataclasses, :func:`assess` computes, and
-:func:`render_svg` returns the text of the plot; nothing is printed or written.
+Everything here is pure: readers return frozen dataclasses, :func:`assess` computes; nothing is
+printed or written.  The SVG plot of ``uvnav assess --svg`` is presentation and is drawn by the
+console package (``uvnav_tui/cli/assess_svg.py``).
 """
 
 from __future__ import annotations
@@ -78,7 +79,6 @@ __all__ = [
     "cov_from_ellipse95",
     "read_nav_log",
     "read_truth",
-    "render_svg",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -910,133 +910,3 @@ def _dives(truth: Truth, t_ms: IntArray, poe: FloatArray, last: IntArray, lse_dr
             frac_kf_in_a95=float(np.mean(ke[okk] <= ka[okk])) if okk.any() else math.nan,
         ))
     return tuple(out)
-
-
-# --------------------------------------------------------------------------------------------
-# SVG plot
-
-_PHASE_FILL = ("#dbeafe", "#e5e7eb", "#dcfce7")
-_SERIES_STYLE: Mapping[str, tuple[str, str, str]] = {
-    # key: (label, colour, extra attributes)
-    "lse": ("LSE error", "#9ca3af", 'stroke-width="0.8"'),
-    "kf": ("filter error", "#1d4ed8", 'stroke-width="1.4"'),
-    "mpp": ("MPP error", "#dc2626", 'stroke-width="1" stroke-dasharray="4 3"'),
-    "kf_a95": ("filter 95 % a-axis", "#059669", 'stroke-width="1.2" stroke-dasharray="6 3"'),
-    "poe": ("POE radius", "#b45309", 'stroke-width="1.4" stroke-dasharray="10 3 2 3"'),
-}
-
-
-def _esc(text: str) -> str:
-    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
-
-
-def render_svg(a: Assessment, *, width: int = 1000, height: int = 520,
-               title: str | None = None) -> str:
-    """A hand-written SVG of horizontal error (m, log scale) against time (minutes since the
-    first matched epoch) for the LSE, the filter and the MPP, with the filter's 95 % semi-major
-    axis and the POE radius; phases shaded (surfaced blue, submerged grey, after resurfacing
-    green).  Lines break where an estimate is missing or epochs are further apart than 1.5 times
-    the median spacing."""
-    s = a.series
-    left, right, top, bottom = 70, 190, 40, 50
-    pw, ph = width - left - right, height - top - bottom
-    tmin = (s.t_ms - s.t_ms[0]) / 60_000.0
-    t_end = float(tmin[-1]) if tmin[-1] > 0 else 1.0
-    curves: dict[str, FloatArray] = {
-        k: np.hypot(s.error[k][:, 0], s.error[k][:, 1]) for k in ESTIMATORS
-    }
-    curves["kf_a95"] = s.kf_a95_m
-    curves["poe"] = s.poe_m
-    vals = np.concatenate([v[np.isfinite(v) & (v > 0)] for v in curves.values()] or [np.ones(1)])
-    if vals.size == 0:
-        vals = np.ones(1)
-    lo = 10.0 ** math.floor(math.log10(max(float(vals.min()), 0.1)))
-    hi = 10.0 ** math.ceil(math.log10(max(float(vals.max()), lo * 10.0)))
-    llo, lhi = math.log10(lo), math.log10(hi)
-
-    def px(t: float) -> float:
-        return left + pw * t / t_end
-
-    def py(v: float) -> float:
-        v = min(max(v, lo), hi)
-        return top + ph * (1.0 - (math.log10(v) - llo) / (lhi - llo))
-
-    out = [
-        f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
-        f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="12">',
-        "<!-- UVNAV assess plot -->",  # how --force recognises an earlier plot (outputs.py)
-        f'<rect x="0" y="0" width="{width}" height="{height}" fill="white"/>',
-    ]
-    # phase shading
-    if s.phase.size:
-        start = 0
-        for i in range(1, s.phase.size + 1):
-            if i == s.phase.size or s.phase[i] != s.phase[start]:
-                x0, x1 = px(float(tmin[start])), px(float(tmin[i - 1]))
-                out.append(f'<rect x="{x0:.1f}" y="{top}" width="{max(x1 - x0, 0.5):.1f}" '
-                           f'height="{ph}" fill="{_PHASE_FILL[int(s.phase[start])]}"/>')
-                start = i
-    # grid and ticks
-    dec = int(round(lhi - llo))
-    for k in range(dec + 1):
-        v = lo * 10.0**k
-        y = py(v)
-        out.append(f'<line x1="{left}" y1="{y:.1f}" x2="{left + pw}" y2="{y:.1f}" '
-                   'stroke="#9ca3af" stroke-width="0.5"/>')
-        out.append(f'<text x="{left - 6}" y="{y + 4:.1f}" text-anchor="end">{v:g}</text>')
-    step = next(st for st in (1, 2, 5, 10, 15, 20, 30, 60, 120, 240, 600, 1440, 1e9)
-                if t_end / st <= 12)
-    t = 0.0
-    while t <= t_end + 1e-9:
-        x = px(t)
-        out.append(f'<line x1="{x:.1f}" y1="{top + ph}" x2="{x:.1f}" y2="{top + ph + 5}" '
-                   'stroke="black"/>')
-        out.append(f'<text x="{x:.1f}" y="{top + ph + 18}" text-anchor="middle">{t:g}</text>')
-        t += step
-    out.append(f'<rect x="{left}" y="{top}" width="{pw}" height="{ph}" fill="none" '
-               'stroke="black"/>')
-    # curves
-    dt = np.diff(s.t_ms)
-    gap_ms = 1.5 * float(np.median(dt)) if dt.size else 0.0
-    for key, (_label, colour, extra) in _SERIES_STYLE.items():
-        v = curves[key]
-        ok = np.isfinite(v)
-        segs: list[list[str]] = []
-        cur: list[str] = []
-        for i in range(v.size):
-            brk = not ok[i] or (i > 0 and s.t_ms[i] - s.t_ms[i - 1] > gap_ms)
-            if brk and cur:
-                segs.append(cur)
-                cur = []
-            if ok[i]:
-                cur.append(f"{px(float(tmin[i])):.1f},{py(float(v[i])):.1f}")
-        if cur:
-            segs.append(cur)
-        for seg in segs:
-            if len(seg) == 1:
-                seg = seg * 2
-            out.append(f'<polyline fill="none" stroke="{colour}" {extra} '
-                       f'points="{" ".join(seg)}"/>')
-    # legend
-    lx = left + pw + 15
-    for i, (label, colour, extra) in enumerate(_SERIES_STYLE.values()):
-        y = top + 10 + 20 * i
-        out.append(f'<line x1="{lx}" y1="{y}" x2="{lx + 30}" y2="{y}" stroke="{colour}" '
-                   f'{extra}/>')
-        out.append(f'<text x="{lx + 36}" y="{y + 4}">{_esc(label)}</text>')
-    for i, name in enumerate(PHASES[:3]):
-        y = top + 125 + 20 * i
-        out.append(f'<rect x="{lx}" y="{y - 7}" width="30" height="14" '
-                   f'fill="{_PHASE_FILL[i]}" stroke="#9ca3af" stroke-width="0.5"/>')
-        out.append(f'<text x="{lx + 36}" y="{y + 4}">{_esc(name)}</text>')
-    # labels
-    head = title or f"Horizontal error vs truth: {Path(a.log_path).name}"
-    out.append(f'<text x="{left}" y="{top - 14}" font-size="14">{_esc(head)}</text>')
-    out.append(f'<text x="{left + pw / 2:.1f}" y="{height - 12}" text-anchor="middle">'
-               f'time since {_utc(int(s.t_ms[0])):%Y-%m-%d %H:%M:%S}Z [min]</text>')
-    out.append(f'<text x="16" y="{top + ph / 2:.1f}" text-anchor="middle" '
-               f'transform="rotate(-90 16 {top + ph / 2:.1f})">horizontal error [m] '
-               '(log scale)</text>')
-    out.append("</svg>")
-    return "\n".join(out) + "\n"
-

@@ -23,7 +23,6 @@ from engine.assess.accuracy import (
     cov_from_ellipse95,
     read_nav_log,
     read_truth,
-    render_svg,
 )
 from engine.errors import InputError
 from engine.geodesy.ellipsoid import Ellipsoid
@@ -31,6 +30,7 @@ from engine.geodesy.tmgrid import TMGrid
 from engine.io.outlog import OutLogWriter
 from engine.lsq.confidence import error_ellipse
 from tests.paths import DATA
+from uvnav_tui.cli.assess_svg import render_svg
 from uvnav_tui.cli.main import main
 
 HAYFORD = Ellipsoid("HAYFORD 1909", 6378388.0, 297.0)

@@ -23,7 +23,7 @@ from uvnav_tui import keys_help as kh
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.cli.main import main as cli_main
 from uvnav_tui.dialogs.confirm_dialog import ConfirmDialog
-from uvnav_tui.menus import DEV_PAGES_FROM, PAGE_TITLES
+from uvnav_tui.pages.registry import DEV_PAGES_FROM, page_titles
 from uvnav_tui.screens.console_screen import ConsoleScreen
 from uvnav_tui.screens.help_screen import HelpScreen
 from uvnav_tui.screens.table_screen import TableScreen
@@ -74,7 +74,7 @@ def test_keys_typed_at_speed_during_a_fast_run_are_not_lost(data_dir: Path) -> N
                                                                           ConsoleScreen),
                            "Pg 100")
         await wait_for(pilot, lambda: run.state_word == "Working...", "the run to resume")
-        app.run_suspend()
+        app.actions.run_suspend()
 
     drive(app, script)
 
@@ -94,7 +94,7 @@ def test_f1_and_question_mark_open_help_and_esc_closes_it(data_dir: Path) -> Non
             await pilot.press(opener)
             await wait_for(pilot, lambda: isinstance(app.screen, HelpScreen), "help")
             text = str(app.screen.query_one("#help-text").render())
-            for number, title in PAGE_TITLES.items():
+            for number, title in page_titles().items():
                 assert f"Pg {number}  {title}" in text
             for needle in ("Alt+T  Statistics", "[L] LSE", "Tab / Shift+Tab", "Ctrl+Q",
                            "PgUp / PgDn", "nnn (three digits)"):
@@ -114,11 +114,11 @@ def test_help_from_the_palette_is_closable(data_dir: Path) -> None:
         await start(pilot, 1)
         titles = [c.title for c in app.get_system_commands(app.screen)]
         assert "Keys" not in titles and "Help" in titles
-        for number, title in PAGE_TITLES.items():
+        for number, title in page_titles().items():
             assert (f"Pg {number} {title}" in titles) == (number < DEV_PAGES_FROM)
-        app.set_dev_mode(True)
+        app.actions.set_dev_mode(True)
         titles = [c.title for c in app.get_system_commands(app.screen)]
-        assert all(f"Pg {n} {t}" in titles for n, t in PAGE_TITLES.items())
+        assert all(f"Pg {n} {t}" in titles for n, t in page_titles().items())
         help_cmd = next(c for c in app.get_system_commands(app.screen) if c.title == "Help")
         help_cmd.callback()
         await wait_for(pilot, lambda: isinstance(app.screen, HelpScreen), "help")

@@ -233,7 +233,7 @@ def test_cycles_pause_while_a_menu_is_open(data_dir: Path) -> None:
         assert app.state_word == "Interrupted..."
         await menu(pilot, "escape")
         await wait_for(pilot, lambda: run.cycles > frozen, "the run to resume")
-        app.run_suspend()
+        app.actions.run_suspend()
 
     drive(app, script)
 

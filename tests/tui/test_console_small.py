@@ -24,15 +24,15 @@ from textual.pilot import Pilot
 
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.dialogs.dialog import Dialog
-from uvnav_tui.menus import PAGE_TITLES
-from uvnav_tui.pages.page_642 import ThrottledTextPage
 from uvnav_tui.pages.page_frame import PageFrame
 from uvnav_tui.pages.page_text import TextPage
+from uvnav_tui.pages.registry import page_titles
+from uvnav_tui.pages.throttled_page import ThrottledTextPage
 from uvnav_tui.screens.console_screen import ConsoleScreen
 from uvnav_tui.screens.help_screen import HelpScreen
 
 SMALL = (80, 24)
-PAGES = sorted(PAGE_TITLES)
+PAGES = sorted(page_titles())
 
 
 

@@ -12,14 +12,13 @@ import pytest
 from textual.pilot import Pilot
 from textual.widgets import Input
 
-from engine.run.config import RunConfig, load_config
-from engine.run.session import Session
+from engine.api import RunConfig, Session, load_config, pace_factor
 from tests.paths import DATA, copy_data  # noqa: F401 (re-exported to the test_console_* modules)
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.hardcopy import free_stem, hardcopy_stem, screen_text
 from uvnav_tui.menus import MENU_BAR, find_path, item_at, iter_leaves, visible_bar
 from uvnav_tui.pages.main_page import decca_box_lines, position_box_lines, sensor_strip
-from uvnav_tui.run_control import RunController, pace_factor
+from uvnav_tui.run_control import RunController
 from uvnav_tui.widgets.key_line import KeyLine
 from uvnav_tui.widgets.status_column import status_lines
 

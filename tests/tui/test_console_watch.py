@@ -22,7 +22,7 @@ from test_console_support import (
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-from engine.lsq.fix import ManualObservation, lop_name
+from engine.api import ManualObservation, lop_name
 from uvnav_tui.app import UVNAVApp
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.dialogs.parameters_dialog import ParametersDialog
@@ -441,7 +441,7 @@ def test_check_boxes_and_radio_buttons_show_state_by_glyphs(data_dir: Path) -> N
         await pilot.press("space")
         await pilot.pause()
         assert "[ ] GPS on" in text_of(app)
-        app.hardcopy()
+        app.actions.write_hardcopy()
         txt = app.hardcopies[-1][1].read_text()
         assert "[ ] GPS on" in txt and "(•) C/A code (SPS)" in txt
 

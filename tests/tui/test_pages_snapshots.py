@@ -15,13 +15,10 @@ from collections.abc import Callable, Iterator
 import pytest
 from textual.app import App, ComposeResult
 
-import uvnav_tui.pages.all_pages  # noqa: F401  (registers the pages)
-from engine.run.config import load_config
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
+from engine.api import CycleResult, Session, load_config
 from tests.paths import DATA
 from uvnav_tui.pages.page_text import TextPage
-from uvnav_tui.pages.pages import make_page
+from uvnav_tui.pages.registry import make_page
 
 SIZE = (100, 34)
 TEXT_PAGE_NUMBERS = [611, 615, 620, 631, 633, 641, 650, 810, 821, 830, 840, 850, 851, 852, 853]

@@ -30,18 +30,19 @@ import numpy as np
 import pytest
 
 import engine.lsq.fix as engine_fix
-import uvnav_tui.pages.all_pages
-from engine.filter.kalman import STATE_LABELS
-from engine.io.formatting import format_stat
-from engine.lsq.fix import DeccaReading, FixResult, GpsFix, LsqSettings, compute_fix
-from engine.run.config import load_config
-from engine.run.cycle import CycleResult
-from engine.run.records import lse_estimate
-from engine.run.session import Session
+from engine.api import (
+    STATE_LABELS,
+    CycleResult,
+    FixResult,
+    Session,
+    format_stat,
+    load_config,
+    lse_estimate,
+)
+from engine.lsq.fix import DeccaReading, GpsFix, LsqSettings, compute_fix
 from tests.paths import DATA
-from uvnav_tui.menus import PAGE_TITLES
 from uvnav_tui.pages.page_text import TextPage, compact, corr_text, num
-from uvnav_tui.pages.pages import PAGE_FACTORIES, make_page
+from uvnav_tui.pages.registry import make_page, page_titles, pages
 
 TEXT_PAGES = (611, 615, 620, 631, 633, 641, 650, 810, 821, 830, 840, 850, 851, 852, 853)
 """The text pages (642/643 are plots, tested elsewhere)."""
@@ -49,7 +50,9 @@ TEXT_PAGES = (611, 615, 620, 631, 633, 641, 650, 810, 821, 830, 840, 850, 851, 8
 
 def mod(number: int) -> ModuleType:
     """The module of page ``number`` (imported here, not at collection: see ``registry``)."""
-    return importlib.import_module(f"uvnav_tui.pages.page_{number}")
+    factory = pages()[number].factory
+    assert factory is not None
+    return importlib.import_module(factory.__module__)
 
 
 PRINTED_DECCA_VCV = np.array([[916.877, 18.050, 0.0], [18.050, 83.585, 0.0], [0.0, 0.0, 1.0]])
@@ -413,10 +416,13 @@ def test_systems_off(sample: tuple[Session, CycleResult]) -> None:
 
 # --------------------------------------------------------------------------- registry, widget
 def test_every_page_is_registered() -> None:
-    """Every page of the menus and sub-pages but Pg 100 has a module that registers it."""
-    numbers = set(PAGE_TITLES) - {100}
-    assert set(uvnav_tui.pages.all_pages.PAGE_NUMBERS) == numbers
-    assert numbers <= set(PAGE_FACTORIES)
+    """Every page but Pg 100 has a module ``pNNN_…`` that registers it with a title."""
+    numbers = set(page_titles()) - {100}
+    assert numbers == {*TEXT_PAGES, 642, 643, 710}
+    for number in numbers:
+        factory = pages()[number].factory
+        assert factory is not None
+        assert factory.__module__.split(".")[-1].startswith(f"p{number}_")
     for number in TEXT_PAGES:
         page = make_page(number)
         assert isinstance(page, TextPage) and page.NUMBER == number == mod(number).PAGE_NUMBER

@@ -17,26 +17,21 @@ import pytest
 from test_console_support import wait_for
 from textual.app import App, ComposeResult
 
-from engine.filter.poe import drms
-from engine.run.config import RunConfig
-from engine.run.cycle import CycleResult, RunContext
-from engine.run.records import lse_estimate
-from engine.run.session import Session
+from engine.api import CycleResult, RunConfig, RunContext, Session, drms, lse_estimate
 from tests.paths import ROOT
 from uvnav_tui.hardcopy import screen_text
-from uvnav_tui.pages import page_642
-from uvnav_tui.pages.page_642 import (
+from uvnav_tui.pages import throttled_page
+from uvnav_tui.pages.p642_position_plot import (
     LEGEND_WIDTH,
     PositionPlotPage,
-    ThrottledTextPage,
     bearing_distance,
-    history_upto,
     plot_page_lines,
     track_xy,
 )
-from uvnav_tui.pages.page_643 import HistoryPage, history_page_lines, history_series
-from uvnav_tui.pages.page_710 import DemoPage, demo_page_lines
-from uvnav_tui.pages.pages import PAGE_FACTORIES, make_page
+from uvnav_tui.pages.p643_history import HistoryPage, history_page_lines, history_series
+from uvnav_tui.pages.p710_demo_parameters import DemoPage, demo_page_lines
+from uvnav_tui.pages.registry import make_page, pages
+from uvnav_tui.pages.throttled_page import ThrottledTextPage, history_upto
 from uvnav_tui.widgets.canvas import format_distance, nice_length
 
 BODY = (62, 20)
@@ -112,7 +107,7 @@ def test_demo_run_phases(run: Run) -> None:
 def test_pages_are_registered() -> None:
     """Importing the page modules registers 642, 643 and 710 with the console's registry."""
     for number, cls in {642: PositionPlotPage, 643: HistoryPage, 710: DemoPage}.items():
-        assert PAGE_FACTORIES[number] is cls
+        assert pages()[number].factory is cls
         assert isinstance(make_page(number), cls)
 
 
@@ -375,7 +370,7 @@ def test_redraw_is_throttled(run: Run, monkeypatch: pytest.MonkeyPatch) -> None:
     time is the cycle's record time; ``force`` redraws at once.  The page's clock is a fake
     one: "0.1 s after the last redraw" is certain, not hoped for."""
     clock = FakeClock()
-    monkeypatch.setattr(page_642, "time", clock)
+    monkeypatch.setattr(throttled_page, "time", clock)
 
     async def main() -> None:
         page = PositionPlotPage()

@@ -26,17 +26,18 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from engine.assess.accuracy import (
+from engine.api import (
     ESTIMATOR_LABELS,
     Assessment,
+    Ellipsoid,
+    InputError,
+    OutputGuard,
     assess,
+    read_error,
     read_nav_log,
     read_truth,
-    render_svg,
 )
-from engine.errors import InputError, read_error
-from engine.geodesy.ellipsoid import Ellipsoid
-from engine.io.outputs import OutputGuard
+from uvnav_tui.cli.assess_svg import render_svg
 
 PROG = "uvnav assess"
 
@@ -169,13 +170,13 @@ def print_report(a: Assessment, console: Console) -> None:
 
 
 def _poe_rate_from_toml(path: str) -> float:
-    from engine.run.config import load_config
+    from engine.api import load_config
 
     return float(load_config(path).demo.poe_expansion_m_h)
 
 
 def _ellipsoid_from_datum_file(path: str, datum: str) -> Ellipsoid:
-    from engine.io.datumfile import read_datum_file
+    from engine.api import read_datum_file
 
     return read_datum_file(path).datum(datum).ellipsoid
 

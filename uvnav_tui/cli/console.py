@@ -11,11 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from engine.errors import InputError
-from engine.io.datumfile import DatumFile
-from engine.io.deccafile import DeccaChain
-from engine.run.config import RunConfig
-from engine.run.session import load_run_config
+from engine.api import DatumFile, DeccaChain, InputError, RunConfig, load_run_config
 
 DEFAULT_CONFIG_NAME = "DEMO.toml"
 

@@ -33,14 +33,23 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from engine.errors import InputError, read_error
-from engine.io.datumfile import DatumFile
-from engine.io.deccafile import DeccaChain
-from engine.io.formatting import format_lat_dms, format_lon_dms
-from engine.io.outputs import OutputFile, OutputGuard, remove_created
-from engine.run.config import RunConfig
-from engine.run.records import position_json
-from engine.run.session import RunSummary, Session, load_run_config, run_inputs
+from engine.api import (
+    DatumFile,
+    DeccaChain,
+    InputError,
+    OutputFile,
+    OutputGuard,
+    RunConfig,
+    RunSummary,
+    Session,
+    format_lat_dms,
+    format_lon_dms,
+    load_run_config,
+    position_json,
+    read_error,
+    remove_created,
+    run_inputs,
+)
 
 EXIT_OK = 0
 EXIT_CANNOT_WRITE = 1

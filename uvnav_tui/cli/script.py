@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from engine.errors import InputError
+from engine.api import InputError
 from uvnav_tui.cli.console import resolve_config
 
 HEADLESS_SIZE = (100, 30)
@@ -65,14 +65,14 @@ def run_script(argv: list[str]) -> int:
                 app.stop_run()
                 app.exit()
             else:
-                app.release_hold()
+                runner.release_hold()
                 app.say(f"Script stopped at {exc}")
             return
         if args.headless:
             app.stop_run()
             app.exit()
         else:
-            app.release_hold()
+            runner.release_hold()
             app.say(f"Script {Path(args.script).name} finished")
 
     if args.headless:

@@ -25,10 +25,14 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 
-from engine.errors import InputError
-from engine.io.outputs import EXISTS_MESSAGE, OutputGuard
-from engine.sim.scenario import load_scenario
-from engine.sim.simulate import read_data_files, write_simulation
+from engine.api import (
+    EXISTS_MESSAGE,
+    InputError,
+    OutputGuard,
+    load_scenario,
+    read_data_files,
+    write_simulation,
+)
 
 __all__ = ["build_parser", "run_simulate"]
 

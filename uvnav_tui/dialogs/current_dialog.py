@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from textual.app import ComposeResult
 
-from engine.io.operator_input import parse_direction_deg, parse_speed_kn
+from engine.api import parse_direction_deg, parse_speed_kn
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField, number_text
 

@@ -7,7 +7,7 @@ from textual.app import ComposeResult
 from textual.suggester import SuggestFromList
 from textual.widgets import OptionList
 
-from engine.io.operator_input import parse_datum_name
+from engine.api import parse_datum_name
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.dialogs.init_dialog import datum_hint
 from uvnav_tui.widgets.validated_field import ValidatedField

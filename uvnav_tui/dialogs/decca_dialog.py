@@ -10,10 +10,7 @@ from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import Checkbox, Label, RadioSet
 
-from engine.errors import InputError
-from engine.io.operator_input import ZONE_LETTERS, parse_zone_lane
-from engine.run.commands import SetDecca
-from engine.run.config import DeccaConfig
+from engine.api import ZONE_LETTERS, DeccaConfig, InputError, SetDecca, parse_zone_lane
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphCheckbox, GlyphRadioButton
 from uvnav_tui.widgets.validated_field import ValidatedField

@@ -6,8 +6,7 @@ from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import Checkbox, Label, RadioSet
 
-from engine.run.commands import SetGps
-from engine.run.config import GpsConfig
+from engine.api import GpsConfig, SetGps
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphCheckbox, GlyphRadioButton
 

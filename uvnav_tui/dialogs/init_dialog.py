@@ -13,8 +13,10 @@ from pathlib import Path
 from textual.app import ComposeResult
 from textual.suggester import SuggestFromList
 
-from engine.errors import InputError
-from engine.io.operator_input import (
+from engine.api import (
+    FILE_NOT_FOUND_MESSAGE,
+    InputError,
+    RunConfig,
     parse_datum_name,
     parse_depth_m,
     parse_direction_deg,
@@ -22,8 +24,6 @@ from engine.io.operator_input import (
     parse_run_name,
     parse_speed_kn,
 )
-from engine.io.tomlsource import FILE_NOT_FOUND_MESSAGE
-from engine.run.config import RunConfig
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField, number_text
 

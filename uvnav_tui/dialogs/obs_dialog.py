@@ -12,11 +12,15 @@ from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import Label, RadioSet
 
-from engine.errors import InputError
-from engine.io.operator_input import parse_bearing_deg, parse_distance_nm, parse_position
-from engine.lsq.fix import ManualObservation
-from engine.run.commands import AddObservation
-from engine.run.config import LsqConfig
+from engine.api import (
+    AddObservation,
+    InputError,
+    LsqConfig,
+    ManualObservation,
+    parse_bearing_deg,
+    parse_distance_nm,
+    parse_position,
+)
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphRadioButton
 from uvnav_tui.widgets.validated_field import ValidatedField

@@ -18,9 +18,14 @@ from textual.app import ComposeResult
 from textual.containers import VerticalScroll
 from textual.widgets import Checkbox, Static
 
-from engine.errors import InputError
-from engine.run.commands import SetParameters
-from engine.run.config import DECCA_CF_CONDITIONS, Key, decca_cf_condition, parse_decca_cf
+from engine.api import (
+    DECCA_CF_CONDITIONS,
+    InputError,
+    Key,
+    SetParameters,
+    decca_cf_condition,
+    parse_decca_cf,
+)
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphCheckbox
 from uvnav_tui.widgets.validated_field import ValidatedField, number_text

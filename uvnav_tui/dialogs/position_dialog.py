@@ -5,7 +5,7 @@ from __future__ import annotations
 from textual.app import ComposeResult
 from textual.widgets import Static
 
-from engine.io.operator_input import parse_position
+from engine.api import parse_position
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from textual.app import ComposeResult
 from textual.widgets import Static
 
-from engine.errors import InputError
+from engine.api import InputError
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField
 

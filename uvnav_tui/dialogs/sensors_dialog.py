@@ -12,8 +12,7 @@ from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import Checkbox, Label
 
-from engine.run.commands import SetSensor
-from engine.run.config import SensorsConfig
+from engine.api import SensorsConfig, SetSensor
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphCheckbox
 

@@ -15,8 +15,11 @@ from textual.containers import Horizontal
 from textual.widget import Widget
 from textual.widgets import Static
 
-from engine.io.formatting import (
+from engine.api import (
     PLACEHOLDER,
+    CycleResult,
+    PositionEstimate,
+    RunConfig,
     format_angle_deg,
     format_lat_dm,
     format_lat_dms,
@@ -25,10 +28,8 @@ from engine.io.formatting import (
     format_metres,
     format_speed_kn,
     format_zone_lane,
+    lse_estimate,
 )
-from engine.run.config import RunConfig
-from engine.run.cycle import CycleResult, PositionEstimate
-from engine.run.records import lse_estimate
 
 SENSOR_LABELS = (("GYRO", 0), ("LOG", 1), ("RUDR", 2), ("INCL", 3), ("PRESS", 4), ("ECHO", 5))
 """Sensor strip labels and their index in ``SensorValues.status``."""

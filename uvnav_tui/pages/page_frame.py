@@ -7,9 +7,8 @@ from textual.containers import Horizontal
 from textual.widget import Widget
 from textual.widgets import ContentSwitcher
 
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
-from uvnav_tui.pages.pages import make_page
+from engine.api import CycleResult, Session
+from uvnav_tui.pages.registry import make_page
 from uvnav_tui.widgets.status_column import StatusColumn
 
 

@@ -1,6 +1,6 @@
 """Shared pieces of the numbered text pages (Statistics 6xx and Data 8xx, program.md §4.3–4.12).
 
-Pure text helpers (numbers, matrices, ellipse blocks) used by the ``page_6*``/``page_8*`` modules,
+Pure text helpers (numbers, matrices, ellipse blocks) used by the ``p6nn_*``/``p8nn_*`` modules,
 and :class:`TextPage`, the monochrome page body they all use: a scrolling text block whose text
 comes from the page module's pure ``render(r, session)``.  Every number printed comes from the
 engine; these helpers only lay it out, with the :mod:`engine.io.formatting` rules (no ``-0.00``,
@@ -19,11 +19,17 @@ from textual.binding import Binding
 from textual.containers import ScrollableContainer
 from textual.widgets import Static
 
-from engine.io.formatting import format_stat
-from engine.lsq.adjustment import Adjustment
-from engine.lsq.confidence import Ellipse, Ellipsoid3
-from engine.run.cycle import CycleResult, PositionEstimate
-from engine.run.session import Session
+from engine.api import (
+    STATE_LABELS,
+    Adjustment,
+    CycleResult,
+    Ellipse,
+    Ellipsoid3,
+    FilterState,
+    PositionEstimate,
+    Session,
+    format_stat,
+)
 
 MISSING = "---"
 """Printed for a value that does not exist this cycle (not a statistic: those print 999.99)."""
@@ -312,3 +318,8 @@ class TextPage(ScrollableContainer, can_focus=True, inherit_bindings=False):
     def _sync(self) -> None:
         for block in self.query(".page-text").results(Static):
             block.update(self.text)
+
+
+def state_labels(fs: FilterState) -> list[str]:
+    """Labels of every state: the 11 navigation states, then the fix-error states."""
+    return list(STATE_LABELS) + list(fs.fix_states)

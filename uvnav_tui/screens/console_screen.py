@@ -6,7 +6,7 @@ Whenever another screen (a pulldown, a dialog, the command palette) covers it, t
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, cast
+from typing import cast
 
 from textual import events, on
 from textual.actions import SkipAction
@@ -15,18 +15,20 @@ from textual.binding import Binding
 from textual.screen import Screen
 from textual.widgets import ContentSwitcher
 
+from engine.api import RunConfig, format_time_z
+from uvnav_tui.host import ConsoleHost
 from uvnav_tui.keys_help import menu_key_bindings
 from uvnav_tui.menus import visible_bar
 from uvnav_tui.pages.main_page import MainPage
 from uvnav_tui.pages.page_frame import PageFrame
+from uvnav_tui.run_control import RunController
 from uvnav_tui.widgets.key_line import KeyLine
 from uvnav_tui.widgets.menu_bar import MenuBar
 from uvnav_tui.widgets.message_line import MessageLine
 from uvnav_tui.widgets.message_panel import MessagePanel, PanelArea
 from uvnav_tui.widgets.state_line import StateLine
+from uvnav_tui.widgets.status_column import StatusColumn
 
-if TYPE_CHECKING:
-    from uvnav_tui.app import UVNAVApp
 
 class ConsoleScreen(Screen[None]):
     """Menu bar, state line, Pg 100 or a framed page, message line, key hints."""
@@ -49,9 +51,9 @@ class ConsoleScreen(Screen[None]):
     ]
 
     @property
-    def uvnav(self) -> UVNAVApp:
+    def uvnav(self) -> ConsoleHost:
         """The console application."""
-        return cast("UVNAVApp", self.app)
+        return cast(ConsoleHost, self.app)
 
     def compose(self) -> ComposeResult:
         """The fixed frame of every page."""
@@ -77,6 +79,37 @@ class ConsoleScreen(Screen[None]):
                 self.action_open_menu(i)
                 return
         raise SkipAction()
+
+    def select_page(self, number: int) -> None:
+        """Switch to page ``number`` (100 = main page) and focus its body."""
+        switcher = self.query_one("#pages", ContentSwitcher)
+        if number == 100:
+            switcher.current = "page-main"
+        else:
+            self.query_one(PageFrame).select(number)
+            switcher.current = "page-frame"
+        self.page_shown()
+
+    def repaint(self, run: RunController | None, state_word: str, config: RunConfig) -> None:
+        """Paint the state line, the visible page and the message line from the run's latest
+        cycle (``config``: the configuration in force)."""
+        host = self.uvnav
+        r = run.latest if run is not None else None
+        line = self.query_one(StateLine)
+        line.state_word = state_word
+        line.time_text = format_time_z(r.time) if r is not None else "--:--:--Z"
+        line.pace = run.pace if run is not None else ""
+        line.note = run.note if run is not None else ""
+        line.dev_mode = host.dev_mode
+        line.page = host.page
+        self.query_one(MenuBar).dev_mode = host.dev_mode
+        if host.page == 100:
+            self.query_one(MainPage).show(r, config)
+            self.query_one(MessagePanel).sync(host.message_log)
+        else:
+            self.query_one(StatusColumn).bad_records = run.bad_records if run else 0
+            self.query_one(PageFrame).show(r, run.session if run is not None else None)
+        self.query_one(MessageLine).show(host.message_log)
 
     def page_shown(self) -> None:
         """A page was selected: focus its body (so the cursor keys scroll it) and show its
@@ -125,6 +158,7 @@ class ConsoleScreen(Screen[None]):
             raise SkipAction()
         line.typed = line.typed[:-1]
         line.sync()
+
     def action_messages(self) -> None:
         """F2: the message log (Statistics ▸ Messages)."""
         self.uvnav.do_menu_action("messages")

@@ -8,7 +8,8 @@ Esc or Return closes it; the run stays interrupted while it is open.  The menus 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from datetime import datetime, timedelta
+from typing import cast
 
 from textual.actions import SkipAction
 from textual.app import ComposeResult
@@ -17,6 +18,16 @@ from textual.containers import Vertical
 from textual.screen import ModalScreen
 from textual.widgets import DataTable, Static
 
+from engine.api import (
+    CycleResult,
+    PositionEstimate,
+    format_angle_deg,
+    format_lat_dms,
+    format_lon_dms,
+    format_metres,
+    format_time_z,
+)
+from uvnav_tui.host import ConsoleHost
 from uvnav_tui.keys_help import menu_key_bindings
 from uvnav_tui.menus import visible_bar
 
@@ -59,12 +70,12 @@ class TableScreen(ModalScreen[None]):
 
     def action_open_menu(self, index: int) -> None:
         """F10: the menu bar over the table."""
-        app: Any = self.app
+        app = cast(ConsoleHost, self.app)
         app.open_menu(index)
 
     def action_open_hot(self, key: str) -> None:
         """Alt+letter: the bar menu with that hot-key (skipped if none is visible)."""
-        app: Any = self.app
+        app = cast(ConsoleHost, self.app)
         for i, item in enumerate(visible_bar(app.dev_mode)):
             if item.key == key:
                 app.open_menu(i)
@@ -74,3 +85,49 @@ class TableScreen(ModalScreen[None]):
     def action_close(self) -> None:
         """Back to the page."""
         self.dismiss(None)
+
+
+PREDICT_COLUMNS = ("t", "Time", "Lat", "Lon", "a", "b", "Az")
+SMOOTH_COLUMNS = ("#", "Time", "Lat", "Lon", "a", "b", "Az")
+
+
+def estimate_row(offset: str, when: str, p: PositionEstimate, level: float) -> list[str]:
+    """One row: offset, time, latitude, longitude, ellipse semi-axes a, b (m) at ``level``
+    (0–1) and the azimuth of a (degrees); ``999.99`` where there is no ellipse."""
+    a = b = az = "999.99"
+    if p.ellipse is not None:
+        sa, sb = p.ellipse.scaled(level)
+        a, b = format_metres(sa, space=False), format_metres(sb, space=False)
+        az = format_angle_deg(p.ellipse.az_deg)
+    return [offset, when, format_lat_dms(p.lat_deg), format_lon_dms(p.lon_deg), a, b, az]
+
+
+def predict_table(estimates: Sequence[PositionEstimate], start: datetime, horizon_s: float,
+                  step_s: float, conf_pct: float) -> TableScreen:
+    """Kalman ▸ Predict.: one row per step from ``start`` (the last one at the horizon), the
+    ellipses at ``conf_pct`` %."""
+    level = conf_pct / 100.0
+    rows = []
+    n_steps = len(estimates)
+    for i, p in enumerate(estimates, start=1):
+        t = step_s * i if i < n_steps else horizon_s
+        rows.append(estimate_row(f"+{int(t // 60):d}:{int(t % 60):02d}",
+                                 format_time_z(start + timedelta(seconds=t)), p, level))
+    note = (f"From {format_time_z(start)}, step {step_s:g} s, interval {horizon_s / 60:g} min;"
+            f" ellipse axes at {conf_pct:g} %.")
+    return TableScreen("Kalman ▸ Predict.", note, PREDICT_COLUMNS, rows, hardcopy_name="Predict")
+
+
+def smoothing_table(smoothed: Sequence[PositionEstimate], history: Sequence[CycleResult],
+                    conf_pct: float) -> TableScreen:
+    """Kalman ▸ Smoothing: the smoothed positions, timed by the last cycles of ``history``,
+    the ellipses at ``conf_pct`` %."""
+    level = conf_pct / 100.0
+    times = [format_time_z(r.time) for r in history[-len(smoothed):]] \
+        if len(smoothed) <= len(history) else [""] * len(smoothed)
+    rows = [estimate_row(str(i), t, p, level)
+            for i, (t, p) in enumerate(zip(times, smoothed, strict=True), start=1)]
+    note = (f"Rauch-Tung-Striebel smoothing of the last {len(smoothed)} filter states "
+            "(post-processing, not in the 1993 program).")
+    return TableScreen("Kalman ▸ Smoothing", note, SMOOTH_COLUMNS, rows,
+                       hardcopy_name="Smoothing")

@@ -13,7 +13,7 @@ from collections import deque
 from dataclasses import dataclass
 from datetime import datetime
 
-from engine.io.formatting import format_time_z
+from engine.api import format_time_z
 
 LOG_LIMIT = 50_000
 """Entries kept in memory (the oldest go first, counted in :attr:`MessageLog.dropped`); the

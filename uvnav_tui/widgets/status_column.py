@@ -6,16 +6,16 @@ import math
 
 from textual.widgets import Static
 
-from engine.io.formatting import (
+from engine.api import (
     PLACEHOLDER,
+    CycleResult,
+    RunConfig,
     format_angle_deg,
     format_lat_dm,
     format_lon_dm,
     format_metres,
     format_time_z,
 )
-from engine.run.config import RunConfig
-from engine.run.cycle import CycleResult
 
 
 def status_lines(r: CycleResult | None, cfg: RunConfig, bad_records: int = 0) -> list[str]:

@@ -16,7 +16,7 @@ from textual.suggester import Suggester
 from textual.widget import Widget
 from textual.widgets import Input, Label, Static
 
-from engine.errors import InputError
+from engine.api import InputError
 
 Parser = Callable[[str], Any]
 

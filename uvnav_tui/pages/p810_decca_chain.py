@@ -13,11 +13,9 @@ expansion factor and the LOP azimuth (rad)::
 
 from __future__ import annotations
 
-from engine.io.formatting import format_lat_dms, format_lon_dms
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
+from engine.api import CycleResult, Session, format_lat_dms, format_lon_dms
 from uvnav_tui.pages.page_text import TextPage, num
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 810
 TITLE = "Decca chain data :"
@@ -69,4 +67,4 @@ class DeccaDataPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, DeccaDataPage)
+register_page(PAGE_NUMBER, "Decca chain data", DeccaDataPage)

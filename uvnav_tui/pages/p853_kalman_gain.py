@@ -5,11 +5,9 @@ engine keeps S = H P Hᵀ + R on Pg 850, not its parts).
 
 from __future__ import annotations
 
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
-from uvnav_tui.pages.page_650 import state_labels
-from uvnav_tui.pages.page_text import TextPage, matrix_lines
-from uvnav_tui.pages.pages import register_page
+from engine.api import CycleResult, Session
+from uvnav_tui.pages.page_text import TextPage, matrix_lines, state_labels
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 853
 TITLE = "Kalman filter data : gain K, H, R"
@@ -42,4 +40,4 @@ class KalmanGainPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, KalmanGainPage)
+register_page(PAGE_NUMBER, "Kalman gain, H and R", KalmanGainPage)

@@ -10,19 +10,19 @@ the engine uses.  Editing is the console's Demo-menu dialogs' business, not this
 
 from __future__ import annotations
 
-from engine.run.config import (
+from engine.api import (
     CorrectionsConfig,
+    CycleResult,
     DemoConfig,
     FilterConfig,
     Key,
     LsqConfig,
     RunConfig,
+    Session,
     decca_cf_condition,
 )
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
-from uvnav_tui.pages.page_642 import ThrottledTextPage
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
+from uvnav_tui.pages.throttled_page import ThrottledTextPage
 
 PAGE_NUMBER = 710
 
@@ -168,4 +168,4 @@ class DemoPage(ThrottledTextPage):
                                width, height)
 
 
-register_page(PAGE_NUMBER, DemoPage)
+register_page(PAGE_NUMBER, "Demo parameters", DemoPage)

@@ -9,17 +9,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
-from uvnav_tui.pages.page_650 import state_labels
+from engine.api import CycleResult, Session
 from uvnav_tui.pages.page_text import (
     TextPage,
     compact_matrix_lines,
     corr_text,
     correlation,
     num,
+    state_labels,
 )
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 851
 TITLE = "Kalman filter data : P(k|k) as correlations"
@@ -53,4 +52,4 @@ class KalmanCovariancePage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, KalmanCovariancePage)
+register_page(PAGE_NUMBER, "Kalman P as correlations", KalmanCovariancePage)

@@ -15,14 +15,18 @@ import math
 
 import numpy as np
 
-from engine.filter.kalman import STATE_LABELS, FilterState, UpdateResult
-from engine.io.formatting import format_lat_dms, format_lon_dms
-from engine.lsq.confidence import error_ellipsoid
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
-from engine.systems.sensors import KNOT_MS
-from uvnav_tui.pages.page_text import TextPage, conf_level, num, pct, up_cov3
-from uvnav_tui.pages.pages import register_page
+from engine.api import (
+    KNOT_MS,
+    CycleResult,
+    FilterState,
+    Session,
+    UpdateResult,
+    error_ellipsoid,
+    format_lat_dms,
+    format_lon_dms,
+)
+from uvnav_tui.pages.page_text import TextPage, conf_level, num, pct, state_labels, up_cov3
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 650
 TITLE = "Kalman filter statistics :"
@@ -30,11 +34,6 @@ SPEEDS = frozenset({"v", "v_cx", "v_cy", "dv"})
 ANGLES = frozenset({"psi", "eps", "dpsi", "deps"})
 VERDICTS = {"accept": "accept", "monitor": "MONITOR", "reject": "REJECT",
             "too small": "too small (Q/R pessimistic?)", "none": "no test"}
-
-
-def state_labels(fs: FilterState) -> list[str]:
-    """Labels of every state: the 11 navigation states, then the fix-error states."""
-    return list(STATE_LABELS) + list(fs.fix_states)
 
 
 def value_text(label: str, value: float, signed: bool = True) -> str:
@@ -125,4 +124,4 @@ class KalmanStatisticsPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, KalmanStatisticsPage)
+register_page(PAGE_NUMBER, "Kalman filter statistics", KalmanStatisticsPage)

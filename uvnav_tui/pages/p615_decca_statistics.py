@@ -13,12 +13,9 @@ a priori VCV of the three Decca LOPs (m²) for the ``Decca.CF`` condition, "(SD)
 
 from __future__ import annotations
 
-from engine.lsq.fix import SLOT_DECCA
-from engine.run.config import decca_cf_condition
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
+from engine.api import SLOT_DECCA, CycleResult, Session, decca_cf_condition
 from uvnav_tui.pages.page_text import TextPage, labelled_matrix, num
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 615
 TITLE = "Decca statistical data :"
@@ -69,4 +66,4 @@ class DeccaStatisticsPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, DeccaStatisticsPage)
+register_page(PAGE_NUMBER, "Decca statistics", DeccaStatisticsPage)

@@ -18,12 +18,9 @@ from __future__ import annotations
 
 import math
 
-from engine.lsq.fix import LopRow
-from engine.lsq.quality import REJECT_BOUND, w_critical
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
+from engine.api import REJECT_BOUND, CycleResult, LopRow, Session, w_critical
 from uvnav_tui.pages.page_text import SLOT_NAMES, TextPage, num
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 633
 TITLE = "LS residuals and tests :"
@@ -90,4 +87,4 @@ class LsTestsPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, LsTestsPage)
+register_page(PAGE_NUMBER, "LS residuals and tests", LsTestsPage)

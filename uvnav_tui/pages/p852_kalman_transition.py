@@ -5,11 +5,9 @@ prediction, Φ).  Entries are compact (``0``, ``1``, ``-.766``, ``4.17``) so the
 
 from __future__ import annotations
 
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
-from uvnav_tui.pages.page_650 import state_labels
-from uvnav_tui.pages.page_text import TextPage, compact_matrix_lines, num
-from uvnav_tui.pages.pages import register_page
+from engine.api import CycleResult, Session
+from uvnav_tui.pages.page_text import TextPage, compact_matrix_lines, num, state_labels
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 852
 TITLE = "Kalman filter data : transition matrix Φ"
@@ -35,4 +33,4 @@ class KalmanTransitionPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, KalmanTransitionPage)
+register_page(PAGE_NUMBER, "Kalman transition matrix", KalmanTransitionPage)

@@ -17,13 +17,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.filter.kalman import FilterState
-from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
-from engine.run.cycle import CycleResult
-from engine.run.records import lse_estimate
-from engine.run.session import Session
+from engine.api import (
+    CycleResult,
+    Ellipse,
+    Ellipsoid3,
+    FilterState,
+    Session,
+    error_ellipsoid,
+    lse_estimate,
+)
 from uvnav_tui.pages.page_text import TextPage, conf_level, ellipse_block, up_cov3
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 840
 TITLE = "Error ellipses and ellipsoids :"
@@ -71,4 +75,4 @@ class EllipsoidPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, EllipsoidPage)
+register_page(PAGE_NUMBER, "Ellipsoid", EllipsoidPage)

@@ -16,13 +16,17 @@ the operator's corrections (C-O) and the a priori VCV of the two GPS LOPs (m²):
 
 from __future__ import annotations
 
-from engine.io.formatting import format_lat_dms, format_lon_dms
-from engine.lsq.fix import SLOT_GPS_LAT, SLOT_GPS_LON
-from engine.run.cycle import CycleResult
-from engine.run.records import lse_estimate
-from engine.run.session import Session
+from engine.api import (
+    SLOT_GPS_LAT,
+    SLOT_GPS_LON,
+    CycleResult,
+    Session,
+    format_lat_dms,
+    format_lon_dms,
+    lse_estimate,
+)
 from uvnav_tui.pages.page_text import TextPage, labelled_matrix, num
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 611
 TITLE = "GPS statistical data :"
@@ -77,4 +81,4 @@ class GpsStatisticsPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, GpsStatisticsPage)
+register_page(PAGE_NUMBER, "GPS statistics", GpsStatisticsPage)

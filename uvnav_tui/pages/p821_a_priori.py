@@ -14,9 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.lsq.fix import SLOT_BRR0
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
+from engine.api import SLOT_BRR0, CycleResult, Session
 from uvnav_tui.pages.page_text import (
     SLOT_NAMES,
     TextPage,
@@ -25,7 +23,7 @@ from uvnav_tui.pages.page_text import (
     no_adjustment_text,
     num,
 )
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 821
 TITLE = "A-priori data :"
@@ -72,4 +70,4 @@ class APrioriPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, APrioriPage)
+register_page(PAGE_NUMBER, "A-prio: design matrix and a-priori VCV", APrioriPage)

@@ -17,20 +17,21 @@ datum, projection and CM, the LS MPP (the LSE) and its ``ConfRegion`` ellipse::
 
 from __future__ import annotations
 
-from engine.io.formatting import (
+from engine.api import (
+    CycleResult,
+    FixResult,
+    LopRow,
+    Session,
     format_angle_deg,
     format_lat_dm,
     format_lat_dms,
     format_lon_dm,
     format_lon_dms,
     format_metres,
+    lse_estimate,
 )
-from engine.lsq.fix import FixResult, LopRow
-from engine.run.cycle import CycleResult
-from engine.run.records import lse_estimate
-from engine.run.session import Session
 from uvnav_tui.pages.page_text import MISSING, TextPage, conf_axes, conf_level, num
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 631
 TITLE = "LOP table :"
@@ -119,4 +120,4 @@ class LopTablePage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, LopTablePage)
+register_page(PAGE_NUMBER, "LOP table", LopTablePage)

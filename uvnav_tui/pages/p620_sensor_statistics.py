@@ -11,29 +11,27 @@ from __future__ import annotations
 
 import math
 
-from engine.errors import InputError
-from engine.filter.kalman import IDEPS, IDPSI, IDV, FilterState, sensor_measurement
-from engine.io.formatting import format_angle_deg, format_speed_kn
-from engine.io.runfile import RunRecord, parse_run_line
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
-from engine.systems.sensors import knots_to_ms
+from engine.api import (
+    IDEPS,
+    IDPSI,
+    IDV,
+    CycleResult,
+    FilterState,
+    Session,
+    format_angle_deg,
+    format_speed_kn,
+    knots_to_ms,
+    run_record,
+    sensor_measurement,
+)
 from uvnav_tui.pages.page_text import MISSING, TextPage, num
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 620
 TITLE = "Sensor statistics :"
 STATUS = {0: "off", 1: "on", 2: "n/a"}
 HEADER = ("Sensor".ljust(8) + "Stat".ljust(5) + "Raw".ljust(13) + "Converted".ljust(15)
           + "σ".ljust(11) + "KF syst. error".ljust(16) + "   √P")
-
-
-def raw_record(r: CycleResult) -> RunRecord | None:
-    """The cycle's ``.RUN`` record parsed again (None if it cannot be)."""
-    try:
-        return parse_run_line(r.raw, r.record)
-    except (InputError, ValueError, IndexError):
-        return None
 
 
 def sensor_sigmas(r: CycleResult, session: Session) -> dict[str, float]:
@@ -77,7 +75,7 @@ def _line(name: str, status: int, raw: str, conv: str, sigma: str, syst: str,
 def render(r: CycleResult, session: Session) -> str:
     """The text of Pg 620 for cycle ``r``."""
     s = r.sensors
-    rec = raw_record(r)
+    rec = run_record(r)
     fs = r.filter_state
     sig = sensor_sigmas(r, session)
     st = s.status
@@ -134,4 +132,4 @@ class SensorStatisticsPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, SensorStatisticsPage)
+register_page(PAGE_NUMBER, "Sensor statistics", SensorStatisticsPage)

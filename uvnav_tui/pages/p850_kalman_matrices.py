@@ -10,11 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
-from uvnav_tui.pages.page_650 import state_labels
-from uvnav_tui.pages.page_text import TextPage, matrix_lines, num
-from uvnav_tui.pages.pages import register_page
+from engine.api import CycleResult, Session
+from uvnav_tui.pages.page_text import TextPage, matrix_lines, num, state_labels
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 850
 TITLE = "Kalman filter data : state and innovation"
@@ -57,4 +55,4 @@ class KalmanDataPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, KalmanDataPage)
+register_page(PAGE_NUMBER, "Kalman matrices", KalmanDataPage)

@@ -10,8 +10,7 @@ page; unused slots have weight 0::
 
 from __future__ import annotations
 
-from engine.run.cycle import CycleResult
-from engine.run.session import Session
+from engine.api import CycleResult, Session
 from uvnav_tui.pages.page_text import (
     SLOT_NAMES,
     TextPage,
@@ -19,7 +18,7 @@ from uvnav_tui.pages.page_text import (
     matrix_lines,
     no_adjustment_text,
 )
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 830
 TITLE = "Weight matrix W = Cl⁻¹ :"
@@ -50,4 +49,4 @@ class WeightsPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, WeightsPage)
+register_page(PAGE_NUMBER, "Weights", WeightsPage)

@@ -19,12 +19,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.io.formatting import format_lat_dms, format_lon_dms
-from engine.run.cycle import CycleResult, PositionEstimate
-from engine.run.records import lse_estimate
-from engine.run.session import Session
+from engine.api import (
+    CycleResult,
+    PositionEstimate,
+    Session,
+    format_lat_dms,
+    format_lon_dms,
+    lse_estimate,
+)
 from uvnav_tui.pages.page_text import MISSING, TextPage, conf_level, labelled_matrix, num, pct
-from uvnav_tui.pages.pages import register_page
+from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 641
 TITLE = "Positions :"
@@ -84,4 +88,4 @@ class PositionsPage(TextPage):
     TITLE = TITLE
 
 
-register_page(PAGE_NUMBER, PositionsPage)
+register_page(PAGE_NUMBER, "Positions", PositionsPage)

@@ -21,14 +21,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
-from engine.filter.poe import drms, poe_states
-from engine.io.formatting import format_time_z
-from engine.run.config import RunConfig
-from engine.run.cycle import CycleResult
-from engine.run.records import lse_estimate
-from engine.run.session import Session
-from uvnav_tui.pages.page_642 import ThrottledTextPage, history_upto, snapshot
-from uvnav_tui.pages.pages import register_page
+from engine.api import (
+    CycleResult,
+    RunConfig,
+    Session,
+    drms,
+    format_time_z,
+    lse_estimate,
+    poe_states,
+)
+from uvnav_tui.pages.registry import register_page
+from uvnav_tui.pages.throttled_page import ThrottledTextPage, history_upto, snapshot
 from uvnav_tui.widgets.canvas import DASHED, Series, chart_lines, nice_step
 
 PAGE_NUMBER = 643
@@ -189,4 +192,4 @@ class HistoryPage(ThrottledTextPage):
                                   self._cache)
 
 
-register_page(PAGE_NUMBER, HistoryPage)
+register_page(PAGE_NUMBER, "History", HistoryPage)

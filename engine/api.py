@@ -1,0 +1,256 @@
+"""The engine's public face: everything the console (``uvnav_tui``) may use, in one module.
+
+The user interface imports from here and nowhere else in ``engine`` (checked by
+``tests/tui/test_ui_layers.py``), so the engine's rooms (``io``, ``geodesy``, ``systems``,
+``lsq``, ``filter``, ``run``, ``sim``, ``assess``) can be rearranged without touching the UI:
+only the import lines below follow a move.
+
+Groups, in the order of a run:
+
+* errors: :class:`InputError` (a located input error) and :func:`read_error`;
+* data files and configuration: :class:`RunConfig` and its tables, the datum and Decca chain
+  files, :func:`load_config`, :func:`load_run_config`, :func:`load_data`;
+* the run: :class:`Session` (one run: ``step``, ``apply``, ``predict``, ``smooth``), the
+  operator commands (``Set…``, :class:`AddObservation`), :class:`CycleResult` and the views of
+  it that pages show (fix, filter state, confidence regions, Pool of Errors);
+* operator input parsing and display formatting (both engine rules: the ``.OUT`` and the
+  console must agree);
+* headless work: replay outputs, the simulator and the accuracy assessment.
+
+Two small functions are defined here rather than re-exported: :func:`pace_factor` (the demo
+table's rule for a pace word) and :func:`run_record` (a cycle's ``.RUN`` record, parsed by the
+run-file reader).
+"""
+
+from __future__ import annotations
+
+from engine.assess.accuracy import (
+    ESTIMATOR_LABELS,
+    ESTIMATORS,
+    PHASES,
+    Assessment,
+    assess,
+    read_nav_log,
+    read_truth,
+)
+from engine.errors import InputError, read_error
+from engine.filter.kalman import (
+    IDEPS,
+    IDPSI,
+    IDV,
+    STATE_LABELS,
+    FilterState,
+    UpdateResult,
+    sensor_measurement,
+)
+from engine.filter.poe import PoeSample, drms, poe_states
+from engine.geodesy.ellipsoid import Ellipsoid
+from engine.io.datumfile import DatumFile, read_datum_file
+from engine.io.deccafile import DeccaChain
+from engine.io.formatting import (
+    PLACEHOLDER,
+    format_angle_deg,
+    format_dms_input,
+    format_lat_dm,
+    format_lat_dms,
+    format_lon_dm,
+    format_lon_dms,
+    format_metres,
+    format_speed_kn,
+    format_stat,
+    format_time_z,
+    format_zone_lane,
+)
+from engine.io.operator_input import (
+    ZONE_LETTERS,
+    parse_bearing_deg,
+    parse_datum_name,
+    parse_depth_m,
+    parse_direction_deg,
+    parse_distance_nm,
+    parse_position,
+    parse_run_name,
+    parse_speed_kn,
+    parse_zone_lane,
+)
+from engine.io.outputs import EXISTS_MESSAGE, OutputFile, OutputGuard, remove_created
+from engine.io.runfile import RunRecord, parse_run_line
+from engine.io.tomlsource import FILE_NOT_FOUND_MESSAGE, read_text
+from engine.lsq.adjustment import Adjustment
+from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
+from engine.lsq.fix import (
+    MAX_BRR,
+    SLOT_BRR0,
+    SLOT_DECCA,
+    SLOT_GPS_LAT,
+    SLOT_GPS_LON,
+    FixResult,
+    LopRow,
+    ManualObservation,
+    lop_name,
+)
+from engine.lsq.quality import REJECT_BOUND, w_critical
+from engine.run.commands import (
+    AddObservation,
+    Command,
+    SetCurrent,
+    SetDatum,
+    SetDecca,
+    SetDRPosition,
+    SetFiltering,
+    SetGps,
+    SetParameters,
+    SetSensor,
+)
+from engine.run.config import (
+    DECCA_CF_CONDITIONS,
+    CorrectionsConfig,
+    DeccaConfig,
+    DemoConfig,
+    FilterConfig,
+    GpsConfig,
+    Key,
+    LsqConfig,
+    RunConfig,
+    SensorsConfig,
+    decca_cf_condition,
+    load_config,
+    parse_decca_cf,
+)
+from engine.run.cycle import CycleResult, PositionEstimate, RunContext
+from engine.run.records import lse_estimate, position_json
+from engine.run.session import RunSummary, Session, load_data, load_run_config, run_inputs
+from engine.sim.scenario import load_scenario
+from engine.sim.simulate import read_data_files, write_simulation
+from engine.systems.sensors import KNOT_MS, knots_to_ms
+
+__all__ = [
+    # errors
+    "InputError",
+    "read_error",
+    # data files and configuration
+    "DECCA_CF_CONDITIONS",
+    "FILE_NOT_FOUND_MESSAGE",
+    "CorrectionsConfig",
+    "DatumFile",
+    "DeccaChain",
+    "DeccaConfig",
+    "DemoConfig",
+    "FilterConfig",
+    "GpsConfig",
+    "Key",
+    "LsqConfig",
+    "RunConfig",
+    "SensorsConfig",
+    "decca_cf_condition",
+    "load_config",
+    "load_data",
+    "load_run_config",
+    "pace_factor",
+    "parse_decca_cf",
+    "read_datum_file",
+    "read_text",
+    # the run and its commands
+    "AddObservation",
+    "Command",
+    "CycleResult",
+    "PositionEstimate",
+    "RunContext",
+    "RunRecord",
+    "Session",
+    "SetCurrent",
+    "SetDRPosition",
+    "SetDatum",
+    "SetDecca",
+    "SetFiltering",
+    "SetGps",
+    "SetParameters",
+    "SetSensor",
+    "lse_estimate",
+    "run_record",
+    # views of a cycle: fix, statistics, filter, confidence regions, Pool of Errors
+    "IDEPS",
+    "IDPSI",
+    "IDV",
+    "KNOT_MS",
+    "MAX_BRR",
+    "REJECT_BOUND",
+    "SLOT_BRR0",
+    "SLOT_DECCA",
+    "SLOT_GPS_LAT",
+    "SLOT_GPS_LON",
+    "STATE_LABELS",
+    "Adjustment",
+    "Ellipse",
+    "Ellipsoid3",
+    "FilterState",
+    "FixResult",
+    "LopRow",
+    "ManualObservation",
+    "PoeSample",
+    "UpdateResult",
+    "drms",
+    "error_ellipsoid",
+    "knots_to_ms",
+    "lop_name",
+    "poe_states",
+    "sensor_measurement",
+    "w_critical",
+    # operator input and display formatting
+    "PLACEHOLDER",
+    "ZONE_LETTERS",
+    "format_angle_deg",
+    "format_dms_input",
+    "format_lat_dm",
+    "format_lat_dms",
+    "format_lon_dm",
+    "format_lon_dms",
+    "format_metres",
+    "format_speed_kn",
+    "format_stat",
+    "format_time_z",
+    "format_zone_lane",
+    "parse_bearing_deg",
+    "parse_datum_name",
+    "parse_depth_m",
+    "parse_direction_deg",
+    "parse_distance_nm",
+    "parse_position",
+    "parse_run_name",
+    "parse_speed_kn",
+    "parse_zone_lane",
+    # headless work: replay outputs, simulation, assessment
+    "ESTIMATORS",
+    "ESTIMATOR_LABELS",
+    "EXISTS_MESSAGE",
+    "PHASES",
+    "Assessment",
+    "Ellipsoid",
+    "OutputFile",
+    "OutputGuard",
+    "RunSummary",
+    "assess",
+    "load_scenario",
+    "position_json",
+    "read_data_files",
+    "read_nav_log",
+    "read_truth",
+    "remove_created",
+    "run_inputs",
+    "write_simulation",
+]
+
+
+def pace_factor(pace: str) -> float:
+    """Playback speed relative to real time for a pace word: 1 for ``real``, inf for ``fast``,
+    N for ``xN`` (the rule of the demo table, :attr:`DemoConfig.pace_factor`)."""
+    return DemoConfig(pace=pace).pace_factor
+
+
+def run_record(r: CycleResult) -> RunRecord | None:
+    """The ``.RUN`` record of cycle ``r`` as the run-file reader parses it (raw sensor values
+    before conversion); None if the line cannot be parsed."""
+    try:
+        return parse_run_line(r.raw, r.record)
+    except (InputError, ValueError, IndexError):
+        return None

@@ -1,0 +1,399 @@
+"""What the console does for each menu action: one method per action id of
+:data:`uvnav_tui.menus.MENU_BAR` (the registry), each opening its dialog and sending the
+dialog's answer to the engine as an operator command.
+
+Also here: the LOP-rejection question a cycle may raise (``LOPReject = 'A'``) and the hardcopy
+of the current page.  No widgets are built here but the dialogs and tables pushed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
+from pathlib import Path
+from typing import Any, cast
+
+from textual.app import App
+from textual.screen import Screen
+
+from engine.api import (
+    MAX_BRR,
+    AddObservation,
+    Command,
+    CycleResult,
+    InputError,
+    PositionEstimate,
+    RunConfig,
+    SetCurrent,
+    SetDatum,
+    SetDRPosition,
+    SetFiltering,
+    SetParameters,
+    SetSensor,
+    format_dms_input,
+    lop_name,
+)
+from uvnav_tui.dialogs.confirm_dialog import ConfirmDialog
+from uvnav_tui.dialogs.current_dialog import CurrentDialog
+from uvnav_tui.dialogs.datum_dialog import DatumDialog
+from uvnav_tui.dialogs.decca_dialog import DeccaDialog
+from uvnav_tui.dialogs.filtering_dialog import FilteringDialog
+from uvnav_tui.dialogs.gps_dialog import GpsDialog
+from uvnav_tui.dialogs.init_dialog import InitDialog
+from uvnav_tui.dialogs.obs_dialog import ObsDialog
+from uvnav_tui.dialogs.parameters_dialog import ParametersDialog
+from uvnav_tui.dialogs.position_dialog import PositionDialog
+from uvnav_tui.dialogs.predict_dialog import PredictDialog
+from uvnav_tui.dialogs.sensors_dialog import SensorsDialog
+from uvnav_tui.hardcopy import write_hardcopy
+from uvnav_tui.host import ConsoleHost
+from uvnav_tui.menus import ACTIONS
+from uvnav_tui.pages.registry import DEV_PAGES_FROM
+from uvnav_tui.run_control import RunController
+from uvnav_tui.screens.message_screen import MessageScreen
+from uvnav_tui.screens.table_screen import TableScreen, predict_table, smoothing_table
+
+NOT_CONNECTED = "System not connected !"
+NO_RUN = "No run: Run ▸ Start opens Parameter Initialization"
+
+
+class MenuActions:
+    """The handlers of the menu actions, for one console (``host``)."""
+
+    def __init__(self, host: ConsoleHost) -> None:
+        self.host = host
+        self._lop_excluded: tuple[int, ...] = ()
+
+    def run(self, action: str) -> None:
+        """Run the action ``action`` (``page:nnn`` shows a page); refused without a run if the
+        registry says it needs one."""
+        host = self.host
+        if action.startswith("page:"):
+            host.show_page(int(action.split(":", 1)[1]))
+            return
+        item = ACTIONS.get(action)
+        handler: Callable[[], None] | None = getattr(self, action, None) if item else None
+        if handler is None:
+            host.say(f"Unknown menu action {action}")
+        elif item is not None and item.needs_run and host.control is None:
+            host.say(NO_RUN)
+        else:
+            handler()
+
+    def apply(self, *commands: Command, suffix: Callable[[], str] | None = None) -> bool:
+        """Send operator commands to the engine; shows the log text (or the error), followed by
+        ``suffix()`` if given (one message, not two)."""
+        run = self.host.control
+        if run is None:
+            return False
+        texts = []
+        try:
+            for cmd in commands:
+                texts.append(run.apply(cmd))
+        except (InputError, ValueError) as exc:
+            self.host.say(exc.message if isinstance(exc, InputError) else str(exc))
+            return False
+        self.host.say("; ".join(texts) + (suffix() if suffix is not None else ""))
+        return True
+
+    def parameter_initialization(self) -> None:
+        """Parameter Initialization, pre-filled from the start-up configuration; a run starts
+        when it is accepted."""
+        host = self.host
+
+        def closed(cfg: RunConfig | None) -> None:
+            if cfg is None and host.control is None:
+                host.say(NO_RUN)
+
+        host.push_screen(InitDialog(host.base_config, host.datum_names, host.start_run),
+                         callback=closed)
+
+    def set_dev_mode(self, on: bool) -> None:
+        """Show or hide the developer items (A4); a developer page shown gives way to Pg 100."""
+        host = self.host
+        host.dev_mode = on
+        if not on and host.page >= DEV_PAGES_FROM:
+            host.show_page(100)
+        host.say("Developer menus on" if on else "Navigator menus")
+
+    @property
+    def _run(self) -> RunController:
+        """The run (the registry guarantees one for the actions that need it)."""
+        assert self.host.control is not None
+        return self.host.control
+
+    def _push(self, dialog: Screen[Any]) -> None:
+        """Push a dialog whose answer (if any) is an operator command to apply."""
+        self.host.push_screen(dialog,
+                              callback=lambda cmd: cmd is not None and self.apply(cmd))
+
+    # ------------------------------------------------------------------ Quit, Edit
+    def quit(self) -> None:
+        """Quit ▸ Quit, Ctrl+Q: leave after confirmation (thesis L5458)."""
+        def answered(yes: bool | None) -> None:
+            if yes:
+                self.host.stop_run()
+                self.host.exit()
+
+        self.host.push_screen(ConfirmDialog("Quit", "Leave UVNAV?"), callback=answered)
+
+    def hardcopy(self) -> None:
+        """Edit ▸ Hardcopy, once the screen is painted."""
+        self.host.call_after_refresh(self.write_hardcopy)
+
+    def write_hardcopy(self) -> tuple[Path, Path] | None:
+        """SVG and text of the current page (or table) into the hardcopy directory."""
+        host = self.host
+        run = host.control
+        r = run.latest if run is not None else None
+        name = Path(host.config.run_file).stem
+        when = r.time.strftime("%H%M%S") if r is not None else "000000"
+        try:
+            what = (host.screen.hardcopy_name if isinstance(host.screen, TableScreen)
+                    else host.page)
+            paths = write_hardcopy(cast(App[object], host), host.hardcopy_dir, name, when, what)
+        except OSError as exc:
+            host.say(f"Hardcopy failed: {exc.strerror or exc}")
+            return None
+        host.hardcopies.append(paths)
+        host.say(f"Hardcopy {paths[0].name} (+ .txt) in {host.hardcopy_dir}")
+        return paths
+
+    # ------------------------------------------------------------------ Setup
+    def datum(self) -> None:
+        """Setup ▸ Params ▸ Datum."""
+        host = self.host
+        host.push_screen(DatumDialog(host.datum_names, host.config.datum),
+                         callback=lambda name: name is not None and self.apply(SetDatum(name)))
+
+    def dr_pos(self) -> None:
+        """Setup ▸ Params ▸ DR Pos."""
+        nav = self._run.session.nav
+        current = format_dms_input(nav.mpp_lat_deg, nav.mpp_lon_deg)
+        self.host.push_screen(PositionDialog(current), callback=lambda pos: pos is not None
+                              and self.apply(SetDRPosition(*pos)))
+
+    def current(self) -> None:
+        """Setup ▸ Params ▸ Current."""
+        cfg = self.host.config
+        self.host.push_screen(CurrentDialog(cfg.current_set_deg, cfg.current_speed_kn),
+                              callback=lambda v: v is not None and self.apply(SetCurrent(*v)))
+
+    def develop(self) -> None:
+        """Setup ▸ Params ▸ Develop."""
+        self.set_dev_mode(True)
+
+    def reset(self) -> None:
+        """Setup ▸ Params ▸ Reset."""
+        self.set_dev_mode(False)
+
+    def gps(self) -> None:
+        """Setup ▸ Systems ▸ GPS."""
+        self._push(GpsDialog(self.host.config.gps))
+
+    def decca(self) -> None:
+        """Setup ▸ Systems ▸ Decca."""
+        self._push(DeccaDialog(self.host.config.decca, list(self.host.data[1])))
+
+    def sins(self) -> None:
+        """Setup ▸ Systems ▸ SINS (not connected)."""
+        self.host.say(f"SINS: {NOT_CONNECTED}")
+
+    def omega(self) -> None:
+        """Setup ▸ Systems ▸ Omega (not connected)."""
+        self.host.say(f"Omega: {NOT_CONNECTED}")
+
+    def loran(self) -> None:
+        """Setup ▸ Systems ▸ Loran-C (not connected)."""
+        self.host.say(f"Loran-C: {NOT_CONNECTED}")
+
+    def sensors(self) -> None:
+        """Setup ▸ Sensors: the changed sensors, one command each."""
+        def done(cmds: tuple[SetSensor, ...] | None) -> None:
+            if cmds:
+                self.apply(*cmds)
+
+        self.host.push_screen(SensorsDialog(self.host.config.sensors), callback=done)
+
+    # ------------------------------------------------------------------ Obs
+    def obs_bearing(self) -> None:
+        """Obs ▸ Bearing."""
+        self._obs("bearing")
+
+    def obs_distance(self) -> None:
+        """Obs ▸ Distance."""
+        self._obs("distance")
+
+    def obs_radar(self) -> None:
+        """Obs ▸ Radar."""
+        self._obs("radar")
+
+    def _obs(self, kind: str) -> None:
+        """A manual observation for the next cycle; says how many are pending."""
+        def pending() -> str:
+            run = self.host.control
+            n = len(run.session.nav.pending_obs) if run is not None else 0
+            return f" — {n} observation(s) for the next cycle (at most {MAX_BRR})"
+
+        def done(cmd: AddObservation | None) -> None:
+            if cmd is not None:
+                self.apply(cmd, suffix=pending)
+
+        self.host.push_screen(ObsDialog(kind, self.host.config.lsq), callback=done)
+
+    # ------------------------------------------------------------------ Kalman
+    def filtering(self) -> None:
+        """Kalman ▸ Filtering."""
+        self.host.push_screen(FilteringDialog(self.host.config.filter.on), callback=lambda on:
+                              on is not None and self.apply(SetFiltering(on)))
+
+    def predict(self) -> None:
+        """Kalman ▸ Predict.: the interval and step, then the table."""
+        self.host.push_screen(PredictDialog(), callback=self._predicted)
+
+    def _predicted(self, value: tuple[float, float] | None) -> None:
+        run = self.host.control
+        if value is None or run is None:
+            return
+        horizon, step = value
+        with run.lock:
+            estimates = run.session.predict(horizon, step)
+            last = run.latest
+        if not estimates or last is None:
+            self.host.say("No filter state to predict from")
+            return
+        self.host.push_screen(predict_table(estimates, last.time, horizon, step,
+                                            self.host.config.lsq.conf_region_pct))
+
+    def smoothing(self) -> None:
+        """Kalman ▸ Smoothing, computed in a worker thread."""
+        self.host.say("Smoothing …")
+        self.host.run_worker(partial(self._smooth_worker, self._run), thread=True,
+                             group="smooth", exit_on_error=False)
+
+    def _smooth_worker(self, run: RunController) -> None:
+        with run.lock:
+            smoothed = run.session.smooth()
+            history = list(run.session.history)
+        self.host.call_from_thread(self._show_smoothed, smoothed, history)
+
+    def _show_smoothed(self, smoothed: list[PositionEstimate],
+                       history: list[CycleResult]) -> None:
+        if not smoothed:
+            self.host.say("Smoothing: nothing to smooth yet (no filter states collected)")
+            return
+        table = smoothing_table(smoothed, history, self.host.config.lsq.conf_region_pct)
+        self.host.say("")
+        self.host.push_screen(table)
+
+    # ------------------------------------------------------------------ Statistics, Demo
+    def messages(self) -> None:
+        """Statistics ▸ Messages, F2: the message log."""
+        self.host.push_screen(MessageScreen(self.host.message_log))
+
+    def demo_params(self) -> None:
+        """Demo ▸ Parameters."""
+        self._params("demo")
+
+    def demo_corrections(self) -> None:
+        """Demo ▸ Corrections."""
+        self._params("corrections")
+
+    def demo_lsq(self) -> None:
+        """Demo ▸ LS params."""
+        self._params("lsq")
+
+    def demo_filter(self) -> None:
+        """Demo ▸ Filter params."""
+        self._params("filter")
+
+    def _params(self, table: str) -> None:
+        def done(cmd: SetParameters | None) -> None:
+            if cmd is not None and cmd.values:
+                self.apply(cmd)
+
+        self.host.push_screen(ParametersDialog(table, getattr(self.host.config, table)),
+                              callback=done)
+
+    # ------------------------------------------------------------------ Run
+    def run_suspend(self) -> None:
+        """Run ▸ Suspend: freeze after the last cycle."""
+        run = self.host.control
+        if run is None:
+            return
+        if run.suspended:
+            self.host.say("The run is already suspended: Run ▸ Continue resumes it")
+            return
+        run.suspended = True
+        self.host.refresh_display()
+
+    def run_continue(self) -> None:
+        """Run ▸ Continue: leave the suspended state (not past the end of the data)."""
+        run = self.host.control
+        if run is None:
+            return
+        if run.eof:
+            self.host.say("End of data file: Run ▸ Start begins a new run")
+            return
+        if not run.suspended:
+            self.host.say("The run is already working (Run ▸ Suspend freezes it)")
+            return
+        run.suspended = False
+        run.note = ""
+        self.host.refresh_display()
+        self.host.kick()
+
+    def run_start(self) -> None:
+        """Run ▸ Start: a new run from Parameter Initialization (after confirmation)."""
+        host = self.host
+
+        def answered(yes: bool | None) -> None:
+            if yes:
+                host.stop_run()
+                host.dev_mode = host.launch_dev_mode
+                host.show_page(100)
+                self.parameter_initialization()
+
+        host.push_screen(ConfirmDialog("Run ▸ Start",
+                                       "Start a new run? All parameters return to their "
+                                       "defaults."), callback=answered)
+
+    # ------------------------------------------------------------------ LOP rejection
+    def ask_lop(self, result: CycleResult, first: bool = True) -> None:
+        """A cycle flagged an LOP for rejection: ask (or answer by ``lop_policy``) whether to
+        discard it; discarding recomputes the cycle, which may flag the next LOP."""
+        if first:
+            self._lop_excluded = ()
+        host, run, fix = self.host, self.host.control, result.fix
+        if run is None or fix is None or fix.candidate_slot is None:
+            return
+        slot = fix.candidate_slot
+        row = next((lop for lop in fix.lops if lop.slot == slot), None)
+        what = lop_name(slot, system=row.system if row is not None else "GPS",
+                        manual=result.manual)
+        w = f" (w = {row.w:.2f})" if row is not None and row.w == row.w else ""
+        question = f"The w-test rejects LOP {what}{w}.\nDiscard LOP {what}?"
+        if host.lop_policy in ("yes", "no"):
+            self._lop_answer(slot, what, host.lop_policy == "yes")
+            return
+        host.push_screen(ConfirmDialog("LOP rejection", question, default=True),
+                         callback=lambda yes: self._lop_answer(slot, what, bool(yes)))
+
+    def _lop_answer(self, slot: int, what: str, discard: bool) -> None:
+        host, run = self.host, self.host.control
+        if run is None:
+            return
+        if discard:
+            self._lop_excluded = (*self._lop_excluded, slot)
+            result = run.recompute(self._lop_excluded)
+            host.say(f"LOP {what} discarded")
+            if result is not None and result.fix is not None \
+                    and result.fix.candidate_slot is not None:
+                host.refresh_display()
+                self.ask_lop(result, first=False)
+                return
+        else:
+            host.say(f"LOP {what} kept (monitored)")
+        run.awaiting_answer = False
+        host.refresh_display()
+        host.kick()
