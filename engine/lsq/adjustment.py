@@ -16,7 +16,7 @@ from functools import cached_property
 
 import numpy as np
 
-from engine.lsq.quality import (
+from engine.lsq.statistics import (
     SlotStatistics,
     UnitVarianceTest,
     delta0,
@@ -82,7 +82,7 @@ class Adjustment:
     robust iteration (Cl/W are then the damped model), else None.
 
     Per-slot statistics (attributes viewing the rows of ``stats_block``, laid out as in
-    ``quality.used_statistics``): ``sigma_d`` [m], ``w``, ``tau``, ``vf``,
+    ``statistics.used_statistics``): ``sigma_d`` [m], ``w``, ``tau``, ``vf``,
     ``redundancy_numbers``, ``mdb`` [m], ``ext`` (n, u) [m], ``ext_h`` [m]; NaN for unused slots
     and for categories I/II.
 

@@ -21,7 +21,8 @@ from engine.geodesy.ellipsoidal import GeodesicSolver, line_scale_factor, mean_r
 from engine.geodesy.tmgrid import TMGrid
 from engine.lsq.adjustment import Adjustment, Linearisation
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
-from engine.lsq.quality import TestedAdjustment, adjust_with_testing, classify_w
+from engine.lsq.snooping import TestedAdjustment, adjust_with_testing
+from engine.lsq.statistics import classify_w
 from engine.systems.decca import (
     PATTERNS,
     ChainOnGrid,

@@ -54,7 +54,7 @@ from engine.lsq.fix import (
     compute_fix,
     lop_name,
 )
-from engine.lsq.quality import REJECT_BOUND, CumulativeVariance
+from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig
 from engine.systems.decca import (
     PATTERNS,

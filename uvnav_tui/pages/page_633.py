@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 
 from engine.lsq.fix import LopRow
-from engine.lsq.quality import REJECT_BOUND, w_critical
+from engine.lsq.statistics import REJECT_BOUND, w_critical
 from engine.run.cycle import CycleResult
 from engine.run.session import Session
 from uvnav_tui.pages.page_text import SLOT_NAMES, TextPage, num

@@ -1,4 +1,5 @@
-"""Quality control (engine.lsq.quality): w-test, reliability, unit variance, data snooping.
+"""Quality control (engine.lsq.statistics, engine.lsq.snooping): w-test, reliability, unit
+variance, data snooping.
 
 Independent sources: the thesis screens (Pg 633 via lsq.md §12), normal/χ² quantile tables,
 hand calculation of eq. 5.18, exact linear-model identities (5.8d), and seeded Monte Carlo runs
@@ -14,10 +15,10 @@ import numpy as np
 import pytest
 
 from engine.lsq.adjustment import Linearisation, gauss_newton
-from engine.lsq.quality import (
+from engine.lsq.snooping import adjust_with_testing
+from engine.lsq.statistics import (
     REJECT_BOUND,
     CumulativeVariance,
-    adjust_with_testing,
     classify_w,
     delta0,
     unit_variance_test,
