@@ -23,6 +23,9 @@ from typing import Literal
 import numpy as np
 from scipy.linalg import blas, lapack
 
+from engine.geodesy.angles import TWO_PI, wrap_2pi, wrap_pi
+from engine.lsq.statistics import chi2_bounds
+
 __all__ = [
     "N_NAV",
     "STATE_LABELS",
@@ -59,7 +62,6 @@ __all__ = [
     "transition",
     "update",
     "van_loan",
-    "wrap_pi",
 ]
 
 N_NAV = 11
@@ -67,7 +69,6 @@ IX, IY, IZ, IV, IPSI, IEPS, IVCX, IVCY, IDV, IDPSI, IDEPS = range(N_NAV)
 STATE_LABELS: tuple[str, ...] = (
     "x", "y", "z", "v", "psi", "eps", "v_cx", "v_cy", "dv", "dpsi", "deps",
 )
-TWO_PI = 2.0 * math.pi
 DEG = math.pi / 180.0
 
 
@@ -85,15 +86,6 @@ def _eye(k: int) -> np.ndarray:
     return _EYES[k] if k < len(_EYES) else np.eye(k)
 _G8 = _read_only(np.vstack([np.zeros((3, 8)), np.eye(8)]))  # G of 6.1: w drives states 3–10
 
-# χ²_p quantiles at 0.025 and 0.975 (two-sided α = 0.05) for p = 1..20, from scipy.stats.chi2
-# (re-checked in tests/test_kalman.py); other α or p fall back to scipy at call time.
-_CHI2_05: tuple[tuple[float, float], ...] = (
-    (0.000982069, 5.02389), (0.0506356, 7.37776), (0.215795, 9.3484), (0.484419, 11.1433),
-    (0.831212, 12.8325), (1.23734, 14.4494), (1.68987, 16.0128), (2.17973, 17.5345),
-    (2.70039, 19.0228), (3.24697, 20.4832), (3.81575, 21.92), (4.40379, 23.3367),
-    (5.00875, 24.7356), (5.62873, 26.1189), (6.26214, 27.4884), (6.90766, 28.8454),
-    (7.56419, 30.191), (8.23075, 31.5264), (8.90652, 32.8523), (9.59078, 34.1696),
-)
 LS_MONITOR = 1.960  # |t| above this: accept but monitor (thesis L1871–L1879)
 LS_REJECT = 2.576  # |t| above this: reject
 
@@ -157,11 +149,6 @@ def derived_fix_model(gps_on: bool, gps_var_m2: float, decca_on: bool,
     if not taus:
         return FIX_TAU_GPS_CA_S, top
     return max(taus), min(fracs)
-
-
-def wrap_pi(a: float | np.ndarray) -> float | np.ndarray:
-    """Wrap an angle (rad) to (−π, π]."""
-    return np.pi - np.mod(np.pi - a, TWO_PI)
 
 
 class FilterDivergence(ArithmeticError):
@@ -550,7 +537,7 @@ def init_state(
     σ_b², P_sb = −σ_b², P_bb = σ_b² (σ_b the A7 bias σ) instead of independent σ_m², σ_b².
     """
     x = np.array(
-        [x_m, y_m, z_m, speed_ms, heading_grid_rad % TWO_PI, incl_rad,
+        [x_m, y_m, z_m, speed_ms, wrap_2pi(heading_grid_rad), incl_rad,
          current_e_ms, current_n_ms, 0.0, 0.0, 0.0],
         dtype=float,
     )
@@ -960,16 +947,20 @@ def stack_measurements(*parts: Measurement) -> Measurement:
 # --------------------------------------------------------------------------------------------
 
 
-def _chi2_bounds(p: int, alpha: float) -> tuple[float, float]:
-    if alpha == 0.05 and 1 <= p <= len(_CHI2_05):
-        return _CHI2_05[p - 1]
-    from scipy.stats import chi2
+LOM_TABLE_DOF = 20
+"""At the default α = 0.05 and up to this many rows the LOM bounds are the χ² quantiles to 6
+significant digits: the printed table the filter used before (kept, so the .OUT logs stay
+byte-identical); other α or more rows use the full-precision quantiles."""
 
-    return float(chi2.ppf(alpha / 2.0, p)), float(chi2.ppf(1.0 - alpha / 2.0, p))
+
+def lom_bounds(p: int, alpha: float) -> tuple[float, float]:
+    """χ²_p bounds (α/2, 1 − α/2) of the LOM test on p rows (before the division by p)."""
+    digits = 6 if alpha == 0.05 and p <= LOM_TABLE_DOF else None
+    return chi2_bounds(alpha, p, digits)
 
 
 def _lom_from_nis(nis: float, p: int, alpha: float) -> LomTest:
-    lo, hi = _chi2_bounds(p, alpha)
+    lo, hi = lom_bounds(p, alpha)
     t = nis / p
     lower, upper = lo / p, hi / p
     verdict = "reject" if t > upper else ("too small" if t < lower else "accept")
@@ -1082,7 +1073,7 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     x, P, R = state.x, state.P, rows.R
     v = z - H.dot(x)
     for i in rows.angle_rows:
-        v[i] = math.pi - (math.pi - v[i]) % TWO_PI
+        v[i] = wrap_pi(v[i])
     HP = H.dot(P)
     S = HP.dot(H.T)
     S += R
@@ -1100,7 +1091,7 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     LiHPt = LiHP.T
     K = LiHPt.dot(Li)  # P Hᵀ S⁻¹ = (L⁻¹HP)ᵀ L⁻¹
     xn = x + LiHPt.dot(w)
-    xn[IPSI] %= TWO_PI
+    xn[IPSI] = wrap_2pi(xn[IPSI])
     if params.joseph:
         A = _eye(n) - K.dot(H)
         Pn = A.dot(P).dot(A.T)

@@ -51,11 +51,25 @@ def delta0(alpha: float, power: float = 0.80) -> float:
 
 
 @lru_cache(maxsize=256)
-def _chi2_bounds(alpha: float, dof: int) -> tuple[float, float]:
-    """χ²_{α/2, dof} and χ²_{1−α/2, dof} (two-sided acceptance region)."""
-    from scipy.stats import chi2  # cold path: once per (alpha, dof)
+def chi2_quantile(p: float, dof: int) -> float:
+    """The χ²_dof quantile x with P(χ²_dof ≤ x) = ``p`` (SciPy, imported on the first call)."""
+    from scipy.stats import chi2  # cold path: once per (p, dof)
 
-    return float(chi2.ppf(alpha / 2.0, dof)), float(chi2.ppf(1.0 - alpha / 2.0, dof))
+    return float(chi2.ppf(p, dof))
+
+
+@lru_cache(maxsize=256)
+def chi2_bounds(alpha: float, dof: int, significant: int | None = None) -> tuple[float, float]:
+    """Two-sided acceptance region (χ²_{α/2, dof}, χ²_{1−α/2, dof}) of a χ² test of size α.
+
+    The one χ² bound of the engine: the unit-variance test (5.15–5.17), the filter's LOM test
+    (6.38–6.40) and the NEES bands of the accuracy assessment. ``significant``: round both to
+    that many significant digits (the filter's printed table, see engine.filter.update).
+    """
+    lo, hi = chi2_quantile(alpha / 2.0, dof), chi2_quantile(1.0 - alpha / 2.0, dof)
+    if significant is None:
+        return lo, hi
+    return float(f"{lo:.{significant}g}"), float(f"{hi:.{significant}g}")
 
 
 def classify_w(w: float, alpha: float = 0.05, bound: float = REJECT_BOUND) -> str:
@@ -244,7 +258,7 @@ def unit_variance_test(
     dof = int(r) - 1 if thesis_dof else int(r)
     if dof < 1 or not math.isfinite(s2):
         return None
-    lo, hi = _chi2_bounds(float(alpha), dof)
+    lo, hi = chi2_bounds(float(alpha), dof)
     lower = s02 * lo / dof
     upper = s02 * hi / dof
     return UnitVarianceTest(dof * s2 / s02, lower, upper, bool(lower < s2 < upper), dof)

@@ -33,6 +33,7 @@ from engine.filter.kalman import (
     stack_measurements,
     update,
 )
+from engine.geodesy.angles import wrap_2pi
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift, geodetic_to_ecef
 from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
@@ -954,7 +955,7 @@ def reproject_state(
     J[6:8, 6:8] = rot
     x = np.array(fs.x, dtype=float)
     x[0], x[1] = x_new, y_new
-    x[4] = (x[4] - d) % (2.0 * math.pi)
+    x[4] = wrap_2pi(x[4] - d)
     x[6:8] = rot @ x[6:8]
     P = J @ fs.P @ J.T
     return replace(fs, x=x, P=0.5 * (P + P.T))
