@@ -9,12 +9,12 @@ test and the operator messages.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from engine.lsq.adjustment import Adjustment, Linearisation, gauss_newton
-from engine.lsq.robust import robust_adjust
+from engine.lsq.robust import RobustAdjustment, robust_adjust
 from engine.lsq.statistics import (
     REJECT_BOUND,
     UnitVarianceTest,
@@ -97,82 +97,124 @@ def adjust_with_testing(
         raise ValueError(f"policy must be 'Y', 'N' or 'A', got {policy!r}")
     if estimator not in ("lsq", "huber", "danish"):
         raise ValueError(f"estimator must be 'lsq', 'huber' or 'danish', got {estimator!r}")
-    messages: list[str] = []
-    name = lop_name
-    robust_result: object | None = None
     kw = dict(epsilon=epsilon, max_iter=max_iter, s02=s02, scale_vcv=scale_vcv, alpha=alpha)
     cur = np.array(used, dtype=bool)
-    if estimator != "lsq":
-        rob = robust_adjust(linearise, x0, cur, psi=estimator, **kw)  # type: ignore[arg-type]
-        robust_result = rob
-        if rob.ok:
-            low = [int(k) for k in np.flatnonzero(rob.weights < 0.5)]
-            if low:
-                messages.append(f"robust ({estimator}): down-weighted "
-                                f"{', '.join(f'LOP {name(k)}' for k in low)}")
-            return _finish(rob.adjustment, (), None, None, [], False, messages, policy,
-                           estimator, alpha, reject_bound, s02, thesis_dof, robust_result)
-        adj = rob.lsq
-        if adj.ok:  # the M-estimation failed, the plain fix did not: use it, tested as usual
-            messages.append(f"robust ({estimator}) not used: {rob.reason}; "
-                            "plain least squares with data snooping")
+    if estimator == "lsq":
+        prog = _Progress(gauss_newton(linearise, x0, cur, **kw), [])  # type: ignore[arg-type]
     else:
-        adj = gauss_newton(linearise, x0, cur, **kw)  # type: ignore[arg-type]
-    rejected: list[tuple[int, float]] = []
-    flagged: list[int] = []
+        prog = _robust_start(linearise, x0, cur, estimator, kw, lop_name)
+        if prog.robust is not None and prog.robust.ok:
+            return _finish(prog, policy, estimator, alpha, reject_bound, s02, thesis_dof)
+    _snoop(linearise, prog, cur, policy, reject_bound, kw, lop_name)
+    return _finish(prog, policy, estimator, alpha, reject_bound, s02, thesis_dof)
+
+
+@dataclass(eq=False)
+class _Progress:
+    """Internal running state of :func:`adjust_with_testing` (fields as in TestedAdjustment)."""
+
+    adj: Adjustment
+    messages: list[str]
+    robust: RobustAdjustment | None = None
+    rejected: list[tuple[int, float]] = field(default_factory=list)
+    flagged: list[int] = field(default_factory=list)
     candidate: int | None = None
     candidate_w: float | None = None
-    not_identifiable = False
+    not_identifiable: bool = False
+
+
+def _robust_start(
+    linearise: Callable[[np.ndarray], Linearisation],
+    x0: np.ndarray,
+    used: np.ndarray,
+    estimator: str,
+    kw: dict[str, float | int | bool],
+    name: Callable[[int], str],
+) -> _Progress:
+    """The M-estimate (nothing to snoop when it succeeds) or, if it failed, the plain LSQ fix
+    with a message saying why (then tested as usual)."""
+    rob = robust_adjust(linearise, x0, used, psi=estimator, **kw)  # type: ignore[arg-type]
+    messages: list[str] = []
+    if rob.ok:
+        low = [int(k) for k in np.flatnonzero(rob.weights < 0.5)]
+        if low:
+            messages.append(f"robust ({estimator}): down-weighted "
+                            f"{', '.join(f'LOP {name(k)}' for k in low)}")
+        return _Progress(rob.adjustment, messages, rob)
+    if rob.lsq.ok:  # the M-estimation failed, the plain fix did not: use it, tested as usual
+        messages.append(f"robust ({estimator}) not used: {rob.reason}; "
+                        "plain least squares with data snooping")
+    return _Progress(rob.lsq, messages, rob)
+
+
+def _snoop(
+    linearise: Callable[[np.ndarray], Linearisation],
+    prog: _Progress,
+    cur: np.ndarray,
+    policy: str,
+    bound: float,
+    kw: dict[str, float | int | bool],
+    name: Callable[[int], str],
+) -> None:
+    """The reject-and-recompute loop: while testable and max |w| > ``bound``, stop at the
+    policy's verdict or exclude the worst slot and re-adjust from the current x̂."""
+    adj = prog.adj
     while adj.ok and adj.redundancy >= 1:
         slot, w = _worst(adj)
-        if abs(w) <= reject_bound:
-            break
-        if adj.category == "III":
-            not_identifiable = True
-            flagged.append(slot)
-            messages.append(f"outlier detected, not identifiable (|w| = {abs(w):.2f})")
-            break
-        if policy == "N":
-            flagged.append(slot)
-            messages.append(f"LOP {name(slot)}: w = {w:.2f} exceeds {reject_bound}, not rejected")
-            break
-        if policy == "A":
-            candidate, candidate_w = slot, w
-            messages.append(f"LOP {name(slot)}: w = {w:.2f} exceeds {reject_bound}, reject ?")
+        if abs(w) <= bound or _stops_here(prog, adj, slot, w, policy, bound, name):
             break
         trial = cur.copy()
         trial[slot] = False
         new = gauss_newton(linearise, adj.x, trial, **kw)  # type: ignore[arg-type]
         if not new.ok:
-            flagged.append(slot)
-            messages.append(f"LOP {name(slot)}: w = {w:.2f}, rejection leaves no fix "
-                            f"({new.reason})")
+            prog.flagged.append(slot)
+            prog.messages.append(f"LOP {name(slot)}: w = {w:.2f}, rejection leaves no fix "
+                                 f"({new.reason})")
             break
-        rejected.append((slot, w))
-        messages.append(f"LOP {name(slot)} rejected (w = {w:.2f})")
+        prog.rejected.append((slot, w))
+        prog.messages.append(f"LOP {name(slot)} rejected (w = {w:.2f})")
         cur, adj = trial, new
-    return _finish(adj, tuple(rejected), candidate, candidate_w, flagged, not_identifiable,
-                   messages, policy, estimator, alpha, reject_bound, s02, thesis_dof,
-                   robust_result)
+    prog.adj = adj
+
+
+def _stops_here(
+    prog: _Progress,
+    adj: Adjustment,
+    slot: int,
+    w: float,
+    policy: str,
+    bound: float,
+    name: Callable[[int], str],
+) -> bool:
+    """True (with the flag, candidate and message noted) when ``slot`` is not rejected:
+    category III (not identifiable), policy "N" (flag) or "A" (ask the operator)."""
+    if adj.category == "III":
+        prog.not_identifiable = True
+        prog.flagged.append(slot)
+        prog.messages.append(f"outlier detected, not identifiable (|w| = {abs(w):.2f})")
+        return True
+    if policy == "N":
+        prog.flagged.append(slot)
+        prog.messages.append(f"LOP {name(slot)}: w = {w:.2f} exceeds {bound}, not rejected")
+        return True
+    if policy == "A":
+        prog.candidate, prog.candidate_w = slot, w
+        prog.messages.append(f"LOP {name(slot)}: w = {w:.2f} exceeds {bound}, reject ?")
+        return True
+    return False
 
 
 def _finish(
-    adj: Adjustment,
-    rejected: tuple[tuple[int, float], ...],
-    candidate: int | None,
-    candidate_w: float | None,
-    flagged: list[int],
-    not_identifiable: bool,
-    messages: list[str],
+    prog: _Progress,
     policy: str,
     estimator: str,
     alpha: float,
     bound: float,
     s02: float,
     thesis_dof: bool,
-    robust: object | None,
 ) -> TestedAdjustment:
     """Monitor band, unit-variance test and advisory messages for the final adjustment."""
+    adj, messages = prog.adj, prog.messages
     monitor: tuple[int, ...] = ()
     vt: UnitVarianceTest | None = None
     if adj.ok and adj.s2 is not None:
@@ -186,19 +228,19 @@ def _finish(
                 f"unit variance rejected: S² = {adj.s2:.3f} outside "
                 f"({vt.lower:.4f}, {vt.upper:.3f})"
             )
-            if not flagged and candidate is None and adj.category == "IV":
+            if not prog.flagged and prog.candidate is None and adj.category == "IV":
                 messages.append("advice: scale the a priori VCV by S²")
     return TestedAdjustment(
         adjustment=adj,
-        rejected=rejected,
-        candidate=candidate,
-        candidate_w=candidate_w,
-        flagged=tuple(flagged),
+        rejected=tuple(prog.rejected),
+        candidate=prog.candidate,
+        candidate_w=prog.candidate_w,
+        flagged=tuple(prog.flagged),
         monitor=monitor,
-        not_identifiable=not_identifiable,
+        not_identifiable=prog.not_identifiable,
         variance_test=vt,
         messages=tuple(messages),
         policy=policy,
         estimator=estimator,
-        robust=robust,
+        robust=prog.robust,
     )
