@@ -27,7 +27,7 @@ from typing import IO
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
-from engine.filter.kalman import IPSI, FilterState
+from engine.filter.state import IPSI, FilterState
 from engine.geodesy.angles import wrap_2pi, wrap_pi
 
 __all__ = ["SmootherRecord", "SmootherSpill", "rts_smooth", "rts_smooth_backward"]
