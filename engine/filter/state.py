@@ -14,8 +14,9 @@ make (:func:`with_position`, :func:`with_current`, :func:`regridded`) return new
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -223,3 +224,51 @@ def restart_fix_states(
         phi = np.array(phi)
         phi[idx, :] = 0.0
     return new, phi
+
+
+# --------------------------------------------------------------------------------------------
+# Edits by the run and the operator (the only code that writes into x and P)
+
+
+def replace_position(fs: FilterState, x_m: float, y_m: float, cov: np.ndarray) -> FilterState:
+    """The state with its horizontal position at grid (``x_m``, ``y_m``) [m] with the 2×2 VCV
+    ``cov`` [m²] and no covariance with any other state."""
+    x = fs.x.copy()
+    P = fs.P.copy()
+    x[IX], x[IY] = x_m, y_m
+    P[IX:IY + 1, :] = 0.0
+    P[:, IX:IY + 1] = 0.0
+    P[IX:IY + 1, IX:IY + 1] = cov
+    return replace(fs, x=x, P=P)
+
+
+def replace_current(
+    fs: FilterState, east_ms: float, north_ms: float, variance: float
+) -> FilterState:
+    """The state with the grid current (``east_ms``, ``north_ms``) [m/s], each component with
+    ``variance`` [m²/s²] and no covariance with any other state (the operator's estimate)."""
+    x = np.array(fs.x)
+    P = np.array(fs.P)
+    x[IVCX], x[IVCY] = east_ms, north_ms
+    P[IVCX:IVCY + 1, :] = 0.0
+    P[:, IVCX:IVCY + 1] = 0.0
+    P[IVCX, IVCX] = P[IVCY, IVCY] = variance
+    return replace(fs, x=x, P=P)
+
+
+def move_to_grid(fs: FilterState, x_m: float, y_m: float, rotation_rad: float) -> FilterState:
+    """The state carried to another grid: position at (``x_m``, ``y_m``) [m]; grid heading,
+    current and their covariances turned by the change of grid convergence Δγ =
+    ``rotation_rad`` (a grid azimuth α becomes α − Δγ; kalman.md A18)."""
+    c, s_ = math.cos(rotation_rad), math.sin(rotation_rad)
+    # (e, n) → (e cosΔ − n sinΔ, n cosΔ + e sinΔ).
+    rot = np.array([[c, -s_], [s_, c]])
+    J = np.eye(fs.n)
+    J[IX:IY + 1, IX:IY + 1] = rot
+    J[IVCX:IVCY + 1, IVCX:IVCY + 1] = rot
+    x = np.array(fs.x, dtype=float)
+    x[IX], x[IY] = x_m, y_m
+    x[IPSI] = wrap_2pi(x[IPSI] - rotation_rad)
+    x[IVCX:IVCY + 1] = rot @ x[IVCX:IVCY + 1]
+    P = J @ fs.P @ J.T
+    return replace(fs, x=x, P=0.5 * (P + P.T))

@@ -33,7 +33,7 @@ from engine.filter.kalman import (
     stack_measurements,
     update,
 )
-from engine.geodesy.angles import wrap_2pi
+from engine.filter.state import move_to_grid, replace_position
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift, geodetic_to_ecef
 from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
@@ -946,19 +946,7 @@ def reproject_state(
     if shift is not None:
         lat, lon, _h = shift.transform(lat, lon, 0.0)
     x_new, y_new = new.forward(lat, lon)
-    d = math.radians(new.convergence_deg(lat, lon) - g_old)
-    c, s_ = math.cos(d), math.sin(d)
-    # A grid azimuth α becomes α − Δγ: (e, n) → (e cosΔ − n sinΔ, n cosΔ + e sinΔ).
-    rot = np.array([[c, -s_], [s_, c]])
-    J = np.eye(fs.n)
-    J[0:2, 0:2] = rot
-    J[6:8, 6:8] = rot
-    x = np.array(fs.x, dtype=float)
-    x[0], x[1] = x_new, y_new
-    x[4] = wrap_2pi(x[4] - d)
-    x[6:8] = rot @ x[6:8]
-    P = J @ fs.P @ J.T
-    return replace(fs, x=x, P=0.5 * (P + P.T))
+    return move_to_grid(fs, x_new, y_new, math.radians(new.convergence_deg(lat, lon) - g_old))
 
 
 def rebase_state(nav: NavState, old: RunContext, new: RunContext) -> NavState:
@@ -972,17 +960,6 @@ def rebase_state(nav: NavState, old: RunContext, new: RunContext) -> NavState:
     if fs is not None and nav.cm_deg is not None:
         fs = reproject_state(fs, old.grid(nav.cm_deg), new.grid(nav.cm_deg), shift)
     return replace(nav, mpp_lat_deg=lat, mpp_lon_deg=lon, filter=fs)
-
-
-def replace_position(fs: FilterState, x_m: float, y_m: float, cov: np.ndarray) -> FilterState:
-    """Put the filter's horizontal position at (x, y) with VCV ``cov`` and no cross-covariance."""
-    x = fs.x.copy()
-    P = fs.P.copy()
-    x[0], x[1] = x_m, y_m
-    P[:2, :] = 0.0
-    P[:, :2] = 0.0
-    P[:2, :2] = cov
-    return replace(fs, x=x, P=P)
 
 
 __all__ = [
