@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from datetime import datetime
 
 import numpy as np
@@ -81,32 +81,28 @@ SENSOR_NAMES = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounde
 STATUS_CODE = {"off": 0, "on": 1, "n/a": 2}
 
 
+FILTER_KEY_TO_PARAM = {
+    "log_bias_rw_ms_sqrth": "bias_rw_log_ms_sqrth",
+    "gyro_bias_rw_deg_sqrth": "bias_rw_gyro_deg_sqrth",
+    "incl_bias_rw_deg_sqrth": "bias_rw_incl_deg_sqrth",
+}
+"""``[filter]`` keys whose FilterParams field is named differently; every other key that names a
+FilterParams field is copied as it is (a new filter parameter needs no line here)."""
+
+
 def filter_params_from_config(cfg: RunConfig) -> FilterParams:
     """The filter parameters of a run configuration (kalman.md §6.6–§6.8, §14); ``"auto"``
     fix-error τ and fraction follow from the systems on
     (``engine.filter.kalman.derived_fix_model``)."""
     f = cfg.filter
+    params = {fl.name for fl in fields(FilterParams) if fl.init}
+    kw = {FILTER_KEY_TO_PARAM.get(fl.name, fl.name): getattr(f, fl.name) for fl in fields(f)}
+    kw = {name: value for name, value in kw.items() if name in params}
     gps_var = (GPS_VAR_P_M2 if cfg.gps.p_code else GPS_VAR_CA_M2) * cfg.lsq.gps_se_sf
     tau, frac = derived_fix_model(cfg.gps.on, gps_var, cfg.decca.on, cfg.gps.p_code)
-    return FilterParams(
-        q_scale=f.q_scale,
-        q_mode=f.q_mode,
-        turn_rate_max_deg_s=f.turn_rate_max_deg_s,
-        pitch_rate_max_deg_s=f.pitch_rate_max_deg_s,
-        sigma_gyro_deg=f.sigma_gyro_deg,
-        sigma_incl_deg=f.sigma_incl_deg,
-        sigma_press_m=f.sigma_press_m,
-        log_sigma_frac=f.log_sigma_frac,
-        log_sigma_floor_ms=f.log_sigma_floor_ms,
-        p0=f.p0,
-        coloured=f.model == "coloured",
-        fix_tau_s=tau if f.fix_tau_s == "auto" else float(f.fix_tau_s),
-        fix_sigma_frac=frac if f.fix_sigma_frac == "auto" else float(f.fix_sigma_frac),
-        bias_noise=f.bias_noise,
-        bias_rw_log_ms_sqrth=f.log_bias_rw_ms_sqrth,
-        bias_rw_gyro_deg_sqrth=f.gyro_bias_rw_deg_sqrth,
-        bias_rw_incl_deg_sqrth=f.incl_bias_rw_deg_sqrth,
-    )
+    for name, auto in (("fix_tau_s", tau), ("fix_sigma_frac", frac)):
+        kw[name] = auto if kw[name] == "auto" else float(kw[name])
+    return FilterParams(coloured=f.model == "coloured", **kw)
 
 
 def lsq_settings_from_config(cfg: RunConfig) -> LsqSettings:
