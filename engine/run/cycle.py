@@ -34,6 +34,7 @@ from engine.filter.kalman import (
     update,
 )
 from engine.filter.state import move_to_grid, replace_position
+from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift, geodetic_to_ecef
 from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
@@ -427,7 +428,7 @@ def _cm_for(nav: NavState, lon: float) -> float:
     cm = nav.cm_deg
     if cm is None:
         return central_meridian_deg(lon)
-    diff = (lon - cm + 180.0) % 360.0 - 180.0
+    diff = wrap_180_deg(lon - cm)
     if abs(diff) > 0.5 + CM_HYSTERESIS_DEG:
         return central_meridian_deg(lon)
     return cm
