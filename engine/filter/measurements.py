@@ -77,6 +77,10 @@ def sensor_measurement(
                            gyro_grid_rad=gyro_grid_rad, incl_rad=incl_rad)
 
 
+_Row = tuple[float, float, str, tuple[int, ...]]
+"""One measurement row: value, variance of its white noise, label, state columns with a 1 in H."""
+
+
 def nav_measurement(
     state: FilterState,
     params: FilterParams,
@@ -93,68 +97,55 @@ def nav_measurement(
     (grid m, full 2×2 VCV ``fix_cov`` m²; coloured mode as in :func:`lse_measurement`) and the
     sensor rows that are available, in the fixed order x, y, z_p, v_m, ψ_m, ε_m. ``state`` is
     not read (kept for symmetry with :func:`sensor_measurement`); H has the 11 nav columns."""
-    cols: list[int] = []  # H entries (row, col) set to 1
-    rows: list[int] = []
-    z: list[float] = []
-    var: list[float] = []
-    labels: list[str] = []
-    angle: tuple[int, ...] = ()
-    p = 0
+    rows: list[_Row] = []
     if fix_xy is not None:
         if fix_cov is None:
             raise ValueError("an LSE needs its 2×2 VCV fix_cov")
-        rows += [0, 1]
-        cols += [IX, IY]
-        z += [float(fix_xy[0]), float(fix_xy[1])]
-        var += [0.0, 0.0]
-        labels += ["x_LSE", "y_LSE"]
-        p = 2
-    if depth_m is not None:
-        rows.append(p)
-        cols.append(IZ)
-        z.append(depth_m)
-        var.append(params.sigma_press_m**2)
-        labels.append("z_p")
-        p += 1
-    if log_ms is not None:
-        rows += [p, p]
-        cols += [IV, IDV]
-        z.append(log_ms)
-        var.append(max(params.log_sigma_frac * abs(log_ms), params.log_sigma_floor_ms) ** 2)
-        labels.append("v_m")
-        p += 1
-    if gyro_grid_rad is not None:
-        rows += [p, p]
-        cols += [IPSI, IDPSI]
-        z.append(gyro_grid_rad)
-        var.append((params.sigma_gyro_deg * DEG) ** 2)
-        labels.append("psi_m")
-        angle = (p,)
-        p += 1
-    if incl_rad is not None:
-        rows += [p, p]
-        cols += [IEPS, IDEPS]
-        z.append(incl_rad)
-        var.append((params.sigma_incl_deg * DEG) ** 2)
-        labels.append("eps_m")
-        p += 1
+        rows += [(float(fix_xy[0]), 0.0, "x_LSE", (IX,)), (float(fix_xy[1]), 0.0, "y_LSE", (IY,))]
+    rows += _sensor_rows(params, depth_m, log_ms, gyro_grid_rad, incl_rad)
+    p = len(rows)
     H = np.zeros((p, N_NAV))
-    for r, c in zip(rows, cols, strict=True):
-        H[r, c] = 1.0
     R = np.zeros((p, p))
-    for i, vi in enumerate(var):
-        R[i, i] = vi
-    zz = np.array(z, dtype=float)
+    for i, (_, var, _, cols) in enumerate(rows):
+        for c in cols:
+            H[i, c] = 1.0
+        R[i, i] = var
+    zz = np.array([row[0] for row in rows], dtype=float)
+    labels = tuple(row[2] for row in rows)
+    angle = tuple(i for i, row in enumerate(rows) if row[2] == "psi_m")
     if fix_xy is not None:
         C = np.asarray(fix_cov, dtype=float)
         if params.coloured:
             f = params.fix_sigma_frac
             R[:2, :2] = C * (1.0 - f)
             keys = (fix_keys[0], fix_keys[1]) + (None,) * (p - 2)
-            return Measurement(zz, H, R, tuple(labels), angle, keys, C * f,
+            return Measurement(zz, H, R, labels, angle, keys, C * f,
                                (params.fix_tau_s, params.fix_tau_s))
         R[:2, :2] = C
-    return Measurement(zz, H, R, tuple(labels), angle)
+    return Measurement(zz, H, R, labels, angle)
+
+
+def _sensor_rows(
+    params: FilterParams,
+    depth_m: float | None,
+    log_ms: float | None,
+    gyro_grid_rad: float | None,
+    incl_rad: float | None,
+) -> list[_Row]:
+    """The rows of the sensors that gave a value, in the order z_p, v_m, ψ_m, ε_m: pressure
+    depth (σ_p), log speed + log bias (σ = max(frac·v, floor), 4.19), gyro GRID heading + gyro
+    bias, inclination + inclinometer bias (eqs. 6.26b–6.29)."""
+    out: list[_Row] = []
+    if depth_m is not None:
+        out.append((depth_m, params.sigma_press_m**2, "z_p", (IZ,)))
+    if log_ms is not None:
+        var = max(params.log_sigma_frac * abs(log_ms), params.log_sigma_floor_ms) ** 2
+        out.append((log_ms, var, "v_m", (IV, IDV)))
+    if gyro_grid_rad is not None:
+        out.append((gyro_grid_rad, (params.sigma_gyro_deg * DEG) ** 2, "psi_m", (IPSI, IDPSI)))
+    if incl_rad is not None:
+        out.append((incl_rad, (params.sigma_incl_deg * DEG) ** 2, "eps_m", (IEPS, IDEPS)))
+    return out
 
 
 def lop_measurement(

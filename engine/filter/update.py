@@ -202,24 +202,12 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     Gauss–Markov states (so the returned state may be larger than the input). Raises
     :class:`FilterDivergence` if S is not PD or a variance becomes ≤ 0 (or non-finite).
     """
-    n = state.n
-    z = rows.z
-    p = z.shape[0]
+    p = rows.z.shape[0]
     if p == 0:
-        lom = LomTest(float("nan"), float("nan"), float("nan"), 0, "none")
-        empty = np.zeros(0)
-        return UpdateResult(state, empty, np.zeros((0, 0)), np.zeros((n, 0)), (), lom,
-                            LsTest(np.zeros((0, 0)), empty, False))
-    H = rows.H
-    if rows.bias_keys:
-        state, H = _with_bias_columns(state, rows, params)
-        n = state.n
-    elif H.shape[1] < n:
-        Hp = np.zeros((p, n))
-        Hp[:, :H.shape[1]] = H
-        H = Hp
+        return _empty_update(state)
+    state, H = _full_width(state, rows, params)
     x, P, R = state.x, state.P, rows.R
-    v = z - H.dot(x)
+    v = rows.z - H.dot(x)
     for i in rows.angle_rows:
         v[i] = wrap_pi(v[i])
     HP = H.dot(P)
@@ -230,24 +218,11 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     L, info = lapack.dpotrf(S, lower=1, clean=1)
     if info != 0:
         raise FilterDivergence("innovation covariance S is not positive definite", state)
-    B = np.zeros((p, n + 1 + p), order="F")
-    B[:, :n] = HP
-    B[:, n] = v
-    B[:, n + 1:] = _eye(p)
-    Y = blas.dtrsm(1.0, L, B, lower=1)
-    LiHP, w, Li = Y[:, :n], Y[:, n], Y[:, n + 1:]
-    LiHPt = LiHP.T
+    LiHPt, w, Li = _whitened(L, HP, v)
     K = LiHPt.dot(Li)  # P Hᵀ S⁻¹ = (L⁻¹HP)ᵀ L⁻¹
     xn = x + LiHPt.dot(w)
     xn[IPSI] = wrap_2pi(xn[IPSI])
-    if params.joseph:
-        A = _eye(n) - K.dot(H)
-        Pn = A.dot(P).dot(A.T)
-        Pn += K.dot(R).dot(K.T)
-    else:
-        Pn = P - K.dot(HP)
-    Pn = Pn + Pn.T
-    Pn *= 0.5
+    Pn = _updated_cov(P, K, H, HP, R, params.joseph)
     new = state._with(state.t, xn, Pn)
     nis = float(w.dot(w))
     if not (np.minimum.reduce(Pn.diagonal()) > 0.0 and math.isfinite(nis)):
@@ -255,3 +230,54 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     lom = _lom_from_nis(nis, p, params.alpha)
     ls = LsTest(Li, w, lom.verdict == "reject")
     return UpdateResult(new, v, S, K, rows.labels, lom, ls)
+
+
+def _empty_update(state: FilterState) -> UpdateResult:
+    """The result of an update without rows: the state unchanged, no test."""
+    lom = LomTest(float("nan"), float("nan"), float("nan"), 0, "none")
+    empty = np.zeros(0)
+    return UpdateResult(state, empty, np.zeros((0, 0)), np.zeros((state.n, 0)), (), lom,
+                        LsTest(np.zeros((0, 0)), empty, False))
+
+
+def _full_width(
+    state: FilterState, rows: Measurement, params: FilterParams
+) -> tuple[FilterState, np.ndarray]:
+    """The state (with any fix-error states the rows need added) and H over all its columns."""
+    if rows.bias_keys:
+        return _with_bias_columns(state, rows, params)
+    H = rows.H
+    if H.shape[1] < state.n:
+        Hp = np.zeros((H.shape[0], state.n))
+        Hp[:, :H.shape[1]] = H
+        return state, Hp
+    return state, H
+
+
+def _whitened(
+    L: np.ndarray, HP: np.ndarray, v: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(L⁻¹HP)ᵀ, L⁻¹v̂ and L⁻¹ from one triangular solve L Y = [HP | v̂ | I]."""
+    p, n = HP.shape
+    B = np.zeros((p, n + 1 + p), order="F")
+    B[:, :n] = HP
+    B[:, n] = v
+    B[:, n + 1:] = _eye(p)
+    Y = blas.dtrsm(1.0, L, B, lower=1)
+    return Y[:, :n].T, Y[:, n], Y[:, n + 1:]
+
+
+def _updated_cov(
+    P: np.ndarray, K: np.ndarray, H: np.ndarray, HP: np.ndarray, R: np.ndarray, joseph: bool
+) -> np.ndarray:
+    """P after the update (6.21c): Joseph form (I − KH)P(I − KH)ᵀ + KRKᵀ or the thesis'
+    (I − KH)P = P − K HP, symmetrised."""
+    if joseph:
+        A = _eye(P.shape[0]) - K.dot(H)
+        Pn = A.dot(P).dot(A.T)
+        Pn += K.dot(R).dot(K.T)
+    else:
+        Pn = P - K.dot(HP)
+    Pn = Pn + Pn.T
+    Pn *= 0.5
+    return Pn
