@@ -16,14 +16,17 @@ import numpy as np
 from engine.geodesy.angles import TWO_PI
 
 DEG = math.pi / 180.0
+"""Radians per degree."""
 
 
 def read_only(a: np.ndarray) -> np.ndarray:
+    """``a`` itself, made read-only (shared constants and the arrays of immutable values)."""
     a.flags.writeable = False
     return a
 
 
-G8 = read_only(np.vstack([np.zeros((3, 8)), np.eye(8)]))  # G of 6.1: w drives states 3–10
+G8 = read_only(np.vstack([np.zeros((3, 8)), np.eye(8)]))
+"""G of eq. 6.1 (11×8): the eight process-noise inputs w drive states 3–10."""
 
 
 def accel_variance(a_max: float, p_max: float, p_zero: float) -> float:
