@@ -1,1 +1,2 @@
-"""engine.geodesy.ellipsoidal."""
+"""Geodesy: ``angles`` (wrapping), ``ellipsoid`` (ellipsoids and datums), ``ellipsoidal`` (ECEF,
+datum shifts, geodesics, line scale), ``tmgrid`` (transverse Mercator grid)."""
