@@ -60,6 +60,9 @@ from engine.filter.state import (
     FilterState,
     add_fix_states,
     init_state,
+    move_to_grid,
+    replace_current,
+    replace_position,
     restart_fix_states,
 )
 from engine.filter.update import (
@@ -116,6 +119,7 @@ __all__ = [
     "lop_measurement",
     "ls_test",
     "lse_measurement",
+    "move_to_grid",
     "nav_measurement",
     "noise_gain",
     "predict",
@@ -123,6 +127,8 @@ __all__ = [
     "predict_step",
     "process_noise",
     "propagate_mean",
+    "replace_current",
+    "replace_position",
     "restart_fix_states",
     "sensor_measurement",
     "stack_measurements",
