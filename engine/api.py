@@ -89,7 +89,7 @@ from engine.lsq.fix import (
     ManualObservation,
     lop_name,
 )
-from engine.lsq.quality import REJECT_BOUND, w_critical
+from engine.lsq.statistics import REJECT_BOUND, w_critical
 from engine.run.commands import (
     AddObservation,
     Command,

@@ -59,6 +59,7 @@ from engine.errors import InputError
 from engine.geodesy.ellipsoid import Ellipsoid
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.outlog import OutCycle, iter_out_log
+from engine.lsq.statistics import chi2_bounds
 
 __all__ = [
     "ESTIMATORS",
@@ -592,9 +593,8 @@ def _utc(t_ms: int) -> datetime:
 
 def _chi2_band(dof: int, n: int) -> tuple[float, float]:
     """Central 95 % range of a sum of χ² with ``dof`` total degrees of freedom, divided by n."""
-    from scipy.stats import chi2
-
-    return float(chi2.ppf(0.025, dof)) / n, float(chi2.ppf(0.975, dof)) / n
+    lo, hi = chi2_bounds(0.05, dof)
+    return lo / n, hi / n
 
 
 def _binom_band(n: int, p: float = P95) -> tuple[float, float]:

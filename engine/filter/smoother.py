@@ -16,7 +16,6 @@ exact because the new states enter with a prior independent of everything before
 
 from __future__ import annotations
 
-import math
 import os
 import pickle
 import struct
@@ -28,11 +27,11 @@ from typing import IO
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
-from engine.filter.kalman import IPSI, FilterState
+from engine.filter.state import IPSI, FilterState
+from engine.geodesy.angles import wrap_2pi, wrap_pi
 
 __all__ = ["SmootherRecord", "SmootherSpill", "rts_smooth", "rts_smooth_backward"]
 
-TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True)
@@ -112,9 +111,9 @@ def _rts_step(rec: SmootherRecord, nxt: FilterState, k: int) -> FilterState:
     Ct = cho_solve(cho_factor(pr.P, lower=True, check_finite=False),
                    Phi.dot(f.P), check_finite=False)
     dx = xs_next - pr.x
-    dx[IPSI] = math.pi - (math.pi - dx[IPSI]) % TWO_PI
+    dx[IPSI] = wrap_pi(dx[IPSI])
     x = f.x + Ct.T.dot(dx)
-    x[IPSI] %= TWO_PI
+    x[IPSI] = wrap_2pi(x[IPSI])
     P = f.P + Ct.T.dot(Ps_next - pr.P).dot(Ct)
     P = 0.5 * (P + P.T)
     return FilterState(f.t, x, P, f.fix_states, f.fix_tau_s, f.fix_cov)

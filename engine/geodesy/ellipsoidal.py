@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from pyproj import Geod, Transformer
 from pyproj.enums import TransformDirection
 
@@ -288,18 +287,6 @@ class GeodesicSolver:
         """(forward azimuth 1 → 2 in degrees [0, 360), distance in metres)."""
         az12, _az21, dist = self._geod.inv(lon1_deg, lat1_deg, lon2_deg, lat2_deg)
         return float(az12) % 360.0, float(dist)
-
-    def inverse_many(
-        self, lat1_deg: float, lon1_deg: float, lat2_deg: np.ndarray, lon2_deg: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Inverse problems from one point to many (one pyproj call): arrays of forward azimuth
-        (degrees), back azimuth (degrees) and distance (metres)."""
-        n = len(lat2_deg)
-        az12, az21, dist = self._geod.inv(
-            np.full(n, lon1_deg), np.full(n, lat1_deg),
-            np.asarray(lon2_deg, dtype=float), np.asarray(lat2_deg, dtype=float),
-        )
-        return np.asarray(az12), np.asarray(az21), np.asarray(dist)
 
 
 def geodesic_inverse(

@@ -24,9 +24,10 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import Ellipsoid
 
-__all__ = ["TMGrid", "central_meridian_deg", "wrap_lon_deg"]
+__all__ = ["TMGrid", "central_meridian_deg"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -67,18 +68,7 @@ def central_meridian_deg(lon_deg: float) -> float:
     Python's banker's ``round``; the result is wrapped into (−180, 180].
     """
     cm = math.copysign(math.floor(abs(lon_deg) + 0.5), lon_deg)
-    return _wrap_pm180(cm)
-
-
-def _wrap_pm180(lon_deg: float) -> float:
-    """Wrap a longitude (degrees) into (−180, 180]."""
-    w = math.remainder(lon_deg, 360.0)
-    return 180.0 if w == -180.0 else w + 0.0
-
-
-def wrap_lon_deg(lon_deg: float) -> float:
-    """Wrap a longitude or longitude difference (degrees) into (−180, 180]."""
-    return _wrap_pm180(lon_deg)
+    return wrap_180_deg(cm)
 
 
 def _clenshaw(coeffs: tuple[float, ...], s2: Any, c2: Any) -> tuple[Any, Any]:
@@ -156,7 +146,7 @@ class TMGrid:
 
     def _forward_full(self, lat_deg: float, lon_deg: float) -> tuple[float, float, float, float]:
         """(x m, y m, γ deg, k) for geodetic (lat, lon) in degrees."""
-        lam = math.radians(_wrap_pm180(lon_deg - self.cm_deg))
+        lam = math.radians(wrap_180_deg(lon_deg - self.cm_deg))
         phi = math.radians(lat_deg)
         sphi = math.sin(phi)
         cphi = math.cos(phi)
@@ -190,7 +180,7 @@ class TMGrid:
 
     def forward(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
         """Geodetic (degrees, on this ellipsoid) → grid (x easting m, y northing m)."""
-        lam = math.radians(_wrap_pm180(lon_deg - self.cm_deg))
+        lam = math.radians(wrap_180_deg(lon_deg - self.cm_deg))
         phi = math.radians(lat_deg)
         cphi = math.cos(phi)
         clam = math.cos(lam)
@@ -220,10 +210,10 @@ class TMGrid:
         r = math.hypot(she, cxi)
         lam = math.atan2(she, cxi)
         if r == 0.0:
-            return math.copysign(90.0, sxi), _wrap_pm180(self.cm_deg + math.degrees(lam))
+            return math.copysign(90.0, sxi), wrap_180_deg(self.cm_deg + math.degrees(lam))
         taup = sxi / r
         tau = self._tau_from_taup(taup)
-        return math.degrees(math.atan(tau)), _wrap_pm180(self.cm_deg + math.degrees(lam))
+        return math.degrees(math.atan(tau)), wrap_180_deg(self.cm_deg + math.degrees(lam))
 
     def _tau_from_taup(self, taup: float) -> float:
         """Invert τ' (tan conformal latitude) → τ = tan φ by Newton (Karney eqs. 19–21)."""

@@ -13,10 +13,11 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
-from engine.lsq.quality import (
+from engine.lsq.statistics import (
     SlotStatistics,
     UnitVarianceTest,
     delta0,
@@ -82,7 +83,7 @@ class Adjustment:
     robust iteration (Cl/W are then the damped model), else None.
 
     Per-slot statistics (attributes viewing the rows of ``stats_block``, laid out as in
-    ``quality.used_statistics``): ``sigma_d`` [m], ``w``, ``tau``, ``vf``,
+    ``statistics.used_statistics``): ``sigma_d`` [m], ``w``, ``tau``, ``vf``,
     ``redundancy_numbers``, ``mdb`` [m], ``ext`` (n, u) [m], ``ext_h`` [m]; NaN for unused slots
     and for categories I/II.
 
@@ -264,130 +265,234 @@ def gauss_newton(
     ``damping`` of the wrong length.
     """
     _check_settings(epsilon, max_iter, s02, cond_max, max_axis_ratio, alpha, power)
-    x = np.array(x0, dtype=float).reshape(-1)
-    used_b = np.array(used, dtype=bool).reshape(-1)
-    n, u = used_b.size, x.size
-    idx = used_b.nonzero()[0]
-    m = idx.size
-    every = m == n
-    sq = None
-    if damping is not None:
-        t = np.asarray(damping, dtype=float).reshape(-1)
-        if t.size != n:
-            raise ValueError(f"damping has {t.size} entries, expected {n}")
-        sq = np.sqrt(np.clip(t[idx], 1e-300, 1.0))
-    if m < u:
-        return _failed(NOT_ENOUGH, x, used_b, n, u, 0, (), damping)
-    if not np.isfinite(x).all():
-        return _failed("provisional point not finite", x, used_b, n, u, 0, (), damping)
-    steps: list[float] = []
-    converged = False
-    it = 0
+    run = _Run(np.array(x0, dtype=float).reshape(-1), np.array(used, dtype=bool).reshape(-1))
+    u = run.x.size
+    sq = _damping_roots(damping, run.idx, run.used.size)
+    try:
+        if run.idx.size < u:
+            raise _Stop(NOT_ENOUGH)
+        if not np.isfinite(run.x).all():
+            raise _Stop("provisional point not finite")
+        sol = _iterate(linearise, run, sq, epsilon, max_iter, cond_max)
+        if max_axis_ratio is not None and u >= 2:
+            _check_axis_ratio(sol.cx, max_axis_ratio)
+    except _Stop as stop:
+        return _failed(stop.reason, run.x, run.used, run.used.size, u, run.it, run.steps,
+                       damping)
+    return _adjustment(run, sol, s02, scale_vcv, alpha, power, damping)
+
+
+class _Stop(Exception):
+    """Internal: the adjustment cannot go on; ``reason`` becomes Adjustment.reason."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+class _Run:
+    """Internal progress of :func:`gauss_newton`: the current x, the used slots, the iteration
+    count, the step lengths [m] and whether it converged."""
+
+    __slots__ = ("x", "used", "idx", "it", "steps", "converged")
+
+    def __init__(self, x: np.ndarray, used: np.ndarray) -> None:
+        self.x = x
+        self.used = used
+        self.idx = used.nonzero()[0]
+        self.it = 0
+        self.steps: list[float] = []
+        self.converged = False
+
+
+class _Solution(NamedTuple):
+    """One solved linearisation over the used slots (the matrices of 5.1c–e)."""
+
+    Au: np.ndarray  # (m, u) design rows
+    bu: np.ndarray  # (m,) misclosures [m]
+    Clu: np.ndarray  # (m, m) a priori (damped) VCV [m²]
+    Wu: np.ndarray  # (m, m) weights C_l⁻¹
+    atw: np.ndarray  # AᵀW
+    cx: np.ndarray  # C_x̂ = (AᵀWA)⁻¹ (5.1e)
+    gain: np.ndarray  # G = C_x̂ AᵀW
+    dx: np.ndarray  # δx̂ = G b (5.1c)
+
+
+def _damping_roots(damping: np.ndarray | None, idx: np.ndarray, n: int) -> np.ndarray | None:
+    """T^½ over the used slots for an M-estimation step (None without damping)."""
+    if damping is None:
+        return None
+    t = np.asarray(damping, dtype=float).reshape(-1)
+    if t.size != n:
+        raise ValueError(f"damping has {t.size} entries, expected {n}")
+    return np.sqrt(np.clip(t[idx], 1e-300, 1.0))
+
+
+def _iterate(
+    linearise: Callable[[np.ndarray], Linearisation],
+    run: _Run,
+    sq: np.ndarray | None,
+    epsilon: float,
+    max_iter: int,
+    cond_max: float,
+) -> _Solution:
+    """The Gauss–Newton loop (5.1c–d): re-linearise, solve, step, until converged or
+    ``max_iter``; returns the last solution (``run`` holds x, the count and the steps)."""
     while True:
-        it += 1
-        try:
-            lin = linearise(x)
-        except _MODEL_ERRORS as exc:
-            return _failed(f"model evaluation failed: {exc}", x, used_b, n, u, it, steps, damping)
-        A = np.asarray(lin.A, dtype=float)
-        b = np.asarray(lin.b, dtype=float)
-        Cl = np.asarray(lin.Cl, dtype=float)
-        if A.shape != (n, u) or b.shape != (n,) or Cl.shape != (n, n):
-            raise ValueError(
-                f"linearisation shapes A{A.shape} b{b.shape} Cl{Cl.shape} do not match "
-                f"n = {n} slots and u = {u} parameters"
-            )
-        if every:
-            Au, bu, Clu = A, b, Cl
-        else:
-            Au, bu, Clu = A.take(idx, 0), b.take(idx), Cl.take(idx, 0).take(idx, 1)
-        if sq is not None:
-            Clu = Clu / np.outer(sq, sq)
-        try:
-            Wu = np.linalg.inv(Clu)
-        except np.linalg.LinAlgError:
-            return _failed("a priori VCV not invertible", x, used_b, n, u, it, steps, damping)
-        atw = Au.T.dot(Wu)
-        cx, cond = _inv_normal(atw.dot(Au))
-        if not cond <= cond_max:  # also catches NaN
-            if not (np.isfinite(Au).all() and np.isfinite(Clu).all()):
-                reason = "non-finite linearisation"
-            elif math.isinf(cond) or math.isnan(cond):
-                reason = "singular normal matrix"
-            else:
-                reason = (f"ill-conditioned normal matrix (scaled condition number {cond:.3g} "
-                          f"> {cond_max:.3g})")
-            return _failed(reason, x, used_b, n, u, it, steps, damping)
-        if not math.isfinite(float(np.add.reduce(bu))):
-            return _failed("non-finite linearisation", x, used_b, n, u, it, steps, damping)
-        gain = cx.dot(atw)  # G = C_x̂ Aᵀ W
-        dx = gain.dot(bu)  # (5.1c)
-        dxl = dx.tolist()
+        run.it += 1
+        sol = _solve(*_evaluate(linearise, run, sq), cond_max)
+        dxl = sol.dx.tolist()
         big = max(map(abs, dxl))
         if not math.isfinite(big):
-            return _failed("non-finite linearisation", x, used_b, n, u, it, steps, damping)
-        x = x + dx  # (5.1d)
-        steps.append(math.hypot(*dxl))
+            raise _Stop("non-finite linearisation")
+        run.x = run.x + sol.dx  # (5.1d)
+        run.steps.append(math.hypot(*dxl))
         if big < epsilon:
-            converged = True
-            break
-        if it >= max_iter:
-            break
-    if max_axis_ratio is not None and u >= 2:
-        ratio = _axis_ratio(cx)
-        if not ratio <= max_axis_ratio:
-            reason = (f"ill-conditioned geometry: the LOPs are nearly parallel (error ellipse "
-                      f"axis ratio a/b = {ratio:.3g} > {max_axis_ratio:.3g})")
-            return _failed(reason, x, used_b, n, u, it, steps, damping)
-    vu = Au.dot(dx) - bu  # (5.1f)
+            run.converged = True
+            return sol
+        if run.it >= max_iter:
+            return sol
+
+
+def _evaluate(
+    linearise: Callable[[np.ndarray], Linearisation], run: _Run, sq: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A, b, C_l at the current x restricted to the used slots (C_l damped by T^-½ if given)."""
+    try:
+        lin = linearise(run.x)
+    except _MODEL_ERRORS as exc:
+        raise _Stop(f"model evaluation failed: {exc}") from None
+    A = np.asarray(lin.A, dtype=float)
+    b = np.asarray(lin.b, dtype=float)
+    Cl = np.asarray(lin.Cl, dtype=float)
+    n, u = run.used.size, run.x.size
+    if A.shape != (n, u) or b.shape != (n,) or Cl.shape != (n, n):
+        raise ValueError(
+            f"linearisation shapes A{A.shape} b{b.shape} Cl{Cl.shape} do not match "
+            f"n = {n} slots and u = {u} parameters"
+        )
+    idx = run.idx
+    if idx.size == n:
+        Au, bu, Clu = A, b, Cl
+    else:
+        Au, bu, Clu = A.take(idx, 0), b.take(idx), Cl.take(idx, 0).take(idx, 1)
+    if sq is not None:
+        Clu = Clu / np.outer(sq, sq)
+    return Au, bu, Clu
+
+
+def _solve(Au: np.ndarray, bu: np.ndarray, Clu: np.ndarray, cond_max: float) -> _Solution:
+    """W = C_l⁻¹, C_x̂ = (AᵀWA)⁻¹ with the conditioning guard, δx̂ = C_x̂ AᵀW b (5.1c, 5.1e)."""
+    try:
+        Wu = np.linalg.inv(Clu)
+    except np.linalg.LinAlgError:
+        raise _Stop("a priori VCV not invertible") from None
+    atw = Au.T.dot(Wu)
+    cx, cond = _inv_normal(atw.dot(Au))
+    if not cond <= cond_max:  # also catches NaN
+        if not (np.isfinite(Au).all() and np.isfinite(Clu).all()):
+            raise _Stop("non-finite linearisation")
+        if math.isinf(cond) or math.isnan(cond):
+            raise _Stop("singular normal matrix")
+        raise _Stop(f"ill-conditioned normal matrix (scaled condition number {cond:.3g} "
+                    f"> {cond_max:.3g})")
+    if not math.isfinite(float(np.add.reduce(bu))):
+        raise _Stop("non-finite linearisation")
+    gain = cx.dot(atw)  # G = C_x̂ Aᵀ W
+    return _Solution(Au, bu, Clu, Wu, atw, cx, gain, gain.dot(bu))  # δx̂ (5.1c)
+
+
+def _check_axis_ratio(cx: np.ndarray, max_axis_ratio: float) -> None:
+    """_Stop when the horizontal error ellipse is too elongated (see :data:`MAX_AXIS_RATIO`)."""
+    ratio = _axis_ratio(cx)
+    if not ratio <= max_axis_ratio:
+        raise _Stop(f"ill-conditioned geometry: the LOPs are nearly parallel (error ellipse "
+                    f"axis ratio a/b = {ratio:.3g} > {max_axis_ratio:.3g})")
+
+
+def _adjustment(
+    run: _Run,
+    sol: _Solution,
+    s02: float,
+    scale_vcv: bool,
+    alpha: float,
+    power: float,
+    damping: np.ndarray | None,
+) -> Adjustment:
+    """The Adjustment of the last solution: residuals (5.1f), S² (5.13), the per-slot
+    statistics and the unit-variance test."""
+    Au, bu, Wu, cx = sol.Au, sol.bu, sol.Wu, sol.cx
+    idx, n, u = run.idx, run.used.size, run.x.size
+    m = idx.size
+    vu = Au.dot(sol.dx) - bu  # (5.1f)
     wv = Wu.dot(vu)
     r = m - u
     s2 = float(vu.dot(wv)) / r if r >= 1 else None  # (5.13)
-    if r >= 1:
-        block = used_statistics(Au, Clu, Wu, cx, vu, delta0(alpha, power), gain, wv, atw)
-        if not every:
-            full = np.empty((7 + u, n))
-            full.fill(np.nan)
-            full[:, idx] = block
-            block = full
-    else:
-        block = np.full((7 + u, n), np.nan)
     scaled = bool(scale_vcv and s2 is not None)
     cov = cx * s2 if scaled else cx  # type: ignore[operator]
-    if every:
-        v = vu
-    else:
-        v = np.empty(n)
-        v.fill(np.nan)
-        v[idx] = vu
     return Adjustment(
-        ok=converged,
-        reason=None if converged else "no convergence",
-        x=x,
+        ok=run.converged,
+        reason=None if run.converged else "no convergence",
+        x=run.x,
         cov_x=cov,
         cov_x_apriori=cx,
-        used=used_b,
+        used=run.used,
         n_used=m,
         u=u,
         redundancy=r,
         category=category(m, u),
-        iterations=it,
-        converged=converged,
-        steps=tuple(steps),
-        dx=dx,
-        v=v,
+        iterations=run.it,
+        converged=run.converged,
+        steps=tuple(run.steps),
+        dx=sol.dx,
+        v=_spread_slots(vu, idx, n),
         s2=s2,
         rms_m=math.sqrt(float(vu.dot(vu)) / m),
         drms_m=math.sqrt(max(sum(cov.diagonal().tolist()), 0.0)),
-        stats_block=block,
+        stats_block=_statistics_block(sol, vu, wv, idx, n, r, alpha, power),
         A_used=Au,
         b_used=bu,
-        Cl_used=Clu,
+        Cl_used=sol.Clu,
         W_used=Wu,
         variance_test=unit_variance_test(s2, r, alpha, s02) if s2 is not None else None,
         scaled=scaled,
         damping=None if damping is None else np.asarray(damping, dtype=float).copy(),
     )
+
+
+def _spread_slots(vu: np.ndarray, idx: np.ndarray, n: int) -> np.ndarray:
+    """A used-slot vector laid out over all n slots, NaN for the unused ones."""
+    if idx.size == n:
+        return vu
+    v = np.empty(n)
+    v.fill(np.nan)
+    v[idx] = vu
+    return v
+
+
+def _statistics_block(
+    sol: _Solution,
+    vu: np.ndarray,
+    wv: np.ndarray,
+    idx: np.ndarray,
+    n: int,
+    r: int,
+    alpha: float,
+    power: float,
+) -> np.ndarray:
+    """The (7 + u, n) per-slot statistics (statistics.used_statistics), NaN for unused slots
+    and for r < 1."""
+    u = sol.cx.shape[0]
+    if r < 1:
+        return np.full((7 + u, n), np.nan)
+    block = used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, delta0(alpha, power), sol.gain,
+                            wv, sol.atw)
+    if idx.size == n:
+        return block
+    full = np.empty((7 + u, n))
+    full.fill(np.nan)
+    full[:, idx] = block
+    return full
 
 
 def _check_settings(

@@ -13,6 +13,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from engine.lsq.statistics import chi2_quantile
+
 
 @lru_cache(maxsize=64)
 def k_factor(p: float, dim: int) -> float:
@@ -24,9 +26,7 @@ def k_factor(p: float, dim: int) -> float:
         return math.sqrt(-2.0 * math.log1p(-p))
     if dim < 1:
         raise ValueError(f"dimension must be ≥ 1, got {dim}")
-    from scipy.stats import chi2  # cold path: once per (p, dim)
-
-    return math.sqrt(float(chi2.ppf(p, dim)))
+    return math.sqrt(chi2_quantile(p, dim))
 
 
 @dataclass(frozen=True, eq=False)

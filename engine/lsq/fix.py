@@ -17,11 +17,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from engine.geodesy.angles import wrap_pi
 from engine.geodesy.ellipsoidal import GeodesicSolver, line_scale_factor, mean_radius_sq
 from engine.geodesy.tmgrid import TMGrid
 from engine.lsq.adjustment import Adjustment, Linearisation
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
-from engine.lsq.quality import TestedAdjustment, adjust_with_testing, classify_w
+from engine.lsq.snooping import TestedAdjustment, adjust_with_testing
+from engine.lsq.statistics import classify_w
 from engine.systems.decca import (
     PATTERNS,
     ChainOnGrid,
@@ -213,14 +215,6 @@ class RawLops:
     slots: tuple[int, ...]
 
 
-def _wrap_pi(a: float) -> float:
-    """Wrap an angle (radians) into (−π, π]."""
-    a = math.fmod(a + math.pi, 2.0 * math.pi)
-    if a <= 0.0:
-        a += 2.0 * math.pi
-    return a - math.pi
-
-
 @dataclass(frozen=True, slots=True)
 class _Station:
     obs: ManualObservation
@@ -298,7 +292,7 @@ class _Model:
                 if o.kind == "bearing":
                     az, _ = self.geodesic.azimuth_distance(lat0, lon0, o.lat_deg, o.lon_deg)
                     _set_row(A, slot, dys / d0, -dxs / d0)
-                    b[slot] = d0 * _wrap_pi(math.radians(o.value - az))
+                    b[slot] = d0 * wrap_pi(math.radians(o.value - az))
                     Cl[slot, slot] = (math.radians(o.sigma) * d0) ** 2
                 else:
                     rm2 = mean_radius_sq(self.grid.ellipsoid, lat0, o.lat_deg)

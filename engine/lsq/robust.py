@@ -134,38 +134,65 @@ def robust_adjust(
               cond_max=cond_max, max_axis_ratio=max_axis_ratio, alpha=alpha)
     used_b = np.array(used, dtype=bool)
     lsq = gauss_newton(linearise, x0, used_b, **kw)  # type: ignore[arg-type]
-    n = used_b.size
-    nan_n = np.full(n, np.nan)
+    out = _Outcome(lsq, used_b, psi, cc)
+    t = np.ones(used_b.size)
+    nan_n = np.full(used_b.size, np.nan)
+    if not lsq.ok:
+        return out.result(lsq, t, lsq.reason, 0, False, nan_n)
+    if lsq.redundancy < 1:  # v̂ = 0: nothing to down-weight, M-estimate = LSQ
+        return out.result(lsq, t, None, 0, True, nan_n)
+    return _irls(linearise, out, max_outer, tol, kw)
 
-    def result(adj: Adjustment, t: np.ndarray, reason: str | None, it: int, conv: bool,
+
+@dataclass(frozen=True, eq=False)
+class _Outcome:
+    """Internal: what every RobustAdjustment of one :func:`robust_adjust` call shares."""
+
+    lsq: Adjustment
+    used: np.ndarray
+    psi: str
+    c: float
+
+    def result(self, adj: Adjustment, t: np.ndarray, reason: str | None, it: int, conv: bool,
                wstd: np.ndarray) -> RobustAdjustment:
-        weights = np.where(used_b, t, np.nan)
+        """The RobustAdjustment of ``adj`` with weights ``t`` (NaN for unused slots)."""
+        weights = np.where(self.used, t, np.nan)
         return RobustAdjustment(
             ok=reason is None, reason=reason, x=adj.x, cov_x=adj.cov_x, weights=weights,
             standardised=wstd, iterations=it, converged=conv,
-            n_effective=float(np.nansum(weights)), adjustment=adj, lsq=lsq, psi=psi, c=cc,
+            n_effective=float(np.nansum(weights)), adjustment=adj, lsq=self.lsq, psi=self.psi,
+            c=self.c,
         )
 
-    t = np.ones(n)
-    if not lsq.ok:
-        return result(lsq, t, lsq.reason, 0, False, nan_n)
-    if lsq.redundancy < 1:  # v̂ = 0: nothing to down-weight, M-estimate = LSQ
-        return result(lsq, t, None, 0, True, nan_n)
-    adj = lsq
-    for it in range(1, max_outer + 1):
+    def weights(self, adj: Adjustment) -> tuple[np.ndarray, np.ndarray]:
+        """(ŵ, T) at ``adj``: standardised residuals and ψ weights (1 for unused slots)."""
         wstd = standardised_residuals(adj)
-        t_new = np.where(used_b, psi_weight(wstd, psi, cc), 1.0)
+        return wstd, np.where(self.used, psi_weight(wstd, self.psi, self.c), 1.0)
+
+
+def _irls(
+    linearise: Callable[[np.ndarray], Linearisation],
+    out: _Outcome,
+    max_outer: int,
+    tol: float,
+    kw: dict[str, object],
+) -> RobustAdjustment:
+    """The outer IRLS loop from the LSQ start: reweight, re-adjust, until T settles."""
+    adj, used_b = out.lsq, out.used
+    t = np.ones(used_b.size)
+    for it in range(1, max_outer + 1):
+        wstd, t_new = out.weights(adj)
         if float(np.max(np.abs(t_new - t))) < tol:
-            return result(adj, t, None, it, True, wstd)
+            return out.result(adj, t, None, it, True, wstd)
         n_eff = float(np.sum(t_new[used_b]))
-        if n_eff < lsq.u + 1:
-            reason = f"too few effective observations ({n_eff:.2f} < {lsq.u + 1})"
-            return result(adj, t, reason, it, False, wstd)
+        if n_eff < adj.u + 1:
+            reason = f"too few effective observations ({n_eff:.2f} < {adj.u + 1})"
+            return out.result(adj, t, reason, it, False, wstd)
         new = gauss_newton(linearise, adj.x, used_b, damping=t_new, **kw)  # type: ignore[arg-type]
         if not new.ok:
-            return result(adj, t, f"robust step failed: {new.reason}", it, False, wstd)
+            return out.result(adj, t, f"robust step failed: {new.reason}", it, False, wstd)
         t, adj = t_new, new
-    wstd = standardised_residuals(adj)
-    change = float(np.max(np.abs(np.where(used_b, psi_weight(wstd, psi, cc), 1.0) - t)))
-    return result(adj, t, f"robust weights did not settle (max |ΔT| = {change:.3f})",
-                  max_outer, False, wstd)
+    wstd, t_last = out.weights(adj)
+    change = float(np.max(np.abs(t_last - t)))
+    return out.result(adj, t, f"robust weights did not settle (max |ΔT| = {change:.3f})",
+                      max_outer, False, wstd)

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from engine.filter.state import replace_current, replace_position
 from engine.io.formatting import format_lat_dms, format_lon_dms
 from engine.lsq.fix import MAX_BRR, ManualObservation
 from engine.run.config import FILTER_PRESETS, RunConfig
@@ -123,14 +124,7 @@ def _reset_position(ctx: RunContext, nav: NavState, lat: float, lon: float) -> N
     fs = nav.filter
     if fs is not None and nav.cm_deg is not None:
         x, y = ctx.grid(nav.cm_deg).forward(lat, lon)
-        xv = np.array(fs.x)
-        P = np.array(fs.P)
-        xv[0], xv[1] = x, y
-        P[:2, :] = 0.0
-        P[:, :2] = 0.0
-        sigma2 = ctx.config.filter.dr_sigma_m**2
-        P[0, 0] = P[1, 1] = sigma2
-        fs = replace(fs, x=xv, P=P)
+        fs = replace_position(fs, x, y, np.eye(2) * ctx.config.filter.dr_sigma_m**2)
     return replace(nav, mpp_lat_deg=lat, mpp_lon_deg=lon, filter=fs, filter_has_fix=False)
 
 
@@ -155,8 +149,6 @@ def apply_command(
         new_cfg = cfg.replace(current_set_deg=cmd.set_deg, current_speed_kn=cmd.speed_kn)
         fs = nav.filter
         if fs is not None:
-            xv = np.array(fs.x)
-            P = np.array(fs.P)
             vc = knots_to_ms(cmd.speed_kn)
             # The filter's current lives in the grid, like its heading (kalman.md A1, §6.1):
             # grid set = true set − γ, γ the convergence at the MPP on the run's CM.
@@ -164,12 +156,8 @@ def apply_command(
             if nav.cm_deg is not None:
                 gamma = ctx.grid(nav.cm_deg).convergence_deg(nav.mpp_lat_deg, nav.mpp_lon_deg)
             s = math.radians(cmd.set_deg - gamma)
-            xv[6], xv[7] = vc * math.sin(s), vc * math.cos(s)
-            P[6:8, :] = 0.0
-            P[:, 6:8] = 0.0
             var = 1.0 if cfg.filter.p0 == "thesis" else 0.25
-            P[6, 6] = P[7, 7] = var
-            fs = replace(fs, x=xv, P=P)
+            fs = replace_current(fs, vc * math.sin(s), vc * math.cos(s), var)
         return new_cfg, replace(nav, filter=fs), (
             f"Setup > Params > Current {cmd.set_deg:.1f} deg {cmd.speed_kn:.1f} kn"
         )

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from datetime import datetime
 
 import numpy as np
@@ -33,6 +33,8 @@ from engine.filter.kalman import (
     stack_measurements,
     update,
 )
+from engine.filter.state import move_to_grid, replace_position
+from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift, geodetic_to_ecef
 from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
@@ -54,7 +56,7 @@ from engine.lsq.fix import (
     compute_fix,
     lop_name,
 )
-from engine.lsq.quality import REJECT_BOUND, CumulativeVariance
+from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig
 from engine.systems.decca import (
     PATTERNS,
@@ -80,32 +82,28 @@ SENSOR_NAMES = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounde
 STATUS_CODE = {"off": 0, "on": 1, "n/a": 2}
 
 
+FILTER_KEY_TO_PARAM = {
+    "log_bias_rw_ms_sqrth": "bias_rw_log_ms_sqrth",
+    "gyro_bias_rw_deg_sqrth": "bias_rw_gyro_deg_sqrth",
+    "incl_bias_rw_deg_sqrth": "bias_rw_incl_deg_sqrth",
+}
+"""``[filter]`` keys whose FilterParams field is named differently; every other key that names a
+FilterParams field is copied as it is (a new filter parameter needs no line here)."""
+
+
 def filter_params_from_config(cfg: RunConfig) -> FilterParams:
     """The filter parameters of a run configuration (kalman.md §6.6–§6.8, §14); ``"auto"``
     fix-error τ and fraction follow from the systems on
     (``engine.filter.kalman.derived_fix_model``)."""
     f = cfg.filter
+    params = {fl.name for fl in fields(FilterParams) if fl.init}
+    kw = {FILTER_KEY_TO_PARAM.get(fl.name, fl.name): getattr(f, fl.name) for fl in fields(f)}
+    kw = {name: value for name, value in kw.items() if name in params}
     gps_var = (GPS_VAR_P_M2 if cfg.gps.p_code else GPS_VAR_CA_M2) * cfg.lsq.gps_se_sf
     tau, frac = derived_fix_model(cfg.gps.on, gps_var, cfg.decca.on, cfg.gps.p_code)
-    return FilterParams(
-        q_scale=f.q_scale,
-        q_mode=f.q_mode,
-        turn_rate_max_deg_s=f.turn_rate_max_deg_s,
-        pitch_rate_max_deg_s=f.pitch_rate_max_deg_s,
-        sigma_gyro_deg=f.sigma_gyro_deg,
-        sigma_incl_deg=f.sigma_incl_deg,
-        sigma_press_m=f.sigma_press_m,
-        log_sigma_frac=f.log_sigma_frac,
-        log_sigma_floor_ms=f.log_sigma_floor_ms,
-        p0=f.p0,
-        coloured=f.model == "coloured",
-        fix_tau_s=tau if f.fix_tau_s == "auto" else float(f.fix_tau_s),
-        fix_sigma_frac=frac if f.fix_sigma_frac == "auto" else float(f.fix_sigma_frac),
-        bias_noise=f.bias_noise,
-        bias_rw_log_ms_sqrth=f.log_bias_rw_ms_sqrth,
-        bias_rw_gyro_deg_sqrth=f.gyro_bias_rw_deg_sqrth,
-        bias_rw_incl_deg_sqrth=f.incl_bias_rw_deg_sqrth,
-    )
+    for name, auto in (("fix_tau_s", tau), ("fix_sigma_frac", frac)):
+        kw[name] = auto if kw[name] == "auto" else float(kw[name])
+    return FilterParams(coloured=f.model == "coloured", **kw)
 
 
 def lsq_settings_from_config(cfg: RunConfig) -> LsqSettings:
@@ -430,7 +428,7 @@ def _cm_for(nav: NavState, lon: float) -> float:
     cm = nav.cm_deg
     if cm is None:
         return central_meridian_deg(lon)
-    diff = (lon - cm + 180.0) % 360.0 - 180.0
+    diff = wrap_180_deg(lon - cm)
     if abs(diff) > 0.5 + CM_HYSTERESIS_DEG:
         return central_meridian_deg(lon)
     return cm
@@ -945,19 +943,7 @@ def reproject_state(
     if shift is not None:
         lat, lon, _h = shift.transform(lat, lon, 0.0)
     x_new, y_new = new.forward(lat, lon)
-    d = math.radians(new.convergence_deg(lat, lon) - g_old)
-    c, s_ = math.cos(d), math.sin(d)
-    # A grid azimuth α becomes α − Δγ: (e, n) → (e cosΔ − n sinΔ, n cosΔ + e sinΔ).
-    rot = np.array([[c, -s_], [s_, c]])
-    J = np.eye(fs.n)
-    J[0:2, 0:2] = rot
-    J[6:8, 6:8] = rot
-    x = np.array(fs.x, dtype=float)
-    x[0], x[1] = x_new, y_new
-    x[4] = (x[4] - d) % (2.0 * math.pi)
-    x[6:8] = rot @ x[6:8]
-    P = J @ fs.P @ J.T
-    return replace(fs, x=x, P=0.5 * (P + P.T))
+    return move_to_grid(fs, x_new, y_new, math.radians(new.convergence_deg(lat, lon) - g_old))
 
 
 def rebase_state(nav: NavState, old: RunContext, new: RunContext) -> NavState:
@@ -971,17 +957,6 @@ def rebase_state(nav: NavState, old: RunContext, new: RunContext) -> NavState:
     if fs is not None and nav.cm_deg is not None:
         fs = reproject_state(fs, old.grid(nav.cm_deg), new.grid(nav.cm_deg), shift)
     return replace(nav, mpp_lat_deg=lat, mpp_lon_deg=lon, filter=fs)
-
-
-def replace_position(fs: FilterState, x_m: float, y_m: float, cov: np.ndarray) -> FilterState:
-    """Put the filter's horizontal position at (x, y) with VCV ``cov`` and no cross-covariance."""
-    x = fs.x.copy()
-    P = fs.P.copy()
-    x[0], x[1] = x_m, y_m
-    P[:2, :] = 0.0
-    P[:, :2] = 0.0
-    P[:2, :2] = cov
-    return replace(fs, x=x, P=P)
 
 
 __all__ = [

@@ -50,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.errors import InputError
+from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
 from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
@@ -227,12 +228,6 @@ class _FromWorking:
 # Kinematics
 
 
-def _wrap180(angle_deg: float) -> float:
-    """Angle difference (deg) in (−180, 180]; exactly ±180 becomes +180 (turn to starboard)."""
-    w = math.remainder(angle_deg, 360.0)
-    return 180.0 if w == -180.0 else w
-
-
 def _vertical_rate(speed_ms: float, depth_m: float, leg: Leg, sin_max_pitch: float) -> float:
     """Signed depth rate (m/s, + down) towards the leg's depth, limited by the pitch bound."""
     diff = leg.depth_m - depth_m
@@ -246,7 +241,7 @@ def _advance(
     heading: float, speed: float, depth: float, leg: Leg, accel: float, sin_max: float, h: float
 ) -> tuple[float, float, float]:
     """(true heading deg, speed m/s, depth m) after ``h`` seconds of the leg's ramps."""
-    diff = _wrap180(leg.course_deg - heading)
+    diff = wrap_180_deg(leg.course_deg - heading)  # ±180 → +180: turn to starboard
     step = leg.turn_rate_deg_s * h
     new_heading = leg.course_deg if abs(diff) <= step else (heading + math.copysign(step, diff))
     new_heading %= 360.0
@@ -452,7 +447,7 @@ def _sensor_readings(
         spd = v_kn * (1.0 + lg.scale_factor) + lg.bias_kn + lg.sigma_frac * v_kn * float(n[12])
         spd = min(max(spd, 0.0), 60.0)
     if sens.rudder:
-        diff = _wrap180(leg.course_deg - v.heading)
+        diff = wrap_180_deg(leg.course_deg - v.heading)
         turn = 0.0 if abs(diff) < 1e-9 else math.copysign(leg.turn_rate_deg_s, diff)
         rud = max(-RUDDER_LIMIT_DEG, min(RUDDER_LIMIT_DEG, scenario.rudder_gain_s * turn))
     if sens.inclinometer:

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 from pyproj import Proj
 
+from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84_ELLIPSOID, Ellipsoid
-from engine.geodesy.tmgrid import TMGrid, central_meridian_deg, wrap_lon_deg
+from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
 
 INTL = Ellipsoid("INTERNATIONAL", 6378388.0, 297.0)  # ED50 ellipsoid (TO_WGS84.DAT)
 GRID_5E = TMGrid(INTL, 5.0)  # the sample screens: ED50, CM 005°E
@@ -50,9 +51,9 @@ def test_central_meridian_rounding(lon: float, cm: float) -> None:
 
 
 def test_wrap_lon() -> None:
-    assert wrap_lon_deg(-180.0) == 180.0
-    assert wrap_lon_deg(181.0) == pytest.approx(-179.0, abs=1e-12)
-    assert wrap_lon_deg(-540.0) == 180.0
+    assert wrap_180_deg(-180.0) == 180.0
+    assert wrap_180_deg(181.0) == pytest.approx(-179.0, abs=1e-12)
+    assert wrap_180_deg(-540.0) == 180.0
 
 
 def test_grid_is_frozen_value_object() -> None:
@@ -113,7 +114,7 @@ def test_against_pyproj_tmerc(ell: Ellipsoid, cm: float) -> None:
     proj = tmerc(ell, cm)
     lat, dl = np.meshgrid(np.linspace(-80.0, 80.0, 33), np.linspace(-3.5, 3.5, 15))
     lat = lat.ravel()
-    lon = np.array([wrap_lon_deg(cm + d) for d in dl.ravel()])  # crosses ±180 for CM ±179/180
+    lon = np.array([wrap_180_deg(cm + d) for d in dl.ravel()])  # crosses ±180 for CM ±179/180
     xp, yp = proj(lon, lat)
     xs, ys = np.array([grid.forward(a, b) for a, b in zip(lat, lon, strict=True)]).T
     xa, ya = grid.forward_array(lat, lon)
@@ -188,7 +189,7 @@ def test_round_trip_both_hemispheres(cm: float) -> None:
     worst = 0.0
     for lat in np.linspace(-84.0, 84.0, 29):
         for dl in np.linspace(-6.0, 6.0, 13):
-            lon = wrap_lon_deg(cm + dl)
+            lon = wrap_180_deg(cm + dl)
             lat2, lon2 = grid.inverse(*grid.forward(float(lat), lon))
             worst = max(worst, _ground_error_m(float(lat), lon, lat2, lon2))
             assert -180.0 < lon2 <= 180.0

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from engine.lsq.adjustment import Linearisation, gauss_newton
-from engine.lsq.quality import adjust_with_testing
 from engine.lsq.robust import psi_weight, robust_adjust, standardised_residuals
+from engine.lsq.snooping import adjust_with_testing
 
 # 8 distance stations around the point, 45° apart, mixed ranges (well-spread geometry,
 # every redundancy number ≈ 0.75), σ = 5 m.

@@ -25,7 +25,7 @@ from engine.io.datumfile import read_datum_file
 from engine.io.deccafile import read_chain_file
 from engine.io.outlog import _NEEDS_QUOTES, format_value
 from engine.lsq.confidence import eigenvalues_2x2, error_ellipse
-from engine.lsq.quality import _worst
+from engine.lsq.snooping import _worst
 from engine.systems.decca import decca_geometry, decca_vcv_lanes, decca_vcv_m2, place_chain
 from tests.paths import DATA
 

@@ -1,4 +1,5 @@
-"""Quality control (engine.lsq.quality): w-test, reliability, unit variance, data snooping.
+"""Quality control (engine.lsq.statistics, engine.lsq.snooping): w-test, reliability, unit
+variance, data snooping.
 
 Independent sources: the thesis screens (Pg 633 via lsq.md §12), normal/χ² quantile tables,
 hand calculation of eq. 5.18, exact linear-model identities (5.8d), and seeded Monte Carlo runs
@@ -14,10 +15,10 @@ import numpy as np
 import pytest
 
 from engine.lsq.adjustment import Linearisation, gauss_newton
-from engine.lsq.quality import (
+from engine.lsq.snooping import adjust_with_testing
+from engine.lsq.statistics import (
     REJECT_BOUND,
     CumulativeVariance,
-    adjust_with_testing,
     classify_w,
     delta0,
     unit_variance_test,
@@ -386,3 +387,14 @@ def test_sample_passes_testing_unchanged() -> None:
 def test_bad_policy_is_rejected() -> None:
     with pytest.raises(ValueError):
         adjust_with_testing(pg821, np.zeros(2), USED, policy="X")
+
+
+def test_chi2_bounds_is_the_one_chi2_source() -> None:
+    from scipy.stats import chi2
+
+    from engine.lsq.statistics import chi2_bounds, chi2_quantile
+
+    lo, hi = chi2_bounds(0.05, 3)
+    assert (lo, hi) == (float(chi2.ppf(0.025, 3)), float(chi2.ppf(0.975, 3)))
+    assert chi2_bounds(0.05, 1, 6) == (0.000982069, 5.02389)  # the filter's printed table
+    assert chi2_quantile(0.95, 2) == pytest.approx(5.991, abs=1e-3)
