@@ -42,12 +42,12 @@ from engine.systems.decca import (
     DeccaReading,
 )
 from engine.systems.gps import GPS, GPS_VAR_CA_M2, GPS_VAR_P_M2, GpsFix, PriorObservations
-from engine.systems.manual import MAX_BRR, ManualObservation
+from engine.systems.manual import MANUAL, MAX_BRR, ManualObservation
 from engine.systems.registry import N_SLOTS, SYSTEMS, owner_of, slots_of
 
 SLOT_GPS_LAT, SLOT_GPS_LON = slots_of(GPS.name)
 SLOT_DECCA = tuple(slots_of(DECCA.name))
-SLOT_BRR0 = slots_of("manual").start
+SLOT_BRR0 = slots_of(MANUAL.name).start
 
 
 def lop_name(slot: int, *, system: str = "GPS",
@@ -61,7 +61,7 @@ def lop_name(slot: int, *, system: str = "GPS",
     """
     owner = owner_of(slot)
     if owner is not None:
-        values: dict[str, Any] = {GPS.name: system, "manual": manual}
+        values: dict[str, Any] = {GPS.name: system, MANUAL.name: manual}
         name = owner[0].row_name(owner[1], values.get(owner[0].name))
         if name is not None:
             return name
@@ -268,11 +268,10 @@ def compute_fix(
     VCV do not describe an ellipse that large (not applied to the hybrid fix, whose LOPs the
     filter linearises itself). ValueError only for invalid ``settings`` (programming errors).
     """
-    if len(manual) > MAX_BRR:
-        manual = manual[:MAX_BRR]
+    values = {GPS.name: gps, DECCA.name: decca, MANUAL.name: manual, **(readings or {})}
+    manual = values[MANUAL.name] = tuple(values[MANUAL.name] or ())[:MAX_BRR]
     if not (math.isfinite(x0[0]) and math.isfinite(x0[1])):
         return _no_fix(grid, x0, "provisional position not finite", 0)
-    values = {GPS.name: gps, DECCA.name: decca, "manual": manual, **(readings or {})}
     try:
         problem = _gather(Point(grid, geodesic, x0[0], x0[1]), values, prior, excluded_slots)
     except ObservationError as exc:
