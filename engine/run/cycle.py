@@ -67,14 +67,17 @@ from engine.systems.decca import (
 )
 from engine.systems.gps import GPS, GpsInput
 from engine.systems.registry import SYSTEMS, systems_string
-from engine.systems.sensors import knots_to_ms, pressure_depth_m, surface_reference_hz
+from engine.systems.sensors import (
+    SENSOR_NAMES,
+    knots_to_ms,
+    pressure_depth_m,
+    surface_reference_hz,
+)
 
 CM_HYSTERESIS_DEG = 0.05
 """Extra margin beyond 0.5° before the CM switches, so a ship on a half-degree meridian does not
 make the grid flip every cycle (program.md A11 gives 0.5°; kalman.md A18 asks for stability)."""
 
-SENSOR_NAMES = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")
-STATUS_CODE = {"off": 0, "on": 1, "n/a": 2}
 
 
 def filter_params_from_config(cfg: RunConfig) -> FilterParams:
@@ -295,10 +298,6 @@ def initial_state(cfg: RunConfig) -> NavState:
     return NavState(mpp_lat_deg=cfg.dr_lat_deg, mpp_lon_deg=cfg.dr_lon_deg)
 
 
-def _status(cfg: RunConfig, name: str) -> int:
-    return STATUS_CODE[getattr(cfg.sensors, name)]
-
-
 GROSS_GATE_SIGMA = 30.0
 """A fix whose innovation is longer than this many σ (Mahalanobis, against S = HPHᵀ + R) is a
 gross error, not a statistical one: the filter does not take it (a GPS fix 5800 km off would
@@ -319,7 +318,7 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
              lat: float, lon: float,
              messages: list[str]) -> tuple[SensorValues, float | None]:
     cfg = ctx.config
-    status = tuple(_status(cfg, n) for n in SENSOR_NAMES)
+    status = tuple(cfg.sensors.status(n) for n in SENSOR_NAMES)
 
     def val(i: int, v: float | None) -> float | None:
         return v if status[i] == 1 else None

@@ -17,13 +17,13 @@ from engine.io.formatting import format_angle_deg, format_speed_kn
 from engine.io.runfile import RunRecord, parse_run_line
 from engine.run.cycle import CycleResult
 from engine.run.session import Session
-from engine.systems.sensors import knots_to_ms
+from engine.systems.sensors import SENSOR_STATUS_WORD, knots_to_ms
 from uvnav_tui.pages.page_text import MISSING, TextPage, num
 from uvnav_tui.pages.pages import register_page
 
 PAGE_NUMBER = 620
 TITLE = "Sensor statistics :"
-STATUS = {0: "off", 1: "on", 2: "n/a"}
+STATUS = SENSOR_STATUS_WORD
 HEADER = ("Sensor".ljust(8) + "Stat".ljust(5) + "Raw".ljust(13) + "Converted".ljust(15)
           + "σ".ljust(11) + "KF syst. error".ljust(16) + "   √P")
 
