@@ -150,6 +150,14 @@ class FixResult:
         slots = slots_of(system)
         return tuple(row for row in self.lops if row.slot in slots)
 
+    def apriori_vcv(self, system: str) -> np.ndarray | None:
+        """The a priori VCV block (m²) of one system's slots in the final adjustment (Pg 611,
+        Pg 615), None when there was no adjustment."""
+        if self.tested is None:
+            return None
+        s = slots_of(system)
+        return self.tested.adjustment.Cl[s.start:s.stop, s.start:s.stop]
+
 
 @dataclass(frozen=True)
 class RawLops:

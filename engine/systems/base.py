@@ -9,7 +9,7 @@ module with one object that satisfies :class:`NavSystem`, listed in the registry
    cycle keeps (e.g. the Decca lane track);
 2. :meth:`NavSystem.observations` — from that value make an :class:`ObservationSet`: its rows of
    the observation equations at a grid point (design rows, O − C, a priori VCV block; thesis
-   ch. 5, eq. 5.1–5.4) and its page data at the estimate (:class:`LopReading`).
+   ch. 5.3, eq. 5.1a–g) and its page data at the estimate (:class:`LopReading`).
 
 The observation vector of the fix is the concatenation of every system's slots, in registry
 order (``slot_labels`` says how many and their short names).
@@ -110,7 +110,7 @@ class ObservationSet(Protocol):
                   Cl: np.ndarray) -> None:
         """Write the rows of the system's slots (first slot ``slot0``) at ``p``: design rows
         (∂/∂x, ∂/∂y, metres per metre) into the row-major flat ``A``, O − C (m) into ``b`` and
-        the a priori VCV block (m²) into ``Cl`` (thesis ch. 5, eq. 5.1–5.4)."""
+        the a priori VCV block (m²) into ``Cl`` (thesis ch. 5.3, eq. 5.1a–g)."""
         ...
 
     def readings(self, p: Point) -> list[LopReading]:
