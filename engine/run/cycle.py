@@ -783,10 +783,9 @@ def fix_source(cfg: RunConfig) -> tuple[object, ...]:
 
     A change (Setup ▸ Systems) starts the filter's Gauss–Markov fix-error states afresh; a
     single record without GPS or one LOP rejected by the w-test does not.
+    Each system says what identifies its error process (``NavSystem.fix_source``).
     """
-    gps = ("GPS", cfg.gps.receiver) if cfg.gps.on else ()
-    decca = ("Decca", cfg.decca.chain, *cfg.decca.select) if cfg.decca.on else ()
-    return gps + decca
+    return tuple(item for system in SYSTEMS for item in system.fix_source(cfg))
 
 
 def _raw_lop_measurement(fix: FixResult) -> Measurement | None:

@@ -178,6 +178,12 @@ class NavSystem(Protocol):
         """Whether the run configuration switches the system on (its systems-string letter)."""
         ...
 
+    def fix_source(self, config: Any) -> tuple[object, ...]:
+        """What identifies the system's error process in the LSE while it is on (receiver type,
+        chain and patterns; () when off or never a source): a change restarts the filter's
+        fix-error states (``engine.run.cycle.fix_source``)."""
+        ...
+
     def read(self, inputs: CycleInputs) -> SystemReading:
         """This cycle's reading of the system (see :class:`SystemReading`)."""
         ...

@@ -636,6 +636,11 @@ class DeccaSystem:
     def is_on(self, config: Any) -> bool:
         return bool(config.decca.on)
 
+    def fix_source(self, config: Any) -> tuple[object, ...]:
+        """The chain and the selected patterns while Decca is on."""
+        d = config.decca
+        return ("Decca", d.chain, *d.select) if d.on else ()
+
     def read(self, inputs: CycleInputs) -> SystemReading:
         """The record's fractions as tracked total lane counts (``detail``: the
         :class:`LaneTotals` with the new lane track), checked against this cycle's GPS."""

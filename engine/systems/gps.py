@@ -172,6 +172,10 @@ class GpsSystem:
     def is_on(self, config: Any) -> bool:
         return bool(config.gps.on)
 
+    def fix_source(self, config: Any) -> tuple[object, ...]:
+        """The receiver type (C/A or P code) while GPS is on."""
+        return ("GPS", config.gps.receiver) if config.gps.on else ()
+
     def read(self, inputs: CycleInputs) -> SystemReading:
         """The record's GPS position as a :class:`GpsFix` (``detail``: the :class:`GpsInput`)."""
         gps = gps_input(inputs)

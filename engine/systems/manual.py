@@ -2,8 +2,9 @@
 
 Each observation is to a charted station (geodetic on the working datum): a bearing (degrees
 true, ship → station) or a distance (metres). Both are metric rows on the TM grid (thesis ch. 5,
-A5.13–A5.16; lsq.md §3.3): a bearing's O − C is the angle times the distance, its σ the angular
-σ times the distance; a distance is spheroidal (grid chord over the line scale factor).
+A5.9–A5.27; the spheroidal distance of A5.10/A5.13; lsq.md §3.3): a bearing's O − C is the angle
+times the distance, its σ the angular σ times the distance; a distance is spheroidal (grid
+chord over the line scale factor).
 """
 
 from __future__ import annotations
@@ -128,6 +129,10 @@ class ManualSystem:
 
     def is_on(self, config: Any) -> bool:
         return False
+
+    def fix_source(self, config: Any) -> tuple[object, ...]:
+        """Never a source of its own: occasional observations, independent of each other."""
+        return ()
 
     def read(self, inputs: CycleInputs) -> SystemReading:
         """The observations queued for this cycle (``NavState.pending_obs``)."""
