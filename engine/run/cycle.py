@@ -63,7 +63,7 @@ from engine.systems.decca import (
     ChainOnGrid,
     LaneSource,
     lane_sigma,
-    place_chain,
+    place_chain_on_datum,
 )
 from engine.systems.gps import GPS, GpsInput
 from engine.systems.registry import SYSTEMS, systems_string
@@ -159,13 +159,10 @@ class RunContext:
         chain = self.chains.get(self.config.decca.chain)
         placed = None
         if chain is not None:
-            latlon = np.array([[s.lat_deg, s.lon_deg] for s in
-                               (chain.master, chain.red, chain.green, chain.purple)])
+            shift = None
             if chain.datum_name.upper() != self.working.name.upper():
                 shift = datum_shift(self.datums.datum(chain.datum_name), self.working)
-                latlon = np.array([shift.transform(float(a), float(b), 0.0)[:2]
-                                   for a, b in latlon])
-            placed = place_chain(chain, self.grid(cm_deg), latlon)
+            placed = place_chain_on_datum(chain, self.grid(cm_deg), shift)
         self._placed[cm_deg] = placed
         return placed
 

@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from engine.geodesy.ellipsoidal import (
+    DatumShift,
     GeodesicSolver,
     andoyer_lambert_m,
     line_scale_factor,
@@ -139,6 +140,17 @@ def place_chain(
         wavelength_m=wavelength,
         min_lanes=np.array(chain.min_lanes, dtype=float),
     )
+
+
+def place_chain_on_datum(chain: DeccaChain, grid: TMGrid,
+                         shift: DatumShift | None = None) -> ChainOnGrid:
+    """Place ``chain`` on ``grid`` of the working datum; ``shift`` transforms the chain file's
+    datum to the working datum (None: the same datum; h = 0 on the chain datum)."""
+    latlon = np.array([[s.lat_deg, s.lon_deg] for s in
+                       (chain.master, chain.red, chain.green, chain.purple)])
+    if shift is not None:
+        latlon = np.array([shift.transform(float(a), float(b), 0.0)[:2] for a, b in latlon])
+    return place_chain(chain, grid, latlon)
 
 
 @dataclass(frozen=True, slots=True)
