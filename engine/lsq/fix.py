@@ -26,6 +26,7 @@ from engine.geodesy.tmgrid import TMGrid
 from engine.lsq.adjustment import Adjustment, Linearisation
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.quality import TestedAdjustment, adjust_with_testing, classify_w
+from engine.systems import registry
 from engine.systems.base import (
     EVAL_ERRORS,
     LopReading,
@@ -43,7 +44,7 @@ from engine.systems.decca import (
 )
 from engine.systems.gps import GPS, GPS_VAR_CA_M2, GPS_VAR_P_M2, GpsFix, PriorObservations
 from engine.systems.manual import MANUAL, MAX_BRR, ManualObservation
-from engine.systems.registry import N_SLOTS, SYSTEMS, owner_of, slots_of
+from engine.systems.registry import N_SLOTS, owner_of, slots_of
 
 SLOT_GPS_LAT, SLOT_GPS_LON = slots_of(GPS.name)
 SLOT_DECCA = tuple(slots_of(DECCA.name))
@@ -192,6 +193,7 @@ class _Model:
         self.grid = grid
         self.geodesic = geodesic
         self.parts = [(slots_of(name).start, obs) for name, obs in sets.items()]
+        self.n_slots = registry.n_slots()
 
     def __call__(self, x: np.ndarray) -> Linearisation:
         """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N).
@@ -199,14 +201,15 @@ class _Model:
         Rows and misclosures are assembled as Python floats and converted once; C_l starts
         as the identity (unused slots: variance 1, Pg 821) with the system blocks written in.
         """
-        A = [0.0] * (2 * N_SLOTS)  # row-major (N_SLOTS, 2): ∂/∂x, ∂/∂y of each slot
-        b = [0.0] * N_SLOTS
-        Cl = np.eye(N_SLOTS)
+        n = self.n_slots
+        A = [0.0] * (2 * n)  # row-major (n, 2): ∂/∂x, ∂/∂y of each slot
+        b = [0.0] * n
+        Cl = np.eye(n)
         x0, y0 = x.tolist() if isinstance(x, np.ndarray) else (float(x[0]), float(x[1]))
         p = Point(self.grid, self.geodesic, x0, y0)
         for slot0, obs in self.parts:
             obs.linearise(p, slot0, A, b, Cl)
-        return Linearisation(A=np.array(A).reshape(N_SLOTS, 2), b=np.array(b), Cl=Cl)
+        return Linearisation(A=np.array(A).reshape(n, 2), b=np.array(b), Cl=Cl)
 
 
 def _gather(
@@ -219,9 +222,9 @@ def _gather(
     ``prior`` takes the GPS slots when GPS is absent and fewer than two LOPs are available
     (table 5.1 category I, lsq.md §4.8). Raises ObservationError (with the texts so far)."""
     sets: dict[str, ObservationSet] = {}
-    used = [False] * N_SLOTS
+    used = [False] * registry.n_slots()
     messages: list[str] = []
-    for system in SYSTEMS:
+    for system in registry.SYSTEMS:
         try:
             obs = system.observations(values.get(system.name), p0)
         except ObservationError as exc:
@@ -241,7 +244,7 @@ def _gather(
             used[slot] = True
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
-        sets = {s.name: sets[s.name] for s in SYSTEMS if s.name in sets}
+        sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
     return _Problem(sets, used, uses_prior, messages)
 
 

@@ -55,6 +55,7 @@ from engine.lsq.fix import (
 )
 from engine.lsq.quality import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig
+from engine.systems import registry
 from engine.systems.base import CycleInputs, SystemReading
 from engine.systems.decca import (
     DECCA,
@@ -66,7 +67,7 @@ from engine.systems.decca import (
     place_chain_on_datum,
 )
 from engine.systems.gps import GPS, GpsInput
-from engine.systems.registry import SYSTEMS, systems_string
+from engine.systems.registry import systems_string
 from engine.systems.sensors import (
     SENSOR_NAMES,
     knots_to_ms,
@@ -598,7 +599,7 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
     """Every navigation system's reading of this record, in registry order (a system sees the
     readings before it: Decca checks its lanes against GPS)."""
     readings: dict[str, SystemReading] = {}
-    for system in SYSTEMS:
+    for system in registry.SYSTEMS:
         inputs = CycleInputs(ctx.config, ctx, nav, rec, grid, cm, x_start, prior,
                              dict(readings))
         reading = system.read(inputs)
@@ -782,7 +783,7 @@ def fix_source(cfg: RunConfig) -> tuple[object, ...]:
     single record without GPS or one LOP rejected by the w-test does not.
     Each system says what identifies its error process (``NavSystem.fix_source``).
     """
-    return tuple(item for system in SYSTEMS for item in system.fix_source(cfg))
+    return tuple(item for system in registry.SYSTEMS for item in system.fix_source(cfg))
 
 
 def _raw_lop_measurement(fix: FixResult) -> Measurement | None:

@@ -8,6 +8,8 @@ fix's observation vector (Pg 821/830), and it is the order in which the cycle re
 
 from __future__ import annotations
 
+import functools
+
 from engine.systems.base import SYSTEMS_COLUMNS, NavSystem
 from engine.systems.decca import DECCA
 from engine.systems.gps import GPS
@@ -17,37 +19,48 @@ SYSTEMS: tuple[NavSystem, ...] = (GPS, DECCA, MANUAL)
 """Every navigation system, in slot order."""
 
 
-def _layout() -> dict[str, range]:
+@functools.cache
+def _layout(systems: tuple[NavSystem, ...]) -> dict[str, range]:
     slots: dict[str, range] = {}
     first = 0
-    for system in SYSTEMS:
+    for system in systems:
         slots[system.name] = range(first, first + len(system.slot_labels))
         first += len(system.slot_labels)
     return slots
 
 
-SLOTS: dict[str, range] = _layout()
-"""The slots of each system in the observation vector, by system name."""
-
-N_SLOTS = sum(len(r) for r in SLOTS.values())
-"""Length of the observation vector (10: GPS 2, Decca 3, bearings/distances 5)."""
-
-SLOT_LABELS: tuple[str, ...] = tuple(label for s in SYSTEMS for label in s.slot_labels)
-"""Short name of every slot (Pg 821/830: "Lat", "Lon", "Red", "Grn", "Prp", "BRR1" …)."""
+def layout() -> dict[str, range]:
+    """The slots of each system in the observation vector, by system name (of the registry as
+    it is now: a test may register a system of its own)."""
+    return _layout(SYSTEMS)
 
 
 def slots_of(name: str) -> range:
     """The observation slots of system ``name`` ("gps", "decca", "manual")."""
-    return SLOTS[name]
+    return layout()[name]
+
+
+def n_slots() -> int:
+    """Length of the observation vector."""
+    return sum(len(r) for r in layout().values())
 
 
 def owner_of(slot: int) -> tuple[NavSystem, int] | None:
     """The system owning observation ``slot`` and the row within it (None: no such slot)."""
+    slots = layout()
     for system in SYSTEMS:
-        r = SLOTS[system.name]
+        r = slots[system.name]
         if slot in r:
             return system, slot - r.start
     return None
+
+
+N_SLOTS = n_slots()
+"""Length of the observation vector of the built-in systems (10: GPS 2, Decca 3, bearings/
+distances 5); the slots of systems appended later follow these."""
+
+SLOT_LABELS: tuple[str, ...] = tuple(label for s in SYSTEMS for label in s.slot_labels)
+"""Short name of every built-in slot (Pg 821/830: "Lat", "Lon", "Red", "Grn", "Prp", "BRR1" …)."""
 
 
 def systems_string(config: object) -> str:
