@@ -459,11 +459,7 @@ def step(
     x_start, prior = _provisional(nav, grid, pred.state)
     readings = _read_systems(ctx, nav, rec, grid, cm, x_start, prior, messages)
     fix = _fix(ctx, nav, grid, x_start, prior, readings, excluded_slots, messages)
-    # --- A fix that fails its tests is not taken at face value (fix_fit, issue 15 item 6).
-    fit_scale, fit_note = fix_fit(fix)
-    if fit_note is not None:
-        messages.insert(0, fit_note)  # first: the console's message line shows it at 80 columns
-    fix_cov = _NO_COV if fix is None else (fix.cov if fit_scale == 1.0 else fix.cov * fit_scale)
+    fit_scale, fit_note, fix_cov = _fitness(fix, messages)
     filt = _update_filter(ctx, nav, pred, sens, fix, fix_cov, messages)
     kf_est = None
     if filt.state is not None and filt.status == "ON":
@@ -627,6 +623,17 @@ def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, flo
     if voted is not None:
         messages.append(voted)
     return fix
+
+
+def _fitness(fix: FixResult | None,
+             messages: list[str]) -> tuple[float, str | None, np.ndarray]:
+    """A fix that fails its tests is not taken at face value (:func:`fix_fit`, issue 15 item
+    6): (VCV factor, message, the VCV the filter and the MPP use); the message goes first."""
+    fit_scale, fit_note = fix_fit(fix)
+    if fit_note is not None:
+        messages.insert(0, fit_note)  # first: the console's message line shows it at 80 columns
+    fix_cov = _NO_COV if fix is None else (fix.cov if fit_scale == 1.0 else fix.cov * fit_scale)
+    return fit_scale, fit_note, fix_cov
 
 
 @dataclass
