@@ -14,6 +14,7 @@ cost about a microsecond per call, so the rows add up to a little more than the 
 
 from __future__ import annotations
 
+import importlib
 import statistics
 import tempfile
 import time
@@ -36,8 +37,8 @@ N_EPOCHS = 1500
 REPEATS = 5
 TARGET_EPOCHS_S = 10_000
 STAGES = {
-    "geodesy (GPS datum shift, grid)": ("_gps_input",),
-    "Decca lane tracking": ("_decca_totals",),
+    "geodesy (GPS datum shift, grid)": ("engine.systems.gps:gps_input",),
+    "Decca lane tracking": ("engine.systems.decca:decca_totals",),
     "LSQ fix + tests": ("compute_fix",),
     "filter (predict, updates)": (
         "predict_step", "update", "sensor_measurement", "lse_measurement", "stack_measurements"),
@@ -75,8 +76,10 @@ def _instrumented(acc: dict[str, float]) -> Iterator[None]:
     """Timers on the stage functions, the cycle and the session's .OUT path (restored after)."""
     patches: list[tuple[object, str, object]] = []
     for stage, names in STAGES.items():
-        patches += [(cycle_mod, name, _timed(getattr(cycle_mod, name), acc, stage))
-                    for name in names]
+        for name in names:  # "module:function", or a function of engine.run.cycle
+            mod_name, _, attr = name.rpartition(":")
+            mod = importlib.import_module(mod_name) if mod_name else cycle_mod
+            patches.append((mod, attr, _timed(getattr(mod, attr), acc, stage)))
     # session.step calls engine.run.cycle.step through its own imported name.
     patches.append((session_mod, "step", _timed(session_mod.step, acc, CYCLE)))
     patches.append((session_mod, "cycle_block", _timed(session_mod.cycle_block, acc, LOG_STAGE)))

@@ -122,7 +122,7 @@ from engine.run.records import lse_estimate, position_json
 from engine.run.session import RunSummary, Session, load_data, load_run_config, run_inputs
 from engine.sim.scenario import load_scenario
 from engine.sim.simulate import read_data_files, write_simulation
-from engine.systems.sensors import KNOT_MS, knots_to_ms
+from engine.systems.sensors import KNOT_MS, SENSOR_STATUS_WORD, knots_to_ms
 
 __all__ = [
     # errors
@@ -192,6 +192,7 @@ __all__ = [
     "drms",
     "error_ellipsoid",
     "knots_to_ms",
+    "SENSOR_STATUS_WORD",
     "lop_name",
     "poe_states",
     "sensor_measurement",

@@ -56,7 +56,8 @@ def test_every_config_key_is_in_the_readme() -> None:
 #
 # The engine's rooms, lowest first (docs/ARCHITECTURE.md). A module may import its own package
 # and any package of a lower rank; packages that share a rank are independent of each other
-# (sim and assess). The filter sits above the fix: it takes the χ² bounds of lsq.statistics. ``engine.api`` is the face, the top. The package root
+# (sim and assess). The filter sits above the fix: it takes the χ² bounds of lsq.statistics.
+# ``engine.api`` is the face, the top. The package root
 # ``engine`` (its ``__init__``: the version only) is matched exactly and sits at the bottom.
 ENGINE_ROOT = "engine"
 ENGINE_LAYERS: tuple[tuple[str, ...], ...] = (

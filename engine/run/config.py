@@ -43,14 +43,12 @@ from engine.io.tomlsource import (
     parse_located,
     read_text,
 )
+from engine.systems.sensors import SENSOR_STATUS
 
 UNKNOWN_PATTERN_MESSAGE = "Unknown Decca pattern !"
 PATTERN_NOT_ENTERED_MESSAGE = "No zone/lane entered for this pattern !"
 PATTERN_TWICE_MESSAGE = "Pattern selected twice !"
 UNKNOWN_CHAIN_MESSAGE = "Unknown chain !"
-
-_SENSOR_CODES = {"on": 1, "off": 0, "n/a": 2}
-"""Sensor state word → A8.2 status code (1 on, 0 connected but off, 2 not connected, L8729)."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -166,6 +164,16 @@ def _zone_lane(pattern: str) -> Callable[[str], str]:
 
 
 _PACE_RE = re.compile(r"x([0-9]+(?:\.[0-9]*)?|\.[0-9]+)")
+
+
+def pace_factor(pace: str) -> float:
+    """Playback speed relative to real time for a pace word: 1 for "real", inf for "fast",
+    N for "xN" (the one definition; the console's run control uses it too)."""
+    if pace == "real":
+        return 1.0
+    if pace == "fast":
+        return math.inf
+    return float(pace[1:])
 
 
 def _pace(value: str) -> str:
@@ -376,7 +384,7 @@ class SensorsConfig:
 
     def status(self, sensor: str) -> int:
         """A8.2 status code of ``sensor`` (e.g. "gyro"): 1 on, 0 off, 2 not connected."""
-        return _SENSOR_CODES[getattr(self, sensor)]
+        return SENSOR_STATUS[getattr(self, sensor)]
 
 
 _SENSOR_WORD = _choice("on", "off", "n/a")
@@ -694,11 +702,7 @@ class DemoConfig:
     @property
     def pace_factor(self) -> float:
         """Playback speed relative to real time: 1 for "real", inf for "fast", N for "xN"."""
-        if self.pace == "real":
-            return 1.0
-        if self.pace == "fast":
-            return math.inf
-        return float(self.pace[1:])
+        return pace_factor(self.pace)
 
 
 # fmt: off

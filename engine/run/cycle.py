@@ -11,7 +11,7 @@ geodetic positions on the working datum; headings true outside the filter, grid 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from datetime import datetime
 
@@ -36,7 +36,7 @@ from engine.filter.kalman import (
 from engine.filter.state import move_to_grid, replace_position
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
-from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift, geodetic_to_ecef
+from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
 from engine.geodesy.tmgrid import TMGrid, central_meridian_deg
 from engine.io.datumfile import DatumFile
 from engine.io.deccafile import DeccaChain
@@ -47,39 +47,40 @@ from engine.lsq.fix import (
     GPS_VAR_CA_M2,
     GPS_VAR_P_M2,
     SLOT_BRR0,
-    DeccaReading,
     FixResult,
-    GpsFix,
     LsqSettings,
     ManualObservation,
     PositionPrior,
     compute_fix,
     lop_name,
+    slots_of,
 )
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig
+from engine.systems import registry
+from engine.systems.base import CycleInputs, SystemReading
 from engine.systems.decca import (
-    PATTERNS,
+    DECCA,
+    DECCA_TRACK_GAP_S,
+    LANE_SIGMA_MAX,
     ChainOnGrid,
-    DeccaGeometry,
-    decca_geometry,
-    identify_lane,
-    place_chain,
-    resolve_total_lanes,
-    track_lane,
+    LaneSource,
+    lane_sigma,
+    place_chain_on_datum,
 )
-from engine.systems.sensors import knots_to_ms, pressure_depth_m, surface_reference_hz
-
-DECCA_TRACK_GAP_S = 30.0
-"""Longest gap in a pattern's readings over which its lane count is still tracked (s); after a
-longer gap (a dive) the lane is identified again from the provisional position."""
+from engine.systems.gps import GPS, GpsInput
+from engine.systems.registry import systems_string
+from engine.systems.sensors import (
+    SENSOR_NAMES,
+    knots_to_ms,
+    pressure_depth_m,
+    surface_reference_hz,
+)
 
 CM_HYSTERESIS_DEG = 0.05
 """Extra margin beyond 0.5° before the CM switches, so a ship on a half-degree meridian does not
 make the grid flip every cycle (program.md A11 gives 0.5°; kalman.md A18 asks for stability)."""
 
-SENSOR_NAMES = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")
-STATUS_CODE = {"off": 0, "on": 1, "n/a": 2}
 
 
 FILTER_KEY_TO_PARAM = {
@@ -157,13 +158,10 @@ class RunContext:
         chain = self.chains.get(self.config.decca.chain)
         placed = None
         if chain is not None:
-            latlon = np.array([[s.lat_deg, s.lon_deg] for s in
-                               (chain.master, chain.red, chain.green, chain.purple)])
+            shift = None
             if chain.datum_name.upper() != self.working.name.upper():
                 shift = datum_shift(self.datums.datum(chain.datum_name), self.working)
-                latlon = np.array([shift.transform(float(a), float(b), 0.0)[:2]
-                                   for a, b in latlon])
-            placed = place_chain(chain, self.grid(cm_deg), latlon)
+            placed = place_chain_on_datum(chain, self.grid(cm_deg), shift)
         self._placed[cm_deg] = placed
         return placed
 
@@ -208,23 +206,6 @@ class PositionEstimate:
     depth_m: float
     cov: np.ndarray
     ellipse: Ellipse | None
-
-
-@dataclass(frozen=True, slots=True)
-class GpsInput:
-    """The GPS record of a cycle: as received (on ``run_gps_datum``), its WGS84 ECEF for Pg 100,
-    the displayed WGS84 height ``hg_m`` (program.md §4.3), on the working datum, and on the grid."""
-
-    lat_in_deg: float
-    lon_in_deg: float
-    wgs84_lat_deg: float
-    wgs84_lon_deg: float
-    hg_m: float
-    ecef_m: tuple[float, float, float]
-    lat_deg: float
-    lon_deg: float
-    x_m: float
-    y_m: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -313,10 +294,6 @@ def initial_state(cfg: RunConfig) -> NavState:
     return NavState(mpp_lat_deg=cfg.dr_lat_deg, mpp_lon_deg=cfg.dr_lon_deg)
 
 
-def _status(cfg: RunConfig, name: str) -> int:
-    return STATUS_CODE[getattr(cfg.sensors, name)]
-
-
 GROSS_GATE_SIGMA = 30.0
 """A fix whose innovation is longer than this many σ (Mahalanobis, against S = HPHᵀ + R) is a
 gross error, not a statistical one: the filter does not take it (a GPS fix 5800 km off would
@@ -337,7 +314,7 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
              lat: float, lon: float,
              messages: list[str]) -> tuple[SensorValues, float | None]:
     cfg = ctx.config
-    status = tuple(_status(cfg, n) for n in SENSOR_NAMES)
+    status = tuple(cfg.sensors.status(n) for n in SENSOR_NAMES)
 
     def val(i: int, v: float | None) -> float | None:
         return v if status[i] == 1 else None
@@ -405,25 +382,6 @@ def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
         a.setflags(write=False)
 
 
-def _gps_input(ctx: RunContext, rec: RunRecord, grid: TMGrid) -> GpsInput | None:
-    cfg = ctx.config
-    if not cfg.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
-        return None
-    lat_in, lon_in = rec.gps_lat_deg, rec.gps_lon_deg
-    if ctx.gps_shift is None:
-        lat, lon, h_datum = lat_in, lon_in, 0.0
-    else:
-        # h = 0 on the source datum for the horizontal transformation (lsq.md §2.1).
-        lat, lon, h_datum = ctx.gps_shift.transform(lat_in, lon_in, 0.0)
-    if ctx.gps_to_wgs84 is None:
-        w_lat, w_lon, hg = lat_in, lon_in, -h_datum
-    else:
-        w_lat, w_lon, hg = ctx.gps_to_wgs84.transform(lat_in, lon_in, 0.0)
-    ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
-    x, y = grid.forward(lat, lon)
-    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y)
-
-
 def _cm_for(nav: NavState, lon: float) -> float:
     cm = nav.cm_deg
     if cm is None:
@@ -455,7 +413,7 @@ def fix_fit(fix: FixResult | None) -> tuple[float, str | None]:
     factor 1 (scaled once); a hybrid fix (filter prediction as LOPs) is the filter's to test.
     ``(1.0, None)`` when the fix passes.
     """
-    if fix is None or not fix.ok or fix.uses_prior or fix.tested is None:
+    if fix is None or not fix.lse_ok or fix.tested is None:
         return 1.0, None
     vt = fix.tested.variance_test
     s2 = fix.s2
@@ -484,400 +442,318 @@ def step(
 ) -> tuple[NavState, CycleResult]:
     """Process one record: sensors, LOPs, LSE (or too-few-LOPs / DR-only path), filter, MPP.
 
+    The phases, in order: the record's interval and grid, sensors, dead reckoning (filter
+    start, sensor update, prediction), the systems' readings, the fix and its fitness, the
+    filter updates, the MPP, and the assembly of the result and the next state.
     Raises nothing for bad data (the parser already rejected malformed records); a record whose
     time does not advance raises :class:`ValueError`, which the replay loop logs and skips.
     """
-    cfg = ctx.config
-    if nav.last_time is None:
-        dt = float(cfg.demo.delta_t_s)
-    else:
-        dt = (rec.time - nav.last_time).total_seconds()
-        if dt <= 0.0:
-            raise ValueError(f"record time {rec.time:%H:%M:%S} does not advance")
+    dt = _interval(ctx, nav, rec)
     messages: list[str] = []
-    params = ctx.filter_params
-    # Central meridian from the provisional position (the last MPP, program.md A11).
+    cm, grid, fstate = _grid_for_cycle(ctx, nav, messages)
+    sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg,
+                               messages)
+    pred = _dead_reckoning(ctx, nav, fstate, sens, grid, dt)
+    x_start, prior = _provisional(nav, grid, pred.state)
+    readings = _read_systems(ctx, nav, rec, grid, cm, x_start, prior, messages)
+    fix = _fix(ctx, nav, grid, x_start, prior, readings, excluded_slots, messages)
+    fit_scale, fit_note, fix_cov = _fitness(fix, messages)
+    filt = _update_filter(ctx, nav, pred, sens, fix, fix_cov, messages)
+    kf_est = None
+    if filt.state is not None and filt.status == "ON":
+        kf_est = filter_estimate("KF", grid, filt.state)
+    mpp = _mpp(ctx, nav, grid, kf_est, filt.state, fix, fix_cov, messages)
+    cumulative = nav.cumulative
+    if fix is not None and fix.lse_ok and fix.s2 is not None:
+        cumulative = cumulative.update(fix.s2, fix.n_used - 2)
+    lanes = readings[DECCA.name].detail
+    result = CycleResult(
+        n=nav.n + 1, record=rec.line_no, time=rec.time, raw=rec.raw, dt_s=dt,
+        datum=ctx.working.name, cm_deg=cm, systems=systems_string(ctx.config), sensors=sens,
+        gps=readings[GPS.name].detail, decca_fractions=rec.decca, decca_on=ctx.config.decca.on,
+        fix=fix, kf_pred=pred.estimate, kf=kf_est, mpp=mpp, filter_status=filt.status,
+        filter_state=filt.state, filter_update=filt.result, cumulative=cumulative,
+        manual=nav.pending_obs, messages=tuple(messages), smoother_link=filt.link,
+        sensor_update=pred.sensor_update, fix_fails_tests=fit_note is not None,
+        fix_cov_scale=fit_scale, fix_gate=filt.gate,
+        lane_slips=0 if lanes is None else lanes.slips,
+    )
+    _freeze_result(fix, None if filt.link is None else filt.link[2], filt.result,
+                   pred.sensor_update)
+    next_nav = NavState(
+        n=nav.n + 1, last_time=rec.time, cm_deg=cm, mpp_lat_deg=mpp.lat_deg,
+        mpp_lon_deg=mpp.lon_deg, filter=filt.state, cumulative=cumulative, pending_obs=(),
+        press_ref_hz=press_ref,
+        decca_track=nav.decca_track if lanes is None else lanes.track,
+        filter_has_fix=filt.has_fix, fix_source=filt.source, gated_fixes=filt.gated,
+    )
+    return next_nav, result
+
+
+def _interval(ctx: RunContext, nav: NavState, rec: RunRecord) -> float:
+    """The time step into this record (s): ``demo.delta_t_s`` for the first record, else the
+    time since the last (ValueError when it does not advance)."""
+    if nav.last_time is None:
+        return float(ctx.config.demo.delta_t_s)
+    dt = (rec.time - nav.last_time).total_seconds()
+    if dt <= 0.0:
+        raise ValueError(f"record time {rec.time:%H:%M:%S} does not advance")
+    return dt
+
+
+def _grid_for_cycle(ctx: RunContext, nav: NavState,
+                    messages: list[str]) -> tuple[float, TMGrid, FilterState | None]:
+    """The cycle's CM (from the provisional position, the last MPP, program.md A11), its grid
+    and the filter state re-projected onto it when the CM changed."""
     cm = _cm_for(nav, nav.mpp_lon_deg)
     grid = ctx.grid(cm)
     fstate = nav.filter
     if fstate is not None and nav.cm_deg is not None and cm != nav.cm_deg:
         fstate = reproject_state(fstate, ctx.grid(nav.cm_deg), grid)
         messages.append(f"CM changed to {cm:+.0f}°: grid re-projected")
-    sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg,
-                               messages)
+    return cm, grid, fstate
+
+
+@dataclass(frozen=True)
+class _Prediction:
+    """The dead-reckoning phase: the predicted filter state at this epoch and its estimate, the
+    smoother link, the update with this record's gyro/log/inclinometer rows and whether there
+    were any (None/False without a filter)."""
+
+    state: FilterState | None = None
+    estimate: PositionEstimate | None = None
+    link: tuple[FilterState, FilterState, np.ndarray] | None = None
+    sensor_update: UpdateResult | None = None
+    dr_sensors: bool = False
+
+
+def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
+                    sens: SensorValues, grid: TMGrid, dt: float) -> _Prediction:
+    """Start the filter from the DR position if needed, update it with this record's sensors
+    and predict it one step (kalman.md A3)."""
+    params = ctx.filter_params
     gamma = sens.convergence_deg
     heading_grid = (
         None if sens.heading_true_deg is None else math.radians(sens.heading_true_deg - gamma)
     )
     speed_ms = None if sens.speed_kn is None else knots_to_ms(sens.speed_kn)
     incl = None if sens.incl_deg is None else math.radians(sens.incl_deg)
-    # --- Filter: start from the DR position, then one propagation per record (kalman.md A3).
     initialised = False
     if fstate is None and heading_grid is not None and speed_ms is not None:
-        x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
-        set_rad = math.radians(cfg.current_set_deg)
-        vc = knots_to_ms(cfg.current_speed_kn)
-        pos_cov = None if cfg.filter.p0 == "thesis" else np.eye(2) * cfg.filter.dr_sigma_m**2
-        fstate = init_state(
-            0.0, x0, y0, cfg.depth_m, speed_ms, heading_grid, incl or 0.0,
-            vc * math.sin(set_rad - math.radians(gamma)),
-            vc * math.cos(set_rad - math.radians(gamma)),
-            params, pos_cov=pos_cov, from_sensors=(True, True, incl is not None),
-        )
+        fstate = _start_filter(ctx, nav, grid, gamma, speed_ms, heading_grid, incl)
         initialised = True
-    kf_pred: PositionEstimate | None = None
-    pred_state: FilterState | None = None
-    link: tuple[FilterState, FilterState, np.ndarray] | None = None
-    sens_result: UpdateResult | None = None
-    dr_sensors = False
-    if fstate is not None:
-        # Heading and speed of this record drive the step into it (program.md §10 item 6: the
-        # sample's KF row moves on the mean of the two records' gyro headings). A state just
-        # initialised from this record's readings has them already (no double counting).
-        sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
-                                         gyro_grid_rad=heading_grid, incl_rad=incl, params=params)
-        dr_sensors = sensor_rows.z.shape[0] > 0
-        if dr_sensors and not initialised:
-            sens_result = update(fstate, sensor_rows, params)
-            fstate = sens_result.state
-        pred_state, phi = predict_step(fstate, dt, params)
-        link = (fstate, pred_state, phi)
-        kf_pred = filter_estimate("KF", grid, pred_state)
-    # --- LOPs and the least-squares fix.
-    gps = _gps_input(ctx, rec, grid)
-    gps_fix = None
-    if gps is not None:
-        var = (GPS_VAR_P_M2 if cfg.gps.receiver == "P" else GPS_VAR_CA_M2) * cfg.lsq.gps_se_sf
-        gps_fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var,
-                         cfg.corrections.gps_north_m, cfg.corrections.gps_east_m)
-    if pred_state is not None:
-        x_start = (float(pred_state.x[0]), float(pred_state.x[1]))
-        prior: PositionPrior | None = PositionPrior(x_start[0], x_start[1],
-                                                    np.array(pred_state.P[:2, :2]))
-    else:
-        x_start = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
-        prior = None
-    decca_reading = None
-    decca_track = nav.decca_track
-    lane_slips = 0
-    if cfg.decca.on:
-        placed = ctx.placed_chain(cm)
-        if placed is not None:
-            totals, decca_track, notes, lane_slips = _decca_totals(
-                ctx, nav, rec, placed, x_start,
-                None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
-                None if gps_fix is None else LaneSource(
-                    "GPS", gps_fix.x_m + gps_fix.corr_east_m, gps_fix.y_m + gps_fix.corr_north_m,
-                    np.eye(2) * gps_fix.var_m2))
-            messages.extend(notes)
-            sel = tuple(p in cfg.decca.select for p in PATTERNS)
-            c = cfg.corrections
-            decca_reading = DeccaReading(
-                placed, rec.decca, ctx.zone_lane, (sel[0], sel[1], sel[2]),
-                (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes), cfg.lsq.decca_cf,
-                totals=totals,
-            )
-        else:
-            messages.append(f"Decca chain {cfg.decca.chain} not in the chain file")
-    manual = nav.pending_obs
-    fix: FixResult | None = None
-    decca_any = decca_reading is not None and any(
-        t is not None for t in (decca_reading.totals or (None,)))
-    if gps_fix is not None or decca_any or manual:
-        fix = compute_fix(grid, ctx.geodesic, x_start, gps=gps_fix, decca=decca_reading,
-                          manual=manual, prior=prior, settings=ctx.lsq,
-                          excluded_slots=excluded_slots)
-        if fix.candidate_slot is not None:
-            name = lop_name(fix.candidate_slot, system="KF" if fix.uses_prior else "GPS",
-                            manual=manual)
-            messages.append(f"LOP {name} fails the w-test: discard it?")
-        messages.extend(fix.messages)
-        voted = gps_voted_out(fix)
-        if voted is not None:
-            messages.append(voted)
-    # --- A fix that fails its tests is not taken at face value (fix_fit, issue 15 item 6).
+    if fstate is None:
+        return _Prediction()
+    # Heading and speed of this record drive the step into it (program.md §10 item 6: the
+    # sample's KF row moves on the mean of the two records' gyro headings). A state just
+    # initialised from this record's readings has them already (no double counting).
+    sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
+                                     gyro_grid_rad=heading_grid, incl_rad=incl, params=params)
+    dr_sensors = sensor_rows.z.shape[0] > 0
+    sens_result = None
+    if dr_sensors and not initialised:
+        sens_result = update(fstate, sensor_rows, params)
+        fstate = sens_result.state
+    pred_state, phi = predict_step(fstate, dt, params)
+    return _Prediction(pred_state, filter_estimate("KF", grid, pred_state),
+                       (fstate, pred_state, phi), sens_result, dr_sensors)
+
+
+def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,
+                  heading_grid: float, incl: float | None) -> FilterState:
+    """The filter's first state: the DR position and depth, this record's speed, grid heading
+    and inclination, the configured current (grid set), P0 per ``filter.p0``."""
+    cfg = ctx.config
+    x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
+    set_rad = math.radians(cfg.current_set_deg)
+    vc = knots_to_ms(cfg.current_speed_kn)
+    pos_cov = None if cfg.filter.p0 == "thesis" else np.eye(2) * cfg.filter.dr_sigma_m**2
+    return init_state(
+        0.0, x0, y0, cfg.depth_m, speed_ms, heading_grid, incl or 0.0,
+        vc * math.sin(set_rad - math.radians(gamma)),
+        vc * math.cos(set_rad - math.radians(gamma)),
+        ctx.filter_params, pos_cov=pos_cov, from_sensors=(True, True, incl is not None),
+    )
+
+
+def _provisional(nav: NavState, grid: TMGrid,
+                 pred_state: FilterState | None) -> tuple[tuple[float, float],
+                                                         PositionPrior | None]:
+    """The provisional position of the fix (grid m) and the filter's a priori position: the
+    prediction when there is a filter, else the last MPP without a prior."""
+    if pred_state is None:
+        return grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg), None
+    x_start = (float(pred_state.x[0]), float(pred_state.x[1]))
+    return x_start, PositionPrior(x_start[0], x_start[1], np.array(pred_state.P[:2, :2]))
+
+
+def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, cm: float,
+                  x_start: tuple[float, float], prior: PositionPrior | None,
+                  messages: list[str]) -> dict[str, SystemReading]:
+    """Every navigation system's reading of this record, in registry order (a system sees the
+    readings before it: Decca checks its lanes against GPS)."""
+    readings: dict[str, SystemReading] = {}
+    for system in registry.SYSTEMS:
+        inputs = CycleInputs(ctx.config, ctx, nav, rec, grid, cm, x_start, prior,
+                             dict(readings))
+        reading = system.read(inputs)
+        messages.extend(reading.messages)
+        readings[system.name] = reading
+    return readings
+
+
+def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, float],
+         prior: PositionPrior | None, readings: Mapping[str, SystemReading],
+         excluded_slots: Sequence[int], messages: list[str]) -> FixResult | None:
+    """The least-squares fix of the systems' readings (None when no system observed anything),
+    with the operator messages of its tests."""
+    if not any(r.observes for r in readings.values()):
+        return None
+    fix = compute_fix(grid, ctx.geodesic, x_start, prior=prior, settings=ctx.lsq,
+                      excluded_slots=excluded_slots,
+                      readings={name: r.value for name, r in readings.items()})
+    if fix.candidate_slot is not None:
+        name = lop_name(fix.candidate_slot, system="KF" if fix.uses_prior else "GPS",
+                        manual=nav.pending_obs)
+        messages.append(f"LOP {name} fails the w-test: discard it?")
+    messages.extend(fix.messages)
+    voted = gps_voted_out(fix)
+    if voted is not None:
+        messages.append(voted)
+    return fix
+
+
+def _fitness(fix: FixResult | None,
+             messages: list[str]) -> tuple[float, str | None, np.ndarray]:
+    """A fix that fails its tests is not taken at face value (:func:`fix_fit`, issue 15 item
+    6): (VCV factor, message, the VCV the filter and the MPP use); the message goes first."""
     fit_scale, fit_note = fix_fit(fix)
     if fit_note is not None:
         messages.insert(0, fit_note)  # first: the console's message line shows it at 80 columns
     fix_cov = _NO_COV if fix is None else (fix.cov if fit_scale == 1.0 else fix.cov * fit_scale)
-    # --- Filter update with the fix (or the raw LOPs on the too-few-LOPs path, kalman.md A10).
-    filt_result: UpdateResult | None = None
-    kf_est: PositionEstimate | None = None
-    status = "OFF" if not cfg.filter.on else "N/A"
-    new_filter = pred_state
-    has_fix = nav.filter_has_fix
-    source = nav.fix_source
-    gated = nav.gated_fixes
-    fix_gate = ""
-    lse_ok = fix is not None and fix.ok and not fix.uses_prior
+    return fit_scale, fit_note, fix_cov
+
+
+@dataclass
+class _Filtering:
+    """The filter's side of one cycle as the update phase advances it: state, smoother link,
+    whether it has taken a fix, the fix source its fix-error states model, gated fixes in a
+    row, its status ("ON", "OFF", "N/A"), the update at this epoch and the fix's gate mark."""
+
+    state: FilterState | None
+    link: tuple[FilterState, FilterState, np.ndarray] | None
+    has_fix: bool
+    source: tuple[object, ...] | None
+    gated: int
+    status: str
+    result: UpdateResult | None = None
+    gate: str = ""
+
+
+def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: SensorValues,
+                   fix: FixResult | None, fix_cov: np.ndarray,
+                   messages: list[str]) -> _Filtering:
+    """The filter updates at this epoch: the first LSE initialises the position; then the fix
+    (or the raw LOPs on the too-few-LOPs path, kalman.md A10) with the pressure depth, behind
+    the gross-error gate; with the filter off, dead reckoning restarts from each LSE."""
+    cfg, params = ctx.config, ctx.filter_params
+    f = _Filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source, nav.gated_fixes,
+                   "OFF" if not cfg.filter.on else "N/A")
+    lse_ok = fix is not None and fix.lse_ok
     depth_rows: Measurement | None = None
-    if pred_state is not None and sens.depth_m is not None:
-        depth_rows = sensor_measurement(pred_state, depth_m=sens.depth_m, params=params)
-    if new_filter is not None and fix is not None and lse_ok and not has_fix:
+    if pred.state is not None and sens.depth_m is not None:
+        depth_rows = sensor_measurement(pred.state, depth_m=sens.depth_m, params=params)
+    if f.state is not None and fix is not None and lse_ok and not f.has_fix:
         # The first LSE initialises the filter position (kalman.md A3): a DR start kilometres
         # away with the thesis P0 = I would otherwise pull against every fix.
-        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix_cov)
-        has_fix = True
-        source = fix_source(cfg)
-    elif new_filter is not None and cfg.filter.on:
-        meas: Measurement | None = None
-        if fix is not None and fix.ok and lse_ok:
-            meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
-            if fix_source(cfg) != source:
-                # A new fix source is a new, independent error process: one Gauss–Markov pair
-                # models the LSE error of one source (README "Correlated fixes").
-                source = fix_source(cfg)
-                if meas.bias_cov is not None and link is not None:
-                    restarted, phi_r = restart_fix_states(new_filter, meas.bias_keys[:2],
-                                                          meas.bias_cov, link[2])
-                    if restarted is not new_filter and phi_r is not None:
-                        new_filter = restarted
-                        link = (link[0], restarted, phi_r)
-                        messages.append("Fix source changed: fix-error states restarted")
-        elif fix is not None and fix.ok:
-            meas = _raw_lop_measurement(fix)
+        f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
+        f.has_fix = True
+        f.source = fix_source(cfg)
+    elif f.state is not None and cfg.filter.on:
+        meas = _fix_measurement(ctx, f, fix, fix_cov, messages)
         if meas is not None:
-            n_fix = meas.z.shape[0]
-            both = meas if depth_rows is None else stack_measurements(depth_rows, meas)
-            trial = update(new_filter, both, params)  # one update for all measured at this epoch
-            d_sigma = innovation_distance(trial, slice(both.z.shape[0] - n_fix, None))
-            status = "ON"
-            if d_sigma <= GROSS_GATE_SIGMA:
-                filt_result, new_filter, depth_rows = trial, trial.state, None
-                has_fix = True
-                gated = 0
-                if trial.lom.verdict == "reject":
-                    fix_gate = "innovation"
-                    messages.append(innovation_message(trial))
-            else:
-                fix_gate = "gross"
-                gated = nav.gated_fixes + 1
-                messages.append(f"Fix {d_sigma:.3g} σ from the filter: a gross error, not used "
-                                f"({gated} in a row)")
-                if lse_ok and gated >= GROSS_GATE_RESET and fix is not None:
-                    # The filter, not the fixes, is what went wrong (kalman.md A3 start again).
-                    new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix.cov)
-                    messages.append(f"Filter position re-initialised from the LSE after "
-                                    f"{gated} gated fixes")
-                    gated = 0
-        elif dr_sensors:
-            status = "ON"  # DR-only path: model plus bounded sensors (program.md §2.5)
-    elif new_filter is not None and fix is not None and lse_ok:
+            depth_rows = _gated_update(ctx, nav, f, meas, depth_rows, fix, messages)
+        elif pred.dr_sensors:
+            f.status = "ON"  # DR-only path: model plus bounded sensors (program.md §2.5)
+    elif f.state is not None and fix is not None and lse_ok:
         # Filter off: dead reckoning restarts from each LSE (program.md §3 Kalman ▸ Filtering).
-        new_filter = replace_position(new_filter, fix.x_m, fix.y_m, fix_cov)
-    if new_filter is not None and depth_rows is not None:
-        depth_result = update(new_filter, depth_rows, params)
-        new_filter = depth_result.state
-        filt_result = filt_result or depth_result
-    if new_filter is not None and status == "ON":
-        kf_est = filter_estimate("KF", grid, new_filter)
-    # --- MPP: filtered if the filter produced it, else the LSE, else the prediction (A6).
-    if kf_est is not None:
-        mpp = kf_est
-    elif fix is not None and lse_ok:
-        depth = cfg.depth_m if new_filter is None else float(new_filter.x[2])
-        mpp = _estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix_cov)
-    elif new_filter is not None:
-        mpp = filter_estimate("DR", grid, new_filter)
-    else:
-        x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
-        mpp = _estimate("DR", grid, x0, y0, cfg.depth_m, np.full((2, 2), np.nan))
-        messages.append("No MPP: gyro and log must stay switched on !")
-    cumulative = nav.cumulative
-    if fix is not None and fix.ok and fix.s2 is not None and not fix.uses_prior:
-        cumulative = cumulative.update(fix.s2, fix.n_used - 2)
-    systems = ("G" if cfg.gps.on else ".") + "..." + ("D" if cfg.decca.on else ".")
-    result = CycleResult(
-        n=nav.n + 1,
-        record=rec.line_no,
-        time=rec.time,
-        raw=rec.raw,
-        dt_s=dt,
-        datum=ctx.working.name,
-        cm_deg=cm,
-        systems=systems,
-        sensors=sens,
-        gps=gps,
-        decca_fractions=rec.decca,
-        decca_on=cfg.decca.on,
-        fix=fix,
-        kf_pred=kf_pred,
-        kf=kf_est,
-        mpp=mpp,
-        filter_status=status,
-        filter_state=new_filter,
-        filter_update=filt_result,
-        cumulative=cumulative,
-        manual=manual,
-        messages=tuple(messages),
-        smoother_link=link,
-        sensor_update=sens_result,
-        fix_fails_tests=fit_note is not None,
-        fix_cov_scale=fit_scale,
-        fix_gate=fix_gate,
-        lane_slips=lane_slips,
-    )
-    _freeze_result(fix, None if link is None else link[2], filt_result, sens_result)
-    next_nav = NavState(
-        n=nav.n + 1,
-        last_time=rec.time,
-        cm_deg=cm,
-        mpp_lat_deg=mpp.lat_deg,
-        mpp_lon_deg=mpp.lon_deg,
-        filter=new_filter,
-        cumulative=cumulative,
-        pending_obs=(),
-        press_ref_hz=press_ref,
-        decca_track=decca_track,
-        filter_has_fix=has_fix,
-        fix_source=source,
-        gated_fixes=gated,
-    )
-    return next_nav, result
+        f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
+    if f.state is not None and depth_rows is not None:
+        depth_result = update(f.state, depth_rows, params)
+        f.state = depth_result.state
+        f.result = f.result or depth_result
+    return f
 
 
-LANE_SIGMA_MAX = 0.5 / 3.0
-"""Largest 1σ (lanes) along a pattern's lane gradient of a position an integer lane may be taken
-from: 3σ < 0.5 lane, so the nearest whole lane is the right one with probability ≥ 99.7 %
-(Gaussian). Applies to lane identification after a gap (a dive) and to the GPS lane check."""
-
-
-def lane_sigma(row: np.ndarray, cov: np.ndarray) -> float:
-    """1σ (lanes) along a lane gradient ``row`` (lanes/m, ∂N/∂(x, y)) of a position whose 2×2
-    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ)."""
-    r = np.asarray(row, dtype=float)
-    return math.sqrt(max(float(r @ np.asarray(cov, dtype=float) @ r), 0.0))
-
-
-@dataclass(frozen=True, slots=True)
-class LaneSource:
-    """A position that may settle Decca integer lanes: grid (x, y) m, its 2×2 VCV (m²) and the
-    name the messages use ("GPS", "the DR position")."""
-
-    name: str
-    x_m: float
-    y_m: float
-    cov: np.ndarray
-
-
-def _lane_at(ctx: RunContext, placed: ChainOnGrid, src: LaneSource, pattern_index: int,
-             cache: dict[str, DeccaGeometry | None]) -> tuple[float, float] | None:
-    """(N_calc, σ along the gradient) of pattern ``pattern_index`` at ``src`` (lanes), or None
-    where the lane model cannot be evaluated; geometries are cached per source name."""
-    if src.name not in cache:
-        try:
-            geom: DeccaGeometry | None = decca_geometry(placed, src.x_m, src.y_m, ctx.geodesic)
-        except (ValueError, ArithmeticError):
-            geom = None
-        if geom is not None and not np.isfinite(geom.n_calc).all():
-            geom = None
-        cache[src.name] = geom
-    g = cache[src.name]
-    if g is None:
+def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_cov: np.ndarray,
+                     messages: list[str]) -> Measurement | None:
+    """The filter's measurement of this fix: the LSE (restarting the fix-error states when the
+    fix source changed), else the raw LOPs of a hybrid fix, else None."""
+    if fix is None or not fix.ok:
         return None
-    return float(g.n_calc[pattern_index]), lane_sigma(g.row[pattern_index], src.cov)
+    if not fix.lse_ok:
+        return _raw_lop_measurement(fix)
+    meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, ctx.filter_params)
+    if fix_source(ctx.config) != f.source:
+        # A new fix source is a new, independent error process: one Gauss–Markov pair
+        # models the LSE error of one source (README "Correlated fixes").
+        f.source = fix_source(ctx.config)
+        if meas.bias_cov is not None and f.link is not None and f.state is not None:
+            restarted, phi_r = restart_fix_states(f.state, meas.bias_keys[:2], meas.bias_cov,
+                                                  f.link[2])
+            if restarted is not f.state and phi_r is not None:
+                f.state = restarted
+                f.link = (f.link[0], restarted, phi_r)
+                messages.append("Fix source changed: fix-error states restarted")
+    return meas
 
 
-def _decca_totals(
-    ctx: RunContext,
-    nav: NavState,
-    rec: RunRecord,
-    placed: ChainOnGrid,
-    x_start: tuple[float, float],
-    position: LaneSource | None = None,
-    gps: LaneSource | None = None,
-) -> tuple[tuple[float | None, float | None, float | None],
-           tuple[tuple[float, datetime] | None, ...], list[str], int]:
-    """Total lane counts of this record's fractions, tracked like a decometer, with lane
-    integrity (issue 11; thesis §4.2.3 on lane identification).
+def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measurement,
+                  depth_rows: Measurement | None, fix: FixResult | None,
+                  messages: list[str]) -> Measurement | None:
+    """One update with everything measured at this epoch, taken unless the fix is a gross
+    error (:data:`GROSS_GATE_SIGMA`); after :data:`GROSS_GATE_RESET` gated LSEs the filter
+    position restarts from the LSE. Returns the depth rows still to be applied (None: done)."""
+    assert f.state is not None
+    n_fix = meas.z.shape[0]
+    both = meas if depth_rows is None else stack_measurements(depth_rows, meas)
+    trial = update(f.state, both, ctx.filter_params)  # one update for all measured at this epoch
+    d_sigma = innovation_distance(trial, slice(both.z.shape[0] - n_fix, None))
+    f.status = "ON"
+    if d_sigma <= GROSS_GATE_SIGMA:
+        f.result, f.state, f.has_fix, f.gated = trial, trial.state, True, 0
+        if trial.lom.verdict == "reject":
+            f.gate = "innovation"
+            messages.append(innovation_message(trial))
+        return None
+    f.gate = "gross"
+    f.gated = nav.gated_fixes + 1
+    messages.append(f"Fix {d_sigma:.3g} σ from the filter: a gross error, not used "
+                    f"({f.gated} in a row)")
+    if fix is not None and fix.lse_ok and f.gated >= GROSS_GATE_RESET:
+        # The filter, not the fixes, is what went wrong (kalman.md A3 start again).
+        f.state = replace_position(f.state, fix.x_m, fix.y_m, fix.cov)
+        messages.append(f"Filter position re-initialised from the LSE after "
+                        f"{f.gated} gated fixes")
+        f.gated = 0
+    return depth_rows
 
-    The first reading of a pattern takes the operator's zone/lane (resolving the 10-zone cycle
-    from the provisional position ``x_start``, lsq.md §5.3); later readings follow lane
-    crossings (:func:`engine.systems.decca.track_lane`). After a gap longer than
-    ``DECCA_TRACK_GAP_S``
-    (a dive) the integer lane is identified again only from a source precise enough along the
-    lane gradient (1σ ≤ :data:`LANE_SIGMA_MAX`): this record's ``gps``, else the filter's
-    ``position`` (prediction with its VCV); while neither is, the pattern stays out of the fix
-    and a message says why. Whenever ``gps`` is in the record and precise enough, every count
-    is checked against it: a count a whole lane or more off is a lane slip, corrected to GPS's
-    lane with a message. A zone/lane that puts the count more than half a zone from the
-    provisional position's count gives a warning (lsq.md Q7); a provisional position where the
-    lane model cannot be evaluated leaves the pattern unavailable for this record, with a
-    message. Returns (totals, new track, messages, number of slips corrected).
-    """
-    slips = 0
-    totals: list[float | None] = [None, None, None]
-    track = list(nav.decca_track)
-    notes: list[str] = []
-    geom = None
-    geom_failed = False
-    cache: dict[str, DeccaGeometry | None] = {}
-    for i, pattern in enumerate(PATTERNS):
-        frac = rec.decca[i]
-        if frac is None:
-            continue
-        prev = track[i]
-        checked = False
-        if prev is not None and (rec.time - prev[1]).total_seconds() <= DECCA_TRACK_GAP_S:
-            total = track_lane(prev[0], frac)
-        elif prev is not None:
-            # After a gap: identify the lane again, but only from a position that can settle it.
-            total = None
-            worst = math.inf
-            for src in (gps, position):
-                if src is None:
-                    continue
-                at = _lane_at(ctx, placed, src, i, cache)
-                if at is None:
-                    continue
-                if at[1] <= LANE_SIGMA_MAX:
-                    total = identify_lane(at[0], frac)
-                    notes.append(f"Decca {pattern}: lane identified again from {src.name} "
-                                 f"(±{3 * at[1]:.2f} lane, 3σ)")
-                    checked = src is gps
-                    break
-                worst = min(worst, at[1])
-            if total is None:
-                why = ("no position" if not math.isfinite(worst) else
-                       f"position ±{3 * worst:.1f} lanes (3σ) along the lane gradient")
-                notes.append(f"Decca {pattern}: lane not identified after the gap ({why}): "
-                             "kept out of the fix until GPS, a better position or a zone/lane "
-                             "entered in Setup > Decca settles it")
-                continue  # the stale track stays: the next record tries again
-        else:
-            zl = ctx.zone_lane[i]
-            if zl is None:
-                continue  # pattern never entered by the operator: not available
-            if geom is None and not geom_failed:
-                try:
-                    geom = decca_geometry(placed, x_start[0], x_start[1], ctx.geodesic)
-                    problem = None if np.isfinite(geom.n_calc).all() else "not finite"
-                except (ValueError, ArithmeticError) as exc:
-                    problem = str(exc)
-                if problem is not None:
-                    geom, geom_failed = None, True
-                    notes.append(f"Decca: lane count not resolved at the provisional position "
-                                 f"({problem})")
-            if geom is None:
-                continue
-            lanes = resolve_total_lanes(zl[0], zl[1], frac, pattern, float(geom.n_calc[i]))
-            total = lanes.total
-            if lanes.warning is not None:  # more than half a zone from N_calc (lsq.md Q7)
-                notes.append(lanes.warning)
-        if gps is not None and not checked:
-            at = _lane_at(ctx, placed, gps, i, cache)
-            if at is not None and at[1] <= LANE_SIGMA_MAX:
-                expected = identify_lane(at[0], frac)
-                slip = round(total - expected)
-                if slip != 0:
-                    notes.append(f"Decca {pattern}: lane slip of {slip:+d} lane"
-                                 f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
-                                 f"({total:.2f} → {expected:.2f})")
-                    total = expected
-                    slips += 1
-        totals[i] = total
-        track[i] = (total, rec.time)
-    return (totals[0], totals[1], totals[2]), tuple(track), notes, slips
+
+def _mpp(ctx: RunContext, nav: NavState, grid: TMGrid, kf_est: PositionEstimate | None,
+         state: FilterState | None, fix: FixResult | None, fix_cov: np.ndarray,
+         messages: list[str]) -> PositionEstimate:
+    """The most probable position: filtered if the filter produced it, else the LSE, else the
+    prediction, else the last MPP without precision (A6)."""
+    if kf_est is not None:
+        return kf_est
+    if fix is not None and fix.lse_ok:
+        depth = ctx.config.depth_m if state is None else float(state.x[2])
+        return _estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix_cov)
+    if state is not None:
+        return filter_estimate("DR", grid, state)
+    x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
+    messages.append("No MPP: gyro and log must stay switched on !")
+    return _estimate("DR", grid, x0, y0, ctx.config.depth_m, np.full((2, 2), np.nan))
 
 
 def innovation_message(u: UpdateResult) -> str:
@@ -894,7 +770,7 @@ def gps_voted_out(fix: FixResult) -> str | None:
     """The message for a fix whose w-test rejected (or, under LOPReject 'A', proposes to
     reject) a GPS LOP while Decca lanes are in it: GPS has no integer ambiguity, Decca has, so
     the likelier culprit is a wrong Decca lane and the operator must hear of it (issue 11)."""
-    gps_slots = {0, 1}
+    gps_slots = set(slots_of(GPS.name))
     out = gps_slots & set(fix.rejected_slots)
     if fix.candidate_slot in gps_slots:
         out.add(fix.candidate_slot)  # type: ignore[arg-type]
@@ -910,10 +786,9 @@ def fix_source(cfg: RunConfig) -> tuple[object, ...]:
 
     A change (Setup ▸ Systems) starts the filter's Gauss–Markov fix-error states afresh; a
     single record without GPS or one LOP rejected by the w-test does not.
+    Each system says what identifies its error process (``NavSystem.fix_source``).
     """
-    gps = ("GPS", cfg.gps.receiver) if cfg.gps.on else ()
-    decca = ("Decca", cfg.decca.chain, *cfg.decca.select) if cfg.decca.on else ()
-    return gps + decca
+    return tuple(item for system in registry.SYSTEMS for item in system.fix_source(cfg))
 
 
 def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
@@ -960,7 +835,10 @@ def rebase_state(nav: NavState, old: RunContext, new: RunContext) -> NavState:
 
 
 __all__ = [
+    "DECCA_TRACK_GAP_S",
+    "LANE_SIGMA_MAX",
     "CycleResult",
+    "LaneSource",
     "GpsInput",
     "NavState",
     "PositionEstimate",
@@ -969,6 +847,7 @@ __all__ = [
     "SensorValues",
     "build_context",
     "initial_state",
+    "lane_sigma",
     "step",
     "stack_measurements",
 ]

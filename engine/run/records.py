@@ -54,7 +54,7 @@ def position_json(p: PositionEstimate | None) -> dict[str, Any] | None:
 def lse_estimate(r: CycleResult) -> PositionEstimate | None:
     """The cycle's least-squares estimate as a position (None without a proper LSE)."""
     f = r.fix
-    if f is None or not f.ok or f.uses_prior:
+    if f is None or not f.lse_ok:
         return None
     return PositionEstimate("LSE", f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov, f.ellipse)
 

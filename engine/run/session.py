@@ -235,11 +235,16 @@ class Session:
         self._out: OutLogWriter | None = None
         self._jsonl: OutputFile | None = None
         self.jsonl_path: Path | None = None
+        self._open_outputs(config, out_path, jsonl_path, force,
+                           guard if guard is not None else OutputGuard())
+
+    def _open_outputs(self, config: RunConfig, out_path: str | os.PathLike[str] | None,
+                      jsonl_path: str | os.PathLike[str] | None, force: bool,
+                      guard: OutputGuard) -> None:
+        """Create the JSONL and .OUT logs (each optional) with the .OUT header."""
         # Both logs follow the .OUT rule (engine/io/outputs.py: never an input, never overwritten:
         # NAME_N; --force replaces an earlier output). Both names are checked before either is
         # created; if the second still cannot be, the first is removed again.
-        if guard is None:
-            guard = OutputGuard()
         guard.protect_all(run_inputs(config))
         if jsonl_path is not None:
             guard.check(jsonl_path, "--jsonl")
@@ -353,7 +358,7 @@ class Session:
             self._collect_smoother(nav, result)
         self.nav = nav
         self.history.append(result)
-        if result.fix is not None and result.fix.ok and not result.fix.uses_prior:
+        if result.fix is not None and result.fix.lse_ok:
             self.fixes += 1
         if result.fix is not None:
             self.rejected_lops += len(result.fix.rejected_slots)
@@ -395,7 +400,7 @@ class Session:
                            excluded_slots=excluded_slots)
         dropped = self.history.pop()
         if dropped.fix is not None:
-            self.fixes -= int(dropped.fix.ok and not dropped.fix.uses_prior)
+            self.fixes -= int(dropped.fix.lse_ok)
             self.rejected_lops -= len(dropped.fix.rejected_slots)
         self.failed_fixes -= dropped.fix_fails_tests
         for i, c in enumerate(cycle_counts(dropped)):

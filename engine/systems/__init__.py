@@ -1,2 +1,2 @@
-"""Navigation systems that give observations for the fix (GPS, Decca, manual bearings and
-ranges) and the bounded sensors (log, gyro, inclinometer, pressure depth; thesis §3.1, §7.2)."""
+"""Navigation systems, each behind one seam (``base.NavSystem``, listed in ``registry.SYSTEMS``):
+GPS, Decca, manual bearings/distances; and the bounded sensors' conversions. See docs/SYSTEMS.md."""

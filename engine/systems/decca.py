@@ -10,12 +10,15 @@ A5.9–A5.12 (observation equation); digest ``lsq.md`` §5 and §6.3.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from datetime import datetime
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from engine.geodesy.ellipsoidal import (
+    DatumShift,
     GeodesicSolver,
     andoyer_lambert_m,
     line_scale_factor,
@@ -24,6 +27,15 @@ from engine.geodesy.ellipsoidal import (
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.deccafile import DeccaChain
 from engine.io.operator_input import ZONE_LETTERS, decca_pattern, lanes_from_zone_lane
+from engine.systems.base import (
+    EVAL_ERRORS,
+    CycleInputs,
+    LopReading,
+    ObservationError,
+    Point,
+    SystemReading,
+    set_row,
+)
 
 PATTERNS: tuple[str, str, str] = ("red", "green", "purple")
 """Pattern order used everywhere (slots 3–5 of the LS observation vector)."""
@@ -128,6 +140,17 @@ def place_chain(
         wavelength_m=wavelength,
         min_lanes=np.array(chain.min_lanes, dtype=float),
     )
+
+
+def place_chain_on_datum(chain: DeccaChain, grid: TMGrid,
+                         shift: DatumShift | None = None) -> ChainOnGrid:
+    """Place ``chain`` on ``grid`` of the working datum; ``shift`` transforms the chain file's
+    datum to the working datum (None: the same datum; h = 0 on the chain datum)."""
+    latlon = np.array([[s.lat_deg, s.lon_deg] for s in
+                       (chain.master, chain.red, chain.green, chain.purple)])
+    if shift is not None:
+        latlon = np.array([shift.transform(float(a), float(b), 0.0)[:2] for a, b in latlon])
+    return place_chain(chain, grid, latlon)
 
 
 @dataclass(frozen=True, slots=True)
@@ -313,3 +336,387 @@ def identify_lane(n_calc: float, fraction: float) -> float:
     """Lane identification from a position: the total count with this ``fraction`` nearest to
     the count ``n_calc`` computed at the provisional position (after a gap in Decca reception)."""
     return track_lane(n_calc, fraction)
+
+
+# --------------------------------------------------------------------------------------------
+# Zone/lane resolution and decometer lane tracking (thesis §4.2.3; issue 11)
+
+DECCA_TRACK_GAP_S = 30.0
+"""Longest gap in a pattern's readings over which its lane count is still tracked (s); after a
+longer gap (a dive) the lane is identified again from the provisional position."""
+
+LANE_SIGMA_MAX = 0.5 / 3.0
+"""Largest 1σ (lanes) along a pattern's lane gradient of a position an integer lane may be taken
+from: 3σ < 0.5 lane, so the nearest whole lane is the right one with probability ≥ 99.7 %
+(Gaussian). Applies to lane identification after a gap (a dive) and to the GPS lane check."""
+
+
+class ZoneLaneResolver:
+    """Resolves the operator's zone/lane entries against the lane counts N_calc at one
+    provisional grid point (m), computed once on first use: the one place the cycle and the fix
+    turn a zone/lane and a fraction into a total lane count (lsq.md §5.3, Q7)."""
+
+    def __init__(self, placed: ChainOnGrid, x_m: float, y_m: float,
+                 geodesic: GeodesicSolver) -> None:
+        self.placed = placed
+        self.x_m = x_m
+        self.y_m = y_m
+        self.geodesic = geodesic
+        self._geom: DeccaGeometry | None = None
+        self.problem: str | None = None
+        """Why the lane counts cannot be evaluated (set by :meth:`resolve_checked`)."""
+
+    def geometry(self) -> DeccaGeometry:
+        """The lane geometry at the provisional point (ValueError/ArithmeticError where the lane
+        model cannot be evaluated)."""
+        if self._geom is None:
+            self._geom = decca_geometry(self.placed, self.x_m, self.y_m, self.geodesic)
+        return self._geom
+
+    def resolve(self, i: int, zone_lane: tuple[int, int], fraction: float) -> LaneResolution:
+        """Total lane count of pattern ``i`` (:func:`resolve_total_lanes`); raises as
+        :meth:`geometry` and for a non-finite N_calc."""
+        n_calc = float(self.geometry().n_calc[i])
+        return resolve_total_lanes(zone_lane[0], zone_lane[1], fraction, PATTERNS[i], n_calc)
+
+    def resolve_checked(self, i: int, zone_lane: tuple[int, int], fraction: float,
+                        notes: list[str]) -> LaneResolution | None:
+        """:meth:`resolve`, or None while the lane counts at the provisional point cannot be
+        evaluated or are not finite (one note says so, the first time)."""
+        if self.problem is not None:
+            return None
+        if self._geom is None:
+            try:
+                geom = self.geometry()
+                problem = None if np.isfinite(geom.n_calc).all() else "not finite"
+            except (ValueError, ArithmeticError) as exc:
+                problem = str(exc)
+            if problem is not None:
+                self.problem = problem
+                notes.append(f"Decca: lane count not resolved at the provisional position "
+                             f"({problem})")
+                return None
+        return self.resolve(i, zone_lane, fraction)
+
+
+def lane_sigma(row: np.ndarray, cov: np.ndarray) -> float:
+    """1σ (lanes) along a lane gradient ``row`` (lanes/m, ∂N/∂(x, y)) of a position whose 2×2
+    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ)."""
+    r = np.asarray(row, dtype=float)
+    return math.sqrt(max(float(r @ np.asarray(cov, dtype=float) @ r), 0.0))
+
+
+@dataclass(frozen=True, slots=True)
+class LaneSource:
+    """A position that may settle Decca integer lanes: grid (x, y) m, its 2×2 VCV (m²) and the
+    name the messages use ("GPS", "the DR position")."""
+
+    name: str
+    x_m: float
+    y_m: float
+    cov: np.ndarray
+
+
+class _LaneAt:
+    """(N_calc, σ along the gradient) of a pattern at a :class:`LaneSource` (lanes), or None
+    where the lane model cannot be evaluated; geometries are cached per source name."""
+
+    def __init__(self, placed: ChainOnGrid, geodesic: GeodesicSolver) -> None:
+        self.placed = placed
+        self.geodesic = geodesic
+        self.cache: dict[str, DeccaGeometry | None] = {}
+
+    def __call__(self, src: LaneSource, i: int) -> tuple[float, float] | None:
+        if src.name not in self.cache:
+            try:
+                geom: DeccaGeometry | None = decca_geometry(self.placed, src.x_m, src.y_m,
+                                                            self.geodesic)
+            except (ValueError, ArithmeticError):
+                geom = None
+            if geom is not None and not np.isfinite(geom.n_calc).all():
+                geom = None
+            self.cache[src.name] = geom
+        g = self.cache[src.name]
+        if g is None:
+            return None
+        return float(g.n_calc[i]), lane_sigma(g.row[i], src.cov)
+
+
+@dataclass(frozen=True)
+class LaneTotals:
+    """Outcome of :func:`decca_totals`: total lane counts per pattern (None: not available),
+    the new lane track, the operator notes and the number of lane slips corrected from GPS."""
+
+    totals: tuple[float | None, float | None, float | None]
+    track: tuple[tuple[float, datetime] | None, ...]
+    notes: tuple[str, ...]
+    slips: int
+
+
+def _identify_after_gap(at: _LaneAt, i: int, frac: float, sources: Sequence[LaneSource | None],
+                        gps: LaneSource | None, notes: list[str]) -> tuple[float | None, bool]:
+    """The total of pattern ``i`` identified again after a gap from the first source precise
+    enough along the lane gradient (None and a note while none is); True if that was GPS."""
+    pattern = PATTERNS[i]
+    worst = math.inf
+    for src in sources:
+        if src is None:
+            continue
+        lane = at(src, i)
+        if lane is None:
+            continue
+        if lane[1] <= LANE_SIGMA_MAX:
+            notes.append(f"Decca {pattern}: lane identified again from {src.name} "
+                         f"(±{3 * lane[1]:.2f} lane, 3σ)")
+            return identify_lane(lane[0], frac), src is gps
+        worst = min(worst, lane[1])
+    why = ("no position" if not math.isfinite(worst) else
+           f"position ±{3 * worst:.1f} lanes (3σ) along the lane gradient")
+    notes.append(f"Decca {pattern}: lane not identified after the gap ({why}): "
+                 "kept out of the fix until GPS, a better position or a zone/lane "
+                 "entered in Setup > Decca settles it")
+    return None, False
+
+
+def _gps_lane_check(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSource,
+                    notes: list[str]) -> tuple[float, int]:
+    """``total`` checked against GPS's lane when GPS settles it: (total, 1) corrected to GPS's
+    lane with a note for a slip of a whole lane or more, else (total, 0)."""
+    lane = at(gps, i)
+    if lane is None or not lane[1] <= LANE_SIGMA_MAX:
+        return total, 0
+    expected = identify_lane(lane[0], frac)
+    slip = round(total - expected)
+    if slip == 0:
+        return total, 0
+    notes.append(f"Decca {PATTERNS[i]}: lane slip of {slip:+d} lane"
+                 f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
+                 f"({total:.2f} → {expected:.2f})")
+    return expected, 1
+
+
+def decca_totals(
+    placed: ChainOnGrid,
+    geodesic: GeodesicSolver,
+    zone_lane: Sequence[tuple[int, int] | None],
+    track: Sequence[tuple[float, datetime] | None],
+    fractions: Sequence[float | None],
+    time: datetime,
+    x_start: tuple[float, float],
+    position: LaneSource | None = None,
+    gps: LaneSource | None = None,
+) -> LaneTotals:
+    """Total lane counts of one record's ``fractions``, tracked like a decometer, with lane
+    integrity (issue 11; thesis §4.2.3 on lane identification).
+
+    The first reading of a pattern takes the operator's ``zone_lane`` (resolving the 10-zone
+    cycle from the provisional position ``x_start``, :class:`ZoneLaneResolver`); later readings
+    follow lane crossings (:func:`track_lane`). After a gap longer than
+    :data:`DECCA_TRACK_GAP_S` (a dive) the integer lane is identified again only from a source
+    precise enough along the lane gradient (1σ ≤ :data:`LANE_SIGMA_MAX`): ``gps``, else the
+    filter's ``position``; while neither is, the pattern stays out of the fix and a note says
+    why. Whenever ``gps`` settles the lane, every count is checked against it: a count a whole
+    lane or more off is a lane slip, corrected to GPS's lane with a note. A zone/lane more than
+    half a zone from the provisional count gives a warning (lsq.md Q7).
+    """
+    slips = 0
+    totals: list[float | None] = [None, None, None]
+    new_track = list(track)
+    notes: list[str] = []
+    resolver = ZoneLaneResolver(placed, x_start[0], x_start[1], geodesic)
+    at = _LaneAt(placed, geodesic)
+    for i in range(len(PATTERNS)):
+        frac = fractions[i]
+        if frac is None:
+            continue
+        prev = new_track[i]
+        checked = False
+        if prev is not None and (time - prev[1]).total_seconds() <= DECCA_TRACK_GAP_S:
+            total: float | None = track_lane(prev[0], frac)
+        elif prev is not None:
+            total, checked = _identify_after_gap(at, i, frac, (gps, position), gps, notes)
+            if total is None:
+                continue  # the stale track stays: the next record tries again
+        else:
+            zl = zone_lane[i]
+            lanes = None if zl is None else resolver.resolve_checked(i, zl, frac, notes)
+            if lanes is None:
+                continue  # never entered by the operator, or no N_calc: not available
+            total = lanes.total
+            if lanes.warning is not None:  # more than half a zone from N_calc (lsq.md Q7)
+                notes.append(lanes.warning)
+        if gps is not None and not checked:
+            total, slipped = _gps_lane_check(at, i, frac, total, gps, notes)
+            slips += slipped
+        totals[i] = total
+        new_track[i] = (total, time)
+    return LaneTotals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes), slips)
+
+
+# --------------------------------------------------------------------------------------------
+# Decca behind the systems seam (engine.systems.base)
+
+DECCA_PATTERN_NAMES = ("Red", "Grn", "Prp")
+"""Short Decca pattern names of the LOP tables (Pg 631) and the operator messages."""
+
+
+@dataclass(frozen=True, slots=True)
+class DeccaReading:
+    """One cycle's Decca input: lane fractions (None = no reading), the operator's zone/lane per
+    pattern (None = not entered), selected patterns, corrections "C-O" (lanes) and ``Decca.CF``.
+
+    ``totals`` (uncorrected total lane counts per pattern) overrides the zone/lane resolution when
+    the caller tracks lanes from cycle to cycle like a decometer (:func:`decca_totals`).
+    """
+
+    placed: ChainOnGrid
+    fractions: tuple[float | None, float | None, float | None]
+    zone_lane: tuple[tuple[int, int] | None, tuple[int, int] | None, tuple[int, int] | None]
+    selected: tuple[bool, bool, bool]
+    corrections_lanes: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    cf: float = 64.0
+    totals: tuple[float | None, float | None, float | None] | None = None
+
+
+class DeccaObservations:
+    """The three pattern rows of a fix: corrected total lane counts as metric LOPs (A5.9–A5.12,
+    k = λc·LEF/2 metres per lane) with the a priori VCV of A4.1–A4.4 in m²."""
+
+    def __init__(self, reading: DeccaReading, observed: list[float],
+                 raw: list[float | None], available: list[bool], messages: list[str]) -> None:
+        self.reading = reading
+        self.observed = observed
+        """Corrected total lane counts (NaN: no reading)."""
+        self.raw = (raw[0], raw[1], raw[2])
+        """Uncorrected total lane counts (None: no reading), the "read" of Pg 631."""
+        self._available = available
+        self.messages = tuple(messages)
+        self._at: tuple[Point, DeccaGeometry] | None = None
+
+    def available(self) -> list[bool]:
+        return list(self._available)
+
+    def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
+                  Cl: np.ndarray) -> None:
+        geom = decca_geometry(self.reading.placed, p.x, p.y, p.geodesic)
+        k = geom.metres_per_lane.tolist()
+        rows = geom.row.tolist()
+        n_calc = geom.n_calc.tolist()
+        for j, obs in enumerate(self.observed):
+            if obs == obs:  # a reading (NaN: none); A5.9–A5.12 in metres across the LOP
+                kj = k[j]
+                set_row(A, slot0 + j, rows[j][0] * kj, rows[j][1] * kj)
+                b[slot0 + j] = (obs - n_calc[j]) * kj
+        s = slice(slot0, slot0 + len(PATTERNS))
+        Cl[s, s] = decca_vcv_m2(geom, self.reading.cf)
+
+    def geometry_at(self, p: Point) -> DeccaGeometry:
+        """The lane geometry at the estimate ``p`` (computed once per point; Pg 810)."""
+        if self._at is None or self._at[0] is not p:
+            self._at = (p, decca_geometry(self.reading.placed, p.x, p.y, p.geodesic, p.latlon))
+        return self._at[1]
+
+    def readings(self, p: Point) -> list[LopReading]:
+        geom = self.geometry_at(p)
+        n_calc = geom.n_calc.tolist()
+        lop_az = geom.lop_azimuth_rad.tolist()
+        corrections = self.reading.corrections_lanes
+        return [LopReading(i, "Decca", DECCA_PATTERN_NAMES[i], raw, corrections[i], n_calc[i],
+                           math.degrees(lop_az[i]))
+                for i, raw in enumerate(self.raw) if raw is not None]
+
+    def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
+        """A used pattern's hyperbola has the master and its slave as foci."""
+        geom = self.geometry_at(p)
+        d_slave = geom.d_slave_m.tolist()
+        near = math.inf
+        for i in range(len(PATTERNS)):
+            if used[i]:
+                near = min(near, geom.d_master_m, d_slave[i])
+        return near
+
+
+class DeccaSystem:
+    """Decca behind :class:`engine.systems.base.NavSystem` (config table ``[decca]``, the lane
+    corrections in ``[corrections]``, ``Decca.CF`` in ``[lsq]``)."""
+
+    name = "decca"
+    letter = "D"
+    column: int | None = 4
+    slot_labels = DECCA_PATTERN_NAMES
+
+    def is_on(self, config: Any) -> bool:
+        return bool(config.decca.on)
+
+    def fix_source(self, config: Any) -> tuple[object, ...]:
+        """The chain and the selected patterns while Decca is on."""
+        d = config.decca
+        return ("Decca", d.chain, *d.select) if d.on else ()
+
+    def read(self, inputs: CycleInputs) -> SystemReading:
+        """The record's fractions as tracked total lane counts (``detail``: the
+        :class:`LaneTotals` with the new lane track), checked against this cycle's GPS."""
+        cfg, ctx, rec = inputs.config, inputs.context, inputs.record
+        if not cfg.decca.on:
+            return SystemReading()
+        placed = ctx.placed_chain(inputs.cm_deg)
+        if placed is None:
+            return SystemReading(messages=(f"Decca chain {cfg.decca.chain} not in the chain file",))
+        x_start, prior = inputs.x_start, inputs.prior
+        gps_reading = inputs.earlier.get("gps")
+        g = None if gps_reading is None else gps_reading.value
+        lanes = decca_totals(
+            placed, ctx.geodesic, ctx.zone_lane, inputs.nav.decca_track, rec.decca, rec.time,
+            x_start,
+            None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
+            None if g is None else LaneSource("GPS", g.x_m + g.corr_east_m,
+                                              g.y_m + g.corr_north_m, np.eye(2) * g.var_m2))
+        sel = tuple(p in cfg.decca.select for p in PATTERNS)
+        c = cfg.corrections
+        reading = DeccaReading(
+            placed, rec.decca, ctx.zone_lane, (sel[0], sel[1], sel[2]),
+            (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes), cfg.lsq.decca_cf,
+            totals=lanes.totals,
+        )
+        return SystemReading(value=reading, messages=lanes.notes, detail=lanes,
+                             observes=any(t is not None for t in lanes.totals))
+
+    def observations(self, value: DeccaReading | None, p0: Point) -> DeccaObservations | None:
+        """Corrected total lane counts of ``value``: its ``totals``, else resolved from the
+        zone/lane entries at ``p0`` (:class:`ZoneLaneResolver`; ObservationError where that
+        cannot be evaluated)."""
+        if value is None:
+            return None
+        observed = [math.nan] * 3
+        raw: list[float | None] = [None, None, None]
+        available = [False] * 3
+        messages: list[str] = []
+        resolver = ZoneLaneResolver(value.placed, p0.x, p0.y, p0.geodesic)
+        for i in range(len(PATTERNS)):
+            frac, zl = value.fractions[i], value.zone_lane[i]
+            if value.totals is not None:
+                if value.totals[i] is None or frac is None:
+                    continue
+                total = float(value.totals[i])  # type: ignore[arg-type]
+            else:
+                if frac is None or zl is None:
+                    continue
+                try:
+                    res = resolver.resolve(i, zl, frac)
+                except EVAL_ERRORS as exc:
+                    raise ObservationError("Decca lane count not resolved at the provisional "
+                                           f"position: {exc}", messages) from exc
+                total = res.total
+                if res.warning is not None:
+                    messages.append(res.warning)
+            raw[i] = total
+            observed[i] = total + value.corrections_lanes[i]
+            available[i] = value.selected[i]
+        return DeccaObservations(value, observed, raw, available, messages)
+
+    def row_name(self, index: int, value: Any) -> str | None:
+        """``Decca Red``/``Grn``/``Prp``."""
+        return f"Decca {DECCA_PATTERN_NAMES[index]}"
+
+
+DECCA = DeccaSystem()

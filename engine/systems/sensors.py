@@ -7,6 +7,16 @@ from __future__ import annotations
 
 import math
 
+SENSOR_NAMES = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")
+"""The bounded sensors in the order of A8.2 ``Sensors[]`` and of ``SensorValues.status``."""
+
+SENSOR_STATUS = {"off": 0, "on": 1, "n/a": 2}
+"""Sensor state word of the configuration → A8.2 status code: 0 connected but off, 1 on,
+2 not connected (L8729–8731). The one map of the engine and the console."""
+
+SENSOR_STATUS_WORD = {code: word for word, code in SENSOR_STATUS.items()}
+"""A8.2 status code → the state word ("off", "on", "n/a"), as Pg 620 shows it."""
+
 KNOT_MS = 1852.0 / 3600.0
 """One knot in m/s (1 nm = 1852 m exactly; the samples prove this factor, program.md §10)."""
 

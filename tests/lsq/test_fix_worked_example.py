@@ -139,16 +139,16 @@ def test_lse_latitude_pg641_is_not_reproducible_to_the_last_digit(
     assert north_of_rounding_point(f.lat_deg) == pytest.approx(1.46e-3, abs=0.02e-3)
     assert f.y_m - 5857300.165 == pytest.approx(1.03e-3, abs=0.02e-3)
 
-    import engine.lsq.fix
+    import engine.systems.decca
 
-    computed = engine.lsq.fix.decca_vcv_m2
+    computed = engine.systems.decca.decca_vcv_m2
 
     def printed_vcv(geom: DeccaGeometry, cf: float) -> np.ndarray:  # Pg 615's block
         c = computed(geom, cf).copy()
         c[:2, :2] = [[916.877, 18.050], [18.050, 83.585]]
         return c
 
-    monkeypatch.setattr(engine.lsq.fix, "decca_vcv_m2", printed_vcv)
+    monkeypatch.setattr(engine.systems.decca, "decca_vcv_m2", printed_vcv)
     g = _sample_fix()
     assert format_lat_dms(g.lat_deg) == '52°50\'32.374" N'
     assert north_of_rounding_point(g.lat_deg) == pytest.approx(0.85e-3, abs=0.02e-3)

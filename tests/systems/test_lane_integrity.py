@@ -19,18 +19,16 @@ import pytest
 from engine.geodesy.tmgrid import central_meridian_deg
 from engine.io.runfile import RunRecord
 from engine.run.config import load_config
-from engine.run.cycle import (
+from engine.run.cycle import NavState, RunContext, build_context, gps_voted_out
+from engine.run.session import read_data_dir
+from engine.systems.decca import (
     LANE_SIGMA_MAX,
+    ChainOnGrid,
     LaneSource,
-    NavState,
-    RunContext,
-    _decca_totals,
-    build_context,
-    gps_voted_out,
+    decca_geometry,
+    decca_totals,
     lane_sigma,
 )
-from engine.run.session import read_data_dir
-from engine.systems.decca import ChainOnGrid, decca_geometry
 from tests.paths import DATA
 
 T0 = datetime(1992, 9, 17, 11, 0, 0, tzinfo=UTC)
@@ -61,6 +59,16 @@ def _stale_nav(n_true: np.ndarray) -> NavState:
     """Tracks last updated an hour ago (a dive) at the right lanes."""
     old = T0 - timedelta(hours=1)
     return NavState(decca_track=((float(n_true[0]), old), (float(n_true[1]), old), None))
+
+
+def _decca_totals(ctx: RunContext, nav: NavState, rec: RunRecord, placed: ChainOnGrid,
+                  x_start: tuple[float, float], position: LaneSource | None,
+                  gps: LaneSource | None) -> tuple[tuple[float | None, ...],
+                                                   tuple[object, ...], list[str], int]:
+    """:func:`engine.systems.decca.decca_totals` for this record and state, as a tuple."""
+    lanes = decca_totals(placed, ctx.geodesic, ctx.zone_lane, nav.decca_track, rec.decca,
+                         rec.time, x_start, position, gps)
+    return lanes.totals, lanes.track, list(lanes.notes), lanes.slips
 
 
 def _along(row: np.ndarray, metres_in_lanes: float) -> np.ndarray:

@@ -29,7 +29,7 @@ from types import ModuleType
 import numpy as np
 import pytest
 
-import engine.lsq.fix as engine_fix
+import engine.systems.decca as engine_decca
 from engine.api import (
     STATE_LABELS,
     CycleResult,
@@ -129,7 +129,7 @@ def printed(screen: tuple[Session, CycleResult]) -> Iterator[tuple[Session, Cycl
     """The worked example with the printed Decca VCV of Pg 615/821."""
     session, r = screen
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(engine_fix, "decca_vcv_m2", lambda geom, cf: PRINTED_DECCA_VCV.copy())
+        mp.setattr(engine_decca, "decca_vcv_m2", lambda geom, cf: PRINTED_DECCA_VCV.copy())
         fix = worked_fix(session, r)
     yield session, with_fix(r, fix)
 

@@ -15,6 +15,7 @@ from engine.api import (
     IDEPS,
     IDPSI,
     IDV,
+    SENSOR_STATUS_WORD,
     CycleResult,
     FilterState,
     Session,
@@ -29,7 +30,7 @@ from uvnav_tui.pages.registry import register_page
 
 PAGE_NUMBER = 620
 TITLE = "Sensor statistics :"
-STATUS = {0: "off", 1: "on", 2: "n/a"}
+STATUS = SENSOR_STATUS_WORD
 HEADER = ("Sensor".ljust(8) + "Stat".ljust(5) + "Raw".ljust(13) + "Converted".ljust(15)
           + "σ".ljust(11) + "KF syst. error".ljust(16) + "   √P")
 

@@ -1,0 +1,197 @@
+"""GPS behind the systems seam: a position on the working datum as two coordinate LOPs.
+
+Frames: the record's GPS position is geodetic on ``run_gps_datum``; the run transforms it to the
+working datum (h = 0 on the source datum, lsq.md §2.1) and the TM grid of the cycle. The two rows
+are northing ("Lat") and easting ("Lon"), each with the a priori variance of the receiver type
+(thesis ch. 5, table 5.1; program.md A13). On the too-few-LOPs path the filter's prediction
+stands in for these two rows (:class:`PriorObservations`, lsq.md §4.8).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from engine.geodesy.ellipsoid import WGS84
+from engine.geodesy.ellipsoidal import geodetic_to_ecef
+from engine.systems.base import (
+    CycleInputs,
+    LopReading,
+    Point,
+    PositionPrior,
+    SystemReading,
+    set_row,
+)
+
+GPS_VAR_CA_M2 = 2500.0
+"""A priori variance of a C/A-code GPS coordinate (σ = 50 m; thesis L5564, Pg 611/821)."""
+GPS_VAR_P_M2 = 8.9**2
+"""A priori variance of a P-code GPS coordinate: 2 d_rms 17.8 m → σ 8.9 m (program.md A13)."""
+
+ROW_LAT, ROW_LON = 0, 1
+"""Rows of the system: northing ("Lat") and easting ("Lon")."""
+
+
+@dataclass(frozen=True, slots=True)
+class GpsFix:
+    """A GPS position already on the working datum and grid (metres), with its a priori variance
+    per coordinate (m², already × ``GPS.SE_SF``) and the operator's corrections north/east (m)."""
+
+    lat_deg: float
+    lon_deg: float
+    x_m: float
+    y_m: float
+    var_m2: float
+    corr_north_m: float = 0.0
+    corr_east_m: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class GpsInput:
+    """The GPS record of a cycle: as received (on ``run_gps_datum``), its WGS84 ECEF for Pg 100,
+    the displayed WGS84 height ``hg_m`` (program.md §4.3), on the working datum, and on the grid."""
+
+    lat_in_deg: float
+    lon_in_deg: float
+    wgs84_lat_deg: float
+    wgs84_lon_deg: float
+    hg_m: float
+    ecef_m: tuple[float, float, float]
+    lat_deg: float
+    lon_deg: float
+    x_m: float
+    y_m: float
+
+
+def gps_input(inputs: CycleInputs) -> GpsInput | None:
+    """The record's GPS position on WGS84, the working datum and the grid (None: GPS off or no
+    position in the record)."""
+    ctx, rec = inputs.context, inputs.record
+    if not inputs.config.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
+        return None
+    lat_in, lon_in = rec.gps_lat_deg, rec.gps_lon_deg
+    if ctx.gps_shift is None:
+        lat, lon, h_datum = lat_in, lon_in, 0.0
+    else:
+        # h = 0 on the source datum for the horizontal transformation (lsq.md §2.1).
+        lat, lon, h_datum = ctx.gps_shift.transform(lat_in, lon_in, 0.0)
+    if ctx.gps_to_wgs84 is None:
+        w_lat, w_lon, hg = lat_in, lon_in, -h_datum
+    else:
+        w_lat, w_lon, hg = ctx.gps_to_wgs84.transform(lat_in, lon_in, 0.0)
+    ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
+    x, y = inputs.grid.forward(lat, lon)
+    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y)
+
+
+def gps_variance_m2(config: Any) -> float:
+    """A priori variance of one GPS coordinate (m²) of a run configuration: the receiver's
+    (C/A or P code) times ``lsq.gps_se_sf``."""
+    return (GPS_VAR_P_M2 if config.gps.receiver == "P" else GPS_VAR_CA_M2) * config.lsq.gps_se_sf
+
+
+class _GpsObservations:
+    """The two coordinate rows of a GPS fix (thesis ch. 5, table 5.1 category I)."""
+
+    messages: tuple[str, ...] = ()
+
+    def __init__(self, gps: GpsFix) -> None:
+        self.gps = gps
+
+    def available(self) -> list[bool]:
+        return [True, True]
+
+    def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
+                  Cl: np.ndarray) -> None:
+        g = self.gps
+        lat, lon = slot0 + ROW_LAT, slot0 + ROW_LON
+        set_row(A, lat, 0.0, 1.0)
+        set_row(A, lon, 1.0, 0.0)
+        b[lat] = g.y_m + g.corr_north_m - p.y
+        b[lon] = g.x_m + g.corr_east_m - p.x
+        Cl[lat, lat] = g.var_m2
+        Cl[lon, lon] = g.var_m2
+
+    def readings(self, p: Point) -> list[LopReading]:
+        g = self.gps
+        return _position_rows("GPS", g.lat_deg, g.lon_deg, g.corr_north_m, g.corr_east_m, p)
+
+    def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
+        return float("inf")
+
+
+class PriorObservations:
+    """The filter's predicted position as the two rows of the GPS slots (the hybrid fix of the
+    too-few-LOPs path; lsq.md §4.8, kalman.md §10.3)."""
+
+    messages: tuple[str, ...] = ()
+
+    def __init__(self, prior: PositionPrior) -> None:
+        self.prior = prior
+
+    def available(self) -> list[bool]:
+        return [True, True]
+
+    def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
+                  Cl: np.ndarray) -> None:
+        pr = self.prior
+        set_row(A, slot0 + ROW_LAT, 0.0, 1.0)
+        set_row(A, slot0 + ROW_LON, 1.0, 0.0)
+        b[slot0 + ROW_LAT] = pr.y_m - p.y
+        b[slot0 + ROW_LON] = pr.x_m - p.x
+        s = slice(slot0, slot0 + 2)
+        Cl[s, s] = pr.cov[::-1, ::-1]  # slot order (y, x) against the prior's (x, y)
+
+    def readings(self, p: Point) -> list[LopReading]:
+        lat, lon = p.grid.inverse(self.prior.x_m, self.prior.y_m)
+        return _position_rows("KF", lat, lon, 0.0, 0.0, p)
+
+    def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
+        return float("inf")
+
+
+def _position_rows(system: str, lat: float, lon: float, corr_n: float, corr_e: float,
+                   p: Point) -> list[LopReading]:
+    """The "Lat"/"Lon" page rows: read and computed in degrees, corrections in metres."""
+    lat_hat, lon_hat = p.latlon
+    return [LopReading(ROW_LAT, system, "Lat", lat, corr_n, lat_hat, 90.0),
+            LopReading(ROW_LON, system, "Lon", lon, corr_e, lon_hat, 180.0)]
+
+
+class GpsSystem:
+    """GPS behind :class:`engine.systems.base.NavSystem` (config table ``[gps]``)."""
+
+    name = "gps"
+    letter = "G"
+    column: int | None = 0
+    slot_labels = ("Lat", "Lon")
+
+    def is_on(self, config: Any) -> bool:
+        return bool(config.gps.on)
+
+    def fix_source(self, config: Any) -> tuple[object, ...]:
+        """The receiver type (C/A or P code) while GPS is on."""
+        return ("GPS", config.gps.receiver) if config.gps.on else ()
+
+    def read(self, inputs: CycleInputs) -> SystemReading:
+        """The record's GPS position as a :class:`GpsFix` (``detail``: the :class:`GpsInput`)."""
+        gps = gps_input(inputs)
+        if gps is None:
+            return SystemReading()
+        c = inputs.config.corrections
+        fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, gps_variance_m2(inputs.config),
+                     c.gps_north_m, c.gps_east_m)
+        return SystemReading(value=fix, detail=gps, observes=True)
+
+    def observations(self, value: GpsFix | None, p0: Point) -> _GpsObservations | None:
+        return None if value is None else _GpsObservations(value)
+
+    def row_name(self, index: int, value: Any) -> str | None:
+        """``GPS Lat``/``GPS Lon``; ``value`` is the label ("KF" when the prediction stands in)."""
+        return f"{value} {self.slot_labels[index]}"
+
+
+GPS = GpsSystem()
