@@ -80,10 +80,6 @@ from engine.lsq.adjustment import Adjustment
 from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
 from engine.lsq.fix import (
     MAX_BRR,
-    SLOT_BRR0,
-    SLOT_DECCA,
-    SLOT_GPS_LAT,
-    SLOT_GPS_LON,
     FixResult,
     LopRow,
     ManualObservation,
@@ -122,6 +118,7 @@ from engine.run.records import lse_estimate, position_json
 from engine.run.session import RunSummary, Session, load_data, load_run_config, run_inputs
 from engine.sim.scenario import load_scenario
 from engine.sim.simulate import read_data_files, write_simulation
+from engine.systems.registry import SLOT_LABELS, slots_of
 from engine.systems.sensors import KNOT_MS, SENSOR_STATUS_WORD, knots_to_ms
 
 __all__ = [
@@ -175,10 +172,6 @@ __all__ = [
     "KNOT_MS",
     "MAX_BRR",
     "REJECT_BOUND",
-    "SLOT_BRR0",
-    "SLOT_DECCA",
-    "SLOT_GPS_LAT",
-    "SLOT_GPS_LON",
     "STATE_LABELS",
     "Adjustment",
     "Ellipse",
@@ -193,6 +186,8 @@ __all__ = [
     "error_ellipsoid",
     "knots_to_ms",
     "SENSOR_STATUS_WORD",
+    "SLOT_LABELS",
+    "slots_of",
     "lop_name",
     "poe_states",
     "sensor_measurement",

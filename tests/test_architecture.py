@@ -6,8 +6,6 @@ import ast
 import functools
 import pathlib
 
-import pytest
-
 from tests.paths import ROOT
 
 
@@ -249,7 +247,6 @@ def test_every_engine_module_has_a_layer() -> None:
     assert missing == [], f"engine modules without a layer in ENGINE_LAYERS: {missing}"
 
 
-@pytest.mark.xfail(strict=False, reason="issue 12: lands with the merge")
 def test_no_import_cycles() -> None:
     """No cycle among the modules of engine/ and uvnav_tui/ (every import counts, also the
     ones inside functions: a lazy import hides a cycle, it does not remove it)."""
@@ -271,7 +268,6 @@ def test_engine_layers() -> None:
     assert found == [], f"{len(found)} imports against the layers:\n  " + "\n  ".join(found)
 
 
-@pytest.mark.xfail(strict=False, reason="issue 12: lands with the merge")
 def test_ui_imports_only_the_engine_face() -> None:
     """The console imports only engine.api (and engine.errors) from the engine."""
     found = _ui_violations()

@@ -17,8 +17,6 @@ the operator's corrections (C-O) and the a priori VCV of the two GPS LOPs (m²):
 from __future__ import annotations
 
 from engine.api import (
-    SLOT_GPS_LAT,
-    SLOT_GPS_LON,
     CycleResult,
     Session,
     format_lat_dms,
@@ -58,14 +56,15 @@ def render(r: CycleResult, session: Session) -> str:
     calc_y = num(lse.y_m, 3) if lse is not None else num(None)
     out += [f"x : {num(g.x_m, 3)} / {calc_x}", f"y : {num(g.y_m, 3)} / {calc_y}"]
     fix = r.fix
-    rows = {lop.slot: lop for lop in fix.lops if lop.system == "GPS"} if fix is not None else {}
-    if SLOT_GPS_LAT in rows and SLOT_GPS_LON in rows:
-        out.append(f"C-O : north {num(rows[SLOT_GPS_LAT].correction, 2)} m   "
-                   f"east {num(rows[SLOT_GPS_LON].correction, 2)} m")
+    # The GPS rows in slot order (north, east); on the hybrid path they hold the filter's
+    # prediction, which is not GPS.
+    rows = [lop for lop in fix.rows_of("gps") if lop.system == "GPS"] if fix is not None else []
+    if len(rows) == 2:
+        out.append(f"C-O : north {num(rows[0].correction, 2)} m   "
+                   f"east {num(rows[1].correction, 2)} m")
     out.append("")
-    tested = fix.tested if fix is not None else None
-    if tested is not None and SLOT_GPS_LAT in rows:
-        cl = tested.adjustment.Cl[SLOT_GPS_LAT:SLOT_GPS_LON + 1, SLOT_GPS_LAT:SLOT_GPS_LON + 1]
+    cl = fix.apriori_vcv("gps") if fix is not None and rows else None
+    if cl is not None:
         out += labelled_matrix("a priori VCV matrix :", cl, 3, 10)
     else:
         out.append("a priori VCV matrix : (GPS not in the LS fix)")

@@ -13,7 +13,7 @@ a priori VCV of the three Decca LOPs (m²) for the ``Decca.CF`` condition, "(SD)
 
 from __future__ import annotations
 
-from engine.api import SLOT_DECCA, CycleResult, Session, decca_cf_condition
+from engine.api import CycleResult, Session, decca_cf_condition, slots_of
 from uvnav_tui.pages.page_text import TextPage, labelled_matrix, num
 from uvnav_tui.pages.registry import register_page
 
@@ -39,7 +39,7 @@ def render(r: CycleResult, session: Session) -> str:
     rows = {lop.slot: lop for lop in fix.lops if lop.system == "Decca"}
     out.append(" " * 7 + "Obs".rjust(8) + "C-O".rjust(8) + "Calc".rjust(9) + "LEF".rjust(10)
                + "Az".rjust(8) + "  Sel")
-    for i, (name, slot) in enumerate(zip(PATTERN_NAMES, SLOT_DECCA, strict=True)):
+    for i, (name, slot) in enumerate(zip(PATTERN_NAMES, slots_of("decca"), strict=True)):
         lop = rows.get(slot)
         head = f"{name}:".ljust(7) if len(name) > 5 else f"{name:<5}:".ljust(7)
         if lop is None:
@@ -49,9 +49,8 @@ def render(r: CycleResult, session: Session) -> str:
                    + num(float(geom.lef[i]), 5, 10) + num(lop.az_deg, 1, 8)
                    + ("    *" if lop.used else ""))
     out.append("")
-    if fix.tested is not None:
-        cl = fix.tested.adjustment.Cl[SLOT_DECCA[0]:SLOT_DECCA[-1] + 1,
-                                       SLOT_DECCA[0]:SLOT_DECCA[-1] + 1]
+    cl = fix.apriori_vcv("decca")
+    if cl is not None:
         label = f"a priori VCV matrix ({condition_label(cfg.lsq.decca_cf)}) : "
         out += labelled_matrix(label, cl, 3, 9)
         out += ["", f"Decca.CF {cfg.lsq.decca_cf:g}; unselected patterns: variance 1, "

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.api import SLOT_BRR0, CycleResult, Session
+from engine.api import CycleResult, Session, slots_of
 from uvnav_tui.pages.page_text import (
     SLOT_NAMES,
     TextPage,
@@ -39,7 +39,8 @@ def render(r: CycleResult, session: Session) -> str:
         return "\n".join(out + [no_adjustment_text(r)])
     A, b, cl, used = adj.A, adj.b, adj.Cl, adj.used
     n = used.size
-    rows = list(range(min(FIRST_ROWS, n))) + [i for i in range(SLOT_BRR0, n) if used[i]]
+    brr0 = slots_of("manual").start
+    rows = list(range(min(FIRST_ROWS, n))) + [i for i in range(brr0, n) if used[i]]
     out.append(f"[A | b]   (rows 1–{FIRST_ROWS} of {n}"
                + (", and the BRR rows in use)" if len(rows) > FIRST_ROWS else ")"))
     out.append(" " * 6 + "A1".rjust(9) + "A2".rjust(9) + "b".rjust(11) + "  sel")
@@ -50,7 +51,7 @@ def render(r: CycleResult, session: Session) -> str:
     out += ["", f"a priori VCV matrix (m²), rows/columns 1–{FIRST_ROWS} :"]
     k = min(FIRST_ROWS, n)
     out += matrix_lines(cl[:k, :k], 3, 10, labels=SLOT_NAMES[:k], label_width=6)
-    brr = [i for i in range(SLOT_BRR0, n) if used[i]]
+    brr = [i for i in range(brr0, n) if used[i]]
     if brr:
         out += ["", "BRR variances (m²) : " + "  ".join(
             f"{SLOT_NAMES[i]} {num(float(cl[i, i]), 3)}" for i in brr)]

@@ -20,6 +20,7 @@ from textual.containers import ScrollableContainer
 from textual.widgets import Static
 
 from engine.api import (
+    SLOT_LABELS,
     STATE_LABELS,
     Adjustment,
     CycleResult,
@@ -35,8 +36,8 @@ MISSING = "---"
 """Printed for a value that does not exist this cycle (not a statistic: those print 999.99)."""
 P999 = 0.999
 """The 99.9 % level of the Ellipsoid page (program.md §4.11, L7697)."""
-SLOT_NAMES = ("Lat", "Lon", "Red", "Grn", "Prp", "BRR1", "BRR2", "BRR3", "BRR4", "BRR5")
-"""Row names of the ten LS observation slots (lsq.md §3.5, Pg 821/830)."""
+SLOT_NAMES = SLOT_LABELS
+"""Row names of the LS observation slots, from the systems' registry (lsq.md §3.5, Pg 821/830)."""
 
 
 # --------------------------------------------------------------------------- numbers

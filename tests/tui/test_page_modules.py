@@ -1,5 +1,5 @@
-"""Layers of the console package: it uses the engine only through ``engine.api``, and its own
-modules import each other without cycles (type-checking imports included)."""
+"""The console's page modules: one module a page, none importing another. (The layers and the
+absence of import cycles of the whole code base are checked in tests/test_architecture.py.)"""
 
 from __future__ import annotations
 
@@ -35,35 +35,6 @@ def _graph() -> dict[str, set[str]]:
     modules = {_module(p): p for p in UI.rglob("*.py")}
     return {name: {m for m in _imported(p) if m in modules and m != name}
             for name, p in modules.items()}
-
-
-def test_the_ui_uses_only_the_engine_face() -> None:
-    offenders = {
-        _module(p): sorted(m for m in _imported(p)
-                           if m.split(".")[0] == "engine" and not m.startswith("engine.api"))
-        for p in sorted(UI.rglob("*.py"))
-    }
-    assert {k: v for k, v in offenders.items() if v} == {}
-
-
-def test_no_import_cycle_in_the_ui() -> None:
-    graph = _graph()
-    cycles: list[list[str]] = []
-    state: dict[str, int] = {}  # 1 on the stack, 2 done
-
-    def visit(node: str, stack: list[str]) -> None:
-        state[node] = 1
-        for nxt in sorted(graph[node]):
-            if state.get(nxt) == 1:
-                cycles.append([*stack[stack.index(nxt):], nxt])
-            elif nxt not in state:
-                visit(nxt, [*stack, nxt])
-        state[node] = 2
-
-    for name in sorted(graph):
-        if name not in state:
-            visit(name, [name])
-    assert cycles == []
 
 
 def test_a_page_is_one_module() -> None:
