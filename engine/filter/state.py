@@ -9,7 +9,9 @@ State (kalman.md §6.3), SI units, TM grid frame:
 
 A :class:`FilterState` is an immutable value; the constructors (:func:`init_state`,
 :func:`add_fix_states`, :func:`restart_fix_states`) and the edits the operator and the run
-make (:func:`with_position`, :func:`with_current`, :func:`regridded`) return new states.
+make (:func:`replace_position`, :func:`replace_current`, :func:`move_to_grid`) return new
+states; code outside this module reads the state through the named indices or the properties
+of :class:`FilterState`.
 """
 
 from __future__ import annotations
@@ -61,6 +63,21 @@ class FilterState:
     def n(self) -> int:
         """Number of states (11 plus augmented fix-error states)."""
         return self.x.shape[0]
+
+    @property
+    def east_north_m(self) -> tuple[float, float]:
+        """Horizontal position (grid East x, North y) [m]."""
+        return float(self.x[IX]), float(self.x[IY])
+
+    @property
+    def depth_m(self) -> float:
+        """Depth z [m, positive down]."""
+        return float(self.x[IZ])
+
+    @property
+    def position_cov_m2(self) -> np.ndarray:
+        """A copy of the 2×2 VCV of the horizontal position (x, y) [m²]."""
+        return np.array(self.P[IX:IY + 1, IX:IY + 1])
 
     def index(self, key: str) -> int:
         """State index of a nav label (``STATE_LABELS``) or an augmented fix-error key."""

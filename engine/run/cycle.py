@@ -354,8 +354,7 @@ def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
 
 def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstimate:
     """The horizontal position of a filter state as an estimate (grid ``grid``)."""
-    return _estimate(source, grid, float(fs.x[0]), float(fs.x[1]), float(fs.x[2]),
-                     np.array(fs.P[:2, :2]))
+    return _estimate(source, grid, *fs.east_north_m, fs.depth_m, fs.position_cov_m2)
 
 
 def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
@@ -583,8 +582,8 @@ def _provisional(nav: NavState, grid: TMGrid,
     prediction when there is a filter, else the last MPP without a prior."""
     if pred_state is None:
         return grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg), None
-    x_start = (float(pred_state.x[0]), float(pred_state.x[1]))
-    return x_start, PositionPrior(x_start[0], x_start[1], np.array(pred_state.P[:2, :2]))
+    x_start = pred_state.east_north_m
+    return x_start, PositionPrior(x_start[0], x_start[1], pred_state.position_cov_m2)
 
 
 def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, cm: float,
@@ -747,7 +746,7 @@ def _mpp(ctx: RunContext, nav: NavState, grid: TMGrid, kf_est: PositionEstimate 
     if kf_est is not None:
         return kf_est
     if fix is not None and fix.lse_ok:
-        depth = ctx.config.depth_m if state is None else float(state.x[2])
+        depth = ctx.config.depth_m if state is None else state.depth_m
         return _estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix_cov)
     if state is not None:
         return filter_estimate("DR", grid, state)
@@ -813,7 +812,7 @@ def reproject_state(
     convergence Δγ (kalman.md A18: ψ_grid = ψ_true − γ).  Grid scale differences (< 2·10⁻⁵ within
     ±0.5° of the CM) are ignored.
     """
-    lat, lon = old.inverse(float(fs.x[0]), float(fs.x[1]))
+    lat, lon = old.inverse(*fs.east_north_m)
     g_old = old.convergence_deg(lat, lon)
     if shift is not None:
         lat, lon, _h = shift.transform(lat, lon, 0.0)

@@ -515,8 +515,8 @@ class Session:
             for fs, cm in rts_smooth_backward(records(), convert):
                 if cm != final_cm:
                     fs = convert(fs, cm, final_cm)
-                P = fs.P
-                fh.write(packed.pack(fs.t, fs.x[0], fs.x[1], fs.x[2], P[0, 0], P[0, 1],
+                P = fs.position_cov_m2
+                fh.write(packed.pack(fs.t, *fs.east_north_m, fs.depth_m, P[0, 0], P[0, 1],
                                      P[1, 1]))
                 n += 1
             grid = ctx.grid(final_cm)
