@@ -5,13 +5,13 @@ is right for
 the program but makes a 200-run Monte-Carlo cost tens of seconds. This module applies the same
 equations to a batch of runs at once with numpy broadcasting: Φ = I + FΔt (eq. 6.31), the
 process noise of ``params.q_mode`` (thesis Γ Q Γᵀ of 6.32, or the exact Van Loan integral of
-the PSD), the exact Gauss–Markov discretisation of the augmented fix-error states (kalman.md
-§3.2) and the Joseph-form update (6.21, kalman.md §7). ``tests/test_filter_consistency.py``
+the PSD), the exact Gauss–Markov discretisation of the augmented fix-error states (THEORY
+§8.2) and the Joseph-form update (6.21, THEORY §8.13). ``tests/test_filter_consistency.py``
 checks that a batch of one run reproduces :func:`engine.filter.kalman.predict` /
 :func:`engine.filter.kalman.update` to rounding, so the Monte-Carlo statistics are those of the
 engine.
 
-Shapes: x (R, n), P (R, n, n) with n = 11 nav states (kalman.md §6.3) plus m fix-error states;
+Shapes: x (R, n), P (R, n, n) with n = 11 nav states (THEORY §8.6) plus m fix-error states;
 units as in the engine (m, m/s, rad, s).
 """
 
@@ -126,7 +126,7 @@ def update(b: Batch, z: np.ndarray, H: np.ndarray, R: np.ndarray,
 
 def smooth(filt_x: np.ndarray, filt_P: np.ndarray, pred_x: np.ndarray, pred_P: np.ndarray,
            phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """RTS smoother (kalman.md §12.5) over K epochs of every run: filt (R, K, n[, n]),
+    """RTS smoother (THEORY §11.1–11.2) over K epochs of every run: filt (R, K, n[, n]),
     pred/phi (R, K−1, n[, n]) with pred[:, k] the prediction from epoch k to k+1.
     Returns the smoothed x (R, K, n) and P (R, K, n, n); heading differences wrapped."""
     xs = filt_x.copy()

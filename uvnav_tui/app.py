@@ -1,4 +1,4 @@
-"""UVNAVApp: the navigation console (program.md §1–§4).
+"""UVNAVApp: the navigation console (THEORY §12.1–12.10).
 
 The app only renders engine state and sends operator commands to the engine. Cycles are computed
 in a worker thread (:meth:`UVNAVApp._cycle_loop`) through a :class:`RunController`; the display
@@ -304,7 +304,7 @@ class UVNAVApp(App[None]):
 
     def sub_page(self, step: int) -> None:
         """PgDn (+1) / PgUp (−1): the next or previous sub-page of the page shown (641 → 642 →
-        643 → 641, program.md A5); pages without sub-pages stay."""
+        643 → 641, THEORY D37); pages without sub-pages stay."""
         target = next_sub_page(self.page, step)
         if target != self.page:
             self.show_page(target)

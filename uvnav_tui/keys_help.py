@@ -2,9 +2,9 @@
 (footer) of each context.  No widgets here, so it can be tested without a terminal.
 
 The keys themselves are the thesis' (cursor keys and Return move and select, L5496; the menu bar
-of program.md §3) plus the habits of today's text consoles: F1 help, F10 menu, Ctrl+Q quit,
+of THEORY §12.6) plus the habits of today's text consoles: F1 help, F10 menu, Ctrl+Q quit,
 Ctrl+P command palette, and "type the page number" (the navigators talk in page numbers,
-program.md §4.1).
+THEORY §12.7).
 """
 
 from __future__ import annotations

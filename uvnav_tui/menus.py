@@ -1,4 +1,4 @@
-"""The console's action registry: the menu tree (program.md §3, A4, A5) as plain data, no widgets.
+"""The console's action registry: the menu tree (THEORY §12.6, D36–D37) as plain data, no widgets.
 
 The thesis' ``UVNAV.MNU`` layout file is lost (A8.3), so the tree is built in here. Each leaf
 carries everything the console needs to know about one action: its label and hot-key letter,

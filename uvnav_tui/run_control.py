@@ -1,4 +1,4 @@
-"""Run states and cycle pacing of the console (program.md §2.1, A21, A22); no widgets.
+"""Run states and cycle pacing of the console (THEORY §12.2, D43–D44); no widgets.
 
 ``working``: cycles advance at the sample interval divided by the playback pace;
 ``interrupted``: a menu or dialog is open, cycles pause and resume when it closes;

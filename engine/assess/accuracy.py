@@ -29,7 +29,7 @@ the estimate's 95 % ellipse (eᵀC⁻¹e ≤ −2 ln 0.05), the mean NEES eᵀC�
 bands assume independent epochs; consecutive epochs of a filter are strongly correlated, so the
 bands are optimistic (too narrow).
 
-Pool of Errors (program.md §9, eq. 2.1): R = a + ε·Δt (m) with a = d_rms = sqrt(trace C) of the
+Pool of Errors (THEORY §10, eq. 2.1): R = a + ε·Δt (m) with a = d_rms = sqrt(trace C) of the
 last LSE at or before the epoch, ε in m/h and Δt the time since that LSE.  Each dive (run of
 submerged truth epochs) is sampled at its start, every ``step_min`` minutes and its end.
 

@@ -46,7 +46,7 @@ def lse_measurement(
 
     With ``params.coloured`` the rows become x + b_e, y + b_n on the Gauss–Markov states
     ``keys`` (added by :func:`update` on first use, stationary VCV frac·C2, τ = fix_tau_s) and
-    R = (1 − frac)·C2, the white part (kalman.md §3.1 option (a)).
+    R = (1 − frac)·C2, the white part (THEORY §8.2 option (a)).
     """
     C = np.asarray(C2, dtype=float)
     H = np.zeros((2, N_NAV))
@@ -158,7 +158,7 @@ def lop_measurement(
     bias_cov: np.ndarray | None = None,
     bias_tau_s: Sequence[float] = (),
 ) -> Measurement:
-    """Raw metric LOPs fed directly to the filter (kalman.md §10.3, A10).
+    """Raw metric LOPs fed directly to the filter (THEORY §9.3, D20).
 
     Rows A (k×2, dimensionless, ∂LOP/∂(x, y)) linearised at grid ``x_ref`` (m) where O−C is
     ``omc_m`` (m); R (k×k, m², the white part if rows carry fix-error states). Innovation =

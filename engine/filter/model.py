@@ -136,7 +136,7 @@ def discrete_noise(x: np.ndarray, dt: float, params: FilterParams) -> np.ndarray
 
     In "vanloan" mode (the default) the exact ∫₀^Δt e^{Fs} M e^{Fᵀs} ds with M = G Q_psd Gᵀ,
     which because F² = 0 is M Δt + (F M + M Fᵀ) Δt²/2 + F M Fᵀ Δt³/3 (equal to Van Loan's matrix
-    exponential); "thesis" Γ Q Γᵀ of 6.20b/6.32; "psd" Γ Q Γᵀ/Δt (kalman.md A5).
+    exponential); "thesis" Γ Q Γᵀ of 6.20b/6.32; "psd" Γ Q Γᵀ/Δt (THEORY D24).
     """
     if dt == 0.0:
         return np.zeros((N_NAV, N_NAV))

@@ -1,4 +1,4 @@
-"""Run parameters of the navigation filter (thesis ch. 6, kalman.md §6.6–§6.8, A4–A7, A11, A12).
+"""Run parameters of the navigation filter (thesis ch. 6, THEORY §8.9–8.11, D23–D26, D29–D30).
 
 :class:`FilterParams` is the one value every filter function reads: process noise (rates of turn,
 acceleration, current), sensor σ, P₀ choice, Q discretisation mode, Gauss–Markov fix-error model,
@@ -35,18 +35,18 @@ def accel_variance(a_max: float, p_max: float, p_zero: float) -> float:
 
 
 def current_rate_variance(v_cm_ms: float, period_s: float) -> float:
-    """σ_vc² (m²/s⁴) per current component, §6.6: σ = ½ V_cm (ω_v + ω_ψ), ω = 2π/period."""
+    """σ_vc² (m²/s⁴) per current component, THEORY §8.9: σ = ½ V_cm (ω_v + ω_ψ), ω = 2π/period."""
     omega = TWO_PI / period_s
     return (0.5 * v_cm_ms * 2.0 * omega) ** 2
 
 
 @dataclass(frozen=True)
 class FilterParams:
-    """Run parameters of the navigation filter (kalman.md §6.6–§6.8, A4–A7, A11, A12).
+    """Run parameters of the navigation filter (THEORY §8.9–8.11, D23–D26, D29–D30).
 
-    Rates of turn in deg/s (σ = ½ maximum, A4); σ_a² in m²/s⁴ (eq. 6.35); σ_vc² in m²/s⁴
+    Rates of turn in deg/s (σ = ½ maximum, THEORY D23); σ_a² in m²/s⁴ (eq. 6.35); σ_vc² in m²/s⁴
     (thesis 2·10⁻⁸, §6.6); sensor σ in deg / m; log σ = max(frac·v, floor) m/s (eq. 4.19).
-    ``q_mode`` (kalman.md A5): "vanloan" (default) takes the thesis Q values as power spectral
+    ``q_mode`` (THEORY D24): "vanloan" (default) takes the thesis Q values as power spectral
     densities per 1 s and discretises (F, G Q Gᵀ) exactly, so any Δt and any Kalman ▸ Predict
     step give the same VCV; at Δt = 1 s it equals the thesis Γ Q Γᵀ except the position term
     F M Fᵀ Δt³/3 instead of /4 (≈ 10⁻⁴ m² per step at 6.5 m/s). "thesis" = Γ of 6.32 with Q as
@@ -60,19 +60,19 @@ class FilterParams:
     turn_rate_max_deg_s: float = 1.0  # ψ̇_max, σ_ψ̇ = ½ of it (A4)
     pitch_rate_max_deg_s: float = 0.5  # ε̇_max, σ_ε̇ = ½ of it (A4)
     sigma_a2: float = accel_variance(0.25, 0.01, 0.75)  # m²/s⁴, eq. 6.35
-    sigma_current2: float = 2e-8  # m²/s⁴ per component, §6.6
+    sigma_current2: float = 2e-8  # m²/s⁴ per component, THEORY §8.9
     sigma_gyro_deg: float = 0.65  # gyro random error (L1429)
     sigma_incl_deg: float = 0.5  # inclinometer (not in the thesis, L1447)
     sigma_press_m: float = 1.45  # pressure depth (L1532–L1539)
     log_sigma_frac: float = 0.02  # EM log σ = 0.02 v (4.19) …
     log_sigma_floor_ms: float = 0.05  # … but at least this (m/s)
-    p0: Literal["thesis", "physical"] = "thesis"  # P₀ = I₁₁ (§6.8) or A7
+    p0: Literal["thesis", "physical"] = "thesis"  # P₀ = I₁₁ (THEORY §8.11) or D26
     q_mode: Literal["thesis", "psd", "vanloan"] = "vanloan"  # A5
-    hold_course: bool = False  # A6: w_v = w_ψ = w_ε = 0
-    coloured: bool = False  # Gauss–Markov fix-error states (§3, A6)
+    hold_course: bool = False  # THEORY D25: w_v = w_ψ = w_ε = 0
+    coloured: bool = False  # Gauss–Markov fix-error states (THEORY §8.2, D25)
     fix_tau_s: float = 240.0  # their correlation time (s)
     fix_sigma_frac: float = 0.9  # coloured share of the fix variance; the rest stays in R
-    bias_noise: bool = False  # A11: random-walk biases instead of random constants
+    bias_noise: bool = False  # THEORY D29: random-walk biases instead of random constants
     bias_rw_log_ms_sqrth: float = 0.01  # m/s per √h
     bias_rw_gyro_deg_sqrth: float = 0.5  # deg per √h
     bias_rw_incl_deg_sqrth: float = 0.1  # deg per √h
@@ -113,7 +113,7 @@ def _rate_variances(params: FilterParams) -> np.ndarray:
         q[1] = (0.5 * params.turn_rate_max_deg_s * DEG) ** 2
         q[2] = (0.5 * params.pitch_rate_max_deg_s * DEG) ** 2
     q[3] = q[4] = params.sigma_current2
-    if params.bias_noise:  # A11: random walks, given per √h, converted to per √s
+    if params.bias_noise:  # THEORY D29: random walks, given per √h, converted to per √s
         q[5] = params.bias_rw_log_ms_sqrth**2 / 3600.0
         q[6] = (params.bias_rw_gyro_deg_sqrth * DEG) ** 2 / 3600.0
         q[7] = (params.bias_rw_incl_deg_sqrth * DEG) ** 2 / 3600.0

@@ -1,4 +1,4 @@
-"""Pool of Errors (program.md §9, thesis chapter 2, eq. 2.1; A17): pure functions.
+"""Pool of Errors (THEORY §10, thesis chapter 2, eq. 2.1; D47): pure functions.
 
 The traditional submarine estimate of the maximum likely position error, drawn by the console
 next to the Kalman filter's confidence ellipse so that the navigator sees why the thesis replaced
@@ -8,7 +8,7 @@ the one with the other.
   position (the MPP), with ``a`` the d_rms = sqrt(σx² + σy²) (m) of the last least-squares fix,
   ``ε`` the expansion rate (m/h, typically 900–1800 m/h) and ``Δt`` the time since that fix.
   Growth is linear in time.
-* **Circle segment** (L302–309, figure 2.2 lost, program.md A17): the expanding circle (with ε
+* **Circle segment** (L302–309, figure 2.2 lost, THEORY D47): the expanding circle (with ε
   reduced to the log and gyro errors) combined with a circular segment for the tidal-stream and
   current uncertainty: apex at the DR position, oriented along the current set, depth ``d`` (m,
   the radius of the segment) and half-width ``α`` (degrees either side of the set).  The

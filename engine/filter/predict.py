@@ -73,7 +73,7 @@ def _predict(
 def predict_horizon(
     state: FilterState, horizon_s: float, step_s: float, params: FilterParams
 ) -> list[FilterState]:
-    """Kalman ▸ Predict (kalman.md §4): N = ceil(T/h) steps of h s, the last one shortened so
+    """Kalman ▸ Predict (THEORY §8.15): N = ceil(T/h) steps of h s, the last one shortened so
     the steps sum to T s exactly. Returns the N predicted states; the input is untouched."""
     if step_s <= 0.0 or horizon_s <= 0.0:
         raise ValueError("horizon and step must be positive (s)")

@@ -1,4 +1,4 @@
-"""Rauch–Tung–Striebel fixed-interval smoother over a completed filter run (kalman.md §12.5).
+"""Rauch–Tung–Striebel fixed-interval smoother over a completed filter run (THEORY §11.1–11.2).
 
 The thesis lists smoothing as "not implemented" (L2109, L5406); this is the standard RTS pass:
 

@@ -1,11 +1,11 @@
 """The filter state with named indices: the only code that edits the state vector.
 
-State (kalman.md §6.3), SI units, TM grid frame:
+State (THEORY §8.6), SI units, TM grid frame:
 0 x, 1 y (grid East/North, m), 2 z (depth, m, positive down), 3 v (speed through water, m/s),
 4 ψ (GRID heading, rad, kept in [0, 2π)), 5 ε (inclination, rad, bow-down positive),
 6 v_cx, 7 v_cy (current East/North, m/s), 8 Δv (log bias, m/s), 9 Δψ (gyro bias, rad),
 10 Δε (inclinometer bias, rad); then optional first-order Gauss–Markov fix-error states
-(thesis §6.3.2 / A6, kalman.md §3) appended at index 11 onwards.
+(thesis §6.3.2 / A6, THEORY §8.2) appended at index 11 onwards.
 
 A :class:`FilterState` is an immutable value; the constructors (:func:`init_state`,
 :func:`add_fix_states`, :func:`restart_fix_states`) and the edits the operator and the run
@@ -131,14 +131,15 @@ def init_state(
     pos_cov: np.ndarray | None = None,
     from_sensors: tuple[bool, bool, bool] = (False, False, False),
 ) -> FilterState:
-    """Initial state x̂₀|₀ (§6.8, biases 0) and P₀: I₁₁ ("thesis") or the A7 "physical" P₀.
+    """Initial state x̂₀|₀ (THEORY §8.11, biases 0) and P₀: I₁₁ ("thesis") or the D26
+    "physical" P₀.
 
     ``pos_cov`` (2×2, m²), e.g. the first LSE's VCV (A3), replaces the position block in either
     mode; "physical" otherwise uses ``dr_pos_sigma_m``. Heading in grid rad, wrapped to [0, 2π).
     ``from_sensors`` says which of speed, heading and inclination are a sensor reading (log,
     gyro, inclinometer): such a value estimates state + bias (6.27–6.29) with the sensor's σ,
     so in "physical" mode its error is the reading's error minus the unknown bias: P_ss = σ_m² +
-    σ_b², P_sb = −σ_b², P_bb = σ_b² (σ_b the A7 bias σ) instead of independent σ_m², σ_b².
+    σ_b², P_sb = −σ_b², P_bb = σ_b² (σ_b the D26 bias σ) instead of independent σ_m², σ_b².
     """
     x = np.array(
         [x_m, y_m, z_m, speed_ms, wrap_2pi(heading_grid_rad), incl_rad,
@@ -173,7 +174,7 @@ def add_fix_states(
     params: FilterParams,
     tau_s: float | Sequence[float] | None = None,
 ) -> FilterState:
-    """Append first-order Gauss–Markov fix-error states (A6; kalman.md §3.2), zero mean.
+    """Append first-order Gauss–Markov fix-error states (A6; THEORY §8.2), zero mean.
 
     ``sigma2`` is their stationary variance (m²; scalar, per key, or a full matrix over
     ``keys``, e.g. frac·C_LSE) and becomes their prior P block; τ = ``tau_s`` (s; one value or
@@ -276,7 +277,7 @@ def replace_current(
 def move_to_grid(fs: FilterState, x_m: float, y_m: float, rotation_rad: float) -> FilterState:
     """The state carried to another grid: position at (``x_m``, ``y_m``) [m]; grid heading,
     current and their covariances turned by the change of grid convergence Δγ =
-    ``rotation_rad`` (a grid azimuth α becomes α − Δγ; kalman.md A18)."""
+    ``rotation_rad`` (a grid azimuth α becomes α − Δγ; THEORY D3)."""
     c, s_ = math.cos(rotation_rad), math.sin(rotation_rad)
     # (e, n) → (e cosΔ − n sinΔ, n cosΔ + e sinΔ).
     rot = np.array([[c, -s_], [s_, c]])

@@ -1,5 +1,5 @@
 """Measurement update of the filter (6.21, Joseph form) and its innovation tests: the Local
-Overall Model test (6.38–6.40, A12) and the Local Slippage w-statistics (6.41).
+Overall Model test (6.38–6.40, THEORY D30) and the Local Slippage w-statistics (6.41).
 """
 
 from __future__ import annotations
@@ -44,7 +44,8 @@ class FilterDivergence(ArithmeticError):
 
 @dataclass(frozen=True)
 class LomTest:
-    """Local Overall Model test (6.38–6.40, A12): T = v̂ᵀS⁻¹v̂/p in [χ²_p(α/2)/p, χ²_p(1−α/2)/p]."""
+    """Local Overall Model test (6.38–6.40, THEORY D30):
+    T = v̂ᵀS⁻¹v̂/p in [χ²_p(α/2)/p, χ²_p(1−α/2)/p]."""
 
     t: float
     lower: float
@@ -59,7 +60,7 @@ class LsTest:
 
     ``t`` = (S⁻¹v̂)_i / √(S⁻¹)_ii; ``flags``: accept (|t| ≤ 1.960) / monitor (≤ 2.576) /
     reject; ``identified``: the row with the largest |t| > 2.576, only when the LOM test
-    rejects (kalman.md §8). Computed on access, so the per-cycle update stays cheap.
+    rejects (THEORY §8.14). Computed on access, so the per-cycle update stays cheap.
     """
 
     l_inv: np.ndarray
@@ -132,7 +133,7 @@ def _factor_solve(S: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 
 def lom_test(v: np.ndarray, S: np.ndarray, alpha: float = 0.05) -> LomTest:
-    """LOM test of any innovation v (p,) with covariance S (p×p), A12 bounds χ²_p/p."""
+    """LOM test of any innovation v (p,) with covariance S (p×p), THEORY D30 bounds χ²_p/p."""
     w = _factor_solve(S, np.asarray(v, dtype=float))
     return _lom_from_nis(float(w @ w), len(w), alpha)
 

@@ -33,7 +33,7 @@ class Ellipsoid:
 
 @dataclass(frozen=True, slots=True)
 class Datum:
-    """A geodetic datum and its transformation to WGS84 (thesis A8.4, program.md §5.1, A2).
+    """A geodetic datum and its transformation to WGS84 (thesis A8.4, THEORY §13.1, D1).
 
     X_WGS84 = X_datum + (dx, dy, dz) [m], extended to a 7-parameter Bursa–Wolf (position-vector
     convention) with rotations ``rx/ry/rz`` in arc-seconds and ``scale_ppm`` in parts per million.

@@ -1,12 +1,12 @@
-"""Ellipsoidal geodesy for the LSQ engine and the filter (lsq.md §2, thesis A5, A8.4).
+"""Ellipsoidal geodesy for the LSQ engine and the filter (THEORY §2, thesis A5, A8.4).
 
 * geodetic ↔ ECEF (Earth-centred, Earth-fixed, metres) on any :class:`Ellipsoid`;
 * datum transformations (Bursa–Wolf, position-vector convention, X_WGS84 = X_datum + (dX, dY,
-  dZ) + rotations/scale, program.md A2) as explicit PROJ pipelines built from the :class:`Datum`
+  dZ) + rotations/scale, THEORY D1) as explicit PROJ pipelines built from the :class:`Datum`
   parameters, with a pure-Python cross-check;
-* the GPS convention of lsq.md §2.1 (WGS84 fix converted with h_WGS84 = 0);
-* geodesic inverse (pyproj/Karney), first-order Andoyer–Lambert distance (lsq.md §2.4);
-* line scale factor and spheroidal distance from grid coordinates (A5.10, A5.13, lsq.md §2.3).
+* the GPS convention of THEORY §2.1–2.2 (WGS84 fix converted with h_WGS84 = 0);
+* geodesic inverse (pyproj/Karney), first-order Andoyer–Lambert distance (THEORY §2.5);
+* line scale factor and spheroidal distance from grid coordinates (A5.10, A5.13, THEORY §2.4).
 
 Angles are degrees unless a name says otherwise; lengths are metres.
 """
@@ -228,7 +228,7 @@ def datum_shift_python(
     """Pure-Python rigorous geocentric shift ``src`` → ``dst`` (degrees, degrees, metres).
 
     geodetic → ECEF (src ellipsoid) → Bursa–Wolf to WGS84 → inverse to dst → geodetic (dst
-    ellipsoid). The verified GPS path of lsq.md §2.1; used to cross-check :class:`DatumShift`.
+    ellipsoid). The verified GPS path of THEORY §2.1–2.2; used to cross-check :class:`DatumShift`.
     """
     x, y, z = geodetic_to_ecef(lat_deg, lon_deg, h_m, src.ellipsoid)
     if not _is_identity(src):
@@ -241,7 +241,7 @@ def datum_shift_python(
 def wgs84_fix_to_datum(
     lat_deg: float, lon_deg: float, datum: Datum, shift: DatumShift | None = None
 ) -> tuple[float, float, float]:
-    """GPS WGS84 fix (degrees) → (lat deg, lon deg, h_datum m) on ``datum`` (lsq.md §2.1).
+    """GPS WGS84 fix (degrees) → (lat deg, lon deg, h_datum m) on ``datum`` (THEORY §2.1–2.2).
 
     The horizontal transformation uses h_WGS84 = 0 (thesis GPS convention, verified on Pg 611).
     The WGS84 height the program displays is Hg = −h_datum (the WGS84 height of the point at
@@ -304,7 +304,7 @@ def andoyer_lambert_m(
 ) -> float:
     """First-order Andoyer–Lambert distance (metres) between two geodetic points (degrees).
 
-    lsq.md §2.4 (the program's Decca baselines B, verified to 1 cm on Pg 810): with
+    THEORY §2.5 (the program's Decca baselines B, verified to 1 cm on Pg 810): with
     β = atan((1−f) tan φ), P = (β1+β2)/2, Q = (β2−β1)/2, σ the spherical angle between the
     reduced-latitude points, X = (σ − sin σ) sin²P cos²Q / cos²(σ/2),
     Y = (σ + sin σ) cos²P sin²Q / sin²(σ/2), s = a(σ − f/2·(X + Y)).
@@ -327,7 +327,7 @@ def andoyer_lambert_m(
 
 # --------------------------------------------------------------------------- grid → spheroid
 def mean_radius_sq(ell: Ellipsoid, lat1_deg: float, lat2_deg: float) -> float:
-    """R_m² = ρ·ν (m²) at the mean geodetic latitude of two points (degrees), lsq.md §2.3.
+    """R_m² = ρ·ν (m²) at the mean geodetic latitude of two points (degrees), THEORY §2.4.
 
     ρ = a(1−e²)/W³ (meridian radius), ν = a/W (prime vertical), W = √(1 − e² sin²φ).
     """

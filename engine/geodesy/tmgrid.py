@@ -1,6 +1,6 @@
 """Transverse Mercator calculating grid of the least-squares engine and the filter.
 
-Thesis L6482–6490 (lsq.md §2.2, kalman.md §6.1): TM on the working-datum ellipsoid, scale
+Thesis L6482–6490 (THEORY §2.3, §8.4): TM on the working-datum ellipsoid, scale
 k0 = 1.0000 on the central meridian (CM), origin (φ = 0°, λ = CM) → (0, 0), no false easting or
 northing; x = grid easting (negative west of the CM), y = grid northing, both in metres.
 The CM is the MPP longitude rounded to the nearest whole degree (:func:`central_meridian_deg`).
@@ -107,7 +107,7 @@ class TMGrid:
     ellipsoid. Series coefficients are computed once per instance (``__post_init__``).
     Grid convergence γ (degrees) is the grid azimuth of true north taken negatively, i.e. the
     true azimuth of grid north: ψ_grid = ψ_true − γ, with γ ≈ (λ − CM)·sin φ (positive east of
-    the CM in the northern hemisphere), kalman.md §6.1.
+    the CM in the northern hemisphere), THEORY §8.4.
     """
 
     ellipsoid: Ellipsoid

@@ -1,12 +1,12 @@
 """Reader and writer for the geodetic datum file ``TO_WGS84.DAT`` (thesis A8.4, L8800–8871).
 
-Layout (program.md §5.1; role of the file: thesis L5552–5554):
+Layout (THEORY §13.1; role of the file: thesis L5552–5554):
 
 * Lines whose first non-blank character is ``*`` are comments; blank lines are ignored.
 * Section 1, "Parameters of reference spheroids": ``NAME  a[m]  1/f``.
 * Section 2, "Transformation parameters of Datums / Datum ==> WGS84":
   ``NAME  a[m]  1/f  dX[m]  dY[m]  dZ[m]  Rx["]  Ry["]  Rz["]  scale[ppm]``, with
-  X_WGS84 = X_datum + (dX, dY, dZ) extended to Bursa–Wolf (program.md A2).
+  X_WGS84 = X_datum + (dX, dY, dZ) extended to Bursa–Wolf (THEORY D1).
 * Names may contain spaces, so the numbers are the *last* 2 (section 1) or 9 (section 2) tokens
   and the name is everything before them (re-joined with single spaces).
 
@@ -89,7 +89,7 @@ class DatumFile:
     def datum(self, name: str) -> Datum:
         """The datum called ``name`` (exact, else case- and spacing-insensitive match).
 
-        Raises ``InputError("Unknown datum !", field="datum", text=name)`` (program.md §5.7).
+        Raises ``InputError("Unknown datum !", field="datum", text=name)`` (THEORY §13.7).
         """
         found = self.datums.get(name)
         if found is not None:
@@ -139,7 +139,7 @@ def parse_datum_text(text: str, filename: str = "<string>") -> DatumFile:
 def read_datum_file(path: str | os.PathLike[str]) -> DatumFile:
     """Read and parse a datum file from disk (UTF-8, undecodable bytes replaced).
 
-    A missing file gives ``InputError("File not found !")`` (program.md §5.7); a device, FIFO
+    A missing file gives ``InputError("File not found !")`` (THEORY §13.7); a device, FIFO
     or directory, or a file over 1 MiB, is refused (:func:`engine.io.datafile_io.read_data_text`).
     """
     name = os.fspath(path)

@@ -1,6 +1,6 @@
 """Reader and writer for the Decca chain file ``DECCA.CHN`` (thesis A8.4, L8873–8969).
 
-Role of the file: thesis L5556–5558; layout: program.md §5.2, lsq.md §5.1. Per chain, in this
+Role of the file: thesis L5556–5558; layout: THEORY §13.2, §3.2. Per chain, in this
 fixed order, one item per line (``*`` comment lines and blank lines may come in between)::
 
     9B                                         chain id (one word)
@@ -194,7 +194,7 @@ class DeccaStation:
 
 @dataclass(frozen=True, slots=True)
 class DeccaChain:
-    """One Decca chain as read from ``DECCA.CHN`` (thesis A8.4; lsq.md §5.1).
+    """One Decca chain as read from ``DECCA.CHN`` (thesis A8.4; THEORY §3.2).
 
     ``min_lanes`` are the minimum lane counts k for Red, Green, Purple (eq. 4.9/4.10);
     ``speed_km_s`` is the assumed propagation speed [km/s], so v/f[kHz] gives metres.

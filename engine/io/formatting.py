@@ -1,4 +1,4 @@
-"""The thesis' screen number formats (A8.5 sample pages; program.md §4.1–4.8).
+"""The thesis' screen number formats (A8.5 sample pages; THEORY §12.7–12.9).
 
 Positions are rounded once, in integer units of the last printed digit, so that every carry
 (59.9996" → next minute, 59.996' → next degree) comes out right. Negative latitudes and
@@ -13,7 +13,7 @@ import math
 from engine.io.operator_input import ZONE_LETTERS, decca_pattern
 
 PLACEHOLDER = "999.99"
-"""Printed for a statistic that was not computed (Pg 633 rows of unused LOPs, program.md §4.1)."""
+"""Printed for a statistic that was not computed (Pg 633 rows of unused LOPs, THEORY §12.7)."""
 
 
 def _units(value_deg: float, per_degree: int) -> tuple[int, bool]:

@@ -2,11 +2,11 @@
 
 Every parser returns plain floats/ints/strings and raises :class:`engine.errors.InputError`
 with a thesis-style message (``Wrong position input format !`` is the thesis' own, L7754; the
-others follow its style, program.md §5.7), ``field`` = the dialog field name and ``text`` = the
+others follow its style, THEORY §13.7), ``field`` = the dialog field name and ``text`` = the
 characters typed. Positions are geodetic degrees on the working datum, north and east positive.
 
 The Decca zone/lane helpers implement the standard numbering (Red 0–23, Green 30–47,
-Purple 50–79, zones A–J; program.md A14, lsq.md §5.3).
+Purple 50–79, zones A–J; THEORY D7, §3.3).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ ZONE_LETTERS = "ABCDEFGHIJ"
 
 
 class DeccaPattern(NamedTuple):
-    """Lane numbering of one Decca pattern (lsq.md §5.3): lanes per zone and first/last lane."""
+    """Lane numbering of one Decca pattern (THEORY §3.3): lanes per zone and first/last lane."""
 
     name: str
     lanes_per_zone: int
@@ -52,7 +52,7 @@ PATTERNS: dict[str, DeccaPattern] = {
     "green": DeccaPattern("green", 18, 30, 47),
     "purple": DeccaPattern("purple", 30, 50, 79),
 }
-"""The three Decca patterns by lower-case name (program.md §8.2, A14)."""
+"""The three Decca patterns by lower-case name (THEORY §3.2, D7)."""
 
 _PATTERN_ALIASES = {
     "red": "red",
@@ -104,7 +104,7 @@ def decca_pattern(pattern: str) -> DeccaPattern:
 
 
 # --------------------------------------------------------------------------------------------
-# Positions (§7.3.2, L7723–7754; program.md §5.6)
+# Positions (§7.3.2, L7723–7754; THEORY §13.6)
 
 
 def _position_groups(text: str, field: str) -> list[tuple[list[str], str]]:
@@ -260,7 +260,7 @@ def parse_depth_m(text: str, *, field: str = "depth") -> float:
 
 
 # --------------------------------------------------------------------------------------------
-# Decca zone and lane (program.md §8.2, A14; lsq.md §5.3)
+# Decca zone and lane (THEORY §3.2, D7; THEORY §3.3)
 
 
 def parse_zone_lane(text: str, pattern: str, *, field: str | None = None) -> tuple[int, int]:
@@ -282,7 +282,7 @@ def parse_zone_lane(text: str, pattern: str, *, field: str | None = None) -> tup
 
 
 def lanes_from_zone_lane(zone: int, lane: int, fraction: float, pattern: str, cycle: int) -> float:
-    """Total lane count N = (zone + 10·cycle)·lpz + (lane − firstLane) + fraction (lsq.md §5.3).
+    """Total lane count N = (zone + 10·cycle)·lpz + (lane − firstLane) + fraction (THEORY §3.3).
 
     ``zone`` 0..9, ``lane`` a whole lane of the pattern, ``fraction`` in [0, 1) (the receiver
     reading), ``cycle`` the 10-zone cycle c. E.g. Green F34 + .337, c = 1 → 274.337.
@@ -301,7 +301,7 @@ def lanes_from_zone_lane(zone: int, lane: int, fraction: float, pattern: str, cy
 def zone_lane_of(n_total: float, pattern: str) -> tuple[str, float]:
     """(zone letter, lane with fraction) of a total lane count, e.g. Red 44.862 → ("B", 20.862).
 
-    zone = 'ABCDEFGHIJ'[⌊N/lpz⌋ mod 10], lane = firstLane + N − lpz·⌊N/lpz⌋ (lsq.md §5.3).
+    zone = 'ABCDEFGHIJ'[⌊N/lpz⌋ mod 10], lane = firstLane + N − lpz·⌊N/lpz⌋ (THEORY §3.3).
     """
     spec = decca_pattern(pattern)
     zone_count = math.floor(n_total / spec.lanes_per_zone)

@@ -1,6 +1,6 @@
 """The ``.OUT`` log: a plain-text, human-readable and machine-parseable record of a run.
 
-Layout (program.md §5.4, A1)::
+Layout (THEORY §13.4, D35)::
 
     # UVNAV output log, format 1            header lines start with '#'
     # engine 0.1.0

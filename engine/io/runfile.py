@@ -1,6 +1,6 @@
 """Reader and writer for ``*.RUN`` simulation data files (thesis A8.4, L8971–8985; L5560–5566).
 
-One record per line, whitespace-separated (program.md §5.3, A10)::
+One record per line, whitespace-separated (THEORY §13.3, D40)::
 
     YYMMDD HHMMSS LAT LON R G P HDG SPD RUD [INCL [PFREQ [ECHO]]]
     920917 083538 52 50 33.020 N 004 31 51.134 E .862 .325 .109 232.4 12.7 -.2
@@ -61,7 +61,7 @@ class RunRecord:
     ``decca`` holds the Red, Green, Purple lane fractions. ``None`` means the sensor gave
     nothing (``-``) or, for ``incl_deg``/``press_freq_hz``/``echo_m``, that the optional
     column is absent: the caller treats an absent column as "sensor not connected"
-    (status 2, program.md A10). ``raw`` is the line without its line ending.
+    (status 2, THEORY D40). ``raw`` is the line without its line ending.
     """
 
     line_no: int

@@ -2,7 +2,7 @@
 
 The caller supplies ``linearise(x) -> Linearisation``: the metric design matrix A (n, u), the
 misclosures b = O − C at x [m] and the a priori VCV C_l (n, n) [m²] for all n observation slots.
-A boolean ``used`` mask selects the slots; excluded slots are handled as in lsq.md §3.5 (the
+A boolean ``used`` mask selects the slots; excluded slots are handled as in THEORY §5.3 (the
 used sub-block of C_l is inverted, equivalent to the thesis' var = 1 / cov = 0 / W_ii = 0 trick).
 It knows nothing about GPS or Decca and works for 2 or 3 (or more) parameters.
 """
@@ -57,7 +57,7 @@ night outside the 9B coverage 126. Three bearings along one meridian give 2.9e5.
 
 @dataclass(frozen=True, eq=False)
 class Linearisation:
-    """One evaluation of the observation equations at x (eq. 5.1b, metric form lsq.md §3.3)."""
+    """One evaluation of the observation equations at x (eq. 5.1b, metric form THEORY §4.1)."""
 
     A: np.ndarray  # (n, u) metric design matrix [m/m]
     b: np.ndarray  # (n,) observed minus computed at x [m]

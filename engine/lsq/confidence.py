@@ -97,7 +97,7 @@ def error_ellipse(C2: np.ndarray) -> Ellipse:
 
 @dataclass(frozen=True, eq=False)
 class Ellipsoid3:
-    """Standard error ellipsoid of a 3×3 VCV (x East, y North, z Up) (lsq.md §9.2, eq. 5.28).
+    """Standard error ellipsoid of a 3×3 VCV (x East, y North, z Up) (THEORY §7.2, eq. 5.28).
 
     ``axes`` (a ≥ b ≥ c) [m]; ``eigenvalues`` [m²]; ``E`` proper rotation (det +1) whose
     columns are the unit axes a, b, c, with E = R_z(φ)·R_y(θ)·R_x(ρ); ``az_deg`` (from North,
@@ -122,7 +122,7 @@ class Ellipsoid3:
 
 
 def error_ellipsoid(C3: np.ndarray) -> Ellipsoid3:
-    """Error ellipsoid of a 3×3 VCV [m²] from ``numpy.linalg.eigh`` (lsq.md §9.2).
+    """Error ellipsoid of a 3×3 VCV [m²] from ``numpy.linalg.eigh`` (THEORY §7.2).
 
     Sign conventions: the major axis is turned so that its azimuth atan2(E11, E21) lies in
     [0°, 180°) (vertical: pointing up); the minor axis so that E33 ≥ 0; the middle axis is

@@ -1,9 +1,9 @@
 """One least-squares position fix from the navigation systems' LOPs (thesis ch. 5, A5).
 
 Everything is on the TM grid of the working datum (metres, x = easting, y = northing); every
-observation row is metric (lsq.md §3.3), so the design matrix is dimensionless and the VCV in m².
+observation row is metric (THEORY §4.1), so the design matrix is dimensionless and the VCV in m².
 The observation vector is the concatenation of the slots of the systems in the registry
-(``engine.systems.registry``, docs/SYSTEMS.md; lsq.md §3.5, Pg 821/830)::
+(``engine.systems.registry``, docs/SYSTEMS.md; THEORY §5.3, Pg 821/830)::
 
     0 GPS "Lat" (northing)   1 GPS "Lon" (easting)      — or the filter's two position LOPs
     2 Decca Red   3 Decca Green   4 Decca Purple
@@ -165,7 +165,7 @@ class FixResult:
 class RawLops:
     """The real LOPs of a too-few-LOPs fix, linearised at the filter's prediction ``x_ref``
     (grid m): metric rows ``A`` (k×2), O − C ``omc_m`` (k,) and VCV ``Cl`` (k×k, m²), for the
-    filter update that must not see the hybrid LSE (kalman.md §10.3, A10)."""
+    filter update that must not see the hybrid LSE (THEORY §9.3, D20)."""
 
     A: np.ndarray
     omc_m: np.ndarray
@@ -221,7 +221,7 @@ def _gather(
 ) -> _Problem:
     """Every system's observations of ``values`` at the provisional point ``p0``; the filter's
     ``prior`` takes the GPS slots when GPS is absent and fewer than two LOPs are available
-    (table 5.1 category I, lsq.md §4.8). Raises ObservationError (with the texts so far)."""
+    (table 5.1 category I, THEORY §4.6). Raises ObservationError (with the texts so far)."""
     sets: dict[str, ObservationSet] = {}
     used = [False] * registry.n_slots()
     messages: list[str] = []
@@ -266,10 +266,10 @@ def compute_fix(
 
     ``gps``, ``decca``, ``manual`` and ``readings`` (any system's reading by registry name,
     docs/SYSTEMS.md) are the systems' inputs. The rejection policy, tests and estimator follow
-    ``settings`` (lsq.md §8; with a robust estimator nothing is rejected and there is no
+    ``settings`` (THEORY §6; with a robust estimator nothing is rejected and there is no
     candidate); ``excluded_slots`` are slots the operator discarded (LOPReject 'A'). ``prior``
     (the filter's prediction) is used as two position LOPs only when GPS is absent (table 5.1
-    category I, lsq.md §4.8); that hybrid fix is always plain LSQ with policy 'N'.
+    category I, THEORY §4.6); that hybrid fix is always plain LSQ with policy 'N'.
 
     Never raises for bad geometry or data (a non-finite or far-off ``x0``, nearly parallel
     LOPs, a point where the models cannot be evaluated): a failed fix has ``ok=False`` and a

@@ -1,7 +1,7 @@
 """Robust (M-estimation) option for the LS fix by iteratively reweighted least squares.
 
 Czaplewski & Waż (seed 003, eq. 6): damp suspect observations with P̂ = T(v)·P, T diagonal with
-0 ≤ T_ii ≤ 1 (kalman.md §12.3). The weights come from the standardised residuals
+0 ≤ T_ii ≤ 1 (THEORY §5.8). The weights come from the standardised residuals
 ŵ_i = w_i of the UNDAMPED a priori model at the current estimate (for uncorrelated observations
 ŵ_i = −v_i/(σ_i·sqrt(r_i))): Huber T = 1 if |ŵ| ≤ c else c/|ŵ|; "Danish" T = 1 if |ŵ| ≤ c else
 exp(1 − ŵ²/c²). Correlated C_l is damped symmetrically, W' = T^½ W T^½. Standardising with the
@@ -113,7 +113,7 @@ def robust_adjust(
     max_axis_ratio: float | None = MAX_AXIS_RATIO,
     alpha: float = 0.05,
 ) -> RobustAdjustment:
-    """IRLS M-estimation of the fix (seed 003 eq. 6, kalman.md §12.3).
+    """IRLS M-estimation of the fix (seed 003 eq. 6, THEORY §5.8).
 
     Starts from plain LSQ (T = I); each outer step recomputes T_ii = ψ(ŵ_i) (``psi`` "huber",
     c = 1.5, or "danish", c = 2.0, unless ``c`` is given) and re-adjusts from the current

@@ -1,4 +1,4 @@
-"""Data snooping: adjust, test, reject and re-adjust (thesis ch. 5.4, lsq.md §8.1, LOPReject).
+"""Data snooping: adjust, test, reject and re-adjust (thesis ch. 5.4, THEORY §6.1, LOPReject).
 
 The driver above the adjustment core (:mod:`engine.lsq.adjustment`), the robust estimator
 (:mod:`engine.lsq.robust`) and the test statistics (:mod:`engine.lsq.statistics`): it runs a fix,
@@ -77,7 +77,7 @@ def adjust_with_testing(
     thesis_dof: bool = False,
     lop_name: Callable[[int], str] = str,
 ) -> TestedAdjustment:
-    """Adjust, then run the thesis' data-snooping loop (lsq.md §8.1, LOPReject).
+    """Adjust, then run the thesis' data-snooping loop (THEORY §6.1, LOPReject).
 
     ``lop_name`` names an observation slot in the messages (``LOP Decca Grn``, as the console's
     dialogs name it; the slot number by default).

@@ -5,7 +5,7 @@ The bottom of ``engine.lsq``: imports only numpy/SciPy and is used by the adjust
 (:mod:`engine.lsq.snooping`). Baarda's data snooping statistics ("B-method", eq. 5.7–5.10) on the
 FULL (correlated) matrices, the reliability factor τ (5.11), the variance factor VF (5.12),
 redundancy numbers, minimal detectable bias and its effect on the position (not in the thesis,
-lsq.md §8.4), the unit-variance χ² test (5.13–5.17) and the cumulative unit variance (5.18).
+THEORY §6.3), the unit-variance χ² test (5.13–5.17) and the cumulative unit variance (5.18).
 
 Everything here works on metric quantities (m, m²) but is unit-agnostic: any consistent units do.
 Quantiles are computed once per argument set (``functools.lru_cache``); the normal quantiles come
@@ -249,7 +249,7 @@ class UnitVarianceTest:
 def unit_variance_test(
     s2: float, r: int, alpha: float = 0.05, s02: float = 1.0, thesis_dof: bool = False
 ) -> UnitVarianceTest | None:
-    """Test H0: σ0² = s02 for the sample unit variance S² with redundancy r (lsq.md §8.5).
+    """Test H0: σ0² = s02 for the sample unit variance S² with redundancy r (THEORY §6.4).
 
     Default dof = r (correct for known σ0²); ``thesis_dof=True`` uses the printed (r − 1) of
     eq. 5.16–5.17. Returns None when dof < 1 (no test possible). Sample: r = 2, α = 0.05 →

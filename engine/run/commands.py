@@ -1,4 +1,4 @@
-"""Operator commands applied between cycles (program.md §3: Setup, Obs, Kalman, Demo menus).
+"""Operator commands applied between cycles (THEORY §12.6: Setup, Obs, Kalman, Demo menus).
 
 Each command is a small frozen dataclass; :func:`apply_command` returns the new configuration,
 the new navigation state and a one-line description for the ``.OUT`` log.  Nothing here touches
@@ -45,7 +45,7 @@ class SetCurrent:
     """Setup ▸ Params ▸ Current: set (degrees true, direction of flow) and drift (knots).
 
     Resets the filter's current (grid East/North, m/s: the set rotated by −γ at the MPP) and its
-    covariance block to the initial value (kalman.md §6.8)."""
+    covariance block to the initial value (THEORY §8.11)."""
 
     set_deg: float
     speed_kn: float
@@ -150,7 +150,7 @@ def apply_command(
         fs = nav.filter
         if fs is not None:
             vc = knots_to_ms(cmd.speed_kn)
-            # The filter's current lives in the grid, like its heading (kalman.md A1, §6.1):
+            # The filter's current lives in the grid, like its heading (THEORY D4, §8.4):
             # grid set = true set − γ, γ the convergence at the MPP on the run's CM.
             gamma = 0.0
             if nav.cm_deg is not None:

@@ -1,7 +1,7 @@
 """The run configuration: start-up dialog answers and program parameters, stored as TOML.
 
 It replaces the thesis' "Parameter Initialization" dialog (L5488–5496) and the A8.2 program
-parameter defaults (L8708–8788; program.md §2.2, §6, §7). Every key is declared once in a
+parameter defaults (L8708–8788; THEORY §12.3, §12.11–12.12). Every key is declared once in a
 :class:`Key` table next to its dataclass; those tables drive validation, TOML loading and
 :func:`dump_config`, and ``docs/CONFIG.md`` documents them. The dataclasses validate and
 normalise themselves in ``__post_init__``, so ``dataclasses.replace`` cannot build an invalid
@@ -285,7 +285,7 @@ GpsConfig.KEYS = (
     Key("on", "on", "bool", "—", "GPS switched on for fixing (no system is on at start-up)",
         "L5426; A8.2 Systems[1] = 0 (L8712, L8729–8731)"),
     Key("receiver", "receiver", "str", "—",
-        '"C/A" (SPS, σ 50 m per grid axis) or "P" (PPS, P-code; σ 8.9 m, program.md A13)',
+        '"C/A" (SPS, σ 50 m per grid axis) or "P" (PPS, P-code; σ 8.9 m, THEORY D5)',
         "A8.2 PCode = false (L8758); L5526–5527", _choice("C/A", "P", upper=True)),
 )
 # fmt: on
@@ -296,7 +296,7 @@ class DeccaConfig:
     """Decca system: switch, chain, operator zone/lane entries and selected patterns.
 
     ``red``/``green``/``purple`` are the zone letter + whole lane typed by the navigator (e.g.
-    ``B20``), normalised to upper case, "" if not entered (program.md §3 Setup, §8.2, A14).
+    ``B20``), normalised to upper case, "" if not entered (THEORY §12.6 Setup, §3.2, D7).
     ``select`` lists the patterns used for fixing in the order red, green, purple.
     """
 
@@ -351,13 +351,13 @@ DeccaConfig.KEYS = (
         "L5528; DECCA.CHN L8873–8969", _non_empty("Unknown chain !")),
     Key("red", "red", "str", "zone+lane",
         'Red zone letter + whole lane, e.g. "B20" (lanes 0–23); "" = not entered',
-        "L5526–5531; program.md A14", _zone_lane("red")),
+        "L5526–5531; THEORY D7", _zone_lane("red")),
     Key("green", "green", "str", "zone+lane",
         'Green zone letter + whole lane, e.g. "F34" (lanes 30–47); "" = not entered',
-        "L5526–5531; program.md A14", _zone_lane("green")),
+        "L5526–5531; THEORY D7", _zone_lane("green")),
     Key("purple", "purple", "str", "zone+lane",
         'Purple zone letter + whole lane, e.g. "A51" (lanes 50–79); "" = not entered',
-        "L5526–5531; program.md A14", _zone_lane("purple")),
+        "L5526–5531; THEORY D7", _zone_lane("purple")),
     Key("select", "select", "str_list", "—",
         "patterns used for fixing; omitted = every entered pattern",
         "L5424 (observables selectable); L5531"),
@@ -424,12 +424,12 @@ class CorrectionsConfig:
 # fmt: off
 CorrectionsConfig.KEYS = (
     Key("gps_north_m", "gps_north_m", "float", "m", "correction added to the GPS fix, north",
-        "L7680 (Demo: corrections); lsq.md §5.5 [choice]"),
+        "L7680 (Demo: corrections); THEORY §3.4 [choice]"),
     Key("gps_east_m", "gps_east_m", "float", "m", "correction added to the GPS fix, east",
-        "L7680; lsq.md §5.5 [choice]"),
+        "L7680; THEORY §3.4 [choice]"),
     Key("decca_red_lanes", "decca_red_lanes", "float", "lanes",
         "fixed-error correction added to the Red reading (samples: −0.05)",
-        "L6520, L5384; Pg 615 C-O; program.md A7"),
+        "L6520, L5384; Pg 615 C-O; THEORY D12"),
     Key("decca_green_lanes", "decca_green_lanes", "float", "lanes",
         "fixed-error correction added to the Green reading", "L6520; Pg 615; A7"),
     Key("decca_purple_lanes", "decca_purple_lanes", "float", "lanes",
@@ -472,7 +472,7 @@ def parse_decca_cf(text: str) -> float:
 
 @dataclass(frozen=True)
 class LsqConfig:
-    """Least-squares fixing and testing parameters (A8.2; lsq.md §3, §6, §8)."""
+    """Least-squares fixing and testing parameters (A8.2; THEORY §5.1–5.5, §6)."""
 
     TABLE: ClassVar[str] = "lsq"
     KEYS: ClassVar[tuple[Key, ...]]
@@ -499,7 +499,7 @@ class LsqConfig:
 LsqConfig.KEYS = (
     Key("lop_reject", "lop_reject", "str", "—",
         '"A" ask before discarding a rejected LOP, "Y" reject automatically, "N" flag only',
-        "A8.2 LOPReject = 'A' (L8776); program.md A12", _choice("A", "Y", "N", upper=True)),
+        "A8.2 LOPReject = 'A' (L8776); THEORY D16", _choice("A", "Y", "N", upper=True)),
     Key("reliab_interval", "reliab_interval_pct", "float", "%",
         "significance level α: a w-test beyond k_α (5 % → 1.960) is monitored, and α sets the "
         "MDB (δ0) and the unit-variance test; an LOP is rejected only beyond the fixed 2.576",
@@ -522,7 +522,7 @@ LsqConfig.KEYS = (
         "scale factor on the GPS error VCV (C/A 2500 m², P 79.2 m² per axis): 0.5 reads the "
         "thesis' 2 d_rms (100 m C/A, 17.8 m P) as d_rms² = σx² + σy² (σ 35.4 m C/A); the "
         "thesis program's 1 (σ = d_rms per axis) is in data/920917_1.toml",
-        "A8.2 GPS.SE_SF = 1 (L8759); program.md A13; docs/CONFIG.md", _POSITIVE),
+        "A8.2 GPS.SE_SF = 1 (L8759); THEORY D5; docs/CONFIG.md", _POSITIVE),
     Key("estimator", "estimator", "str", "—",
         '"lsq" (thesis) or the robust "huber" / "danish" alternatives', "not in the thesis",
         _choice("lsq", "huber", "danish")),
@@ -540,7 +540,7 @@ LsqConfig.KEYS = (
 
 @dataclass(frozen=True)
 class FilterConfig:
-    """Kalman filter switches and noise parameters (chapter 6; kalman.md §6, A7, A16).
+    """Kalman filter switches and noise parameters (chapter 6; THEORY §8, D26, D32).
 
     The defaults are the "honest" preset; ``preset = "thesis"`` in a TOML ``[filter]`` table
     (or :meth:`from_preset`) gives the thesis-literal filter (:data:`FILTER_PRESETS`).
@@ -617,25 +617,25 @@ FilterConfig.KEYS = (
         "docs/CONFIG.md \"The filter decision\" [not in the thesis]", _PRESET_CHECK),
     Key("model", "model", "str", "—",
         '"coloured" (time-correlated fix error, state augmented) or "thesis" (white noise)',
-        "L2291 (no coloured noise implemented); kalman.md §3", _choice("thesis", "coloured")),
+        "L2291 (no coloured noise implemented); THEORY §8.2", _choice("thesis", "coloured")),
     Key("p0", "p0", "str", "—", '"physical" P0 in consistent units or "thesis" P0 = I',
-        "L2670; kalman.md A7", _choice("thesis", "physical")),
+        "L2670; THEORY D26", _choice("thesis", "physical")),
     Key("q_scale", "q_scale", "float", "—", "factor applied to the system noise Q_k",
         "L2779, L7579", _POSITIVE),
     Key("q_mode", "q_mode", "str", "—",
         'discretisation of Q: "vanloan" (thesis Q as spectral densities per 1 s, exact for any '
         'Δt and Predict step), "thesis" (Q per step, eq. 6.32: right at Δt = 1 s only) or '
         '"psd" (thesis Γ with Q·1 s/Δt)',
-        "L2581, L2593–2641 (Q for Δt = 1 s); kalman.md §4, A5 [recommendation]",
+        "L2581, L2593–2641 (Q for Δt = 1 s); THEORY §8.15, D24 [recommendation]",
         _choice("vanloan", "thesis", "psd")),
     Key("turn_rate_max_deg_s", "turn_rate_max_deg_s", "float", "deg/s",
         "maximum rate of turn; σ of the heading-rate noise is half of it",
-        "L2623 (no value given); program.md A16 [assumption]", _POSITIVE),
+        "L2623 (no value given); THEORY D23 [assumption]", _POSITIVE),
     Key("pitch_rate_max_deg_s", "pitch_rate_max_deg_s", "float", "deg/s",
         "maximum pitch rate; σ of the inclination-rate noise is half of it",
-        "L2623; program.md A16 [assumption]", _POSITIVE),
+        "L2623; THEORY D23 [assumption]", _POSITIVE),
     Key("sigma_incl_deg", "sigma_incl_deg", "float", "deg", "inclinometer σ",
-        "L1447 (no value found); program.md A16 [assumption]", _POSITIVE),
+        "L1447 (no value found); THEORY D23 [assumption]", _POSITIVE),
     Key("sigma_gyro_deg", "sigma_gyro_deg", "float", "deg",
         "gyro heading σ (steady course and speed)", "L1429", _POSITIVE),
     Key("sigma_press_m", "sigma_press_m", "float", "m", "pressure-sensor depth σ",
@@ -644,7 +644,7 @@ FilterConfig.KEYS = (
         "eq. 4.19, L1356", _NON_NEGATIVE),
     Key("log_sigma_floor_ms", "log_sigma_floor_ms", "float", "m/s",
         "lower bound of the log σ (keeps R positive definite when stopped)",
-        "kalman.md §6.7 [recommendation]", _POSITIVE),
+        "THEORY §8.10 [recommendation]", _POSITIVE),
     Key("fix_tau_s", "fix_tau_s", "float_auto", "s",
         'correlation time of the coloured fix error ("coloured" model); "auto" = from the '
         "systems on: GPS C/A 240, P 600, Decca 180, the longest of those on",
@@ -657,13 +657,13 @@ FilterConfig.KEYS = (
         _auto_or(_between(0.0, 1.0, hi_open=True))),
     Key("dr_sigma_m", "dr_sigma_m", "float", "m",
         "accuracy (1σ) of an operator DR position (physical P0, DR Pos while submerged)",
-        "kalman.md §6.8, A7 [recommendation]", _POSITIVE),
+        "THEORY §8.11, D26 [recommendation]", _POSITIVE),
     Key("bias_noise", "bias_noise", "bool", "—",
         "log, gyro and inclinometer biases drift as random walks (rates below) instead of "
         "being random constants",
-        "L2639–2641 (thesis: no bias noise); kalman.md A11 [recommendation]"),
+        "L2639–2641 (thesis: no bias noise); THEORY D29 [recommendation]"),
     Key("log_bias_rw_ms_sqrth", "log_bias_rw_ms_sqrth", "float", "m/s/√h",
-        "random-walk rate of the log bias (with bias_noise)", "kalman.md A11 [assumption]",
+        "random-walk rate of the log bias (with bias_noise)", "THEORY D29 [assumption]",
         _NON_NEGATIVE),
     Key("gyro_bias_rw_deg_sqrth", "gyro_bias_rw_deg_sqrth", "float", "deg/√h",
         "random-walk rate of the gyro bias (with bias_noise): the thesis' slowly varying gyro "
@@ -671,7 +671,7 @@ FilterConfig.KEYS = (
         "L1425–1429 (84-min oscillation, 0.65° in all); docs/CONFIG.md", _NON_NEGATIVE),
     Key("incl_bias_rw_deg_sqrth", "incl_bias_rw_deg_sqrth", "float", "deg/√h",
         "random-walk rate of the inclinometer bias (with bias_noise)",
-        "kalman.md A11 [assumption]", _NON_NEGATIVE),
+        "THEORY D29 [assumption]", _NON_NEGATIVE),
 )
 # fmt: on
 
@@ -683,7 +683,7 @@ carried the prediction off the TM grid (an engine failure, not an input error)."
 
 @dataclass(frozen=True)
 class DemoConfig:
-    """Demo-menu performance and layout parameters (L7678–7680, A8.2, program.md A21)."""
+    """Demo-menu performance and layout parameters (L7678–7680, A8.2, THEORY D43)."""
 
     TABLE: ClassVar[str] = "demo"
     KEYS: ClassVar[tuple[Key, ...]]
@@ -709,22 +709,22 @@ class DemoConfig:
 DemoConfig.KEYS = (
     Key("delta_t_s", "delta_t_s", "int", "s",
         "sample interval: every DeltaT-th record is processed, KF Δt = DeltaT; 1 to 3600",
-        "A8.2 DeltaT = 1 (L8788); L7610; program.md A21", _between(1, MAX_DELTA_T_S)),
+        "A8.2 DeltaT = 1 (L8788); L7610; THEORY D43", _between(1, MAX_DELTA_T_S)),
     Key("s_weight", "s_weight", "float", "—", "specific weight of seawater γ (eq. 3.3)",
         "A8.2 s_weight = 1.026 (L8768)", _POSITIVE),
     Key("press_ref_freq_hz", "press_ref_freq_hz", "float", "Hz",
         "pressure-crystal surface reference frequency; 0 = one standard atmosphere",
-        "L597; program.md A10, A18", _NON_NEGATIVE),
+        "L597; THEORY D40–D41", _NON_NEGATIVE),
     Key("plot_scale_m", "plot_scale_m", "float", "m", "extent of the position plot",
         "L7678 (no value given)", _POSITIVE),
     Key("plot_size", "plot_size", "float", "—", "relative size of the position plot",
         "L7678 (no value given)", _POSITIVE),
     Key("pace", "pace", "str", "—",
         'playback pace: "real" (1 record/s), "fast" (no waiting) or "xN" (N times real time)',
-        "program.md A21 [not in the thesis]", _pace),
+        "THEORY D43 [not in the thesis]", _pace),
     Key("poe_expansion_m_h", "poe_expansion_m_h", "float", "m/h",
         "Pool of Errors expansion rate ε (eq. 2.1, typically 900–1800 m/h)",
-        "L289–300; program.md §9", _NON_NEGATIVE),
+        "L289–300; THEORY §10", _NON_NEGATIVE),
 )
 # fmt: on
 
@@ -742,7 +742,7 @@ _TABLES: tuple[tuple[str, type], ...] = (
 
 @dataclass(frozen=True)
 class RunConfig:
-    """A complete run configuration (start-up dialog + parameters; program.md §2.2, §6).
+    """A complete run configuration (start-up dialog + parameters; THEORY §12.3, §12.11).
 
     ``dr_lat_deg``/``dr_lon_deg`` (degrees on the working datum, north/east positive) are parsed
     from ``dr_position``. ``config_dir`` is the (absolute) directory of the TOML file, the
@@ -791,7 +791,7 @@ class RunConfig:
 
     @property
     def data_dir(self) -> Path:
-        """Absolute directory holding ``TO_WGS84.DAT`` and ``DECCA.CHN`` (program.md A1)."""
+        """Absolute directory holding ``TO_WGS84.DAT`` and ``DECCA.CHN`` (THEORY D35)."""
         return Path(os.path.abspath(self.config_dir / self.data_dir_text))
 
     def replace(self, **changes: Any) -> RunConfig:
@@ -817,11 +817,11 @@ RunConfig.KEYS = (
         ".RUN simulation data, relative to the configuration file's directory",
         "L5494; A8.2 RunDataFile (L8737)", _path(_non_empty(FILE_NAME_MESSAGE))),
     Key("run_gps_datum", "run_gps_datum", "str", "—",
-        "datum of the GPS positions in the .RUN file", "L5547; lsq.md §13 item 2",
+        "datum of the GPS positions in the .RUN file", "L5547; THEORY D6",
         _non_empty(DATUM_MESSAGE)),
     Key("data_dir", "data_dir_text", "str", "path",
         "directory of TO_WGS84.DAT and DECCA.CHN, relative to the configuration file",
-        "A8.2 (L8735–8737); program.md A1", _path()),
+        "A8.2 (L8735–8737); THEORY D35", _path()),
 )
 # fmt: on
 

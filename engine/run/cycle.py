@@ -1,10 +1,10 @@
 """The processing cycle: one ``.RUN`` record in, one immutable :class:`CycleResult` out.
 
-Functional core (program.md §2.3–§2.5, kalman.md §10): ``step(context, state, record)`` returns the
+Functional core (THEORY §12.4–12.5, §9): ``step(context, state, record)`` returns the
 next :class:`NavState` and the cycle's result without touching anything else, so the console, the
 headless replay and the tests all drive the same code, and a cycle can be recomputed (e.g. after
 the operator discards an LOP under ``LOPReject = 'A'``) simply by calling ``step`` again.
-Frames: the TM grid of the working datum with CM = MPP longitude rounded (program.md A11);
+Frames: the TM grid of the working datum with CM = MPP longitude rounded (THEORY D3);
 geodetic positions on the working datum; headings true outside the filter, grid inside it.
 """
 
@@ -79,7 +79,7 @@ from engine.systems.sensors import (
 
 CM_HYSTERESIS_DEG = 0.05
 """Extra margin beyond 0.5° before the CM switches, so a ship on a half-degree meridian does not
-make the grid flip every cycle (program.md A11 gives 0.5°; kalman.md A18 asks for stability)."""
+make the grid flip every cycle (THEORY D3: switch at 0.5°, keep the grid stable)."""
 
 
 
@@ -93,7 +93,7 @@ FilterParams field is copied as it is (a new filter parameter needs no line here
 
 
 def filter_params_from_config(cfg: RunConfig) -> FilterParams:
-    """The filter parameters of a run configuration (kalman.md §6.6–§6.8, §14); ``"auto"``
+    """The filter parameters of a run configuration (THEORY §8.9–8.11, §15); ``"auto"``
     fix-error τ and fraction follow from the systems on
     (``engine.filter.kalman.derived_fix_model``)."""
     f = cfg.filter
@@ -302,7 +302,7 @@ gate only stops what no test could make good. A lane slip of one Decca lane (~50
 20 m filter is 25 σ and still goes in, to be flagged by the tests as the thesis does."""
 GROSS_GATE_RESET = 3
 """After this many gated LSE fixes in a row the filter, not the fixes, is taken to be wrong: its
-position restarts from the LSE as at the start of a run (kalman.md A3)."""
+position restarts from the LSE as at the start of a run (THEORY D22)."""
 
 DEPTH_PLAUSIBLE_M = (-20.0, 11_000.0)
 """Pressure depths (m, positive down) a reading may give: from 20 m above the surface (a wrong
@@ -502,7 +502,7 @@ def _interval(ctx: RunContext, nav: NavState, rec: RunRecord) -> float:
 
 def _grid_for_cycle(ctx: RunContext, nav: NavState,
                     messages: list[str]) -> tuple[float, TMGrid, FilterState | None]:
-    """The cycle's CM (from the provisional position, the last MPP, program.md A11), its grid
+    """The cycle's CM (from the provisional position, the last MPP, THEORY D3), its grid
     and the filter state re-projected onto it when the CM changed."""
     cm = _cm_for(nav, nav.mpp_lon_deg)
     grid = ctx.grid(cm)
@@ -529,7 +529,7 @@ class _Prediction:
 def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
                     sens: SensorValues, grid: TMGrid, dt: float) -> _Prediction:
     """Start the filter from the DR position if needed, update it with this record's sensors
-    and predict it one step (kalman.md A3)."""
+    and predict it one step (THEORY D22)."""
     params = ctx.filter_params
     gamma = sens.convergence_deg
     heading_grid = (
@@ -543,7 +543,7 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         initialised = True
     if fstate is None:
         return _Prediction()
-    # Heading and speed of this record drive the step into it (program.md §10 item 6: the
+    # Heading and speed of this record drive the step into it (THEORY §14.1 item 6: the
     # sample's KF row moves on the mean of the two records' gyro headings). A state just
     # initialised from this record's readings has them already (no double counting).
     sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
@@ -653,7 +653,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
                    fix: FixResult | None, fix_cov: np.ndarray,
                    messages: list[str]) -> _Filtering:
     """The filter updates at this epoch: the first LSE initialises the position; then the fix
-    (or the raw LOPs on the too-few-LOPs path, kalman.md A10) with the pressure depth, behind
+    (or the raw LOPs on the too-few-LOPs path, THEORY D20) with the pressure depth, behind
     the gross-error gate; with the filter off, dead reckoning restarts from each LSE."""
     cfg, params = ctx.config, ctx.filter_params
     f = _Filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source, nav.gated_fixes,
@@ -663,7 +663,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     if pred.state is not None and sens.depth_m is not None:
         depth_rows = sensor_measurement(pred.state, depth_m=sens.depth_m, params=params)
     if f.state is not None and fix is not None and lse_ok and not f.has_fix:
-        # The first LSE initialises the filter position (kalman.md A3): a DR start kilometres
+        # The first LSE initialises the filter position (THEORY D22): a DR start kilometres
         # away with the thesis P0 = I would otherwise pull against every fix.
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
         f.has_fix = True
@@ -673,9 +673,9 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
         if meas is not None:
             depth_rows = _gated_update(ctx, nav, f, meas, depth_rows, fix, messages)
         elif pred.dr_sensors:
-            f.status = "ON"  # DR-only path: model plus bounded sensors (program.md §2.5)
+            f.status = "ON"  # DR-only path: model plus bounded sensors (THEORY §12.5)
     elif f.state is not None and fix is not None and lse_ok:
-        # Filter off: dead reckoning restarts from each LSE (program.md §3 Kalman ▸ Filtering).
+        # Filter off: dead reckoning restarts from each LSE (THEORY §12.6 Kalman ▸ Filtering).
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
     if f.state is not None and depth_rows is not None:
         depth_result = update(f.state, depth_rows, params)
@@ -730,7 +730,7 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
     messages.append(f"Fix {d_sigma:.3g} σ from the filter: a gross error, not used "
                     f"({f.gated} in a row)")
     if fix is not None and fix.lse_ok and f.gated >= GROSS_GATE_RESET:
-        # The filter, not the fixes, is what went wrong (kalman.md A3 start again).
+        # The filter, not the fixes, is what went wrong (THEORY D22 start again).
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix.cov)
         messages.append(f"Filter position re-initialised from the LSE after "
                         f"{f.gated} gated fixes")
@@ -809,7 +809,7 @@ def reproject_state(
 
     Position goes through geodetic coordinates (and the datum ``shift`` when the datum changes);
     the grid heading, the current and the horizontal covariance rotate by the change of grid
-    convergence Δγ (kalman.md A18: ψ_grid = ψ_true − γ).  Grid scale differences (< 2·10⁻⁵ within
+    convergence Δγ (THEORY D3: ψ_grid = ψ_true − γ).  Grid scale differences (< 2·10⁻⁵ within
     ±0.5° of the CM) are ignored.
     """
     lat, lon = old.inverse(*fs.east_north_m)

@@ -300,7 +300,7 @@ class Session:
                               item.raw)
                 self._keep_bad(item)
                 continue
-            # DeltaT: process every DeltaT-th record (program.md A21), counted from the last
+            # DeltaT: process every DeltaT-th record (THEORY D43), counted from the last
             # processed one, so a new DeltaT takes effect from the next cycle.
             since = delta if self._since_processed is None else self._since_processed + 1
             if since < delta:

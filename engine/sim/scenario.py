@@ -1,7 +1,7 @@
 """Simulation scenario: a planned mission and the error models of its sensors, read from TOML.
 
 A scenario drives :mod:`engine.sim.simulate`, which turns it into a ``.RUN`` file (thesis A8.4,
-program.md §5.3) plus a truth file. The layout of every key, its unit, default and source is in
+THEORY §13.3) plus a truth file. The layout of every key, its unit, default and source is in
 ``docs/SIMULATOR.md``; in short::
 
     start_time = "1992-09-17T10:00:00Z"        # ISO 8601, UTC
@@ -12,8 +12,8 @@ program.md §5.3) plus a truth file. The layout of every key, its unit, default 
     [gps] [decca] [gyro] [log] [inclinometer] [pressure] [echosounder]  error models
     [[leg]]    duration_s, course_deg, speed_kn, depth_m, surfaced, ...
 
-Error-model sources: GPS SA-era σ ≈ 35 m per axis (2 d_rms 100 m, program.md §8.1, A13) with a
-first-order Gauss–Markov correlation time (kalman.md §3.2, §12.5); Decca A4 VCV (program.md §8.2);
+Error-model sources: GPS SA-era σ ≈ 35 m per axis (2 d_rms 100 m, THEORY §3.1, D5) with a
+first-order Gauss–Markov correlation time (THEORY §8.2, §11.1–11.2); Decca A4 VCV (THEORY §3.2);
 gyro σ 0.65° (§8.6, L1429); EM log σ = 0.02·v (§8.7, eq. 4.19); inclinometer σ 0.5° (an
 assumption, A16); pressure σ 1.45 m (§8.9, L1532–1539); echo sounder IHO σ = 0.25 + 0.0045·d
 (§8.10, eq. 4.25).

@@ -3,7 +3,7 @@
 The true vessel is propagated kinematically on the TM grid of the working datum (k0 = 1, no
 false origin, CM fixed for the whole run at the start longitude rounded, thesis L6482–6490):
 grid heading = true heading − convergence γ, velocity through the water v·cos ε along it, plus
-the current (true set rotated by −γ), all times the point scale k (kalman.md §6.1–6.2, eq. 6.25).
+the current (true set rotated by −γ), all times the point scale k (THEORY §8.4–8.5, eq. 6.25).
 Heading, speed and depth follow each leg's targets as rate-limited ramps (turn rate, acceleration,
 dive/climb rate; pitch ε = asin(ż/v), bow-down positive, |ε| ≤ ``max_pitch_deg``); positions are
 integrated with the midpoint rule on ≤ 0.25-s sub-steps.
@@ -11,9 +11,9 @@ integrated with the midpoint rule on ≤ 0.25-s sub-steps.
 Each record's readings come from the truth at that epoch with the scenario's error models:
 
 * GPS: grid error (E, N) = first-order Gauss–Markov (exact discretisation e_{k+1} = ρe_k + w,
-  ρ = e^{−Δt/τ}, Var w = σ²(1 − ρ²), stationary start; kalman.md §3.2) + white; the erroneous
+  ρ = e^{−Δt/τ}, Var w = σ²(1 − ρ²), stationary start; THEORY §8.2) + white; the erroneous
   point is converted to ``run_gps_datum`` so that the program's conversion (h = 0 on the GPS
-  datum, lsq.md §2.1) gives it back exactly.
+  datum, THEORY §2.1–2.2) gives it back exactly.
 * Decca: total lane counts N from :func:`engine.systems.decca.decca_geometry` at the truth plus
   σ_scale·L·u + white, where L is the Cholesky factor of the A4 lane VCV
   (:func:`engine.systems.decca.decca_vcv_lanes`, thesis A4.1–A4.3) at the true position and u a
@@ -205,7 +205,7 @@ def simulation_setup(
 
 class _FromWorking:
     """Working-datum (lat, lon) → (lat, lon) on ``target`` such that the program's conversion
-    target → working with h = 0 on the target datum (lsq.md §2.1) returns the input (to < 1 nm;
+    target → working with h = 0 on the target datum (THEORY §2.1–2.2) returns the input (to < 1 nm;
     two Newton steps on the horizontal residual, whose Jacobian is the identity to ~1e-5)."""
 
     def __init__(self, working: Datum, target: Datum) -> None:

@@ -39,8 +39,8 @@ an OverflowError of the TM inverse far off the grid)."""
 
 @dataclass(frozen=True, slots=True)
 class PositionPrior:
-    """The filter's predicted position used as two pseudo-LOPs when too few LOPs exist (lsq.md
-    §4.8, kalman.md §10.3): grid (x, y) in metres and its 2×2 VCV (m², order x, y)."""
+    """The filter's predicted position used as two pseudo-LOPs when too few LOPs exist (THEORY
+    §4.6, §9.3): grid (x, y) in metres and its 2×2 VCV (m², order x, y)."""
 
     x_m: float
     y_m: float

@@ -4,7 +4,7 @@ Frame: the TM grid of the working datum (k0 = 1, no false origin, ``engine.geode
 distances are
 spheroidal (grid chord divided by the line scale factor, A5.10/A5.13); azimuths are geodetic on the
 working-datum ellipsoid.  References: thesis eq. 4.9/4.10 (lane count), 4.12 (LEF), A4.1–A4.4 (VCV),
-A5.9–A5.12 (observation equation); digest ``lsq.md`` §5 and §6.3.
+A5.9–A5.12 (observation equation); docs/THEORY.md §3.2–3.5.
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ def sigma_path_a(d_100km: float) -> float:
 
 
 def sigma_path_b(d_100km: float) -> float:
-    """Sky-wave phase σ (lanes, summer night) of the Purple slave signal (A4.3b, lsq.md Q15)."""
+    """Sky-wave phase σ (lanes, summer night) of the Purple slave signal (A4.3b, THEORY D11)."""
     return (2.843 * d_100km * d_100km - 2.597 * d_100km + 5.000) * 1e-3
 
 
@@ -66,7 +66,7 @@ class ChainOnGrid:
 
     ``station_latlon_deg`` rows are master, red, green, purple (geodetic, working datum);
     ``station_xy_m`` the same on the TM grid; ``baseline_m`` the Andoyer–Lambert master–slave
-    lengths (lsq.md §2.4); ``wavelength_m`` the comparison wavelengths λc = v / f_c (lsq.md §5.2);
+    lengths (THEORY §2.5); ``wavelength_m`` the comparison wavelengths λc = v / f_c (THEORY §3.2);
     ``min_lanes`` the chain file's k per pattern (eq. 4.9). The same numbers are also kept as
     Python floats (``_scalars``) for the per-iteration scalar arithmetic of
     :func:`decca_geometry`.
@@ -159,7 +159,7 @@ class DeccaGeometry:
 
     Distances in metres (spheroidal), azimuths in radians (geodetic, ship → station), ``row``
     the lane-count gradient ∂N/∂(x, y) in lanes per metre (A5.11–A5.12), ``metres_per_lane``
-    k = λc·LEF/2 (A4.4), ``lop_azimuth_rad`` the azimuth of the LOP (gradient + 90°, lsq.md §5.7).
+    k = λc·LEF/2 (A4.4), ``lop_azimuth_rad`` the azimuth of the LOP (gradient + 90°, THEORY §3.4).
     """
 
     d_master_m: float
@@ -184,7 +184,7 @@ def decca_geometry(
     """Compute lane counts, partials, LEF and LOP azimuths at grid point (x, y) (eq. 4.9, A5.9–12).
 
     N_calc = (D_m − D_s + B)/λc + k with D = grid chord / L (A5.10, L at the mean latitude of the
-    two end points, lsq.md §2.3).  ``latlon_deg`` is the point's geodetic (lat, lon) in degrees
+    two end points, THEORY §2.4).  ``latlon_deg`` is the point's geodetic (lat, lon) in degrees
     when the caller already has it (else the grid is inverted here).  Scalar arithmetic
     throughout: this runs in every LS iteration.
     """
@@ -262,7 +262,7 @@ def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
     """A priori 3×3 VCV of the Red, Green, Purple lane counts (lanes², A4.1–A4.3).
 
     Sky-wave terms are divided by ``cf`` (``Decca.CF``: 64 summer day, 4 winter day, 1 summer
-    night, 1/2.25 winter night); the synchronisation terms are not (lsq.md §6.3, verified).
+    night, 1/2.25 winter night); the synchronisation terms are not (THEORY §3.5, verified).
     """
     return np.array(_vcv_lanes(geom, cf))
 
@@ -280,7 +280,7 @@ class LaneResolution:
 
     ``total`` the total lane count (lanes, uncorrected); ``cycle`` the chosen 10-zone cycle c;
     ``offset_lanes`` = total − N_calc; ``warning`` an operator text when |offset| exceeds half a
-    zone (lpz/2 lanes, lsq.md Q7), else None.
+    zone (lpz/2 lanes, THEORY D7), else None.
     """
 
     total: float
@@ -293,12 +293,12 @@ def resolve_total_lanes(
     zone: int, lane: int, fraction: float, pattern: str, n_calc: float
 ) -> LaneResolution:
     """Total lane count from zone, whole lane and fraction, choosing the 10-zone cycle c that puts
-    it nearest to ``n_calc`` (the count computed at the provisional position; lsq.md §5.3, Q7).
+    it nearest to ``n_calc`` (the count computed at the provisional position; THEORY §3.3, D7).
 
     The nearest cycle is always within 5 zones of ``n_calc``; a count more than half a zone
     (lpz/2 = 12, 9 or 15 lanes for Red, Green, Purple) from it means the entered zone/lane and
     the provisional position disagree by more than about half a zone width (Red: 12 lanes
-    ≈ 5 km on the baseline), so the result carries a warning (lsq.md Q7). ValueError for a zone,
+    ≈ 5 km on the baseline), so the result carries a warning (THEORY D7). ValueError for a zone,
     lane, fraction or pattern outside its range or a non-finite ``n_calc`` (programming errors:
     the operator's input is checked by ``parse_zone_lane``).
     """
@@ -354,7 +354,7 @@ from: 3σ < 0.5 lane, so the nearest whole lane is the right one with probabilit
 class ZoneLaneResolver:
     """Resolves the operator's zone/lane entries against the lane counts N_calc at one
     provisional grid point (m), computed once on first use: the one place the cycle and the fix
-    turn a zone/lane and a fraction into a total lane count (lsq.md §5.3, Q7)."""
+    turn a zone/lane and a fraction into a total lane count (THEORY §3.3, D7)."""
 
     def __init__(self, placed: ChainOnGrid, x_m: float, y_m: float,
                  geodesic: GeodesicSolver) -> None:
@@ -517,7 +517,7 @@ def decca_totals(
     filter's ``position``; while neither is, the pattern stays out of the fix and a note says
     why. Whenever ``gps`` settles the lane, every count is checked against it: a count a whole
     lane or more off is a lane slip, corrected to GPS's lane with a note. A zone/lane more than
-    half a zone from the provisional count gives a warning (lsq.md Q7).
+    half a zone from the provisional count gives a warning (THEORY D7).
     """
     slips = 0
     totals: list[float | None] = [None, None, None]
@@ -543,7 +543,7 @@ def decca_totals(
             if lanes is None:
                 continue  # never entered by the operator, or no N_calc: not available
             total = lanes.total
-            if lanes.warning is not None:  # more than half a zone from N_calc (lsq.md Q7)
+            if lanes.warning is not None:  # more than half a zone from N_calc (THEORY D7)
                 notes.append(lanes.warning)
         if gps is not None and not checked:
             total, slipped = _gps_lane_check(at, i, frac, total, gps, notes)

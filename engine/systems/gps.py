@@ -1,10 +1,10 @@
 """GPS behind the systems seam: a position on the working datum as two coordinate LOPs.
 
 Frames: the record's GPS position is geodetic on ``run_gps_datum``; the run transforms it to the
-working datum (h = 0 on the source datum, lsq.md §2.1) and the TM grid of the cycle. The two rows
-are northing ("Lat") and easting ("Lon"), each with the a priori variance of the receiver type
-(thesis ch. 5, table 5.1; program.md A13). On the too-few-LOPs path the filter's prediction
-stands in for these two rows (:class:`PriorObservations`, lsq.md §4.8).
+working datum (h = 0 on the source datum, THEORY §2.1–2.2) and the TM grid of the cycle. The
+two rows are northing ("Lat") and easting ("Lon"), each with the a priori variance of the receiver
+type (thesis ch. 5, table 5.1; THEORY D5). On the too-few-LOPs path the filter's prediction
+stands in for these two rows (:class:`PriorObservations`, THEORY §4.6).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from engine.systems.base import (
 GPS_VAR_CA_M2 = 2500.0
 """A priori variance of a C/A-code GPS coordinate (σ = 50 m; thesis L5564, Pg 611/821)."""
 GPS_VAR_P_M2 = 8.9**2
-"""A priori variance of a P-code GPS coordinate: 2 d_rms 17.8 m → σ 8.9 m (program.md A13)."""
+"""A priori variance of a P-code GPS coordinate: 2 d_rms 17.8 m → σ 8.9 m (THEORY D5)."""
 
 ROW_LAT, ROW_LON = 0, 1
 """Rows of the system: northing ("Lat") and easting ("Lon")."""
@@ -52,7 +52,7 @@ class GpsFix:
 @dataclass(frozen=True, slots=True)
 class GpsInput:
     """The GPS record of a cycle: as received (on ``run_gps_datum``), its WGS84 ECEF for Pg 100,
-    the displayed WGS84 height ``hg_m`` (program.md §4.3), on the working datum, and on the grid."""
+    the displayed WGS84 height ``hg_m`` (THEORY §12.8), on the working datum, and on the grid."""
 
     lat_in_deg: float
     lon_in_deg: float
@@ -76,7 +76,7 @@ def gps_input(inputs: CycleInputs) -> GpsInput | None:
     if ctx.gps_shift is None:
         lat, lon, h_datum = lat_in, lon_in, 0.0
     else:
-        # h = 0 on the source datum for the horizontal transformation (lsq.md §2.1).
+        # h = 0 on the source datum for the horizontal transformation (THEORY §2.1–2.2).
         lat, lon, h_datum = ctx.gps_shift.transform(lat_in, lon_in, 0.0)
     if ctx.gps_to_wgs84 is None:
         w_lat, w_lon, hg = lat_in, lon_in, -h_datum
@@ -125,7 +125,7 @@ class _GpsObservations:
 
 class PriorObservations:
     """The filter's predicted position as the two rows of the GPS slots (the hybrid fix of the
-    too-few-LOPs path; lsq.md §4.8, kalman.md §10.3)."""
+    too-few-LOPs path; THEORY §4.6, §9.3)."""
 
     messages: tuple[str, ...] = ()
 

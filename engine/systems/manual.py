@@ -2,7 +2,7 @@
 
 Each observation is to a charted station (geodetic on the working datum): a bearing (degrees
 true, ship → station) or a distance (metres). Both are metric rows on the TM grid (thesis ch. 5,
-A5.9–A5.27; the spheroidal distance of A5.10/A5.13; lsq.md §3.3): a bearing's O − C is the angle
+A5.9–A5.27; the spheroidal distance of A5.10/A5.13; THEORY §4.1): a bearing's O − C is the angle
 times the distance, its σ the angular σ times the distance; a distance is spheroidal (grid
 chord over the line scale factor).
 """

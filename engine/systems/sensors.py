@@ -1,6 +1,6 @@
 """Bounded-sensor conversions: log, gyro, inclinometer and the pressure-crystal depth sensor.
 
-References: thesis §3.1 eq. 3.2–3.3 (pressure), §7.2 (conversions, L5541–5550), kalman.md §11.
+References: thesis §3.1 eq. 3.2–3.3 (pressure), §7.2 (conversions, L5541–5550), THEORY §3.7–3.8.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ SENSOR_STATUS_WORD = {code: word for word, code in SENSOR_STATUS.items()}
 """A8.2 status code → the state word ("off", "on", "n/a"), as Pg 620 shows it."""
 
 KNOT_MS = 1852.0 / 3600.0
-"""One knot in m/s (1 nm = 1852 m exactly; the samples prove this factor, program.md §10)."""
+"""One knot in m/s (1 nm = 1852 m exactly; the samples prove this factor, THEORY §14.1)."""
 
 NM_M = 1852.0
 """One nautical mile in metres."""
@@ -49,7 +49,7 @@ def knots_to_ms(speed_kn: float) -> float:
 
 def crystal_pressure_pa(freq_hz: float) -> float:
     """Absolute pressure (Pa) from the crystal frequency: P = α[A(1 − f/f0) − B(1 − f/f0)²]
-    (eq. 3.2 as read in program.md A18)."""
+    (eq. 3.2 as read in THEORY D41)."""
     u = 1.0 - freq_hz / CRYSTAL_F0_HZ
     return PSI_PA * (CRYSTAL_A_PSI * u - CRYSTAL_B_PSI * u * u)
 

@@ -1,4 +1,4 @@
-"""Every Demo-menu parameter (program.md §3 item 7, §6, A4; issue 6 item 3) changes the next
+"""Every Demo-menu parameter (THEORY §12.6 item 7, §12.11, D36; issue 6 item 3) changes the next
 cycle's result in the expected direction, and the change is written to the ``.OUT`` log.
 
 Method: two sessions on the same configuration run the same records; before cycle ``K`` one of
@@ -33,7 +33,7 @@ SAMPLE = DATA / "920917_1.toml"
 K = 3
 """The cycle the change applies to (the sample run: GPS + Red + Green, four LOPs, category IV)."""
 RED, GREEN = 2, 3
-"""Observation slots of the Red and Green Decca LOPs (lsq.md §3.5)."""
+"""Observation slots of the Red and Green Decca LOPs (THEORY §5.3)."""
 
 
 def twin(cfg: RunConfig, table: str, values: dict[str, Any], *, k: int = K,
@@ -79,7 +79,7 @@ def lop(r: CycleResult, slot: int) -> Any:
 # ----------------------------------------------------------------------------- [lsq]
 def test_conf_region_scales_the_displayed_axes_by_the_chi2_ratio(sample: RunConfig) -> None:
     """ConfRegion 95 → 99.9 %: a and b grow by sqrt(χ²₂(0.999) / χ²₂(0.95)) = 3.717 / 2.448
-    (program.md §4.7, L6807–6821); the fix itself does not change."""
+    (THEORY §12.8, L6807–6821); the fix itself does not change."""
     rb, rc, s = twin(sample, "lsq", {"conf_region_pct": 99.9})
     assert s.config.lsq.conf_region_pct == 99.9
     ratio = math.sqrt(chi2.ppf(0.999, 2) / chi2.ppf(0.95, 2))
@@ -92,7 +92,7 @@ def test_conf_region_scales_the_displayed_axes_by_the_chi2_ratio(sample: RunConf
 
 def test_decca_cf_divides_the_sky_wave_part_of_the_decca_vcv(sample: RunConfig) -> None:
     """Decca.CF divides the sky-wave (co)variances and leaves the synchronisation variances
-    alone (A4; lsq.md §6: the sync part is not divided by CF). So C_Decca(CF) = S + B/CF with
+    alone (A4; THEORY §5.5: the sync part is not divided by CF). So C_Decca(CF) = S + B/CF with
     S diagonal: the covariances scale by exactly 64/4 = 16 from summer day (64) to winter day
     (4), the variances are affine in 1/CF — (C(1) − C(64)) / (C(4) − C(64)) = (1 − 1/64) /
     (1/4 − 1/64) = 4.2 — and every variance grows: the LSE ellipse grows."""
@@ -109,7 +109,7 @@ def test_decca_cf_divides_the_sky_wave_part_of_the_decca_vcv(sample: RunConfig) 
 
 
 def test_gps_se_sf_scales_the_gps_vcv(sample: RunConfig) -> None:
-    """GPS.SE_SF 1 → 4: the GPS variances go from 2500 to 10000 m² (program.md A13) and the
+    """GPS.SE_SF 1 → 4: the GPS variances go from 2500 to 10000 m² (THEORY D5) and the
     LSE is less precise."""
     rb, rc, _ = twin(sample, "lsq", {"gps_se_sf": 4.0})
     for slot in (SLOT_GPS_LAT, SLOT_GPS_LON):
@@ -139,7 +139,7 @@ def test_epsilon_stops_the_iteration_earlier(sample: RunConfig) -> None:
 def test_lop_reject_y_discards_a_blunder_and_n_keeps_it(tmp_path: Path,
                                                         sample: RunConfig) -> None:
     """LOPReject 'Y' rejects a GPS latitude 150 m off (|w| > 2.576) and iterates; 'N' keeps it
-    and flags it (program.md A12)."""
+    and flags it (THEORY D16)."""
     lines = (DATA / "920917_1.RUN").read_text().splitlines()
     parts = lines[K].split()  # caption line first: record K is line K + 1
     assert parts[:2] == ["920917", "083540"]

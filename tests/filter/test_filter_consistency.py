@@ -1,4 +1,4 @@
-"""Monte-Carlo consistency of the navigation filter against a known truth (kalman.md §12.5).
+"""Monte-Carlo consistency of the navigation filter against a known truth (THEORY §11.1–11.2).
 
 Truth and measurements come from tests/navsim_small.py (thesis kinematics integrated with
 sub-steps, thesis sensor σ, position fixes at 1 Hz with σ = 40 m per axis, white or first-order

@@ -1,5 +1,5 @@
-"""Unit tests of engine/filter/kalman.py against thesis numbers (kalman.md §6.10, §10.5, §13), the
-Theseus closed forms (seed 000, kalman.md §12.1) and independent numpy computations."""
+"""Unit tests of engine/filter/kalman.py against thesis numbers (THEORY §8.7, §14.4–14.5), the
+Theseus closed forms (seed 000, THEORY §11.3) and independent numpy computations."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from scipy.stats import chi2
 
 from engine.filter import kalman as kf
 
-KN = 1852.0 / 3600.0  # m/s per knot (kalman.md §6.1)
+KN = 1852.0 / 3600.0  # m/s per knot (THEORY §8.4)
 D = math.pi / 180.0
 
 
@@ -34,7 +34,7 @@ def test_phi_gamma_rows_match_section_6_10() -> None:
     s = _example_state()
     Phi = kf.transition(s.x, 1.0)
     Gam = kf.noise_gain(s.x, 1.0)
-    # kalman.md §6.10 prints 5 decimals: tolerance half a unit in the last place.
+    # THEORY §8.7 prints 5 decimals: tolerance half a unit in the last place.
     phi_xyz = [
         [1, 0, 0, -0.79229, -3.98635, 0, 1, 0],
         [0, 1, 0, -0.61015, 5.17638, 0, 0, 1],
@@ -59,7 +59,7 @@ def test_p_1_0_position_block_from_identity() -> None:
     p = kf.FilterParams(q_mode="thesis")
     s = _example_state(p)
     s1 = kf.predict(s, 1.0, p)
-    # kalman.md §6.10 prints 3 decimals: tolerance half a unit in the last place.
+    # THEORY §8.7 prints 3 decimals: tolerance half a unit in the last place.
     np.testing.assert_allclose(
         s1.P[:3, :3], [[18.520, -20.151, 0], [-20.151, 29.168, 0], [0, 0, 43.686]], atol=5e-4
     )
@@ -100,7 +100,7 @@ KF_ROW = (-33709.65, 5856305.50)  # Pg 641 "KF" row
 
 
 def _convergence() -> float:
-    """γ = arctan(tan(λ − λ₀) sin φ) at the start position (kalman.md §6.1), rad."""
+    """γ = arctan(tan(λ − λ₀) sin φ) at the start position (THEORY §8.4), rad."""
     phi = (52.0 + 50.0 / 60.0) * D
     return math.atan(math.tan((4.5 - 5.0) * D) * math.sin(phi))
 
@@ -215,7 +215,7 @@ def test_predict_horizon_leaves_input_and_shortens_last_step() -> None:
     np.testing.assert_array_equal(s.P, P0)
     with pytest.raises(ValueError):
         s.P[0, 0] = 0.0  # read-only: a state is an immutable value
-    # the output equals repeated propagation (kalman.md §13.8)
+    # the output equals repeated propagation (THEORY §14.5 item 8)
     r = s
     for _ in range(60):
         r = kf.predict(r, 10.0, p)
@@ -241,10 +241,10 @@ def test_q_scale_scales_the_process_noise() -> None:
 
 
 # ------------------------------------------------------------------------------------------
-# Theseus error growth (seed 000, kalman.md §12.1)
+# Theseus error growth (seed 000, THEORY §11.3)
 # ------------------------------------------------------------------------------------------
 
-V0 = 4.0 * KN  # inferred mission speed (kalman.md §12.1)
+V0 = 4.0 * KN  # inferred mission speed (THEORY §11.3)
 ROCKWELL = dict(R0=10.0, Rd=100.0, dV=0.01 * V0, phi0=0.2 * D, eps0=0.04 * D / 3600.0,
                 mua=0.05 * D / 60.0, mud=0.005 * D / 3600.0**1.5)
 REFINED = dict(R0=10.0, Rd=130.0, dV=0.001 * V0, phi0=0.2 * D, eps0=0.0,
@@ -275,7 +275,7 @@ def test_theseus_closed_form_and_covariance_propagation(
 ) -> None:
     T = 200e3 / V0
     # (1) the paper's formulas (eq 7 at 50/100/200 km, eq 13 at 0…200 km back) reproduce its
-    # numbers to the metre they are quoted to (kalman.md §12.1 table).
+    # numbers to the metre they are quoted to (THEORY §11.3 table).
     out = [_out_eq7(c, km * 1e3 / V0) for km in (50, 100, 200)]
     back = [_in_eq13(c, T, T + km * 1e3 / V0) for km in (0, 50, 100, 150, 200)]
     np.testing.assert_allclose(out, outbound, atol=1.0)
@@ -398,7 +398,7 @@ def test_heading_innovation_wraps_and_heading_stays_in_range() -> None:
 
 
 def test_lom_ls_against_chi2_and_w_thresholds() -> None:
-    # table vs scipy, and the spec's bounds on n·T for n = 1…6 (kalman.md §8, 3–4 s.f.)
+    # table vs scipy, and the spec's bounds on n·T for n = 1…6 (THEORY §8.14, 3–4 s.f.)
     for p in range(1, 23):  # p ≤ 20 from the built-in table, above from scipy
         t = kf.lom_test(np.ones(p), np.eye(p))
         assert t.t == pytest.approx(1.0) and t.verdict == "accept" and t.dof == p
@@ -469,7 +469,7 @@ def test_empty_measurement_is_a_no_op() -> None:
 
 
 def test_lop_rows_innovation_and_equivalence_to_lse() -> None:
-    """Raw metric LOPs (kalman.md §10.3): innovation = omc − A(x̂ − x_ref) − b; two orthogonal
+    """Raw metric LOPs (THEORY §9.3): innovation = omc − A(x̂ − x_ref) − b; two orthogonal
     unit LOPs carry the same information as an LSE with the same VCV."""
     p = kf.FilterParams()
     s = _filtered_state(p)
@@ -503,7 +503,7 @@ def test_lop_rows_innovation_and_equivalence_to_lse() -> None:
 
 
 # ------------------------------------------------------------------------------------------
-# Coloured fix noise (thesis 6.3.2 / A6, kalman.md §3)
+# Coloured fix noise (thesis 6.3.2 / A6, THEORY §8.2)
 # ------------------------------------------------------------------------------------------
 
 
@@ -576,7 +576,7 @@ def test_coloured_lse_rows_and_white_part() -> None:
 def test_fix_error_stationary_vcv_follows_each_fix() -> None:
     """The Gauss–Markov pair's stationary VCV is frac·C of the latest LSE, not of the first:
     after a C/A fix (C₁) and a P-code fix (C₂), the next prediction drives b towards frac·C₂,
-    P_bb(Δt) = P_bb·ρ² + frac·C₂·(1 − ρ²), ρ = e^{−Δt/τ} (kalman.md §3.2)."""
+    P_bb(Δt) = P_bb·ρ² + frac·C₂·(1 − ρ²), ρ = e^{−Δt/τ} (THEORY §8.2)."""
     p = kf.FilterParams(coloured=True, fix_tau_s=240.0, fix_sigma_frac=0.9)
     s = _moving_state(p)
     c1 = np.array([[734.0, -200.0], [-200.0, 177.0]]) / 0.9

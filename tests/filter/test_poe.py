@@ -1,4 +1,4 @@
-"""Pool of Errors (engine/filter/poe.py; program.md §9, eq. 2.1, A17) against hand calculations."""
+"""Pool of Errors (engine/filter/poe.py; THEORY §10, eq. 2.1, D47) against hand calculations."""
 
 from __future__ import annotations
 

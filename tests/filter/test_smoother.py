@@ -1,4 +1,4 @@
-"""RTS smoother (engine/filter/smoother.py, kalman.md §12.5): invariants, the dive-shape property
+"""RTS smoother (engine/filter/smoother.py, THEORY §11.1–11.2): invariants, the dive-shape property
 and
 an exact comparison with the batch (joint-Gaussian) conditional mean of the same linear model."""
 
@@ -79,7 +79,7 @@ def _dive_sigmas(params: kf.FilterParams, dive: int) -> tuple[np.ndarray, np.nda
 
 
 def test_dive_between_fixes_smoothed_sigma_peaks_mid_dive() -> None:
-    """kalman.md §12.5: "during a dive bracketed by two fixes, the smoothed σ is largest
+    """THEORY §11.1–11.2: "during a dive bracketed by two fixes, the smoothed σ is largest
     mid-dive". That needs a *random* DR error: with the A11 bias random walks (gyro 0.5°/√h,
     log 0.01 m/s/√h) and an 800-s dive, the smoothed σ peaks at the centre (±5 % of the dive),
     while the filter σ peaks at the last dived epoch."""

@@ -47,7 +47,7 @@ def arcsec(a: float, b: float) -> float:
     return (a - b) * 3600.0
 
 
-# The sample GPS fix (Pg 611, lsq.md §12): WGS84 52°50'30.000"N 004°31'46.200"E.
+# The sample GPS fix (Pg 611, THEORY §14.2): WGS84 52°50'30.000"N 004°31'46.200"E.
 GPS_LAT = dms(52, 50, 30.000)
 GPS_LON = dms(4, 31, 46.200)
 
@@ -89,7 +89,7 @@ def test_gps_fix_to_ed50_pg611() -> None:
     # We get 32.77695" and 51.05223".
     assert arcsec(lat, dms(52, 50, 32.777)) == pytest.approx(0.0, abs=5e-4)
     assert arcsec(lon, dms(4, 31, 51.052)) == pytest.approx(0.0, abs=5e-4)
-    # lsq.md §2.1: h_datum = −39.543 m, displayed WGS84 height Hg = −h_datum = "39.5".
+    # THEORY §2.1–2.2: h_datum = −39.543 m, displayed WGS84 height Hg = −h_datum = "39.5".
     assert h == pytest.approx(-39.543, abs=5e-4)
     assert f"{-h:.1f}" == "39.5"
 
@@ -101,7 +101,7 @@ def test_gps_fix_ecef_pg100() -> None:
     # the display rounds to 1 cm, so compare the printed strings exactly, and ±0.02 m.
     assert (f"{x:.2f}", f"{y:.2f}", f"{z:.2f}") == ("3848703.06", "304893.45", "5059951.55")
     assert (x, y, z) == pytest.approx((3848703.06, 304893.45, 5059951.55), abs=0.02)
-    # program.md §10 item 1 recomputed with the rounded h = 39.5: .04 / .44 / .52 (±0.005).
+    # THEORY §14.1 item 1 recomputed with the rounded h = 39.5: .04 / .44 / .52 (±0.005).
     x5, y5, z5 = geodetic_to_ecef(GPS_LAT, GPS_LON, 39.5, WGS84_ELLIPSOID)
     assert (x5, y5, z5) == pytest.approx((3848703.04, 304893.44, 5059951.52), abs=0.005)
 
@@ -109,13 +109,13 @@ def test_gps_fix_ecef_pg100() -> None:
 def test_gps_fix_grid_pg611() -> None:
     lat, lon, _ = wgs84_fix_to_datum(GPS_LAT, GPS_LON, ED50)
     x, y = GRID_5E.forward(lat, lon)
-    # Pg 611 obs "x : −31613.554", "y : 5857312.625" (lsq.md §12): 1 mm (we get .5538, .6247).
+    # Pg 611 obs "x : −31613.554", "y : 5857312.625" (THEORY §14.2): 1 mm (we get .5538, .6247).
     assert x == pytest.approx(-31613.554, abs=1e-3)
     assert y == pytest.approx(5857312.625, abs=1e-3)
 
 
 def test_gps_h_zero_rule_matters() -> None:
-    # lsq.md §2.1: with h_WGS84 = 39.54 instead of 0 the northing moves by ~1 mm (the reason
+    # THEORY §2.1–2.2: with h_WGS84 = 39.54 instead of 0 the northing moves by ~1 mm (the reason
     # for the rule): check the two differ, and that the h = 0 one is the screen's.
     lat0, lon0, _ = wgs84_fix_to_datum(GPS_LAT, GPS_LON, ED50)
     lat1, lon1, _ = datum_shift_python(GPS_LAT, GPS_LON, 39.543, WGS84, ED50)
@@ -178,7 +178,7 @@ def test_pipeline_gps_path_uses_shift() -> None:
 
 @pytest.mark.parametrize(("lat", "lon"), [(0.0, 0.0), (0.0, 100.0), (52.0, 4.5), (-60.0, -170.0)])
 def test_wgs72_dma_rotation_sign(lat: float, lon: float) -> None:
-    # program.md A2: WGS72 [DMA] → WGS84 must increase longitude by ≈ +0.554" (DMA practice).
+    # THEORY D1: WGS72 [DMA] → WGS84 must increase longitude by ≈ +0.554" (DMA practice).
     # The file's rz = 0.55" gives exactly +0.550" (a pure z rotation changes only λ; dz and the
     # scale leave λ alone), so: 0.55" to 1e-6", and within 0.005" of DMA's 0.554".
     _, lon84, _ = datum_shift(WGS72_DMA, WGS84).transform(lat, lon, 0.0)
@@ -218,7 +218,7 @@ def test_pg810_spheroidal_distances_and_azimuths() -> None:
     for (lat, lon), (d_screen, az_screen) in zip([MASTER, *SLAVES], expected, strict=True):
         x, y = GRID_5E.forward(lat, lon)
         d = spheroidal_distance(*RECEIVER_GRID, x, y, mean_radius_sq(INTL, rlat, lat))
-        # ±0.01 m: half the printed cm plus lsq.md's verified 4-7 mm model agreement
+        # ±0.01 m: half the printed cm plus the 4-7 mm model agreement (THEORY §2.4)
         # (we get 177026.825, 365220.907, 30962.690, 321036.130).
         assert d == pytest.approx(d_screen, abs=0.01)
         az = math.radians(solver.inverse(rlat, rlon, lat, lon)[0]) % (2 * math.pi)
@@ -229,7 +229,7 @@ def test_pg810_andoyer_baselines() -> None:
     # Printed to 1 cm; we get 227344.0749, 173435.7081, 144712.4718.
     for (lat, lon), b_screen in zip(SLAVES, (227344.07, 173435.71, 144712.47), strict=True):
         assert andoyer_lambert_m(INTL, *MASTER, lat, lon) == pytest.approx(b_screen, abs=0.01)
-    # lsq.md §2.4: the exact geodesic Red baseline is 227344.331, 0.26 m longer.
+    # THEORY §2.5: the exact geodesic Red baseline is 227344.331, 0.26 m longer.
     _, _, exact = geodesic_inverse(INTL, *MASTER, *SLAVES[0])
     assert exact == pytest.approx(227344.33, abs=0.005)
 

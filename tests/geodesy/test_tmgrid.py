@@ -65,7 +65,7 @@ def test_grid_is_frozen_value_object() -> None:
 
 
 # --------------------------------------------------------------------------- thesis screens
-# Pg 810 grid list (lsq.md §2.2, thesis L9123–9144): Decca 9B stations on ED50, printed to 1 mm.
+# Pg 810 grid list (THEORY §2.3, thesis L9123–9144): Decca 9B stations on ED50, printed to 1 mm.
 STATIONS = {
     "Finsterwolde": ((53, 12, 12.388), (7, 6, 0.590), (140333.462, 5899445.769)),
     "Hoyer": ((55, 1, 7.110), (8, 41, 38.420), (236240.537, 6105681.577)),
@@ -85,7 +85,7 @@ def test_pg810_station_grid(name: str) -> None:
 
 
 def test_lse_and_dr_start_grid() -> None:
-    # kalman.md §13 item 1: the LSE 52°50'32.373"N 004°31'50.958"E → (−31615.40, 5857300.15);
+    # THEORY §14.5 item 1: the LSE 52°50'32.373"N 004°31'50.958"E → (−31615.40, 5857300.15);
     # ±0.02 m because the geodetic input is itself rounded to 0.001" (≈ 0.03 m in latitude).
     x, y = GRID_5E.forward(dms(52, 50, 32.373), dms(4, 31, 50.958))
     assert x == pytest.approx(-31615.40, abs=0.02)
@@ -100,7 +100,7 @@ def test_lse_grid_inverse_matches_screen_geodetic() -> None:
     # Pg 810 receiver (−31615.400, 5857300.165) is the LSE shown as 52°50'32.373", 004°31'50.958"
     # (Pg 641). Tolerance one printed digit, 0.001": half a digit of display rounding (0.0005")
     # plus the rounding of the grid input to 1 mm and the 1993 series' sub-mm differences.
-    # We get 32.37352" and 50.95795" (lsq.md §12.1 also finds 32.374" from its own LSE grid).
+    # We get 32.37352" and 50.95795" (THEORY §14.3 also finds 32.374" from its own LSE grid).
     lat, lon = GRID_5E.inverse(-31615.400, 5857300.165)
     assert (lat - dms(52, 50, 32.373)) * 3600 == pytest.approx(0.0, abs=1e-3)
     assert (lon - dms(4, 31, 50.958)) * 3600 == pytest.approx(0.0, abs=1e-3)
@@ -146,7 +146,7 @@ def test_convergence_and_scale_against_pyproj() -> None:
 
 
 def test_convergence_sample_and_sign() -> None:
-    # kalman.md §10.5: γ = (4.5° − 5°)·sin 52.83° = −0.398° at the DR start; the exact value
+    # THEORY §14.4: γ = (4.5° − 5°)·sin 52.83° = −0.398° at the DR start; the exact value
     # differs from that approximation by < 1e-4° this close to the CM.
     gam = GRID_5E.convergence_deg(52.83, 4.5)
     assert gam == pytest.approx(-0.398, abs=5e-4)

@@ -156,7 +156,7 @@ def test_wgs72_dma_seven_parameters(df: DatumFile) -> None:
     assert (d.dx_m, d.dy_m, d.dz_m) == (0.0, 0.0, 4.5)
     assert (d.rx_arcsec, d.ry_arcsec, d.rz_arcsec, d.scale_ppm) == (0.0, 0.0, 0.55, 0.22)
     assert not d.is_three_parameter
-    # Every other datum has the four extra columns at zero (program.md §5.1).
+    # Every other datum has the four extra columns at zero (THEORY §13.1).
     others = [x for n, x in df.datums.items() if n != "WGS72 [DMA]"]
     assert all(x.is_three_parameter for x in others)
 
@@ -184,7 +184,7 @@ def test_lookup_is_case_and_space_insensitive(df: DatumFile) -> None:
 
 
 def test_unknown_datum(df: DatumFile) -> None:
-    # The manual names ED87 (L5296), which the file does not contain (program.md A3).
+    # The manual names ED87 (L5296), which the file does not contain (THEORY D2).
     with pytest.raises(InputError) as info:
         df.datum("ED87")
     err = info.value

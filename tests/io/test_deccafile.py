@@ -183,7 +183,7 @@ def test_2e_chain(chains: dict[str, DeccaChain]) -> None:
 
 @pytest.mark.parametrize("chain_id", ["9B", "2E"])
 def test_frequencies_are_harmonics_of_f0(chains: dict[str, DeccaChain], chain_id: str) -> None:
-    # Master 6 f0, Red 8 f0, Green 9 f0, Purple 5 f0 (thesis §4, lsq.md §5.2). The file prints
+    # Master 6 f0, Red 8 f0, Green 9 f0, Purple 5 f0 (thesis §4, THEORY §3.2). The file prints
     # 4 decimals in kHz, so each f/n agrees with master/6 to 1e-4 kHz; a mistyped digit fails.
     c = chains[chain_id]
     f0 = c.master.freq_khz / 6
@@ -192,7 +192,7 @@ def test_frequencies_are_harmonics_of_f0(chains: dict[str, DeccaChain], chain_id
 
 
 def test_9b_comparison_wavelengths(chains: dict[str, DeccaChain]) -> None:
-    # lsq.md §5.2: lambda_c = v / f_c with f_c = 3 f_R, 2 f_G, 6 f_P: 873.632, 1164.839, 698.904 m
+    # THEORY §3.2: lambda_c = v / f_c with f_c = 3 f_R, 2 f_G, 6 f_P: 873.632, 1164.839, 698.904 m
     # (printed to 1 mm, so 1e-3 m tolerance).
     c = chains["9B"]
     lam = [c.speed_km_s / (k * s.freq_khz) for k, s in zip((3, 2, 6), c.slaves, strict=True)]

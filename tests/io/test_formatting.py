@@ -1,4 +1,4 @@
-"""Screen formats against the thesis sample screens (A8.5; program.md §4, lsq.md §12)."""
+"""Screen formats against the thesis sample screens (A8.5; THEORY §12.7–12.10, §14.2)."""
 
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def test_small_fields() -> None:
     assert format_speed_kn(12.7) == "12.7kts"
     # Az of the major axis: eigenvector (0.92721, −0.37455) → atan2(0.92721, −0.37455) = 112.0°.
     assert format_angle_deg(math.degrees(math.atan2(0.92721, -0.37455))) == "112.0°"
-    # RMS of the four LOP residuals (program.md §4.1): √((12.46²+1.846²+1.6²+0.3²)/4) = 6.35.
+    # RMS of the four LOP residuals (THEORY §12.7): √((12.46²+1.846²+1.6²+0.3²)/4) = 6.35.
     rms = math.sqrt((12.46**2 + 1.846**2 + 1.6**2 + 0.3**2) / 4)
     assert format_metres(rms) == "6.35 m"
     assert format_metres(rms, space=False) == "6.35m"

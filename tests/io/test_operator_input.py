@@ -192,7 +192,7 @@ def test_zone_lane_and_names() -> None:
 
 
 def test_total_lane_counts_of_the_sample() -> None:
-    # lsq.md §5.3: Red B20.862 → 1·24 + 20 + .862; Green F34.337, c = 1 → 15·18 + 4 + .337;
+    # THEORY §3.3: Red B20.862 → 1·24 + 20 + .862; Green F34.337, c = 1 → 15·18 + 4 + .337;
     # Purple A51.111 → 0·30 + 1 + .111 (Pg 810 prints 44.862 274.337 1.111).
     assert lanes_from_zone_lane(1, 20, 0.862, "red", 0) == pytest.approx(44.862)
     assert lanes_from_zone_lane(5, 34, 0.337, "green", 1) == pytest.approx(274.337)

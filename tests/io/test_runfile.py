@@ -80,7 +80,7 @@ def test_first_record_values() -> None:
 
 
 def test_second_record_matches_pg611_inputs() -> None:
-    # program.md A20: Pg 611 shows 08:35:39Z with gyro 232.3 and log 12.7 = line 2 of the sample.
+    # THEORY D6: Pg 611 shows 08:35:39Z with gyro 232.3 and log 12.7 = line 2 of the sample.
     r = records()[1]
     assert r.time.strftime("%H:%M:%SZ") == "08:35:39Z"
     assert (r.heading_deg, r.speed_kn) == (232.3, 12.7)

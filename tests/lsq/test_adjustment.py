@@ -1,6 +1,6 @@
 """Least-squares core (engine.lsq.adjustment): thesis worked example, independent solvers, geometry.
 
-Independent sources: the thesis screens Pg 821/830/633/641 as transcribed in lsq.md §12 (inputs
+Independent sources: the thesis screens Pg 821/830/633/641 as transcribed in THEORY §14.2 (inputs
 AND outputs are printed there), ``numpy.linalg.lstsq`` on the Cholesky-whitened system, and hand
 geometry (distances to known points).
 """
@@ -24,7 +24,7 @@ from engine.lsq.adjustment import (
 )
 
 # ------------------------------------------------------------------------------------------
-# The worked example A8.5 at matrix level (lsq.md §12, Pg 821 inputs). Slots: GPS Lat, GPS Lon,
+# The worked example A8.5 at matrix level (THEORY §14.2, Pg 821 inputs). Slots: GPS Lat, GPS Lon,
 # Decca Red, Green, Purple (Purple deselected). Purple's row is given as NaN/garbage on purpose:
 # an unused slot must not influence anything.
 
@@ -47,20 +47,20 @@ def pg821(x: np.ndarray) -> Linearisation:
 
 @pytest.fixture(scope="module")
 def sample() -> Adjustment:
-    # epsilon 50 m: the printed b belong to the last iteration (whose δx̂ was 2 mm, lsq.md §3.4),
+    # epsilon 50 m: the printed b belong to the last iteration (whose δx̂ was 2 mm, THEORY §5.1),
     # so exactly one Gauss–Newton step from the printed linearisation reproduces the screens.
     return gauss_newton(pg821, np.zeros(2), USED_PG, epsilon=50.0)
 
 
 def test_sample_converges_in_one_step_with_a_2mm_correction(sample: Adjustment) -> None:
     assert sample.ok and sample.converged and sample.iterations == 1
-    # lsq.md §3.4: "their b were evaluated 2 mm from the final x̂"; 1 mm tolerance for rounding
+    # THEORY §5.1: "their b were evaluated 2 mm from the final x̂"; 1 mm tolerance for rounding
     assert sample.steps[0] == pytest.approx(0.002, abs=0.001)
 
 
 def test_sample_cov_matches_pg641(sample: Adjustment) -> None:
     # Pg 641 prints C_x̂ to 3 dp; the printed C_l inputs are themselves rounded to 3 dp, which
-    # moves σy² by 1.4e-3 (lsq.md §12.1: recomputed 196.756), hence ±0.002 m².
+    # moves σy² by 1.4e-3 (THEORY §14.3: recomputed 196.756), hence ±0.002 m².
     expect = np.array([[814.936, -298.408], [-298.408, 196.755]])
     np.testing.assert_allclose(sample.cov_x, expect, atol=0.002)
     np.testing.assert_allclose(sample.cov_x_apriori, sample.cov_x)  # scaling is off
@@ -99,7 +99,7 @@ def test_sample_residuals_rms_and_unit_variance(sample: Adjustment) -> None:
     assert sample.n_used == 4 and sample.redundancy == 2 and sample.category == "IV"
     assert sample.s2 == pytest.approx(0.034, abs=0.0005)  # Pg 633 "S² : 0.034"
     assert sample.rms_m == pytest.approx(6.35, abs=0.005)  # Pg 100 "RMS 6.35m"
-    # d_rms = sqrt(trace C_x̂) = 31.81 m (lsq.md §9.3), 2 dp
+    # d_rms = sqrt(trace C_x̂) = 31.81 m (THEORY §7.3), 2 dp
     assert sample.drms_m == pytest.approx(31.81, abs=0.005)
     vt = sample.variance_test
     assert vt is not None and vt.accepted and vt.dof == 2
@@ -123,7 +123,7 @@ def test_sample_linear_model_converges_to_the_same_statistics() -> None:
 
 
 def test_category_table_5_1() -> None:
-    # Table 5.1 (lsq.md §3.6): 2-D n = 1..5 → I II III IV IV; 3-D n = 2..5 → I II III IV
+    # Table 5.1 (THEORY §5.4): 2-D n = 1..5 → I II III IV IV; 3-D n = 2..5 → I II III IV
     assert [category(n, 2) for n in (1, 2, 3, 4, 5)] == ["I", "II", "III", "IV", "IV"]
     assert [category(n, 3) for n in (1, 2, 3, 4, 5)] == ["I", "I", "II", "III", "IV"]
 
@@ -192,7 +192,7 @@ def test_random_geometries_match_whitened_lstsq() -> None:
 
 def test_w_equals_closed_form_for_diagonal_cl() -> None:
     """Uncorrelated C_l: w_i = −v_i/(σ_i·sqrt(r_i)), σ_d = σ_i/sqrt(r_i), τ = 1/sqrt(r_i) and
-    VF = 1 − r_i (lsq.md §8.1–8.3), from the full-matrix formulas; 300 random cases, 1e-9."""
+    VF = 1 − r_i (THEORY §6.1–6.2), from the full-matrix formulas; 300 random cases, 1e-9."""
     rng = np.random.default_rng(11)
     for _ in range(300):
         u = int(rng.choice([2, 3]))
@@ -329,7 +329,7 @@ def test_scale_vcv_multiplies_by_s2(sample: Adjustment) -> None:
     scaled = gauss_newton(pg821, np.zeros(2), USED_PG, epsilon=50.0, scale_vcv=True)
     assert scaled.scaled and sample.s2 is not None
     np.testing.assert_allclose(scaled.cov_x, sample.cov_x * sample.s2, rtol=1e-12)
-    np.testing.assert_allclose(scaled.x, sample.x)  # x̂ unchanged (lsq.md §8.5)
+    np.testing.assert_allclose(scaled.x, sample.x)  # x̂ unchanged (THEORY §6.4)
     np.testing.assert_allclose(scaled.w, sample.w)  # tests use the a priori model
 
 
@@ -463,7 +463,7 @@ def test_cov_v_and_cov_lhat_against_numpy() -> None:
 
 
 def test_cov_lhat_of_the_worked_example(sample: Adjustment) -> None:
-    """Pg 633 inputs: VF = (C_l̂)_ii/(C_l)_ii = 0.079, 0.326, 0.638, 0.948 (lsq.md §8.3, 3 dp).
+    """Pg 633 inputs: VF = (C_l̂)_ii/(C_l)_ii = 0.079, 0.326, 0.638, 0.948 (THEORY §6.2, 3 dp).
     The GPS block of C_l̂ is C_x̂ itself, reordered (rows (0, 1) and (1, 0)): Pg 641's VCV."""
     lhat = sample.cov_lhat_used
     np.testing.assert_allclose(np.diag(lhat) / np.diag(sample.Cl_used),

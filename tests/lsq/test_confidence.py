@@ -16,7 +16,7 @@ C_SAMPLE = np.array([[814.936, -298.408], [-298.408, 196.755]])
 
 def test_k_factors_tables_5_2_and_5_3() -> None:
     # Table 5.2 (2-D): 50 % 1.177, 95 % 2.447, 99.9 % 3.717 (3 dp printed, ±0.0005);
-    # lsq.md §9.1: exact 2.4477 (4 dp, ±0.00005); P(k = 1) = 0.3935 (1 − e^−½)
+    # THEORY §7.1: exact 2.4477 (4 dp, ±0.00005); P(k = 1) = 0.3935 (1 − e^−½)
     assert k_factor(0.5, 2) == pytest.approx(1.177, abs=0.0005)
     assert k_factor(0.95, 2) == pytest.approx(2.4477, abs=0.00005)
     assert k_factor(0.999, 2) == pytest.approx(3.717, abs=0.0005)
@@ -42,7 +42,7 @@ def test_sample_ellipse_pg840_pg641() -> None:
     # Pg 840 eigenvalues 935.48 / 76.21 (2 dp, ±0.005)
     assert e.eigenvalues[0] == pytest.approx(935.48, abs=0.005)
     assert e.eigenvalues[1] == pytest.approx(76.21, abs=0.005)
-    # Pg 641 "Standard: 30.59 8.73", "95.0%: 74.87 21.37"; lsq.md §9.1 99.9 % 113.68 × 32.45
+    # Pg 641 "Standard: 30.59 8.73", "95.0%: 74.87 21.37"; THEORY §7.1 99.9 % 113.68 × 32.45
     assert (e.a_m, e.b_m) == pytest.approx((30.59, 8.73), abs=0.005)
     assert e.scaled(0.95) == pytest.approx((74.87, 21.37), abs=0.005)
     assert e.scaled(0.999) == pytest.approx((113.68, 32.45), abs=0.005)
@@ -86,7 +86,7 @@ def test_degenerate_ellipses() -> None:
 
 def test_ellipsoid_2d_embedding_matches_pg840() -> None:
     """A horizontal ellipse in 3-D (σz = 0): ρ = θ = 0, φ = −22.00°, Az 112.0°, elev 0
-    (Pg 840 rows 3–4, lsq.md §9.2)."""
+    (Pg 840 rows 3–4, THEORY §7.2)."""
     C3 = np.zeros((3, 3))
     C3[:2, :2] = C_SAMPLE
     el = error_ellipsoid(C3)
@@ -114,7 +114,7 @@ def _rx(a: float) -> np.ndarray:
 
 def test_random_ellipsoids_rotation_angles() -> None:
     """E = R_z(φ)R_y(θ)R_x(ρ) rebuilt from the reported angles equals E; E diag(λ) Eᵀ = C;
-    det E = +1; axes descending; Az in [0, 180) (lsq.md §9.2)."""
+    det E = +1; axes descending; Az in [0, 180) (THEORY §7.2)."""
     rng = np.random.default_rng(9)
     for _ in range(300):
         M = rng.normal(size=(3, 3)) * rng.uniform(0.1, 50.0)
@@ -134,6 +134,6 @@ def test_random_ellipsoids_rotation_angles() -> None:
 
 
 def test_drms_sample() -> None:
-    # lsq.md §9.3: d_rms = 31.81 m, 2drms = 63.6 m
+    # THEORY §7.3: d_rms = 31.81 m, 2drms = 63.6 m
     assert drms(C_SAMPLE) == pytest.approx(31.81, abs=0.005)
     assert two_drms(C_SAMPLE) == pytest.approx(63.6, abs=0.05)

@@ -37,7 +37,7 @@ def _exact(kind: str, name: str, sigma: float, sensor: str = "") -> ManualObserv
     if kind == "bearing":
         value, _ = GEOD.azimuth_distance(*TRUTH, lat, lon)
     else:
-        # The model compares with the spheroidal distance grid chord / L (A5.10, lsq.md §4.6).
+        # The model compares with the spheroidal distance grid chord / L (A5.10, THEORY §4.5).
         x0, y0 = GRID.forward(*TRUTH)
         xs, ys = GRID.forward(lat, lon)
         value = math.hypot(x0 - xs, y0 - ys) / line_scale_factor(
@@ -113,7 +113,7 @@ def test_robust_estimator_downweights_the_blunder() -> None:
 
 
 def test_too_few_lops_use_the_filter_prediction() -> None:
-    """Table 5.1 category I: one Decca LOP plus the filter's two position LOPs (lsq.md §4.8)."""
+    """Table 5.1 category I: one Decca LOP plus the filter's two position LOPs (THEORY §4.6)."""
     chain = read_chain_file(DATA / "DECCA.CHN")["9B"]
     placed = place_chain(chain, GRID)
     tx, ty = GRID.forward(*TRUTH)
@@ -124,7 +124,7 @@ def test_too_few_lops_use_the_filter_prediction() -> None:
     prior = PositionPrior(tx + 300.0, ty - 200.0, np.diag([200.0**2, 200.0**2]))
     f = compute_fix(GRID, GEOD, (prior.x_m, prior.y_m), decca=reading, prior=prior)
     assert f.ok and f.uses_prior and f.n_used == 3
-    # The hybrid LS is the Kalman position update in information form (kalman.md §10.3):
+    # The hybrid LS is the Kalman position update in information form (THEORY §9.3):
     # x = x_prior + P aᵀ (a P aᵀ + r)⁻¹ (O − C), with the LOP linearised at the prior.  The LS
     # re-linearises while iterating and stops when the step is below ε = 1 m (A8.2 epsilon), so
     # the two agree to that break-off (measured 0.51 m here).
@@ -136,7 +136,7 @@ def test_too_few_lops_use_the_filter_prediction() -> None:
     assert (f.x_m, f.y_m) == pytest.approx(tuple(expected), abs=1.0)
     red = next(r for r in f.lops if r.pattern == "Red")
     assert red.used and abs(red.v_m) > 1.0  # the prior keeps it from sitting on the LOP
-    # The raw LOP (not the hybrid LSE) is kept for the filter update (kalman.md A10).
+    # The raw LOP (not the hybrid LSE) is kept for the filter update (THEORY D20).
     assert f.raw_lops is not None and f.raw_lops.slots == (2,)
 
 
@@ -280,7 +280,7 @@ def test_robust_fix_uses_scale_vcv_and_alpha() -> None:
                     settings=LsqSettings(estimator="huber", scale_vcv=True, reliab_interval=1.0))
     adj = f.tested.adjustment
     assert f.ok and adj.damping is not None and adj.scaled and adj.s2 is not None
-    # the fix's VCV is the scaled one of the damped model: C = S²·(AᵀW'A)⁻¹ (lsq.md §8.5)
+    # the fix's VCV is the scaled one of the damped model: C = S²·(AᵀW'A)⁻¹ (THEORY §6.4)
     np.testing.assert_allclose(f.cov, adj.cov_x_apriori * adj.s2, rtol=1e-12)
     np.testing.assert_allclose(f.ellipse.eigenvalues, np.linalg.eigvalsh(f.cov)[::-1],
                                rtol=1e-9)
@@ -344,7 +344,7 @@ def test_robust_failure_falls_back_to_tested_lsq_with_a_message() -> None:
 
 def test_decca_half_zone_warning_reaches_the_fix_messages() -> None:
     """Zone/lane entered one zone (24 lanes, ≈ 10 km) off the provisional position's count: the
-    10-zone cycle still resolves, but the count is > 12 lanes from N_calc (lsq.md Q7)."""
+    10-zone cycle still resolves, but the count is > 12 lanes from N_calc (THEORY D7)."""
     chain = read_chain_file(DATA / "DECCA.CHN")["9B"]
     placed = place_chain(chain, GRID)
     tx, ty = GRID.forward(*TRUTH)

@@ -1,10 +1,10 @@
-"""The thesis worked example (A8.5, lsq.md §12) end to end: raw inputs → geodesy → Decca model
+"""The thesis worked example (A8.5, THEORY §14.2) end to end: raw inputs → geodesy → Decca model
 → adjustment → tests → ellipse, with the Decca VCV computed by the A4 model (not the printed one).
 
-Inputs (lsq.md §12): GPS WGS84 52°50'30.000"N 004°31'46.200"E, C/A (2500 m²); Decca 9B fractions
+Inputs (THEORY §14.2): GPS WGS84 52°50'30.000"N 004°31'46.200"E, C/A (2500 m²); Decca 9B fractions
 .862/.337/.111 with zone/lane B20, F34, A51; Red and Green selected; C-O −0.05 lanes; CF 64;
 ED50, CM 5°E.  The matrix-level reproduction with the *printed* C_l is in test_adjustment.py;
-here the computed Decca VCV is 0.1–0.4 % off the printed one (lsq.md Q1), which moves the LSE by
+here the computed Decca VCV is 0.1–0.4 % off the printed one (THEORY D10), which moves the LSE by
 ~4 mm and C_x by 0.1 %: the tolerances below say so where it matters.
 """
 
@@ -32,7 +32,7 @@ def _sample_fix() -> FixResult:
     gps = GpsFix(lat, lon, *GRID.forward(lat, lon), 2500.0)
     decca = DeccaReading(placed, (0.862, 0.337, 0.111), ((1, 20), (5, 34), (0, 51)),
                          (True, True, False), (-0.05, -0.05, -0.05), 64.0)
-    dr = GRID.forward(52 + 50 / 60, 4.5)  # the start-up DR position (program.md §7)
+    dr = GRID.forward(52 + 50 / 60, 4.5)  # the start-up DR position (THEORY §12.12)
     return compute_fix(GRID, GeodesicSolver(ED50.ellipsoid), dr, gps=gps, decca=decca,
                        settings=LsqSettings(lop_reject="Y"))
 
@@ -54,7 +54,7 @@ def test_lse_position_pg641(sample) -> None:
 
 
 def test_iteration_from_the_dr_start(sample) -> None:
-    # lsq.md §3.4: started from the DR the steps are 2378 m, 75 m and 0.06 m (3 iterations).
+    # THEORY §5.1: started from the DR the steps are 2378 m, 75 m and 0.06 m (3 iterations).
     steps = sample.tested.adjustment.steps
     assert len(steps) == 3
     assert steps == pytest.approx([2378, 75, 0.06], abs=1.0)
@@ -106,15 +106,15 @@ def test_lse_latitude_pg641_is_not_reproducible_to_the_last_digit(
       rounding point 32.3735", i.e. (with an exact TM inverse) its northing was below
       5857300.16453 m at the printed easting.
     * The screens' own grid coordinates (Pg 611/810: −31615.400, 5857300.165) invert to
-      32.373515" with PROJ tmerc (and with ours, which agrees to 1e-8 m, lsq.md §2.2): that
+      32.373515" with PROJ tmerc (and with ours, which agrees to 1e-8 m, THEORY §2.3): that
       prints .374, the printed northing lies 0.47 mm north of the rounding point. The printed
       grid and latitude agree only inside a 0.03 mm window of the rounded northing, or if the
-      1993 inverse series differed from an exact one by ≥ 0.5 mm (lsq.md §2.2 allows < 1 mm).
-    * From the printed inputs (lsq.md §12 "Inputs actually used") the engine's northing is
+      1993 inverse series differed from an exact one by ≥ 0.5 mm (THEORY §2.3 allows < 1 mm).
+    * From the printed inputs (THEORY §14.2 "Inputs actually used") the engine's northing is
       5857300.16603, 1.46 mm north of the rounding point. 1.0 mm of it comes from the
-      computed Decca VCV (0.1–0.4 % off the printed one, lsq.md Q1): with the printed VCV the
+      computed Decca VCV (0.1–0.4 % off the printed one, THEORY D10): with the printed VCV the
       northing is 5857300.16538, still 0.85 mm north (the model's Decca misclosures b match
-      Pg 821 only to ≤ 4 mm, lsq.md §12.1).
+      Pg 821 only to ≤ 4 mm, THEORY §14.3).
     So .373 cannot be reproduced from the printed inputs; this pins .374 and the size of the
     gap instead of accepting either digit. Tolerances: 0.02 mm on values computed here.
     """

@@ -1,7 +1,7 @@
 """Quality control (engine.lsq.statistics, engine.lsq.snooping): w-test, reliability, unit
 variance, data snooping.
 
-Independent sources: the thesis screens (Pg 633 via lsq.md §12), normal/χ² quantile tables,
+Independent sources: the thesis screens (Pg 633 via THEORY §14.2), normal/χ² quantile tables,
 hand calculation of eq. 5.18, exact linear-model identities (5.8d), and seeded Monte Carlo runs
 compared with the distribution theory of the w-test.
 """
@@ -50,7 +50,7 @@ def test_pg633_statistics() -> None:
     np.testing.assert_allclose(adj.sigma_d[:4], [52.09, 60.90, 50.89, 44.25], atol=0.005)
     np.testing.assert_allclose(adj.w[:4], [0.26, 0.04, -0.09, 0.17], atol=0.005)
     np.testing.assert_allclose(adj.tau[:4], [1.04, 1.22, 1.68, 4.84], atol=0.005)
-    # VF (lsq.md §8.3), 3 dp: ±0.0005
+    # VF (THEORY §6.2), 3 dp: ±0.0005
     np.testing.assert_allclose(adj.vf[:4], [0.079, 0.326, 0.638, 0.948], atol=0.0005)
     # Purple: the screen's 999.99 = not computed
     for arr in (adj.sigma_d, adj.w, adj.tau, adj.vf, adj.mdb, adj.redundancy_numbers):
@@ -63,7 +63,7 @@ def test_pg633_statistics() -> None:
 
 
 def test_sample_correlation_matters() -> None:
-    """The Decca block is correlated: dropping the covariance changes Green's w (lsq.md §8.1
+    """The Decca block is correlated: dropping the covariance changes Green's w (THEORY §6.1
     says the sample needs the full matrices). The diagonal-only value misses the print."""
     cl_diag = np.diag(np.diag(CL))
     adj = gauss_newton(lambda x: Linearisation(A, B, cl_diag), np.zeros(2), USED, epsilon=50.0)
@@ -84,7 +84,7 @@ def test_critical_values() -> None:
 
 
 def test_unit_variance_test_sample_bounds() -> None:
-    # lsq.md §8.5: r = 2, α 0.05 → 0.0253 < S² < 3.689 (χ²_2 quantiles 0.0506/2, 7.378/2)
+    # THEORY §6.4: r = 2, α 0.05 → 0.0253 < S² < 3.689 (χ²_2 quantiles 0.0506/2, 7.378/2)
     vt = unit_variance_test(0.034, 2, 0.05)
     assert vt is not None and vt.accepted and vt.dof == 2
     assert vt.lower == pytest.approx(0.0253, abs=5e-5)
@@ -262,7 +262,7 @@ def test_five_sigma_blunder_is_identified_in_95_percent() -> None:
     the largest, so its rate lies below that power. Measured (seed 404): 0.9645 at 1.960, i.e.
     5.0 Monte-Carlo standard errors (σ = sqrt(p(1−p)/4000) = 0.0029) above 0.95.
 
-    The engine's default bound is the thesis' fixed 2.576 (α = 0.01, lsq.md §8.1): the same
+    The engine's default bound is the thesis' fixed 2.576 (α = 0.01, THEORY §6.1): the same
     trials give 0.940 (σ 0.0037), below 0.95 as its power 0.955 predicts. Per trial the 2.576
     loop can only identify where the 1.960 loop does (same largest |w|, higher bound): checked.
     """
@@ -352,7 +352,7 @@ def test_policy_n_flags_and_a_asks() -> None:
 
 
 def test_category_iii_detects_but_cannot_identify() -> None:
-    """n = 3, u = 2 (r = 1): all |w_i| are equal for uncorrelated LOPs (lsq.md §3.6).
+    """n = 3, u = 2 (r = 1): all |w_i| are equal for uncorrelated LOPs (THEORY §5.4).
     Stations 120° apart as seen from the point, so each r_i = 1/3 and a 40 m (13σ) blunder
     gives |w| = 40·sqrt(1/3)/3 = 7.7 on every LOP."""
     ang = np.radians([10.0, 130.0, 250.0])

@@ -44,7 +44,7 @@ def test_sample_replays_ten_cycles_with_fixes() -> None:
     assert [r.n for r in res] == list(range(1, 11))
     assert [r.time.strftime("%H%M%S") for r in res][:2] == ["083538", "083539"]
     assert all(r.fix is not None and r.fix.ok and r.fix.category == "IV" for r in res)
-    # First cycle initialises the filter at the LSE (kalman.md A3): N/A, MPP = LSE.
+    # First cycle initialises the filter at the LSE (THEORY D22): N/A, MPP = LSE.
     assert res[0].filter_status == "N/A" and res[0].mpp.source == "LSE"
     assert all(r.filter_status == "ON" and r.mpp.source == "KF" for r in res[1:])
     # The ship runs 232° at 12.7 kn: 9 s → ~59 m south-west.  The filtered track must follow:
@@ -59,7 +59,7 @@ def test_sample_replays_ten_cycles_with_fixes() -> None:
 
 
 def test_pg641_kf_row_is_the_dr_of_two_records() -> None:
-    """kalman.md §10.5: DR start 52 50 00 N 004 30 00 E, records 083538 and 083539, zero
+    """THEORY §14.4: DR start 52 50 00 N 004 30 00 E, records 083538 and 083539, zero
     current → KF x −33709.65 y 5856305.50 (Pg 641, printed to 0.01 m).  With GPS and Decca off
     the cycle is pure DR, which is what the thesis screen shows (its filter was N/A)."""
     cfg = load_config(SAMPLE)
@@ -72,7 +72,7 @@ def test_pg641_kf_row_is_the_dr_of_two_records() -> None:
 
 
 def test_gps_datum_defaults_to_wgs84() -> None:
-    """lsq.md §13 item 2: the .RUN GPS is WGS84 unless the configuration says otherwise."""
+    """THEORY D6: the .RUN GPS is WGS84 unless the configuration says otherwise."""
     cfg = load_config(SAMPLE)
     wgs = cfg.replace(run_gps_datum="WGS84")
     r_ed = _run(cfg)[1][0]
@@ -132,7 +132,7 @@ def test_commands_change_the_next_cycle() -> None:
     assert r.fix is None and r.mpp.source == "KF"  # DR only
     s.apply(SetGps(on=True, receiver="P"))
     r = s.step()
-    # P code: σ 8.9 m per axis (program.md A13) → the GPS rows dominate: a95 < 25 m.
+    # P code: σ 8.9 m per axis (THEORY D5) → the GPS rows dominate: a95 < 25 m.
     assert r.fix.ellipse.scaled(0.95)[0] < 25.0
     with pytest.raises(InputError):
         s.apply(SetSensor("gyro", "maybe"))
@@ -193,7 +193,7 @@ def test_datum_change_moves_the_state() -> None:
 
 
 def test_cm_switches_and_reprojects(tmp_path: Path) -> None:
-    """A track crossing 5.5°E moves the CM from 5° to 6° (program.md A11); the filter state is
+    """A track crossing 5.5°E moves the CM from 5° to 6° (THEORY D3); the filter state is
     re-projected so the MPP stays continuous in geodetic coordinates."""
     from datetime import datetime, timedelta
 
@@ -280,7 +280,7 @@ def test_gps_receiver_switch_restarts_the_fix_error_states() -> None:
     assert "Fix source changed: fix-error states restarted" in r.messages
     start, pred, phi = r.smoother_link
     c_p = frac * r.fix.cov
-    # P code: σ 8.9 m per axis (program.md A13) → C_LSE below (10 m)² per axis.
+    # P code: σ 8.9 m per axis (THEORY D5) → C_LSE below (10 m)² per axis.
     assert np.all(np.diag(r.fix.cov) < 100.0)
     np.testing.assert_array_equal(pred.x[11:], [0.0, 0.0])
     np.testing.assert_allclose(pred.P[11:, 11:], c_p, rtol=1e-12)
@@ -299,7 +299,7 @@ def test_gps_receiver_switch_restarts_the_fix_error_states() -> None:
 def test_sensor_update_tests_reach_the_result_the_out_log_and_jsonl(tmp_path: Path) -> None:
     """Both filter updates of a cycle keep their LOM/LS results: the gyro/log rows (before the
     step) and the fix rows (at the epoch). The LOM statistic is recomputed here from v̂ and S
-    (v̂ᵀS⁻¹v̂/p, bounds χ²_p(0.025, 0.975)/p from scipy, kalman.md §8/A12)."""
+    (v̂ᵀS⁻¹v̂/p, bounds χ²_p(0.025, 0.975)/p from scipy, THEORY §8.14, D30)."""
     import json
 
     from scipy.stats import chi2
@@ -331,7 +331,7 @@ def test_sensor_update_tests_reach_the_result_the_out_log_and_jsonl(tmp_path: Pa
 
 def test_set_current_is_rotated_to_the_grid() -> None:
     """Setup ▸ Params ▸ Current gives the filter the current in the grid, like init_state:
-    grid set = true set − γ with γ = arctan(tan(λ − λ0) sin φ) at the MPP (kalman.md §6.1).
+    grid set = true set − γ with γ = arctan(tan(λ − λ0) sin φ) at the MPP (THEORY §8.4).
     Hand calculation with the spherical formula, which differs from the TM series by < 1e-6°
     this close to the CM (Δλ ≈ 0.47°): a 2-kn current setting 090° true."""
     s = Session(load_config(SAMPLE))
@@ -438,7 +438,7 @@ def test_a_gross_gps_error_is_kept_out_of_the_filter(tmp_path: Path) -> None:
 
 def test_three_gated_fixes_in_a_row_restart_the_filter_from_the_lse(tmp_path: Path) -> None:
     """From the third consecutive gross fix on, the fixes are believed: the filter position
-    restarts from the LSE (kalman.md A3), so a filter that went wrong cannot shut out every
+    restarts from the LSE (THEORY D22), so a filter that went wrong cannot shut out every
     later fix. Records 083543–083547 are 1° south; the third, 083545, restarts the filter."""
     lines = (DATA / "920917_1.RUN").read_text().splitlines()
     res = _gps_only_run(tmp_path, _shift_gps(lines, range(6, 11), -1))

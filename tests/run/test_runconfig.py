@@ -29,7 +29,7 @@ DATUMS = ["ED50", "ED50 [DMA]", "ED50 [UKOOA]", "NAD 1927", "WGS84"]
 
 def test_sample_configuration_is_the_thesis_start_up() -> None:
     cfg = load_config(SAMPLE)
-    # program.md §7 / thesis L5526–5531.
+    # THEORY §12.12 / thesis L5526–5531.
     assert cfg.datum == "ED50"
     assert (cfg.dr_lat_deg, cfg.dr_lon_deg) == pytest.approx((52 + 50 / 60, 4.5), abs=1e-12)
     assert (cfg.depth_m, cfg.current_set_deg, cfg.current_speed_kn) == (0.0, 0.0, 0.0)
@@ -65,7 +65,7 @@ def test_omitted_keys_take_the_a82_defaults() -> None:
     sensors = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")
     assert [cfg.sensors.status(s) for s in sensors] == [1, 1, 0, 2, 0, 2]  # L8718–8723
     assert cfg.filter.on is True  # Filtering ON (L7641)
-    assert cfg.filter.q_mode == "vanloan"  # step-size invariant Q (kalman.md A5)
+    assert cfg.filter.q_mode == "vanloan"  # step-size invariant Q (THEORY D24)
     assert cfg.datum == "ED50" and cfg.run_gps_datum == "WGS84"
     assert cfg == default_config()
 

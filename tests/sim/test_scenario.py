@@ -37,7 +37,7 @@ def test_minimal_scenario_takes_the_documented_defaults() -> None:
     assert sc.start_time == datetime(1992, 9, 17, 8, 0, 0, tzinfo=UTC)
     assert (sc.start_lat_deg, sc.start_lon_deg) == parse_position("52 50 00 N 004 30 00 E")
     assert (sc.datum, sc.run_gps_datum, sc.sample_interval_s) == ("ED50", "WGS84", 1)
-    # SA-era GPS (program.md §8.1, kalman.md §12.5), thesis sensor σ (program.md §8.6–§8.10).
+    # SA-era GPS (THEORY §3.1, §11.1–11.2), thesis sensor σ (THEORY §3.7–3.8).
     assert sc.gps == GpsModel(on=True, sigma_m=35.0, tau_s=240.0, white_sigma_m=5.0)
     assert sc.gyro.sigma_deg == 0.65 and sc.log.sigma_frac == 0.02
     assert sc.pressure.sigma_m == 1.45 and sc.inclinometer.sigma_deg == 0.5

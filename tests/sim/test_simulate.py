@@ -1,9 +1,9 @@
 """Sensor simulator: noise-free consistency with the engine, error statistics, reproducibility.
 
 Independent references: the program's own GPS convention (WGS84 → working datum with h = 0 on
-WGS84, lsq.md §2.1, done here with a separately built DatumShift), the Decca lane model of
+WGS84, THEORY §2.1–2.2, done here with a separately built DatumShift), the Decca lane model of
 engine.systems.decca evaluated at the truth and, independently of it, hyperbolic lane counts from
-pyproj geodesics to the chain stations of program.md §5.2, the pressure formula of
+pyproj geodesics to the chain stations of THEORY §13.2, the pressure formula of
 engine.systems.sensors, the LS fix of engine.lsq.fix, and for the statistics every configured
 error term
 with tolerances that are at least 3 standard errors of the estimators (a Monte Carlo on
@@ -100,7 +100,7 @@ def test_truth_kinematics(noise_free) -> None:
     sc, pairs, _read, _d = noise_free
     truth = [t for t, _r in pairs]
     assert len(truth) == 500
-    # Start: the scenario's position on the CM-5 grid (program.md §10 item 6: −33699.25, 5856313.41)
+    # Start: the scenario's position on the CM-5 grid (THEORY §14.1 item 6: −33699.25, 5856313.41)
     assert (truth[0].x_m, truth[0].y_m) == pytest.approx((-33699.25, 5856313.41), abs=0.01)
     # Leg 1: straight at 10 kn through the water plus the current; 232° true.
     step = math.hypot(truth[1].x_m - truth[0].x_m, truth[1].y_m - truth[0].y_m)
@@ -168,7 +168,7 @@ def test_noise_free_decca_is_the_engine_lane_model(noise_free, data_files, ed50)
     assert n == 300
 
 
-# Chain 9B as printed in program.md §5.2 (thesis A8.4): (lat, lon) on ED50, frequency kHz;
+# Chain 9B as printed in THEORY §13.2 (thesis A8.4): (lat, lon) on ED50, frequency kHz;
 # master, Red, Green, Purple. Typed in from the spec, not read through engine.io.deccafile.
 CHAIN_9B = (
     ((53, 12, 12.388), (7, 6, 0.590), 85.7200),
@@ -187,7 +187,7 @@ def _lane_counts_by_pyproj(lat: float, lon: float) -> np.ndarray:
     """Total Red/Green/Purple lane counts N = (D_m − D_s + B)/λc + k at (lat, lon) ED50 with
     exact geodesics (pyproj.Geod, Hayford 1909) and nothing from engine.systems.decca: λc = v/f_c
     with
-    f_c = 3 f_R, 2 f_G, 6 f_P (= 24, 18, 30 f0; lsq.md §5.2), k = 0 for 9B."""
+    f_c = 3 f_R, 2 f_G, 6 f_P (= 24, 18, 30 f0; THEORY §3.2), k = 0 for 9B."""
     geod = pyproj.Geod(a=6378388.0, rf=297.0)
     st = [(_deg(la), _deg(lo), f) for la, lo, f in CHAIN_9B]
     dist = [geod.inv(lon, lat, s_lon, s_lat)[2] for s_lat, s_lon, _f in st]
@@ -201,13 +201,13 @@ def _lane_counts_by_pyproj(lat: float, lon: float) -> np.ndarray:
 
 def test_noise_free_decca_matches_an_independent_hyperbolic_model(noise_free) -> None:
     """The simulated lane fractions against lane counts recomputed from pyproj geodesics to the
-    DECCA.CHN stations of program.md §5.2 (independent of engine.systems.decca, which the
+    DECCA.CHN stations of THEORY §13.2 (independent of engine.systems.decca, which the
     simulator uses).
 
-    The comparison wavelengths are first checked against program.md §5.2 (873.63, 1164.84,
+    The comparison wavelengths are first checked against THEORY §13.2 (873.63, 1164.84,
     698.90 m). Tolerance 5e-4 lane unquantised: the engine follows the thesis in taking the
     spheroidal distance as grid chord / line scale factor (A5.10) and the baseline from
-    Andoyer–Lambert (lsq.md §2.4); against exact geodesics these differ by up to 0.26 m (the
+    Andoyer–Lambert (THEORY §2.5); against exact geodesics these differ by up to 0.26 m (the
     227-km Red baseline) = 3e-4 lane, while a wrong station, sign or pattern order is off by
     whole lanes and a wavelength off by 1e-5 of itself by 5e-4 lane on Red (N ≈ 45). Written
     to 0.001 lane: + 0.0005 rounding (0.001 where the writer clamps .9995+ to .999).

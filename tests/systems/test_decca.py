@@ -1,4 +1,4 @@
-"""Decca lane model against Pg 810/615/821 of the thesis worked example (lsq.md §5, §12).
+"""Decca lane model against Pg 810/615/821 of the thesis worked example (THEORY §3.2–3.5, §14.2).
 
 The receiver is the LSE of the sample, grid (−31615.400, 5857300.165) on ED50, CM 5°E.
 """
@@ -86,12 +86,12 @@ def test_decca_vcv_structure_and_tolerance(geometry) -> None:
     _, g = geometry
     c = decca_vcv_m2(g, 64.0)
     # Pg 615 prints [[916.877, 18.050], [18.050, 83.585]].  The documented A4 model gives
-    # 917.98 / 18.126 / 83.633 (lsq.md §6.3, Q1: the 0.1–0.4 % misfit is unexplained).  We hold
+    # 917.98 / 18.126 / 83.633 (THEORY §3.5, D10: the 0.1–0.4 % misfit is unexplained).  We hold
     # the model to 0.5 %, the regression tolerance stated there.
     assert c[0, 0] == pytest.approx(916.877, rel=5e-3)
     assert c[0, 1] == pytest.approx(18.050, rel=5e-3)
     assert c[1, 1] == pytest.approx(83.585, rel=5e-3)
-    # And exactly what the literal A4 formulas give (hand recomputation in lsq.md §6.3).
+    # And exactly what the literal A4 formulas give (hand recomputation in THEORY §3.5).
     assert [c[0, 0], c[0, 1], c[1, 1]] == pytest.approx([917.98, 18.126, 83.633], abs=0.005)
     # Covariance structure: master terms only, 12σn²/CF between Red and Green (A4.2d).
     lanes = decca_vcv_lanes(g, 64.0)
@@ -109,7 +109,7 @@ def test_path_sigma_polynomial() -> None:
 
 
 def test_zone_cycle_resolution() -> None:
-    # lsq.md §5.3: B20.862 → 44.862, F34.337 → 274.337 (second letter cycle), A51.111 → 1.111,
+    # THEORY §3.3: B20.862 → 44.862, F34.337 → 274.337 (second letter cycle), A51.111 → 1.111,
     # with N_calc at the DR start 44.88, 276.15, 1.05.
     red = resolve_total_lanes(1, 20, 0.862, "red", 44.88)
     assert red.total == pytest.approx(44.862) and red.cycle == 0 and red.warning is None
@@ -127,7 +127,7 @@ def test_zone_cycle_resolution() -> None:
     [("red", 1, 20, 44.862, 12.0), ("green", 5, 34, 94.337, 9.0), ("purple", 0, 51, 1.111, 15.0)],
 )
 def test_half_zone_warning(pattern: str, zone: int, lane: int, total: float, half: float) -> None:
-    """lsq.md Q7: warn when the resolved count is more than half a zone (lpz/2 = 12, 9, 15 lanes)
+    """THEORY D7: warn when the resolved count is more than half a zone (lpz/2 = 12, 9, 15 lanes)
     from N_calc. Hand calculation: the same reading with N_calc = total ± (half − 0.01) resolves
     to the same cycle without a warning; ± (half + 0.01) still resolves to it (the period is
     10 zones) but warns, naming the pattern, the zone/lane and the offset."""
@@ -156,17 +156,17 @@ def chain_2e() -> tuple[DeccaChain, ChainOnGrid, GeodesicSolver]:
 def test_min_lane_count_of_chain_2e(
     chain_2e: tuple[DeccaChain, ChainOnGrid, GeodesicSolver],
 ) -> None:
-    """Chain 2E has k = −3.920 (Red), 3.205 (Green), 0 (Purple) (DECCA.CHN, lsq.md §5.1, Q8).
+    """Chain 2E has k = −3.920 (Red), 3.205 (Green), 0 (Purple) (DECCA.CHN, THEORY §3.2, D8).
 
     Hand calculation from eq. 4.9, N = (D_m − D_s + B)/λc + k, at two points on each baseline
     extension, 5 km beyond a station along the geodesic through both (pyproj on the
     International ellipsoid, independent of the engine):
     * behind the master D_s = D_m + B, so N = k exactly: −3.920, 3.205, 0;
     * behind the slave D_m = D_s + B, so N = 2B/λc + k, with λc = v/(m·f_slave), v = 299550
-      km/s, m = 3, 2, 6 (lsq.md §5.2): Red λc = 299550/(3·112.7333) = 885.719 m, B = 109 758.61
+      km/s, m = 3, 2, 6 (THEORY §3.2): Red λc = 299550/(3·112.7333) = 885.719 m, B = 109 758.61
       m → 247.841 − 3.920 = 243.921; Green 1180.958 m, 85 651.95 m → 145.055 + 3.205 =
       148.260; Purple 708.575 m, 238 043.89 m → 671.895.
-    Tolerance 5e-4 lane: the engine's baseline is Andoyer–Lambert (lsq.md §2.4), 0.15 m shorter
+    Tolerance 5e-4 lane: the engine's baseline is Andoyer–Lambert (THEORY §2.5), 0.15 m shorter
     than the geodesic for Red (1.7e-4 lane), and its distances are grid chord / L (mm). With
     k's sign reversed Red and Green would be off by 7.8 and 6.4 lanes."""
     chain, placed, solver = chain_2e

@@ -1,7 +1,7 @@
-"""The half-zone warning of the Decca lane-count resolution (lsq.md Q7) in the processing cycle.
+"""The half-zone warning of the Decca lane-count resolution (THEORY D7) in the processing cycle.
 
 The thesis sample (920917_1.toml: Red B20, Green F34) resolves without a warning: at the DR
-start N_calc = 44.88 / 276.15 against 44.862 / 274.337 (lsq.md §5.3), well inside half a zone.
+start N_calc = 44.88 / 276.15 against 44.862 / 274.337 (THEORY §3.3), well inside half a zone.
 Entering Red one zone too far (C20) still resolves the 10-zone cycle to the count nearest the
 DR (68.862 against 44.88, 24 lanes ≈ 10.5 km on the baseline) but is more than half a zone
 (12 lanes) from it: the cycle's messages must carry the warning, once, on the first reading.

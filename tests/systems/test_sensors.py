@@ -1,4 +1,4 @@
-"""Sensor conversions against the thesis' worked numbers (kalman.md §11, program.md §10)."""
+"""Sensor conversions against the thesis' worked numbers (THEORY §3.7–3.8, §14.1)."""
 
 from __future__ import annotations
 
@@ -10,12 +10,12 @@ from engine.systems import sensors
 
 
 def test_knot_factor_reproduces_the_sample_displacement() -> None:
-    # program.md §10 item 6: two 1-s steps at 12.7 kn move the ship 13.07 m (printed to 0.01 m).
+    # THEORY §14.1 item 6: two 1-s steps at 12.7 kn move the ship 13.07 m (printed to 0.01 m).
     assert 2 * sensors.knots_to_ms(12.7) == pytest.approx(13.07, abs=0.005)
 
 
 def test_depth_of_one_megapascal() -> None:
-    # kalman.md §11: P − P_ref = 1.0e6 Pa gives d = 101.9716/1.026 = 99.39 m (hand calculation).
+    # THEORY §3.7–3.8: P − P_ref = 1.0e6 Pa gives d = 101.9716/1.026 = 99.39 m (hand calculation).
     ref = sensors.surface_reference_hz()
     f = sensors.crystal_frequency_hz(sensors.crystal_pressure_pa(ref) + 1.0e6)
     assert sensors.pressure_depth_m(f, ref, 1.026) == pytest.approx(99.39, abs=0.005)

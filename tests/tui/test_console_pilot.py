@@ -662,7 +662,7 @@ def test_developer_parameter_dialogs(data_dir: Path) -> None:
 
 def test_statistics_pages_and_sub_pages(data_dir: Path) -> None:
     """Statistics items open their numbered page beside the left status column; PgDn/PgUp
-    cycle through the sub-pages of a group (program.md A5); Data pages need developer mode."""
+    cycle through the sub-pages of a group (THEORY D37); Data pages need developer mode."""
     app = make_app(data_dir)
 
     async def script(pilot: Pilot[None]) -> None:

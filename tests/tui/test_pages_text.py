@@ -1,16 +1,16 @@
-"""The Statistics (6xx) and Data (8xx) pages as text: the thesis worked example (A8.5, lsq.md §12)
+"""The Statistics (6xx) and Data (8xx) pages as text: the thesis worked example (A8.5, THEORY §14.2)
 where the engine reproduces it, engine-consistency of every printed number, and robustness.
 
 Three cycle results are rendered:
 
 * ``sample``: cycle 2 (08:35:39Z) of data/920917_1.toml as the engine runs it (the .RUN GPS
   record, read as ED50; filter on);
-* ``thesis``: the screen's inputs (lsq.md §12 "Inputs actually used"): a Session on the sample
+* ``thesis``: the screen's inputs (THEORY §14.2 "Inputs actually used"): a Session on the sample
   configuration with the screen's WGS84 GPS fix in the .RUN records and the filter off (the
   screens show "Filter : N/A", MPP = LSE), whose cycle-2 fix is replaced by the direct
   ``compute_fix`` of the worked example from the DR start (as in test_fix_worked_example.py),
   with the Decca VCV of the engine's A4 model;
-* ``printed``: the same with the Decca VCV the screens print (lsq.md §13 Q1: "exact LSE regression
+* ``printed``: the same with the Decca VCV the screens print (THEORY D10: "exact LSE regression
   tests use the printed C_Decca"), which makes C_x̂, the ellipse and W exact.
 
 Values the engine does not reproduce exactly are listed in :data:`NOT_EXACT` with the reason, and
@@ -58,7 +58,7 @@ def mod(number: int) -> ModuleType:
 PRINTED_DECCA_VCV = np.array([[916.877, 18.050, 0.0], [18.050, 83.585, 0.0], [0.0, 0.0, 1.0]])
 """C_Decca as printed on Pg 615/821 (the Purple entries are irrelevant: Purple is deselected)."""
 
-# The two records of the sample run with the screen's GPS fix (lsq.md §12: WGS84 52°50'30.000"N
+# The two records of the sample run with the screen's GPS fix (THEORY §14.2: WGS84 52°50'30.000"N
 # 004°31'46.200"E); time, Decca fractions, gyro, log and rudder as in 920917_1.RUN.
 SCREEN_RUN = (
     "920917 083538 52 50 30.000 N 004 31 46.200 E .862 .325 .109 232.4 12.7 -.2\n"
@@ -95,7 +95,7 @@ def screen(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Session, 
 
 
 def worked_fix(session: Session, r: CycleResult) -> FixResult:
-    """The worked example's LSE from the DR start (lsq.md §12, test_fix_worked_example.py)."""
+    """The worked example's LSE from the DR start (THEORY §14.2, test_fix_worked_example.py)."""
     ctx = session.context
     grid = ctx.grid(5.0)
     g = r.gps
@@ -191,38 +191,38 @@ def test_thesis_strings(number: int, case: str, strings: tuple[str, ...],
 NOT_EXACT: list[tuple[int, str, str, str, float, str]] = [
     # (page, case, thesis string, engine string, tolerance on the printed values, reason)
     (615, "thesis", "916.877", "917.982", 0.005 * 916.877,
-     "Decca VCV from the A4 model is 0.1–0.4 % off the screen (lsq.md §13 Q1)"),
-    (615, "thesis", "83.585", "83.632", 0.005 * 83.585, "Decca VCV, lsq.md Q1"),
+     "Decca VCV from the A4 model is 0.1–0.4 % off the screen (THEORY D10)"),
+    (615, "thesis", "83.585", "83.632", 0.005 * 83.585, "Decca VCV, THEORY D10"),
     (615, "thesis", "33.45517", "33.45515", 5e-5,
-     "Purple LEF at our LSE, 3 mm from the screen's (lsq.md §12.1)"),
+     "Purple LEF at our LSE, 3 mm from the screen's (THEORY §14.3)"),
     (611, "thesis", "-31615.400", "-31615.404", 0.005,
-     "calc = our LSE, 3–4 mm from the screen's (lsq.md §12.1: grid 5 mm)"),
-    (611, "thesis", "5857300.165", "5857300.166", 0.005, "LSE grid, lsq.md §12.1"),
+     "calc = our LSE, 3–4 mm from the screen's (THEORY §14.3: grid 5 mm)"),
+    (611, "thesis", "5857300.165", "5857300.166", 0.005, "LSE grid, THEORY §14.3"),
     (631, "thesis", "-1.8", "-1.9", 0.1,
-     "v Lon −1.850 against the screen's −1.846: b of a linearisation 2 mm away (lsq.md §12)"),
+     "v Lon −1.850 against the screen's −1.846: b of a linearisation 2 mm away (THEORY §14.2)"),
     (631, "thesis", "52°50'32.373\" N", "52°50'32.374\" N", 0.0,
-     "LSE latitude to 0.001\" (lsq.md §12.1 recomputes .374\")"),
+     "LSE latitude to 0.001\" (THEORY §14.3 recomputes .374\")"),
     (631, "thesis", "74.87m", "74.90m", 0.001 * 74.87,
-     "a95 with the A4 Decca VCV (0.1 % of C_x̂, lsq.md Q1); exact with the printed VCV"),
+     "a95 with the A4 Decca VCV (0.1 % of C_x̂, THEORY D10); exact with the printed VCV"),
     (633, "thesis", "0.04", "0.05", 0.01,
      "w Lon = 0.0451 sits on the rounding point (screen 0.04 from b 2 mm away)"),
     (633, "thesis", "0.021 (4)", "0.029 (4)", math.inf,
      "cumulative σ² needs the thesis' cycle-1 GPS input, which is not listed; with the same GPS "
-     "as cycle 2 it is 0.029, as lsq.md §13 Q3 predicts"),
+     "as cycle 2 it is 0.029, as THEORY D19 predicts"),
     (641, "thesis", "5857300.16", "5857300.17", 0.01,
      "LSE northing 5857300.165/.166 rounds up; the screen shows .16 (Pg 611 shows .165)"),
     (641, "printed", "196.755", "196.756", 0.002,
-     "σy² from the printed C_l rounded to 3 dp (lsq.md §12.1 recomputes 196.756)"),
+     "σy² from the printed C_l rounded to 3 dp (THEORY §14.3 recomputes 196.756)"),
     (641, "thesis", "-33709.65", "-31611.68", math.inf,
      "KF = the filter's prediction; the engine restarts the DR from each LSE (filter off) or "
-     "updates from the first cycle (A6, kalman.md A3), not pure DR from the start position"),
+     "updates from the first cycle (THEORY D21–D22), not pure DR from the start position"),
     (641, "thesis", "814.936", "815.581", 0.002 * 814.936, "C_x̂ with the A4 Decca VCV"),
     (810, "thesis", "177026.82", "177026.83", 0.011,
-     "D_m at our LSE, 3 mm from the screen's (lsq.md §12.1: D to 0.01 m)"),
+     "D_m at our LSE, 3 mm from the screen's (THEORY §14.3: D to 0.01 m)"),
     (810, "thesis", "365220.90", "365220.91", 0.011, "D_Red at our LSE, as above"),
     (821, "thesis", "12.45880", "12.41331", 0.06,
      "b = O − C at the last linearisation point, 0.06 m from x̂ here, 2 mm on the screen"),
-    (830, "thesis", "0.00110", "0.00109", 1.5e-5, "W of the A4 Decca VCV (lsq.md Q1)"),
+    (830, "thesis", "0.00110", "0.00109", 1.5e-5, "W of the A4 Decca VCV (THEORY D10)"),
     (830, "printed", "0.01202", "0.01201", 1e-5,
      "W_GG = 0.0120149 sits 5e-8 below the rounding point (test_adjustment.py)"),
     (840, "thesis", "935.48", "936.21", 0.002 * 935.48, "λ1 with the A4 Decca VCV"),

@@ -1,5 +1,5 @@
 """Setup ▸ Systems ▸ Decca: on/off, chain (``DECCA.CHN``), zone + whole lane per pattern
-(e.g. B20, F34, A51) and the patterns used for fixing (L5424, L5526–5531; program.md A14)."""
+(e.g. B20, F34, A51) and the patterns used for fixing (L5424, L5526–5531; THEORY D7)."""
 
 from __future__ import annotations
 

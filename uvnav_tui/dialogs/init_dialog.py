@@ -1,4 +1,4 @@
-"""The 'Parameter Initialization' cadre shown over the main page at start-up (program.md §2.2).
+"""The 'Parameter Initialization' cadre shown over the main page at start-up (THEORY §12.3).
 
 Asks, in the thesis' order, for the geodetic datum (choices from ``TO_WGS84.DAT``), the initial
 DR position, the depth, the current speed and direction (the set) and the ``.RUN`` file name

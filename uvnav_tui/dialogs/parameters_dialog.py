@@ -2,7 +2,7 @@
 
 Demo ▸ Parameters edits ``[demo]`` (sample interval, playback pace, plot scale and size, specific
 weight …); in developer mode Demo ▸ Corrections / LS params / Filter params edit
-``[corrections]``, ``[lsq]`` and ``[filter]`` (program.md §3 item 7, A4). Every value is checked
+``[corrections]``, ``[lsq]`` and ``[filter]`` (THEORY §12.6 item 7, D36). Every value is checked
 as it is typed by the configuration's own validation; OK sends one ``SetParameters`` command with
 the changed keys.
 """

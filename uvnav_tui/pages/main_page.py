@@ -1,4 +1,4 @@
-"""Pg 100, the main page (program.md §4.2; thesis A8.5 L8991–8997).
+"""Pg 100, the main page (THEORY §12.8; thesis A8.5 L8991–8997).
 
 Two boxes MPP and LSE (``Datum :``, ``Lat :``, ``Lon :``, ``Hg :``, ``RMS :``, ``a / b :``,
 ``Az :``), the sensor strip (``GYRO 232.3°  LOG 12.7kts  RUDR OFF  INCL N/A  PRESS OFF``) and the

@@ -1,4 +1,4 @@
-"""Pg 611, Statistics ▸ Systems ▸ GPS (program.md §4.3; thesis L9001–9004, lsq.md §12).
+"""Pg 611, Statistics ▸ Systems ▸ GPS (THEORY §12.8; thesis L9001–9004, THEORY §14.2).
 
 The GPS fix on WGS84 (with the height that puts it at height 0 on the working datum) and on the
 working datum, the grid observed / calculated values (obs = the converted fix, calc = the LSE),
@@ -43,7 +43,7 @@ def render(r: CycleResult, session: Session) -> str:
         f"{'datum':<9}{'lat':<19}{'lon':<20}Hg",
         f"{'WGS84':<9}{format_lat_dms(g.wgs84_lat_deg):<19}{format_lon_dms(g.wgs84_lon_deg):<20}"
         f"{num(g.hg_m, 1)}",
-        # Hg on the working datum is 0 by construction (program.md §4.3: hg_m is the WGS84 height
+        # Hg on the working datum is 0 by construction (THEORY §12.8: hg_m is the WGS84 height
         # that puts the fix at height 0 on the working datum).
         f"{r.datum:<9}{format_lat_dms(g.lat_deg):<19}{format_lon_dms(g.lon_deg):<20}0.00",
         "",

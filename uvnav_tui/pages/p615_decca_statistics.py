@@ -1,4 +1,4 @@
-"""Pg 615, Statistics ▸ Systems ▸ Decca (program.md §4.4; thesis L9008–9042, lsq.md §12).
+"""Pg 615, Statistics ▸ Systems ▸ Decca (THEORY §12.8; thesis L9008–9042, THEORY §14.2).
 
 Per pattern: the observed total lane count (Obs), the operator's correction (C-O, A7), the count
 computed at the LSE (Calc), the lane expansion factor (LEF) and the LOP azimuth (Az, °); then the

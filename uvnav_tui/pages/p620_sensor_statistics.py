@@ -1,4 +1,4 @@
-"""Pg 620, Statistics ▸ Sensors (program.md §4.12, A5; kalman.md §10.5 "Other pages", §11).
+"""Pg 620, Statistics ▸ Sensors (THEORY §12.10, D37; THEORY §14.4, §3.7–3.8).
 
 Per bounded sensor: its status, the raw value of the ``.RUN`` record, the converted value the
 program uses (gyro: grid heading ψ − γ; log: m/s; pressure: depth from the crystal frequency),

@@ -1,4 +1,4 @@
-"""Pg 631, Statistics ▸ LSE: the LOP table (program.md §4.5; thesis L9046–9075, lsq.md §12).
+"""Pg 631, Statistics ▸ LSE: the LOP table (THEORY §12.8; thesis L9046–9075, THEORY §14.2).
 
 One row per LOP of the fix in slot order (GPS Lat/Lon or the filter's KF pseudo-LOPs, Decca
 Red/Grn/Prp, then Brg/Dist observations): the reading on the working datum, the correction C-O,
@@ -81,7 +81,7 @@ def footer(r: CycleResult, session: Session) -> list[str]:
     axes = conf_axes(lse, level)
     if axes is None or lse.ellipse is None:
         return out + [f"a/b/c : {MISSING}", f"Az/elev. : {MISSING}"]
-    # The LSE is 2-D: c = 0 and elevation 0 (program.md §4.5).
+    # The LSE is 2-D: c = 0 and elevation 0 (THEORY §12.8).
     return out + [
         f"a/b/c : {format_metres(axes[0], space=False)} {format_metres(axes[1], space=False)} "
         f"{format_metres(0.0, space=False)}   ({100.0 * level:g} %)",

@@ -1,5 +1,5 @@
-"""Pg 633, Statistics ▸ LSE (second page): residuals and tests (program.md §4.6; thesis
-L9079–9098, lsq.md §8 and §12).
+"""Pg 633, Statistics ▸ LSE (second page): residuals and tests (THEORY §12.8; thesis
+L9079–9098, THEORY §6, §14.2).
 
 One row per LOP of the fix in slot order: residual v (m), σ_d (eq. 5.8b), Baarda's w (5.8c),
 the reliability factor r = τ = σ_d/σ (5.11), the variance factor VF (5.12, ``!`` when > 0.9 =

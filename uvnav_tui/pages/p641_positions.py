@@ -1,5 +1,5 @@
-"""Pg 641, Statistics ▸ Position ▸ Positions (program.md §4.7; thesis L9102–9119, kalman.md
-§10.5).
+"""Pg 641, Statistics ▸ Position ▸ Positions (THEORY §12.8; thesis L9102–9119, THEORY
+§14.4).
 
 The LSE, the filter's prediction (KF, P_{k+1|k}) and the MPP, each as latitude, longitude and
 grid x/y; the a posteriori VCV of the MPP (m², x/y) and its ellipse: standard and ``ConfRegion``
@@ -70,7 +70,7 @@ def render(r: CycleResult, session: Session) -> str:
         out += ["", f"Standard : {MISSING}", f"Azimuth : {MISSING}"]
     else:
         a, b = ell.scaled(level)
-        # The MPP's region is a horizontal ellipse: c = 0 and elevation 0 (program.md §4.7).
+        # The MPP's region is a horizontal ellipse: c = 0 and elevation 0 (THEORY §12.8).
         std = f"Standard : {num(ell.a_m, 2)}  {num(ell.b_m, 2)}  {num(0.0, 2)}"
         conf = f"{pct(level)} : {num(a, 2)}  {num(b, 2)}  {num(0.0, 2)}"
         out += [

@@ -1,4 +1,4 @@
-"""Pg 642, Statistics ▸ Position ▸ Plot: the current situation (program.md §3 item 6, §9, A5).
+"""Pg 642, Statistics ▸ Position ▸ Plot: the current situation (THEORY §12.6 item 6, §10, D37).
 
 A north-up braille map on the TM grid of the current cycle's CM (x east, y north, metres), centred
 on the MPP, ``[demo] plot_scale_m`` metres either side of it across and the same metres per dot

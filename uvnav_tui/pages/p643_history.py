@@ -1,13 +1,13 @@
 """Pg 643, Statistics ▸ Position ▸ History: filtered versus least-squares positions over time.
 
-The thesis never built this page (L7670, program.md A24); this is the recommended track-history
+The thesis never built this page (L7670, THEORY D46); this is the recommended track-history
 view.  Over the session's history window (up to this cycle), against minutes before the current
 cycle's record time:
 
 1. LSE − MPP, grid north component (m), at the cycles that have an LSE;
 2. LSE − MPP, grid east component (m);
 3. the MPP's ``ConfRegion`` (95 %) semi-major axis a (m, solid) and, at cycles without an LSE,
-   the Pool of Errors radius R = a_LSE + ε·Δt (m, dashed; program.md §9), so the navigator sees
+   the Pool of Errors radius R = a_LSE + ε·Δt (m, dashed; THEORY §10), so the navigator sees
    the two measures of the dived position's precision side by side.
 
 Offsets are differences of grid coordinates of the same cycle (the TM grid of its CM; x east,

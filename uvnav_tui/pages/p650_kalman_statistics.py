@@ -1,5 +1,5 @@
-"""Pg 650, Statistics ▸ KF: the filter's state, its tests and its MPP (program.md §4.12, A5;
-kalman.md §6.3, §8, §10.5).
+"""Pg 650, Statistics ▸ KF: the filter's state, its tests and its MPP (THEORY §12.10, D37;
+THEORY §8.6, §8.14, §14.4).
 
 The state vector x̂_{k|k} in ``engine.filter.kalman.STATE_LABELS`` order (then any Gauss–Markov
 fix-error

@@ -1,4 +1,4 @@
-"""Pg 710, the Demo page: the demo parameters in force, read-only (program.md §3 item 7, §6, A4).
+"""Pg 710, the Demo page: the demo parameters in force, read-only (THEORY §12.6, §12.11, D36).
 
 The navigator sees the layout and performance parameters (plot scale and size, specific weight,
 sample interval, playback pace, Pool of Errors rate ε, pressure reference); in developer mode the

@@ -1,5 +1,5 @@
-"""Pg 810, Data ▸ Decca (developer): the chain and its geometry at the LSE (program.md §4.8;
-thesis L9123–9144, lsq.md §12).
+"""Pg 810, Data ▸ Decca (developer): the chain and its geometry at the LSE (THEORY §12.9;
+thesis L9123–9144, THEORY §14.2).
 
 The chain's stations on the working datum (DMS), the uncorrected total lane counts, the grid
 coordinates of the ship (the LSE, where the geometry is evaluated) and of the four stations,

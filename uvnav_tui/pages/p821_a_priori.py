@@ -1,5 +1,5 @@
 """Pg 821, Data ▸ A-prio (developer): design matrix, misclosures and a priori VCV of the LS fix
-(program.md §4.9; thesis L9148–9168, lsq.md §3.5 and §12).
+(THEORY §12.9; thesis L9148–9168, THEORY §5.3, §14.2).
 
 ``[A | b]`` for the first five observation slots (GPS Lat, GPS Lon, Decca Red, Green, Purple;
 then any bearing/distance slots in use): the metric design-matrix row (∂F/∂x, ∂F/∂y) and

@@ -1,5 +1,5 @@
-"""Pg 830, Data ▸ Weights (developer): the LS weight matrix W = C_l⁻¹ (program.md §4.10; thesis
-L9172–9190, kalman.md §10.5).
+"""Pg 830, Data ▸ Weights (developer): the LS weight matrix W = C_l⁻¹ (THEORY §12.9; thesis
+L9172–9190, THEORY §14.4).
 
 All ten rows (GPS 2, Decca 3, BRR 5) and the first five columns, 5 decimals, as on the thesis
 page; unused slots have weight 0::

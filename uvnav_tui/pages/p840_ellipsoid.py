@@ -1,5 +1,5 @@
-"""Pg 840, Data ▸ Ellipsoid (developer): error ellipses and ellipsoids (program.md §4.11; thesis
-L9194–9210, lsq.md §9, kalman.md §6.9 and §10.5).
+"""Pg 840, Data ▸ Ellipsoid (developer): error ellipses and ellipsoids (THEORY §12.9; thesis
+L9194–9210, THEORY §7, §8.12, §14.4).
 
 Three blocks: the LSE (2-D, from C_x̂), the filter's prediction KF (3-D, from the x/y/depth block
 of P_{k+1|k}) and the MPP (3-D from P_{k+1|k+1} when the filter gives it, else the 2-D LSE).

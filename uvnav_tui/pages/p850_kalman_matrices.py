@@ -1,5 +1,5 @@
-"""Pg 850, Data ▸ Kalman (developer): the filter's vectors (program.md §4.10 and A8; kalman.md
-§8 and §10.5).  Sub-pages 851 (P as a correlation matrix), 852 (Φ) and 853 (K, H, R).
+"""Pg 850, Data ▸ Kalman (developer): the filter's vectors (THEORY §12.9, D38; THEORY
+§8.14, §14.4).  Sub-pages 851 (P as a correlation matrix), 852 (Φ) and 853 (K, H, R).
 
 The state x̂(k|k) after this cycle with √diag P in the filter's own SI units (m, m/s, rad), then
 this cycle's update: the innovation v̂ = z − H x̂(k+1|k) per measurement row with its VCV

@@ -1,5 +1,5 @@
 """Pg 851, Data ▸ Kalman, sub-page 2 (developer): the filter's P(k|k) as a correlation matrix
-(kalman.md §10.5: "P (or its correlation matrix)"), with σ = √diag P in SI units.
+(THEORY §14.4: "P (or its correlation matrix)"), with σ = √diag P in SI units.
 
 Entries are correlations ρ_ij = P_ij/(σ_i σ_j) to two decimals, leading zeros dropped (``.12``,
 ``-.12``) so that all 11 (or 13 with the fix-error states) columns fit the page width.

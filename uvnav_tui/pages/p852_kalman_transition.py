@@ -1,5 +1,5 @@
 """Pg 852, Data ▸ Kalman, sub-page 3 (developer): the transition matrix Φ of this cycle's step
-(eq. 6.31, kalman.md §6.4), from the cycle's smoother link (state before the step, its
+(eq. 6.31, THEORY §8.7), from the cycle's smoother link (state before the step, its
 prediction, Φ).  Entries are compact (``0``, ``1``, ``-.766``, ``4.17``) so the matrix fits.
 """
 

@@ -1,4 +1,4 @@
-"""Shared pieces of the numbered text pages (Statistics 6xx and Data 8xx, program.md §4.3–4.12).
+"""Shared pieces of the numbered text pages (Statistics 6xx and Data 8xx, THEORY §12.8–12.10).
 
 Pure text helpers (numbers, matrices, ellipse blocks) used by the ``p6nn_*``/``p8nn_*`` modules,
 and :class:`TextPage`, the monochrome page body they all use: a scrolling text block whose text
@@ -35,9 +35,9 @@ from engine.api import (
 MISSING = "---"
 """Printed for a value that does not exist this cycle (not a statistic: those print 999.99)."""
 P999 = 0.999
-"""The 99.9 % level of the Ellipsoid page (program.md §4.11, L7697)."""
+"""The 99.9 % level of the Ellipsoid page (THEORY §12.9, L7697)."""
 SLOT_NAMES = SLOT_LABELS
-"""Row names of the LS observation slots, from the systems' registry (lsq.md §3.5, Pg 821/830)."""
+"""Row names of the LS observation slots, from the systems' registry (THEORY §5.3, Pg 821/830)."""
 
 
 # --------------------------------------------------------------------------- numbers

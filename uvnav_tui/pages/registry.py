@@ -1,4 +1,4 @@
-"""The one registry of the console's numbered pages (program.md §4.1, A5): number, title and body.
+"""The one registry of the console's numbered pages (THEORY §12.7, D37): number, title and body.
 
 Pg 100 is the main page (:class:`uvnav_tui.pages.main_page.MainPage`, always on the console
 screen).  Every other page lives in its own module ``pNNN_what_it_shows.py`` in this package,
@@ -86,7 +86,7 @@ def page_refusal(number: int, dev_mode: bool) -> str:
 
 def sub_pages(number: int) -> tuple[int, ...]:
     """The sub-pages of ``number``'s group, in order: the pages sharing its hundreds and tens
-    digit (program.md §4.1: the units digit numbers the sub-page), e.g. 641 → (641, 642, 643)."""
+    digit (THEORY §12.7: the units digit numbers the sub-page), e.g. 641 → (641, 642, 643)."""
     return tuple(n for n in pages() if n // 10 == number // 10)
 
 

@@ -1,7 +1,7 @@
 """The console's base screen: menu bar, state line, the current page, message and key lines.
 
 Whenever another screen (a pulldown, a dialog, the command palette) covers it, the run is
-*interrupted*; when it is uncovered the run resumes (program.md §2.1, A22).
+*interrupted*; when it is uncovered the run resumes (THEORY §12.2, D44).
 """
 
 from __future__ import annotations

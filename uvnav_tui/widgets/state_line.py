@@ -1,5 +1,5 @@
 """Line 2 of every page: run state word, record time, pace and note on the left, ``Pg nnn`` on
-the right (program.md §4.1, A19)."""
+the right (THEORY §12.7, D42)."""
 
 from __future__ import annotations
 

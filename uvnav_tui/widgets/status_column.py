@@ -1,4 +1,4 @@
-"""The left status column of every page but Pg 100 (program.md §4.1; thesis Pg 611 footer)."""
+"""The left status column of every page but Pg 100 (THEORY §12.7; thesis Pg 611 footer)."""
 
 from __future__ import annotations
 
