@@ -1,7 +1,7 @@
 """The engine's public face: everything the console (``uvnav_tui``) may use, in one module.
 
 The user interface imports from here and nowhere else in ``engine`` (checked by
-``tests/tui/test_ui_layers.py``), so the engine's rooms (``io``, ``geodesy``, ``systems``,
+``tests/test_architecture.py``), so the engine's rooms (``io``, ``geodesy``, ``systems``,
 ``lsq``, ``filter``, ``run``, ``sim``, ``assess``) can be rearranged without touching the UI:
 only the import lines below follow a move.
 

@@ -363,7 +363,7 @@ def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
     and filter states (which already are): the fix's VCV, ellipse axes and raw LOPs, the
     smoother link's Φ and each filter update's innovation, S, K and LS factors. A cycle result
     is an immutable value (the per-slot arrays inside ``fix.tested`` belong to
-    engine.lsq.quality)."""
+    engine.lsq.snooping)."""
     arrays: list[np.ndarray] = []
     if fix is not None:
         arrays.append(fix.cov)
@@ -403,7 +403,7 @@ def fix_fit(fix: FixResult | None) -> tuple[float, str | None]:
     w-test (|w| > 2.576, eq. 5.10). Returns (factor, message): the fix's VCV C_x̂ is to be
     multiplied by the a posteriori variance factor S² (> the test's upper bound > 1), the
     estimate of how much C_l understates the errors (the thesis' own ScaleVCV remedy, A8.2; the
-    "advice: scale the a priori VCV by S²" of engine.lsq.quality). The filter then weighs the fix
+    "advice: scale the a priori VCV by S²" of engine.lsq.statistics). The filter then weighs the fix
     by what its residuals show instead of what was assumed: a fix whose LOPs are hundreds of σ
     apart (a damaged chain file, S² ~ 10⁵) moves the filter by ~1/S² of what it would have, and
     its ellipse as the MPP is S² larger in area. Dropping such fixes instead would lose every

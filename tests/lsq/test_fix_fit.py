@@ -36,7 +36,7 @@ def test_damaged_chain_fixes_are_flagged_and_deweighted(tmp_path: pathlib.Path) 
         summary = s.run()
     results = list(s.history)
     assert summary.epochs == 10 and summary.failed_fixes == 10
-    # The 2-dof unit-variance bound from scipy, independently of engine.lsq.quality: S² > 3.689.
+    # The 2-dof unit-variance bound from scipy, independently of engine.lsq.statistics: S² > 3.689.
     upper = chi2.ppf(0.975, 2) / 2
     for r in results:
         assert r.fix is not None and r.fix.s2 is not None and r.fix.s2 > upper
