@@ -17,9 +17,8 @@ Groups, in the order of a run:
   console must agree);
 * headless work: replay outputs, the simulator and the accuracy assessment.
 
-Two small functions are defined here rather than re-exported: :func:`pace_factor` (the demo
-table's rule for a pace word) and :func:`run_record` (a cycle's ``.RUN`` record, parsed by the
-run-file reader).
+One small function is defined here rather than re-exported: :func:`run_record` (a cycle's
+``.RUN`` record, parsed by the run-file reader).
 """
 
 from __future__ import annotations
@@ -111,6 +110,7 @@ from engine.run.config import (
     SensorsConfig,
     decca_cf_condition,
     load_config,
+    pace_factor,
     parse_decca_cf,
 )
 from engine.run.cycle import CycleResult, PositionEstimate, RunContext
@@ -235,12 +235,6 @@ __all__ = [
     "run_inputs",
     "write_simulation",
 ]
-
-
-def pace_factor(pace: str) -> float:
-    """Playback speed relative to real time for a pace word: 1 for ``real``, inf for ``fast``,
-    N for ``xN`` (the rule of the demo table, :attr:`DemoConfig.pace_factor`)."""
-    return DemoConfig(pace=pace).pace_factor
 
 
 def run_record(r: CycleResult) -> RunRecord | None:

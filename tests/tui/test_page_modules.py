@@ -7,7 +7,8 @@ import ast
 import pathlib
 import re
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+from tests.paths import ROOT
+
 UI = ROOT / "uvnav_tui"
 
 
