@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from typing import IO
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
 
+from engine.filter.lazy_scipy import cho_factor, cho_solve
 from engine.filter.state import IPSI, FilterState
 from engine.geodesy.angles import wrap_2pi, wrap_pi
 

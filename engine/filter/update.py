@@ -9,8 +9,8 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.linalg import blas, lapack
 
+from engine.filter.lazy_scipy import blas, lapack
 from engine.filter.measurements import Measurement, distinct_keys
 from engine.filter.params import FilterParams, read_only
 from engine.filter.state import IPSI, N_NAV, FilterState, add_fix_states

@@ -8,15 +8,13 @@
 * geodesic inverse (pyproj/Karney), first-order Andoyer–Lambert distance (THEORY §2.5);
 * line scale factor and spheroidal distance from grid coordinates (A5.10, A5.13, THEORY §2.4).
 
-Angles are degrees unless a name says otherwise; lengths are metres.
+Angles are degrees unless a name says otherwise; lengths are metres. pyproj is imported when
+the first :class:`DatumShift` or :class:`GeodesicSolver` is built, not with this module (start-up).
 """
 
 from __future__ import annotations
 
 import math
-
-from pyproj import Geod, Transformer
-from pyproj.enums import TransformDirection
 
 from engine.geodesy.ellipsoid import WGS84, WGS84_ELLIPSOID, Datum, Ellipsoid
 
@@ -154,6 +152,8 @@ class DatumShift:
         self.src = src
         self.dst = dst
         self.pipeline = helmert_pipeline(src, dst)
+        from pyproj import Transformer
+
         self._tr = Transformer.from_pipeline(self.pipeline)
 
     def transform(
@@ -167,6 +167,8 @@ class DatumShift:
         self, lat_deg: float, lon_deg: float, h_m: float = 0.0
     ) -> tuple[float, float, float]:
         """Geodetic on ``dst`` → geodetic on ``src`` (degrees, degrees, metres)."""
+        from pyproj.enums import TransformDirection
+
         lat, lon, h = self._tr.transform(
             lat_deg, lon_deg, h_m, direction=TransformDirection.INVERSE
         )
@@ -271,6 +273,8 @@ class GeodesicSolver:
 
     def __init__(self, ell: Ellipsoid) -> None:
         self.ellipsoid = ell
+        from pyproj import Geod
+
         self._geod = Geod(a=ell.a_m, f=ell.f)
 
     def inverse(

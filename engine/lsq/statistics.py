@@ -9,7 +9,7 @@ THEORY §6.3), the unit-variance χ² test (5.13–5.17) and the cumulative unit
 
 Everything here works on metric quantities (m, m²) but is unit-agnostic: any consistent units do.
 Quantiles are computed once per argument set (``functools.lru_cache``); the normal quantiles come
-from :class:`statistics.NormalDist`, the χ² quantiles from SciPy (imported lazily, cold path only).
+from :class:`statistics.NormalDist`, the χ² quantiles from a table (SciPy only outside it).
 """
 
 from __future__ import annotations
@@ -20,6 +20,8 @@ from functools import lru_cache
 from statistics import NormalDist
 
 import numpy as np
+
+from engine.lsq.chi2_table import CHI2_QUANTILES
 
 #: The fixed rejection bound of the thesis, |w| > 2.576 (N(0,1) quantile 0.995, thesis L6665).
 REJECT_BOUND = 2.576
@@ -52,10 +54,16 @@ def delta0(alpha: float, power: float = 0.80) -> float:
 
 @lru_cache(maxsize=256)
 def chi2_quantile(p: float, dof: int) -> float:
-    """The χ²_dof quantile x with P(χ²_dof ≤ x) = ``p`` (SciPy, imported on the first call)."""
-    from scipy.stats import chi2  # cold path: once per (p, dof)
+    """The χ²_dof quantile x with P(χ²_dof ≤ x) = ``p``: from :mod:`engine.lsq.chi2_table`, else
+    2·P⁻¹(dof/2, p) from ``scipy.special`` (what ``scipy.stats.chi2.ppf`` computes, same bits)."""
+    row = CHI2_QUANTILES.get(p)
+    if row is not None and 1 <= dof <= len(row):
+        return row[dof - 1]
+    if dof <= 0:
+        return math.nan
+    from scipy.special import gammaincinv  # cold path: p or dof outside the table
 
-    return float(chi2.ppf(p, dof))
+    return float(2 * gammaincinv(dof / 2, p))
 
 
 @lru_cache(maxsize=256)

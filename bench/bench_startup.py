@@ -1,0 +1,129 @@
+"""Start-up benchmarks (no assertions; prints medians over repeats, with the conditions).
+
+1. ``uvnav replay data/920917_1.RUN --no-out`` in a fresh process: wall time from spawn to exit.
+2. The console's first paint in a real terminal: ``uvnav`` in a detached tmux session of
+   160×50 (a private tmux server, started once so its start is not counted), from the
+   ``new-session`` call until the menu bar ("Quit  Edit  Setup") is on the tmux screen, read
+   every :data:`POLL_S` seconds.
+
+Each is measured with a warm bytecode cache (filled by one untimed run) and without one: an empty
+``PYTHONPYCACHEPREFIX`` per run, so every module (the project, NumPy, SciPy, Textual…) is
+compiled from source, as on the first start after installing.  Timings belong here, never in a
+test: the machine is shared and the figures vary with its load (printed with them).
+
+Run: ``.venv/bin/python bench/bench_startup.py [--repeats N]`` (``make bench`` runs it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+REPLAY_ARGS = ("replay", "data/920917_1.RUN", "--no-out")
+TERM_SIZE = (160, 50)
+MENU_TEXT = "Quit  Edit  Setup"
+"""The menu bar: on the screen once the console has painted its first frame."""
+POLL_S = 0.01
+"""How often the tmux screen is read while waiting (each figure is late by up to this)."""
+TMUX_SOCKET = f"uvnav-startup-{os.getpid()}"
+
+
+def _uvnav() -> list[str]:
+    """The command that starts uvnav with this interpreter."""
+    return [sys.executable, "-m", "uvnav_tui.cli.main"]
+
+
+def _env(pycache: Path | None) -> dict[str, str]:
+    env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    if pycache is not None:
+        env["PYTHONPYCACHEPREFIX"] = str(pycache)
+    return env
+
+
+def replay_once(pycache: Path | None = None) -> float:
+    """Seconds of one ``uvnav replay data/920917_1.RUN --no-out`` in a fresh process."""
+    t0 = time.perf_counter()
+    subprocess.run([*_uvnav(), *REPLAY_ARGS], cwd=ROOT, env=_env(pycache), check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - t0
+
+
+def _tmux(*args: str, check: bool = True) -> str:
+    return subprocess.run(["tmux", "-L", TMUX_SOCKET, *args], check=check,
+                          capture_output=True, text=True).stdout
+
+
+def first_paint_once(pycache: Path | None = None, timeout_s: float = 60.0) -> float:
+    """Seconds from starting ``uvnav`` in a new tmux session until the menu bar is painted
+    (NaN if it did not appear within ``timeout_s``)."""
+    cols, rows = TERM_SIZE
+    session = f"paint{time.monotonic_ns()}"
+    prefix = f"PYTHONPYCACHEPREFIX={pycache} " if pycache is not None else ""
+    cmd = f"cd {ROOT} && exec env -u PYTHONDONTWRITEBYTECODE {prefix}{' '.join(_uvnav())}"
+    t0 = time.perf_counter()
+    _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
+    try:
+        while time.perf_counter() - t0 < timeout_s:
+            screen = _tmux("capture-pane", "-p", "-t", session, check=False)
+            if MENU_TEXT in screen:
+                return time.perf_counter() - t0
+            time.sleep(POLL_S)
+        return float("nan")
+    finally:
+        _tmux("kill-session", "-t", session, check=False)
+
+
+def _cold_and_warm(once: Callable[[Path | None], float], repeats: int
+                   ) -> tuple[list[float], list[float]]:
+    """``repeats`` runs without a bytecode cache, then ``repeats`` with a warm one."""
+    cold = []
+    for _ in range(repeats):
+        with tempfile.TemporaryDirectory(prefix="uvnav-pycache-") as empty:
+            cold.append(once(Path(empty)))
+    with tempfile.TemporaryDirectory(prefix="uvnav-pycache-") as cache:
+        once(Path(cache))  # fills the cache
+        warm = [once(Path(cache)) for _ in range(repeats)]
+    return cold, warm
+
+
+def _line(what: str, xs: list[float]) -> str:
+    good = [x for x in xs if x == x]
+    med = f"{statistics.median(good):.3f} s" if good else "n/a"
+    return f"{what}: median {med} (runs: {', '.join(f'{x:.3f}' for x in xs)})"
+
+
+def main() -> None:
+    """Run the benchmarks and print the medians."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    args, _rest = parser.parse_known_args()
+    print(f"start-up, {os.cpu_count()} CPU(s), load average {os.getloadavg()[0]:.1f} at the "
+          f"start, Python {sys.version.split()[0]}, medians of {args.repeats}")
+    cold, warm = _cold_and_warm(replay_once, args.repeats)
+    print(_line("uvnav replay data/920917_1.RUN --no-out, warm bytecode cache", warm))
+    print(_line("uvnav replay data/920917_1.RUN --no-out, no bytecode cache", cold))
+    if shutil.which("tmux") is None:
+        print("tmux not found: the console's first paint is skipped")
+        return
+    cols, rows = TERM_SIZE
+    _tmux("new-session", "-d", "-s", "keep", "sleep 3600")  # the server, started once
+    try:
+        cold, warm = _cold_and_warm(first_paint_once, args.repeats)
+    finally:
+        _tmux("kill-server", check=False)
+    print(_line(f"console first paint in tmux {cols}×{rows}, warm bytecode cache", warm))
+    print(_line(f"console first paint in tmux {cols}×{rows}, no bytecode cache", cold))
+
+
+if __name__ == "__main__":
+    main()
