@@ -18,20 +18,15 @@ Groups, in the order of a run:
 * headless work: replay outputs, the simulator and the accuracy assessment.
 
 One small function is defined here rather than re-exported: :func:`run_record` (a cycle's
-``.RUN`` record, parsed by the run-file reader).
+``.RUN`` record, parsed by the run-file reader). The names of the headless assessment and
+simulation are imported on first use (:func:`__getattr__`), so that a replay and the console
+start without them.
 """
 
 from __future__ import annotations
 
-from engine.assess.accuracy import (
-    ESTIMATOR_LABELS,
-    ESTIMATORS,
-    PHASES,
-    Assessment,
-    assess,
-    read_nav_log,
-    read_truth,
-)
+from typing import TYPE_CHECKING
+
 from engine.errors import InputError, read_error
 from engine.filter.kalman import (
     IDEPS,
@@ -116,10 +111,28 @@ from engine.run.config import (
 from engine.run.cycle import CycleResult, PositionEstimate, RunContext
 from engine.run.records import lse_estimate, position_json
 from engine.run.session import RunSummary, Session, load_data, load_run_config, run_inputs
-from engine.sim.scenario import load_scenario
-from engine.sim.simulate import read_data_files, write_simulation
 from engine.systems.registry import SLOT_LABELS, slots_of
 from engine.systems.sensors import KNOT_MS, SENSOR_STATUS_WORD, knots_to_ms
+
+if TYPE_CHECKING:
+    from engine.assess.accuracy import (
+        ESTIMATOR_LABELS,
+        ESTIMATORS,
+        PHASES,
+        Assessment,
+        assess,
+        read_nav_log,
+        read_truth,
+    )
+    from engine.sim.scenario import load_scenario
+    from engine.sim.simulate import read_data_files, write_simulation
+
+_ASSESS_NAMES = frozenset(
+    {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
+     "read_truth"})
+_SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
+"""The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
+console never load the assessment or the simulator (start-up time)."""
 
 __all__ = [
     # errors
@@ -244,3 +257,24 @@ def run_record(r: CycleResult) -> RunRecord | None:
         return parse_run_line(r.raw, r.record)
     except (InputError, ValueError, IndexError):
         return None
+
+
+def __getattr__(name: str) -> object:
+    """The assessment's and the simulator's names (PEP 562), imported when first asked for."""
+    if name in _ASSESS_NAMES:
+        from engine.assess import accuracy
+
+        return getattr(accuracy, name)
+    if name == "load_scenario":
+        from engine.sim.scenario import load_scenario
+
+        return load_scenario
+    if name in _SIMULATE_NAMES:
+        from engine.sim import simulate
+
+        return getattr(simulate, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, "load_scenario"})

@@ -16,7 +16,7 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Vertical
 from textual.screen import ModalScreen
-from textual.widgets import DataTable, Static
+from textual.widgets import Static
 
 from engine.api import (
     CycleResult,
@@ -54,7 +54,9 @@ class TableScreen(ModalScreen[None]):
         self.rows = [list(r) for r in rows]
 
     def compose(self) -> ComposeResult:
-        """Frame with the table."""
+        """Frame with the table (DataTable is imported here: it is not needed at start-up)."""
+        from textual.widgets import DataTable
+
         with Vertical(classes="table-frame") as frame:
             frame.border_title = self.title_text
             frame.border_subtitle = "Esc closes"
@@ -63,6 +65,8 @@ class TableScreen(ModalScreen[None]):
 
     def on_mount(self) -> None:
         """Fill the table."""
+        from textual.widgets import DataTable
+
         table = self.query_one(DataTable)
         table.add_columns(*self.columns)
         table.add_rows(self.rows)
