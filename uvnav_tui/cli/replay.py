@@ -30,9 +30,6 @@ import sys
 import traceback
 from pathlib import Path
 
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
 from engine.api import (
     DatumFile,
     DeccaChain,
@@ -201,6 +198,9 @@ def _run(session: Session, run: Path) -> RunSummary:
     """Replay to the end, with a progress bar over the file's lines on a terminal."""
     if not sys.stderr.isatty():
         return session.run()
+    from rich.console import Console  # only on a terminal (start-up time)
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
     total = count_lines(run)
     with Progress(TextColumn("replay"), BarColumn(), MofNCompleteColumn(), TextColumn("lines"),
                   TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
