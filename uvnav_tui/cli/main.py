@@ -9,6 +9,7 @@ in its own module and is imported only when used, so ``uvnav replay`` never load
 
 from __future__ import annotations
 
+import gc
 import importlib
 import sys
 
@@ -36,6 +37,20 @@ USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open
 """
 
 
+def _import_quietly(module: str) -> object:
+    """Import ``module`` with the cyclic garbage collector paused, then freeze what the
+    imports made (start-up time: the collector otherwise scans the tens of thousands of
+    long-lived objects that NumPy, Textual and the engine create while they load, several
+    times over). Nothing is collected later that could have been collected here: module-level
+    objects live as long as the process."""
+    gc.disable()
+    try:
+        return importlib.import_module(module)
+    finally:
+        gc.freeze()
+        gc.enable()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Dispatch to the sub-command (or the console); returns the exit status."""
     args = list(sys.argv[1:] if argv is None else argv)
@@ -45,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     if args and args[0] in SUBCOMMANDS:
         module, func = SUBCOMMANDS[args[0]]
         try:
-            mod = importlib.import_module(module)
+            mod = _import_quietly(module)
         except ModuleNotFoundError as exc:
             if exc.name != module:
                 raise
@@ -58,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
                   file=sys.stderr)
             return EXIT_INTERRUPTED
     try:
-        mod = importlib.import_module("uvnav_tui.cli.console")
+        mod = _import_quietly("uvnav_tui.cli.console")
     except ModuleNotFoundError as exc:
         if exc.name != "uvnav_tui.cli.console":
             raise
