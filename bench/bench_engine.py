@@ -10,12 +10,23 @@ write (``engine.run.session.cycle_block``, ``OutLogWriter.write_cycle``); parsin
 timed on its own. "rest of the cycle" is the time inside ``engine.run.cycle.step`` outside the
 stage functions; the session's own bookkeeping (history, counters) is in no row. The timers
 cost about a microsecond per call, so the rows add up to a little more than the headline.
+
+The same run also compares against the engine before issue 14's per-epoch work
+(``BASELINE_REV``, extracted once with ``git archive`` into the temp folder): each round replays
+the same epochs with the baseline tree and with this tree, each in a fresh process (warm-up
+first), alternating, and the ratio is of the medians of the CPU times (CPU, not wall: the
+machine may be shared). Skipped with a note where the checkout has no git history.
 """
 
 from __future__ import annotations
 
 import importlib
+import io
+import os
 import statistics
+import subprocess
+import sys
+import tarfile
 import tempfile
 import time
 from collections import defaultdict
@@ -44,6 +55,28 @@ STAGES = {
         "predict_step", "update", "sensor_measurement", "lse_measurement", "stack_measurements"),
 }
 """Stage → the functions of ``engine.run.cycle`` (as ``step`` calls them) whose time it is."""
+BASELINE_REV = "f81acd7"
+"""The engine before issue 14's per-epoch work (the same-run comparison's baseline)."""
+_RUNNER = """
+import sys, tempfile, time
+from pathlib import Path
+from engine.run.config import load_config
+from engine.run.session import Session
+cfg, n = load_config(Path(sys.argv[1])), int(sys.argv[2])
+out = Path(tempfile.mkdtemp()) / "B.OUT"
+def replay(k):
+    s = Session(cfg, out_path=out, force=True, history=1)
+    try:
+        s.run(max_cycles=k)
+    finally:
+        s.close()
+replay(50)  # warm-up: lazy imports, caches
+t0 = time.process_time()
+replay(n)
+print(time.process_time() - t0)
+"""
+"""One timed replay (CPU s) of the first n epochs with the .OUT written, in the engine of the
+tree on ``sys.path`` (the same code for the baseline and this tree)."""
 LOG_STAGE = ".OUT block + write"
 CYCLE = "cycle total"
 
@@ -117,6 +150,43 @@ def _stage_split(cfg: RunConfig, out: Path, n: int) -> dict[str, float]:
     return {k: statistics.median(v) for k, v in spent.items()}
 
 
+def _baseline_tree(rev: str = BASELINE_REV) -> Path | None:
+    """The baseline engine's source tree (extracted once into the temp folder), or None."""
+    dest = Path(tempfile.gettempdir()) / f"uvnav-bench-baseline-{rev}"
+    if (dest / ".complete").exists():
+        return dest
+    try:
+        tar = subprocess.run(["git", "-C", str(ROOT), "archive", "--format=tar", rev],
+                             capture_output=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    dest.mkdir(parents=True, exist_ok=True)
+    with tarfile.open(fileobj=io.BytesIO(tar)) as tf:
+        tf.extractall(dest, filter="data")
+    (dest / ".complete").touch()
+    return dest
+
+
+def _cpu_replay(tree: Path, n: int) -> float:
+    """CPU seconds of one replay of ``n`` epochs by the engine of ``tree``, in a fresh process."""
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    done = subprocess.run([sys.executable, "-c", _RUNNER, str(tree / "data" / "DEMO.toml"),
+                           str(n)], cwd=tree, env=env, capture_output=True, text=True, check=True)
+    return float(done.stdout.split()[-1])
+
+
+def compare_baseline(n: int, rounds: int = REPEATS) -> tuple[float, float] | None:
+    """Median CPU seconds of (baseline, this tree) for ``n`` epochs, alternating per round."""
+    base = _baseline_tree()
+    if base is None:
+        return None
+    times: tuple[list[float], list[float]] = ([], [])
+    for _ in range(rounds):
+        for acc, tree in zip(times, (base, ROOT), strict=True):
+            acc.append(_cpu_replay(tree, n))
+    return statistics.median(times[0]), statistics.median(times[1])
+
+
 def main() -> None:
     """Print the replay throughput and the stage split (medians, µs per epoch, shares)."""
     cfg = load_config(CONFIG)
@@ -139,6 +209,14 @@ def main() -> None:
     total = sum(t for _, t in rows)
     for name, t in rows:
         print(f"  {name:34s}: {t / n * 1e6:7.1f} µs/epoch  {100 * t / total:5.1f} %")
+    cmp = compare_baseline(n)
+    if cmp is None:
+        print(f"  baseline {BASELINE_REV}: not compared (no git history here)")
+        return
+    t_base, t_now = cmp
+    print(f"  same run, CPU time, fresh processes alternating, median of {REPEATS}:")
+    print(f"    baseline {BASELINE_REV:9s}: {n / t_base:7.0f} epochs/s")
+    print(f"    this tree          : {n / t_now:7.0f} epochs/s  (ratio {t_base / t_now:.2f})")
 
 
 if __name__ == "__main__":

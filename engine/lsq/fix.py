@@ -195,6 +195,7 @@ class _Model:
         self.geodesic = geodesic
         self.parts = [(slots_of(name).start, obs) for name, obs in sets.items()]
         self.n_slots = registry.n_slots()
+        self._eye = np.eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
 
     def __call__(self, x: np.ndarray) -> Linearisation:
         """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N).
@@ -205,7 +206,7 @@ class _Model:
         n = self.n_slots
         A = [0.0] * (2 * n)  # row-major (n, 2): ∂/∂x, ∂/∂y of each slot
         b = [0.0] * n
-        Cl = np.eye(n)
+        Cl = self._eye.copy()
         x0, y0 = x.tolist() if isinstance(x, np.ndarray) else (float(x[0]), float(x[1]))
         p = Point(self.grid, self.geodesic, x0, y0)
         for slot0, obs in self.parts:

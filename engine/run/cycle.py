@@ -345,7 +345,7 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
 def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
               cov: np.ndarray) -> PositionEstimate:
     lat, lon = grid.inverse(x, y)
-    ell = error_ellipse(cov) if np.all(np.isfinite(cov)) else None
+    ell = error_ellipse(cov) if np.isfinite(cov).all() else None
     cov.setflags(write=False)
     if ell is not None:
         ell.eigenvectors.setflags(write=False)

@@ -525,7 +525,7 @@ class Session:
                 _t, x, y, z, pxx, pxy, pyy = packed.unpack(fh.read(packed.size))
                 cov = np.array([[pxx, pxy], [pxy, pyy]])
                 lat, lon = grid.inverse(x, y)
-                ell = error_ellipse(cov) if np.all(np.isfinite(cov)) else None
+                ell = error_ellipse(cov) if np.isfinite(cov).all() else None
                 cov.setflags(write=False)  # as engine.run.cycle's estimates: immutable values
                 if ell is not None:
                     ell.eigenvectors.setflags(write=False)

@@ -557,6 +557,8 @@ def decca_totals(
 # Decca behind the systems seam (engine.systems.base)
 
 DECCA_PATTERN_NAMES = ("Red", "Grn", "Prp")
+_EYE2 = np.eye(2)
+_EYE2.setflags(write=False)
 """Short Decca pattern names of the LOP tables (Pg 631) and the operator messages."""
 
 
@@ -670,7 +672,7 @@ class DeccaSystem:
             x_start,
             None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
             None if g is None else LaneSource("GPS", g.x_m + g.corr_east_m,
-                                              g.y_m + g.corr_north_m, np.eye(2) * g.var_m2))
+                                              g.y_m + g.corr_north_m, _EYE2 * g.var_m2))
         sel = tuple(p in cfg.decca.select for p in PATTERNS)
         c = cfg.corrections
         reading = DeccaReading(
