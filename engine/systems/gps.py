@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import geodetic_to_ecef
 from engine.systems.base import (
@@ -64,6 +65,14 @@ class GpsInput:
     lon_deg: float
     x_m: float
     y_m: float
+
+
+GRID_MAX_DLON_DEG = 6.0
+"""Farthest a GPS position may lie from the cycle's central meridian (degrees of longitude) to
+be taken into the fix. The grid follows the MPP to the whole degree (THEORY §2.3), so a real
+fix lies within 1–2° of it; 6° away the TM scale factor already reaches 1.0055 at the equator,
+beyond what the fix's line-scale correction (thesis A5.10) is meant for, and much farther the
+grid's series diverge. Such a fix means a wrong DR position or a wrong record."""
 
 
 def gps_input(inputs: CycleInputs) -> GpsInput | None:
@@ -181,6 +190,11 @@ class GpsSystem:
         gps = gps_input(inputs)
         if gps is None:
             return SystemReading()
+        off_deg = abs(wrap_180_deg(gps.lon_deg - inputs.cm_deg))
+        if off_deg > GRID_MAX_DLON_DEG:
+            return SystemReading(messages=(
+                f"GPS position {off_deg:.1f}° of longitude from the grid's central meridian: "
+                "not taken (check the DR position and the record)",))
         c = inputs.config.corrections
         fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, gps_variance_m2(inputs.config),
                      c.gps_north_m, c.gps_east_m)

@@ -91,3 +91,25 @@ def test_valid_records_never_crash_the_run(tmp_path_factory: pytest.TempPathFact
 ])
 def test_records_found_by_the_property_test(tmp_path: Path, name: str, lines: list[str]) -> None:
     replay(CONFIGS[name], lines, tmp_path)
+
+
+def test_a_gps_position_far_from_the_grid_is_not_taken(tmp_path: Path) -> None:
+    """A GPS position 87° of longitude from the DR's central meridian (found by the property
+    test above: the TM series diverged and the LSE came out at x = −6.7·10⁸ m, latitude NaN) is
+    left out of the fix with a message; one 1.5° away is taken (GRID_MAX_DLON_DEG = 6°)."""
+    cfg = CONFIGS["920917_1.toml"]
+    far = ["920917 083539 - - - - - - - -",
+           "920917 083540 00 00 00.000 N 082 00 00.000 W - - - - - -"]
+    run = tmp_path / "FAR.RUN"
+    run.write_text("\n".join(far) + "\n")
+    s = Session(cfg.replace(run_file=str(run)))
+    s.step()
+    r = s.step()
+    assert r is not None and (r.fix is None or not r.fix.ok)
+    assert any("from the grid's central meridian: not taken" in m for m in r.messages)
+    replay(cfg, far, tmp_path)  # and every estimate stays finite
+    near = ["920917 083540 52 50 00.000 N 006 00 00.000 E - - - - - -"]
+    run.write_text("\n".join(near) + "\n")
+    r = Session(cfg.replace(run_file=str(run))).step()
+    assert r is not None and r.fix is not None and r.fix.ok
+    assert not any("central meridian" in m for m in r.messages)
