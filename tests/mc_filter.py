@@ -6,7 +6,7 @@ the program but makes a 200-run Monte-Carlo cost tens of seconds. This module ap
 equations to a batch of runs at once with numpy broadcasting: Φ = I + FΔt (eq. 6.31), the
 process noise of ``params.q_mode`` (thesis Γ Q Γᵀ of 6.32, or the exact Van Loan integral of
 the PSD), the exact Gauss–Markov discretisation of the augmented fix-error states (THEORY
-§8.2) and the Joseph-form update (6.21, THEORY §8.13). ``tests/test_filter_consistency.py``
+§8.2) and the Joseph-form update (6.21, THEORY §8.13). ``tests/filter/test_filter_consistency.py``
 checks that a batch of one run reproduces :func:`engine.filter.kalman.predict` /
 :func:`engine.filter.kalman.update` to rounding, so the Monte-Carlo statistics are those of the
 engine.

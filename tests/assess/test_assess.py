@@ -61,7 +61,7 @@ def write_truth(path: Path, times: list[datetime], lat: np.ndarray, lon: np.ndar
     lines = []
     if header:
         lines += [
-            "# UVNAV simulator truth (synthetic, tests/test_assess.py)",
+            "# UVNAV simulator truth (synthetic, tests/assess/test_assess.py)",
             "# lat, lon: geodetic degrees on the working datum ED50 (ellipsoid HAYFORD 1909, "
             "a = 6378388.000 m, 1/f = 297)",
             "# x, y: TM grid on the working datum, k0 = 1, no false origin, CM 5 E "

@@ -79,7 +79,7 @@ def test_whole_demo_replays_with_an_honest_mpp_and_a_dead_reckoning_dive() -> No
     after resurfacing; coverage 93.5 %. This is one realisation (seed 1993, the lowest LSE
     coverage of 20 seeds): with errors correlated over 3–4 min a phase holds only ~10
     independent samples, so per-phase claims belong to the multi-seed test
-    (tests/test_demo_seeds.py); here only the targets are asserted, not these values.
+    (tests/assess/test_demo_seeds.py); here only the targets are asserted, not these values.
     """
     truth = _truth()
     s = Session(load_config(DATA / "DEMO.toml"), history=1)

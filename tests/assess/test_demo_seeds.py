@@ -8,7 +8,7 @@ slowly growing draw). Here K = 10 seeds of the demo scenario are simulated in me
 through :class:`engine.run.session.Session` with data/DEMO.toml's settings (nothing changed but the
 ``run_file``), and scored against the simulator's own truth rows: each cycle's MPP (and LSE,
 ``CycleResult.fix``) against the true position projected on that cycle's grid, with the MPP's own
-2×2 covariance (not through engine.assess.accuracy, as in tests/test_demo_accuracy.py).
+2×2 covariance (not through engine.assess.accuracy, as in tests/assess/test_demo_accuracy.py).
 
 **The mission** is data/DEMO.scenario.toml with every leg halved (1 h instead of 2 h, so ten
 seeds replay in about 30 s on one core): 22.5 min surfaced with all four course changes, the
@@ -47,7 +47,7 @@ with the first settings): with
 ``model = "thesis"`` the coverage and NEES ones fail (coverage 5 %, NEES 103); with
 ``gps_se_sf = 0.1`` (coverage 52 %, NEES 7.9) too; with the gyro bias a random constant
 (``bias_noise = false``) the dive coverage falls to 75 % and the NEES test fails (3.02 ± 0.82).
-Rerun the per-seed table with ``pytest -s tests/test_demo_seeds.py``.
+Rerun the per-seed table with ``pytest -s tests/assess/test_demo_seeds.py``.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The issue's case: DECCA.CHN cut so the 9B propagation speed read 29955 km/s. Every Decca LOP then
 fails the w-test and S² is ~10⁵, yet the run reported "rejected LOPs 0" and a 7 × 2 m ellipse 24 km
-off. The parser now refuses that file (tests/test_datafile_damage.py); here the chain is damaged
+off. The parser now refuses that file (tests/io/test_datafile_damage.py); here the chain is damaged
 in memory to exercise the cycle's own defence.
 """
 

@@ -26,7 +26,7 @@ from engine.lsq.statistics import (
     w_tests,
 )
 
-# The worked example (Pg 821 inputs, see tests/test_adjustment.py for the transcription).
+# The worked example (Pg 821 inputs, see tests/lsq/test_adjustment.py for the transcription).
 A = np.array([[0.0, 1.0], [1.0, 0.0], [-0.47409, 0.88046], [-0.42885, -0.90336], [0.0, 0.0]])
 B = np.array([12.45880, 1.84520, -1.60637, 0.28186, 0.0])
 CL = np.eye(5)
