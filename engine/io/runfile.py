@@ -61,7 +61,9 @@ class RunRecord:
     ``decca`` holds the Red, Green, Purple lane fractions. ``None`` means the sensor gave
     nothing (``-``) or, for ``incl_deg``/``press_freq_hz``/``echo_m``, that the optional
     column is absent: the caller treats an absent column as "sensor not connected"
-    (status 2, THEORY D40). ``raw`` is the line without its line ending.
+    (status 2, THEORY D40). ``raw`` is the line without its line ending. The GNSS fields after
+    ``raw`` (HDOP, fix quality, satellites, course and speed over ground) come from NMEA 0183
+    input (docs/NMEA.md); a 1993 ``.RUN`` line leaves them None.
     """
 
     line_no: int
@@ -76,6 +78,18 @@ class RunRecord:
     press_freq_hz: float | None = None
     echo_m: float | None = None
     raw: str = ""
+    gps_hdop: float | None = None
+    """Horizontal dilution of precision of the GNSS fix (NMEA GGA; None: not given, as in the
+    1993 grammar)."""
+    gps_quality: int | None = None
+    """GGA fix quality of the GNSS position (1 GPS/SPS, 2 DGPS, 3 PPS, 4 RTK fixed, 5 RTK float;
+    0/6/7/8 are not fixes and never reach a record); None: not given."""
+    gps_sats: int | None = None
+    """Satellites used in the GNSS fix (None: not given)."""
+    cog_deg: float | None = None
+    """Course over ground [deg true, 0–360) from NMEA RMC/VTG (None: not given)."""
+    sog_kn: float | None = None
+    """Speed over ground [kn] from NMEA RMC/VTG (None: not given)."""
 
 
 @dataclass(frozen=True, slots=True)
