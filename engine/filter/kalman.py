@@ -27,6 +27,7 @@ from engine.filter.measurements import (
 )
 from engine.filter.model import (
     FIX_TAU_DECCA_S,
+    FIX_TAU_GNSS_S,
     FIX_TAU_GPS_CA_S,
     FIX_TAU_GPS_P_S,
     FIX_WHITE_FLOOR,
@@ -63,6 +64,7 @@ from engine.filter.state import (
     move_to_grid,
     replace_current,
     replace_position,
+    restart_dr_states,
     restart_fix_states,
 )
 from engine.filter.update import (
@@ -81,6 +83,7 @@ from engine.filter.update import (
 __all__ = [
     "DEG",
     "FIX_TAU_DECCA_S",
+    "FIX_TAU_GNSS_S",
     "FIX_TAU_GPS_CA_S",
     "FIX_TAU_GPS_P_S",
     "FIX_WHITE_FLOOR",
@@ -129,6 +132,7 @@ __all__ = [
     "propagate_mean",
     "replace_current",
     "replace_position",
+    "restart_dr_states",
     "restart_fix_states",
     "sensor_measurement",
     "stack_measurements",

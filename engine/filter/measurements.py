@@ -67,14 +67,19 @@ def sensor_measurement(
     gyro_grid_rad: float | None = None,
     incl_rad: float | None = None,
     params: FilterParams,
+    log_sigma_ms: float | None = None,
+    gyro_sigma_deg: float | None = None,
 ) -> Measurement:
     """Rows 2–5 (eqs. 6.26b–6.29) for the sensors that gave a value this cycle.
 
     Pressure depth (m, σ_p), log speed (m/s, σ = max(frac·v, floor), 4.19), gyro GRID heading
-    (rad, σ 0.65°, innovation wrapped) and inclination (rad, bow-down +).
+    (rad, σ 0.65°, innovation wrapped) and inclination (rad, bow-down +). ``log_sigma_ms`` /
+    ``gyro_sigma_deg`` replace this cycle's σ of the speed / heading row (a COG/SOG stand-in,
+    docs/GNSS_WEIGHTS.md); None: the parameters' σ.
     """
     return nav_measurement(state, params, depth_m=depth_m, log_ms=log_ms,
-                           gyro_grid_rad=gyro_grid_rad, incl_rad=incl_rad)
+                           gyro_grid_rad=gyro_grid_rad, incl_rad=incl_rad,
+                           log_sigma_ms=log_sigma_ms, gyro_sigma_deg=gyro_sigma_deg)
 
 
 _Row = tuple[float, float, str, tuple[int, ...]]
@@ -92,17 +97,21 @@ def nav_measurement(
     gyro_grid_rad: float | None = None,
     incl_rad: float | None = None,
     fix_keys: tuple[str, str] = ("fix_e", "fix_n"),
+    log_sigma_ms: float | None = None,
+    gyro_sigma_deg: float | None = None,
 ) -> Measurement:
     """The thesis measurement vector (6.26–6.29, H of 6.33, R of 6.36) in one go: the LSE rows
     (grid m, full 2×2 VCV ``fix_cov`` m²; coloured mode as in :func:`lse_measurement`) and the
     sensor rows that are available, in the fixed order x, y, z_p, v_m, ψ_m, ε_m. ``state`` is
-    not read (kept for symmetry with :func:`sensor_measurement`); H has the 11 nav columns."""
+    not read (kept for symmetry with :func:`sensor_measurement`); H has the 11 nav columns.
+    ``log_sigma_ms``/``gyro_sigma_deg`` as in :func:`sensor_measurement`."""
     rows: list[_Row] = []
     if fix_xy is not None:
         if fix_cov is None:
             raise ValueError("an LSE needs its 2×2 VCV fix_cov")
         rows += [(float(fix_xy[0]), 0.0, "x_LSE", (IX,)), (float(fix_xy[1]), 0.0, "y_LSE", (IY,))]
-    rows += _sensor_rows(params, depth_m, log_ms, gyro_grid_rad, incl_rad)
+    rows += _sensor_rows(params, depth_m, log_ms, gyro_grid_rad, incl_rad, log_sigma_ms,
+                         gyro_sigma_deg)
     p = len(rows)
     H = np.zeros((p, N_NAV))
     R = np.zeros((p, p))
@@ -131,18 +140,25 @@ def _sensor_rows(
     log_ms: float | None,
     gyro_grid_rad: float | None,
     incl_rad: float | None,
+    log_sigma_ms: float | None = None,
+    gyro_sigma_deg: float | None = None,
 ) -> list[_Row]:
     """The rows of the sensors that gave a value, in the order z_p, v_m, ψ_m, ε_m: pressure
-    depth (σ_p), log speed + log bias (σ = max(frac·v, floor), 4.19), gyro GRID heading + gyro
-    bias, inclination + inclinometer bias (eqs. 6.26b–6.29)."""
+    depth (σ_p), log speed + log bias (σ = max(frac·v, floor), 4.19, or ``log_sigma_ms``), gyro
+    GRID heading + gyro bias (σ ``params.sigma_gyro_deg`` or ``gyro_sigma_deg``), inclination +
+    inclinometer bias (eqs. 6.26b–6.29)."""
     out: list[_Row] = []
     if depth_m is not None:
         out.append((depth_m, params.sigma_press_m**2, "z_p", (IZ,)))
     if log_ms is not None:
-        var = max(params.log_sigma_frac * abs(log_ms), params.log_sigma_floor_ms) ** 2
+        if log_sigma_ms is None:
+            var = max(params.log_sigma_frac * abs(log_ms), params.log_sigma_floor_ms) ** 2
+        else:
+            var = log_sigma_ms**2
         out.append((log_ms, var, "v_m", (IV, IDV)))
     if gyro_grid_rad is not None:
-        out.append((gyro_grid_rad, (params.sigma_gyro_deg * DEG) ** 2, "psi_m", (IPSI, IDPSI)))
+        sd = params.sigma_gyro_deg if gyro_sigma_deg is None else gyro_sigma_deg
+        out.append((gyro_grid_rad, (sd * DEG) ** 2, "psi_m", (IPSI, IDPSI)))
     if incl_rad is not None:
         out.append((incl_rad, (params.sigma_incl_deg * DEG) ** 2, "eps_m", (IEPS, IDEPS)))
     return out

@@ -33,13 +33,19 @@ GPS_WHITE_SIGMA_M = 5.0
 P-code receiver's is a tenth of it (code noise scales with the chip length: 10.23 against
 1.023 Mchip/s)."""
 
+FIX_TAU_GNSS_S = 1800.0
+"""Correlation time (s) of a receiver-weighted (HDOP × UERE) GNSS fix error without SA: the
+residual ionosphere, troposphere and broadcast orbit/clock errors that dominate the UERE change
+over tens of minutes (docs/GNSS_WEIGHTS.md); an assumption on the cautious side: a filter that
+assumes a longer τ than the truth averages less, never more."""
+
 FIX_WHITE_FLOOR = 0.01
 """Least white share of a fix variance the coloured model keeps in R, so that R stays non-singular
 (thesis L2287–2291: the augmented R is singular otherwise; option (a): 1–10 % white)."""
 
 
 def derived_fix_model(gps_on: bool, gps_var_m2: float, decca_on: bool,
-                      p_code: bool = False) -> tuple[float, float]:
+                      p_code: bool = False, gnss_receiver: bool = False) -> tuple[float, float]:
     """(τ in s, coloured fraction) of the LSE error for the systems switched on.
 
     τ: the longest correlation time among the systems on (:data:`FIX_TAU_GPS_CA_S`,
@@ -52,11 +58,17 @@ def derived_fix_model(gps_on: bool, gps_var_m2: float, decca_on: bool,
     reading's only white error is the 0.001-lane quantisation of the ``.RUN``
     format (σ 0.0003 lane against ≥ 0.01 lane of sky-wave), so the floor decides (0.99). With
     both on, the smaller fraction (the larger white share) is kept. Neither on: (C/A τ, floor).
+    ``gnss_receiver``: the GPS fix is weighted by the receiver's HDOP × UERE (a modern receiver,
+    no SA): τ :data:`FIX_TAU_GNSS_S` and the floor's white share (its code noise, ~0.3 m,
+    is ≤ 1 % of a UERE of metres; docs/GNSS_WEIGHTS.md).
     """
     taus: list[float] = []
     fracs: list[float] = []
     top = 1.0 - FIX_WHITE_FLOOR
-    if gps_on:
+    if gps_on and gnss_receiver:
+        taus.append(FIX_TAU_GNSS_S)
+        fracs.append(top)
+    elif gps_on:
         taus.append(FIX_TAU_GPS_P_S if p_code else FIX_TAU_GPS_CA_S)
         white = GPS_WHITE_SIGMA_M / 10.0 if p_code else GPS_WHITE_SIGMA_M
         fracs.append(min(top, max(0.0, 1.0 - white**2 / gps_var_m2)))

@@ -215,10 +215,12 @@ def restart_fix_states(
     keys: Sequence[str],
     cov: np.ndarray,
     phi: np.ndarray | None = None,
+    tau_s: Sequence[float] | None = None,
 ) -> tuple[FilterState, np.ndarray | None]:
     """Start the Gauss–Markov fix-error states ``keys`` afresh as a new, independent error
-    process (the fix source changed, e.g. C/A → P code): b = 0, P_bb = ``cov`` (its stationary
-    VCV, m²), no covariance with any other state, and ``fix_cov`` = ``cov``.
+    process (the fix source changed, e.g. C/A → P code, SPS → DGPS): b = 0, P_bb = ``cov`` (its
+    stationary VCV, m²), no covariance with any other state, and ``fix_cov`` = ``cov``; with
+    ``tau_s`` (s, one per key) the new process's correlation times too.
 
     This is the prediction of a transition whose rows for b are 0 and whose process noise for b
     is ``cov``; ``phi`` (the step's full Φ, if given) is returned with those rows zeroed, so the
@@ -238,6 +240,11 @@ def restart_fix_states(
     P[:, idx] = 0.0
     P[np.ix_(idx, idx)] = 0.5 * (C + C.T)
     new = state._with(state.t, x, P).with_fix_cov(keys, C)
+    if tau_s is not None:
+        taus = list(new.fix_tau_s)
+        for i, k in zip(present, keys, strict=True):
+            taus[new.fix_states.index(k)] = float(tau_s[i])
+        new.__dict__["fix_tau_s"] = tuple(taus)
     if phi is not None:
         phi = np.array(phi)
         phi[idx, :] = 0.0
@@ -290,3 +297,21 @@ def move_to_grid(fs: FilterState, x_m: float, y_m: float, rotation_rad: float) -
     x[IVCX:IVCY + 1] = rot @ x[IVCX:IVCY + 1]
     P = J @ fs.P @ J.T
     return replace(fs, x=x, P=0.5 * (P + P.T))
+
+
+def restart_dr_states(fs: FilterState, params: FilterParams) -> FilterState:
+    """The state with the current (grid east/north, m/s), the log bias (m/s) and the gyro bias
+    (rad) restarted at 0 with their physical P0 variances (``params.p0_current_sigma_ms``,
+    ``p0_log_bias_ms``, ``p0_gyro_bias_deg``) and no covariance with any other state: the dead
+    reckoning changed its reference (gyro/log through the water ↔ COG/SOG over ground), so what
+    those states had learnt belongs to the other sensors (docs/GNSS_WEIGHTS.md)."""
+    x = np.array(fs.x)
+    P = np.array(fs.P)
+    sig = ((IVCX, params.p0_current_sigma_ms), (IVCY, params.p0_current_sigma_ms),
+           (IDV, params.p0_log_bias_ms), (IDPSI, params.p0_gyro_bias_deg * DEG))
+    for i, s in sig:
+        x[i] = 0.0
+        P[i, :] = 0.0
+        P[:, i] = 0.0
+        P[i, i] = s * s
+    return fs._with(fs.t, x, P)

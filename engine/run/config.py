@@ -252,6 +252,10 @@ def _validate(obj: object, table: str, keys: tuple[Key, ...]) -> None:
         object.__setattr__(obj, key.attr, value)
 
 
+_UERE = _between(0.001, 1000.0)
+"""Range of a UERE key (m, 1σ): from a millimetre to a kilometre."""
+
+
 # --------------------------------------------------------------------------------------------
 # The configuration tree
 
@@ -265,9 +269,23 @@ class GpsConfig:
 
     on: bool = False
     receiver: str = "C/A"
+    weights: str = "receiver"
+    uere_sps_m: float = 5.0
+    uere_dgps_m: float = 1.5
+    uere_pps_m: float = 3.0
+    uere_rtk_fixed_m: float = 0.05
+    uere_rtk_float_m: float = 0.5
+    sigma_floor_m: float = 0.5
 
     def __post_init__(self) -> None:
         _validate(self, self.TABLE, self.KEYS)
+
+    def uere_m(self, quality: int | None) -> float:
+        """UERE (m, 1σ) of a GGA fix quality code (1 SPS, 2 DGPS, 3 PPS, 4 RTK fixed, 5 RTK
+        float); None or any other code: the SPS figure, the least accurate one
+        (docs/GNSS_WEIGHTS.md)."""
+        return {2: self.uere_dgps_m, 3: self.uere_pps_m, 4: self.uere_rtk_fixed_m,
+                5: self.uere_rtk_float_m}.get(quality or 1, self.uere_sps_m)
 
     @property
     def p_code(self) -> bool:
@@ -287,6 +305,29 @@ GpsConfig.KEYS = (
     Key("receiver", "receiver", "str", "—",
         '"C/A" (SPS, σ 50 m per grid axis) or "P" (PPS, P-code; σ 8.9 m, THEORY D5)',
         "A8.2 PCode = false (L8758); L5526–5527", _choice("C/A", "P", upper=True)),
+    Key("weights", "weights", "str", "—",
+        '"receiver": a record with an HDOP (NMEA GGA) weighs each horizontal coordinate with '
+        'σ = HDOP × UERE(quality)/√2, at least sigma_floor_m; "fixed": always the receiver '
+        "type's σ × lsq.gps_se_sf (a record without HDOP, every 1993 .RUN, is fixed anyway)",
+        "docs/GNSS_WEIGHTS.md [not in the thesis]", _choice("receiver", "fixed")),
+    Key("uere_sps_m", "uere_sps_m", "float", "m",
+        "UERE (1σ) of a GGA quality 1 (SPS, single frequency) fix, and of an HDOP without a "
+        "quality", "docs/GNSS_WEIGHTS.md: L1 C/A budget without SA ~5 m", _UERE),
+    Key("uere_dgps_m", "uere_dgps_m", "float", "m",
+        "UERE (1σ) of a GGA quality 2 fix (DGPS beacon or SBAS)",
+        "docs/GNSS_WEIGHTS.md: SBAS/beacon 95 % horizontal ~3 m", _UERE),
+    Key("uere_pps_m", "uere_pps_m", "float", "m", "UERE (1σ) of a GGA quality 3 (PPS) fix",
+        "docs/GNSS_WEIGHTS.md [assumption]", _UERE),
+    Key("uere_rtk_fixed_m", "uere_rtk_fixed_m", "float", "m",
+        "UERE (1σ) of a GGA quality 4 (RTK, integer ambiguities fixed) fix",
+        "docs/GNSS_WEIGHTS.md: receiver specifications ~1 cm + 1 ppm", _UERE),
+    Key("uere_rtk_float_m", "uere_rtk_float_m", "float", "m",
+        "UERE (1σ) of a GGA quality 5 (RTK float) fix",
+        "docs/GNSS_WEIGHTS.md: decimetres to a metre", _UERE),
+    Key("sigma_floor_m", "sigma_floor_m", "float", "m",
+        "least σ per horizontal coordinate of a receiver-weighted fix (antenna lever arm and "
+        "ship motion are not modelled)", "docs/GNSS_WEIGHTS.md [assumption]",
+        _between(0.001, 100.0)),
 )
 # fmt: on
 
@@ -378,6 +419,8 @@ class SensorsConfig:
     inclinometer: str = "n/a"
     pressure: str = "off"
     echosounder: str = "n/a"
+    cog_sog: str = "off"
+    cog_min_sog_kn: float = 1.0
 
     def __post_init__(self) -> None:
         _validate(self, self.TABLE, self.KEYS)
@@ -385,6 +428,11 @@ class SensorsConfig:
     def status(self, sensor: str) -> int:
         """A8.2 status code of ``sensor`` (e.g. "gyro"): 1 on, 0 off, 2 not connected."""
         return SENSOR_STATUS[getattr(self, sensor)]
+
+    @property
+    def standin(self) -> bool:
+        """Course and speed over ground stand in for a missing gyro heading / log speed."""
+        return self.cog_sog == "standin"
 
 
 _SENSOR_WORD = _choice("on", "off", "n/a")
@@ -400,6 +448,15 @@ SensorsConfig.KEYS = tuple(
         ("pressure", "pressure sensor", "A8.2 Sensors[5] = 0 (L8722)"),
         ("echosounder", "echo sounder", "A8.2 Sensors[6] = 2 (L8723)"),
     )
+) + (
+    Key("cog_sog", "cog_sog", "str", "—",
+        '"standin": course/speed over ground (NMEA RMC/VTG) stand in for a missing gyro '
+        'heading / log speed, with a larger σ, the filter then dead-reckons over ground; '
+        '"off": a record without them has no dead reckoning',
+        "docs/GNSS_WEIGHTS.md [not in the thesis]", _choice("off", "standin")),
+    Key("cog_min_sog_kn", "cog_min_sog_kn", "float", "kn",
+        "COG is not used below this speed over ground (its direction is noise there)",
+        "docs/GNSS_WEIGHTS.md [assumption]", _between(0.0, 10.0)),
 )
 # fmt: on
 

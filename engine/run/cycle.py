@@ -28,6 +28,7 @@ from engine.filter.kalman import (
     lop_measurement,
     lse_measurement,
     predict_step,
+    restart_dr_states,
     restart_fix_states,
     sensor_measurement,
     stack_measurements,
@@ -68,12 +69,13 @@ from engine.systems.decca import (
     lane_sigma,
     place_chain_on_datum,
 )
-from engine.systems.gps import GPS, GpsInput
+from engine.systems.gps import GPS, GpsInput, quality_name
 from engine.systems.registry import systems_string
 from engine.systems.sensors import (
     SENSOR_NAMES,
     knots_to_ms,
     pressure_depth_m,
+    standin_sigmas,
     surface_reference_hz,
 )
 
@@ -92,16 +94,18 @@ FILTER_KEY_TO_PARAM = {
 FilterParams field is copied as it is (a new filter parameter needs no line here)."""
 
 
-def filter_params_from_config(cfg: RunConfig) -> FilterParams:
+def filter_params_from_config(cfg: RunConfig, gnss_receiver: bool = False) -> FilterParams:
     """The filter parameters of a run configuration (THEORY §8.9–8.11, §15); ``"auto"``
     fix-error τ and fraction follow from the systems on
-    (``engine.filter.kalman.derived_fix_model``)."""
+    (``engine.filter.kalman.derived_fix_model``); ``gnss_receiver``: for fixes whose GPS is
+    weighted by the receiver's HDOP × UERE (docs/GNSS_WEIGHTS.md)."""
     f = cfg.filter
     params = {fl.name for fl in fields(FilterParams) if fl.init}
     kw = {FILTER_KEY_TO_PARAM.get(fl.name, fl.name): getattr(f, fl.name) for fl in fields(f)}
     kw = {name: value for name, value in kw.items() if name in params}
     gps_var = (GPS_VAR_P_M2 if cfg.gps.p_code else GPS_VAR_CA_M2) * cfg.lsq.gps_se_sf
-    tau, frac = derived_fix_model(cfg.gps.on, gps_var, cfg.decca.on, cfg.gps.p_code)
+    tau, frac = derived_fix_model(cfg.gps.on, gps_var, cfg.decca.on, cfg.gps.p_code,
+                                  gnss_receiver)
     for name, auto in (("fix_tau_s", tau), ("fix_sigma_frac", frac)):
         kw[name] = auto if kw[name] == "auto" else float(kw[name])
     return FilterParams(coloured=f.model == "coloured", **kw)
@@ -140,6 +144,9 @@ class RunContext:
     filter_params: FilterParams
     lsq: LsqSettings
     zone_lane: tuple[tuple[int, int] | None, tuple[int, int] | None, tuple[int, int] | None]
+    filter_params_gnss: FilterParams | None = None
+    """The filter parameters for a fix whose GPS is receiver-weighted (HDOP × UERE): "auto"
+    τ and fraction of a modern receiver (docs/GNSS_WEIGHTS.md); None: as ``filter_params``."""
     _grids: dict[float, TMGrid] = field(default_factory=dict)
     _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
 
@@ -190,6 +197,7 @@ def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChai
         filter_params=filter_params_from_config(cfg),
         lsq=lsq_settings_from_config(cfg),
         zone_lane=(zl[0], zl[1], zl[2]),
+        filter_params_gnss=filter_params_from_config(cfg, gnss_receiver=True),
     )
 
 
@@ -221,6 +229,20 @@ class SensorValues:
     depth_m: float | None
     echo_m: float | None
     convergence_deg: float
+    reference: str = "water"
+    """What the dead reckoning is referenced to: "water" (gyro heading, log speed: the filter's
+    current states are the current), "ground" (COG/SOG stand in, ``sensors.cog_sog``: ψ is
+    the course and v the speed over ground, the current states only take up what the fixes show
+    beyond them) or "none" (no heading or speed: no dead reckoning)."""
+    heading_sigma_deg: float | None = None
+    """σ of the heading row when it is not the gyro's (COG stand-in); None: the gyro's."""
+    speed_sigma_ms: float | None = None
+    """σ of the speed row when it is not the log's (SOG stand-in); None: the log's."""
+
+    @property
+    def standin(self) -> bool:
+        """True when COG/SOG stand in for the gyro heading / log speed this cycle."""
+        return self.reference == "ground"
 
 
 @dataclass(frozen=True)
@@ -287,6 +309,12 @@ class NavState:
     """The fix source (:func:`fix_source`) the filter's Gauss–Markov fix-error states model."""
     gated_fixes: int = 0
     """Fixes in a row kept out of the filter as gross errors (:data:`GROSS_GATE_SIGMA`)."""
+    dr_reference: str = ""
+    """The dead-reckoning reference of the last cycle (:attr:`SensorValues.reference`; "" before
+    the first): a change is said."""
+    filter_reference: str = "water"
+    """The reference ("water" or "ground") the filter's current and log/gyro bias states belong
+    to: a sensor update with the other one restarts them (:func:`restart_dr_states`)."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -329,17 +357,53 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
             messages.append(f"Pressure {rec.press_freq_hz:.3f} Hz gives depth {depth:.0f} m: "
                             "implausible, not used")
             depth = None
+    heading, speed = val(0, rec.heading_deg), val(1, rec.speed_kn)
+    reference, h_sigma, s_sigma = "water", None, None
+    if heading is None or speed is None:
+        reference = "none"
+        if cfg.sensors.standin and rec.sog_kn is not None:
+            # Ground reference for both rows (docs/GNSS_WEIGHTS.md): a water heading with a
+            # ground speed would leave the drift angle to the current states at every turn.
+            reference = "ground"
+            speed = rec.sog_kn
+            heading = (rec.cog_deg if rec.cog_deg is not None
+                       and rec.sog_kn >= cfg.sensors.cog_min_sog_kn else None)
+            h_sigma, s_sigma = standin_sigmas(rec.sog_kn)
     values = SensorValues(
         status=status,
-        heading_true_deg=val(0, rec.heading_deg),
-        speed_kn=val(1, rec.speed_kn),
+        heading_true_deg=heading,
+        speed_kn=speed,
         rudder_deg=val(2, rec.rudder_deg),
         incl_deg=val(3, rec.incl_deg),
         depth_m=depth,
         echo_m=val(5, rec.echo_m),
         convergence_deg=grid.convergence_deg(lat, lon),
+        reference=reference,
+        heading_sigma_deg=h_sigma,
+        speed_sigma_ms=s_sigma,
     )
     return values, ref
+
+
+def _reference_messages(nav: NavState, sens: SensorValues, rec: RunRecord,
+                        messages: list[str]) -> None:
+    """Say when the dead-reckoning reference changes (first cycle: only when it is not the
+    gyro/log, so a 1993 run's messages stay as they were)."""
+    ref = sens.reference
+    if ref == nav.dr_reference or (ref == "water" and nav.dr_reference == ""):
+        return
+    if ref == "ground":
+        h_sigma = sens.heading_sigma_deg or 0.0
+        messages.append(f"COG/SOG stand in for the missing gyro/log (σ COG {h_sigma:.1f}°, "
+                        f"SOG {sens.speed_sigma_ms or 0.0:.2f} m/s): dead reckoning over "
+                        "ground, current = what the fixes show beyond COG/SOG")
+    elif ref == "none":
+        have = rec.sog_kn is not None
+        messages.append("No gyro heading or log speed: no dead reckoning, LSE only"
+                        + (' (COG/SOG in the record: sensors.cog_sog = "standin" uses them)'
+                           if have else ""))
+    else:
+        messages.append("Gyro and log back: dead reckoning through the water")
 
 
 def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
@@ -452,12 +516,14 @@ def step(
     cm, grid, fstate = _grid_for_cycle(ctx, nav, messages)
     sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg,
                                messages)
+    _reference_messages(nav, sens, rec, messages)
     pred = _dead_reckoning(ctx, nav, fstate, sens, grid, dt)
     x_start, prior = _provisional(nav, grid, pred.state)
     readings = _read_systems(ctx, nav, rec, grid, cm, x_start, prior, messages)
     fix = _fix(ctx, nav, grid, x_start, prior, readings, excluded_slots, messages)
     fit_scale, fit_note, fix_cov = _fitness(fix, messages)
-    filt = _update_filter(ctx, nav, pred, sens, fix, fix_cov, messages)
+    gnss = gnss_source(readings[GPS.name])
+    filt = _update_filter(ctx, nav, pred, sens, fix, fix_cov, gnss, messages)
     kf_est = None
     if filt.state is not None and filt.status == "ON":
         kf_est = filter_estimate("KF", grid, filt.state)
@@ -485,6 +551,7 @@ def step(
         press_ref_hz=press_ref,
         decca_track=nav.decca_track if lanes is None else lanes.track,
         filter_has_fix=filt.has_fix, fix_source=filt.source, gated_fixes=filt.gated,
+        dr_reference=sens.reference, filter_reference=pred.reference,
     )
     return next_nav, result
 
@@ -524,6 +591,8 @@ class _Prediction:
     link: tuple[FilterState, FilterState, np.ndarray] | None = None
     sensor_update: UpdateResult | None = None
     dr_sensors: bool = False
+    reference: str = "water"
+    """The reference the filter's current and bias states now belong to."""
 
 
 def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
@@ -538,16 +607,24 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     speed_ms = None if sens.speed_kn is None else knots_to_ms(sens.speed_kn)
     incl = None if sens.incl_deg is None else math.radians(sens.incl_deg)
     initialised = False
+    reference = nav.filter_reference
     if fstate is None and heading_grid is not None and speed_ms is not None:
-        fstate = _start_filter(ctx, nav, grid, gamma, speed_ms, heading_grid, incl)
+        fstate = _start_filter(ctx, nav, grid, gamma, speed_ms, heading_grid, incl, sens)
         initialised = True
+        reference = sens.reference
     if fstate is None:
-        return _Prediction()
+        return _Prediction(reference=reference)
+    if sens.reference in ("water", "ground") and sens.reference != reference:
+        # COG/SOG ↔ gyro/log: the current and the two biases belong to the other sensors.
+        fstate = restart_dr_states(fstate, params)
+        reference = sens.reference
     # Heading and speed of this record drive the step into it (THEORY §14.1 item 6: the
     # sample's KF row moves on the mean of the two records' gyro headings). A state just
     # initialised from this record's readings has them already (no double counting).
     sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
-                                     gyro_grid_rad=heading_grid, incl_rad=incl, params=params)
+                                     gyro_grid_rad=heading_grid, incl_rad=incl, params=params,
+                                     log_sigma_ms=sens.speed_sigma_ms,
+                                     gyro_sigma_deg=sens.heading_sigma_deg)
     dr_sensors = sensor_rows.z.shape[0] > 0
     sens_result = None
     if dr_sensors and not initialised:
@@ -555,23 +632,29 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         fstate = sens_result.state
     pred_state, phi = predict_step(fstate, dt, params)
     return _Prediction(pred_state, filter_estimate("KF", grid, pred_state),
-                       (fstate, pred_state, phi), sens_result, dr_sensors)
+                       (fstate, pred_state, phi), sens_result, dr_sensors, reference)
 
 
 def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,
-                  heading_grid: float, incl: float | None) -> FilterState:
+                  heading_grid: float, incl: float | None, sens: SensorValues) -> FilterState:
     """The filter's first state: the DR position and depth, this record's speed, grid heading
-    and inclination, the configured current (grid set), P0 per ``filter.p0``."""
+    and inclination, the configured current (grid set), P0 per ``filter.p0``. Over ground
+    (COG/SOG stand-in) the current starts at 0 (SOG/COG already hold it) and the speed and
+    heading have the stand-in's σ."""
     cfg = ctx.config
     x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
     set_rad = math.radians(cfg.current_set_deg)
-    vc = knots_to_ms(cfg.current_speed_kn)
+    vc = 0.0 if sens.standin else knots_to_ms(cfg.current_speed_kn)
     pos_cov = None if cfg.filter.p0 == "thesis" else np.eye(2) * cfg.filter.dr_sigma_m**2
+    params = ctx.filter_params
+    if sens.standin and sens.speed_sigma_ms is not None and sens.heading_sigma_deg is not None:
+        params = replace(params, sigma_gyro_deg=sens.heading_sigma_deg, log_sigma_frac=0.0,
+                         log_sigma_floor_ms=sens.speed_sigma_ms)
     return init_state(
         0.0, x0, y0, cfg.depth_m, speed_ms, heading_grid, incl or 0.0,
         vc * math.sin(set_rad - math.radians(gamma)),
         vc * math.cos(set_rad - math.radians(gamma)),
-        ctx.filter_params, pos_cov=pos_cov, from_sensors=(True, True, incl is not None),
+        params, pos_cov=pos_cov, from_sensors=(True, True, incl is not None),
     )
 
 
@@ -650,11 +733,12 @@ class _Filtering:
 
 
 def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: SensorValues,
-                   fix: FixResult | None, fix_cov: np.ndarray,
+                   fix: FixResult | None, fix_cov: np.ndarray, gnss: tuple[object, ...] | None,
                    messages: list[str]) -> _Filtering:
     """The filter updates at this epoch: the first LSE initialises the position; then the fix
     (or the raw LOPs on the too-few-LOPs path, THEORY D20) with the pressure depth, behind
-    the gross-error gate; with the filter off, dead reckoning restarts from each LSE."""
+    the gross-error gate; with the filter off, dead reckoning restarts from each LSE.
+    ``gnss``: the receiver part of the fix source (:func:`gnss_source`)."""
     cfg, params = ctx.config, ctx.filter_params
     f = _Filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source, nav.gated_fixes,
                    "OFF" if not cfg.filter.on else "N/A")
@@ -667,9 +751,9 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
         # away with the thesis P0 = I would otherwise pull against every fix.
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
         f.has_fix = True
-        f.source = fix_source(cfg)
+        f.source = cycle_fix_source(cfg, gnss, f.source)
     elif f.state is not None and cfg.filter.on:
-        meas = _fix_measurement(ctx, f, fix, fix_cov, messages)
+        meas = _fix_measurement(ctx, f, fix, fix_cov, gnss, messages)
         if meas is not None:
             depth_rows = _gated_update(ctx, nav, f, meas, depth_rows, fix, messages)
         elif pred.dr_sensors:
@@ -685,26 +769,78 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
 
 
 def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_cov: np.ndarray,
+                     gnss: tuple[object, ...] | None,
                      messages: list[str]) -> Measurement | None:
     """The filter's measurement of this fix: the LSE (restarting the fix-error states when the
-    fix source changed), else the raw LOPs of a hybrid fix, else None."""
+    fix source changed), else the raw LOPs of a hybrid fix, else None. A fix with
+    receiver-weighted GPS takes the fix-error model of a modern receiver
+    (``RunContext.filter_params_gnss``)."""
     if fix is None or not fix.ok:
         return None
     if not fix.lse_ok:
         return _raw_lop_measurement(fix)
-    meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, ctx.filter_params)
-    if fix_source(ctx.config) != f.source:
+    params = ctx.filter_params
+    if gnss and ctx.filter_params_gnss is not None:
+        params = ctx.filter_params_gnss
+    meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
+    source = cycle_fix_source(ctx.config, gnss, f.source)
+    if source != f.source:
         # A new fix source is a new, independent error process: one Gauss–Markov pair
-        # models the LSE error of one source (README "Correlated fixes").
-        f.source = fix_source(ctx.config)
+        # models the LSE error of one source (README "Correlated fixes"); a change of the
+        # receiver's fix quality (SPS → DGPS → RTK) is one too (docs/GNSS_WEIGHTS.md).
+        old, f.source = f.source, source
         if meas.bias_cov is not None and f.link is not None and f.state is not None:
             restarted, phi_r = restart_fix_states(f.state, meas.bias_keys[:2], meas.bias_cov,
-                                                  f.link[2])
+                                                  f.link[2], meas.bias_tau_s[:2])
             if restarted is not f.state and phi_r is not None:
                 f.state = restarted
                 f.link = (f.link[0], restarted, phi_r)
-                messages.append("Fix source changed: fix-error states restarted")
+                messages.append(_source_message(old, source))
     return meas
+
+
+def _source_message(old: tuple[object, ...] | None, new: tuple[object, ...]) -> str:
+    """The message of a fix-source change: the GNSS quality change in words when that is what
+    changed, else the general one."""
+    q_old, q_new = _gnss_part(old), _gnss_part(new)
+    base_old = None if old is None else old[:len(old) - len(q_old)]
+    if q_old != q_new and base_old == new[:len(new) - len(q_new)]:
+        def words(q: tuple[object, ...]) -> str:
+            return str(q[0][1]) if q else "fixed weights"  # type: ignore[index]
+        return (f"GNSS fix {words(q_old)} → {words(q_new)}: fix-error states restarted")
+    return "Fix source changed: fix-error states restarted"
+
+
+def _gnss_part(source: tuple[object, ...] | None) -> tuple[object, ...]:
+    """The receiver part (``("GNSS", quality)`` as its last item) of a fix source, or ()."""
+    if source and isinstance(source[-1], tuple) and source[-1][:1] == ("GNSS",):
+        return source[-1:]
+    return ()
+
+
+def gnss_source(reading: SystemReading) -> tuple[object, ...] | None:
+    """The receiver part of this cycle's fix source: ``(("GNSS", "DGPS"),)`` for a
+    receiver-weighted GPS fix (its GGA quality in words), () for a fixed-weighted one, None
+    when the record has no GPS fix (the previous receiver part stands)."""
+    value = reading.value
+    weight = getattr(value, "weight", None)
+    if value is None or weight is None:
+        return None
+    if not weight.receiver_weighted:
+        return ()
+    return (("GNSS", quality_name(weight.quality)),)
+
+
+def cycle_fix_source(cfg: RunConfig, gnss: tuple[object, ...] | None,
+                     previous: tuple[object, ...] | None) -> tuple[object, ...]:
+    """This cycle's fix source: :func:`fix_source` of the configuration plus the receiver part
+    (:func:`gnss_source`; a record without GPS keeps the previous one, so a gap in the fixes
+    does not restart anything)."""
+    base = fix_source(cfg)
+    if gnss is None:
+        gnss = _gnss_part(previous) if previous is not None and \
+            previous[:len(previous) - len(_gnss_part(previous))] == base else ()
+    return base + gnss
 
 
 def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measurement,

@@ -9,6 +9,7 @@ stands in for these two rows (:class:`PriorObservations`, THEORY §4.6).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -18,6 +19,7 @@ import numpy as np
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import geodetic_to_ecef
+from engine.io.runfile import RunRecord
 from engine.systems.base import (
     CycleInputs,
     LopReading,
@@ -36,10 +38,59 @@ ROW_LAT, ROW_LON = 0, 1
 """Rows of the system: northing ("Lat") and easting ("Lon")."""
 
 
+QUALITY_NAMES = {1: "SPS", 2: "DGPS", 3: "PPS", 4: "RTK fixed", 5: "RTK float"}
+"""NMEA GGA fix quality codes that reach a record, in words (0 invalid, 6 dead reckoning,
+7 manual and 8 simulator are not fixes and never do)."""
+
+
+def quality_name(quality: int | None) -> str:
+    """The GGA quality code in words ("SPS", "DGPS", …; "?" for None, "q9" for another)."""
+    if quality is None:
+        return "?"
+    return QUALITY_NAMES.get(quality, f"q{quality}")
+
+
+@dataclass(frozen=True, slots=True)
+class GpsWeight:
+    """Where the a priori σ of a GPS coordinate comes from (docs/GNSS_WEIGHTS.md).
+
+    ``origin`` "receiver": σ = HDOP × UERE(quality) / √2 per horizontal axis (the HDOP scales
+    the horizontal d_rms, d_rms² = σ_E² + σ_N² = HDOP²·σ_UERE², split evenly over the two
+    axes), at least ``floor_m``; "fixed": the receiver type's 1993 figure (C/A 50 m, P 8.9 m)
+    times ``lsq.gps_se_sf``. ``sigma_m`` is the σ used per axis (m); ``hdop``, ``quality``,
+    ``sats`` as in the record; ``uere_m`` the UERE of the quality code (m, 1σ)."""
+
+    origin: str
+    sigma_m: float
+    hdop: float | None = None
+    quality: int | None = None
+    sats: int | None = None
+    uere_m: float | None = None
+    floored: bool = False
+    se_sf: float = 1.0
+    receiver: str = "C/A"
+
+    @property
+    def receiver_weighted(self) -> bool:
+        """True when the σ follows the receiver's HDOP (not the fixed 1993 figure)."""
+        return self.origin == "receiver"
+
+    def describe(self) -> str:
+        """The σ and its origin in one line, e.g. ``σ 4.24 m = HDOP 1.2 × UERE 5.0 m / √2``."""
+        if self.receiver_weighted:
+            text = (f"σ {self.sigma_m:.2f} m = HDOP {self.hdop:.1f} × UERE {self.uere_m:g} m "
+                    f"({quality_name(self.quality)}) / √2")
+            return text + (" → floor" if self.floored else "")
+        base = 8.9 if self.receiver == "P" else 50.0
+        code = "P code" if self.receiver == "P" else "C/A code"
+        return f"σ {self.sigma_m:.2f} m = {code} {base:g} m × √SE_SF {self.se_sf:g}"
+
+
 @dataclass(frozen=True, slots=True)
 class GpsFix:
     """A GPS position already on the working datum and grid (metres), with its a priori variance
-    per coordinate (m², already × ``GPS.SE_SF``) and the operator's corrections north/east (m)."""
+    per coordinate (m², already × ``GPS.SE_SF`` or from the receiver's HDOP), the operator's
+    corrections north/east (m) and where the variance came from (``weight``)."""
 
     lat_deg: float
     lon_deg: float
@@ -48,6 +99,7 @@ class GpsFix:
     var_m2: float
     corr_north_m: float = 0.0
     corr_east_m: float = 0.0
+    weight: GpsWeight | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -65,6 +117,8 @@ class GpsInput:
     lon_deg: float
     x_m: float
     y_m: float
+    weight: GpsWeight | None = None
+    """The σ of its coordinates and where it came from (None only for a hand-built input)."""
 
 
 GRID_MAX_DLON_DEG = 6.0
@@ -93,13 +147,36 @@ def gps_input(inputs: CycleInputs) -> GpsInput | None:
         w_lat, w_lon, hg = ctx.gps_to_wgs84.transform(lat_in, lon_in, 0.0)
     ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
     x, y = inputs.grid.forward(lat, lon)
-    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y)
+    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y,
+                    gps_weight(inputs.config, rec))
 
 
 def gps_variance_m2(config: Any) -> float:
     """A priori variance of one GPS coordinate (m²) of a run configuration: the receiver's
     (C/A or P code) times ``lsq.gps_se_sf``."""
     return (GPS_VAR_P_M2 if config.gps.receiver == "P" else GPS_VAR_CA_M2) * config.lsq.gps_se_sf
+
+
+def gps_weight(config: Any, record: RunRecord) -> GpsWeight:
+    """The a priori σ per horizontal coordinate (m) of the record's GPS fix and its origin.
+
+    With ``gps.weights = "receiver"`` and a usable HDOP in the record (finite, > 0):
+    σ = max(HDOP × UERE(quality) / √2, ``gps.sigma_floor_m``) — HDOP² = G_EE + G_NN of the
+    geometry's (GᵀG)⁻¹, so σ_E² + σ_N² = HDOP²·σ_UERE² (the horizontal d_rms²), split evenly
+    because GGA gives no more (docs/GNSS_WEIGHTS.md). Otherwise the fixed 1993 figure:
+    √(:func:`gps_variance_m2`), so every 1993 ``.RUN`` replays exactly as before.
+    """
+    g = config.gps
+    hdop = record.gps_hdop
+    sats, quality = record.gps_sats, record.gps_quality
+    if g.weights == "receiver" and hdop is not None and math.isfinite(hdop) and hdop > 0.0:
+        uere = g.uere_m(quality)
+        sigma = hdop * uere / math.sqrt(2.0)
+        floored = sigma < g.sigma_floor_m
+        return GpsWeight("receiver", max(sigma, g.sigma_floor_m), hdop, quality, sats, uere,
+                         floored)
+    return GpsWeight("fixed", math.sqrt(gps_variance_m2(config)), hdop, quality, sats,
+                     se_sf=config.lsq.gps_se_sf, receiver=g.receiver)
 
 
 class _GpsObservations:
@@ -196,8 +273,11 @@ class GpsSystem:
                 f"GPS position {off_deg:.1f}° of longitude from the grid's central meridian: "
                 "not taken (check the DR position and the record)",))
         c = inputs.config.corrections
-        fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, gps_variance_m2(inputs.config),
-                     c.gps_north_m, c.gps_east_m)
+        w = gps.weight if gps.weight is not None else gps_weight(inputs.config, inputs.record)
+        # The fixed figure keeps its variance exactly as before (σ² of √var is not bit-exact).
+        var = gps_variance_m2(inputs.config) if not w.receiver_weighted else w.sigma_m**2
+        fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
+                     c.gps_east_m, w)
         return SystemReading(value=fix, detail=gps, observes=True)
 
     def observations(self, value: GpsFix | None, p0: Point) -> _GpsObservations | None:

@@ -85,3 +85,27 @@ def depth_to_frequency_hz(depth_m: float, ref_freq_hz: float, s_weight: float = 
     """Crystal frequency (Hz) that :func:`pressure_depth_m` turns into ``depth_m`` (simulator)."""
     p = crystal_pressure_pa(ref_freq_hz) + depth_m * s_weight / BETA_M_PA
     return crystal_frequency_hz(p)
+
+
+COG_SIGMA_MIN_DEG = 3.0
+"""Least σ (deg) of a course over ground standing in for the gyro heading (``sensors.cog_sog``):
+COG follows the antenna's track, which yaws and sways with the sea, and receivers smooth it
+over seconds, so it lags in a turn; against the gyro's 0.65° (L1429) — docs/GNSS_WEIGHTS.md."""
+
+GNSS_VELOCITY_SIGMA_MS = 0.1
+"""σ (m/s) of a GNSS velocity component as a stand-in (Doppler noise of a few cm/s plus the
+antenna's wave motion): it makes the COG σ grow as atan(σ_v / SOG) at low speed and is the
+least σ of a SOG stand-in (docs/GNSS_WEIGHTS.md)."""
+
+SOG_SIGMA_FRAC = 0.03
+"""σ of a SOG stand-in as a fraction of the speed (surge with the waves; the EM log's is 0.02,
+eq. 4.19)."""
+
+
+def standin_sigmas(sog_kn: float) -> tuple[float, float]:
+    """(σ of a COG stand-in in degrees, σ of a SOG stand-in in m/s) at ``sog_kn`` knots:
+    max(:data:`COG_SIGMA_MIN_DEG`, atan(σ_v / SOG)) and max(σ_v, :data:`SOG_SIGMA_FRAC`·SOG),
+    σ_v = :data:`GNSS_VELOCITY_SIGMA_MS`."""
+    sog_ms = abs(knots_to_ms(sog_kn))
+    cog = max(COG_SIGMA_MIN_DEG, math.degrees(math.atan2(GNSS_VELOCITY_SIGMA_MS, sog_ms)))
+    return cog, max(GNSS_VELOCITY_SIGMA_MS, SOG_SIGMA_FRAC * sog_ms)
