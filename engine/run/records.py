@@ -120,9 +120,24 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
             {"failed": True, "cov_scale": _num(r.fix_cov_scale, 6)} if r.fix_fails_tests
             else {"failed": False}),
         "state": None if fs is None else [_num(v, 6) for v in fs.x[: len(STATE_LABELS)]],
+        **_gnss_json(r),
         "tests": [_test_json(kind, u) for kind, u in updates(r)],
         "messages": list(r.messages),
     }
+
+
+def _gnss_json(r: CycleResult) -> dict[str, Any]:
+    """The receiver weight of the GPS fix (``gps_weight``) and the dead-reckoning reference
+    (``dr``) of a cycle, only when they differ from a 1993 run's (docs/GNSS_WEIGHTS.md)."""
+    out: dict[str, Any] = {}
+    w = None if r.gps is None else r.gps.weight
+    if w is not None and w.receiver_weighted:
+        out["gps_weight"] = {"hdop": w.hdop, "quality": w.quality, "sats": w.sats,
+                             "uere_m": w.uere_m, "sigma_m": _num(w.sigma_m, 3),
+                             "floored": w.floored}
+    if r.sensors.reference != "water":
+        out["dr"] = r.sensors.reference
+    return out
 
 
 def _position_fields(lat: float, lon: float, x: float, y: float, depth: float,
@@ -170,18 +185,28 @@ def cycle_block(
         "dt": r.dt_s,
     }
     s = r.sensors
+    sens: dict[str, Value] = dict(zip(_SENSOR_KEYS, (s.heading_true_deg, s.speed_kn,
+                                                     s.rudder_deg, s.incl_deg, s.depth_m,
+                                                     s.echo_m, s.convergence_deg), strict=True))
+    if s.reference != "water":  # docs/GNSS_WEIGHTS.md: "ground" = COG/SOG stand-in, "none"
+        sens["ref"] = s.reference
+        if s.standin:
+            sens["s_hdg"], sens["s_spd"] = s.heading_sigma_deg, s.speed_sigma_ms
     lines: list[tuple[str, dict[str, Value]]] = [
         ("IN", {"raw": r.raw}),
         ("SYS", {"systems": r.systems, "sensors": "".join(map(str, s.status))}),
-        ("SENS", dict(zip(_SENSOR_KEYS, (s.heading_true_deg, s.speed_kn, s.rudder_deg,
-                                         s.incl_deg, s.depth_m, s.echo_m, s.convergence_deg),
-                          strict=True))),
+        ("SENS", sens),
     ]
     if r.gps is not None:
         g = r.gps
-        lines.append(("GPS", dict(zip(_GPS_KEYS, (g.lat_in_deg, g.lon_in_deg, g.lat_deg,
-                                                  g.lon_deg, g.x_m, g.y_m, g.hg_m),
-                                      strict=True))))
+        gps: dict[str, Value] = dict(zip(_GPS_KEYS, (g.lat_in_deg, g.lon_in_deg, g.lat_deg,
+                                                     g.lon_deg, g.x_m, g.y_m, g.hg_m),
+                                         strict=True))
+        w = g.weight
+        if w is not None and w.receiver_weighted:  # the receiver's weight (GNSS_WEIGHTS.md)
+            gps.update({"hdop": w.hdop, "q": w.quality, "sats": w.sats, "uere": w.uere_m,
+                        "sigma": w.sigma_m})
+        lines.append(("GPS", gps))
     for o in r.manual:
         lines.append(("OBS", {"kind": o.kind, "station": o.station, "lat": o.lat_deg,
                               "lon": o.lon_deg, "value": o.value, "sigma": o.sigma,

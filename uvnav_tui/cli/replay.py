@@ -76,6 +76,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="what to do with an LOP that fails the w-test when lsq.lop_reject is "
                    '"A" (ask: there is no operator here): Y reject it, N keep it flagged '
                    "(default N, said in the summary); overrides lsq.lop_reject")
+    p.add_argument("--cog-sog", action="store_true",
+                   help="let course/speed over ground stand in for a missing gyro heading / "
+                   'log speed (sets sensors.cog_sog = "standin"; docs/GNSS_WEIGHTS.md)')
     return p
 
 
@@ -240,6 +243,8 @@ def run_replay(argv: list[str]) -> int:
         config_path = _config_path(run, args.config)
         cfg, data = _config_for(run, config_path)
         cfg, lop_policy = headless_lop_policy(cfg, args.lop_reject)
+        if args.cog_sog:
+            cfg = cfg.replace(sensors=dataclasses.replace(cfg.sensors, cog_sog="standin"))
         out = None if args.no_out else Path(args.out or run.with_suffix(".OUT"))
         jsonl = Path(args.jsonl) if args.jsonl else None
         smooth = None
@@ -286,6 +291,9 @@ def run_replay(argv: list[str]) -> int:
     for line in _summary_lines(summary, smoothed):
         print(line)
     print(integrity_summary_line(summary, lop_policy))
+    if session.config.sensors.standin:
+        print("dead reckoning: COG/SOG stand in where the gyro heading / log speed is missing "
+              '(sensors.cog_sog = "standin"; .OUT SENS ref=ground)')
     for bad in session.bad_records:
         print(f"skipped: {bad.error}", file=sys.stderr)
     _more_skipped(summary, len(session.bad_records))
