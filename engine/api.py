@@ -111,6 +111,7 @@ from engine.run.config import (
 from engine.run.cycle import CycleResult, PositionEstimate, RunContext
 from engine.run.records import lse_estimate, position_json
 from engine.run.session import RunSummary, Session, load_data, load_run_config, run_inputs
+from engine.systems.gps import GpsWeight, quality_name
 from engine.systems.registry import SLOT_LABELS, slots_of
 from engine.systems.sensors import KNOT_MS, SENSOR_STATUS_WORD, knots_to_ms
 
@@ -205,6 +206,8 @@ __all__ = [
     "poe_states",
     "sensor_measurement",
     "w_critical",
+    "GpsWeight",
+    "quality_name",
     # operator input and display formatting
     "PLACEHOLDER",
     "ZONE_LETTERS",

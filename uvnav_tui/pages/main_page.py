@@ -29,6 +29,7 @@ from engine.api import (
     format_speed_kn,
     format_zone_lane,
     lse_estimate,
+    quality_name,
 )
 
 SENSOR_LABELS = (("GYRO", 0), ("LOG", 1), ("RUDR", 2), ("INCL", 3), ("PRESS", 4), ("ECHO", 5))
@@ -71,6 +72,11 @@ def position_box_lines(p: PositionEstimate | None, datum: str, rms_m: float | No
 def _sensor_value(r: CycleResult, index: int) -> str:
     s = r.sensors
     status = s.status[index]
+    if s.standin and index in (0, 1):  # COG/SOG stand in (docs/GNSS_WEIGHTS.md)
+        v = s.heading_true_deg if index == 0 else s.speed_kn
+        if v is None:
+            return "COG ---"  # below sensors.cog_min_sog_kn
+        return "COG " + format_angle_deg(v) if index == 0 else "SOG " + format_speed_kn(v)
     if status == 0:
         return "OFF"
     if status == 2:
@@ -107,10 +113,14 @@ def gps_box_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
         return ["no fix", "", ""]
     g = r.gps
     x, y, z = g.ecef_m
+    w = g.weight
+    extra = ""
+    if w is not None and w.hdop is not None:  # NMEA GGA only: a 1993 box is unchanged
+        extra = f"{quality_name(w.quality)} HDOP {w.hdop:.1f}"
     return [
         f"X {x:.2f}".ljust(15) + f"Lat {format_lat_dm(g.wgs84_lat_deg, space=True)}",
         f"Y {y:.2f}".ljust(15) + f"Lon {format_lon_dm(g.wgs84_lon_deg, space=True)}",
-        f"Z {z:.2f}",
+        (f"Z {z:.2f}".ljust(15) + extra).rstrip(),
     ]
 
 

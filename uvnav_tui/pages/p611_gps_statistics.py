@@ -12,16 +12,22 @@ the operator's corrections (C-O) and the a priori VCV of the two GPS LOPs (m²):
     y : 5857312.625 / 5857300.165
     a priori VCV matrix :   2500.000     0.000
                                0.000  2500.000
+
+A record with the receiver's figures (NMEA GGA: fix quality, HDOP, satellites) adds two lines
+after "input": the fix in words and the σ per axis with its origin, e.g.
+``σ 1.27 m = HDOP 1.2 × UERE 1.5 m (DGPS) / √2`` (docs/GNSS_WEIGHTS.md).
 """
 
 from __future__ import annotations
 
 from engine.api import (
     CycleResult,
+    GpsWeight,
     Session,
     format_lat_dms,
     format_lon_dms,
     lse_estimate,
+    quality_name,
 )
 from uvnav_tui.pages.page_text import TextPage, labelled_matrix, num
 from uvnav_tui.pages.registry import register_page
@@ -48,6 +54,7 @@ def render(r: CycleResult, session: Session) -> str:
         f"{r.datum:<9}{format_lat_dms(g.lat_deg):<19}{format_lon_dms(g.lon_deg):<20}0.00",
         "",
         f"input : .RUN record on {cfg.run_gps_datum}, receiver {cfg.gps.receiver}",
+        *weight_lines(g.weight),
         "",
         "    obs / calc (LSE)",
     ]
@@ -71,6 +78,18 @@ def render(r: CycleResult, session: Session) -> str:
     if lse is None:
         out.append("calc : no LSE this cycle")
     return "\n".join(out)
+
+
+def weight_lines(w: GpsWeight | None) -> list[str]:
+    """The receiver's figures and the σ they give (docs/GNSS_WEIGHTS.md), only for a record
+    that carries them (NMEA GGA): a 1993 ``.RUN`` record has none and its page is unchanged."""
+    if w is None or (w.hdop is None and w.quality is None and w.sats is None):
+        return []
+    hdop = "—" if w.hdop is None else f"{w.hdop:.1f}"
+    sats = "—" if w.sats is None else str(w.sats)
+    origin = "receiver" if w.receiver_weighted else "fixed (gps.weights or no usable HDOP)"
+    return [f"fix : {quality_name(w.quality)}   HDOP {hdop}   satellites {sats}",
+            f"weight per axis : {w.describe()}   [{origin}]"]
 
 
 class GpsStatisticsPage(TextPage):

@@ -51,6 +51,8 @@ def sensor_sigmas(r: CycleResult, session: Session) -> dict[str, float]:
         gyro_grid_rad=grid_heading,
         incl_rad=None if s.incl_deg is None else math.radians(s.incl_deg),
         params=session.context.filter_params,
+        log_sigma_ms=s.speed_sigma_ms,
+        gyro_sigma_deg=s.heading_sigma_deg,
     )
     return {label: math.sqrt(float(meas.R[i, i])) for i, label in enumerate(meas.labels)}
 
@@ -92,14 +94,21 @@ def render(r: CycleResult, session: Session) -> str:
             else f"{format_angle_deg((s.heading_true_deg - s.convergence_deg) % 360.0)} grid")
     b, sd = _bias(fs, IDPSI, True)
     sigma = f"{num(math.degrees(sig['psi_m']), 2)}°" if "psi_m" in sig else MISSING
-    out.append(_line("Gyro", st[0], raw(rec and rec.heading_deg, "{:.1f}°"), grid, sigma,
-                     f"Δψ {b}", sd))
+    # COG/SOG stand-in (docs/GNSS_WEIGHTS.md): the rows say so with a "*" and show its values.
+    # The stand-in's raw values are the record's COG (true) and SOG, as used.
+    standin = s.standin
+    heading_raw = (MISSING if s.heading_true_deg is None else f"{s.heading_true_deg:.1f}°"
+                   ) if standin else raw(rec and rec.heading_deg, "{:.1f}°")
+    out.append(_line("COG*" if standin else "Gyro", 1 if standin else st[0], heading_raw,
+                     grid, sigma, f"Δψ {b}", sd))
     # Log: raw knots, converted m/s; bias Δv.
     conv = MISSING if s.speed_kn is None else f"{num(knots_to_ms(s.speed_kn), 3)} m/s"
-    raw_kn = MISSING if rec is None or rec.speed_kn is None else format_speed_kn(rec.speed_kn)
+    speed_raw = s.speed_kn if standin else (None if rec is None else rec.speed_kn)
+    raw_kn = MISSING if speed_raw is None else format_speed_kn(speed_raw)
     b, sd = _bias(fs, IDV, False)
     sigma = f"{num(sig['v_m'], 3)} m/s" if "v_m" in sig else MISSING
-    out.append(_line("Log", st[1], raw_kn, conv, sigma, f"Δv {b}", sd))
+    out.append(_line("SOG*" if standin else "Log", 1 if standin else st[1], raw_kn, conv, sigma,
+                     f"Δv {b}", sd))
     # Rudder: displayed only.
     conv = MISSING if s.rudder_deg is None else format_angle_deg(s.rudder_deg)
     out.append(_line("Rudder", st[2], raw(rec and rec.rudder_deg, "{:.1f}°"), conv, "", "", ""))
@@ -121,6 +130,12 @@ def render(r: CycleResult, session: Session) -> str:
             "σ: the sensor's a priori σ in the filter (R).  Δψ, Δv, Δε: the filter's",
             "estimates of the systematic errors (states 9, 8, 10), σ = √P.",
             "Rudder and echo sounder: display only."]
+    if s.standin:
+        out += ["* COG/SOG stand in for the missing gyro/log (sensors.cog_sog): dead reckoning",
+                "  over ground with their larger σ; Δψ, Δv are COG/SOG errors and the current",
+                "  is only what the fixes show beyond COG/SOG."]
+    elif s.reference == "none":
+        out.append("No gyro heading or log speed in this record: no dead reckoning (LSE only).")
     if fs is None:
         out.append("The filter has not started: no estimates yet.")
     return "\n".join(out)
