@@ -120,12 +120,31 @@ class SensorSet:
 @dataclass(frozen=True, slots=True)
 class GpsModel:
     """GPS position error per grid axis (m): first-order Gauss–Markov of σ ``sigma_m`` and
-    correlation time ``tau_s`` (s; SA-era 35 m, 240 s) plus white noise ``white_sigma_m``."""
+    correlation time ``tau_s`` (s; SA-era 35 m, 240 s) plus white noise ``white_sigma_m``.
+
+    With ``hdop`` > 0 (a modern receiver, issue 13; docs/GNSS_WEIGHTS.md) each record carries
+    an HDOP h(t) = ``hdop``·(1 + ``hdop_swing``·sin 2πt/``hdop_period_s``), rounded to 0.1 as
+    NMEA GGA reports it, and the GGA ``quality``; the error per axis then has σ(t) = h(t)·
+    ``uere_m``/√2 (the receiver weight's own formula), of which the share ``white_frac`` of
+    the variance is white and the rest Gauss–Markov with ``tau_s``; ``sigma_m`` and
+    ``white_sigma_m`` are not used. The random draws are the same, so ``hdop`` = 0 (the
+    default) leaves every scenario's output as it was."""
 
     on: bool = True
     sigma_m: float = 35.0
     tau_s: float = 240.0
     white_sigma_m: float = 5.0
+    hdop: float = 0.0
+    hdop_swing: float = 0.0
+    hdop_period_s: float = 900.0
+    uere_m: float = 5.0
+    quality: int = 1
+    white_frac: float = 0.01
+
+    def hdop_at(self, t_s: float) -> float:
+        """The HDOP reported at ``t_s`` seconds into the mission (0.1 steps, at least 0.5)."""
+        h = self.hdop * (1.0 + self.hdop_swing * math.sin(2.0 * math.pi * t_s / self.hdop_period_s))
+        return max(0.5, round(h, 1))
 
 
 @dataclass(frozen=True, slots=True)
@@ -352,6 +371,12 @@ _GPS: tuple[_Spec, ...] = (
     _Spec("sigma_m", "float", 35.0, _SIGMA),
     _Spec("tau_s", "float", 240.0, _POSITIVE),
     _Spec("white_sigma_m", "float", 5.0, _SIGMA),
+    _Spec("hdop", "float", 0.0, _range(0.0, 50.0)),
+    _Spec("hdop_swing", "float", 0.0, _range(0.0, 0.9)),
+    _Spec("hdop_period_s", "float", 900.0, _POSITIVE),
+    _Spec("uere_m", "float", 5.0, _POSITIVE),
+    _Spec("quality", "int", 1, _range(1, 5)),
+    _Spec("white_frac", "float", 0.01, _range(0.0, 1.0)),
 )
 _DECCA: tuple[_Spec, ...] = (
     _Spec("on", "bool", True),

@@ -365,11 +365,16 @@ def _run(
             proc.advance(n)
         time = scenario.start_time + timedelta(seconds=k * dt)
         truth, gamma, kscale = _truth(scenario, setup, to_wgs84, vessel, leg, time)
-        gps_lat, gps_lon = _gps_reading(scenario, setup, to_gps, vessel, truth.surfaced, proc, n)
+        hdop = scenario.gps.hdop_at(k * dt) if scenario.gps.hdop > 0.0 else None
+        gps_lat, gps_lon = _gps_reading(scenario, setup, to_gps, vessel, truth.surfaced, proc, n,
+                                        hdop)
         decca = _decca_reading(scenario, setup, vessel, truth.surfaced, proc, n)
         rec = RunRecord(k + 1, time, gps_lat, gps_lon, decca,
                         *_sensor_readings(scenario, setup, vessel, leg, truth.pitch_deg, proc, n))
-        yield truth, dataclasses.replace(rec, raw=format_run_record(rec))
+        rec = dataclasses.replace(rec, raw=format_run_record(rec))
+        if hdop is not None and gps_lat is not None:  # not in the .RUN line: memory only
+            rec = dataclasses.replace(rec, gps_hdop=hdop, gps_quality=scenario.gps.quality)
+        yield truth, rec
         vessel.propagate(scenario, leg, gamma, kscale)
 
 
@@ -395,14 +400,19 @@ def _truth(
 
 def _gps_reading(
     scenario: Scenario, setup: SimulationSetup, to_gps: _FromWorking, v: _Vessel, fixes: bool,
-    proc: _Processes, n: np.ndarray,
+    proc: _Processes, n: np.ndarray, hdop: float | None = None,
 ) -> tuple[float | None, float | None]:
-    """GPS latitude, longitude [deg on the GPS datum], or None when off or submerged."""
+    """GPS latitude, longitude [deg on the GPS datum], or None when off or submerged; with an
+    ``hdop`` the σ per axis is HDOP·UERE/√2 (:class:`engine.sim.scenario.GpsModel`)."""
     g = scenario.gps
     if not (g.on and fixes):
         return None, None
-    e_x = g.sigma_m * float(proc.u_gps[0]) + g.white_sigma_m * float(n[2])
-    e_y = g.sigma_m * float(proc.u_gps[1]) + g.white_sigma_m * float(n[3])
+    sigma, white = g.sigma_m, g.white_sigma_m
+    if hdop is not None:
+        total = hdop * g.uere_m / math.sqrt(2.0)
+        sigma, white = total * math.sqrt(1.0 - g.white_frac), total * math.sqrt(g.white_frac)
+    e_x = sigma * float(proc.u_gps[0]) + white * float(n[2])
+    e_y = sigma * float(proc.u_gps[1]) + white * float(n[3])
     return to_gps(*setup.grid.inverse(v.x + e_x, v.y + e_y))
 
 
