@@ -36,12 +36,14 @@ MISSION = "G1_GNSS_HDOP"
 
 @dataclass(frozen=True)
 class Coverage:
-    """One realisation: fraction of epochs with the truth in the MPP's 95 % ellipse, mean NEES,
-    RMS MPP and LSE errors (m), the mean σ per axis the LSE's GPS weight had (m), epochs."""
+    """One realisation: fraction of epochs with the truth in the MPP's 95 % ellipse, mean NEES
+    of the MPP and of the LSE (with its own VCV: how honest the weights alone are), RMS MPP and
+    LSE errors (m), the mean σ per axis the LSE's GPS weight had (m), epochs."""
 
     seed: int
     coverage: float
     nees: float
+    nees_lse: float
     rms_mpp: float
     rms_lse: float
     sigma_m: float
@@ -63,7 +65,7 @@ def run_seed(seed: int, truth: dict[str, Any], config: dict[str, dict[str, Any]]
         cfg = cfg.replace(**{table: _with(getattr(cfg, table), changes)})
     ctx = build_context(cfg, *data)
     nav = initial_state(cfg)
-    quad, e_mpp, e_lse, sig = [], [], [], []
+    quad, quad_lse, e_mpp, e_lse, sig = [], [], [], [], []
     for tr, rec in simulate(scenario, *data, seed):
         nav, r = step(ctx, nav, rec)
         grid = ctx.grid(r.cm_deg)
@@ -72,11 +74,14 @@ def run_seed(seed: int, truth: dict[str, Any], config: dict[str, dict[str, Any]]
         quad.append(float(e @ np.linalg.solve(r.mpp.cov, e)))
         e_mpp.append(math.hypot(*e))
         if r.fix is not None and r.fix.lse_ok:
-            e_lse.append(math.hypot(r.fix.x_m - tx, r.fix.y_m - ty))
+            el = np.array([r.fix.x_m - tx, r.fix.y_m - ty])
+            e_lse.append(math.hypot(*el))
+            quad_lse.append(float(el @ np.linalg.solve(r.fix.cov, el)))
         if r.gps is not None and r.gps.weight is not None:
             sig.append(r.gps.weight.sigma_m)
     q = np.array(quad)
     return Coverage(seed, float(np.mean(q <= K95_SQ)), float(np.mean(q)),
+                    float(np.mean(quad_lse)) if quad_lse else math.nan,
                     float(np.sqrt(np.mean(np.square(e_mpp)))),
                     float(np.sqrt(np.mean(np.square(e_lse)))) if e_lse else math.nan,
                     float(np.mean(sig)) if sig else math.nan, len(quad))
@@ -104,16 +109,18 @@ def main(argv: list[str] | None = None) -> int:
         config.setdefault(table, {})[name] = value
     data = read_data_dir(DATA)
     print(f"truth {truth or 'as scenario'}  config {config or 'start-up values'}")
-    print("seed | cover %  NEES | RMS MPP  LSE m | σ axis m | epochs")
+    print("seed | cover %  NEES  LSE | RMS MPP  LSE m | σ axis m | epochs")
     rows = []
     t0 = time.perf_counter()
     for seed in seeds:
         c = run_seed(seed, truth, config, data)
         rows.append(c)
-        print(f"{seed:4d} | {100 * c.coverage:6.1f} {c.nees:5.2f} | {c.rms_mpp:7.2f} "
+        print(f"{seed:4d} | {100 * c.coverage:6.1f} {c.nees:5.2f} {c.nees_lse:5.2f} | "
+              f"{c.rms_mpp:7.2f} "
               f"{c.rms_lse:5.2f} | {c.sigma_m:8.2f} | {c.epochs}", flush=True)
     cov = np.array([c.coverage for c in rows])
-    print(f"mean | {100 * cov.mean():6.1f} {np.mean([c.nees for c in rows]):5.2f} | "
+    print(f"mean | {100 * cov.mean():6.1f} {np.mean([c.nees for c in rows]):5.2f} "
+          f"{np.mean([c.nees_lse for c in rows]):5.2f} | "
           f"{np.mean([c.rms_mpp for c in rows]):7.2f} {np.mean([c.rms_lse for c in rows]):5.2f}"
           f" | {np.mean([c.sigma_m for c in rows]):8.2f} | min cover {100 * cov.min():.1f} %, "
           f"{time.perf_counter() - t0:.0f} s")

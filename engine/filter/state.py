@@ -315,3 +315,44 @@ def restart_dr_states(fs: FilterState, params: FilterParams) -> FilterState:
         P[:, i] = 0.0
         P[i, i] = s * s
     return fs._with(fs.t, x, P)
+
+
+def fix_states_from_fix(
+    state: FilterState,
+    keys: Sequence[str],
+    cov: np.ndarray,
+    params: FilterParams,
+    tau_s: float,
+) -> FilterState:
+    """The fix-error states ``keys`` (grid east, north) of a position just set from a fix
+    (:func:`replace_position`) whose coloured error they model: b = 0, P_bb = ``cov`` (m², its
+    stationary VCV frac·C_LSE) and cov(x̂ − x, b̂ − b) = −``cov``, because x̂ − x = b + w for a
+    position taken from that fix. Without that correlation the filter would count the next fix
+    of the same slowly varying error as independent of the first and halve the variance for as
+    long as τ lasts (issue 13: τ = 30 min for a receiver-weighted GNSS fix). Keys not yet in the
+    state are added (correlation time ``tau_s`` s)."""
+    state = add_fix_states(state, keys, cov, params, tau_s)
+    C = 0.5 * (np.asarray(cov, dtype=float) + np.asarray(cov, dtype=float).T)
+    idx = [N_NAV + state.fix_states.index(k) for k in keys]
+    x = np.array(state.x)
+    P = np.array(state.P)
+    x[idx] = 0.0
+    P[idx, :] = 0.0
+    P[:, idx] = 0.0
+    P[np.ix_(idx, idx)] = C
+    P[np.ix_([IX, IY], idx)] = -C
+    P[np.ix_(idx, [IX, IY])] = -C.T
+    return state._with(state.t, x, P).with_fix_cov(keys, C)
+
+
+
+def inflate_fix_states(state: FilterState, keys: Sequence[str], add_cov: np.ndarray) -> FilterState:
+    """The fix-error states ``keys`` with ``add_cov`` (m², positive semi-definite, over
+    ``keys``) added to their P block: extra process noise when the stationary VCV of the error
+    they model has grown (a larger HDOP; docs/GNSS_WEIGHTS.md). Their estimate is unchanged;
+    the smoother's (state, prediction, Φ) link stays consistent (the noise of a prediction is
+    what Φ does not explain)."""
+    idx = [N_NAV + state.fix_states.index(k) for k in keys]
+    P = np.array(state.P)
+    P[np.ix_(idx, idx)] += 0.5 * (add_cov + add_cov.T)
+    return state._with(state.t, np.array(state.x), P)

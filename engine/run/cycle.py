@@ -23,6 +23,8 @@ from engine.filter.kalman import (
     Measurement,
     UpdateResult,
     derived_fix_model,
+    fix_states_from_fix,
+    inflate_fix_states,
     init_state,
     innovation_distance,
     lop_measurement,
@@ -752,6 +754,13 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
         f.has_fix = True
         f.source = cycle_fix_source(cfg, gnss, f.source)
+        gp = ctx.filter_params_gnss
+        if gnss and gp is not None and gp.coloured and cfg.filter.on:
+            # The position now carries this fix's slowly varying error (τ 30 min): its
+            # fix-error states start correlated with it (docs/GNSS_WEIGHTS.md). The 1993
+            # fixed-weight runs keep their start (τ of minutes), exactly as before.
+            f.state = fix_states_from_fix(f.state, ("fix_e", "fix_n"),
+                                          gp.fix_sigma_frac * fix_cov, gp, gp.fix_tau_s)
     elif f.state is not None and cfg.filter.on:
         meas = _fix_measurement(ctx, f, fix, fix_cov, gnss, messages)
         if meas is not None:
@@ -784,6 +793,8 @@ def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_
         params = ctx.filter_params_gnss
     meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
     source = cycle_fix_source(ctx.config, gnss, f.source)
+    if gnss and source == f.source:
+        _rescale_gnss_fix_states(f, meas)
     if source != f.source:
         # A new fix source is a new, independent error process: one Gauss–Markov pair
         # models the LSE error of one source (README "Correlated fixes"); a change of the
@@ -797,6 +808,28 @@ def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_
                 f.link = (f.link[0], restarted, phi_r)
                 messages.append(_source_message(old, source))
     return meas
+
+
+def _rescale_gnss_fix_states(f: _Filtering, meas: Measurement) -> None:
+    """A receiver-weighted fix of the same source whose VCV grew (a larger HDOP): the growth of
+    the fix-error states' stationary VCV is added to their variance at once
+    (:func:`inflate_fix_states`), instead of creeping in over τ (30 min), which would leave the
+    ellipse too small while the HDOP rises. A shrinking VCV is left to the prediction's decay
+    (cautious). Nothing about how the error itself changes is assumed (docs/GNSS_WEIGHTS.md)."""
+    st = f.state
+    keys = [k for k in meas.bias_keys[:2] if k is not None]
+    if st is None or meas.bias_cov is None or len(keys) < 2 or \
+            not all(k in st.fix_states for k in keys):
+        return
+    idx = [st.fix_states.index(k) for k in keys]
+    grow = np.asarray(meas.bias_cov, dtype=float) - st.fix_cov[np.ix_(idx, idx)]
+    vals, vecs = np.linalg.eigh(0.5 * (grow + grow.T))
+    if vals.max() <= 0.0:
+        return
+    add = (vecs * np.clip(vals, 0.0, None)) @ vecs.T
+    f.state = inflate_fix_states(st, keys, add)
+    if f.link is not None:
+        f.link = (f.link[0], f.state, f.link[2])
 
 
 def _source_message(old: tuple[object, ...] | None, new: tuple[object, ...]) -> str:
