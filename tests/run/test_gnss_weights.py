@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from engine.errors import InputError
-from engine.filter.kalman import FIX_TAU_GNSS_S
+from engine.filter.kalman import FIX_TAU_GNSS_S, predict_step
 from engine.io.runfile import RunRecord
 from engine.run.config import RunConfig, parse_config_text
 from engine.run.cycle import NavState, RunContext, build_context, initial_state, step
@@ -260,3 +260,32 @@ def test_a_1993_cycle_block_has_no_new_fields() -> None:
     assert set(d["SENS"]) == {"gyro", "log", "rudder", "incl", "depth", "echo", "conv"}
     assert set(d["GPS"]) == {"lat_in", "lon_in", "lat", "lon", "x", "y", "hg"}
     assert "dr" not in cycle_json(res[2]) and "gps_weight" not in cycle_json(res[2])
+
+
+def test_first_fix_correlates_the_fix_states_and_a_rising_hdop_inflates_them() -> None:
+    """Receiver weights, SPS (UERE 5 m): the filter's position is taken from the first LSE, so
+    its error is that fix's error b + w: cov(x̂ − x, b̂ − b) = −0.99·C (hand: C = (1.0·5/√2)²
+    = 12.5 m² per axis → −12.375). When the HDOP goes 1.0 → 2.0 the stationary VCV of the
+    states grows by 0.99·(50 − 12.5) = 37.125 m² per axis, added to their predicted variance
+    at once (tolerance 1e-9 relative: the same sums)."""
+    ctx = build_context(_cfg(), *load_data(_cfg()))
+    pos, _c, _s = _track(12, 45.0, 6.0, ctx)
+    recs = [_record(k, *pos[k], hdop=1.0 if k < 10 else 2.0, quality=1, heading=45.0,
+                    speed=6.0) for k in range(12)]
+    _nav, res = _run(ctx, recs)
+    first = next(r for r in res if r.filter_state is not None and r.filter_state.fix_states)
+    P = first.filter_state.P
+    np.testing.assert_allclose(P[11:, 11:], 0.99 * 12.5 * np.eye(2), rtol=1e-9)
+    np.testing.assert_allclose(P[:2, 11:], -0.99 * 12.5 * np.eye(2), rtol=1e-9)
+    start, pred, _phi = res[10].smoother_link
+    plain = predict_step(start, 1.0, ctx.filter_params)[0]
+    np.testing.assert_allclose(pred.P[11:, 11:] - plain.P[11:, 11:], 37.125 * np.eye(2),
+                               rtol=1e-9)
+    np.testing.assert_allclose(pred.x, plain.x, rtol=0, atol=0)  # the estimate is unchanged
+    # Falling back to HDOP 1.0 adds nothing (the decay over τ is the cautious side).
+    recs2 = [*recs[:11], *[_record(k, *pos[k], hdop=1.0, quality=1, heading=45.0, speed=6.0)
+                           for k in (11,)]]
+    _nav2, res2 = _run(ctx, recs2)
+    start, pred, _phi = res2[11].smoother_link
+    np.testing.assert_allclose(pred.P, predict_step(start, 1.0, ctx.filter_params)[0].P,
+                               rtol=1e-12)
