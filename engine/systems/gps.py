@@ -3,8 +3,10 @@
 Frames: the record's GPS position is geodetic on ``run_gps_datum``; the run transforms it to the
 working datum (h = 0 on the source datum, THEORY §2.1–2.2) and the TM grid of the cycle. The
 two rows are northing ("Lat") and easting ("Lon"), each with the a priori variance of the receiver
-type (thesis ch. 5, table 5.1; THEORY D5). On the too-few-LOPs path the filter's prediction
-stands in for these two rows (:class:`PriorObservations`, THEORY §4.6).
+type (thesis ch. 5, table 5.1; THEORY D5) or, for a record with an HDOP (NMEA GGA) under
+``gps.weights = "receiver"``, σ = HDOP × UERE(quality) / √2 per axis (:func:`gps_weight`,
+docs/GNSS_WEIGHTS.md). On the too-few-LOPs path the filter's prediction stands in for these two
+rows (:class:`PriorObservations`, THEORY §4.6).
 """
 
 from __future__ import annotations
