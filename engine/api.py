@@ -124,12 +124,22 @@ if TYPE_CHECKING:
         read_nav_log,
         read_truth,
     )
+    from engine.assess.denied import (
+        CHECKPOINTS_S,
+        DeniedReport,
+        denied_experiment,
+        run_records,
+        truth_reference,
+    )
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
 
 _ASSESS_NAMES = frozenset(
     {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
      "read_truth"})
+_DENIED_NAMES = frozenset(
+    {"CHECKPOINTS_S", "DeniedReport", "denied_experiment", "run_records", "truth_reference"})
+"""``uvnav denied`` (GPS-denied experiment, docs/REALDATA.md), imported on first use."""
 _SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
 """The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
 console never load the assessment or the simulator (start-up time)."""
@@ -247,6 +257,12 @@ __all__ = [
     "remove_created",
     "run_inputs",
     "write_simulation",
+    # GPS-denied experiment (uvnav denied)
+    "CHECKPOINTS_S",
+    "DeniedReport",
+    "denied_experiment",
+    "run_records",
+    "truth_reference",
 ]
 
 
@@ -265,6 +281,10 @@ def __getattr__(name: str) -> object:
         from engine.assess import accuracy
 
         return getattr(accuracy, name)
+    if name in _DENIED_NAMES:
+        from engine.assess import denied
+
+        return getattr(denied, name)
     if name == "load_scenario":
         from engine.sim.scenario import load_scenario
 
@@ -277,4 +297,5 @@ def __getattr__(name: str) -> object:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, "load_scenario"})
+    return sorted({*globals(), *_ASSESS_NAMES, *_DENIED_NAMES, *_SIMULATE_NAMES,
+                   "load_scenario"})
