@@ -23,6 +23,7 @@ from engine.api import (
     CHECKPOINTS_S,
     DeniedReport,
     InputError,
+    RunRecord,
     denied_experiment,
     load_run_config,
     read_error,
@@ -176,7 +177,7 @@ def run_denied(argv: list[str]) -> int:
         cfg, data = load_run_config(config_path)
         cfg = cfg.replace(run_file=str(run.resolve()))
         records = list(run_records(cfg))
-        first = next((r.time for r in records if not hasattr(r, "error")), None)
+        first = next((r.time for r in records if isinstance(r, RunRecord)), None)
         starts = None if not args.start else [parse_start(s, first) for s in args.start]
         truth = None
         if args.truth:
