@@ -43,6 +43,7 @@ from engine.io.deccafile import format_dms, parse_dms
 __all__ = [
     "BadRecord",
     "RunRecord",
+    "check_input_file",
     "format_run_record",
     "iter_run_file",
     "iter_run_lines",
@@ -290,6 +291,14 @@ def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecor
     reported as bad, never crashes the replay); a line over :data:`MAX_LINE_CHARS` characters
     is a bad record.
     """
+    name = check_input_file(path)
+    return _stream(name)
+
+
+def check_input_file(path: str | os.PathLike[str]) -> str:
+    """The name of a readable regular input file (``.RUN`` or NMEA log), checked now: a
+    missing, unreadable or non-regular file (a device, a pipe) is an ``InputError``
+    (:func:`~engine.errors.read_error`)."""
     name = os.fspath(path)
     if "\0" in name:
         raise InputError("A path cannot contain a NUL character !", file=name)
@@ -300,7 +309,7 @@ def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecor
             pass
     except OSError as exc:
         raise read_error(exc, name) from None
-    return _stream(name)
+    return name
 
 
 def _stream(name: str) -> Iterator[RunRecord | BadRecord]:

@@ -39,10 +39,12 @@ from engine.filter.smoother import SmootherRecord, SmootherSpill, rts_smooth_bac
 from engine.io.datafile_io import modified_bundled
 from engine.io.datumfile import DatumFile, read_datum_file
 from engine.io.deccafile import DeccaChain, read_chain_file
+from engine.io.nmea_epochs import NmeaStats
+from engine.io.nmea_log import NmeaLog, open_records
 from engine.io.operator_input import parse_datum_name
 from engine.io.outlog import OutLogWriter
 from engine.io.outputs import OutputFile, OutputGuard
-from engine.io.runfile import BadRecord, RunRecord, iter_run_file
+from engine.io.runfile import BadRecord, RunRecord
 from engine.lsq.confidence import error_ellipse
 from engine.lsq.fix import lop_name
 from engine.run.commands import Command, SetDatum, apply_command
@@ -226,7 +228,11 @@ class Session:
         written to the .OUT header, shown by the replay."""
         self._counts = [0, 0, 0, 0]  # cycle_counts summed
         self._run_name = os.fspath(config.run_path)
-        self._records: Iterator[RunRecord | BadRecord] = iter_run_file(self._run_name)
+        self._records: Iterator[RunRecord | BadRecord] = open_records(self._run_name)
+        self.nmea_stats: NmeaStats | None = (
+            self._records.stats if isinstance(self._records, NmeaLog) else None)
+        """Sentences used/skipped of an NMEA log run file (None for a ``.RUN``); complete at the
+        end of the run (docs/NMEA.md)."""
         self._since_processed: int | None = None
         """Good records read since the last processed one (None before the first)."""
         self._prev_nav: NavState | None = None

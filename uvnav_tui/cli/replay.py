@@ -286,6 +286,9 @@ def run_replay(argv: list[str]) -> int:
     for line in _summary_lines(summary, smoothed):
         print(line)
     print(integrity_summary_line(summary, lop_policy))
+    if session.nmea_stats is not None:  # an NMEA log: sentences used/skipped (docs/NMEA.md)
+        for line in session.nmea_stats.summary_lines():
+            print(f"nmea: {line}")
     for bad in session.bad_records:
         print(f"skipped: {bad.error}", file=sys.stderr)
     _more_skipped(summary, len(session.bad_records))
