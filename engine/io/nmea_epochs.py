@@ -40,7 +40,14 @@ from datetime import UTC, date, datetime, timedelta
 
 from engine.errors import InputError
 from engine.io.nmea_sentences import NmeaValues, SentenceSkip, SkipKind, parse_nmea_line
-from engine.io.runfile import MAX_SPEED_KN, BadRecord, RunRecord, format_run_record, parse_run_line
+from engine.io.runfile import (
+    MAX_SOG_KN,
+    MAX_SPEED_KN,
+    BadRecord,
+    RunRecord,
+    format_run_record,
+    parse_run_line,
+)
 
 __all__ = [
     "DATE_HOLD_LINES",
@@ -62,6 +69,9 @@ MAX_BAD_PER_KIND = 20
 """Damaged lines returned as :class:`BadRecord` per skip kind (the ``.OUT`` log's ``BAD``
 lines); the rest are counted in :class:`NmeaStats` only, so a noisy log keeps the log small."""
 MAX_INTERVAL_S = 3600
+MAX_HDOP = 99.99
+"""Largest HDOP the ``.RUN`` ``hdop=`` token takes (written with two decimals)."""
+MAX_SATS = 999
 
 SENSORS = ("position", "heading", "water speed", "course/speed over ground", "depth")
 """The sensors an NMEA log can carry (keys of :attr:`NmeaStats.sensors`)."""
@@ -398,7 +408,14 @@ class EpochBuilder:
             if self.stats.first_fix is None:
                 self.stats.first_fix = (v.lat_deg, v.lon_deg)
             if v.sentence_type == "GGA":
-                lat.gga = (stamp, v.quality, v.hdop, v.sats)
+                hdop, sats = v.hdop, v.sats
+                if hdop is not None and not 0.005 <= hdop <= MAX_HDOP:
+                    self.stats.notes[f"GGA HDOP outside (0, {MAX_HDOP}]: not used"] += 1
+                    hdop = None
+                if sats is not None and sats > MAX_SATS:
+                    self.stats.notes[f"GGA satellites above {MAX_SATS}: not used"] += 1
+                    sats = None
+                lat.gga = (stamp, v.quality, hdop, sats)
             elif lat.gga is not None and lat.gga[0] != stamp:
                 lat.gga = None  # quality, HDOP, satellites belong to the GGA's own fix
         if v.heading_deg is not None:
@@ -414,8 +431,11 @@ class EpochBuilder:
             lat.cog = (stamp, v.cog_deg)
             s.add("course/speed over ground")
         if v.sog_kn is not None:
-            lat.sog = (stamp, v.sog_kn)
-            s.add("course/speed over ground")
+            if v.sog_kn <= MAX_SOG_KN:
+                lat.sog = (stamp, v.sog_kn)
+                s.add("course/speed over ground")
+            else:
+                self.stats.notes[f"speed over ground above {MAX_SOG_KN:.0f} kn: not used"] += 1
         if v.depth_m is not None:
             lat.depth = (stamp, v.depth_m)
             s.add("depth")
@@ -433,7 +453,9 @@ class EpochBuilder:
             self._next_epoch += step
 
     def _all_stale(self, epoch: float) -> bool:
-        stamps = [item[0] for item in dataclasses.astuple(self._latest) if item is not None]
+        lat = self._latest
+        stamps = [item[0] for item in (lat.pos, lat.heading, lat.stw, lat.cog, lat.sog, lat.depth)
+                  if item is not None]
         return not stamps or epoch - max(stamps) > self._max_stale
 
     def _emit(self, epoch: int, line_no: int, out: list[RunRecord | BadRecord]) -> bool:
@@ -475,11 +497,4 @@ class EpochBuilder:
         except InputError as exc:  # pragma: no cover - every value is range-checked before
             return BadRecord(rec.line_no, raw, exc)
         assert parsed is not None
-        return dataclasses.replace(
-            parsed,
-            gps_hdop=None if rec.gps_hdop is None else round(rec.gps_hdop, 1),
-            gps_quality=rec.gps_quality,
-            gps_sats=rec.gps_sats,
-            cog_deg=None if rec.cog_deg is None else round(rec.cog_deg, 1) % 360.0,
-            sog_kn=None if rec.sog_kn is None else round(rec.sog_kn, 1),
-        )
+        return parsed

@@ -18,7 +18,7 @@ from engine.io.nmea_epochs import EpochBuilder, NmeaOptions, NmeaStats
 from engine.io.nmea_sentences import SkipKind
 from engine.io.runfile import BadRecord, RunRecord, check_input_file, iter_run_file
 
-__all__ = ["NmeaLog", "is_nmea_file", "open_records"]
+__all__ = ["NmeaLog", "is_nmea_file", "open_records", "scan_nmea_log"]
 
 SNIFF_BYTES = 1 << 16
 """Bytes read to decide whether a file is an NMEA log."""
@@ -106,3 +106,12 @@ def open_records(
     if is_nmea_file(path):
         return NmeaLog(path, nmea_options)
     return iter_run_file(path)
+
+
+def scan_nmea_log(path: str | os.PathLike[str], options: NmeaOptions | None = None) -> NmeaStats:
+    """Read a whole log once and return what it gave (sentences, sensors, first fix), for a
+    derived configuration and the ``.OUT`` header before the run starts."""
+    log = NmeaLog(path, options)
+    for _ in log:
+        pass
+    return log.stats

@@ -32,6 +32,8 @@ import math
 import re
 from dataclasses import dataclass, field
 from datetime import date
+from functools import reduce
+from operator import xor
 from typing import Any
 
 import pynmea2
@@ -408,11 +410,8 @@ def _values(msg: Any, kind: str, talker: str, variation_deg: float | None) -> Nm
 
 
 def _checksum(body: str) -> int:
-    """XOR of the characters between ``$`` and ``*``."""
-    value = 0
-    for ch in body:
-        value ^= ord(ch)
-    return value
+    """XOR of the characters between ``$`` and ``*`` (ASCII by now)."""
+    return reduce(xor, body.encode("ascii"), 0)
 
 
 def parse_nmea_line(

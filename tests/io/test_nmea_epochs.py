@@ -45,11 +45,10 @@ def test_one_epoch_per_second_with_latest_values_and_run_line() -> None:
     assert (r.gps_quality, r.gps_sats, r.gps_hdop, r.cog_deg, r.sog_kn) == (1, 7, 1.2, 45.0, 6.0)
     assert r.decca == (None, None, None) and r.rudder_deg is None
     assert r.gps_lat_deg == pytest.approx(52.8333333, abs=1e-6)
-    # raw is the equivalent .RUN line, whose parse gives the same basic values
-    assert r.raw == "261202 120000 52 50 00.000 N 004 30 00.000 E - - - 10.0 5.2 - - - 12.34"
-    p = parse_run_line(r.raw)
-    assert p is not None and (p.gps_lat_deg, p.heading_deg, p.echo_m) == (
-        r.gps_lat_deg, r.heading_deg, r.echo_m)
+    # raw is the equivalent .RUN line (GNSS values as key=value tokens); its parse is the record
+    assert r.raw == ("261202 120000 52 50 00.000 N 004 30 00.000 E - - - 10.0 5.2 - - - 12.34 "
+                     "hdop=1.20 q=1 sats=7 cog=45.0 sog=6.00")
+    assert parse_run_line(r.raw, r.line_no, "T.nmea") == r
     assert recs[-1].line_no == 15  # the last epoch is closed by the end of the log
     assert b.stats.used == {"RMC": 3, "GGA": 3, "HDT": 3, "VHW": 3, "DPT": 3}
     assert b.stats.missing_sensors() == []
