@@ -51,7 +51,8 @@ from engine.assess.accuracy import Truth
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import DatumShift, datum_shift
 from engine.io.datumfile import DatumFile
-from engine.io.runfile import BadRecord, RunRecord, iter_run_file
+from engine.io.nmea_log import open_records
+from engine.io.runfile import BadRecord, RunRecord
 from engine.run.config import RunConfig
 from engine.run.cycle import CycleResult, NavState, RunContext, build_context, initial_state, step
 from engine.run.session import check_config
@@ -165,8 +166,10 @@ class DeniedReport:
 
 
 def run_records(config: RunConfig) -> Iterator[RunRecord | BadRecord]:
-    """The records of ``config``'s run file, as :class:`engine.run.session.Session` reads them."""
-    return iter_run_file(config.run_path)
+    """The records of ``config``'s run file as :class:`engine.run.session.Session` reads them:
+    a ``.RUN`` or an NMEA 0183 log (an :class:`~engine.io.nmea_log.NmeaLog`, whose ``stats``
+    count the sentences used and skipped once it has been read), by content."""
+    return open_records(config.run_path, config.nmea.options)
 
 
 def truth_reference(truth: Truth, datums: DatumFile) -> Reference:

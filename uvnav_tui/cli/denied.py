@@ -23,14 +23,19 @@ from engine.api import (
     CHECKPOINTS_S,
     DeniedReport,
     InputError,
+    NmeaLog,
     RunRecord,
     denied_experiment,
+    derive_nmea_config,
+    is_nmea_file,
+    load_data,
     load_run_config,
     read_error,
     read_truth,
     run_records,
     truth_reference,
 )
+from uvnav_tui.cli.replay import bundled_data_dir
 
 PROG = "uvnav denied"
 EXIT_OK = 0
@@ -43,8 +48,9 @@ NO_CONFIG_MESSAGE = ("No configuration beside the run file: give --config FILE (
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``uvnav denied``."""
     p = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
-    p.add_argument("run", help="run file (.RUN) to replay")
-    p.add_argument("--config", help="run configuration TOML (default: NAME.toml next to RUN)")
+    p.add_argument("run", help="run file to replay: a .RUN or an NMEA 0183 log")
+    p.add_argument("--config", help="run configuration TOML (default: NAME.toml next to RUN; "
+                   "for an NMEA log without either, one is derived from the log)")
     p.add_argument("--window", type=float, action="append", metavar="S",
                    help="length of the GPS-denied window in seconds (repeatable; default 600 "
                         "and 1800)")
@@ -172,11 +178,16 @@ def run_denied(argv: list[str]) -> int:
         except OSError as exc:
             raise read_error(exc, str(run)) from None
         config_path = Path(args.config) if args.config else run.with_suffix(".toml")
-        if not args.config and not config_path.exists():
+        if args.config or config_path.exists():
+            cfg, data = load_run_config(config_path)
+            cfg = cfg.replace(run_file=str(run.resolve()))
+        elif is_nmea_file(run):
+            cfg, _scan = derive_nmea_config(run, bundled_data_dir())
+            data = load_data(cfg)
+        else:
             raise InputError(NO_CONFIG_MESSAGE, file=str(config_path), field="configuration")
-        cfg, data = load_run_config(config_path)
-        cfg = cfg.replace(run_file=str(run.resolve()))
-        records = list(run_records(cfg))
+        reader = run_records(cfg)
+        records = list(reader)
         first = next((r.time for r in records if isinstance(r, RunRecord)), None)
         starts = None if not args.start else [parse_start(s, first) for s in args.start]
         truth = None
@@ -187,6 +198,9 @@ def run_denied(argv: list[str]) -> int:
     except InputError as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    if isinstance(reader, NmeaLog):  # sentences used/skipped (docs/NMEA.md)
+        for line in reader.stats.summary_lines():
+            print(f"nmea: {line}")
     for line in report_lines(rep, str(run), markdown=args.markdown):
         print(line)
     if args.windows:
