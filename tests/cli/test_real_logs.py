@@ -26,6 +26,8 @@ from uvnav_tui.cli.main import main
 GEOD = Geod(ellps="WGS84")
 NMEA = DATA / "nmea"
 LOGS = ("avnav-markermeer-20160815", "avnav-baltic-20130731", "signalk-plaka-gulf-of-finland")
+# The two long logs (3.7 h and 4.1 h, 13 000–15 000 epochs) take 15–25 s each: slow tests.
+LOG_PARAMS = [LOGS[0], *(pytest.param(n, marks=pytest.mark.slow) for n in LOGS[1:])]
 KNOT_MS = 1852.0 / 3600.0
 
 
@@ -58,7 +60,7 @@ def length_m(points: list[tuple[float, float]], every: int) -> float:
     return sum(GEOD.inv(a[1], a[0], b[1], b[0])[2] for a, b in zip(sub, sub[1:], strict=False))
 
 
-@pytest.mark.parametrize("name", LOGS)
+@pytest.mark.parametrize("name", LOG_PARAMS)
 def test_real_log_replays_end_to_end(name: str, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
     """Exit 0, sentences used, and the MPP track agrees with the log's own motion.
