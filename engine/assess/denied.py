@@ -51,6 +51,7 @@ from engine.assess.accuracy import Truth
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import DatumShift, datum_shift
 from engine.io.datumfile import DatumFile
+from engine.io.deccafile import DeccaChain
 from engine.io.nmea_log import open_records
 from engine.io.runfile import BadRecord, RunRecord
 from engine.run.config import RunConfig
@@ -324,7 +325,7 @@ def _nees(ctx: RunContext, res: CycleResult, ref_working: tuple[float, float]) -
 
 def denied_experiment(
     config: RunConfig,
-    data: tuple[object, object],
+    data: tuple[DatumFile, dict[str, DeccaChain]],
     records: Iterable[RunRecord | BadRecord],
     window_lengths_s: Sequence[float],
     *,
@@ -347,11 +348,12 @@ def denied_experiment(
     longest length that fits is run once: the first L seconds of a longer window hide exactly
     what a window of length L hides, so shorter lengths read their checkpoints from it.
     ``truth`` replaces the hidden fixes as the reference (WGS84 degrees by record time).
-    ``progress(done, total)`` is called after each window.
+    ``progress(done, total)`` is called after each window. Every record is processed
+    (``demo.delta_t_s`` is not applied) and records that do not advance in time are skipped.
     """
     datums, chains = data
-    check_config(config, datums, chains)  # type: ignore[arg-type]
-    ctx = build_context(config, datums, chains)  # type: ignore[arg-type]
+    check_config(config, datums, chains)
+    ctx = build_context(config, datums, chains)
     recs, skipped = _clean(records)
     lengths = tuple(sorted({float(v) for v in window_lengths_s}))
     times = [r.time for r in recs]
