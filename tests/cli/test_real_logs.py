@@ -100,20 +100,29 @@ def test_denied_on_real_data_gives_sane_numbers(markermeer: DeniedReport) -> Non
 
     Why these bounds: the filter has the same heading and water speed as the plain DR, plus the
     current / log-bias states it learnt from the fixes before the outage, so its median error
-    must not be worse than the heading/water-speed DR (measured 42 m against 239 m at 10 min); the
-    error grows with time for every estimator; and the 95 % ellipse holds the hidden fix in at
-    least 80 % of the windows (the fix itself is good to a few metres, negligible against an
-    ellipse of ~100 m; measured 100 %)."""
+    must not be worse than the heading/water-speed DR (measured 41 m against 238 m at 10 min);
+    the error grows with time for every estimator; and 10 minutes at ~4.8 kn is ~1500 m sailed,
+    of which the filter must keep its median error under 10 % (measured 2.7 %)."""
     rows = {r.checkpoint_s: r for r in markermeer.rows}
     assert set(rows) == {60.0, 300.0, 600.0}
     assert all(r.n >= 10 for r in rows.values())  # starts 11:51:41 … 12:11:41, every 2 min
     for cp in (300.0, 600.0):
         assert rows[cp].filter_m[0] <= rows[cp].hdgstw_m[0]
-        assert rows[cp].coverage >= 0.8
     for est in ("filter_m", "cogsog_m", "hdgstw_m"):
         assert getattr(rows[60.0], est)[0] < getattr(rows[600.0], est)[0]
-    # 10 minutes at ~4.8 kn is ~1500 m sailed: the filter keeps the median error under 10 % of it.
     assert rows[600.0].filter_m[0] < 150.0
+
+
+def test_denied_ellipse_holds_the_hidden_fix_on_real_data(markermeer: DeniedReport) -> None:
+    """The console's 95 % ellipse after 5 and 10 minutes without GNSS holds the hidden fix in at
+    least 80 % of the Markermeer windows (the fix's own error, a few metres at HDOP 0.5, is
+    negligible against the measured ellipses of 100–160 m; measured 100 %). The windows overlap
+    and share one afternoon's leeway, so they are far from independent: 80 %, not a binomial
+    bound. This is the filter's honesty on real data: a filter tuned to claim less than it
+    knows fails here first (docs/REALDATA.md)."""
+    for r in markermeer.rows:
+        if r.checkpoint_s >= 300.0:
+            assert r.coverage >= 0.8
 
 
 def gga_fixes(path: Path, day: datetime) -> dict[datetime, tuple[float, float]]:
