@@ -124,6 +124,8 @@ if TYPE_CHECKING:
         read_nav_log,
         read_truth,
     )
+    from engine.io.nmea_send import NmeaSender, open_nmea_sender, parse_nmea_destination
+    from engine.run.nmea_out import NmeaOutOptions, NmeaPositionOut
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
 
@@ -131,6 +133,8 @@ _ASSESS_NAMES = frozenset(
     {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
      "read_truth"})
 _SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
+_NMEA_SEND_NAMES = frozenset({"NmeaSender", "open_nmea_sender", "parse_nmea_destination"})
+_NMEA_OUT_NAMES = frozenset({"NmeaOutOptions", "NmeaPositionOut"})
 """The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
 console never load the assessment or the simulator (start-up time)."""
 
@@ -247,6 +251,12 @@ __all__ = [
     "remove_created",
     "run_inputs",
     "write_simulation",
+    # NMEA 0183 out of the integrated position (docs/NMEA_OUT.md)
+    "NmeaOutOptions",
+    "NmeaPositionOut",
+    "NmeaSender",
+    "open_nmea_sender",
+    "parse_nmea_destination",
 ]
 
 
@@ -273,8 +283,17 @@ def __getattr__(name: str) -> object:
         from engine.sim import simulate
 
         return getattr(simulate, name)
+    if name in _NMEA_SEND_NAMES:
+        from engine.io import nmea_send
+
+        return getattr(nmea_send, name)
+    if name in _NMEA_OUT_NAMES:
+        from engine.run import nmea_out
+
+        return getattr(nmea_out, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, "load_scenario"})
+    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, *_NMEA_SEND_NAMES,
+                   *_NMEA_OUT_NAMES, "load_scenario"})
