@@ -29,9 +29,11 @@ INTERRUPTED_NOTE = {
 """What is left on disk after Ctrl-C, per sub-command."""
 
 USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
+                    [--nmea-out udp://HOST:PORT]
        uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
-                        [--smooth [FILE]] [--force]
+                        [--smooth [FILE]] [--force] [--nmea-out udp://HOST:PORT|FILE]
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
+                      [--nmea NAME.nmea]
        uvnav script FILE [--headless]
        uvnav assess OUT_or_JSONL TRUTH.csv [--svg FILE] [--phases auto|none] [--poe-rate M_H]
 """
