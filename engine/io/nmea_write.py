@@ -28,6 +28,7 @@ A value out of range (a latitude beyond ±90°, a negative speed, a NaN, a quali
 from __future__ import annotations
 
 import math
+import re
 from datetime import UTC, datetime, timedelta
 
 __all__ = [
@@ -60,8 +61,11 @@ FEET_PER_M = 1.0 / 0.3048
 FATHOMS_PER_M = 1.0 / 1.8288
 """Fathoms in one metre (1 fathom = 6 ft = 1.8288 m)."""
 
-_FORBIDDEN = set("$!*,\\^~\r\n")
-"""Characters that may not appear in a field (delimiters and reserved characters, §5.1.3)."""
+_BAD_FIELD = re.compile(r"[^\x20-\x7e]|[$!*,\\^~]")
+"""A character that may not appear in a field: not printable ASCII, or a delimiter or reserved
+character (NMEA 0183 §5.1.3)."""
+_TALKER = re.compile(r"[A-Z0-9]{2}")
+_KIND = re.compile(r"[A-Z]{3}")
 
 
 def checksum(body: str) -> str:
@@ -80,12 +84,12 @@ def sentence(talker: str, kind: str, fields: list[str]) -> str:
     upper-case letters (``GGA``). Raises ValueError for a bad talker or kind, a field holding a
     delimiter or non-printable character, or a sentence longer than :data:`MAX_SENTENCE_CHARS`.
     """
-    if len(talker) != 2 or not all(c.isascii() and (c.isupper() or c.isdigit()) for c in talker):
+    if _TALKER.fullmatch(talker) is None:
         raise ValueError(f"talker must be two upper-case letters or digits (got {talker!r})")
-    if len(kind) != 3 or not all(c.isascii() and c.isupper() for c in kind):
+    if _KIND.fullmatch(kind) is None:
         raise ValueError(f"sentence kind must be three upper-case letters (got {kind!r})")
     for text in fields:
-        if not text.isascii() or not text.isprintable() or _FORBIDDEN & set(text):
+        if _BAD_FIELD.search(text) is not None:
             raise ValueError(f"NMEA field holds a reserved or non-printable character: {text!r}")
     body = ",".join([talker + kind, *fields])
     out = f"${body}*{checksum(body)}"
