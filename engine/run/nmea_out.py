@@ -1,4 +1,4 @@
-"""The integrated position as NMEA 0183: one cycle's MPP → GGA, RMC (GLL), GST, HDT on WGS84.
+"""The integrated position as NMEA 0183: one cycle's MPP → ZDA, GGA, RMC, (GLL), GST, HDT on WGS84.
 
 A chart plotter (OpenCPN, …) shows the UVNAV position next to the raw GNSS when it receives
 these sentences (docs/NMEA_OUT.md). Pure: a :class:`~engine.run.cycle.CycleResult` in, a list
@@ -29,6 +29,9 @@ of sentences out (no line endings); sending them is :mod:`engine.io.nmea_send`'s
   γ (grid scale ignored: k − 1 < 1e-3 on the run's grid); HDT = grid heading + γ. Empty / not
   sent without a filter.
 * **Satellites (GGA).** Empty: the integrated position has none of its own.
+* **ZDA** first in every cycle: the cycle's time and date from the integrated system's clock,
+  so a reader has the time of a cycle whose GGA/RMC it rejects as "not a fix" (a dead-reckoned
+  cycle), and of the HDT after it.
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, datum_shift
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.datumfile import DatumFile
-from engine.io.nmea_write import gga, gll, gst, hdt, rmc
+from engine.io.nmea_write import gga, gll, gst, hdt, rmc, zda
 from engine.run.cycle import CycleResult
 from engine.systems.sensors import KNOT_MS
 
@@ -74,10 +77,11 @@ HDOP_RANGE = (0.1, 99.9)
 @dataclass(frozen=True, slots=True)
 class NmeaOutOptions:
     """What to send per cycle: the talker (``IN`` = integrated navigation, so a plotter does not
-    mistake it for the raw ``GP``), GLL besides GGA and RMC, GST (the ellipse), HDT (the
-    filter's true heading) and the UERE of the pseudo HDOP (m)."""
+    mistake it for the raw ``GP``), ZDA (time and date) before, GLL besides GGA and RMC, GST (the
+    ellipse), HDT (the filter's true heading) and the UERE of the pseudo HDOP (m)."""
 
     talker: str = "IN"
+    zda: bool = True
     gll: bool = False
     gst: bool = True
     hdt: bool = True
@@ -132,7 +136,7 @@ class NmeaPositionOut:
         return grid.forward_full(r.mpp.lat_deg, r.mpp.lon_deg)[2]
 
     def sentences(self, r: CycleResult) -> list[str]:
-        """GGA, RMC, (GLL), (GST), (HDT) of the cycle's MPP, no line endings."""
+        """(ZDA), GGA, RMC, (GLL), (GST), (HDT) of the cycle's MPP, no line endings."""
         o = self.options
         quality = cycle_quality(r)
         valid = quality == QUALITY_FIX
@@ -160,7 +164,8 @@ class NmeaPositionOut:
                 sog = sog_ms / KNOT_MS
                 cog = None if sog_ms < 1e-3 else (math.degrees(math.atan2(ve, vn)) + gamma)
                 heading = math.degrees(psi) + gamma
-        out = [
+        out = [zda(r.time, talker=o.talker)] if o.zda else []
+        out += [
             gga(r.time, lat, lon, quality=quality, sats=None, hdop=hdop, talker=o.talker),
             rmc(r.time, lat, lon, sog_kn=sog, cog_deg=cog, valid=valid, mode=mode,
                 talker=o.talker),

@@ -109,12 +109,12 @@ class Receiver:
 
 
 def _groups(lines: list[str]) -> list[dict[str, pynmea2.NMEASentence]]:
-    """One dict per cycle (a cycle starts with its GGA)."""
+    """One dict per cycle (a cycle starts with its ZDA, then GGA)."""
     out: list[dict[str, pynmea2.NMEASentence]] = []
     for line in lines:
         s = pynmea2.parse(line, check=True)
         assert s.talker == "IN"
-        if s.sentence_type == "GGA":
+        if s.sentence_type == "ZDA":
             out.append({})
         assert s.sentence_type not in out[-1]
         out[-1][s.sentence_type] = s
@@ -140,6 +140,9 @@ def _check_against_jsonl(groups: list[dict[str, pynmea2.NMEASentence]], jsonl: P
             assert abs(s.longitude - lon_w) <= HALF_STEP_DEG + 2e-9
         assert gga.timestamp.strftime("%H:%M:%S") == c["time"][11:19]
         assert rmc.datestamp.isoformat() == c["time"][:10]
+        z = g["ZDA"]
+        assert f"{z.year:04d}-{z.month:02d}-{z.day:02d}T{z.timestamp:%H:%M:%S}Z" == c["time"]
+        assert list(g)[:3] == ["ZDA", "GGA", "RMC"]
         fix_used = c["lse"] is not None
         quality = 1 if fix_used else 6
         qualities.append(gga.gps_qual)
@@ -237,3 +240,28 @@ def test_gst_hand_calculation() -> None:
     assert s.std_dev_major == pytest.approx(math.sqrt(6.0), abs=0.005)
     assert s.std_dev_minor == pytest.approx(math.sqrt(2.0), abs=0.005)
     assert s.orientation == 45.0
+
+
+def test_output_read_back_by_the_nmea_reader(dive: Path, tmp_path: Path) -> None:
+    """The NMEA reader (engine/io/nmea_log.py) takes the quality-1 cycles of the output as
+    fixes and never a dead-reckoned (quality 6, RMC status V) one; positions back on WGS84
+    within the NMEA step. HDT comes back as the heading of every cycle."""
+    from engine.io.nmea_epochs import NmeaOptions
+    from engine.io.nmea_log import NmeaLog
+
+    path, jsonl = tmp_path / "back.nmea", tmp_path / "back.jsonl"
+    assert main(["replay", str(dive / "DIVE.RUN"), "--no-out", "--jsonl", str(jsonl),
+                 "--nmea-out", str(path)]) == 0
+    cycles = [json.loads(line) for line in jsonl.read_text(encoding="utf-8").splitlines()]
+    records = list(NmeaLog(path, NmeaOptions(position_stale_s=0.5)))
+    assert len(records) == len(cycles) == 180
+    for rec, c in zip(records, cycles, strict=True):
+        assert rec.time.strftime("%Y-%m-%dT%H:%M:%SZ") == c["time"]
+        if c["lse"] is None:
+            assert rec.gps_lat_deg is None  # dead reckoning is not a fix
+        else:
+            lon_w, lat_w = TO_WGS84.transform(c["mpp"]["lon"], c["mpp"]["lat"])
+            assert abs(rec.gps_lat_deg - lat_w) <= HALF_STEP_DEG + 2e-9
+            assert abs(rec.gps_lon_deg - lon_w) <= HALF_STEP_DEG + 2e-9
+            assert rec.gps_quality == 1
+        assert rec.heading_deg is not None
