@@ -6,10 +6,12 @@ the *unquantised* readings) becomes, in this order within the second (docs/NMEA_
 1. ``$GPGGA`` and ``$GPRMC`` — only when the record has a GPS position. Position on WGS84
    (the reading, on ``run_gps_datum``, converted to WGS84 with h = 0 on that datum as the run
    does, THEORY §2.1–2.2; the identity for the usual ``run_gps_datum = "WGS84"``), rounded to
-   1e-4 minute (≤ 0.093 m). GGA: quality 1 (GPS SPS), :data:`SIM_GGA_SATS` satellites, HDOP
-   :data:`SIM_GGA_HDOP`, no altitude. RMC: status ``A``, mode ``A``, speed and course over
-   ground from the *true* velocity over ground (water speed along the true heading, times
-   cos pitch, plus the current; the scenario has no error model for them), no variation.
+   1e-4 minute (≤ 0.093 m). GGA: the record's fix quality and HDOP when the scenario models
+   them (``RunRecord.gps_quality``/``gps_hdop``), else quality 1 (GPS SPS) and HDOP
+   :data:`SIM_GGA_HDOP`; :data:`SIM_GGA_SATS` satellites; no altitude. RMC: status ``A``,
+   mode ``A`` (``D`` for DGPS), speed and course over ground from the *true* velocity over
+   ground (water speed along the true heading, times cos pitch, plus the current; the
+   scenario has no error model for them), no variation.
 2. ``$GPZDA`` — every epoch: the receiver's clock keeps giving time and date while the antenna
    is under water, so a reader always has the date and the second of the sensors that follow.
 3. ``$HEHDT`` — when the gyro has a reading (true heading, 0.1°).
@@ -44,9 +46,10 @@ SIM_GGA_QUALITY = 1
 SIM_GGA_SATS = 8
 """Satellites in use written in GGA: a typical open-sky count (not modelled)."""
 SIM_GGA_HDOP = 1.0
-"""HDOP written in GGA. The scenario's GPS error is a stationary Gauss–Markov process (one
-σ for the whole run), i.e. constant geometry: a constant HDOP of 1.0 says exactly that, and the
-scenario's ``gps.sigma_m`` is then the user range error per axis."""
+"""HDOP written in GGA when the scenario does not model one. The scenario's GPS error is then a
+stationary Gauss–Markov process (one σ for the whole run), i.e. constant geometry: a constant
+HDOP says exactly that. A reader that weights a fix by HDOP × UERE / √2 per axis needs a UERE of
+√2 × the scenario's σ to weight it honestly (49.7 m for the SA-era demo's 35 m + 3 m)."""
 
 
 def _same(a: Datum, b: Datum) -> bool:
@@ -82,9 +85,11 @@ class SimNmea:
             lat, lon = self.gps_wgs84(rec.gps_lat_deg, rec.gps_lon_deg)
             sog_kn, cog_deg = ground_velocity(heading_true_deg, speed_kn, pitch_deg,
                                               current_e_ms, current_n_ms)
-            out.append(gga(t, lat, lon, quality=SIM_GGA_QUALITY, sats=SIM_GGA_SATS,
-                           hdop=SIM_GGA_HDOP))
-            out.append(rmc(t, lat, lon, sog_kn=sog_kn, cog_deg=cog_deg, valid=True, mode="A"))
+            quality = rec.gps_quality if rec.gps_quality is not None else SIM_GGA_QUALITY
+            hdop = rec.gps_hdop if rec.gps_hdop is not None else SIM_GGA_HDOP
+            out.append(gga(t, lat, lon, quality=quality, sats=SIM_GGA_SATS, hdop=hdop))
+            out.append(rmc(t, lat, lon, sog_kn=sog_kn, cog_deg=cog_deg, valid=True,
+                           mode="D" if quality == 2 else "A"))
         out.append(zda(t))
         if rec.heading_deg is not None:
             out.append(hdt(rec.heading_deg))

@@ -201,3 +201,22 @@ def test_cli_nmea_output_rule(tmp_path: Path) -> None:
                          str(tmp_path / "p.RUN")]) == 2  # same file as --out
     assert run_simulate([str(scen), "--out", str(tmp_path / "q.RUN"), "--nmea",
                          str(scen), "--force"]) == 2  # the scenario
+
+
+def test_record_hdop_and_quality_are_written_when_modelled() -> None:
+    """A record that carries the receiver's HDOP and fix quality (a scenario with an HDOP model)
+    writes them; DGPS (2) makes RMC's mode D."""
+    from datetime import UTC, datetime
+
+    from engine.geodesy.ellipsoid import WGS84
+    from engine.io.runfile import RunRecord
+    from engine.sim.nmea import SimNmea
+
+    rec = RunRecord(1, datetime(2026, 12, 2, 12, 0, 0, tzinfo=UTC), 52.5, 4.5,
+                    (None, None, None), 90.0, 5.0, None, gps_hdop=2.3, gps_quality=2)
+    lines = SimNmea(WGS84).epoch(rec, heading_true_deg=90.0, speed_kn=5.0, pitch_deg=0.0,
+                                 current_e_ms=0.0, current_n_ms=0.0)
+    gga, rmc = (pynmea2.parse(x, check=True) for x in lines[:2])
+    assert gga.gps_qual == 2 and float(gga.horizontal_dil) == 2.3
+    assert rmc.mode_indicator == "D"
+    assert rmc.spd_over_grnd == 5.0 and rmc.true_course == 90.0
