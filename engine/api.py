@@ -124,9 +124,33 @@ if TYPE_CHECKING:
         read_nav_log,
         read_truth,
     )
+    from engine.io.export_geo import ELLIPSE_POINTS, Wgs84Converter, build_export
+    from engine.io.export_geo import TRACKS as EXPORT_TRACKS
+    from engine.io.export_read import (
+        align_smoothed,
+        logged_datum_file,
+        read_export_log,
+        read_smoothed,
+    )
+    from engine.io.export_write import csv_text, geojson_text, gpx_text, kml_text
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
 
+_EXPORT_NAMES = {
+    "EXPORT_TRACKS": ("engine.io.export_geo", "TRACKS"),
+    "ELLIPSE_POINTS": ("engine.io.export_geo", "ELLIPSE_POINTS"),
+    "Wgs84Converter": ("engine.io.export_geo", "Wgs84Converter"),
+    "build_export": ("engine.io.export_geo", "build_export"),
+    "align_smoothed": ("engine.io.export_read", "align_smoothed"),
+    "logged_datum_file": ("engine.io.export_read", "logged_datum_file"),
+    "read_export_log": ("engine.io.export_read", "read_export_log"),
+    "read_smoothed": ("engine.io.export_read", "read_smoothed"),
+    "csv_text": ("engine.io.export_write", "csv_text"),
+    "geojson_text": ("engine.io.export_write", "geojson_text"),
+    "gpx_text": ("engine.io.export_write", "gpx_text"),
+    "kml_text": ("engine.io.export_write", "kml_text"),
+}
+"""``uvnav export``'s names (docs/EXPORT.md), imported on first use like the assessment's."""
 _ASSESS_NAMES = frozenset(
     {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
      "read_truth"})
@@ -247,6 +271,19 @@ __all__ = [
     "remove_created",
     "run_inputs",
     "write_simulation",
+    # headless work: exports (uvnav export, imported on first use)
+    "ELLIPSE_POINTS",
+    "EXPORT_TRACKS",
+    "Wgs84Converter",
+    "align_smoothed",
+    "build_export",
+    "csv_text",
+    "geojson_text",
+    "gpx_text",
+    "kml_text",
+    "logged_datum_file",
+    "read_export_log",
+    "read_smoothed",
 ]
 
 
@@ -261,6 +298,11 @@ def run_record(r: CycleResult) -> RunRecord | None:
 
 def __getattr__(name: str) -> object:
     """The assessment's and the simulator's names (PEP 562), imported when first asked for."""
+    if name in _EXPORT_NAMES:
+        import importlib
+
+        module, attr = _EXPORT_NAMES[name]
+        return getattr(importlib.import_module(module), attr)
     if name in _ASSESS_NAMES:
         from engine.assess import accuracy
 
@@ -277,4 +319,5 @@ def __getattr__(name: str) -> object:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, "load_scenario"})
+    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, *_EXPORT_NAMES,
+                   "load_scenario"})
