@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from engine.errors import InputError
 from engine.geodesy.ellipsoid import WGS84, Datum, Ellipsoid
@@ -45,11 +46,13 @@ __all__ = [
     "GeoPoint",
     "Wgs84Converter",
     "ellipse_grid_ring",
+    "ellipse_grid_rings",
 ]
 
 ELLIPSE_POINTS = 72
 """Vertices of an ellipse outline (every 5°): the inscribed polygon's area is
 72·sin(5°)/(2π) = 0.99873 of π·a·b."""
+FloatArray = npt.NDArray[np.float64]
 GRID_MATCH_M = 0.05
 """Largest distance (m) between a logged grid position and the projection of its logged
 latitude/longitude for the grid to count as the point's grid (JSON rounds to 1 mm)."""
@@ -77,19 +80,28 @@ class GeoPoint:
     ring: tuple[tuple[float, float], ...] | None
 
 
+def ellipse_grid_rings(x_m: npt.ArrayLike, y_m: npt.ArrayLike, a_m: npt.ArrayLike,
+                       b_m: npt.ArrayLike, az_grid_deg: npt.ArrayLike,
+                       n: int = ELLIPSE_POINTS) -> tuple[FloatArray, FloatArray]:
+    """Outlines of m ellipses in grid metres: arrays X, Y of shape (m, n), x east, y north;
+    each counter-clockwise from the major axis' end in direction ``az_grid_deg`` (not
+    closed): centre + a·cos t·u + b·sin t·v, u = (sin Az, cos Az), v = (−cos Az, sin Az)
+    (u turned 90° counter-clockwise)."""
+    t = 2.0 * np.pi * np.arange(n) / n
+    az = np.radians(np.asarray(az_grid_deg, dtype=np.float64))[:, None]
+    ux, uy = np.sin(az), np.cos(az)
+    ca = np.asarray(a_m, dtype=np.float64)[:, None] * np.cos(t)[None, :]
+    sb = np.asarray(b_m, dtype=np.float64)[:, None] * np.sin(t)[None, :]
+    x = np.asarray(x_m, dtype=np.float64)[:, None]
+    y = np.asarray(y_m, dtype=np.float64)[:, None]
+    return x + ca * ux - sb * uy, y + ca * uy + sb * ux
+
+
 def ellipse_grid_ring(x_m: float, y_m: float, a_m: float, b_m: float, az_grid_deg: float,
                       n: int = ELLIPSE_POINTS) -> list[tuple[float, float]]:
-    """``n`` points of the ellipse outline in grid metres (x east, y north), counter-clockwise,
-    starting at the major axis' end in direction ``az_grid_deg`` (not closed)."""
-    az = math.radians(az_grid_deg)
-    ux, uy = math.sin(az), math.cos(az)
-    vx, vy = -uy, ux  # u turned 90° counter-clockwise
-    out = []
-    for k in range(n):
-        t = 2.0 * math.pi * k / n
-        ca, sb = a_m * math.cos(t), b_m * math.sin(t)
-        out.append((x_m + ca * ux + sb * vx, y_m + ca * uy + sb * vy))
-    return out
+    """One outline of :func:`ellipse_grid_rings` as ``n`` (x, y) points in grid metres."""
+    xs, ys = ellipse_grid_rings([x_m], [y_m], [a_m], [b_m], [az_grid_deg], n)
+    return list(zip(xs[0].tolist(), ys[0].tolist(), strict=True))
 
 
 class Wgs84Converter:
@@ -163,41 +175,73 @@ class Wgs84Converter:
                 return g
         return None
 
+    def to_wgs84_array(self, datum: str, lat_deg: FloatArray,
+                       lon_deg: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Vectorised :meth:`to_wgs84` (arrays of degrees, height 0 on ``datum``)."""
+        shift = self._shift(datum)
+        if shift is None:
+            return lat_deg, lon_deg
+        la, lo = shift.transform_array(lat_deg, lon_deg, np.zeros_like(lat_deg))
+        return np.asarray(la, dtype=np.float64), np.asarray(lo, dtype=np.float64)
+
     def point(self, datum: str, p: TrackPoint, cm_hint: float | None, *,
               with_depth: bool = True, ring_points: int = ELLIPSE_POINTS) -> GeoPoint:
-        """``p`` on WGS84, with its ellipse outline when it has an ellipse and its grid is
-        known (``ring_points`` = 0: no outline). ``with_depth`` False drops the depth (a 2-D
-        fix logs depth 0)."""
-        lat, lon = self.to_wgs84(datum, p.lat_deg, p.lon_deg)
-        depth = p.depth_m if with_depth else None
-        ring = None
-        az_true = None
-        grid = self.grid_of(datum, p, cm_hint)
-        if grid is not None and p.has_ellipse:
-            assert p.a95_m is not None and p.b95_m is not None and p.az_grid_deg is not None
-            assert p.x_m is not None and p.y_m is not None
-            az_true = (p.az_grid_deg + grid.convergence_deg(p.lat_deg, p.lon_deg)) % 360.0
-            if ring_points >= 3:
-                xy = np.array(ellipse_grid_ring(p.x_m, p.y_m, p.a95_m, p.b95_m,
-                                                p.az_grid_deg, ring_points))
-                la, lo = grid.inverse_array(xy[:, 0], xy[:, 1])
-                shift = self._shift(datum)
-                if shift is not None:
-                    la, lo = shift.transform_array(la, lo, np.zeros_like(la))
-                pts = list(zip(np.asarray(lo).tolist(), np.asarray(la).tolist(), strict=True))
-                pts.append(pts[0])
-                ring = tuple(pts)
-        return GeoPoint(lat, lon, None if depth is None else 0.0 - depth, depth, p.x_m, p.y_m,
-                        None if grid is None else grid.cm_deg, p.a95_m, p.b95_m,
-                        p.az_grid_deg, az_true, ring)
+        """``p`` on WGS84 (:meth:`points` of one point)."""
+        out = self.points([datum], [p], [cm_hint], with_depth=with_depth,
+                          ring_points=ring_points)[0]
+        assert out is not None
+        return out
 
     def points(self, datum: Sequence[str], pts: Sequence[TrackPoint | None],
                cms: Sequence[float | None], *, with_depth: bool = True,
                ring_points: int = ELLIPSE_POINTS) -> list[GeoPoint | None]:
-        """:meth:`point` of each present point (None stays None)."""
-        return [None if p is None else self.point(d, p, cm, with_depth=with_depth,
-                                                   ring_points=ring_points)
-                for d, p, cm in zip(datum, pts, cms, strict=True)]
+        """Each present point on WGS84 (None stays None), with its ellipse outline when it has
+        an ellipse and its grid is known (``ring_points`` < 3: no outline). ``with_depth``
+        False drops the depth (a 2-D fix logs depth 0). Vectorised per datum and grid."""
+        idx = [i for i, p in enumerate(pts) if p is not None]
+        present: dict[int, TrackPoint] = {i: pts[i] for i in idx}  # type: ignore[misc]
+        grids = {i: self.grid_of(datum[i], present[i], cms[i]) for i in idx}
+        centre: dict[int, tuple[float, float]] = {}
+        for d in dict.fromkeys(datum[i] for i in idx):
+            ii = [i for i in idx if datum[i] == d]
+            la, lo = self.to_wgs84_array(
+                d, np.array([present[i].lat_deg for i in ii]),
+                np.array([present[i].lon_deg for i in ii]))
+            centre.update(zip(ii, zip(la.tolist(), lo.tolist(), strict=True), strict=True))
+        rings: dict[int, tuple[tuple[float, float], ...]] = {}
+        if ring_points >= 3:
+            groups: dict[tuple[str, float], list[int]] = {}
+            for i in idx:
+                if grids[i] is None or not present[i].has_ellipse:
+                    continue
+                groups.setdefault((datum[i], grids[i].cm_deg), []).append(i)  # type: ignore[union-attr]
+            for (d, _cm), ii in groups.items():
+                grid = grids[ii[0]]
+                assert grid is not None
+                q = [present[i] for i in ii]
+                xs, ys = ellipse_grid_rings([p.x_m for p in q], [p.y_m for p in q],
+                                            [p.a95_m for p in q], [p.b95_m for p in q],
+                                            [p.az_grid_deg for p in q], ring_points)
+                la, lo = grid.inverse_array(xs.ravel(), ys.ravel())
+                la, lo = self.to_wgs84_array(d, la, lo)
+                la, lo = la.reshape(xs.shape), lo.reshape(xs.shape)
+                for k, i in enumerate(ii):
+                    ring = list(zip(lo[k].tolist(), la[k].tolist(), strict=True))
+                    ring.append(ring[0])
+                    rings[i] = tuple(ring)
+        out: list[GeoPoint | None] = [None] * len(pts)
+        for i in idx:
+            p, grid = present[i], grids[i]
+            az_true = None
+            if grid is not None and p.has_ellipse:
+                assert p.az_grid_deg is not None
+                az_true = (p.az_grid_deg + grid.convergence_deg(p.lat_deg, p.lon_deg)) % 360.0
+            depth = p.depth_m if with_depth else None
+            lat, lon = centre[i]
+            out[i] = GeoPoint(lat, lon, None if depth is None else 0.0 - depth, depth, p.x_m,
+                              p.y_m, None if grid is None else grid.cm_deg, p.a95_m, p.b95_m,
+                              p.az_grid_deg, az_true, rings.get(i))
+        return out
 
 
 TRACKS = ("mpp", "lse", "gps", "smoothed")

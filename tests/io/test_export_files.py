@@ -267,3 +267,36 @@ def test_positions_on_another_datum_need_the_datum_file(runs: Path) -> None:
     assert logged_datum_file(log) is None
     with pytest.raises(InputError, match="not WGS84"):
         build_export(log, ["mpp"], Wgs84Converter(None))
+
+
+def test_ellipse_ring_by_hand() -> None:
+    """Az 90° (major axis east), a = 2 m, b = 1 m round (10, 20): the ring starts at the east
+    end and turns counter-clockwise, north end a quarter later (hand values, 1e-12 m)."""
+    from engine.io.export_geo import ellipse_grid_ring
+
+    ring = ellipse_grid_ring(10.0, 20.0, 2.0, 1.0, 90.0, n=4)
+    expected = [(12.0, 20.0), (10.0, 21.0), (8.0, 20.0), (10.0, 19.0)]
+    for (x, y), (ex, ey) in zip(ring, expected, strict=True):
+        assert x == pytest.approx(ex, abs=1e-12) and y == pytest.approx(ey, abs=1e-12)
+
+
+def test_a_point_finds_its_grid_when_the_hint_is_wrong(runs: Path) -> None:
+    """Smoothed positions are on the run's final CM, not the cycle's: the grid is found from
+    the point itself. A point logged on CM 4° with a hint of 5° gets CM 4° and the same WGS84
+    ellipse as with the right hint (ring vertices equal to 1e-9°)."""
+    from engine.geodesy.tmgrid import TMGrid
+    from engine.io.export_read import TrackPoint
+
+    datums = read_datum_file(runs / "TO_WGS84.DAT")
+    conv = Wgs84Converter(datums)
+    lat, lon = 52.85, 4.45
+    x, y = TMGrid(datums.datum("ED50").ellipsoid, 4.0).forward(lat, lon)
+    p = TrackPoint(lat, lon, x, y, 3.0, 60.0, 20.0, 110.0)
+    wrong, right = conv.point("ED50", p, 5.0), conv.point("ED50", p, 4.0)
+    assert wrong.cm_deg == right.cm_deg == 4.0 and wrong.elevation_m == -3.0
+    assert wrong.ring is not None and right.ring is not None
+    for (a, b), (c, d) in zip(wrong.ring, right.ring, strict=True):
+        assert a == pytest.approx(c, abs=1e-9) and b == pytest.approx(d, abs=1e-9)
+    off = TrackPoint(lat, lon, x + 500.0, y, 3.0, 60.0, 20.0, 110.0)  # on no grid
+    q = conv.point("ED50", off, 4.0)
+    assert q.cm_deg is None and q.ring is None and q.az_true_deg is None

@@ -119,6 +119,13 @@ def run_export(argv: list[str]) -> int:
         return EXIT_BAD_INPUT
     for note in notes:
         print(f"uvnav export: warning: {note}", file=sys.stderr)
+    for t in tracks:
+        lost = sum(p is not None and p.a95_m is not None and p.ring is None
+                   for p in data.tracks[t])
+        if lost:
+            print(f"uvnav export: warning: {t}: {lost} ellipses left out (the logged grid "
+                  "position does not match the logged latitude/longitude on any nearby CM)",
+                  file=sys.stderr)
     print(f"cycles {len(log.epochs)}  bad records {log.bad_records}  tracks "
           + " ".join(f"{t} {sum(p is not None for p in data.tracks[t])}" for t in tracks))
     print("datum " + ", ".join(data.datums) + " -> WGS84"
