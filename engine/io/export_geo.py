@@ -282,14 +282,17 @@ def build_export(log: ExportLog, tracks: Sequence[str], converter: Wgs84Converte
             if smoothed is None:
                 raise InputError("The smoothed track needs --smoothed FILE !", field="--tracks",
                                  text=name)
+            # Session.iter_smoothed: on the grid and working datum of the run's end
             pts: Sequence[TrackPoint | None] = smoothed
             cms: list[float | None] = [epochs[-1].cm_deg] * len(epochs)
+            track_datums = [epochs[-1].datum] * len(epochs)
         elif name in ("mpp", "lse", "gps"):
             pts = [getattr(e, name) for e in epochs]
             cms = [e.cm_deg for e in epochs]
+            track_datums = datums
         else:
             raise InputError(f"Unknown track (one of {', '.join(TRACKS)}) !", field="--tracks",
                              text=name)
-        out[name] = converter.points(datums, pts, cms, with_depth=name in _DEPTH_TRACKS,
+        out[name] = converter.points(track_datums, pts, cms, with_depth=name in _DEPTH_TRACKS,
                                      ring_points=ring_points)
     return ExportData(log.path, epochs, out, tuple(dict.fromkeys(datums)))
