@@ -80,6 +80,11 @@ class GeoPoint:
     ring: tuple[tuple[float, float], ...] | None
 
 
+def _wrap_lon(lon_deg: float) -> float:
+    """A longitude into [−180°, 180°] (unchanged when already inside)."""
+    return lon_deg if -180.0 <= lon_deg <= 180.0 else (lon_deg + 180.0) % 360.0 - 180.0
+
+
 def ellipse_grid_rings(x_m: npt.ArrayLike, y_m: npt.ArrayLike, a_m: npt.ArrayLike,
                        b_m: npt.ArrayLike, az_grid_deg: npt.ArrayLike,
                        n: int = ELLIPSE_POINTS) -> tuple[FloatArray, FloatArray]:
@@ -222,11 +227,16 @@ class Wgs84Converter:
                 xs, ys = ellipse_grid_rings([p.x_m for p in q], [p.y_m for p in q],
                                             [p.a95_m for p in q], [p.b95_m for p in q],
                                             [p.az_grid_deg for p in q], ring_points)
-                la, lo = grid.inverse_array(xs.ravel(), ys.ravel())
-                la, lo = self.to_wgs84_array(d, la, lo)
+                with np.errstate(all="ignore"):  # a damaged log: checked just below
+                    la, lo = grid.inverse_array(xs.ravel(), ys.ravel())
+                    la, lo = self.to_wgs84_array(d, la, lo)
                 la, lo = la.reshape(xs.shape), lo.reshape(xs.shape)
+                good = np.isfinite(la).all(axis=1) & np.isfinite(lo).all(axis=1)
                 for k, i in enumerate(ii):
-                    ring = list(zip(lo[k].tolist(), la[k].tolist(), strict=True))
+                    if not good[k]:
+                        continue
+                    ring = list(zip([_wrap_lon(x) for x in lo[k].tolist()], la[k].tolist(),
+                                    strict=True))
                     ring.append(ring[0])
                     rings[i] = tuple(ring)
         out: list[GeoPoint | None] = [None] * len(pts)
@@ -238,6 +248,7 @@ class Wgs84Converter:
                 az_true = (p.az_grid_deg + grid.convergence_deg(p.lat_deg, p.lon_deg)) % 360.0
             depth = p.depth_m if with_depth else None
             lat, lon = centre[i]
+            lon = _wrap_lon(lon)
             out[i] = GeoPoint(lat, lon, None if depth is None else 0.0 - depth, depth, p.x_m,
                               p.y_m, None if grid is None else grid.cm_deg, p.a95_m, p.b95_m,
                               p.az_grid_deg, az_true, rings.get(i))

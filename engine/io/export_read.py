@@ -28,6 +28,7 @@ from engine.errors import InputError
 from engine.io.outlog import OutCycle, iter_out_log
 
 __all__ = [
+    "MAX_SEMI_AXIS_M",
     "W_FLAG_BOUND",
     "ExportEpoch",
     "ExportLog",
@@ -42,6 +43,11 @@ __all__ = [
 W_FLAG_BOUND = 2.576
 """|w| above which an LOP counts as flagged: the thesis' fixed rejection bound
 (``engine.lsq.statistics.REJECT_BOUND``, README "Least squares" Q16; a test keeps them equal)."""
+
+
+MAX_SEMI_AXIS_M = 1_000_000.0
+"""Largest 95 % semi-axis drawn as a polygon (m): a day of dead reckoning at the demo's Pool
+of Errors rate (1.8 km/h) is 43 km; beyond 1000 km an outline in a TM grid means nothing."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,10 +68,11 @@ class TrackPoint:
 
     @property
     def has_ellipse(self) -> bool:
-        """True when semi-axes and azimuth are all finite and the semi-axes positive."""
+        """True when semi-axes and azimuth are all finite, the semi-axes positive and at most
+        :data:`MAX_SEMI_AXIS_M`."""
         a, b, az = self.a95_m, self.b95_m, self.az_grid_deg
-        return (a is not None and b is not None and az is not None and math.isfinite(a)
-                and math.isfinite(b) and math.isfinite(az) and a > 0.0 and b > 0.0)
+        return (a is not None and b is not None and az is not None and math.isfinite(az)
+                and 0.0 < a <= MAX_SEMI_AXIS_M and 0.0 < b <= MAX_SEMI_AXIS_M)
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,7 +157,7 @@ def _point(d: Mapping[str, Any] | None, az_key: str) -> TrackPoint | None:
     if d is None:
         return None
     lat, lon = _num(d.get("lat")), _num(d.get("lon"))
-    if lat is None or lon is None or not -90.0 <= lat <= 90.0:
+    if lat is None or lon is None or not -90.0 <= lat <= 90.0 or not -540.0 <= lon <= 540.0:
         return None
     return TrackPoint(lat, lon, _num(d.get("x")), _num(d.get("y")), _num(d.get("depth")),
                       _num(d.get("a95")), _num(d.get("b95")), _num(d.get(az_key)))

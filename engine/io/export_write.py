@@ -145,7 +145,7 @@ def geojson_text(data: ExportData, ellipses: bool = True) -> str:
                 geom = {"type": "Point", "coordinates": _lonlat(p)}
             features.append(dump({"type": "Feature", "geometry": geom,
                                   "properties": _epoch_properties(e, name, p)},
-                                 separators=(",", ":")))
+                                 separators=(",", ":"), allow_nan=False))
     head = dump(header, separators=(",", ":"))[:-1]
     return head + ',"features":[\n' + ",\n".join(features) + "\n]}\n"
 

@@ -66,6 +66,10 @@ def _export(log: ExportLog, tracks: list[str], smooth: Path | None = None) -> Ex
     return build_export(log, tracks, Wgs84Converter(read_datum_file(datum_file)), smoothed)
 
 
+def _no_constant(name: str) -> float:
+    raise AssertionError(f"{name} in a JSON export")
+
+
 def _dms(text: str) -> float:
     """'52 49 56.576 N' → decimal degrees (hand parsing of the .RUN text)."""
     d, m, s, h = text.split()
@@ -311,3 +315,46 @@ def test_a_point_finds_its_grid_when_the_hint_is_wrong(runs: Path) -> None:
     off = TrackPoint(lat, lon, x + 500.0, y, 3.0, 60.0, 20.0, 110.0)  # on no grid
     q = conv.point("ED50", off, 4.0)
     assert q.cm_deg is None and q.ring is None and q.az_true_deg is None
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("name", ["920917_1.OUT", "920917_1.jsonl", "920917_1.smooth.jsonl"])
+def test_damaged_files_never_crash(runs: Path, tmp_path: Path, name: str) -> None:
+    """300 seeded random damages (bytes replaced, deleted, duplicated, cut) of each input: the
+    reader, the conversion and every writer either work — with valid JSON (no NaN) and no
+    numeric warning — or raise InputError naming the file, nothing else."""
+    import random
+
+    rng = random.Random(13)
+    good = (runs / name).read_bytes()
+    datums = Wgs84Converter(read_datum_file(runs / "TO_WGS84.DAT"))
+    target = tmp_path / name
+    outcomes = {"ok": 0, "error": 0}
+    for _ in range(300):
+        data = bytearray(good)
+        for _k in range(rng.randint(1, 4)):
+            i = rng.randrange(len(data))
+            op = rng.randrange(4)
+            if op == 0:
+                data[i] = rng.randrange(256)
+            elif op == 1:
+                del data[i:i + rng.randint(1, 40)]
+            elif op == 2:
+                data[i:i] = data[i:i + rng.randint(1, 40)]
+            else:
+                del data[i:]
+        target.write_bytes(bytes(data))
+        try:
+            if "smooth" in name:
+                read_smoothed(target)
+            else:
+                data = build_export(read_export_log(target), ["mpp", "lse"], datums)
+                json.loads(geojson_text(data), parse_constant=_no_constant)
+                gpxpy.parse(gpx_text(data))
+                csv_text(data)
+                ET.fromstring(kml_text(data))
+            outcomes["ok"] += 1
+        except InputError as exc:
+            assert exc.file is not None and name in exc.file
+            outcomes["error"] += 1
+    assert outcomes["ok"] > 0 and outcomes["error"] > 0
