@@ -90,3 +90,30 @@ def test_bad_input_exits_2_with_a_located_message(run: Path, tmp_path: Path,
     err = capsys.readouterr().err
     assert f"warning: {cut}:" in err and "incomplete" in err
     assert len(pd.read_csv(tmp_path / "cut.csv")) == 9
+
+
+def test_an_nmea_replay_exports_its_fixes(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """An NMEA 0183 log (helper A's input path) replayed on WGS84 and exported: the GPX GPS
+    track is the GGA positions as the sentences give them (ddmm.mmmm, hand-converted here), to
+    1e-9° (the GPX's 9 decimals); no datum file is needed on WGS84, nothing is converted."""
+    from tests.cli.test_replay_nmea import LAT0, LON0, write_config, write_log
+
+    log = tmp_path / "trip.log"
+    write_log(log, n=30)
+    write_config(tmp_path / "trip.toml", "trip.log")
+    assert main(["replay", str(log), "--out", str(tmp_path / "trip.OUT")]) == 0
+    gpx_path = tmp_path / "trip.gpx"
+    assert main(["export", str(tmp_path / "trip.OUT"), "--tracks", "gps,mpp",
+                 "--gpx", str(gpx_path)]) == 0
+    assert "datum WGS84 -> WGS84" in capsys.readouterr().out
+    gps, mpp = gpxpy.parse(gpx_path.read_text(encoding="utf-8")).tracks
+    points = gps.segments[0].points
+    assert len(points) == 30
+    for k, p in enumerate(points):
+        lat = LAT0 + k * 5.0 / 3600.0 / 60.0
+        minutes = round((lat - int(lat)) * 60, 4)  # what the GGA sentence carries
+        assert p.latitude == pytest.approx(int(lat) + minutes / 60, abs=1e-9)
+        assert p.longitude == pytest.approx(LON0, abs=1e-9)
+        assert p.time.hour == 12 and p.time.second == k % 60
+    assert len(mpp.segments[0].points) == 30
