@@ -293,6 +293,7 @@ def read_export_log(path: str | os.PathLike[str]) -> ExportLog:
         raise InputError("Empty log file !", file=name)
     epochs: list[ExportEpoch] = []
     problems: list[str] = []
+    kind, config_text, bad, truncated = "jsonl", "", 0, False
     try:
         if head.startswith(b"{"):
             for ln, obj in _json_objects(path, "a cycle of a --jsonl log", problems):
@@ -300,7 +301,6 @@ def read_export_log(path: str | os.PathLike[str]) -> ExportLog:
                     raise InputError("JSON line without 'time' and 'mpp': not a --jsonl cycle "
                                      "log !", file=name, line=ln, field="time")
                 _add(epochs, _json_epoch(obj, name, ln))
-            log = ExportLog(name, "jsonl", (), problems=())
         else:
             if not head.startswith(b"# UVNAV output log"):
                 raise InputError("Not a UVNAV .OUT log or JSON-lines log (the first line is "
@@ -308,21 +308,19 @@ def read_export_log(path: str | os.PathLike[str]) -> ExportLog:
                                  file=name, line=1, field="log",
                                  text=head[:40].decode("utf-8", "replace"))
             state, events = iter_out_log(path)
-            bad = 0
-            for kind, item in events:
-                if kind == "cycle" and isinstance(item, OutCycle):
+            for what, item in events:
+                if what == "cycle" and isinstance(item, OutCycle):
                     _add(epochs, _out_epoch(item, name))
-                elif kind == "bad":
+                elif what == "bad":
                     bad += 1
             problems.extend(state.problems)
-            log = ExportLog(name, "out", (), config_text="\n".join(state.config) + "\n",
-                            bad_records=bad, truncated=state.truncated)
+            kind, config_text, truncated = "out", "\n".join(state.config) + "\n", state.truncated
     except OSError as exc:
         raise InputError(f"Cannot read: {exc.strerror or exc} !", file=name) from None
     if not epochs:
         raise InputError("No complete cycle in the log !", file=name)
-    return ExportLog(log.path, log.kind, tuple(epochs), log.config_text, log.bad_records,
-                     log.truncated or bool(problems), tuple(problems))
+    return ExportLog(name, kind, tuple(epochs), config_text, bad, truncated or bool(problems),
+                     tuple(problems))
 
 
 def read_smoothed(path: str | os.PathLike[str]) -> tuple[list[SmoothedPoint], list[str]]:
