@@ -15,12 +15,13 @@ Groups, in the order of a run:
   it that pages show (fix, filter state, confidence regions, Pool of Errors);
 * operator input parsing and display formatting (both engine rules: the ``.OUT`` and the
   console must agree);
-* headless work: replay outputs, the simulator and the accuracy assessment.
+* headless work: replay outputs, the simulator, the accuracy assessment and the exports
+  (GPX, GeoJSON, CSV, KML; docs/EXPORT.md).
 
 One small function is defined here rather than re-exported: :func:`run_record` (a cycle's
-``.RUN`` record, parsed by the run-file reader). The names of the headless assessment and
-simulation are imported on first use (:func:`__getattr__`), so that a replay and the console
-start without them.
+``.RUN`` record, parsed by the run-file reader). The names of the headless assessment,
+simulation and export are imported on first use (:func:`__getattr__`), so that a replay and
+the console start without them.
 """
 
 from __future__ import annotations
