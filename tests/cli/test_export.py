@@ -117,3 +117,15 @@ def test_an_nmea_replay_exports_its_fixes(tmp_path: Path,
         assert p.longitude == pytest.approx(LON0, abs=1e-9)
         assert p.time.hour == 12 and p.time.second == k % 60
     assert len(mpp.segments[0].points) == 30
+
+
+def test_the_datum_file_is_an_input(run: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The datum file found through the log's data_dir is protected like the log itself."""
+    dat = run / "TO_WGS84.DAT"
+    before = dat.read_bytes()
+    assert run_export([str(run / "920917_1.OUT"), "--csv", str(dat)]) == 2
+    assert "--csv: Same file as the datum file !" in capsys.readouterr().err
+    assert run_export([str(run / "920917_1.OUT"), "--csv", str(dat), "--force"]) == 2
+    assert "Not an earlier UVNAV output" in capsys.readouterr().err
+    assert dat.read_bytes() == before
+    assert not list(run.glob("TO_WGS84_*"))

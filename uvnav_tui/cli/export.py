@@ -96,6 +96,10 @@ def run_export(argv: list[str]) -> int:
             raise InputError("Must be between 8 and 720 !", field="--ellipse-points",
                              text=str(args.ellipse_points))
         tracks = _tracks(args.tracks, args.smoothed is not None)
+        guard = OutputGuard()
+        guard.protect_all([("the log", args.log), ("--smoothed", args.smoothed)])
+        for fmt, path in outputs:  # refused names fail before the log is read
+            guard.check(path, f"--{fmt}", kind=fmt, force=args.force)
         log = read_export_log(args.log)
         smoothed = None
         notes = list(log.problems)
@@ -106,10 +110,8 @@ def run_export(argv: list[str]) -> int:
         datum_file = (Path(args.datum_file) if args.datum_file is not None
                       else logged_datum_file(log))
         datums = read_datum_file(datum_file) if datum_file is not None else None
-        guard = OutputGuard()
-        guard.protect_all([("the log", args.log), ("--smoothed", args.smoothed),
-                           ("the datum file", datum_file)])
-        for fmt, path in outputs:
+        guard.protect("the datum file", datum_file)
+        for fmt, path in outputs:  # again: the datum file is known now
             guard.check(path, f"--{fmt}", kind=fmt, force=args.force)
         converter = Wgs84Converter(datums, None if datum_file is None else str(datum_file))
         data = build_export(log, tracks, converter, smoothed, args.ellipse_points)
