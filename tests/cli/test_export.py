@@ -77,8 +77,8 @@ def test_bad_input_exits_2_with_a_located_message(run: Path, tmp_path: Path,
     assert run_export([str(run / "s.jsonl"), "--gpx", gpx]) == 2  # JSON lines: no data_dir
     assert "give the run's datum file" in capsys.readouterr().err
     assert run_export([str(run / "s.jsonl"), "--gpx", gpx, "--datum-file",
-                       str(run / "TO_WGS84.DAT")]) == 0
-    capsys.readouterr()
+                       str(run / "TO_WGS84.DAT"), "--tracks", "mpp,gps"]) == 0
+    assert "gps: no point in this log (JSON lines carry no GPS input" in capsys.readouterr().err
     assert run_export([str(run / "920917_1.OUT"), "--gpx", gpx, "--tracks", "kf"]) == 2
     assert "--tracks: Unknown track" in capsys.readouterr().err
     assert run_export([str(run / "920917_1.OUT"), "--gpx", gpx, "--tracks", "smoothed"]) == 2

@@ -122,6 +122,10 @@ def run_export(argv: list[str]) -> int:
     for note in notes:
         print(f"uvnav export: warning: {note}", file=sys.stderr)
     for t in tracks:
+        if all(p is None for p in data.tracks[t]):
+            why = " (JSON lines carry no GPS input: export the .OUT log)" if (
+                t == "gps" and log.kind == "jsonl") else ""
+            print(f"uvnav export: warning: {t}: no point in this log{why}", file=sys.stderr)
         lost = sum(p is not None and p.a95_m is not None and p.ring is None
                    for p in data.tracks[t])
         if lost:
