@@ -104,6 +104,22 @@ def _is_svg(head: bytes) -> bool:
     return b"<svg" in head and b"UVNAV assess plot" in head
 
 
+def _is_gpx(head: bytes) -> bool:
+    return b"<gpx" in head and b'creator="UVNAV export"' in head
+
+
+def _is_geojson(line: bytes) -> bool:
+    return line.startswith(b'{"type":"FeatureCollection","uvnav_export":')
+
+
+def _is_export_csv(line: bytes) -> bool:
+    return line.startswith(b"time_utc,cycle,record,source,filter,datum,")
+
+
+def _is_kml(head: bytes) -> bool:
+    return b"<kml" in head and b"<name>UVNAV export" in head
+
+
 @dataclass(frozen=True)
 class Signature:
     """How to recognise an earlier UVNAV output of one kind from its first bytes."""
@@ -125,6 +141,11 @@ SIGNATURES: dict[str, Signature] = {
                      whole_head=True),
     "nmea": Signature("NMEA 0183 log (a sentence with a correct checksum on the first line)",
                       _is_nmea),
+    "gpx": Signature("GPX export (creator 'UVNAV export')", _is_gpx, whole_head=True),
+    "geojson": Signature("GeoJSON export (a FeatureCollection with 'uvnav_export')",
+                         _is_geojson),
+    "csv": Signature("CSV export (header 'time_utc,cycle,record,…')", _is_export_csv),
+    "kml": Signature("KML export (named 'UVNAV export')", _is_kml, whole_head=True),
 }
 
 
