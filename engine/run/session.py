@@ -1,5 +1,6 @@
-"""A run in progress: reads the ``.RUN`` file, steps the cycle, applies operator commands and
-keeps the ``.OUT`` / JSON-lines logs.  The console and the headless replay both drive this.
+"""A run in progress: reads the ``.RUN`` file (or an NMEA 0183 log, docs/NMEA.md), steps the
+cycle, applies operator commands and keeps the ``.OUT`` / JSON-lines logs.  The console and the
+headless replay both drive this.
 
 The session is the only stateful object of the engine; it holds one run's context and state and
 nothing global.  Every completed cycle is on disk (flushed) before :meth:`Session.step` returns.

@@ -6,6 +6,8 @@ from __future__ import annotations
 from datetime import UTC, date, datetime
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from engine.io.nmea_epochs import EpochBuilder, NmeaOptions
 from engine.io.runfile import BadRecord, RunRecord, parse_run_line
@@ -135,3 +137,36 @@ def test_options_are_checked(bad: dict[str, object]) -> None:
     from engine.errors import InputError
     with pytest.raises(InputError):
         NmeaOptions(**bad)  # type: ignore[arg-type]
+
+
+_EVENT = st.tuples(st.sampled_from(["GGA", "RMC", "ZDA", "HDT", "DBT", "NOISE"]),
+                   st.integers(0, 86399), st.integers(0, 3))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(_EVENT, max_size=60), st.booleans())
+def test_any_sentence_order_gives_increasing_parsable_records(
+        events: list[tuple[str, int, int]], with_date: bool) -> None:
+    """Whatever the order of times and dates (resets, midnight, days apart), no exception,
+    record times strictly increase (the session's rule) and each record is its .RUN line."""
+    lines = []
+    for kind, t, day in events:
+        if kind == "GGA":
+            lines.append(gga(t))
+        elif kind == "RMC":
+            lines.append(rmc(t, f"{1 + day:02d}1226"))
+        elif kind == "ZDA":
+            lines.append(nmea(f"GPZDA,{hhmmss(t)},{1 + day:02d},12,2026,00,00"))
+        elif kind == "HDT":
+            lines.append(nmea(f"HEHDT,{t % 360}.5,T"))
+        elif kind == "DBT":
+            lines.append(nmea(f"SDDBT,,f,{t % 100}.0,M,,F"))
+        else:
+            lines.append(nmea(f"GPGGA,{t}")[:-1])
+    options = NmeaOptions(date=date(2026, 12, 1)) if with_date else NmeaOptions()
+    recs, _, b = run(lines, options)
+    times = [r.time for r in recs]
+    assert times == sorted(set(times))
+    for r in recs:
+        assert parse_run_line(r.raw, r.line_no, "T.nmea") == r
+    assert b.stats.epochs == len(recs)
