@@ -170,3 +170,32 @@ def test_any_sentence_order_gives_increasing_parsable_records(
     for r in recs:
         assert parse_run_line(r.raw, r.line_no, "T.nmea") == r
     assert b.stats.epochs == len(recs)
+
+
+def test_held_sentences_before_midnight_get_the_previous_day() -> None:
+    # no date until the RMC of 00:00:01 on 3 Dec: the GGAs of 23:59:58/59 are on 2 Dec
+    recs, _, _ = run([gga(86398), gga(86399), gga(0), rmc(1, "031226"), gga(2)])
+    assert [r.time for r in recs] == [
+        datetime(2026, 12, 2, 23, 59, 58, tzinfo=UTC), datetime(2026, 12, 2, 23, 59, 59,
+                                                                tzinfo=UTC),
+        datetime(2026, 12, 3, 0, 0, 0, tzinfo=UTC), datetime(2026, 12, 3, 0, 0, 1, tzinfo=UTC),
+        datetime(2026, 12, 3, 0, 0, 2, tzinfo=UTC)]
+
+
+def test_too_many_sentences_without_date_drop_the_oldest(monkeypatch: pytest.MonkeyPatch) -> None:
+    import engine.io.nmea_epochs as ne
+
+    monkeypatch.setattr(ne, "DATE_HOLD_LINES", 3)
+    recs, _, b = run([gga(43200 + k) for k in range(6)] + [rmc(43206)])
+    assert [r.time.second for r in recs] == [3, 4, 5, 6]  # the 3 newest held + the RMC's
+    assert b.stats.skipped["no date yet"] == 3
+    assert any(e.startswith("T.nmea:4: no date (RMC/ZDA) in the first 3") for e in b.stats.events)
+
+
+def test_hdg_with_variation_from_options_in_a_record() -> None:
+    # HDG 100.0 magnetic, deviation 1.0 W, no variation; options: 2.5 E → 101.5 true
+    recs, _, b = run([rmc(43200), nmea("HCHDG,100.0,1.0,W,,"), rmc(43201)],
+                     NmeaOptions(variation_deg=2.5))
+    assert recs[0].heading_deg == 101.5
+    recs, _, b = run([rmc(43200), nmea("HCHDG,100.0,1.0,W,,"), rmc(43201)])
+    assert recs[0].heading_deg is None and b.stats.notes["HDG without variation: not used"] == 1
