@@ -68,8 +68,11 @@ class RunController:
     """One run's state flags, cycle budget, pacing and the lock around its session."""
 
     def __init__(self, session: Session, *, pace_override: str | None = None,
-                 log: MessageLog | None = None) -> None:
+                 log: MessageLog | None = None,
+                 on_cycle: Callable[[CycleResult], None] | None = None) -> None:
         self.session = session
+        self.on_cycle = on_cycle
+        """Called with every new cycle (worker thread): the console's NMEA output."""
         self.log = log if log is not None else MessageLog()
         """Where every engine message and bad record of the run goes (with its record time)."""
         self._bad_seen = 0
@@ -186,6 +189,8 @@ class RunController:
             self.budget -= 1
         self.latest = result
         self._log_messages(result)
+        if self.on_cycle is not None:
+            self.on_cycle(result)
         if result.fix is not None and result.fix.candidate_slot is not None:
             self.awaiting_answer = True
         return result

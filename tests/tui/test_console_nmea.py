@@ -1,52 +1,59 @@
-"""The console's run-file field takes an NMEA 0183 log (by content, docs/NMEA.md)."""
+"""``uvnav --nmea-out udp://HOST:PORT``: the console sends every cycle's MPP as NMEA 0183 to a
+real UDP socket on localhost (the same sentences as ``uvnav replay --nmea-out``, whose values
+tests/cli/test_nmea_out.py checks against the JSON lines; here: that the console sends them,
+one cycle's GGA at each cycle, with the cycle's time, position within the NMEA step
+0.5e-4′ = 0.5e-4/60° of the WGS84 MPP computed by pyproj from the console's ED50 MPP)."""
 
 from __future__ import annotations
 
-from datetime import UTC, datetime
+import socket
 from pathlib import Path
 
-from test_console_support import drive, make_app, start, wait_for
-from textual.pilot import Pilot
-from textual.widgets import Static
+import pynmea2
+import pyproj
 
-from tests.nmea_lines import voyage
-from uvnav_tui.dialogs.init_dialog import InitDialog, _shown_run_name
-from uvnav_tui.widgets.validated_field import ValidatedField
+from engine.api import open_nmea_sender, parse_nmea_destination
+from tests.tui.test_console_support import drive, make_app, start
+from uvnav_tui.cli.console import run_console
 
-
-async def _paste(pilot: Pilot[None], field_id: str, text: str) -> ValidatedField:
-    field = pilot.app.screen.query_one(f"#{field_id}", ValidatedField)
-    field.focus_input()
-    await pilot.pause()
-    pilot.app.copy_to_clipboard(text)
-    await pilot.press("ctrl+a", "ctrl+k", "ctrl+v")
-    return field
+TO_WGS84 = pyproj.Transformer.from_crs(
+    pyproj.CRS.from_proj4("+proj=longlat +a=6378388 +rf=297 +towgs84=-87,-98,-121 +no_defs"),
+    pyproj.CRS.from_proj4("+proj=longlat +datum=WGS84 +no_defs"), always_xy=True)
 
 
-def test_shown_run_name() -> None:
-    assert _shown_run_name("/x/920917_1.RUN") == "920917_1"
-    assert _shown_run_name("920917_1") == "920917_1"
-    assert _shown_run_name("/x/trip.nmea") == "trip.nmea"
+def test_console_sends_each_cycle(data_dir: Path) -> None:
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(5.0)
+    sender = open_nmea_sender(parse_nmea_destination(f"udp://127.0.0.1:{rx.getsockname()[1]}"))
+    app = make_app(data_dir, nmea_sender=sender)
+    mpps = []
+
+    async def script(pilot) -> None:  # type: ignore[no-untyped-def]
+        await start(pilot)
+        for _ in range(3):
+            await app.wait_cycles(1)
+            r = app.control.latest
+            mpps.append((r.time, r.mpp.lat_deg, r.mpp.lon_deg, r.datum))
+
+    try:
+        drive(app, script)
+    finally:
+        sender.close()
+    ggas = []
+    while len(ggas) < 3:
+        s = pynmea2.parse(rx.recv(4096).decode("ascii").rstrip("\r\n"), check=True)
+        if s.sentence_type == "GGA":
+            ggas.append(s)
+    rx.close()
+    for gga, (t, lat, lon, datum) in zip(ggas, mpps, strict=True):
+        assert datum == "ED50"
+        lon_w, lat_w = TO_WGS84.transform(lon, lat)
+        assert gga.timestamp.strftime("%H%M%S") == t.strftime("%H%M%S")
+        assert abs(gga.latitude - lat_w) <= 0.5e-4 / 60 + 1e-12
+        assert abs(gga.longitude - lon_w) <= 0.5e-4 / 60 + 1e-12
 
 
-def test_init_dialog_runs_an_nmea_log(data_dir: Path) -> None:
-    (data_dir / "trip.nmea").write_text("\n".join(voyage(10, damage=False)) + "\n")
-    (data_dir / "notes.txt").write_text("not a log\n")
-    app = make_app(data_dir)
-
-    async def script(pilot: Pilot[None]) -> None:
-        await wait_for(pilot, lambda: isinstance(app.screen, InitDialog)
-                       and app.screen.is_mounted, "Parameter Initialization")
-        field = await _paste(pilot, "init-run", "notes.txt")
-        message = str(field.query_one(".field-message", Static).render()).strip()
-        assert message == "File not found !" and field.error is not None
-        field = await _paste(pilot, "init-run", "trip.nmea")
-        assert field.error is None and field.parsed == "trip.nmea"
-        await start(pilot, cycles=3)
-        session = app.control.session  # type: ignore[union-attr]
-        assert session.nmea_stats is not None
-        assert session.config.run_path == data_dir / "trip.nmea"
-        assert session.last is not None
-        assert session.last.time == datetime(2026, 12, 2, 12, 0, 2, tzinfo=UTC)
-
-    drive(app, script)
+def test_console_refuses_a_file(capsys) -> None:
+    assert run_console(["--nmea-out", "x.nmea"]) == 2
+    assert "udp://HOST:PORT only" in capsys.readouterr().err

@@ -3,9 +3,10 @@
 ``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
 ``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
 ``assess`` (accuracy against truth), ``convert`` (an NMEA 0183 log to its .RUN
-equivalent).  Ctrl-C in a sub-command prints one line and exits 130
-(a replay's logs keep every completed cycle; a simulation writes nothing).  Each sub-command lives
-in its own module and is imported only when used, so ``uvnav replay`` never loads Textual.
+equivalent), ``export`` (GPX, GeoJSON, CSV, KML).  Ctrl-C in a sub-command prints one line and
+exits 130 (a replay's logs keep every completed cycle; a simulation writes nothing).  Each
+sub-command lives in its own module and is imported only when used, so ``uvnav replay`` never
+loads Textual.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ SUBCOMMANDS = {
     "script": ("uvnav_tui.cli.script", "run_script"),
     "assess": ("uvnav_tui.cli.assess", "run_assess"),
     "convert": ("uvnav_tui.cli.convert", "run_convert"),
+    "export": ("uvnav_tui.cli.export", "run_export"),
 }
 
 EXIT_INTERRUPTED = 130
@@ -28,17 +30,22 @@ INTERRUPTED_NOTE = {
     "replay": "; the logs keep every cycle completed before it",
     "simulate": "; nothing written",
     "convert": "; the .RUN keeps the records written before it",
+    "export": "; the file being written may be incomplete",
 }
 """What is left on disk after Ctrl-C, per sub-command."""
 
 USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
+                    [--nmea-out udp://HOST:PORT]
        uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
-                        [--smooth [FILE]] [--force]
+                        [--smooth [FILE]] [--force] [--nmea-out udp://HOST:PORT|FILE]
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
+                      [--nmea NAME.nmea]
        uvnav script FILE [--headless]
        uvnav assess OUT_or_JSONL TRUTH.csv [--svg FILE] [--phases auto|none] [--poe-rate M_H]
        uvnav convert NMEA_LOG --out NAME.RUN [--config TOML] [--date YYYY-MM-DD]
                      [--interval S] [--force]
+       uvnav export OUT_or_JSONL [--gpx F] [--geojson F] [--csv F] [--kml F]
+                    [--tracks mpp,lse,gps,smoothed] [--smoothed F] [--datum-file F] [--force]
 """
 
 
