@@ -225,6 +225,7 @@ class EpochBuilder:
         self._bad_kept: Counter[str] = Counter()
         self._last_line = 0
         self._no_date_reported = False
+        self._had_fix = False
         o = self.options
         self._max_stale = max(o.position_stale_s, o.heading_stale_s, o.water_speed_stale_s,
                               o.cog_sog_stale_s, o.depth_stale_s)
@@ -240,6 +241,8 @@ class EpochBuilder:
             return out
         if isinstance(parsed, SentenceSkip):
             self._skip(parsed, line_no, line, out)
+            if parsed.kind == SkipKind.NOT_FIX and self._had_fix:
+                self._clock_only(parsed, line_no, line, out)
             return out
         if self._date is None and parsed.date is None:
             self._hold(line_no, line, parsed)
@@ -286,6 +289,21 @@ class EpochBuilder:
             self.stats.skipped_types[skip.sentence_type] += 1
         if skip.kind in SkipKind.REPORTED:
             self._bad(skip.kind, line_no, raw, skip.message, out)
+
+    def _clock_only(self, skip: SentenceSkip, line_no: int, raw: str,
+                    out: list[RunRecord | BadRecord]) -> None:
+        """The time (and date) of a *not a fix* sentence after the log's first valid fix: a
+        receiver keeps GPS time through an outage, so the log clock goes on and the other
+        sensors' epochs are not lost. Before the first fix such times are not used (a
+        receiver's own clock may be wrong then)."""
+        if skip.time_s is None or (self._date is None and skip.date is None):
+            return
+        v = NmeaValues(skip.sentence_type or "", "", time_s=skip.time_s, date=skip.date)
+        if self._held:
+            return  # still waiting for a date: the held sentences come first
+        t = self._resolve(v, line_no)
+        if t is not None and not self._advance(t, line_no, raw, out):
+            self._behind_count += 1
 
     # ------------------------------------------------------------------ date
     def _hold(self, line_no: int, raw: str, v: NmeaValues) -> None:
@@ -405,6 +423,7 @@ class EpochBuilder:
         if v.lat_deg is not None and v.lon_deg is not None:
             lat.pos = (stamp, v.lat_deg, v.lon_deg)
             s.add("position")
+            self._had_fix = True
             if self.stats.first_fix is None:
                 self.stats.first_fix = (v.lat_deg, v.lon_deg)
             if v.sentence_type == "GGA":

@@ -22,8 +22,9 @@ Sentences used and what they give (units: degrees, knots, metres, seconds of the
 * DBT: depth below the transducer (metres, else feet, else fathoms); DPT: depth below the
   transducer (its offset is not applied).
 
-A sentence whose fix is invalid contributes nothing, not even its time: before a fix many
-receivers report their own clock, which may be wrong (docs/NMEA.md).
+A sentence whose fix is invalid gives no position; it is a skip of kind *not a fix* that carries
+its time (and RMC's date), which the epoch builder uses only once the log has had a valid fix
+(docs/NMEA.md).
 """
 
 from __future__ import annotations
@@ -87,6 +88,10 @@ class SentenceSkip:
     kind: str
     message: str
     sentence_type: str | None = None
+    time_s: float | None = None
+    """Time of day [s] of a *not a fix* GGA/RMC/GLL (None otherwise)."""
+    date: date | None = None
+    """Date of a *not a fix* RMC (None otherwise)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,10 +131,22 @@ FIX_QUALITIES = frozenset({1, 2, 3, 4, 5})
 class _Bad(Exception):
     """A field could not be read (inside :func:`parse_nmea_line` only)."""
 
-    def __init__(self, kind: str, message: str) -> None:
+    def __init__(self, kind: str, message: str, time_s: float | None = None,
+                 day: date | None = None) -> None:
         super().__init__(message)
         self.kind = kind
         self.message = message
+        self.time_s = time_s
+        self.day = day
+
+
+def _not_fix(message: str, time_text: str, date_text: str = "") -> _Bad:
+    """A *not a fix* skip carrying the sentence's time (and date) when they read well: the
+    log clock may still use them (docs/NMEA.md)."""
+    try:
+        return _Bad(SkipKind.NOT_FIX, message, _time(time_text), _ddmmyy(date_text))
+    except _Bad:
+        return _Bad(SkipKind.NOT_FIX, message)
 
 
 def _num(text: str | None, what: str) -> float | None:
@@ -236,11 +253,11 @@ def _gga(msg: Any, talker: str) -> NmeaValues:
     q_text = _f(msg, "gps_qual")
     if not (q_text.isascii() and q_text.isdigit()):
         if q_text == "":
-            raise _Bad(SkipKind.NOT_FIX, "GGA: no fix quality")
+            raise _not_fix("GGA: no fix quality", _f(msg, "timestamp"))
         raise _Bad(SkipKind.MALFORMED, f"GGA: fix quality not a digit (got {q_text!r})")
     quality = int(q_text)
     if quality not in FIX_QUALITIES:
-        raise _Bad(SkipKind.NOT_FIX, f"GGA: fix quality {quality} is not a fix")
+        raise _not_fix(f"GGA: fix quality {quality} is not a fix", _f(msg, "timestamp"))
     time_s = _time(_f(msg, "timestamp"))
     lat, lon = _position(msg, "GGA", "lat", "lat_dir", "lon", "lon_dir")
     sats_text = _f(msg, "num_sats")
@@ -259,8 +276,8 @@ def _gga(msg: Any, talker: str) -> NmeaValues:
 def _rmc(msg: Any, talker: str) -> NmeaValues:
     status = _f(msg, "status")
     if status != "A" or not _fix_mode(_f(msg, "mode_indicator")):
-        raise _Bad(SkipKind.NOT_FIX, f"RMC: status {status!r}/mode "
-                   f"{_f(msg, 'mode_indicator')!r} is not a fix")
+        raise _not_fix(f"RMC: status {status!r}/mode {_f(msg, 'mode_indicator')!r} is not a fix",
+                       _f(msg, "timestamp"), _f(msg, "datestamp"))
     time_s = _time(_f(msg, "timestamp"))
     day = _ddmmyy(_f(msg, "datestamp"))
     lat, lon = _position(msg, "RMC", "lat", "lat_dir", "lon", "lon_dir")
@@ -273,8 +290,8 @@ def _rmc(msg: Any, talker: str) -> NmeaValues:
 def _gll(msg: Any, talker: str) -> NmeaValues:
     status = _f(msg, "status")
     if status != "A" or not _fix_mode(_f(msg, "faa_mode")):
-        raise _Bad(SkipKind.NOT_FIX, f"GLL: status {status!r}/mode {_f(msg, 'faa_mode')!r} "
-                   "is not a fix")
+        raise _not_fix(f"GLL: status {status!r}/mode {_f(msg, 'faa_mode')!r} is not a fix",
+                       _f(msg, "timestamp"))
     time_s = _time(_f(msg, "timestamp"))
     lat, lon = _position(msg, "GLL", "lat", "lat_dir", "lon", "lon_dir")
     return NmeaValues("GLL", talker, time_s=time_s, lat_deg=lat, lon_deg=lon)
@@ -466,7 +483,7 @@ def parse_nmea_line(
     try:
         values = _values(msg, kind, talker, variation_deg)
     except _Bad as bad:
-        return SentenceSkip(bad.kind, bad.message, kind)
+        return SentenceSkip(bad.kind, bad.message, kind, bad.time_s, bad.day)
     if values is None:  # pragma: no cover - USED_TYPES and _values agree
         return SentenceSkip(SkipKind.UNKNOWN, f"{kind}: sentence type not used", kind)
     for v in (values.hdop, values.heading_deg, values.stw_kn, values.cog_deg, values.sog_kn,

@@ -199,3 +199,32 @@ def test_hdg_with_variation_from_options_in_a_record() -> None:
     assert recs[0].heading_deg == 101.5
     recs, _, b = run([rmc(43200), nmea("HCHDG,100.0,1.0,W,,"), rmc(43201)])
     assert recs[0].heading_deg is None and b.stats.notes["HDG without variation: not used"] == 1
+
+
+def gga_lost(t_s: int) -> str:
+    return nmea(f"GPGGA,{hhmmss(t_s)},,,,,0,00,99.9,,M,,M,,")
+
+
+def test_fix_outage_keeps_the_clock_and_the_other_sensors() -> None:
+    """After a valid fix, quality-0 GGAs still carry GPS time: the epochs of the outage are
+    made from the heading alone (no position)."""
+    lines = [rmc(43200), gga(43200), nmea("HEHDT,10.0,T")]
+    for k in range(1, 6):
+        lines += [gga_lost(43200 + k), nmea("HEHDT,10.0,T")]
+    lines += [gga(43206)]
+    recs, _, b = run(lines)
+    assert [r.time.second for r in recs] == [0, 1, 2, 3, 4, 5, 6]
+    assert [r.gps_lat_deg is not None for r in recs] == [True, True, True, True, False, False,
+                                                         True]  # position_stale_s = 3
+    assert all(r.heading_deg == 10.0 for r in recs)
+    assert b.stats.skipped["not a fix"] == 5
+
+
+def test_no_fix_yet_times_are_not_used() -> None:
+    """Before the first valid fix a receiver's own clock may be wrong: its times are ignored
+    (here a 1980 clock that would otherwise set the date)."""
+    lines = [nmea("GPRMC,000010,V,,,,,,,060180,,,N"), nmea("HEHDT,10.0,T"), rmc(43200),
+             nmea("HEHDT,11.0,T"), rmc(43201)]
+    recs, bad, _ = run(lines)
+    assert not bad and [r.time for r in recs] == [
+        datetime(2026, 12, 2, 12, 0, 0, tzinfo=UTC), datetime(2026, 12, 2, 12, 0, 1, tzinfo=UTC)]
