@@ -152,6 +152,8 @@ class NmeaStats:
     events_dropped: int = 0
     sensors: set[str] = field(default_factory=set)
     epochs: int = 0
+    undated_fixes: int = 0
+    """Valid positions not used for want of a date (dropped while held)."""
     first_fix: tuple[float, float] | None = None
     """First valid GNSS position (WGS84 latitude, longitude degrees)."""
     first_time: datetime | None = None
@@ -259,6 +261,7 @@ class EpochBuilder:
         if self._held:
             n = len(self._held)
             self.stats.skipped[NO_DATE] += n
+            self.stats.undated_fixes += sum(v.lat_deg is not None for _, _, v in self._held)
             self._held.clear()
             self.stats.event(self._last_line, f"no date in the log (no RMC/ZDA): {n} sentences "
                              "not used; set [nmea] date = YYYY-MM-DD")
@@ -309,8 +312,9 @@ class EpochBuilder:
     def _hold(self, line_no: int, raw: str, v: NmeaValues) -> None:
         self._held.append((line_no, raw, v))
         if len(self._held) > DATE_HOLD_LINES:
-            self._held.popleft()
+            dropped = self._held.popleft()[2]
             self.stats.skipped[NO_DATE] += 1
+            self.stats.undated_fixes += dropped.lat_deg is not None
             if not self._no_date_reported:
                 self._no_date_reported = True
                 self.stats.event(line_no, f"no date (RMC/ZDA) in the first {DATE_HOLD_LINES} "

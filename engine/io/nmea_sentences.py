@@ -13,7 +13,7 @@ Sentences used and what they give (units: degrees, knots, metres, seconds of the
 * RMC: time, date, position, course and speed over ground (true course); status ``V`` or an
   FAA mode ``N``/``E``/``M``/``S`` is *not a fix*.
 * GLL: time and position; status ``V`` or mode ``N``/``E``/``M``/``S`` is *not a fix*.
-* ZDA: time and date.
+* ZDA: time and date (time only when the date fields are all empty).
 * HDT: true heading. HDG: magnetic sensor heading + deviation + variation = true heading
   (without a variation, ``variation_deg`` is used, else the heading is not used).
 * VHW: heading (true, else magnetic + variation) and speed through the water (knots, else
@@ -300,8 +300,12 @@ def _gll(msg: Any, talker: str) -> NmeaValues:
 def _zda(msg: Any, talker: str) -> NmeaValues:
     time_s = _time(_f(msg, "timestamp"))
     parts = [_f(msg, "day"), _f(msg, "month"), _f(msg, "year")]
-    if time_s is None or not all(parts):
-        raise _Bad(SkipKind.EMPTY, "ZDA: no time or date")
+    if time_s is None:
+        raise _Bad(SkipKind.EMPTY, "ZDA: no time")
+    if not any(parts):  # time only (some instruments leave the date empty): as a GLL's time
+        return NmeaValues("ZDA", talker, time_s=time_s, notes=("ZDA without date",))
+    if not all(parts):
+        raise _Bad(SkipKind.MALFORMED, f"ZDA: date incomplete (got {','.join(parts)!r})")
     if not all(p.isascii() and p.isdigit() for p in parts):
         raise _Bad(SkipKind.MALFORMED, f"ZDA: date not digits (got {','.join(parts)!r})")
     try:

@@ -87,3 +87,27 @@ def test_explicit_config_wins_and_no_fix_is_reported(tmp_path: Path,
     write_config(tmp_path / "other.toml", "nofix.nmea")
     assert main(["replay", str(log), "--config", str(tmp_path / "other.toml"), "--no-out"]) == 3
     assert "derived" not in capsys.readouterr().out
+
+
+def test_log_without_date_needs_date_option(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """GLL + ZDA without a date (as some instrument buses send): no date, so the derived
+    configuration asks for --date; with it the log replays."""
+    lines = []
+    for k in range(5):
+        t = 36000 + 2 * k  # every 2 s
+        lines += [nmea(f"GPZDA,{hhmmss(t)},,,,00,"),
+                  nmea(f"GPGLL,{ddmm(LAT0)},N,{ddmm(LON0, 3)},E,{hhmmss(t)},A,D"),
+                  nmea("IIVHW,,T,,M,05.10,N,09.45,K")]
+    log = tmp_path / "nodate.nmea"
+    log.write_text("\n".join(lines) + "\n")
+    assert main(["replay", str(log), "--no-out"]) == 2
+    assert "No date in the NMEA log" in capsys.readouterr().err
+    assert main(["replay", str(log), "--no-out", "--date", "2014-02-30"]) == 2
+    assert "--date: Must be" in capsys.readouterr().err
+    assert main(["replay", str(log), "--no-out", "--date", "2014-07-18"]) == 0
+    text = capsys.readouterr().out
+    # 10:00:00 to 10:00:08, sentences every 2 s, position fresh 3 s: epochs at every second
+    assert "epochs 9  fixes 9" in text
+    assert "final MPP (" in text and "10:00:08Z" in text
+    assert "config: sensors: gyro n/a, log on, echo sounder n/a" in text

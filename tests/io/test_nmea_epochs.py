@@ -75,7 +75,7 @@ def test_date_from_options_and_held_until_rmc() -> None:
 
 def test_no_date_at_all_is_reported() -> None:
     recs, _, b = run([gga(3600), gga(3601)])
-    assert recs == [] and b.stats.skipped["no date yet"] == 2
+    assert recs == [] and b.stats.skipped["no date yet"] == 2 and b.stats.undated_fixes == 2
     assert any("no date in the log" in e and e.startswith("T.nmea:2:") for e in b.stats.events)
 
 
