@@ -30,7 +30,8 @@ def test_shown_run_name() -> None:
 
 
 def test_init_dialog_runs_an_nmea_log(data_dir: Path) -> None:
-    (data_dir / "trip.nmea").write_text("\n".join(voyage(10, damage=False)) + "\n")
+    lines = [ln for ln in voyage(10, damage=False) if ln[3:6] not in ("HDT", "VHW")]  # a yacht
+    (data_dir / "trip.nmea").write_text("\n".join(lines) + "\n")
     (data_dir / "notes.txt").write_text("not a log\n")
     app = make_app(data_dir)
 
@@ -48,5 +49,9 @@ def test_init_dialog_runs_an_nmea_log(data_dir: Path) -> None:
         assert session.config.run_path == data_dir / "trip.nmea"
         assert session.last is not None
         assert session.last.time == datetime(2026, 12, 2, 12, 0, 2, tzinfo=UTC)
+        texts = [e.text for e in app.message_log.since(0)[1]]
+        assert "NMEA log: no heading (HDT/HDG/VHW) in the log" in texts
+        assert "NMEA log: no water speed (VHW/VBW) in the log" in texts
+        assert not any("no depth" in t for t in texts)
 
     drive(app, script)
