@@ -11,8 +11,10 @@ RMC/ZDA or :attr:`NmeaOptions.date`). A sentence without a time (HDT, VHW, DBT â
 with the latest log time. Epoch ``E`` (a multiple of ``interval_s`` of UTC seconds) is
 *closed* by the first sentence whose time is after ``E``; the record holds the values as they
 were just before that sentence, and its ``line_no`` is that sentence's line (for the last epoch
-of a log, the last line). Epochs in which no sensor has a fresh value are not emitted (a gap in
-the log gives no empty records; gaps over :data:`GAP_REPORT_S` are reported).
+of a log, the last line). The time of a *not a fix* GGA/RMC/GLL moves the clock too, once the
+log has had a valid fix (so a GNSS outage keeps its heading/log/depth epochs). Epochs in which
+no sensor has a fresh value are not emitted (a gap in the log gives no empty records; gaps over
+:data:`GAP_REPORT_S` are reported).
 
 **Date.** Until a date is known (no ``options.date``, no RMC/ZDA yet) the sentences are held,
 up to :data:`DATE_HOLD_LINES` of them (oldest dropped and counted beyond); when a date arrives
@@ -302,9 +304,7 @@ class EpochBuilder:
         if skip.time_s is None or (self._date is None and skip.date is None):
             return
         v = NmeaValues(skip.sentence_type or "", "", time_s=skip.time_s, date=skip.date)
-        if self._held:
-            return  # still waiting for a date: the held sentences come first
-        t = self._resolve(v, line_no)
+        t = self._resolve(v, line_no)  # a fix was used, so a date is known: nothing is held
         if t is not None and not self._advance(t, line_no, raw, out):
             self._behind_count += 1
 
