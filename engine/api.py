@@ -129,6 +129,13 @@ if TYPE_CHECKING:
         read_nav_log,
         read_truth,
     )
+    from engine.assess.denied import (
+        CHECKPOINTS_S,
+        DeniedReport,
+        denied_experiment,
+        run_records,
+        truth_reference,
+    )
     from engine.io.export_geo import ELLIPSE_POINTS, Wgs84Converter, build_export
     from engine.io.export_geo import TRACKS as EXPORT_TRACKS
     from engine.io.export_read import (
@@ -161,6 +168,9 @@ _EXPORT_NAMES = {
 _ASSESS_NAMES = frozenset(
     {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
      "read_truth"})
+_DENIED_NAMES = frozenset(
+    {"CHECKPOINTS_S", "DeniedReport", "denied_experiment", "run_records", "truth_reference"})
+"""``uvnav denied`` (GPS-denied experiment, docs/REALDATA.md), imported on first use."""
 _SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
 _NMEA_SEND_NAMES = frozenset({"NmeaSender", "open_nmea_sender", "parse_nmea_destination"})
 _NMEA_OUT_NAMES = frozenset({"NmeaOutOptions", "NmeaPositionOut"})
@@ -309,6 +319,12 @@ __all__ = [
     "logged_datum_file",
     "read_export_log",
     "read_smoothed",
+    # GPS-denied experiment (uvnav denied)
+    "CHECKPOINTS_S",
+    "DeniedReport",
+    "denied_experiment",
+    "run_records",
+    "truth_reference",
 ]
 
 
@@ -332,6 +348,10 @@ def __getattr__(name: str) -> object:
         from engine.assess import accuracy
 
         return getattr(accuracy, name)
+    if name in _DENIED_NAMES:
+        from engine.assess import denied
+
+        return getattr(denied, name)
     if name == "load_scenario":
         from engine.sim.scenario import load_scenario
 
@@ -352,5 +372,5 @@ def __getattr__(name: str) -> object:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, *_EXPORT_NAMES,
+    return sorted({*globals(), *_ASSESS_NAMES, *_DENIED_NAMES, *_SIMULATE_NAMES, *_EXPORT_NAMES,
                    *_NMEA_SEND_NAMES, *_NMEA_OUT_NAMES, "load_scenario"})

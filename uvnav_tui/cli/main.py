@@ -3,10 +3,10 @@
 ``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
 ``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
 ``assess`` (accuracy against truth), ``convert`` (an NMEA 0183 log to its .RUN
-equivalent), ``export`` (GPX, GeoJSON, CSV, KML).  Ctrl-C in a sub-command prints one line and
-exits 130 (a replay's logs keep every completed cycle; a simulation writes nothing).  Each
-sub-command lives in its own module and is imported only when used, so ``uvnav replay`` never
-loads Textual.
+equivalent), ``export`` (GPX, GeoJSON, CSV, KML), ``denied`` (GPS-denied experiment).  Ctrl-C
+in a sub-command prints one line and exits 130 (a replay's logs keep every completed cycle; a
+simulation writes nothing).  Each sub-command lives in its own module and is imported only
+when used, so ``uvnav replay`` never loads Textual.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ SUBCOMMANDS = {
     "assess": ("uvnav_tui.cli.assess", "run_assess"),
     "convert": ("uvnav_tui.cli.convert", "run_convert"),
     "export": ("uvnav_tui.cli.export", "run_export"),
+    "denied": ("uvnav_tui.cli.denied", "run_denied"),
 }
 
 EXIT_INTERRUPTED = 130
@@ -47,6 +48,8 @@ USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open
                      [--interval S] [--force]
        uvnav export OUT_or_JSONL [--gpx F] [--geojson F] [--csv F] [--kml F]
                     [--tracks mpp,lse,gps,smoothed] [--smoothed F] [--datum-file F] [--force]
+       uvnav denied RUN [--config TOML] [--window S ...] [--start T ...] [--every S]
+                        [--warmup S] [--checkpoint S ...] [--truth CSV] [--windows] [--markdown]
 """
 
 
