@@ -4,7 +4,11 @@ Sentences arrive at different rates and out of step. :class:`EpochBuilder` keeps
 value of each sensor with the log time it arrived at and, every ``interval_s`` seconds of log
 time, makes one :class:`~engine.io.runfile.RunRecord` from the latest values; a value older
 than its sensor's staleness limit is absent (None, ``-`` in the .RUN line). Nothing is
-extrapolated.
+extrapolated. A GNSS fix is one measurement, so it goes into one epoch only (the first after
+it, within its staleness limit): a receiver at 0.5 Hz gives a position every other record, not
+the same position twice, which the filter would weigh as two independent fixes. Heading, water
+speed, course/speed over ground and depth are sampled: their latest value is repeated while
+fresh.
 
 **Log time.** It comes from the sentences only (GGA/RMC/GLL/ZDA time of day; the date from
 RMC/ZDA or :attr:`NmeaOptions.date`). A sentence without a time (HDT, VHW, DBT …) is stamped
@@ -230,6 +234,8 @@ class EpochBuilder:
         self._last_line = 0
         self._no_date_reported = False
         self._had_fix = False
+        self._fix_used: float | None = None
+        """Time stamp of the last fix put into an epoch (not repeated in the next ones)."""
         o = self.options
         self._max_stale = max(o.position_stale_s, o.heading_stale_s, o.water_speed_stale_s,
                               o.cog_sog_stale_s, o.depth_stale_s)
@@ -489,7 +495,8 @@ class EpochBuilder:
         def fresh(item: tuple[float, float] | None, limit: float) -> float | None:
             return item[1] if item is not None and epoch - item[0] <= limit else None
 
-        pos = lat.pos if lat.pos is not None and epoch - lat.pos[0] <= o.position_stale_s else None
+        pos = lat.pos if (lat.pos is not None and epoch - lat.pos[0] <= o.position_stale_s
+                          and lat.pos[0] != self._fix_used) else None
         gga = lat.gga if pos is not None and lat.gga is not None else None
         heading = fresh(lat.heading, o.heading_stale_s)
         stw = fresh(lat.stw, o.water_speed_stale_s)
@@ -508,6 +515,8 @@ class EpochBuilder:
             cog_deg=cog, sog_kn=sog,
         )
         out.append(self._as_run_line(rec))
+        if pos is not None:
+            self._fix_used = pos[0]  # a fix is one measurement: it goes into one epoch only
         self.stats.epochs += 1
         self.stats.last_time = rec.time
         return True

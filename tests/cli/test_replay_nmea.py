@@ -107,7 +107,8 @@ def test_log_without_date_needs_date_option(tmp_path: Path,
     assert "--date: Must be" in capsys.readouterr().err
     assert main(["replay", str(log), "--no-out", "--date", "2014-07-18"]) == 0
     text = capsys.readouterr().out
-    # 10:00:00 to 10:00:08, sentences every 2 s, position fresh 3 s: epochs at every second
-    assert "epochs 9  fixes 9" in text
+    # 10:00:00 to 10:00:08, sentences every 2 s: an epoch every second (the water speed is
+    # fresh for 5 s), each of the 5 fixes in one epoch only
+    assert "epochs 9  fixes 5" in text
     assert "final MPP (" in text and "10:00:08Z" in text
     assert "config: sensors: gyro n/a, log on, echo sounder n/a" in text

@@ -214,8 +214,9 @@ def test_fix_outage_keeps_the_clock_and_the_other_sensors() -> None:
     lines += [gga(43206)]
     recs, _, b = run(lines)
     assert [r.time.second for r in recs] == [0, 1, 2, 3, 4, 5, 6]
-    assert [r.gps_lat_deg is not None for r in recs] == [True, True, True, True, False, False,
-                                                         True]  # position_stale_s = 3
+    # the fix of 12:00:00 is used once; the outage epochs have the heading only
+    assert [r.gps_lat_deg is not None for r in recs] == [True, False, False, False, False, False,
+                                                         True]
     assert all(r.heading_deg == 10.0 for r in recs)
     assert b.stats.skipped["not a fix"] == 5
 
@@ -228,3 +229,21 @@ def test_no_fix_yet_times_are_not_used() -> None:
     recs, bad, _ = run(lines)
     assert not bad and [r.time for r in recs] == [
         datetime(2026, 12, 2, 12, 0, 0, tzinfo=UTC), datetime(2026, 12, 2, 12, 0, 1, tzinfo=UTC)]
+
+
+def test_a_fix_goes_into_one_epoch_only() -> None:
+    """A 0.5 Hz receiver with a 1 Hz heading: positions every other record, never repeated
+    (a repeated fix would be weighed by the filter as a second, independent one); the GGA and
+    RMC of the same second are one fix."""
+    lines = []
+    for k in range(6):
+        if k % 2 == 0:
+            lines += [rmc(43200 + k), gga(43200 + k)]
+        lines.append(nmea("HEHDT,90.0,T"))
+        if k % 2 == 1:
+            lines.append(nmea(f"GPZDA,{hhmmss(43200 + k)},02,12,2026,00,00"))
+    recs, _, _ = run(lines)
+    assert [r.time.second for r in recs] == [0, 1, 2, 3, 4, 5]
+    assert [r.gps_quality for r in recs] == [1, None, 1, None, 1, None]
+    assert [r.gps_lat_deg is not None for r in recs] == [True, False] * 3
+    assert all(r.heading_deg == 90.0 for r in recs)
