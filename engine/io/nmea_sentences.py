@@ -40,7 +40,6 @@ from typing import Any
 import pynmea2
 
 __all__ = [
-    "KNOWN_TYPES",
     "NmeaValues",
     "SkipKind",
     "SentenceSkip",
@@ -58,8 +57,6 @@ longer lines are malformed."""
 
 USED_TYPES = ("GGA", "RMC", "GLL", "ZDA", "HDT", "HDG", "VHW", "VBW", "VTG", "DBT", "DPT")
 """Sentence types whose values are used."""
-KNOWN_TYPES = frozenset(pynmea2.TalkerSentence.sentence_types)
-"""Sentence types pynmea2 knows (the used ones among them)."""
 
 
 class SkipKind:
