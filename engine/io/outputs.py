@@ -89,6 +89,10 @@ def _is_truth(line: bytes) -> bool:
     return line.startswith(b"# UVNAV simulator truth")
 
 
+def _is_raw_times(line: bytes) -> bool:
+    return line.startswith(b"# UVNAV live receive times")
+
+
 def _is_svg(head: bytes) -> bool:
     return b"<svg" in head and b"UVNAV assess plot" in head
 
@@ -112,6 +116,10 @@ SIGNATURES: dict[str, Signature] = {
     "truth": Signature("truth CSV (first line '# UVNAV simulator truth')", _is_truth),
     "svg": Signature("assessment plot (an SVG marked 'UVNAV assess plot')", _is_svg,
                      whole_head=True),
+    "raw_times": Signature("live receive-time log (first line '# UVNAV live receive times')",
+                           _is_raw_times),
+    "nmea_raw": Signature("(nothing: a raw NMEA recording is never replaced)",
+                          lambda _line: False),
 }
 
 
@@ -297,12 +305,14 @@ class OutputGuard:
         kind: str,
         force: bool = False,
         existing: str = "free",
+        encoding: str = "utf-8",
     ) -> OutputFile:
         """Open a new output by the module's rule and register it; returns the open file (its
         ``path`` is the name actually used).
 
         ``kind`` is a key of :data:`SIGNATURES` (what ``force`` may replace); ``existing`` is
-        ``"free"`` (an existing name gets a free ``stem_N`` sibling) or ``"refuse"``.
+        ``"free"`` (an existing name gets a free ``stem_N`` sibling) or ``"refuse"``;
+        ``encoding`` of the text (``latin-1`` writes one byte per character: the live raw log).
         """
         signature = SIGNATURES[kind]
         target = self.check(path, label)
@@ -323,7 +333,7 @@ class OutputGuard:
                 raise OSError(exc.errno, exc.strerror, str(target)) from None
         st = os.fstat(fd)
         self.ids[(st.st_dev, st.st_ino)] = label
-        handle = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
+        handle = os.fdopen(fd, "w", encoding=encoding, newline="\n")
         return OutputFile(handle, target)
 
     @staticmethod
