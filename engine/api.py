@@ -15,7 +15,8 @@ Groups, in the order of a run:
   it that pages show (fix, filter state, confidence regions, Pool of Errors);
 * operator input parsing and display formatting (both engine rules: the ``.OUT`` and the
   console must agree);
-* headless work: replay outputs, the simulator and the accuracy assessment.
+* headless work: replay outputs, the simulator and the accuracy assessment;
+* live NMEA sources (:func:`open_live_run`, docs/LIVE.md), imported on first use.
 
 One small function is defined here rather than re-exported: :func:`run_record` (a cycle's
 ``.RUN`` record, parsed by the run-file reader). The names of the headless assessment and
@@ -124,6 +125,8 @@ if TYPE_CHECKING:
         read_nav_log,
         read_truth,
     )
+    from engine.io.live_sources import SourceState, parse_source_url
+    from engine.run.live import LiveCycle, LiveRun, LiveStep, open_live_run
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
 
@@ -131,6 +134,8 @@ _ASSESS_NAMES = frozenset(
     {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
      "read_truth"})
 _SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
+_LIVE_RUN_NAMES = frozenset({"LiveCycle", "LiveRun", "LiveStep", "open_live_run"})
+_LIVE_SOURCE_NAMES = frozenset({"SourceState", "parse_source_url"})
 """The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
 console never load the assessment or the simulator (start-up time)."""
 
@@ -247,6 +252,13 @@ __all__ = [
     "remove_created",
     "run_inputs",
     "write_simulation",
+    # live NMEA sources (docs/LIVE.md), imported on first use
+    "LiveCycle",
+    "LiveRun",
+    "LiveStep",
+    "SourceState",
+    "open_live_run",
+    "parse_source_url",
 ]
 
 
@@ -273,8 +285,17 @@ def __getattr__(name: str) -> object:
         from engine.sim import simulate
 
         return getattr(simulate, name)
+    if name in _LIVE_RUN_NAMES:
+        from engine.run import live
+
+        return getattr(live, name)
+    if name in _LIVE_SOURCE_NAMES:
+        from engine.io import live_sources
+
+        return getattr(live_sources, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, "load_scenario"})
+    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, "load_scenario",
+                   *_LIVE_RUN_NAMES, *_LIVE_SOURCE_NAMES})

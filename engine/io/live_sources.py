@@ -250,7 +250,7 @@ class _SerialTransport:
                 waiting = self.port.in_waiting
                 if waiting:
                     data += self.port.read(waiting)
-        except self._error as exc:
+        except (self._error, TypeError, AttributeError) as exc:  # Type/Attr: closed meanwhile
             raise OSError(str(exc)) from None
         return data or None
 
@@ -336,8 +336,9 @@ class LiveSource:
 
     @property
     def state(self) -> SourceState:
-        """The current state (a snapshot; replaced, never changed, by the reader)."""
-        return self._state
+        """The current state, with the lines received so far (a snapshot)."""
+        state = self._state
+        return state if state.lines == self._lines else replace(state, lines=self._lines)
 
     @property
     def local_port(self) -> int | None:

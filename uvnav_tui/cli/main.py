@@ -2,7 +2,8 @@
 
 ``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
 ``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
-``assess`` (accuracy against truth).  Ctrl-C in a sub-command prints one line and exits 130
+``assess`` (accuracy against truth), ``live`` (headless run on a live NMEA source).
+Ctrl-C in a sub-command prints one line and exits 130
 (a replay's logs keep every completed cycle; a simulation writes nothing).  Each sub-command lives
 in its own module and is imported only when used, so ``uvnav replay`` never loads Textual.
 """
@@ -18,6 +19,7 @@ SUBCOMMANDS = {
     "simulate": ("uvnav_tui.cli.simulate", "run_simulate"),
     "script": ("uvnav_tui.cli.script", "run_script"),
     "assess": ("uvnav_tui.cli.assess", "run_assess"),
+    "live": ("uvnav_tui.cli.live", "run_live"),
 }
 
 EXIT_INTERRUPTED = 130
@@ -25,6 +27,7 @@ EXIT_INTERRUPTED = 130
 INTERRUPTED_NOTE = {
     "replay": "; the logs keep every cycle completed before it",
     "simulate": "; nothing written",
+    "live": "; the logs keep every cycle completed and every line received before it",
 }
 """What is left on disk after Ctrl-C, per sub-command."""
 
@@ -34,6 +37,9 @@ USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
        uvnav script FILE [--headless]
        uvnav assess OUT_or_JSONL TRUTH.csv [--svg FILE] [--phases auto|none] [--poe-rate M_H]
+       uvnav live URL --config TOML [--out FILE.OUT | --no-out] [--jsonl FILE] [--force]
+                      [--cycles N] [--seconds S] [--quiet]   (URL: udp://0.0.0.0:10110,
+                      tcp://HOST:10110, serial:///dev/ttyUSB0?baud=4800)
 """
 
 
