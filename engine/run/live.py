@@ -8,9 +8,10 @@ turns what arrives into cycles, one :meth:`LiveRun.poll` at a time, at the pace 
 arrive (real time: nothing is paced here). Every completed cycle is on disk when
 :meth:`LiveRun.poll` returns (the session flushes each one).
 
-The configuration's ``run_file`` is replaced by the source's URL (the ``.OUT`` header and its
-configuration name the URL); the log time comes from the sentences, and the UTC date of today
-is the date of sentences that come before any RMC/ZDA (a live stream is today's).
+The ``.OUT`` header names the source's URL (``run udp://…``), and the configuration logged in it
+has the raw log as its ``run_file``, so ``uvnav replay NAME.raw.nmea`` with that configuration
+reproduces the run (without a raw log, the URL). The log time comes from the sentences; the UTC
+date of today is the date of sentences that come before any RMC/ZDA (a live stream is today's).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from engine.io.live_feed import LiveBatch, LiveFeed
 from engine.io.live_log import RawLog, raw_log_stem
 from engine.io.live_sources import LiveSource, SourceState, parse_source_url
 from engine.io.nmea_epochs import EpochBuilder, NmeaOptions, NmeaStats
-from engine.io.outputs import OutputGuard
+from engine.io.outputs import OutputGuard, free_name
 from engine.run.config import RunConfig
 from engine.run.cycle import CycleResult
 from engine.run.session import Session
@@ -154,24 +155,32 @@ def open_live_run(
     created are removed again."""
     spec = parse_source_url(url)
     guard = guard if guard is not None else OutputGuard()
-    cfg = config.replace(run_file=spec.url)
-    session = Session(cfg, out_path=out_path, force=force, jsonl_path=jsonl_path,
-                      history=history, collect_smoother=collect_smoother, data=data,
-                      guard=guard, records=(), source_name=spec.url)
     raw: RawLog | None = None
+    if out_path is not None:
+        # The raw log is named after the .OUT name the session will take (the first free one
+        # unless --force), and made first, so the configuration in the .OUT header can name
+        # it as the run file: replaying it reproduces the run.
+        guard.check(out_path, "--out")
+        stem = raw_log_stem(out_path if force else free_name(Path(out_path)))
+        raw = RawLog.create(stem, source_url=spec.url, origin_mono_s=time.monotonic(),
+                            guard=guard)
     source = LiveSource(spec, lost_after_s=lost_after_s, backoff_s=backoff_s)
+    session: Session | None = None
     try:
-        if session.out_path is not None:
-            raw = RawLog.create(raw_log_stem(session.out_path), source_url=spec.url,
-                                origin_mono_s=time.monotonic(), guard=guard)
+        cfg = config.replace(run_file=str(raw.path) if raw is not None else spec.url)
+        session = Session(cfg, out_path=out_path, force=force, jsonl_path=jsonl_path,
+                          history=history, collect_smoother=collect_smoother, data=data,
+                          guard=guard, records=(), source_name=spec.url)
         name = str(raw.path) if raw is not None else spec.url
         builder = EpochBuilder(live_nmea_options(nmea_options), source=name)
         source.start()
     except BaseException:
         source.close()
-        created = [] if force else [p for p in (session.out_path, session.jsonl_path)
-                                    if p is not None]
-        session.close()
+        created: list[Path] = []
+        if session is not None:
+            if not force:
+                created += [p for p in (session.out_path, session.jsonl_path) if p is not None]
+            session.close()
         if raw is not None:  # always a new file (never replaced)
             raw.close()
             created += [raw.path, raw.times_path]

@@ -29,6 +29,7 @@ from engine.api import (
     CycleResult,
     InputError,
     LiveRun,
+    LiveStep,
     OutputGuard,
     SourceState,
     format_lat_dms,
@@ -129,6 +130,12 @@ def _open(args: argparse.Namespace) -> tuple[LiveRun, str]:
     return run, policy
 
 
+def _print_cycles(step: LiveStep, run: LiveRun, args: argparse.Namespace) -> None:
+    if not args.quiet:
+        for c in step.cycles:
+            print(cycle_line(c.result, c.latency_s, run.state), flush=True)
+
+
 def _loop(run: LiveRun, args: argparse.Namespace) -> None:
     """Cycles until --cycles / --seconds (or Ctrl-C, raised through)."""
     start = time.monotonic()
@@ -138,6 +145,7 @@ def _loop(run: LiveRun, args: argparse.Namespace) -> None:
         if args.cycles is not None and run.cycles >= args.cycles:
             return
         if args.seconds is not None and time.monotonic() - start >= args.seconds:
+            _print_cycles(run.finish(), run, args)  # the epoch still open
             return
         step = run.poll(POLL_S)
         for new in step.states:
@@ -194,6 +202,7 @@ def run_live(argv: list[str]) -> int:
             _loop(run, args)
         except KeyboardInterrupt:
             status = EXIT_INTERRUPTED
+            _print_cycles(run.finish(), run, args)  # the epoch still open
             print("uvnav live: interrupted (Ctrl-C); the logs keep every cycle completed and "
                   "every line received before it", file=sys.stderr)
         finally:
