@@ -69,7 +69,7 @@ from engine.io.operator_input import (
     parse_zone_lane,
 )
 from engine.io.outputs import EXISTS_MESSAGE, OutputFile, OutputGuard, remove_created
-from engine.io.runfile import RunRecord, parse_run_line
+from engine.io.runfile import BadRecord, RunRecord, parse_run_line
 from engine.io.tomlsource import FILE_NOT_FOUND_MESSAGE, read_text
 from engine.lsq.adjustment import Adjustment
 from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
@@ -125,7 +125,7 @@ if TYPE_CHECKING:
         read_nav_log,
         read_truth,
     )
-    from engine.io.live_sources import SourceState, parse_source_url
+    from engine.io.live_sources import SourceState, is_source_url, parse_source_url
     from engine.run.live import LiveCycle, LiveRun, LiveStep, open_live_run
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
@@ -135,7 +135,7 @@ _ASSESS_NAMES = frozenset(
      "read_truth"})
 _SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
 _LIVE_RUN_NAMES = frozenset({"LiveCycle", "LiveRun", "LiveStep", "open_live_run"})
-_LIVE_SOURCE_NAMES = frozenset({"SourceState", "parse_source_url"})
+_LIVE_SOURCE_NAMES = frozenset({"SourceState", "is_source_url", "parse_source_url"})
 """The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
 console never load the assessment or the simulator (start-up time)."""
 
@@ -172,6 +172,7 @@ __all__ = [
     "PositionEstimate",
     "RunContext",
     "RunRecord",
+    "BadRecord",
     "Session",
     "SetCurrent",
     "SetDRPosition",
@@ -257,6 +258,7 @@ __all__ = [
     "LiveRun",
     "LiveStep",
     "SourceState",
+    "is_source_url",
     "open_live_run",
     "parse_source_url",
 ]

@@ -174,8 +174,9 @@ class UVNAVApp(App[None]):
 
     # ------------------------------------------------------------------ runs
     def start_run(self, cfg: RunConfig) -> str | None:
-        """Open a session for ``cfg`` (the .OUT goes next to the .RUN file under a free name);
-        returns an error message instead if it cannot be opened."""
+        """Open a session for ``cfg`` (the .OUT goes next to the .RUN file under a free name;
+        a live-source URL as run file: docs/LIVE.md); returns an error message instead if it
+        cannot be opened."""
         session = open_session(cfg, self.data, write_out=self.write_logs)
         if isinstance(session, str):
             return session
@@ -188,7 +189,7 @@ class UVNAVApp(App[None]):
         self.message = ""
         self.show_page(100)
         self.refresh_display()
-        for warning in session.data_warnings:  # a modified data file (docs/DATAFILES.md)
+        for warning in self.control.session.data_warnings:  # a modified data file (DATAFILES.md)
             self.say(f"Warning: {warning}")
         self.kick()
         return None

@@ -10,6 +10,7 @@ measured from (bench/bench_live.py).
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -60,7 +61,10 @@ class LiveFeed:
         self.epochs = epochs
         self.raw = raw
         self.lines = 0
+        self.closed = False
         self._times: deque[tuple[int, float]] = deque(maxlen=RECEIVE_TIMES_KEPT)
+        self._lock = threading.Lock()
+        """Held by :meth:`poll` and :meth:`close`: a poll never writes to a closed raw log."""
 
     @property
     def state(self) -> SourceState:
@@ -79,7 +83,14 @@ class LiveFeed:
 
     def poll(self, timeout_s: float) -> LiveBatch:
         """Take what the source received (waiting up to ``timeout_s`` s for something): every
-        line goes to the raw log and the builder; the raw log is flushed once per poll."""
+        line goes to the raw log and the builder; the raw log is flushed once per poll. After
+        :meth:`close`, an empty batch at once."""
+        with self._lock:
+            if self.closed:
+                return LiveBatch()
+            return self._poll(timeout_s)
+
+    def _poll(self, timeout_s: float) -> LiveBatch:
         batch = LiveBatch()
         for item in self.source.poll(timeout_s):
             if isinstance(item, ReceivedLine):
@@ -106,12 +117,15 @@ class LiveFeed:
         return LiveBatch(records=[LiveRecord(i, now) for i in self.epochs.finish()])
 
     def close(self) -> None:
-        """Close the source (thread joined) and the raw log."""
-        try:
-            self.source.close()
-        finally:
-            if self.raw is not None:
-                self.raw.close()
+        """Close the source (thread joined) and the raw log (waits for a poll in progress);
+        idempotent."""
+        with self._lock:
+            self.closed = True
+            try:
+                self.source.close()
+            finally:
+                if self.raw is not None:
+                    self.raw.close()
 
 
 __all__ = ["EpochSink", "LiveBatch", "LiveFeed", "LiveRecord"]

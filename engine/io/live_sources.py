@@ -76,6 +76,17 @@ def _url_error(message: str, field: str, text: str) -> InputError:
     return InputError(message, field=field, text=text)
 
 
+SCHEMES = ("udp", "tcp", "serial")
+"""The kinds of live source."""
+
+
+def is_source_url(text: str) -> bool:
+    """True when ``text`` names a live source (``udp://``, ``tcp://``, ``serial://``, any
+    case) rather than a file; whether it is a good one is :func:`parse_source_url`'s job."""
+    scheme, sep, _rest = text.strip().partition("://")
+    return bool(sep) and scheme.lower() in SCHEMES
+
+
 def parse_source_url(url: str) -> SourceSpec:
     """Parse a live-source URL (module docstring); a bad one is an :class:`InputError` naming
     the part at fault (``source``, ``source host``, ``source port``, ``source device``,
@@ -475,7 +486,10 @@ class LiveSource:
             except OSError as exc:
                 if self._stop.is_set():
                     return False
-                self._set_state(STATUS_LOST, since=self._clock(),
+                # Lost since now, or still since the first loss when no line came in between
+                # (a reconnection that broke again at once).
+                since = self._state.since_mono_s if self._state.is_lost else self._clock()
+                self._set_state(STATUS_LOST, since=since,
                                 detail=exc.strerror or str(exc) or type(exc).__name__)
                 return True
             now = self._clock()
@@ -516,5 +530,6 @@ __all__ = [
     "ReceivedLine",
     "SourceSpec",
     "SourceState",
+    "is_source_url",
     "parse_source_url",
 ]

@@ -95,14 +95,21 @@ class LiveRun:
 
     def poll(self, timeout_s: float) -> LiveStep:
         """Take what arrived (waiting up to ``timeout_s`` s for something) and run a cycle for
-        each epoch it completed."""
-        return self._run(self.feed.poll(timeout_s))
+        each epoch it completed: :meth:`receive` then :meth:`process`."""
+        return self.process(self.receive(timeout_s))
+
+    def receive(self, timeout_s: float) -> LiveBatch:
+        """Take what arrived (raw log written, epochs formed) without running the cycles: a
+        caller that shares the session with other threads runs :meth:`process` under its
+        lock, and does not hold the lock while this waits."""
+        return self.feed.poll(timeout_s)
 
     def finish(self) -> LiveStep:
         """Run the epoch the builder still holds (at the end of the run)."""
-        return self._run(self.feed.finish())
+        return self.process(self.feed.finish())
 
-    def _run(self, batch: LiveBatch) -> LiveStep:
+    def process(self, batch: LiveBatch) -> LiveStep:
+        """Run a cycle for each record of ``batch``."""
         out = LiveStep(states=batch.states, lines=batch.lines)
         for rec in batch.records:
             result = self.session.process(rec.item)
@@ -112,7 +119,8 @@ class LiveRun:
         return out
 
     def close(self) -> None:
-        """Stop the source (thread joined), close the raw log and the session's logs."""
+        """Stop the source (thread joined), close the raw log and the session's logs
+        (idempotent)."""
         try:
             self.feed.close()
         finally:

@@ -188,9 +188,9 @@ class LineServer:
         self.client.sendall("".join(s + "\r\n" for s in lines).encode())
 
     def stop(self) -> None:
+        self.listener.close()
         if self.client is not None:
             self.client.close()
-        self.listener.close()
 
 
 def test_tcp_client_reconnects_after_the_server_dies() -> None:

@@ -1,4 +1,4 @@
-"""``uvnav [--config FILE.toml] [--dev]``: open the navigation console.
+"""``uvnav [--config FILE.toml] [--dev] [--live URL]``: open the navigation console.
 
 Without ``--config`` the bundled demo ``data/DEMO.toml`` is used: first the one in the ``data``
 directory next to the installed package (the repository checkout), then ``./data/DEMO.toml``.
@@ -11,7 +11,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from engine.api import DatumFile, DeccaChain, InputError, RunConfig, load_run_config
+from engine.api import (
+    DatumFile,
+    DeccaChain,
+    InputError,
+    RunConfig,
+    load_run_config,
+    parse_source_url,
+)
 
 DEFAULT_CONFIG_NAME = "DEMO.toml"
 
@@ -33,6 +40,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="uvnav", description="Open the UVNAV navigation console.")
     p.add_argument("--config", help=f"run configuration TOML (default: data/{DEFAULT_CONFIG_NAME})")
     p.add_argument("--dev", action="store_true", help="start in developer mode (A4)")
+    p.add_argument("--live", metavar="URL",
+                   help="run on a live NMEA source instead of the configuration's run file: "
+                   "udp://0.0.0.0:10110, tcp://HOST:10110, serial:///dev/ttyUSB0?baud=4800 "
+                   "(docs/LIVE.md)")
     p.add_argument("--hardcopy-dir", default="hardcopy",
                    help="directory for Edit ▸ Hardcopy files (default: ./hardcopy)")
     return p
@@ -55,6 +66,8 @@ def run_console(argv: list[str]) -> int:
     args = build_parser().parse_args(argv)
     try:
         cfg, data = resolve_config(args.config)
+        if args.live is not None:
+            cfg = cfg.replace(run_file=parse_source_url(args.live).url)
     except (InputError, OSError) as exc:
         print(f"uvnav: {exc}", file=sys.stderr)
         return 2

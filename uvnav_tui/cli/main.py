@@ -31,7 +31,7 @@ INTERRUPTED_NOTE = {
 }
 """What is left on disk after Ctrl-C, per sub-command."""
 
-USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
+USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR] [--live URL]   console
        uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
                         [--smooth [FILE]] [--force]
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]

@@ -2,7 +2,8 @@
 
 Asks, in the thesis' order, for the geodetic datum (choices from ``TO_WGS84.DAT``), the initial
 DR position, the depth, the current speed and direction (the set) and the ``.RUN`` file name
-without extension. Every field is checked as it is typed; Return starts the run.
+without extension, or a live NMEA source's URL (``udp://0.0.0.0:10110``, docs/LIVE.md). Every
+field is checked as it is typed; Return starts the run.
 """
 
 from __future__ import annotations
@@ -17,11 +18,13 @@ from engine.api import (
     FILE_NOT_FOUND_MESSAGE,
     InputError,
     RunConfig,
+    is_source_url,
     parse_datum_name,
     parse_depth_m,
     parse_direction_deg,
     parse_position,
     parse_run_name,
+    parse_source_url,
     parse_speed_kn,
 )
 from uvnav_tui.dialogs.dialog import Dialog
@@ -60,6 +63,8 @@ class InitDialog(Dialog[RunConfig]):
         self.run_dir = config.run_path.parent
 
     def _run_name(self, text: str) -> str:
+        if is_source_url(text):  # a live source (docs/LIVE.md)
+            return parse_source_url(text).url
         name = parse_run_name(text, field="run file")
         if not (self.run_dir / f"{name}.RUN").is_file():
             raise InputError(FILE_NOT_FOUND_MESSAGE, field="run file", text=text)
@@ -79,7 +84,8 @@ class InitDialog(Dialog[RunConfig]):
                              parse_speed_kn, id="init-speed")
         yield ValidatedField("Current direction (°)", number_text(cfg.current_set_deg),
                              parse_direction_deg, id="init-set")
-        yield ValidatedField("Run file (no .RUN)", Path(cfg.run_file).stem, self._run_name,
+        run_text = cfg.run_file if is_source_url(cfg.run_file) else Path(cfg.run_file).stem
+        yield ValidatedField("Run file (no .RUN)", run_text, self._run_name,
                              id="init-run")
 
     def on_mount(self) -> None:
@@ -98,7 +104,8 @@ class InitDialog(Dialog[RunConfig]):
             depth_m=f["init-depth"].value_or(cfg.depth_m),
             current_speed_kn=f["init-speed"].value_or(cfg.current_speed_kn),
             current_set_deg=f["init-set"].value_or(cfg.current_set_deg),
-            run_file=str(self.run_dir / f"{run.parsed}.RUN") if run.edited else cfg.run_file,
+            run_file=(cfg.run_file if not run.edited else run.parsed if is_source_url(run.parsed)
+                      else str(self.run_dir / f"{run.parsed}.RUN")),
         )
 
     def collect(self) -> RunConfig | None:
