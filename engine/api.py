@@ -56,6 +56,8 @@ from engine.io.formatting import (
     format_time_z,
     format_zone_lane,
 )
+from engine.io.nmea_epochs import NmeaOptions, NmeaStats
+from engine.io.nmea_log import NmeaLog, is_nmea_file
 from engine.io.operator_input import (
     ZONE_LETTERS,
     parse_bearing_deg,
@@ -69,7 +71,7 @@ from engine.io.operator_input import (
     parse_zone_lane,
 )
 from engine.io.outputs import EXISTS_MESSAGE, OutputFile, OutputGuard, remove_created
-from engine.io.runfile import BadRecord, RunRecord, parse_run_line
+from engine.io.runfile import BadRecord, RunRecord, format_run_record, parse_run_line
 from engine.io.tomlsource import FILE_NOT_FOUND_MESSAGE, read_text
 from engine.lsq.adjustment import Adjustment
 from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
@@ -102,6 +104,7 @@ from engine.run.config import (
     GpsConfig,
     Key,
     LsqConfig,
+    NmeaConfig,
     RunConfig,
     SensorsConfig,
     decca_cf_condition,
@@ -110,6 +113,7 @@ from engine.run.config import (
     parse_decca_cf,
 )
 from engine.run.cycle import CycleResult, PositionEstimate, RunContext
+from engine.run.nmea_config import derive_nmea_config, derived_config_lines
 from engine.run.records import lse_estimate, position_json
 from engine.run.session import RunSummary, Session, load_data, load_run_config, run_inputs
 from engine.systems.registry import SLOT_LABELS, slots_of
@@ -261,6 +265,16 @@ __all__ = [
     "is_source_url",
     "open_live_run",
     "parse_source_url",
+    # NMEA 0183 logs as run input (docs/NMEA.md)
+    "BadRecord",
+    "NmeaConfig",
+    "NmeaLog",
+    "NmeaOptions",
+    "NmeaStats",
+    "derive_nmea_config",
+    "derived_config_lines",
+    "format_run_record",
+    "is_nmea_file",
 ]
 
 

@@ -13,6 +13,14 @@ One record per line, whitespace-separated (THEORY §13.3, D40)::
   RUD rudder angle [deg, −90…90, sign only displayed].
 * Optional trailing columns (A10): INCL inclinometer [deg, −90…90], PFREQ pressure-sensor
   crystal frequency [Hz, > 0], ECHO echo-sounder depth [m, ≥ 0].
+* Optional trailing ``key=value`` tokens (UVNAV 2026, for NMEA 0183 input, docs/NMEA.md) after
+  all three optional columns (``-`` when absent), each key at most once: ``hdop=`` GNSS HDOP
+  (> 0, ≤ 99.99), ``q=`` GGA fix quality (1–5), ``sats=`` satellites (whole number),
+  ``cog=`` course over ground [deg true, 0–360), ``sog=`` speed over ground [kn, 0–200]::
+
+      261202 120000 - - - - - 10.0 5.2 - - - 12.34 hdop=1.20 q=1 sats=7 cog=45.0 sog=6.00
+
+  A 1993 line has none, and the fields stay None.
 * Any field whose sensor gave nothing is the single token ``-`` (also for LAT/LON: one ``-``).
 * Lines starting with ``*``, blank lines and the A8.4 caption line (``Date Time GPS lat …``)
   are skipped.
@@ -34,7 +42,7 @@ import os
 import re
 import stat
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 
 from engine.errors import InputError, read_error
@@ -43,6 +51,7 @@ from engine.io.deccafile import format_dms, parse_dms
 __all__ = [
     "BadRecord",
     "RunRecord",
+    "check_input_file",
     "format_run_record",
     "iter_run_file",
     "iter_run_lines",
@@ -115,6 +124,8 @@ tab."""
 
 def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord:
     """One record's tokens (``n`` of them) to a :class:`RunRecord`, checked field by field."""
+    if "=" in line:
+        return _parse_with_keys(toks, line, line_no)
     if not 10 <= n <= 19:
         raise InputError(f"Wrong number of fields ({n}) !", field="record", text=line.strip())
     time = _parse_time(toks[0], toks[1])
@@ -127,6 +138,62 @@ def _parse_tokens(toks: list[str], n: int, line: str, line_no: int) -> RunRecord
         line_no, time, lat, lon, (fr_r, fr_g, fr_p), hdg, spd, rud, incl, pfreq, echo,
         line.rstrip("\r\n"),
     )
+
+
+GNSS_KEYS = ("hdop", "q", "sats", "cog", "sog")
+"""The optional trailing ``key=value`` tokens, in the order they are written."""
+MAX_SOG_KN = 200.0
+"""Speeds over ground above this are rejected as implausible [kn]."""
+_KEY_FIELDS = {"hdop": "gps_hdop", "q": "gps_quality", "sats": "gps_sats", "cog": "cog_deg",
+               "sog": "sog_kn"}
+
+
+def _parse_with_keys(toks: list[str], line: str, line_no: int) -> RunRecord:
+    """A record with trailing ``key=value`` tokens: the columns before them (with all three
+    optional columns) and the GNSS values, each key at most once."""
+    first = next(i for i, tok in enumerate(toks) if "=" in tok)
+    rec = _parse_tokens(toks[:first], first, " ".join(toks[:first]), line_no)
+    i = 3 if toks[2] == "-" else 6  # the head parsed, so these tokens exist
+    i += 1 if toks[i] == "-" else 4
+    if first - i != 9:
+        raise InputError("key=value tokens need all nine numeric columns (- when absent) !",
+                         field="record", text=toks[first])
+    values: dict[str, float | int] = {}
+    for tok in toks[first:]:
+        key, sep, text = tok.partition("=")
+        if key not in _KEY_FIELDS or not sep:
+            raise InputError("Unknown key (hdop, q, sats, cog, sog) !", field="record", text=tok)
+        if key in values:
+            raise InputError("Key given twice !", field=key, text=tok)
+        values[key] = _key_value(key, text)
+    _check_separators(line)
+    return replace(rec, raw=line.rstrip("\r\n"),
+                   **{_KEY_FIELDS[k]: v for k, v in values.items()})  # type: ignore[arg-type]
+
+
+def _key_value(key: str, text: str) -> float | int:
+    """One ``key=value`` value, range-checked (the field named by the key)."""
+    if key in ("q", "sats"):
+        if not (text.isascii() and text.isdigit()) or len(text) > 3:
+            raise InputError("Not a whole number !", field=key, text=text)
+        number = int(text)
+        if key == "q" and not 1 <= number <= 5:
+            raise InputError("Fix quality must be 1 to 5 !", field=key, text=text)
+        return number
+    if not text or text.translate(_NOT_NUMBER_CHARS) or text.count("-") > (text[0] == "-"):
+        raise InputError("Not a number !", field=key, text=text)
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError("Not a number !", field=key, text=text) from None
+    if key == "hdop" and not (0.0 < value <= 99.99):
+        raise InputError("HDOP must be > 0 and <= 99.99 !", field=key, text=text)
+    if key == "cog" and not 0.0 <= value < 360.0:
+        raise InputError("Course must be in [0, 360) degrees !", field=key, text=text)
+    if key == "sog" and not 0.0 <= value <= MAX_SOG_KN:
+        raise InputError(f"Speed over ground must be in [0, {MAX_SOG_KN:.0f}] knots !",
+                         field=key, text=text)
+    return value
 
 
 def _parse_time(d: str, t: str) -> datetime:
@@ -290,6 +357,14 @@ def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecor
     reported as bad, never crashes the replay); a line over :data:`MAX_LINE_CHARS` characters
     is a bad record.
     """
+    name = check_input_file(path)
+    return _stream(name)
+
+
+def check_input_file(path: str | os.PathLike[str]) -> str:
+    """The name of a readable regular input file (``.RUN`` or NMEA log), checked now: a
+    missing, unreadable or non-regular file (a device, a pipe) is an ``InputError``
+    (:func:`~engine.errors.read_error`)."""
     name = os.fspath(path)
     if "\0" in name:
         raise InputError("A path cannot contain a NUL character !", file=name)
@@ -300,7 +375,7 @@ def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecor
             pass
     except OSError as exc:
         raise read_error(exc, name) from None
-    return _stream(name)
+    return name
 
 
 def _stream(name: str) -> Iterator[RunRecord | BadRecord]:
@@ -380,6 +455,25 @@ def format_run_record(rec: RunRecord) -> str:
         _opt(rec.press_freq_hz, ".3f"),
         _opt(rec.echo_m, ".2f"),
     ]
-    while optional and optional[-1] == "-":
-        optional.pop()
-    return " ".join(parts + optional)
+    keys = _key_tokens(rec)
+    if not keys:
+        while optional and optional[-1] == "-":
+            optional.pop()
+    return " ".join(parts + optional + keys)
+
+
+def _key_tokens(rec: RunRecord) -> list[str]:
+    """The ``key=value`` tokens of the GNSS values that are present (order of GNSS_KEYS)."""
+    out = []
+    if rec.gps_hdop is not None:
+        out.append(f"hdop={rec.gps_hdop:.2f}")
+    if rec.gps_quality is not None:
+        out.append(f"q={rec.gps_quality:d}")
+    if rec.gps_sats is not None:
+        out.append(f"sats={rec.gps_sats:d}")
+    if rec.cog_deg is not None:
+        text = f"{rec.cog_deg:.1f}"
+        out.append(f"cog={'0.0' if text == '360.0' else text}")
+    if rec.sog_kn is not None:
+        out.append(f"sog={rec.sog_kn:.2f}")
+    return out

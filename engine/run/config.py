@@ -17,10 +17,12 @@ import os
 import re
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from datetime import date
 from pathlib import Path
 from typing import Any, ClassVar
 
 from engine.errors import InputError
+from engine.io.nmea_epochs import NmeaOptions
 from engine.io.operator_input import (
     DATUM_MESSAGE,
     DEPTH_MESSAGE,
@@ -225,6 +227,10 @@ def _typed(value: Any, kind: str) -> Any:
     if kind == "float_auto":
         if isinstance(value, bool) or not isinstance(value, str | int | float):
             raise _bad('Wrong type: "auto" or a number expected !')
+        return value
+    if kind == "float_none":
+        if isinstance(value, bool) or not isinstance(value, str | int | float):
+            raise _bad('Wrong type: "none" or a number expected !')
         return value
     if kind == "str_list":
         if not isinstance(value, list | tuple) or not all(isinstance(v, str) for v in value):
@@ -729,6 +735,111 @@ DemoConfig.KEYS = (
 # fmt: on
 
 
+_ISO_DATE_RE = re.compile(r"\d{4}-\d{2}-\d{2}\Z")
+
+
+def _iso_date(value: str) -> str:
+    """"" or a UTC date ``YYYY-MM-DD``."""
+    text = value.strip()
+    if text and (not _ISO_DATE_RE.match(text) or _date_or_none(text) is None):
+        raise _bad('Must be "" or a date YYYY-MM-DD !')
+    return text
+
+
+def _date_or_none(text: str) -> date | None:
+    try:
+        return date.fromisoformat(text)
+    except ValueError:
+        return None
+
+
+def _none_or(check: Callable[[float], float]) -> Callable[[Any], Any]:
+    """A check for a key that takes ``"none"`` (any case) or a number passing ``check``."""
+
+    def run(value: Any) -> Any:
+        if isinstance(value, str):
+            if value.strip().lower() != "none":
+                raise _bad('Must be "none" or a number !')
+            return "none"
+        return check(_typed(value, "float"))
+
+    return run
+
+
+@dataclass(frozen=True)
+class NmeaConfig:
+    """How an NMEA 0183 log run file becomes epochs (docs/NMEA.md; not in the thesis).
+
+    Written to a log's header only when a key differs from its default, so the header of a
+    ``.RUN`` replay is as before.
+    """
+
+    TABLE: ClassVar[str] = "nmea"
+    KEYS: ClassVar[tuple[Key, ...]]
+
+    interval_s: int = 1
+    position_stale_s: float = 3.0
+    heading_stale_s: float = 3.0
+    water_speed_stale_s: float = 5.0
+    cog_sog_stale_s: float = 3.0
+    depth_stale_s: float = 10.0
+    date: str = ""
+    variation_deg: Any = "none"
+    accept_no_checksum: bool = False
+
+    def __post_init__(self) -> None:
+        _validate(self, self.TABLE, self.KEYS)
+
+    @property
+    def options(self) -> NmeaOptions:
+        """These settings as the reader's :class:`~engine.io.nmea_epochs.NmeaOptions`."""
+        return NmeaOptions(
+            interval_s=self.interval_s,
+            position_stale_s=self.position_stale_s,
+            heading_stale_s=self.heading_stale_s,
+            water_speed_stale_s=self.water_speed_stale_s,
+            cog_sog_stale_s=self.cog_sog_stale_s,
+            depth_stale_s=self.depth_stale_s,
+            date=date.fromisoformat(self.date) if self.date else None,
+            variation_deg=None if self.variation_deg == "none" else float(self.variation_deg),
+            accept_no_checksum=self.accept_no_checksum,
+        )
+
+
+_STALE = _between(0.0, 86400.0)
+# fmt: off
+NmeaConfig.KEYS = (
+    Key("interval_s", "interval_s", "int", "s",
+        "epoch interval of an NMEA log: one record per interval from the latest values; whole "
+        "seconds 1 to 3600 (the .RUN time resolution)",
+        "docs/NMEA.md [not in the thesis]", _between(1, 3600)),
+    Key("position_stale_s", "position_stale_s", "float", "s",
+        "a GNSS position older than this at an epoch is absent (1 Hz receiver: two missed)",
+        "docs/NMEA.md [not in the thesis]", _STALE),
+    Key("heading_stale_s", "heading_stale_s", "float", "s",
+        "a heading (HDT/HDG/VHW) older than this is absent", "docs/NMEA.md", _STALE),
+    Key("water_speed_stale_s", "water_speed_stale_s", "float", "s",
+        "a speed through the water (VHW/VBW) older than this is absent (logs send slowly)",
+        "docs/NMEA.md", _STALE),
+    Key("cog_sog_stale_s", "cog_sog_stale_s", "float", "s",
+        "a course/speed over ground (RMC/VTG) older than this is absent", "docs/NMEA.md",
+        _STALE),
+    Key("depth_stale_s", "depth_stale_s", "float", "s",
+        "a depth (DBT/DPT) older than this is absent (sounders send at 0.2–1 Hz)",
+        "docs/NMEA.md", _STALE),
+    Key("date", "date", "str", "—",
+        'UTC date "YYYY-MM-DD" of a log that starts without RMC/ZDA; "" = from the log',
+        "docs/NMEA.md", _iso_date),
+    Key("variation_deg", "variation_deg", "float_none", "deg",
+        'magnetic variation (east positive) for HDG/VHW magnetic headings without one; "none" '
+        "= such headings are not used", "docs/NMEA.md", _none_or(_between(-180.0, 180.0))),
+    Key("accept_no_checksum", "accept_no_checksum", "bool", "—",
+        "use sentences without a *hh checksum (default: skipped, counted as \"no checksum\")",
+        "docs/NMEA.md"),
+)
+# fmt: on
+
+
 _TABLES: tuple[tuple[str, type], ...] = (
     ("gps", GpsConfig),
     ("decca", DeccaConfig),
@@ -737,6 +848,7 @@ _TABLES: tuple[tuple[str, type], ...] = (
     ("lsq", LsqConfig),
     ("filter", FilterConfig),
     ("demo", DemoConfig),
+    ("nmea", NmeaConfig),
 )
 
 
@@ -767,6 +879,7 @@ class RunConfig:
     lsq: LsqConfig = LsqConfig()
     filter: FilterConfig = FilterConfig()
     demo: DemoConfig = DemoConfig()
+    nmea: NmeaConfig = NmeaConfig()
     config_dir: Path = Path(".")
     dr_lat_deg: float = field(init=False)
     dr_lon_deg: float = field(init=False)
@@ -783,11 +896,14 @@ class RunConfig:
 
     @property
     def run_path(self) -> Path:
-        """Absolute path of the ``.RUN`` file (``.RUN`` is added to a name without suffix)."""
-        path = Path(self.run_file)
+        """Absolute path of the run file (``.RUN`` is added to a name without suffix, unless
+        only the name without it exists: an NMEA log such as ``capture``)."""
+        path = Path(os.path.abspath(self.config_dir / self.run_file))
         if not path.suffix:
-            path = path.with_name(path.name + ".RUN")
-        return Path(os.path.abspath(self.config_dir / path))
+            with_run = path.with_name(path.name + ".RUN")
+            if with_run.exists() or not path.is_file():
+                return with_run
+        return path
 
     @property
     def data_dir(self) -> Path:
@@ -966,6 +1082,8 @@ def dump_config(cfg: RunConfig) -> str:
     lines = ["# UVNAV run configuration (keys: docs/CONFIG.md)"]
     lines += _dump_keys(cfg, RunConfig.KEYS)
     for name, cls in _TABLES:
+        if cls is NmeaConfig and cfg.nmea == NmeaConfig():
+            continue  # only when set: a .RUN replay's log header is as before the table came
         lines += ["", f"[{name}]"]
         lines += _dump_keys(getattr(cfg, name), cls.KEYS)  # type: ignore[attr-defined]
     return "\n".join(lines) + "\n"

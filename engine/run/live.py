@@ -158,9 +158,9 @@ def open_live_run(
     collect_smoother: bool = False,
 ) -> LiveRun:
     """Open a live run on ``url`` (module docstring). ``out_path`` None writes no ``.OUT`` and
-    no raw log. A bad URL is an :class:`~engine.errors.InputError` (field ``source …``) before
-    anything is created; a UDP port in use is an :class:`OSError`, and the files already
-    created are removed again."""
+    no raw log; ``nmea_options`` default to the configuration's ``[nmea]`` table. A bad URL is
+    an :class:`~engine.errors.InputError` (field ``source …``) before anything is created; a
+    UDP port in use is an :class:`OSError`, and the files already created are removed again."""
     spec = parse_source_url(url)
     guard = guard if guard is not None else OutputGuard()
     raw: RawLog | None = None
@@ -180,7 +180,8 @@ def open_live_run(
                           history=history, collect_smoother=collect_smoother, data=data,
                           guard=guard, records=(), source_name=spec.url)
         name = str(raw.path) if raw is not None else spec.url
-        builder = EpochBuilder(live_nmea_options(nmea_options), source=name)
+        builder = EpochBuilder(live_nmea_options(
+            nmea_options if nmea_options is not None else config.nmea.options), source=name)
         source.start()
     except BaseException:
         source.close()

@@ -39,10 +39,12 @@ from engine.filter.smoother import SmootherRecord, SmootherSpill, rts_smooth_bac
 from engine.io.datafile_io import modified_bundled
 from engine.io.datumfile import DatumFile, read_datum_file
 from engine.io.deccafile import DeccaChain, read_chain_file
+from engine.io.nmea_epochs import NmeaStats
+from engine.io.nmea_log import NmeaLog, open_records, scan_nmea_log
 from engine.io.operator_input import parse_datum_name
 from engine.io.outlog import OutLogWriter
 from engine.io.outputs import OutputFile, OutputGuard
-from engine.io.runfile import BadRecord, RunRecord, iter_run_file
+from engine.io.runfile import BadRecord, RunRecord
 from engine.lsq.confidence import error_ellipse
 from engine.lsq.fix import lop_name
 from engine.run.commands import Command, SetDatum, apply_command
@@ -183,6 +185,11 @@ def run_inputs(cfg: RunConfig) -> list[tuple[str, Path]]:
             (f"the data file {CHAIN_FILE}", cfg.data_dir / CHAIN_FILE)]
 
 
+def _header_text(text: str) -> str:
+    """One ``.OUT`` header line: control characters (a newline in a file name) escaped."""
+    return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in text)
+
+
 def _logged_config(cfg: RunConfig) -> RunConfig:
     """``cfg`` with ``run_file`` and ``data_dir`` absolute, so the TOML in a log header
     reproduces the run wherever the log is read (relative paths would resolve against the
@@ -206,6 +213,7 @@ class Session:
         guard: OutputGuard | None = None,
         records: Iterable[RunRecord | BadRecord] | None = None,
         source_name: str | None = None,
+        nmea_scan: NmeaStats | None = None,
     ) -> None:
         """``records`` replaces reading ``config.run_path`` (a live source pushes its records
         with :meth:`process` instead: pass ``records=()``); ``source_name`` names the source in
@@ -232,7 +240,19 @@ class Session:
         self._counts = [0, 0, 0, 0]  # cycle_counts summed
         self._run_name = source_name if source_name is not None else os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = (
-            iter_run_file(self._run_name) if records is None else iter(records))
+            open_records(self._run_name, config.nmea.options) if records is None
+            else iter(records))
+        self.nmea_stats: NmeaStats | None = None
+        """Sentences used/skipped of an NMEA log run file (None for a ``.RUN``); complete at the
+        end of the run (docs/NMEA.md)."""
+        self.nmea_header: tuple[str, ...] = ()
+        """What the whole NMEA log gives (sentences used/skipped, events, sensors it lacks),
+        read before the run for the ``.OUT`` header (``nmea_scan`` if the caller has it)."""
+        if isinstance(self._records, NmeaLog):
+            self.nmea_stats = self._records.stats
+            if out_path is not None:
+                scan = nmea_scan or scan_nmea_log(self._run_name, config.nmea.options)
+                self.nmea_header = tuple(_header_text(ln) for ln in scan.summary_lines())
         self._since_processed: int | None = None
         """Good records read since the last processed one (None before the first)."""
         self._prev_nav: NavState | None = None
@@ -263,7 +283,8 @@ class Session:
                 self._out = OutLogWriter.create(
                     out_path,
                     header=[f"engine {__version__}", f"run {self._run_name}",
-                            *(f"warning {w}" for w in self.data_warnings)],
+                            *(f"warning {w}" for w in self.data_warnings),
+                            *(f"nmea {line}" for line in self.nmea_header)],
                     config_text=dump_config(_logged_config(config)),
                     force=force,
                     guard=guard,

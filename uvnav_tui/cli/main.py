@@ -2,10 +2,11 @@
 
 ``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
 ``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
-``assess`` (accuracy against truth), ``live`` (headless run on a live NMEA source).
-Ctrl-C in a sub-command prints one line and exits 130
-(a replay's logs keep every completed cycle; a simulation writes nothing).  Each sub-command lives
-in its own module and is imported only when used, so ``uvnav replay`` never loads Textual.
+``assess`` (accuracy against truth), ``convert`` (an NMEA 0183 log to its .RUN
+equivalent), ``live`` (headless run on a live NMEA source).  Ctrl-C in a sub-command prints one
+line and exits 130 (a replay's logs keep every completed cycle; a simulation writes nothing).
+Each sub-command lives in its own module and is imported only when used, so ``uvnav replay``
+never loads Textual.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ SUBCOMMANDS = {
     "simulate": ("uvnav_tui.cli.simulate", "run_simulate"),
     "script": ("uvnav_tui.cli.script", "run_script"),
     "assess": ("uvnav_tui.cli.assess", "run_assess"),
+    "convert": ("uvnav_tui.cli.convert", "run_convert"),
     "live": ("uvnav_tui.cli.live", "run_live"),
 }
 
@@ -27,6 +29,7 @@ EXIT_INTERRUPTED = 130
 INTERRUPTED_NOTE = {
     "replay": "; the logs keep every cycle completed before it",
     "simulate": "; nothing written",
+    "convert": "; the .RUN keeps the records written before it",
     "live": "; the logs keep every cycle completed and every line received before it",
 }
 """What is left on disk after Ctrl-C, per sub-command."""
@@ -37,6 +40,8 @@ USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR] [--liv
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
        uvnav script FILE [--headless]
        uvnav assess OUT_or_JSONL TRUTH.csv [--svg FILE] [--phases auto|none] [--poe-rate M_H]
+       uvnav convert NMEA_LOG --out NAME.RUN [--config TOML] [--date YYYY-MM-DD]
+                     [--interval S] [--force]
        uvnav live URL --config TOML [--out FILE.OUT | --no-out] [--jsonl FILE] [--force]
                       [--cycles N] [--seconds S] [--quiet]   (URL: udp://0.0.0.0:10110,
                       tcp://HOST:10110, serial:///dev/ttyUSB0?baud=4800)

@@ -1,5 +1,9 @@
 """``uvnav replay``: run a whole ``.RUN`` file headless, writing the ``.OUT`` log and JSON lines.
 
+The run file may also be an NMEA 0183 log (recognised by its content, docs/NMEA.md); without
+``--config`` and without ``NAME.toml`` beside it, its configuration is derived from the log and
+printed.
+
 Shows a rich progress bar on a terminal (silent when not a TTY) and prints a closing summary.
 Never a traceback for bad input: file, line and field are named.
 
@@ -34,13 +38,18 @@ from engine.api import (
     DatumFile,
     DeccaChain,
     InputError,
+    NmeaStats,
     OutputFile,
     OutputGuard,
     RunConfig,
     RunSummary,
     Session,
+    derive_nmea_config,
+    derived_config_lines,
     format_lat_dms,
     format_lon_dms,
+    is_nmea_file,
+    load_data,
     load_run_config,
     position_json,
     read_error,
@@ -58,7 +67,8 @@ EXIT_INTERNAL = 4
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``uvnav replay``."""
     p = argparse.ArgumentParser(prog="uvnav replay", description=__doc__.splitlines()[0])
-    p.add_argument("run", help=".RUN file to replay (its config: --config, or NAME.toml beside it)")
+    p.add_argument("run", help=".RUN file or NMEA 0183 log to replay (its config: --config, or "
+                   "NAME.toml beside it; for an NMEA log without either, one is derived)")
     p.add_argument("--config", help="run configuration TOML (default: NAME.toml next to RUN)")
     p.add_argument("--out", help=".OUT log to write (default: NAME.OUT next to RUN; an existing "
                    "log is never overwritten: a free NAME_N.OUT is chosen)")
@@ -111,16 +121,30 @@ def _config_path(run: Path, config: str | None) -> Path | None:
     return beside if beside.exists() else None
 
 
+def bundled_data_dir() -> Path:
+    """The bundled ``data/`` directory (TO_WGS84.DAT, DECCA.CHN) for a derived configuration:
+    the one next to the installed package (the checkout), else ``./data``."""
+    for path in (Path(__file__).resolve().parents[2] / "data", Path.cwd() / "data"):
+        if (path / "TO_WGS84.DAT").is_file():
+            return path
+    raise InputError("File not found !", file="data/TO_WGS84.DAT", field="data_dir")
+
+
 def _config_for(
     run: Path, config_path: Path | None
-) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]]]:
-    """The configuration (every name checked against the data files) and the data files."""
+) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]], NmeaStats | None]:
+    """The configuration (every name checked against the data files), the data files and,
+    for a configuration derived from an NMEA log (none given, none beside it), what the log
+    gave."""
     if config_path is None:
-        raise InputError(NO_CONFIG_MESSAGE, file=str(run.with_suffix(".toml")),
-                         field="configuration")
+        if not is_nmea_file(run):
+            raise InputError(NO_CONFIG_MESSAGE, file=str(run.with_suffix(".toml")),
+                             field="configuration")
+        cfg, stats = derive_nmea_config(run, bundled_data_dir())
+        return cfg, load_data(cfg), stats
     cfg, data = load_run_config(config_path)
     # The RUN given on the command line wins over the configuration's run_file.
-    return cfg.replace(run_file=str(run.resolve())), data
+    return cfg.replace(run_file=str(run.resolve())), data, None
 
 
 def _check_run_file(run: Path) -> None:
@@ -238,7 +262,12 @@ def run_replay(argv: list[str]) -> int:
     try:
         _check_run_file(run)
         config_path = _config_path(run, args.config)
-        cfg, data = _config_for(run, config_path)
+        cfg, data, derived = _config_for(run, config_path)
+        if derived is not None:
+            print(f"config: none given and no {run.with_suffix('.toml').name} beside the log: "
+                  "derived from the NMEA log (docs/NMEA.md):")
+            for line in derived_config_lines(cfg):
+                print(f"config: {line}")
         cfg, lop_policy = headless_lop_policy(cfg, args.lop_reject)
         out = None if args.no_out else Path(args.out or run.with_suffix(".OUT"))
         jsonl = Path(args.jsonl) if args.jsonl else None
@@ -252,7 +281,8 @@ def run_replay(argv: list[str]) -> int:
         if smooth is not None:
             smooth_fh = guard.open(smooth, label="--smooth", kind="positions", force=args.force)
         session = Session(cfg, out_path=out, force=args.force, jsonl_path=jsonl,
-                          collect_smoother=smooth is not None, history=1, data=data, guard=guard)
+                          collect_smoother=smooth is not None, history=1, data=data, guard=guard,
+                          nmea_scan=derived)
     except (InputError, OSError) as exc:
         remove_created([smooth_fh], args.force)
         if isinstance(exc, InputError):
@@ -286,6 +316,9 @@ def run_replay(argv: list[str]) -> int:
     for line in _summary_lines(summary, smoothed):
         print(line)
     print(integrity_summary_line(summary, lop_policy))
+    if session.nmea_stats is not None:  # an NMEA log: sentences used/skipped (docs/NMEA.md)
+        for line in session.nmea_stats.summary_lines():
+            print(f"nmea: {line}")
     for bad in session.bad_records:
         print(f"skipped: {bad.error}", file=sys.stderr)
     _more_skipped(summary, len(session.bad_records))

@@ -1,0 +1,500 @@
+"""NMEA 0183 sentences → ``.RUN``-equivalent records at a fixed interval (docs/NMEA.md "Epochs").
+
+Sentences arrive at different rates and out of step. :class:`EpochBuilder` keeps the latest
+value of each sensor with the log time it arrived at and, every ``interval_s`` seconds of log
+time, makes one :class:`~engine.io.runfile.RunRecord` from the latest values; a value older
+than its sensor's staleness limit is absent (None, ``-`` in the .RUN line). Nothing is
+extrapolated.
+
+**Log time.** It comes from the sentences only (GGA/RMC/GLL/ZDA time of day; the date from
+RMC/ZDA or :attr:`NmeaOptions.date`). A sentence without a time (HDT, VHW, DBT …) is stamped
+with the latest log time. Epoch ``E`` (a multiple of ``interval_s`` of UTC seconds) is
+*closed* by the first sentence whose time is after ``E``; the record holds the values as they
+were just before that sentence, and its ``line_no`` is that sentence's line (for the last epoch
+of a log, the last line). Epochs in which no sensor has a fresh value are not emitted (a gap in
+the log gives no empty records; gaps over :data:`GAP_REPORT_S` are reported).
+
+**Date.** Until a date is known (no ``options.date``, no RMC/ZDA yet) the sentences are held,
+up to :data:`DATE_HOLD_LINES` of them (oldest dropped and counted beyond); when a date arrives
+they are dated from it and used. A time of day is put on the day (date − 1, date, date + 1)
+that is nearest the log clock, so a time of day that wraps past midnight without a new date
+moves to the next day (a *midnight roll-over*, reported).
+
+**Time going backwards.** A time up to :data:`LATE_TOLERANCE_S` behind the log clock is a late
+sentence: used, the clock does not move back. A time further back, at or before the last closed
+epoch (a reset of the receiver, a log looping or concatenated), is reported with its file:line
+and everything is skipped (counted) until the time passes the last closed epoch again: a run
+cannot go back in time.
+
+Every record's ``raw`` is its ``.RUN`` line (:func:`~engine.io.runfile.format_run_record`) and
+its values are those of that line, so replaying the log and the converted ``.RUN`` agree.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import Counter, deque
+from dataclasses import dataclass, field
+from datetime import UTC, date, datetime, timedelta
+
+from engine.errors import InputError
+from engine.io.nmea_sentences import NmeaValues, SentenceSkip, SkipKind, parse_nmea_line
+from engine.io.runfile import (
+    MAX_SOG_KN,
+    MAX_SPEED_KN,
+    BadRecord,
+    RunRecord,
+    format_run_record,
+    parse_run_line,
+)
+
+__all__ = [
+    "DATE_HOLD_LINES",
+    "EpochBuilder",
+    "NmeaOptions",
+    "NmeaStats",
+    "SENSORS",
+]
+
+DATE_HOLD_LINES = 2000
+"""Sentences held while no date is known (beyond that the oldest are dropped, counted)."""
+LATE_TOLERANCE_S = 2.0
+"""A sentence time up to this far behind the log clock is a late sentence, not a reset [s]."""
+GAP_REPORT_S = 60.0
+"""A forward jump of the log time longer than this is reported as a gap [s]."""
+MAX_EVENTS = 50
+"""Events (roll-overs, resets, gaps …) kept with their file:line; the rest are counted."""
+MAX_BAD_PER_KIND = 20
+"""Damaged lines returned as :class:`BadRecord` per skip kind (the ``.OUT`` log's ``BAD``
+lines); the rest are counted in :class:`NmeaStats` only, so a noisy log keeps the log small."""
+MAX_INTERVAL_S = 3600
+MAX_HDOP = 99.99
+"""Largest HDOP the ``.RUN`` ``hdop=`` token takes (written with two decimals)."""
+MAX_SATS = 999
+
+SENSORS = ("position", "heading", "water speed", "course/speed over ground", "depth")
+"""The sensors an NMEA log can carry (keys of :attr:`NmeaStats.sensors`)."""
+MISSING_SENSOR_TEXT = {
+    "position": "no position fix (GGA/RMC/GLL) in the log",
+    "heading": "no heading (HDT/HDG/VHW) in the log",
+    "water speed": "no water speed (VHW/VBW) in the log",
+    "course/speed over ground": "no course/speed over ground (RMC/VTG) in the log",
+    "depth": "no depth (DBT/DPT) in the log",
+}
+NO_DATE = "no date yet"
+TIME_BACK = "time went backwards"
+
+
+@dataclass(frozen=True)
+class NmeaOptions:
+    """How an NMEA log becomes epochs (``[nmea]`` in the run configuration, docs/CONFIG.md).
+
+    Staleness limits [s]: a value older than this at an epoch is absent. The defaults allow a
+    1 Hz sensor to miss two sentences (position, heading, COG/SOG 3 s), a log speed to miss
+    four (5 s: logs often send at 0.5–1 Hz and the speed changes slowly) and an echo sounder,
+    often at 0.2–1 Hz, several (10 s).
+    """
+
+    interval_s: int = 1
+    """Epoch interval [whole seconds ≥ 1: the .RUN time resolution]."""
+    position_stale_s: float = 3.0
+    heading_stale_s: float = 3.0
+    water_speed_stale_s: float = 5.0
+    cog_sog_stale_s: float = 3.0
+    depth_stale_s: float = 10.0
+    date: date | None = None
+    """UTC date of the log's first sentences when they come before any RMC/ZDA."""
+    variation_deg: float | None = None
+    """Magnetic variation [deg, east positive] for HDG/VHW magnetic headings without one."""
+    accept_no_checksum: bool = False
+    """Use sentences without ``*hh`` (skipped as ``no checksum`` by default)."""
+
+    def __post_init__(self) -> None:
+        if (isinstance(self.interval_s, bool) or not isinstance(self.interval_s, int)
+                or not 1 <= self.interval_s <= MAX_INTERVAL_S):
+            raise InputError(f"Interval must be a whole number of seconds, 1 to {MAX_INTERVAL_S} !",
+                             field="nmea.interval_s", text=str(self.interval_s))
+        for name in ("position_stale_s", "heading_stale_s", "water_speed_stale_s",
+                     "cog_sog_stale_s", "depth_stale_s"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and not isinstance(value, bool)
+                    and 0.0 <= value <= 86400.0):
+                raise InputError("Staleness must be 0 to 86400 s !", field=f"nmea.{name}",
+                                 text=str(value))
+        if self.variation_deg is not None and not (
+                isinstance(self.variation_deg, int | float)
+                and -180.0 <= self.variation_deg <= 180.0):
+            raise InputError("Variation must be -180 to 180 degrees !",
+                             field="nmea.variation_deg", text=str(self.variation_deg))
+        if self.date is not None and not isinstance(self.date, date):
+            raise InputError("Date must be YYYY-MM-DD !", field="nmea.date", text=str(self.date))
+
+
+@dataclass
+class NmeaStats:
+    """What an NMEA log gave: counts per sentence type used, per skip kind, events with
+    file:line, the sensors seen, and the first fix (for a derived configuration)."""
+
+    source: str = "<string>"
+    lines: int = 0
+    used: Counter[str] = field(default_factory=Counter)
+    """Sentences used, per sentence type (``GGA`` …)."""
+    skipped: Counter[str] = field(default_factory=Counter)
+    """Lines skipped, per kind (:class:`~engine.io.nmea_sentences.SkipKind`, ``no date yet``,
+    ``time went backwards``)."""
+    skipped_types: Counter[str] = field(default_factory=Counter)
+    """Unknown/unused sentence types, per type (``GSV`` …)."""
+    notes: Counter[str] = field(default_factory=Counter)
+    """Parts of sentences not used and why (``HDG without variation: not used`` …)."""
+    events: list[str] = field(default_factory=list)
+    """The first :data:`MAX_EVENTS` events as ``file:line: message``."""
+    events_dropped: int = 0
+    sensors: set[str] = field(default_factory=set)
+    epochs: int = 0
+    first_fix: tuple[float, float] | None = None
+    """First valid GNSS position (WGS84 latitude, longitude degrees)."""
+    first_time: datetime | None = None
+    last_time: datetime | None = None
+
+    def event(self, line_no: int, message: str) -> None:
+        """Record an event at ``line_no`` (bounded)."""
+        if len(self.events) < MAX_EVENTS:
+            self.events.append(f"{self.source}:{line_no}: {message}")
+        else:
+            self.events_dropped += 1
+
+    def missing_sensors(self) -> list[str]:
+        """One sentence per sensor the log never gave (e.g. ``no heading (HDT/HDG/VHW) in the
+        log``)."""
+        return [MISSING_SENSOR_TEXT[s] for s in SENSORS if s not in self.sensors]
+
+    def summary_lines(self) -> list[str]:
+        """The report: sentences used and skipped per kind, notes, events, missing sensors."""
+        used = ", ".join(f"{k} {n}" for k, n in sorted(self.used.items())) or "none"
+        out = [f"NMEA {self.lines} lines, {self.epochs} epochs; sentences used: {used}"]
+        if self.skipped:
+            out.append("skipped: " + ", ".join(
+                f"{k} {n}" for k, n in sorted(self.skipped.items())))
+        if self.skipped_types:
+            out.append("unused sentence types: " + ", ".join(
+                f"{k} {n}" for k, n in sorted(self.skipped_types.items())))
+        out += [f"{k} ({n}x)" for k, n in sorted(self.notes.items())]
+        out += self.events
+        if self.events_dropped:
+            out.append(f"… {self.events_dropped} more events")
+        out += self.missing_sensors()
+        return out
+
+
+@dataclass
+class _Latest:
+    """The latest values, each with its log time [UTC POSIX seconds]."""
+
+    pos: tuple[float, float, float] | None = None  # stamp, lat, lon
+    gga: tuple[float, int | None, float | None, int | None] | None = None  # stamp, q, hdop, sats
+    heading: tuple[float, float] | None = None
+    stw: tuple[float, float] | None = None
+    cog: tuple[float, float] | None = None
+    sog: tuple[float, float] | None = None
+    depth: tuple[float, float] | None = None
+
+
+def _day_start(d: date) -> float:
+    return datetime(d.year, d.month, d.day, tzinfo=UTC).timestamp()
+
+
+class EpochBuilder:
+    """Feeds NMEA lines, gives ``.RUN``-equivalent records (module docstring).
+
+    ``source`` names the log in messages (``FILE:LINE: …``). :meth:`feed` and :meth:`finish`
+    never raise for any text.
+    """
+
+    def __init__(self, options: NmeaOptions | None = None, source: str = "<string>") -> None:
+        self.options = options if options is not None else NmeaOptions()
+        self.source = source
+        self.stats = NmeaStats(source=source)
+        self._date: date | None = self.options.date
+        self._clock: float | None = None
+        self._next_epoch: int | None = None
+        self._latest = _Latest()
+        self._held: deque[tuple[int, str, NmeaValues]] = deque()
+        self._behind_since: int | None = None
+        self._behind_count = 0
+        self._bad_kept: Counter[str] = Counter()
+        self._last_line = 0
+        self._no_date_reported = False
+        o = self.options
+        self._max_stale = max(o.position_stale_s, o.heading_stale_s, o.water_speed_stale_s,
+                              o.cog_sog_stale_s, o.depth_stale_s)
+
+    # ------------------------------------------------------------------ input
+    def feed(self, line: str, line_no: int) -> list[RunRecord | BadRecord]:
+        """One log line (its 1-based number); returns the records it closed and bad lines."""
+        self._last_line = line_no
+        self.stats.lines += 1
+        out: list[RunRecord | BadRecord] = []
+        parsed = parse_nmea_line(line, self.options.variation_deg, self.options.accept_no_checksum)
+        if parsed is None:
+            return out
+        if isinstance(parsed, SentenceSkip):
+            self._skip(parsed, line_no, line, out)
+            return out
+        if self._date is None and parsed.date is None:
+            self._hold(line_no, line, parsed)
+            return out
+        if self._held:
+            self._release(parsed, out)
+        self._use(parsed, line_no, line, out)
+        return out
+
+    def finish(self) -> list[RunRecord | BadRecord]:
+        """The end of the log: the last open epoch (if its time was reached) and a report of
+        sentences still held for want of a date."""
+        out: list[RunRecord | BadRecord] = []
+        if self._held:
+            n = len(self._held)
+            self.stats.skipped[NO_DATE] += n
+            self._held.clear()
+            self.stats.event(self._last_line, f"no date in the log (no RMC/ZDA): {n} sentences "
+                             "not used; set [nmea] date = YYYY-MM-DD")
+        if self._behind_since is not None:
+            self.stats.event(self._last_line, f"log ended while its time was behind "
+                             f"({self._behind_count} sentences skipped since line "
+                             f"{self._behind_since})")
+        if (self._clock is not None and self._next_epoch is not None
+                and self._next_epoch <= self._clock):
+            self._emit(self._next_epoch, self._last_line, out)
+            self._next_epoch += self.options.interval_s
+        return out
+
+    # ------------------------------------------------------------------ skips
+    def _bad(self, kind: str, line_no: int, raw: str, message: str,
+             out: list[RunRecord | BadRecord]) -> None:
+        if self._bad_kept[kind] < MAX_BAD_PER_KIND:
+            self._bad_kept[kind] += 1
+            text = raw.rstrip("\r\n")
+            shown = text[:80] + ("…" if len(text) > 80 else "")
+            out.append(BadRecord(line_no, shown, InputError(
+                message, file=self.source, line=line_no, field=kind)))
+
+    def _skip(self, skip: SentenceSkip, line_no: int, raw: str,
+              out: list[RunRecord | BadRecord]) -> None:
+        self.stats.skipped[skip.kind] += 1
+        if skip.kind == SkipKind.UNKNOWN and skip.sentence_type:
+            self.stats.skipped_types[skip.sentence_type] += 1
+        if skip.kind in SkipKind.REPORTED:
+            self._bad(skip.kind, line_no, raw, skip.message, out)
+
+    # ------------------------------------------------------------------ date
+    def _hold(self, line_no: int, raw: str, v: NmeaValues) -> None:
+        self._held.append((line_no, raw, v))
+        if len(self._held) > DATE_HOLD_LINES:
+            self._held.popleft()
+            self.stats.skipped[NO_DATE] += 1
+            if not self._no_date_reported:
+                self._no_date_reported = True
+                self.stats.event(line_no, f"no date (RMC/ZDA) in the first {DATE_HOLD_LINES} "
+                                 "sentences: the oldest are dropped until one arrives; set "
+                                 "[nmea] date = YYYY-MM-DD")
+
+    def _release(self, dated: NmeaValues, out: list[RunRecord | BadRecord]) -> None:
+        """A date arrived: date the held sentences from it and use them in order."""
+        assert dated.date is not None
+        anchor = _day_start(dated.date) + (dated.time_s or 0.0)
+        first_tod = next((v.time_s for _, _, v in self._held if v.time_s is not None), None)
+        day = dated.date
+        if first_tod is not None:
+            day = min((dated.date + timedelta(days=k) for k in (-1, 0, 1)),
+                      key=lambda d: abs(_day_start(d) + first_tod - anchor))
+        self._date = day
+        held, self._held = self._held, deque()
+        for line_no, raw, v in held:
+            self._use(v, line_no, raw, out)
+
+    def _resolve(self, v: NmeaValues, line_no: int) -> float | None:
+        """The UTC POSIX time of a sentence with a time (None for one without)."""
+        if v.date is not None and v.time_s is not None:
+            self._date = v.date
+            return _day_start(v.date) + v.time_s
+        if v.date is not None:
+            self._date = v.date
+            return None
+        if v.time_s is None:
+            return None
+        assert self._date is not None
+        base = self._date
+        if self._clock is None:
+            return _day_start(base) + v.time_s
+        clock = self._clock
+        best = min((base + timedelta(days=k) for k in (-1, 0, 1)),
+                   key=lambda d: abs(_day_start(d) + v.time_s - clock))  # type: ignore[operator]
+        t = _day_start(best) + v.time_s
+        if best > base:
+            self._date = best
+            self.stats.event(line_no, f"midnight roll-over: time of day wrapped without a new "
+                             f"date, now {best.isoformat()}")
+        return t
+
+    # ------------------------------------------------------------------ values
+    def _use(self, v: NmeaValues, line_no: int, raw: str,
+             out: list[RunRecord | BadRecord]) -> None:
+        t = self._resolve(v, line_no)
+        if t is not None and not self._advance(t, line_no, raw, out):
+            self._behind_count += 1
+            self.stats.skipped[TIME_BACK] += 1
+            return
+        if t is None and self._behind_since is not None:
+            self._behind_count += 1
+            self.stats.skipped[TIME_BACK] += 1
+            return
+        self.stats.used[v.sentence_type] += 1
+        for note in v.notes:
+            self.stats.notes[note] += 1
+        self._store(v, t if t is not None else self._clock)
+
+    def _advance(self, t: float, line_no: int, raw: str,
+                 out: list[RunRecord | BadRecord]) -> bool:
+        """Move the log clock to ``t``, closing the epochs before it; False when ``t`` is
+        behind (the sentence is skipped)."""
+        step = self.options.interval_s
+        if self._clock is None or self._next_epoch is None:
+            self._clock = t
+            self._next_epoch = math.ceil(t / step) * step
+            self.stats.first_time = datetime.fromtimestamp(t, UTC)
+            self._fill_unstamped(t)
+            return True
+        last_closed = self._next_epoch - step
+        if self._behind_since is not None:
+            if t <= last_closed:
+                return False
+            self.stats.event(line_no, f"time passes the last epoch again: "
+                             f"{self._behind_count} sentences skipped since line "
+                             f"{self._behind_since}")
+            self._behind_since = None
+            self._behind_count = 0
+        elif t < self._clock - LATE_TOLERANCE_S and t <= last_closed:
+            back = self._clock - t
+            self._behind_since = line_no
+            self._behind_count = 0
+            message = (f"time went backwards by {back:.1f} s (to "
+                       f"{datetime.fromtimestamp(t, UTC):%Y-%m-%d %H:%M:%S}): sentences are "
+                       "skipped until it passes the last epoch")
+            self.stats.event(line_no, message)
+            self._bad(TIME_BACK, line_no, raw, message, out)
+            return False
+        if t > self._clock:
+            if t - self._clock > GAP_REPORT_S:
+                self.stats.event(line_no, f"gap of {t - self._clock:.0f} s in the log time")
+            self._close_before(t, line_no, out)
+            self._clock = t
+        return True
+
+    def _fill_unstamped(self, t: float) -> None:
+        """Values that came before the first time get that time."""
+        for f in dataclasses.fields(self._latest):
+            item = getattr(self._latest, f.name)
+            if item is not None and math.isnan(item[0]):
+                setattr(self._latest, f.name, (t, *item[1:]))
+
+    def _store(self, v: NmeaValues, t: float | None) -> None:
+        stamp = t if t is not None else math.nan  # NaN: before the first time (filled then)
+        lat = self._latest
+        s = self.stats.sensors
+        if v.lat_deg is not None and v.lon_deg is not None:
+            lat.pos = (stamp, v.lat_deg, v.lon_deg)
+            s.add("position")
+            if self.stats.first_fix is None:
+                self.stats.first_fix = (v.lat_deg, v.lon_deg)
+            if v.sentence_type == "GGA":
+                hdop, sats = v.hdop, v.sats
+                if hdop is not None and not 0.005 <= hdop <= MAX_HDOP:
+                    self.stats.notes[f"GGA HDOP outside (0, {MAX_HDOP}]: not used"] += 1
+                    hdop = None
+                if sats is not None and sats > MAX_SATS:
+                    self.stats.notes[f"GGA satellites above {MAX_SATS}: not used"] += 1
+                    sats = None
+                lat.gga = (stamp, v.quality, hdop, sats)
+            elif lat.gga is not None and lat.gga[0] != stamp:
+                lat.gga = None  # quality, HDOP, satellites belong to the GGA's own fix
+        if v.heading_deg is not None:
+            lat.heading = (stamp, v.heading_deg)
+            s.add("heading")
+        if v.stw_kn is not None:
+            if v.stw_kn <= MAX_SPEED_KN:
+                lat.stw = (stamp, v.stw_kn)
+                s.add("water speed")
+            else:
+                self.stats.notes[f"water speed above {MAX_SPEED_KN:.0f} kn: not used"] += 1
+        if v.cog_deg is not None:
+            lat.cog = (stamp, v.cog_deg)
+            s.add("course/speed over ground")
+        if v.sog_kn is not None:
+            if v.sog_kn <= MAX_SOG_KN:
+                lat.sog = (stamp, v.sog_kn)
+                s.add("course/speed over ground")
+            else:
+                self.stats.notes[f"speed over ground above {MAX_SOG_KN:.0f} kn: not used"] += 1
+        if v.depth_m is not None:
+            lat.depth = (stamp, v.depth_m)
+            s.add("depth")
+
+    # ------------------------------------------------------------------ epochs
+    def _close_before(self, t: float, line_no: int, out: list[RunRecord | BadRecord]) -> None:
+        """Emit the epochs before ``t`` (those with a fresh value; a long gap is jumped)."""
+        assert self._next_epoch is not None
+        step = self.options.interval_s
+        while self._next_epoch < t:
+            if not self._emit(self._next_epoch, line_no, out) and self._all_stale(
+                    self._next_epoch):
+                self._next_epoch = max(self._next_epoch + step, math.ceil(t / step) * step)
+                continue
+            self._next_epoch += step
+
+    def _all_stale(self, epoch: float) -> bool:
+        lat = self._latest
+        stamps = [item[0] for item in (lat.pos, lat.heading, lat.stw, lat.cog, lat.sog, lat.depth)
+                  if item is not None]
+        return not stamps or epoch - max(stamps) > self._max_stale
+
+    def _emit(self, epoch: int, line_no: int, out: list[RunRecord | BadRecord]) -> bool:
+        """The record of ``epoch`` from the fresh values; False when every value is stale."""
+        o = self.options
+        lat = self._latest
+
+        def fresh(item: tuple[float, float] | None, limit: float) -> float | None:
+            return item[1] if item is not None and epoch - item[0] <= limit else None
+
+        pos = lat.pos if lat.pos is not None and epoch - lat.pos[0] <= o.position_stale_s else None
+        gga = lat.gga if pos is not None and lat.gga is not None else None
+        heading = fresh(lat.heading, o.heading_stale_s)
+        stw = fresh(lat.stw, o.water_speed_stale_s)
+        cog = fresh(lat.cog, o.cog_sog_stale_s)
+        sog = fresh(lat.sog, o.cog_sog_stale_s)
+        depth = fresh(lat.depth, o.depth_stale_s)
+        if pos is None and all(x is None for x in (heading, stw, cog, sog, depth)):
+            return False
+        rec = RunRecord(
+            line_no, datetime.fromtimestamp(epoch, UTC),
+            None if pos is None else pos[1], None if pos is None else pos[2],
+            (None, None, None), heading, stw, None, None, None, depth, "",
+            gps_hdop=None if gga is None else gga[2],
+            gps_quality=None if gga is None else gga[1],
+            gps_sats=None if gga is None else gga[3],
+            cog_deg=cog, sog_kn=sog,
+        )
+        out.append(self._as_run_line(rec))
+        self.stats.epochs += 1
+        self.stats.last_time = rec.time
+        return True
+
+    def _as_run_line(self, rec: RunRecord) -> RunRecord | BadRecord:
+        """``rec`` as its ``.RUN`` line says it (values rounded as the line writes them)."""
+        raw = format_run_record(rec)
+        try:
+            parsed = parse_run_line(raw, rec.line_no, self.source)
+        except InputError as exc:  # pragma: no cover - every value is range-checked before
+            return BadRecord(rec.line_no, raw, exc)
+        assert parsed is not None
+        return parsed

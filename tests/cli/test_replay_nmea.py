@@ -1,0 +1,58 @@
+"""`uvnav replay LOG.nmea`: an NMEA 0183 log replays like a .RUN (docs/NMEA.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from engine.io.outlog import read_out_log
+from tests.nmea_lines import ddmm, hhmmss, nmea
+from tests.paths import DATA
+from uvnav_tui.cli.main import main
+
+LAT0 = 52.8333333333  # 52°50'N
+LON0 = 4.5
+
+
+def write_log(path: Path, n: int = 60, heading: bool = True) -> None:
+    """n seconds of a vessel steaming north at 5 kn (5/60 ′ of latitude per minute)."""
+    lines = []
+    for k in range(n):
+        t = 43200 + k
+        lat = LAT0 + k * 5.0 / 3600.0 / 60.0
+        lines.append(nmea(f"GPGGA,{hhmmss(t)},{ddmm(lat)},N,{ddmm(LON0, 3)},E,1,09,0.8,3.0,M,"
+                          "46.0,M,,"))
+        lines.append(nmea(f"GPRMC,{hhmmss(t)},A,{ddmm(lat)},N,{ddmm(LON0, 3)},E,5.0,0.0,"
+                          "021226,,,A"))
+        if heading:
+            lines.append(nmea("HEHDT,0.0,T"))
+        lines.append(nmea("VWVHW,,T,,M,5.0,N,,K"))
+        lines.append(nmea("GPGSV,3,1,11,03,03,111,00"))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def write_config(path: Path, run: str) -> None:
+    path.write_text(
+        f'datum = "WGS84"\ndr_position = "52 50 00 N 004 30 00 E"\nrun_file = "{run}"\n'
+        f'run_gps_datum = "WGS84"\ndata_dir = "{DATA}"\n[gps]\non = true\n[decca]\non = false\n')
+
+
+def test_replay_nmea_log_with_config(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "trip.log"  # not a .nmea suffix: the content decides
+    write_log(log)
+    write_config(tmp_path / "trip.toml", "trip.log")
+    out = tmp_path / "trip.OUT"
+    assert main(["replay", str(log), "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "epochs 60  fixes 60" in text
+    assert "nmea: NMEA 300 lines, 60 epochs; sentences used: GGA 60, HDT 60, RMC 60, VHW 60" \
+        in text
+    assert "nmea: unused sentence types: GSV 60" in text
+    cycles = read_out_log(out).cycles
+    assert len(cycles) == 60
+    # the last GPS fix: 52°50' + 59 s × 5 kn = 52.8333333 + 59 × 5 / 216000 deg; the MPP is
+    # a KF estimate within its σ of it (C/A 50 m → a few tens of metres)
+    mpp = cycles[-1].first("MPP")
+    assert mpp["lat"] == pytest.approx(LAT0 + 59 * 5.0 / 216000.0, abs=60.0 / 111_000.0)
+    assert mpp["lon"] == pytest.approx(LON0, abs=60.0 / 67_000.0)

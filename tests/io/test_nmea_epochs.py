@@ -1,0 +1,137 @@
+"""NMEA sentences → epochs (engine/io/nmea_epochs.py): interval, staleness, date, midnight,
+time going backwards. Sentences are hand-written (tests/nmea_lines.py)."""
+
+from __future__ import annotations
+
+from datetime import UTC, date, datetime
+
+import pytest
+
+from engine.io.nmea_epochs import EpochBuilder, NmeaOptions
+from engine.io.runfile import BadRecord, RunRecord, parse_run_line
+from tests.nmea_lines import ddmm, hhmmss, nmea
+
+
+def gga(t_s: int, lat: float = 52.8333333333, lon: float = 4.5) -> str:
+    return nmea(f"GPGGA,{hhmmss(t_s)},{ddmm(lat)},N,{ddmm(lon, 3)},E,1,07,1.2,2.0,M,46.0,M,,")
+
+
+def rmc(t_s: int, day: str = "021226") -> str:
+    return nmea(f"GPRMC,{hhmmss(t_s)},A,5250.0000,N,00430.0000,E,6.0,45.0,{day},,,A")
+
+
+def run(lines: list[str], options: NmeaOptions | None = None
+        ) -> tuple[list[RunRecord], list[BadRecord], EpochBuilder]:
+    b = EpochBuilder(options or NmeaOptions(), "T.nmea")
+    out = []
+    for i, line in enumerate(lines, 1):
+        out += b.feed(line, i)
+    out += b.finish()
+    return ([r for r in out if isinstance(r, RunRecord)],
+            [r for r in out if isinstance(r, BadRecord)], b)
+
+
+def test_one_epoch_per_second_with_latest_values_and_run_line() -> None:
+    lines = []
+    for k in range(3):
+        lines += [rmc(43200 + k), gga(43200 + k), nmea(f"HEHDT,{10 + k}.0,T"),
+                  nmea("VWVHW,,T,,M,5.2,N,,K"), nmea("SDDPT,12.34,0.5")]
+    recs, bad, b = run(lines)
+    assert not bad and len(recs) == 3
+    r = recs[0]
+    assert r.time == datetime(2026, 12, 2, 12, 0, 0, tzinfo=UTC)
+    assert r.line_no == 6  # closed by the RMC of the next second (line 6)
+    assert (r.heading_deg, r.speed_kn, r.echo_m) == (10.0, 5.2, 12.34)
+    assert (r.gps_quality, r.gps_sats, r.gps_hdop, r.cog_deg, r.sog_kn) == (1, 7, 1.2, 45.0, 6.0)
+    assert r.decca == (None, None, None) and r.rudder_deg is None
+    assert r.gps_lat_deg == pytest.approx(52.8333333, abs=1e-6)
+    # raw is the equivalent .RUN line (GNSS values as key=value tokens); its parse is the record
+    assert r.raw == ("261202 120000 52 50 00.000 N 004 30 00.000 E - - - 10.0 5.2 - - - 12.34 "
+                     "hdop=1.20 q=1 sats=7 cog=45.0 sog=6.00")
+    assert parse_run_line(r.raw, r.line_no, "T.nmea") == r
+    assert recs[-1].line_no == 15  # the last epoch is closed by the end of the log
+    assert b.stats.used == {"RMC": 3, "GGA": 3, "HDT": 3, "VHW": 3, "DPT": 3}
+    assert b.stats.missing_sensors() == []
+
+
+def test_stale_values_are_absent() -> None:
+    # heading only at 12:00:00; position every second: heading_stale_s = 3 → present at
+    # epochs 0..3 s, absent from 4 s on
+    lines = [rmc(43200), nmea("HEHDT,90.0,T")] + [gga(43200 + k) for k in range(1, 7)]
+    recs, _, _ = run(lines)
+    assert [r.heading_deg for r in recs] == [90.0, 90.0, 90.0, 90.0, None, None, None]
+
+
+def test_date_from_options_and_held_until_rmc() -> None:
+    recs, _, _ = run([gga(3600), gga(3601)], NmeaOptions(date=date(2025, 1, 2)))
+    assert [r.time for r in recs] == [datetime(2025, 1, 2, 1, 0, s, tzinfo=UTC) for s in (0, 1)]
+    # no date: GGA lines are held until the RMC gives 2026-12-02
+    recs, _, b = run([gga(3600), gga(3601), rmc(3602), gga(3603)])
+    assert [r.time.second for r in recs] == [0, 1, 2, 3]
+    assert recs[0].time.date() == date(2026, 12, 2)
+
+
+def test_no_date_at_all_is_reported() -> None:
+    recs, _, b = run([gga(3600), gga(3601)])
+    assert recs == [] and b.stats.skipped["no date yet"] == 2
+    assert any("no date in the log" in e and e.startswith("T.nmea:2:") for e in b.stats.events)
+
+
+def test_midnight_roll_over_without_new_date() -> None:
+    recs, _, b = run([rmc(86398, "311226"), gga(86399), gga(0), gga(1)])
+    assert [r.time for r in recs] == [
+        datetime(2026, 12, 31, 23, 59, 58, tzinfo=UTC), datetime(2026, 12, 31, 23, 59, 59,
+                                                                 tzinfo=UTC),
+        datetime(2027, 1, 1, 0, 0, 0, tzinfo=UTC), datetime(2027, 1, 1, 0, 0, 1, tzinfo=UTC)]
+    assert any("T.nmea:3: midnight roll-over" in e for e in b.stats.events)
+
+
+def test_time_backwards_skips_until_it_passes_the_last_epoch() -> None:
+    lines = [rmc(43200 + k) for k in range(5)]  # epochs 0..4 (4 closed at the end)
+    lines += [rmc(43100), nmea("HEHDT,1.0,T"), rmc(43203), rmc(43205), rmc(43206)]
+    recs, bad, b = run(lines)
+    assert [r.time.second for r in recs] == [0, 1, 2, 3, 4, 5, 6]
+    assert all(r.heading_deg is None for r in recs)  # the HDT came while time was behind
+    assert b.stats.skipped["time went backwards"] == 3  # 43100, the HDT, 43203
+    assert len(bad) == 1 and bad[0].line_no == 6 and bad[0].error.field == "time went backwards"
+    assert any(e.startswith("T.nmea:6: time went backwards by 104.0 s") for e in b.stats.events)
+    assert any(e.startswith("T.nmea:9: time passes the last epoch again") for e in b.stats.events)
+
+
+def test_late_sentence_within_tolerance_is_used() -> None:
+    recs, bad, _ = run([rmc(43200), rmc(43202), gga(43201), rmc(43203)])
+    assert not bad and [r.time.second for r in recs] == [0, 1, 2, 3]
+
+
+def test_gap_gives_no_empty_epochs() -> None:
+    recs, _, b = run([rmc(43200), rmc(43201), rmc(43500), rmc(43501)])
+    assert [r.time.second for r in recs] == [0, 1, 2, 3, 4, 0, 1]  # 43500 = 12:05:00
+    assert [r.time.minute for r in recs][-2:] == [5, 5]
+    assert any("gap of 299 s" in e for e in b.stats.events)
+
+
+def test_interval_of_two_seconds() -> None:
+    recs, _, _ = run([rmc(43201 + k) for k in range(6)], NmeaOptions(interval_s=2))
+    assert [r.time.second for r in recs] == [2, 4, 6]
+
+
+def test_bad_lines_are_bounded_per_kind() -> None:
+    lines = [rmc(43200)] + ["$GPGGA,1*00"] * 50
+    _, bad, b = run(lines)
+    assert len(bad) == 20 and b.stats.skipped["bad checksum"] == 50
+    assert str(bad[0].error).startswith("T.nmea:2: bad checksum:")
+
+
+def test_missing_sensors_report() -> None:
+    _, _, b = run([rmc(43200), rmc(43201)])
+    assert b.stats.missing_sensors() == [
+        "no heading (HDT/HDG/VHW) in the log", "no water speed (VHW/VBW) in the log",
+        "no depth (DBT/DPT) in the log"]
+
+
+@pytest.mark.parametrize("bad", [{"interval_s": 0}, {"interval_s": 1.5},
+                                 {"heading_stale_s": -1.0}, {"variation_deg": 200.0}])
+def test_options_are_checked(bad: dict[str, object]) -> None:
+    from engine.errors import InputError
+    with pytest.raises(InputError):
+        NmeaOptions(**bad)  # type: ignore[arg-type]
