@@ -62,6 +62,7 @@ class LiveFeed:
         self.raw = raw
         self.lines = 0
         self.closed = False
+        self._gpsd = source.spec.kind == "gpsd"
         self._times: deque[tuple[int, float]] = deque(maxlen=RECEIVE_TIMES_KEPT)
         self._lock = threading.Lock()
         """Held by :meth:`poll` and :meth:`close`: a poll never writes to a closed raw log."""
@@ -108,6 +109,8 @@ class LiveFeed:
         self.lines += 1
         batch.lines += 1
         self._times.append((number, line.mono_s))
+        if self._gpsd and line.text.startswith("{"):
+            return  # gpsd's JSON replies: in the raw log, not NMEA
         for item in self.epochs.feed(line.text, number):
             batch.records.append(LiveRecord(item, line.mono_s))
 

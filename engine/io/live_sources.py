@@ -4,8 +4,12 @@ A source is named by a URL (docs/LIVE.md):
 
 * ``udp://0.0.0.0:10110`` — bind that address and port and receive datagrams; one datagram may
   hold several sentences (OpenCPN, Signal K and most multiplexers broadcast so).
-* ``tcp://host:10110`` — connect as a client (OpenCPN's, gpsd's NMEA port 2947 with ``?WATCH``
-  aside, Signal K's NMEA 0183 TCP server), reconnecting with a growing back-off after a loss.
+* ``tcp://host:10110`` — connect as a client (OpenCPN's NMEA TCP server, Signal K's NMEA 0183
+  TCP port 10110, a multiplexer), reconnecting with a growing back-off after a loss.
+* ``gpsd://host:2947`` — the same to gpsd, which first has to be asked for NMEA
+  (:data:`GPSD_WATCH` is sent on each connection); its JSON replies are received lines like
+  any other (kept in the raw log; the live feed does not pass lines starting with ``{`` to the
+  epoch builder).
 * ``serial:///dev/ttyUSB0?baud=4800`` — a serial device via pyserial (4800 baud when not
   given, the NMEA 0183 rate; 38400 for NMEA 0183-HS).
 
@@ -50,7 +54,8 @@ QUEUE_LINES = 100_000
 """Lines waiting for the consumer before the oldest new ones are dropped (counted)."""
 
 URL_FIELD = "source"
-URL_FORMS = "udp://ADDRESS:PORT, tcp://HOST:PORT or serial:///dev/DEVICE?baud=N"
+URL_FORMS = ("udp://ADDRESS:PORT, tcp://HOST:PORT, gpsd://HOST:PORT or "
+             "serial:///dev/DEVICE?baud=N")
 
 STATUS_CONNECTING = "connecting"
 STATUS_RECEIVING = "receiving"
@@ -61,8 +66,9 @@ STATUS_CLOSED = "closed"
 
 @dataclass(frozen=True)
 class SourceSpec:
-    """A parsed source URL: ``kind`` is ``udp``, ``tcp`` or ``serial``; ``host``/``port`` the
-    bind address (UDP) or server (TCP); ``device``/``baud`` the serial device and rate."""
+    """A parsed source URL: ``kind`` is ``udp``, ``tcp``, ``gpsd`` or ``serial``;
+    ``host``/``port`` the bind address (UDP) or server (TCP, gpsd); ``device``/``baud`` the
+    serial device and rate."""
 
     url: str
     kind: str
@@ -76,7 +82,7 @@ def _url_error(message: str, field: str, text: str) -> InputError:
     return InputError(message, field=field, text=text)
 
 
-SCHEMES = ("udp", "tcp", "serial")
+SCHEMES = ("udp", "tcp", "gpsd", "serial")
 """The kinds of live source."""
 
 
@@ -99,7 +105,7 @@ def parse_source_url(url: str) -> SourceSpec:
     except ValueError as exc:
         raise _url_error(f"Not a source URL ({exc}): use {URL_FORMS} !", URL_FIELD, url) from None
     scheme = parts.scheme.lower()
-    if scheme in ("udp", "tcp"):
+    if scheme in ("udp", "tcp", "gpsd"):
         if parts.path not in ("", "/") or parts.query or parts.fragment:
             raise _url_error(f"Nothing may follow the port: use {scheme}://HOST:PORT !",
                              URL_FIELD, url)
@@ -111,8 +117,8 @@ def parse_source_url(url: str) -> SourceSpec:
         if host.startswith("[") and host.endswith("]"):
             host = host[1:-1]
         if not host:
-            if scheme == "tcp":
-                raise _url_error("No host: use tcp://HOST:PORT !", "source host", netloc)
+            if scheme != "udp":
+                raise _url_error(f"No host: use {scheme}://HOST:PORT !", "source host", netloc)
             host = "0.0.0.0"
         if not port_text.isascii() or not port_text.isdigit() or not 1 <= int(port_text) <= 65535:
             raise _url_error("Port must be a number from 1 to 65535 !", "source port", port_text)
@@ -218,11 +224,17 @@ class _UdpTransport:
         self.sock.close()
 
 
+GPSD_WATCH = b'?WATCH={"enable":true,"nmea":true};\n'
+"""Sent to gpsd on connecting (gpsd(8), "?WATCH"): stream the receivers' NMEA sentences."""
+
+
 class _TcpTransport:
     def __init__(self, spec: SourceSpec, connect_timeout_s: float) -> None:
         sock = socket.create_connection((spec.host, spec.port), timeout=connect_timeout_s)
         try:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+            if spec.kind == "gpsd":
+                sock.sendall(GPSD_WATCH)
             sock.settimeout(READ_SLICE_S)
         except BaseException:
             sock.close()
@@ -421,7 +433,7 @@ class LiveSource:
     def _open(self) -> Transport:
         if self.spec.kind == "udp":
             return _UdpTransport(self.spec)
-        if self.spec.kind == "tcp":
+        if self.spec.kind in ("tcp", "gpsd"):
             return _TcpTransport(self.spec, self.connect_timeout_s)
         return _SerialTransport(self.spec)
 
@@ -498,7 +510,7 @@ class LiveSource:
                 if self._state.status == STATUS_RECEIVING and silent_s >= self.lost_after_s:
                     self._set_state(STATUS_LOST, since=last_mono,
                                     detail=f"no data for {self.lost_after_s:g} s")
-                if self.spec.kind == "tcp" and silent_s >= self.reconnect_after_s:
+                if self.spec.kind != "udp" and silent_s >= self.reconnect_after_s:
                     if not self._state.is_lost:
                         self._set_state(STATUS_LOST, since=last_mono,
                                         detail=f"no data for {self.reconnect_after_s:g} s")

@@ -143,3 +143,44 @@ def test_received_line_numbers_without_a_raw_log() -> None:
     finally:
         feed.close()
     assert got[0].item.line_no == 2
+
+
+def test_gpsd_is_asked_for_nmea_and_its_json_kept_out_of_the_epochs(tmp_path: Path) -> None:
+    """A stand-in gpsd on localhost: it must receive the ?WATCH command of gpsd(8) ("nmea":
+    true) before it sends anything; its JSON replies go to the raw log, not to the builder."""
+    listener = socket.create_server(("127.0.0.1", 0))
+    port = listener.getsockname()[1]
+    got: list[bytes] = []
+    version = '{"class":"VERSION","release":"3.25","proto_major":3,"proto_minor":15}'
+
+    def gpsd() -> None:
+        listener.settimeout(DEADLINE_S)
+        client, _ = listener.accept()
+        with client:
+            client.settimeout(DEADLINE_S)
+            data = b""
+            while not data.endswith(b"\n"):
+                data += client.recv(100)
+            got.append(data)
+            client.sendall(f"{version}\r\n{GGA}\r\n{HDT}\r\n".encode())
+            client.recv(1)  # until the client closes
+
+    server = threading.Thread(target=gpsd)
+    server.start()
+    source = LiveSource(f"gpsd://127.0.0.1:{port}").start()
+    raw = RawLog.create(tmp_path / "G", source_url=source.url, origin_mono_s=time.monotonic())
+    builder = GgaCounter()
+    feed = LiveFeed(source, builder, raw)
+    try:
+        deadline = time.monotonic() + DEADLINE_S
+        while feed.lines < 3:
+            assert time.monotonic() < deadline
+            feed.poll(0.1)
+    finally:
+        feed.close()
+        server.join(DEADLINE_S)
+        listener.close()
+    assert got == [b'?WATCH={"enable":true,"nmea":true};\n']
+    assert [line for line, _ in builder.fed] == [GGA, HDT]
+    assert [n for _, n in builder.fed] == [2, 3]  # numbered as in the raw log
+    assert raw.path.read_bytes() == f"{version}\r\n{GGA}\r\n{HDT}\r\n".encode()

@@ -60,6 +60,7 @@ def collect(source: LiveSource, until: Callable[[list[ReceivedLine], list[Source
     ("tcp://192.168.1.5:10110", "tcp", "192.168.1.5", 10110, "", 4800),
     ("tcp://[::1]:2000", "tcp", "::1", 2000, "", 4800),
     ("TCP://localhost:1", "tcp", "localhost", 1, "", 4800),
+    ("gpsd://localhost:2947", "gpsd", "localhost", 2947, "", 4800),
     ("serial:///dev/ttyUSB0?baud=38400", "serial", "", 0, "/dev/ttyUSB0", 38400),
     ("serial:///dev/ttyS1", "serial", "", 0, "/dev/ttyS1", 4800),
 ])
@@ -75,6 +76,7 @@ def test_good_urls(url: str, kind: str, host: str, port: int, device: str, baud:
     ("udp://0.0.0.0:70000", "source port", "70000"),
     ("udp://0.0.0.0:0", "source port", "0"),
     ("tcp://:10110", "source host", ":10110"),
+    ("gpsd://:2947", "source host", ":2947"),
     ("tcp://h:port", "source port", "port"),
     ("tcp://h:10110/x", "source", "tcp://h:10110/x"),
     ("serial://?baud=4800", "source device", "serial://?baud=4800"),
