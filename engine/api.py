@@ -130,7 +130,7 @@ if TYPE_CHECKING:
         read_truth,
     )
     from engine.io.live_sources import SourceState, is_source_url, parse_source_url
-    from engine.run.live import LiveCycle, LiveRun, LiveStep, open_live_run
+    from engine.run.live import LEARN_S, LiveCycle, LiveRun, LiveStep, open_live_run
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
 
@@ -138,7 +138,7 @@ _ASSESS_NAMES = frozenset(
     {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
      "read_truth"})
 _SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
-_LIVE_RUN_NAMES = frozenset({"LiveCycle", "LiveRun", "LiveStep", "open_live_run"})
+_LIVE_RUN_NAMES = frozenset({"LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "open_live_run"})
 _LIVE_SOURCE_NAMES = frozenset({"SourceState", "is_source_url", "parse_source_url"})
 """The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
 console never load the assessment or the simulator (start-up time)."""
@@ -258,6 +258,7 @@ __all__ = [
     "run_inputs",
     "write_simulation",
     # live NMEA sources (docs/LIVE.md), imported on first use
+    "LEARN_S",
     "LiveCycle",
     "LiveRun",
     "LiveStep",

@@ -17,19 +17,21 @@ date of today is the date of sentences that come before any RMC/ZDA (a live stre
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
 from engine.io.datumfile import DatumFile
 from engine.io.deccafile import DeccaChain
-from engine.io.live_feed import LiveBatch, LiveFeed
+from engine.io.live_feed import LiveBatch, LiveFeed, LiveRecord
 from engine.io.live_log import RawLog, raw_log_stem
 from engine.io.live_sources import LiveSource, SourceState, parse_source_url
 from engine.io.nmea_epochs import EpochBuilder, NmeaOptions, NmeaStats
 from engine.io.outputs import OutputGuard, free_name
-from engine.run.config import RunConfig
+from engine.run.config import NmeaConfig, RunConfig
 from engine.run.cycle import CycleResult
+from engine.run.nmea_config import config_from_stats
 from engine.run.session import Session
 
 
@@ -67,6 +69,9 @@ class LiveRun:
         self.feed = feed
         self.builder = builder
         self.cycles = 0
+        self.backlog: list[LiveRecord] = []
+        """Records received before the session existed (a derived configuration): the next
+        :meth:`receive` returns them first."""
 
     @property
     def url(self) -> str:
@@ -102,6 +107,9 @@ class LiveRun:
         """Take what arrived (raw log written, epochs formed) without running the cycles: a
         caller that shares the session with other threads runs :meth:`process` under its
         lock, and does not hold the lock while this waits."""
+        if self.backlog:
+            batch, self.backlog = LiveBatch(records=self.backlog), []
+            return batch
         return self.feed.poll(timeout_s)
 
     def finish(self) -> LiveStep:
@@ -142,10 +150,15 @@ def live_nmea_options(options: NmeaOptions | None = None,
     return replace(options, date=(today or datetime.now(UTC)).date())
 
 
+LEARN_S = 10.0
+"""Without a configuration: seconds of data after the first fix from which the sensors are
+learned (docs/LIVE.md)."""
+
+
 def open_live_run(
     url: str,
-    config: RunConfig,
-    data: tuple[DatumFile, dict[str, DeccaChain]],
+    config: RunConfig | None,
+    data: tuple[DatumFile, dict[str, DeccaChain]] | None,
     *,
     out_path: Path | None,
     force: bool = False,
@@ -156,11 +169,24 @@ def open_live_run(
     backoff_s: tuple[float, float] = (0.5, 8.0),
     history: int = 3600,
     collect_smoother: bool = False,
+    data_dir: Path | None = None,
+    learn_s: float = LEARN_S,
+    on_state: Callable[[SourceState], None] | None = None,
+    prepare: Callable[[RunConfig], RunConfig] | None = None,
 ) -> LiveRun:
     """Open a live run on ``url`` (module docstring). ``out_path`` None writes no ``.OUT`` and
     no raw log; ``nmea_options`` default to the configuration's ``[nmea]`` table. A bad URL is
     an :class:`~engine.errors.InputError` (field ``source …``) before anything is created; a
-    UDP port in use is an :class:`OSError`, and the files already created are removed again."""
+    UDP port in use is an :class:`OSError`, and the files already created are removed again.
+
+    ``config`` None: the configuration is derived from the stream as from a log
+    (engine/run/nmea_config.py: WGS84, DR position = the first fix, GPS on, Decca off, each
+    sensor on when its sentences came) after ``learn_s`` seconds of data following the first
+    fix; this waits for them (``on_state`` hears of the source's changes meanwhile) and needs
+    ``data_dir`` (TO_WGS84.DAT, DECCA.CHN). The records of those seconds are run first.
+    ``prepare`` adjusts the configuration (given or derived) before the session is made (a
+    headless run's LOPReject policy).
+    """
     spec = parse_source_url(url)
     guard = guard if guard is not None else OutputGuard()
     raw: RawLog | None = None
@@ -173,30 +199,65 @@ def open_live_run(
         raw = RawLog.create(stem, source_url=spec.url, origin_mono_s=time.monotonic(),
                             guard=guard)
     source = LiveSource(spec, lost_after_s=lost_after_s, backoff_s=backoff_s)
+    feed: LiveFeed | None = None
     session: Session | None = None
     try:
-        cfg = config.replace(run_file=str(raw.path) if raw is not None else spec.url)
-        session = Session(cfg, out_path=out_path, force=force, jsonl_path=jsonl_path,
-                          history=history, collect_smoother=collect_smoother, data=data,
-                          guard=guard, records=(), source_name=spec.url)
-        name = str(raw.path) if raw is not None else spec.url
-        builder = EpochBuilder(live_nmea_options(
-            nmea_options if nmea_options is not None else config.nmea.options), source=name)
+        nmea = config.nmea if config is not None else NmeaConfig()
+        options = nmea_options if nmea_options is not None else nmea.options
+        builder = EpochBuilder(live_nmea_options(options),
+                               source=str(raw.path) if raw is not None else spec.url)
+        feed = LiveFeed(source, builder, raw)
         source.start()
-    except BaseException:
-        source.close()
+        backlog: list[LiveRecord] = []
+        run_file = str(raw.path) if raw is not None else spec.url
+        if config is None:
+            if data_dir is None:
+                raise ValueError("a live run without a configuration needs data_dir")
+            _learn(feed, builder, backlog, learn_s, on_state)
+            config = config_from_stats(builder.stats, data_dir, nmea, run_file=run_file,
+                                       config_dir=Path.cwd())
+            data = None
+        if prepare is not None:
+            config = prepare(config)
+        session = Session(config.replace(run_file=run_file), out_path=out_path, force=force,
+                          jsonl_path=jsonl_path, history=history,
+                          collect_smoother=collect_smoother, data=data, guard=guard,
+                          records=(), source_name=spec.url)
+    except BaseException as exc:
         created: list[Path] = []
         if session is not None:
             if not force:
                 created += [p for p in (session.out_path, session.jsonl_path) if p is not None]
             session.close()
-        if raw is not None:  # always a new file (never replaced)
-            raw.close()
-            created += [raw.path, raw.times_path]
+        if feed is not None:
+            feed.close()
+        else:
+            source.close()
+            if raw is not None:
+                raw.close()
+        if raw is not None and not (isinstance(exc, KeyboardInterrupt) and raw.lines):
+            created += [raw.path, raw.times_path]  # always new files (never replaced); kept
+            # when Ctrl-C ended the wait for a derived configuration: lines were received
         for p in created:
             p.unlink(missing_ok=True)
         raise
-    return LiveRun(session, LiveFeed(source, builder, raw), builder)
+    run = LiveRun(session, feed, builder)
+    run.backlog = backlog
+    return run
 
 
-__all__ = ["LiveCycle", "LiveRun", "LiveStep", "live_nmea_options", "open_live_run"]
+def _learn(feed: LiveFeed, builder: EpochBuilder, backlog: list[LiveRecord], learn_s: float,
+           on_state: Callable[[SourceState], None] | None) -> None:
+    """Receive until ``learn_s`` seconds after the first fix (records kept in ``backlog``)."""
+    fixed_at: float | None = None
+    while fixed_at is None or time.monotonic() - fixed_at < learn_s:
+        batch = feed.poll(0.25)
+        backlog += batch.records
+        if on_state is not None:
+            for state in batch.states:
+                on_state(state)
+        if fixed_at is None and builder.stats.first_fix is not None:
+            fixed_at = time.monotonic()
+
+
+__all__ = ["LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "live_nmea_options", "open_live_run"]

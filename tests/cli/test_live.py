@@ -86,6 +86,35 @@ def test_live_udp_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert replay_body[:len(live_body)] == live_body
 
 
+def test_live_without_config_derives_one_from_the_stream(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """No --config: DR position = the first fix, GPS on, Decca off, gyro and log on (HDT, VHW
+    came), echo sounder n/a (no DBT) — as docs/NMEA.md derives one from a log."""
+    port = free_port(socket.SOCK_DGRAM)
+    stop = threading.Event()
+    sender = threading.Thread(target=send_udp, args=(port, range(40), stop, 0.05))
+    sender.start()
+    try:
+        status = main(["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "D.OUT"),
+                       "--learn", "0.5", "--cycles", "30"])
+    finally:
+        stop.set()
+        sender.join()
+    out = capsys.readouterr().out
+    assert status == 0, out
+    assert "no --config: waiting for the first fix" in out
+    assert "configuration derived from the stream" in out
+    assert "DR position 52 50 00.000 N 004 30 00.000 E (the first valid fix)" in out
+    assert "GPS on (C/A), Decca off" in out
+    assert "sensors: gyro on, log on, echo sounder n/a" in out
+    cycles = read_out_log(tmp_path / "D.OUT").cycles
+    assert len(cycles) == 30  # the records of the learning seconds are run too: from 12:00:00
+    gps = cycles[0].first("GPS")
+    assert gps is not None and gps["lat_in"] == pytest.approx(expected_lat(0), abs=1e-9)
+    head = (tmp_path / "D.OUT").read_text()
+    assert '# datum = "WGS84"' in head and "# [decca]\n# on = false" in head
+
+
 class DyingServer:
     """A TCP NMEA server on localhost: sends seconds ``first``, dies, comes back on the same
     port after ``down_s`` and sends ``second`` to the reconnected client."""
@@ -192,8 +221,8 @@ def test_live_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     assert main(["live", "udp://127.0.0.1:99999", "--config", str(cfg)]) == 2
     assert "source port: Port must be a number from 1 to 65535 ! (got '99999')" in \
         capsys.readouterr().err
-    assert main(["live", "udp://127.0.0.1:10110"]) == 2
-    assert "--config: A live run needs a configuration" in capsys.readouterr().err
+    assert main(["live", "udp://127.0.0.1:1", "--config", str(tmp_path / "none.toml")]) == 2
+    assert "none.toml: File not found !" in capsys.readouterr().err
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as holder:
         holder.bind(("127.0.0.1", 0))
         port = holder.getsockname()[1]

@@ -8,9 +8,12 @@ epoch to the position) and a line for each change of the source's state (``sourc
 0) with every completed cycle in the ``.OUT`` log and every received line in the raw log
 ``NAME.raw.nmea`` (+ ``NAME.raw.times.csv``) beside it.
 
-A configuration is required (``--config``): a live stream says nothing of the working datum,
-the DR position or which systems are on. Outputs follow the ``.OUT`` rule (README "Output
-files"); the default ``.OUT`` is ``live-YYYYMMDDTHHMMSSZ.OUT`` in the current directory.
+With ``--config`` the run uses that configuration (working datum, DR position, systems,
+``[nmea]``). Without it the configuration is derived from the stream as ``uvnav replay`` derives
+one from a log (docs/NMEA.md): WGS84, DR position = the first fix, GPS on, Decca off, each
+sensor on when its sentences came in the first ``--learn`` seconds (10) after that fix; it is
+printed before the first cycle. Outputs follow the ``.OUT`` rule (README "Output files"); the
+default ``.OUT`` is ``live-YYYYMMDDTHHMMSSZ.OUT`` in the current directory.
 
 Exit status: 0 ended by ``--cycles``/``--seconds``; 1 an output cannot be written; 2 bad input
 (arguments, URL, configuration, a UDP port in use), nothing run; 4 internal error; 130 Ctrl-C.
@@ -26,19 +29,22 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from engine.api import (
+    LEARN_S,
     CycleResult,
     InputError,
     LiveRun,
     LiveStep,
     OutputGuard,
+    RunConfig,
     SourceState,
+    derived_config_lines,
     format_lat_dms,
     format_lon_dms,
     load_run_config,
     open_live_run,
     parse_source_url,
 )
-from uvnav_tui.cli.replay import headless_lop_policy, integrity_summary_line
+from uvnav_tui.cli.replay import bundled_data_dir, headless_lop_policy, integrity_summary_line
 
 EXIT_OK = 0
 EXIT_CANNOT_WRITE = 1
@@ -49,8 +55,6 @@ POLL_S = 0.25
 """Longest wait for data between two checks of the state and the stop conditions [s]."""
 STILL_LOST_EVERY_S = 30.0
 """While the source is lost, a reminder line this often [s]."""
-NO_CONFIG_MESSAGE = ("A live run needs a configuration: give --config FILE.toml (working datum, "
-                     "DR position, systems on; docs/LIVE.md) !")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -58,7 +62,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="uvnav live", description=__doc__.splitlines()[0])
     p.add_argument("url", help="udp://0.0.0.0:10110, tcp://HOST:10110 or "
                    "serial:///dev/ttyUSB0?baud=4800")
-    p.add_argument("--config", help="run configuration TOML (required)")
+    p.add_argument("--config", help="run configuration TOML (default: derived from the stream: "
+                   "first fix, sensors seen in the first --learn seconds)")
+    p.add_argument("--learn", type=float, default=LEARN_S, metavar="S",
+                   help="without --config: seconds of data after the first fix from which the "
+                   f"sensors are learned (default {LEARN_S:g})")
     p.add_argument("--out", help=".OUT log (default live-YYYYMMDDTHHMMSSZ.OUT here; never "
                    "overwritten: a free NAME_N.OUT is chosen); the raw log NAME.raw.nmea and "
                    "NAME.raw.times.csv go beside it")
@@ -116,18 +124,43 @@ def _out_path(args: argparse.Namespace) -> Path | None:
 def _open(args: argparse.Namespace) -> tuple[LiveRun, str]:
     """The live run (raises InputError / OSError before anything runs)."""
     spec = parse_source_url(args.url)
-    if args.config is None:
-        raise InputError(NO_CONFIG_MESSAGE, field="--config")
-    cfg, data = load_run_config(args.config)
-    cfg, policy = headless_lop_policy(cfg, args.lop_reject)
     guard = OutputGuard()
-    guard.protect("the configuration", args.config)
     if spec.kind == "serial":
         guard.protect("the serial device", spec.device)
-    run = open_live_run(spec.url, cfg, data, out_path=_out_path(args), force=args.force,
-                        jsonl_path=Path(args.jsonl) if args.jsonl else None, guard=guard,
-                        lost_after_s=args.lost_after, history=1)
-    return run, policy
+    out = _out_path(args)
+    jsonl = Path(args.jsonl) if args.jsonl else None
+    if args.config is not None:
+        cfg, data = load_run_config(args.config)
+        cfg, words = headless_lop_policy(cfg, args.lop_reject)
+        guard.protect("the configuration", args.config)
+        return open_live_run(spec.url, cfg, data, out_path=out, force=args.force,
+                             jsonl_path=jsonl, guard=guard, lost_after_s=args.lost_after,
+                             history=1), words
+    print(f"no --config: waiting for the first fix from {spec.url}, then {args.learn:g} s to "
+          "learn the sensors (docs/LIVE.md)", flush=True)
+    state: list[SourceState | None] = [None]
+
+    def on_state(new: SourceState) -> None:
+        line = state_line(state[0], new, spec.url)
+        if line is not None:
+            print(line, flush=True)
+        state[0] = new
+
+    policy: list[str] = []
+
+    def prepare(derived: RunConfig) -> RunConfig:
+        cfg, words = headless_lop_policy(derived, args.lop_reject)
+        policy.append(words)
+        return cfg
+
+    run = open_live_run(spec.url, None, None, out_path=out, force=args.force, jsonl_path=jsonl,
+                        guard=guard, lost_after_s=args.lost_after, history=1,
+                        data_dir=bundled_data_dir(), learn_s=args.learn, on_state=on_state,
+                        prepare=prepare)
+    print("configuration derived from the stream (docs/NMEA.md):")
+    for line in derived_config_lines(run.session.config):
+        print(f"  {line}")
+    return run, policy[0]
 
 
 def _print_cycles(step: LiveStep, run: LiveRun, args: argparse.Namespace) -> None:
