@@ -189,10 +189,15 @@ class RunController:
     def begin_worker(self) -> bool:
         """True (and marked active) if a new worker should start now."""
         with self._worker_lock:
-            if self.worker_active or not self.can_run():
+            if self.worker_active or not (self.can_run() or self._live_open()):
                 return False
             self.worker_active = True
             return True
+
+    def _live_open(self) -> bool:
+        """A live run that has not been stopped: its worker keeps receiving (raw log written)
+        even while the run may not advance."""
+        return self.live is not None and not self.stopped
 
     def worker_may_continue(self) -> bool:
         """Checked by the worker before each cycle; it ends (inactive) when False."""
@@ -276,16 +281,17 @@ class RunController:
 
     def _run_live(self, cancelled: Callable[[], bool], advanced: Callable[[], None],
                   question: Callable[[CycleResult], None]) -> None:
-        """The worker's loop on a live source: receive (without the lock, so operator commands
-        are never kept waiting by the network), then run the cycles under the lock. Records
-        that arrive while an LOP question is open wait in :attr:`pending` (and lines, while a
-        menu is open, in the source's queue). A change of the source's state, and every
-        :data:`LIVE_TICK_S` while it is lost, repaints."""
+        """The worker's loop on a live source, until the run is stopped: receive (without the
+        lock, so operator commands are never kept waiting by the network; the raw log is
+        written), then run the cycles under the lock while the run may advance. Records that
+        arrive while it may not (a menu open, suspended, an LOP question) wait in
+        :attr:`pending`. A change of the source's state, and every :data:`LIVE_TICK_S` while it
+        is lost, repaints."""
         live = self.live
         assert live is not None
         ticked = time.monotonic()
-        while self.worker_may_continue() and not cancelled():
-            if not self.pending:
+        while not self.stopped and not cancelled():
+            if not self.pending or not self.can_run():
                 batch = live.receive(LIVE_POLL_S)
                 self.pending.extend(r.item for r in batch.records)
                 for s in batch.states:

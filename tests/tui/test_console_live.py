@@ -60,10 +60,20 @@ def test_console_runs_on_a_udp_source(tmp_path: Path, monkeypatch: pytest.Monkey
         assert "Pace live" in state_text()
         await wait_for(pilot, lambda: "SOURCE LOST" in state_text(), "SOURCE LOST")
         assert state_text().startswith("Working...")
+        # A menu open: the run is Interrupted, but what comes is still received and logged.
+        await pilot.press("f10")
+        await wait_for(pilot, lambda: control.state == "interrupted", "Interrupted")
+        held = control.cycles
+        raw = control.live.raw_path
+        assert raw is not None
         again = threading.Thread(target=send, args=(5,))
         again.start()
-        await wait_for(pilot, lambda: control.cycles >= 14, "cycles after the loss")
+        await wait_for(pilot, lambda: raw.read_bytes().count(b"\r\n") == 15 * 4,
+                       "the raw log to get the lines sent while interrupted")
         again.join()
+        assert control.cycles == held  # no cycle while a menu is open (THEORY D44)
+        await pilot.press("escape")
+        await wait_for(pilot, lambda: control.cycles >= 14, "cycles after the menu closed")
         await wait_for(pilot, lambda: "receiving" in state_text(), "receiving again")
         texts = [e.text for e in app.message_log.since(0)[1]]
         assert f"Source receiving from {url}" in texts
