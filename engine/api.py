@@ -15,13 +15,14 @@ Groups, in the order of a run:
   it that pages show (fix, filter state, confidence regions, Pool of Errors);
 * operator input parsing and display formatting (both engine rules: the ``.OUT`` and the
   console must agree);
-* headless work: replay outputs, the simulator and the accuracy assessment;
+* headless work: replay outputs, the simulator, the accuracy assessment and the exports
+  (GPX, GeoJSON, CSV, KML; docs/EXPORT.md).
 * live NMEA sources (:func:`open_live_run`, docs/LIVE.md), imported on first use.
 
 One small function is defined here rather than re-exported: :func:`run_record` (a cycle's
-``.RUN`` record, parsed by the run-file reader). The names of the headless assessment and
-simulation are imported on first use (:func:`__getattr__`), so that a replay and the console
-start without them.
+``.RUN`` record, parsed by the run-file reader). The names of the headless assessment,
+simulation and export are imported on first use (:func:`__getattr__`), so that a replay and
+the console start without them.
 """
 
 from __future__ import annotations
@@ -129,15 +130,53 @@ if TYPE_CHECKING:
         read_nav_log,
         read_truth,
     )
+    from engine.assess.denied import (
+        CHECKPOINTS_S,
+        DeniedReport,
+        denied_experiment,
+        run_records,
+        truth_reference,
+    )
+    from engine.io.export_geo import ELLIPSE_POINTS, Wgs84Converter, build_export
+    from engine.io.export_geo import TRACKS as EXPORT_TRACKS
+    from engine.io.export_read import (
+        align_smoothed,
+        logged_datum_file,
+        read_export_log,
+        read_smoothed,
+    )
+    from engine.io.export_write import csv_text, geojson_text, gpx_text, kml_text
     from engine.io.live_sources import SourceState, is_source_url, parse_source_url
+    from engine.io.nmea_send import NmeaSender, open_nmea_sender, parse_nmea_destination
     from engine.run.live import LEARN_S, LiveCycle, LiveRun, LiveStep, open_live_run
+    from engine.run.nmea_out import NmeaOutOptions, NmeaPositionOut
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
 
+_EXPORT_NAMES = {
+    "EXPORT_TRACKS": ("engine.io.export_geo", "TRACKS"),
+    "ELLIPSE_POINTS": ("engine.io.export_geo", "ELLIPSE_POINTS"),
+    "Wgs84Converter": ("engine.io.export_geo", "Wgs84Converter"),
+    "build_export": ("engine.io.export_geo", "build_export"),
+    "align_smoothed": ("engine.io.export_read", "align_smoothed"),
+    "logged_datum_file": ("engine.io.export_read", "logged_datum_file"),
+    "read_export_log": ("engine.io.export_read", "read_export_log"),
+    "read_smoothed": ("engine.io.export_read", "read_smoothed"),
+    "csv_text": ("engine.io.export_write", "csv_text"),
+    "geojson_text": ("engine.io.export_write", "geojson_text"),
+    "gpx_text": ("engine.io.export_write", "gpx_text"),
+    "kml_text": ("engine.io.export_write", "kml_text"),
+}
+"""``uvnav export``'s names (docs/EXPORT.md), imported on first use like the assessment's."""
 _ASSESS_NAMES = frozenset(
     {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
      "read_truth"})
+_DENIED_NAMES = frozenset(
+    {"CHECKPOINTS_S", "DeniedReport", "denied_experiment", "run_records", "truth_reference"})
+"""``uvnav denied`` (GPS-denied experiment, docs/REALDATA.md), imported on first use."""
 _SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
+_NMEA_SEND_NAMES = frozenset({"NmeaSender", "open_nmea_sender", "parse_nmea_destination"})
+_NMEA_OUT_NAMES = frozenset({"NmeaOutOptions", "NmeaPositionOut"})
 _LIVE_RUN_NAMES = frozenset({"LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "open_live_run"})
 _LIVE_SOURCE_NAMES = frozenset({"SourceState", "is_source_url", "parse_source_url"})
 """The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
@@ -257,6 +296,12 @@ __all__ = [
     "remove_created",
     "run_inputs",
     "write_simulation",
+    # NMEA 0183 out of the integrated position (docs/NMEA_OUT.md)
+    "NmeaOutOptions",
+    "NmeaPositionOut",
+    "NmeaSender",
+    "open_nmea_sender",
+    "parse_nmea_destination",
     # live NMEA sources (docs/LIVE.md), imported on first use
     "LEARN_S",
     "LiveCycle",
@@ -276,6 +321,25 @@ __all__ = [
     "derived_config_lines",
     "format_run_record",
     "is_nmea_file",
+    # headless work: exports (uvnav export, imported on first use)
+    "ELLIPSE_POINTS",
+    "EXPORT_TRACKS",
+    "Wgs84Converter",
+    "align_smoothed",
+    "build_export",
+    "csv_text",
+    "geojson_text",
+    "gpx_text",
+    "kml_text",
+    "logged_datum_file",
+    "read_export_log",
+    "read_smoothed",
+    # GPS-denied experiment (uvnav denied)
+    "CHECKPOINTS_S",
+    "DeniedReport",
+    "denied_experiment",
+    "run_records",
+    "truth_reference",
 ]
 
 
@@ -290,10 +354,19 @@ def run_record(r: CycleResult) -> RunRecord | None:
 
 def __getattr__(name: str) -> object:
     """The assessment's and the simulator's names (PEP 562), imported when first asked for."""
+    if name in _EXPORT_NAMES:
+        import importlib
+
+        module, attr = _EXPORT_NAMES[name]
+        return getattr(importlib.import_module(module), attr)
     if name in _ASSESS_NAMES:
         from engine.assess import accuracy
 
         return getattr(accuracy, name)
+    if name in _DENIED_NAMES:
+        from engine.assess import denied
+
+        return getattr(denied, name)
     if name == "load_scenario":
         from engine.sim.scenario import load_scenario
 
@@ -302,6 +375,14 @@ def __getattr__(name: str) -> object:
         from engine.sim import simulate
 
         return getattr(simulate, name)
+    if name in _NMEA_SEND_NAMES:
+        from engine.io import nmea_send
+
+        return getattr(nmea_send, name)
+    if name in _NMEA_OUT_NAMES:
+        from engine.run import nmea_out
+
+        return getattr(nmea_out, name)
     if name in _LIVE_RUN_NAMES:
         from engine.run import live
 
@@ -314,5 +395,6 @@ def __getattr__(name: str) -> object:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_ASSESS_NAMES, *_SIMULATE_NAMES, "load_scenario",
-                   *_LIVE_RUN_NAMES, *_LIVE_SOURCE_NAMES})
+    return sorted({*globals(), *_ASSESS_NAMES, *_DENIED_NAMES, *_SIMULATE_NAMES, *_EXPORT_NAMES,
+                   *_NMEA_SEND_NAMES, *_NMEA_OUT_NAMES, "load_scenario", *_LIVE_RUN_NAMES,
+                   *_LIVE_SOURCE_NAMES})

@@ -17,7 +17,7 @@ import time
 from collections.abc import Iterable
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from textual import on
 from textual.app import App, SystemCommand
@@ -32,6 +32,7 @@ from engine.api import (
     DatumFile,
     DeccaChain,
     RunConfig,
+    Session,
     load_data,
 )
 from uvnav_tui.actions import MenuActions
@@ -43,6 +44,9 @@ from uvnav_tui.screens.help_screen import HelpScreen
 from uvnav_tui.screens.table_screen import TableScreen
 from uvnav_tui.widgets.message_log import MessageLog
 from uvnav_tui.widgets.pulldown import PulldownScreen
+
+if TYPE_CHECKING:
+    from engine.api import NmeaSender
 
 REFRESH_S = 0.1
 """Shortest time between two display refreshes while cycles run (≤ 10 Hz)."""
@@ -120,8 +124,11 @@ class UVNAVApp(App[None]):
         hold: bool = False,
         lop_policy: str = "ask",
         data: tuple[DatumFile, dict[str, DeccaChain]] | None = None,
+        nmea_sender: NmeaSender | None = None,
     ) -> None:
         super().__init__()
+        self.nmea_sender = nmea_sender
+        """Where every cycle's MPP goes as NMEA 0183 (``uvnav --nmea-out``), or None."""
         self.base_config = config
         self.launch_dev_mode = dev_mode
         self.dev_mode = dev_mode
@@ -181,8 +188,17 @@ class UVNAVApp(App[None]):
         if isinstance(session, str):
             return session
         self.stop_run()
+        on_cycle = None
+        if self.nmea_sender is not None:
+            from engine.api import NmeaPositionOut  # only when asked for (start-up time)
+
+            run_session = session if isinstance(session, Session) else session.session
+            nmea, sender = NmeaPositionOut(run_session.datums), self.nmea_sender
+
+            def on_cycle(r: CycleResult) -> None:
+                sender.send(nmea.sentences(r))
         self.control = RunController(session, pace_override=self.pace_override,
-                                     log=self.message_log)
+                                     log=self.message_log, on_cycle=on_cycle)
         if self.hold:
             self.control.budget = 0
         self.control.interrupted = len(self.screen_stack) > 1

@@ -92,16 +92,19 @@ class RunController:
     """One run's state flags, cycle budget, pacing and the lock around its session."""
 
     def __init__(self, session: Session | LiveRun, *, pace_override: str | None = None,
-                 log: MessageLog | None = None) -> None:
+                 log: MessageLog | None = None,
+                 on_cycle: Callable[[CycleResult], None] | None = None) -> None:
         self.live: LiveRun | None = None
         """The live source feeding the session (None: a run file)."""
         if not isinstance(session, Session):
             self.live, session = session, session.session
         self.session = session
+        self.on_cycle = on_cycle
+        """Called with every new cycle (worker thread): the console's NMEA output."""
         self.source_state: SourceState | None = None
         """The live source's state at the last turn of the worker."""
         self.pending: deque[RunRecord | BadRecord] = deque()
-        """Live records received but not yet processed (an LOP question is open)."""
+        """Live records received but not yet processed (the run may not advance now)."""
         self._logged_state: SourceState | None = None
         self.log = log if log is not None else MessageLog()
         """Where every engine message and bad record of the run goes (with its record time)."""
@@ -246,6 +249,8 @@ class RunController:
             self.budget -= 1
         self.latest = result
         self._log_messages(result)
+        if self.on_cycle is not None:
+            self.on_cycle(result)
         if result.fix is not None and result.fix.candidate_slot is not None:
             self.awaiting_answer = True
         return result
@@ -323,6 +328,8 @@ class RunController:
             self.budget -= 1
         self.latest = result
         self._log_messages(result)
+        if self.on_cycle is not None:
+            self.on_cycle(result)
         if result.fix is not None and result.fix.candidate_slot is not None:
             self.awaiting_answer = True
         return result

@@ -15,6 +15,7 @@ the first :class:`DatumShift` or :class:`GeodesicSolver` is built, not with this
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from engine.geodesy.ellipsoid import WGS84, WGS84_ELLIPSOID, Datum, Ellipsoid
 
@@ -162,6 +163,12 @@ class DatumShift:
         """Geodetic on ``src`` → geodetic on ``dst`` (degrees, degrees, metres)."""
         lat, lon, h = self._tr.transform(lat_deg, lon_deg, h_m)
         return float(lat), float(lon), float(h)
+
+    def transform_array(self, lat_deg: Any, lon_deg: Any, h_m: Any = 0.0) -> tuple[Any, Any]:
+        """Vectorised :meth:`transform` of numpy arrays (degrees, metres) → (lat, lon) arrays
+        in degrees on ``dst`` (the heights are dropped)."""
+        lat, lon, _h = self._tr.transform(lat_deg, lon_deg, h_m)
+        return lat, lon
 
     def inverse(
         self, lat_deg: float, lon_deg: float, h_m: float = 0.0

@@ -93,8 +93,35 @@ def _is_raw_times(line: bytes) -> bool:
     return line.startswith(b"# UVNAV live receive times")
 
 
+def _is_nmea(line: bytes) -> bool:
+    """An NMEA 0183 sentence with a correct checksum (``$TTKKK,…*HH``, CR LF or LF)."""
+    from engine.io.nmea_write import checksum
+
+    text = line.rstrip(b"\r")
+    if len(text) < 10 or text[:1] != b"$" or text[-3:-2] != b"*" or not text.isascii():
+        return False
+    body = text[1:-3].decode("ascii")
+    return body[:5].isalnum() and body[5:6] == "," and checksum(body) == text[-2:].decode()
+
+
 def _is_svg(head: bytes) -> bool:
     return b"<svg" in head and b"UVNAV assess plot" in head
+
+
+def _is_gpx(head: bytes) -> bool:
+    return b"<gpx" in head and b'creator="UVNAV export"' in head
+
+
+def _is_geojson(line: bytes) -> bool:
+    return line.startswith(b'{"type":"FeatureCollection","uvnav_export":')
+
+
+def _is_export_csv(line: bytes) -> bool:
+    return line.startswith(b"time_utc,cycle,record,source,filter,datum,")
+
+
+def _is_kml(head: bytes) -> bool:
+    return b"<kml" in head and b"<name>UVNAV export" in head
 
 
 @dataclass(frozen=True)
@@ -116,6 +143,13 @@ SIGNATURES: dict[str, Signature] = {
     "truth": Signature("truth CSV (first line '# UVNAV simulator truth')", _is_truth),
     "svg": Signature("assessment plot (an SVG marked 'UVNAV assess plot')", _is_svg,
                      whole_head=True),
+    "nmea": Signature("NMEA 0183 log (a sentence with a correct checksum on the first line)",
+                      _is_nmea),
+    "gpx": Signature("GPX export (creator 'UVNAV export')", _is_gpx, whole_head=True),
+    "geojson": Signature("GeoJSON export (a FeatureCollection with 'uvnav_export')",
+                         _is_geojson),
+    "csv": Signature("CSV export (header 'time_utc,cycle,record,…')", _is_export_csv),
+    "kml": Signature("KML export (named 'UVNAV export')", _is_kml, whole_head=True),
     "raw_times": Signature("live receive-time log (first line '# UVNAV live receive times')",
                            _is_raw_times),
     "nmea_raw": Signature("(nothing: a raw NMEA recording is never replaced)",

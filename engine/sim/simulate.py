@@ -58,6 +58,7 @@ from engine.io.datumfile import DatumFile, read_datum_file
 from engine.io.deccafile import DeccaChain, read_chain_file
 from engine.io.outputs import OutputFile
 from engine.io.runfile import RunRecord, format_run_record
+from engine.sim.nmea import SimNmea
 from engine.sim.scenario import Leg, Scenario
 from engine.systems.decca import ChainOnGrid, decca_geometry, decca_vcv_lanes, place_chain
 from engine.systems.sensors import KNOT_MS, depth_to_frequency_hz, surface_reference_hz
@@ -140,12 +141,15 @@ class SimulationSetup:
 
 @dataclass(frozen=True, slots=True)
 class SimulationSummary:
-    """What :func:`write_simulation` wrote: record count, CM (deg) and the paths."""
+    """What :func:`write_simulation` wrote: record count, CM (deg), the paths and the number of
+    NMEA sentences (0 without an NMEA log)."""
 
     n_records: int
     cm_deg: float
     run_path: Path
     truth_path: Path | None
+    nmea_path: Path | None = None
+    n_sentences: int = 0
 
 
 # --------------------------------------------------------------------------------------------
@@ -548,44 +552,67 @@ def write_simulation(
     *,
     datums: DatumFile,
     chains: dict[str, DeccaChain],
+    nmea_path: str | os.PathLike[str] | None = None,
 ) -> SimulationSummary:
-    """Simulate and write the ``.RUN`` file (thesis grammar, LF line ends, no header) and the
-    truth CSV (``None`` = none). Files are written to new temporary files beside them
-    (``.NAME.XXXX.tmp``, exclusive create: nothing existing is touched) and renamed at the end,
-    so an error never leaves a half-written output. Existing files are replaced (the CLI checks
-    by engine/io/outputs.py that they are earlier outputs, not inputs). An OSError names the
-    output file it concerns."""
+    """Simulate and write the ``.RUN`` file (thesis grammar, LF line ends, no header), the
+    truth CSV (``None`` = none) and the NMEA 0183 log of the same readings (``None`` = none;
+    CR LF line ends as on the wire, :mod:`engine.sim.nmea`). Files are written to new
+    temporary files beside them (``.NAME.XXXX.tmp``, exclusive create: nothing existing is
+    touched) and renamed at the end, so an error never leaves a half-written output. Existing
+    files are replaced (the CLI checks by engine/io/outputs.py that they are earlier outputs,
+    not inputs). An OSError names the output file it concerns. The NMEA log draws no random
+    numbers: the ``.RUN`` and truth are the same bytes with or without it."""
     setup = simulation_setup(scenario, datums, chains)
-    run_file = Path(run_path)
-    truth_file = None if truth_path is None else Path(truth_path)
-    run_tmp = _temporary(run_file)
-    truth_tmp = None
-    n = 0
+    finals = [Path(run_path), None if truth_path is None else Path(truth_path),
+              None if nmea_path is None else Path(nmea_path)]
+    tmps: list[Path | None] = [None, None, None]
+    handles: list[OutputFile | None] = [None, None, None]
+    nmea = SimNmea(setup.gps_datum) if nmea_path is not None else None
+    n = n_sentences = 0
     try:
-        truth_tmp = None if truth_file is None else _temporary(truth_file)
+        for i, final in enumerate(finals):
+            if final is not None:
+                tmps[i] = _temporary(final)
+        run_tmp, truth_tmp, nmea_tmp = tmps
+        assert run_tmp is not None
         # OutputFile: a write or close error names the file asked for, not the temporary one.
-        with OutputFile(open(run_tmp, "w", encoding="ascii", newline="\n"), run_file) as run_fh:
-            truth_fh = (
-                None if truth_tmp is None or truth_file is None
-                else OutputFile(open(truth_tmp, "w", encoding="utf-8", newline="\n"),
-                                truth_file)
-            )
-            try:
-                if truth_fh is not None:
-                    truth_fh.write("\n".join(truth_header(scenario, setup, seed)) + "\n")
-                for truth, rec in _run(scenario, setup, seed):
-                    run_fh.write(rec.raw + "\n")
-                    if truth_fh is not None:
-                        truth_fh.write(format_truth_row(truth) + "\n")
-                    n += 1
-            finally:
-                if truth_fh is not None:
-                    truth_fh.close()
-        _rename(run_tmp, run_file)
-        if truth_tmp is not None and truth_file is not None:
-            _rename(truth_tmp, truth_file)
+        run_fh = OutputFile(open(run_tmp, "w", encoding="ascii", newline="\n"), finals[0])
+        handles[0] = run_fh
+        if truth_tmp is not None and finals[1] is not None:
+            handles[1] = OutputFile(open(truth_tmp, "w", encoding="utf-8", newline="\n"),
+                                    finals[1])
+        if nmea_tmp is not None and finals[2] is not None:
+            handles[2] = OutputFile(open(nmea_tmp, "w", encoding="ascii", newline=""),
+                                    finals[2])
+        _run_fh, truth_fh, nmea_fh = handles
+        if truth_fh is not None:
+            truth_fh.write("\n".join(truth_header(scenario, setup, seed)) + "\n")
+        for truth, rec in _run(scenario, setup, seed):
+            run_fh.write(rec.raw + "\n")
+            if truth_fh is not None:
+                truth_fh.write(format_truth_row(truth) + "\n")
+            if nmea_fh is not None and nmea is not None:
+                lines = nmea.epoch(rec, heading_true_deg=truth.heading_true_deg,
+                                   speed_kn=truth.speed_kn, pitch_deg=truth.pitch_deg,
+                                   current_e_ms=truth.current_e_ms,
+                                   current_n_ms=truth.current_n_ms)
+                nmea_fh.write("".join(line + "\r\n" for line in lines))
+                n_sentences += len(lines)
+            n += 1
+        for fh in handles:
+            if fh is not None:
+                fh.close()
+        for tmp, final in zip(tmps, finals, strict=True):
+            if tmp is not None and final is not None:
+                _rename(tmp, final)
     finally:
-        for tmp in (run_tmp, truth_tmp):
+        for fh in handles:
+            if fh is not None and not fh.closed:
+                try:
+                    fh.close()
+                except OSError:
+                    pass
+        for tmp in tmps:
             if tmp is not None and tmp.exists():
                 tmp.unlink()
-    return SimulationSummary(n, setup.cm_deg, run_file, truth_file)
+    return SimulationSummary(n, setup.cm_deg, finals[0], finals[1], finals[2], n_sentences)

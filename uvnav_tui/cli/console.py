@@ -1,4 +1,9 @@
-"""``uvnav [--config FILE.toml] [--dev] [--live URL]``: open the navigation console.
+"""``uvnav [--config FILE.toml] [--dev] [--live URL] [--nmea-out udp://HOST:PORT]``: open the
+navigation console.
+
+``--live URL`` runs on a live NMEA source instead of the configuration's run file
+(docs/LIVE.md). ``--nmea-out`` sends the MPP of every cycle as NMEA 0183 to a UDP port
+(docs/NMEA_OUT.md), e.g. to OpenCPN on the same machine: ``--nmea-out udp://127.0.0.1:10110``.
 
 Without ``--config`` the bundled demo ``data/DEMO.toml`` is used: first the one in the ``data``
 directory next to the installed package (the repository checkout), then ``./data/DEMO.toml``.
@@ -17,6 +22,8 @@ from engine.api import (
     InputError,
     RunConfig,
     load_run_config,
+    open_nmea_sender,
+    parse_nmea_destination,
     parse_source_url,
 )
 
@@ -46,7 +53,14 @@ def build_parser() -> argparse.ArgumentParser:
                    "(docs/LIVE.md)")
     p.add_argument("--hardcopy-dir", default="hardcopy",
                    help="directory for Edit ▸ Hardcopy files (default: ./hardcopy)")
+    p.add_argument("--nmea-out", metavar="udp://HOST:PORT",
+                   help="send the MPP of every cycle as NMEA 0183 (GGA, RMC, GST, HDT on "
+                   "WGS84) to this UDP port, e.g. a chart plotter on udp://127.0.0.1:10110")
     return p
+
+
+CONSOLE_UDP_ONLY = ("The console sends to udp://HOST:PORT only (an NMEA file: uvnav replay "
+                    "--nmea-out FILE) !")
 
 
 def resolve_config(
@@ -64,17 +78,28 @@ def resolve_config(
 def run_console(argv: list[str]) -> int:
     """Open the console; returns the exit status."""
     args = build_parser().parse_args(argv)
+    sender = None
     try:
         cfg, data = resolve_config(args.config)
         if args.live is not None:
             cfg = cfg.replace(run_file=parse_source_url(args.live).url)
+        if args.nmea_out is not None:
+            dest = parse_nmea_destination(args.nmea_out)
+            if dest.kind != "udp":
+                raise InputError(CONSOLE_UDP_ONLY, field="--nmea-out", text=args.nmea_out)
+            sender = open_nmea_sender(dest)
     except (InputError, OSError) as exc:
         print(f"uvnav: {exc}", file=sys.stderr)
         return 2
     from uvnav_tui.app import UVNAVApp
 
-    app = UVNAVApp(cfg, dev_mode=args.dev, hardcopy_dir=Path(args.hardcopy_dir), data=data)
-    app.run()
+    app = UVNAVApp(cfg, dev_mode=args.dev, hardcopy_dir=Path(args.hardcopy_dir), data=data,
+                   nmea_sender=sender)
+    try:
+        app.run()
+    finally:
+        if sender is not None:
+            sender.close()
     return 0
 
 

@@ -14,6 +14,10 @@ used instead; ``--force`` replaces only an earlier UVNAV output of the same kind
 pipes and directories are refused. Every output is checked, then created, before the replay
 starts; if one cannot be, the ones already created are removed again and nothing runs.
 
+``--nmea-out udp://HOST:PORT`` or ``--nmea-out FILE`` also sends the integrated position (MPP)
+of every cycle as NMEA 0183 (GGA, RMC, GST, HDT; ``--nmea-gll`` adds GLL) on WGS84, e.g. to a
+chart plotter (docs/NMEA_OUT.md); the file follows the same ``.OUT`` rule.
+
 Exit status: 0 the run processed at least one epoch (bad records are reported and skipped);
 1 an output file cannot be written (the message names it); 2 bad input (arguments,
 configuration, data files, an unreadable run file, refused output names), nothing run; 3 the
@@ -32,12 +36,17 @@ import json
 import os
 import sys
 import traceback
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from engine.api import (
+    CycleResult,
     DatumFile,
     DeccaChain,
     InputError,
+    NmeaOutOptions,
+    NmeaPositionOut,
     NmeaStats,
     OutputFile,
     OutputGuard,
@@ -51,11 +60,16 @@ from engine.api import (
     is_nmea_file,
     load_data,
     load_run_config,
+    open_nmea_sender,
+    parse_nmea_destination,
     position_json,
     read_error,
     remove_created,
     run_inputs,
 )
+
+if TYPE_CHECKING:
+    from engine.api import NmeaSender
 
 EXIT_OK = 0
 EXIT_CANNOT_WRITE = 1
@@ -82,6 +96,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true",
                    help="replace existing outputs of an earlier run (never an input, never a "
                    "file UVNAV did not write)")
+    p.add_argument("--nmea-out", metavar="DEST",
+                   help="send the MPP of every cycle as NMEA 0183 (GGA, RMC, GST, HDT on WGS84) "
+                   "to udp://HOST:PORT (e.g. a chart plotter on udp://127.0.0.1:10110) or to a "
+                   "file (an existing file is kept: a free NAME_N is chosen)")
+    p.add_argument("--nmea-gll", action="store_true", help="with --nmea-out: add GLL")
     p.add_argument("--lop-reject", choices=("Y", "N", "y", "n"), metavar="Y|N",
                    help="what to do with an LOP that fails the w-test when lsq.lop_reject is "
                    '"A" (ask: there is no operator here): Y reject it, N keep it flagged '
@@ -218,10 +237,12 @@ def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str
     return lines
 
 
-def _run(session: Session, run: Path) -> RunSummary:
-    """Replay to the end, with a progress bar over the file's lines on a terminal."""
+def _run(session: Session, run: Path,
+         on_cycle: Callable[[CycleResult], None] | None = None) -> RunSummary:
+    """Replay to the end, with a progress bar over the file's lines on a terminal; ``on_cycle``
+    sees every cycle (the NMEA output)."""
     if not sys.stderr.isatty():
-        return session.run()
+        return session.run(progress=on_cycle)
     from rich.console import Console  # only on a terminal (start-up time)
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -229,7 +250,12 @@ def _run(session: Session, run: Path) -> RunSummary:
     with Progress(TextColumn("replay"), BarColumn(), MofNCompleteColumn(), TextColumn("lines"),
                   TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
         task = bar.add_task("replay", total=total)
-        summary = session.run(progress=lambda r: bar.update(task, completed=r.record))
+        def progress(r: CycleResult) -> None:
+            if on_cycle is not None:
+                on_cycle(r)
+            bar.update(task, completed=r.record)
+
+        summary = session.run(progress=progress)
         bar.update(task, completed=total)
     return summary
 
@@ -254,11 +280,32 @@ def _more_skipped(summary: RunSummary, shown: int) -> None:
         print(f"skipped: … and {more} more ({where})", file=sys.stderr)
 
 
+def nmea_summary_line(sender: NmeaSender) -> str:
+    """The summary line of ``--nmea-out``: sentences sent and where, failed UDP sends."""
+    line = f"nmea out {sender.sent} sentences to {sender.description}"
+    errors = getattr(sender, "errors", 0)
+    if errors:
+        line += f" ({errors} sends failed, first: {getattr(sender, 'first_error', '')})"
+    return line
+
+
+def _drop_nmea(sender: NmeaSender | None, force: bool) -> None:
+    """Close the NMEA output of a run that could not start; remove a new NMEA file again."""
+    if sender is None:
+        return
+    with contextlib.suppress(OSError):
+        sender.close()
+    path = getattr(sender, "path", None)
+    if path is not None and not force:
+        path.unlink(missing_ok=True)
+
+
 def run_replay(argv: list[str]) -> int:
     """Entry point of ``uvnav replay``; returns the exit status (module docstring)."""
     args = build_parser().parse_args(argv)
     run = Path(args.run)
     smooth_fh: OutputFile | None = None
+    nmea_sender: NmeaSender | None = None
     try:
         _check_run_file(run)
         config_path = _config_path(run, args.config)
@@ -274,17 +321,23 @@ def run_replay(argv: list[str]) -> int:
         smooth = None
         if args.smooth is not None:
             smooth = Path(args.smooth) if args.smooth else run.with_suffix(".smooth.jsonl")
+        nmea_dest = None if args.nmea_out is None else parse_nmea_destination(args.nmea_out)
+        nmea_file = None if nmea_dest is None else nmea_dest.path
         guard = _guard_outputs(run, config_path, cfg, args.force, [
             (label, p, kind) for label, p, kind in
-            (("--out", out, "out"), ("--jsonl", jsonl, "jsonl"), ("--smooth", smooth, "positions"))
+            (("--out", out, "out"), ("--jsonl", jsonl, "jsonl"), ("--smooth", smooth, "positions"),
+             ("--nmea-out", nmea_file, "nmea"))
             if p is not None])
         if smooth is not None:
             smooth_fh = guard.open(smooth, label="--smooth", kind="positions", force=args.force)
+        if nmea_dest is not None:
+            nmea_sender = open_nmea_sender(nmea_dest, guard, force=args.force)
         session = Session(cfg, out_path=out, force=args.force, jsonl_path=jsonl,
                           collect_smoother=smooth is not None, history=1, data=data, guard=guard,
                           nmea_scan=derived)
     except (InputError, OSError) as exc:
         remove_created([smooth_fh], args.force)
+        _drop_nmea(nmea_sender, args.force)
         if isinstance(exc, InputError):
             print(f"uvnav replay: {exc}", file=sys.stderr)
             return EXIT_BAD_INPUT
@@ -292,9 +345,16 @@ def run_replay(argv: list[str]) -> int:
     for warning in session.data_warnings:  # a modified data file (docs/DATAFILES.md)
         print(f"uvnav replay: warning: {warning}", file=sys.stderr)
     smoothed: tuple[int, Path] | None = None
+    on_cycle = None
+    if nmea_sender is not None:
+        nmea = NmeaPositionOut(session.datums, NmeaOutOptions(gll=args.nmea_gll))
+        sender = nmea_sender
+
+        def on_cycle(r: CycleResult) -> None:
+            sender.send(nmea.sentences(r))
     try:
         with session:
-            summary = _run(session, run)
+            summary = _run(session, run, on_cycle)
             if smooth_fh is not None:
                 n_smoothed = 0  # streamed: memory flat in the run length (issue 15 item 9)
                 for p in session.iter_smoothed():
@@ -313,9 +373,14 @@ def run_replay(argv: list[str]) -> int:
         if smooth_fh is not None:
             with contextlib.suppress(OSError):  # already reported, or closed above
                 smooth_fh.close()
+        if nmea_sender is not None:
+            with contextlib.suppress(OSError):
+                nmea_sender.close()
     for line in _summary_lines(summary, smoothed):
         print(line)
     print(integrity_summary_line(summary, lop_policy))
+    if nmea_sender is not None:
+        print(nmea_summary_line(nmea_sender))
     if session.nmea_stats is not None:  # an NMEA log: sentences used/skipped (docs/NMEA.md)
         for line in session.nmea_stats.summary_lines():
             print(f"nmea: {line}")

@@ -3,17 +3,20 @@
 Usage::
 
     uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
-                   [--data-dir DIR] [--force]
+                   [--nmea NAME.nmea] [--data-dir DIR] [--force]
 
 Exit status 0 on success, 2 for bad input (scenario, data files, arguments, a refused output),
 1 when an output cannot be written (the message names it), 130 on Ctrl-C (nothing written).
 Errors are one line on stderr in the form ``file:line: field: message`` — never a traceback.
 See docs/SIMULATOR.md.
 
-Outputs (engine/io/outputs.py, README "Output files"): an existing ``--out`` or ``--truth`` is
-refused unless ``--force``, which replaces only an earlier simulator output (a ``.RUN`` file,
-a truth CSV), never the scenario or a data file (compared by device and inode, so links do not
-hide them), never a device, pipe or directory.
+``--nmea`` also writes the same readings as an NMEA 0183 log (engine/sim/nmea.py,
+docs/NMEA_OUT.md).
+
+Outputs (engine/io/outputs.py, README "Output files"): an existing ``--out``, ``--truth`` or
+``--nmea`` is refused unless ``--force``, which replaces only an earlier simulator output (a
+``.RUN`` file, a truth CSV, an NMEA log), never the scenario or a data file (compared by
+device and inode, so links do not hide them), never a device, pipe or directory.
 """
 
 from __future__ import annotations
@@ -51,6 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--truth",
         help="the truth CSV to write (default: the --out name with .truth.csv instead of .RUN)",
     )
+    p.add_argument("--nmea", metavar="FILE",
+                   help="also write the mission as an NMEA 0183 log (GGA, RMC, ZDA, HDT, VHW, "
+                   "DBT from the same readings; no Decca: NMEA has no sentence for it)")
     p.add_argument("--seed", default="0", help="random seed, a whole number >= 0 (default 0)")
     p.add_argument(
         "--data-dir",
@@ -104,10 +110,14 @@ def run_simulate(argv: list[str]) -> int:
         data_dir = Path(args.data_dir) if args.data_dir else scenario.data_dir
         datums, chains = read_data_files(data_dir)
         scenario = load_scenario(args.scenario, known_datums=datums.datums, known_chains=chains)
-        _check_outputs(args.scenario, data_dir, ((out, "--out", "run"),
-                                                 (truth, "--truth", "truth")), args.force)
+        nmea = Path(args.nmea) if args.nmea else None
+        outputs = [(out, "--out", "run"), (truth, "--truth", "truth")]
+        if nmea is not None:
+            outputs.append((nmea, "--nmea", "nmea"))
+        _check_outputs(args.scenario, data_dir, outputs, args.force)
         started = time.perf_counter()
-        summary = write_simulation(scenario, out, truth, seed, datums=datums, chains=chains)
+        summary = write_simulation(scenario, out, truth, seed, datums=datums, chains=chains,
+                                   nmea_path=nmea)
     except InputError as err:
         return _err(str(err))
     except OSError as err:
@@ -120,6 +130,9 @@ def run_simulate(argv: list[str]) -> int:
         f"{PROG}: wrote {summary.n_records} records to {out} and the truth to {truth} "
         f"(seed {seed}, CM {abs(cm):g}{'W' if cm < 0 else 'E'}, {seconds:.1f} s)"
     )
+    if summary.nmea_path is not None:
+        print(f"{PROG}: wrote {summary.n_sentences} NMEA sentences to {summary.nmea_path} "
+              "(no Decca: NMEA 0183 has no sentence for it)")
     return 0
 
 
