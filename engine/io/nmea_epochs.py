@@ -4,15 +4,21 @@ Sentences arrive at different rates and out of step. :class:`EpochBuilder` keeps
 value of each sensor with the log time it arrived at and, every ``interval_s`` seconds of log
 time, makes one :class:`~engine.io.runfile.RunRecord` from the latest values; a value older
 than its sensor's staleness limit is absent (None, ``-`` in the .RUN line). Nothing is
-extrapolated.
+extrapolated. A GNSS fix is one measurement, so it goes into one epoch only (the first after
+it, within its staleness limit): a receiver at 0.5 Hz gives a position every other record, not
+the same position twice, which the filter would weigh as two independent fixes. Heading, water
+speed, course/speed over ground and depth are sampled: their latest value is repeated while
+fresh.
 
 **Log time.** It comes from the sentences only (GGA/RMC/GLL/ZDA time of day; the date from
 RMC/ZDA or :attr:`NmeaOptions.date`). A sentence without a time (HDT, VHW, DBT …) is stamped
 with the latest log time. Epoch ``E`` (a multiple of ``interval_s`` of UTC seconds) is
 *closed* by the first sentence whose time is after ``E``; the record holds the values as they
 were just before that sentence, and its ``line_no`` is that sentence's line (for the last epoch
-of a log, the last line). Epochs in which no sensor has a fresh value are not emitted (a gap in
-the log gives no empty records; gaps over :data:`GAP_REPORT_S` are reported).
+of a log, the last line). The time of a *not a fix* GGA/RMC/GLL moves the clock too, once the
+log has had a valid fix (so a GNSS outage keeps its heading/log/depth epochs). Epochs in which
+no sensor has a fresh value are not emitted (a gap in the log gives no empty records; gaps over
+:data:`GAP_REPORT_S` are reported).
 
 **Date.** Until a date is known (no ``options.date``, no RMC/ZDA yet) the sentences are held,
 up to :data:`DATE_HOLD_LINES` of them (oldest dropped and counted beyond); when a date arrives
@@ -152,6 +158,8 @@ class NmeaStats:
     events_dropped: int = 0
     sensors: set[str] = field(default_factory=set)
     epochs: int = 0
+    undated_fixes: int = 0
+    """Valid positions not used for want of a date (dropped while held)."""
     first_fix: tuple[float, float] | None = None
     """First valid GNSS position (WGS84 latitude, longitude degrees)."""
     first_time: datetime | None = None
@@ -225,6 +233,9 @@ class EpochBuilder:
         self._bad_kept: Counter[str] = Counter()
         self._last_line = 0
         self._no_date_reported = False
+        self._had_fix = False
+        self._fix_used: float | None = None
+        """Time stamp of the last fix put into an epoch (not repeated in the next ones)."""
         o = self.options
         self._max_stale = max(o.position_stale_s, o.heading_stale_s, o.water_speed_stale_s,
                               o.cog_sog_stale_s, o.depth_stale_s)
@@ -240,6 +251,8 @@ class EpochBuilder:
             return out
         if isinstance(parsed, SentenceSkip):
             self._skip(parsed, line_no, line, out)
+            if parsed.kind == SkipKind.NOT_FIX and self._had_fix:
+                self._clock_only(parsed, line_no, line, out)
             return out
         if self._date is None and parsed.date is None:
             self._hold(line_no, line, parsed)
@@ -256,6 +269,7 @@ class EpochBuilder:
         if self._held:
             n = len(self._held)
             self.stats.skipped[NO_DATE] += n
+            self.stats.undated_fixes += sum(v.lat_deg is not None for _, _, v in self._held)
             self._held.clear()
             self.stats.event(self._last_line, f"no date in the log (no RMC/ZDA): {n} sentences "
                              "not used; set [nmea] date = YYYY-MM-DD")
@@ -287,12 +301,26 @@ class EpochBuilder:
         if skip.kind in SkipKind.REPORTED:
             self._bad(skip.kind, line_no, raw, skip.message, out)
 
+    def _clock_only(self, skip: SentenceSkip, line_no: int, raw: str,
+                    out: list[RunRecord | BadRecord]) -> None:
+        """The time (and date) of a *not a fix* sentence after the log's first valid fix: a
+        receiver keeps GPS time through an outage, so the log clock goes on and the other
+        sensors' epochs are not lost. Before the first fix such times are not used (a
+        receiver's own clock may be wrong then)."""
+        if skip.time_s is None or (self._date is None and skip.date is None):
+            return
+        v = NmeaValues(skip.sentence_type or "", "", time_s=skip.time_s, date=skip.date)
+        t = self._resolve(v, line_no)  # a fix was used, so a date is known: nothing is held
+        if t is not None and not self._advance(t, line_no, raw, out):
+            self._behind_count += 1
+
     # ------------------------------------------------------------------ date
     def _hold(self, line_no: int, raw: str, v: NmeaValues) -> None:
         self._held.append((line_no, raw, v))
         if len(self._held) > DATE_HOLD_LINES:
-            self._held.popleft()
+            dropped = self._held.popleft()[2]
             self.stats.skipped[NO_DATE] += 1
+            self.stats.undated_fixes += dropped.lat_deg is not None
             if not self._no_date_reported:
                 self._no_date_reported = True
                 self.stats.event(line_no, f"no date (RMC/ZDA) in the first {DATE_HOLD_LINES} "
@@ -405,6 +433,7 @@ class EpochBuilder:
         if v.lat_deg is not None and v.lon_deg is not None:
             lat.pos = (stamp, v.lat_deg, v.lon_deg)
             s.add("position")
+            self._had_fix = True
             if self.stats.first_fix is None:
                 self.stats.first_fix = (v.lat_deg, v.lon_deg)
             if v.sentence_type == "GGA":
@@ -466,7 +495,8 @@ class EpochBuilder:
         def fresh(item: tuple[float, float] | None, limit: float) -> float | None:
             return item[1] if item is not None and epoch - item[0] <= limit else None
 
-        pos = lat.pos if lat.pos is not None and epoch - lat.pos[0] <= o.position_stale_s else None
+        pos = lat.pos if (lat.pos is not None and epoch - lat.pos[0] <= o.position_stale_s
+                          and lat.pos[0] != self._fix_used) else None
         gga = lat.gga if pos is not None and lat.gga is not None else None
         heading = fresh(lat.heading, o.heading_stale_s)
         stw = fresh(lat.stw, o.water_speed_stale_s)
@@ -485,6 +515,8 @@ class EpochBuilder:
             cog_deg=cog, sog_kn=sog,
         )
         out.append(self._as_run_line(rec))
+        if pos is not None:
+            self._fix_used = pos[0]  # a fix is one measurement: it goes into one epoch only
         self.stats.epochs += 1
         self.stats.last_time = rec.time
         return True

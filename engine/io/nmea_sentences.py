@@ -13,7 +13,7 @@ Sentences used and what they give (units: degrees, knots, metres, seconds of the
 * RMC: time, date, position, course and speed over ground (true course); status ``V`` or an
   FAA mode ``N``/``E``/``M``/``S`` is *not a fix*.
 * GLL: time and position; status ``V`` or mode ``N``/``E``/``M``/``S`` is *not a fix*.
-* ZDA: time and date.
+* ZDA: time and date (time only when the date fields are all empty).
 * HDT: true heading. HDG: magnetic sensor heading + deviation + variation = true heading
   (without a variation, ``variation_deg`` is used, else the heading is not used).
 * VHW: heading (true, else magnetic + variation) and speed through the water (knots, else
@@ -22,8 +22,9 @@ Sentences used and what they give (units: degrees, knots, metres, seconds of the
 * DBT: depth below the transducer (metres, else feet, else fathoms); DPT: depth below the
   transducer (its offset is not applied).
 
-A sentence whose fix is invalid contributes nothing, not even its time: before a fix many
-receivers report their own clock, which may be wrong (docs/NMEA.md).
+A sentence whose fix is invalid gives no position; it is a skip of kind *not a fix* that carries
+its time (and RMC's date), which the epoch builder uses only once the log has had a valid fix
+(docs/NMEA.md).
 """
 
 from __future__ import annotations
@@ -39,7 +40,6 @@ from typing import Any
 import pynmea2
 
 __all__ = [
-    "KNOWN_TYPES",
     "NmeaValues",
     "SkipKind",
     "SentenceSkip",
@@ -57,8 +57,6 @@ longer lines are malformed."""
 
 USED_TYPES = ("GGA", "RMC", "GLL", "ZDA", "HDT", "HDG", "VHW", "VBW", "VTG", "DBT", "DPT")
 """Sentence types whose values are used."""
-KNOWN_TYPES = frozenset(pynmea2.TalkerSentence.sentence_types)
-"""Sentence types pynmea2 knows (the used ones among them)."""
 
 
 class SkipKind:
@@ -87,6 +85,10 @@ class SentenceSkip:
     kind: str
     message: str
     sentence_type: str | None = None
+    time_s: float | None = None
+    """Time of day [s] of a *not a fix* GGA/RMC/GLL (None otherwise)."""
+    date: date | None = None
+    """Date of a *not a fix* RMC (None otherwise)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,10 +128,22 @@ FIX_QUALITIES = frozenset({1, 2, 3, 4, 5})
 class _Bad(Exception):
     """A field could not be read (inside :func:`parse_nmea_line` only)."""
 
-    def __init__(self, kind: str, message: str) -> None:
+    def __init__(self, kind: str, message: str, time_s: float | None = None,
+                 day: date | None = None) -> None:
         super().__init__(message)
         self.kind = kind
         self.message = message
+        self.time_s = time_s
+        self.day = day
+
+
+def _not_fix(message: str, time_text: str, date_text: str = "") -> _Bad:
+    """A *not a fix* skip carrying the sentence's time (and date) when they read well: the
+    log clock may still use them (docs/NMEA.md)."""
+    try:
+        return _Bad(SkipKind.NOT_FIX, message, _time(time_text), _ddmmyy(date_text))
+    except _Bad:
+        return _Bad(SkipKind.NOT_FIX, message)
 
 
 def _num(text: str | None, what: str) -> float | None:
@@ -236,11 +250,11 @@ def _gga(msg: Any, talker: str) -> NmeaValues:
     q_text = _f(msg, "gps_qual")
     if not (q_text.isascii() and q_text.isdigit()):
         if q_text == "":
-            raise _Bad(SkipKind.NOT_FIX, "GGA: no fix quality")
+            raise _not_fix("GGA: no fix quality", _f(msg, "timestamp"))
         raise _Bad(SkipKind.MALFORMED, f"GGA: fix quality not a digit (got {q_text!r})")
     quality = int(q_text)
     if quality not in FIX_QUALITIES:
-        raise _Bad(SkipKind.NOT_FIX, f"GGA: fix quality {quality} is not a fix")
+        raise _not_fix(f"GGA: fix quality {quality} is not a fix", _f(msg, "timestamp"))
     time_s = _time(_f(msg, "timestamp"))
     lat, lon = _position(msg, "GGA", "lat", "lat_dir", "lon", "lon_dir")
     sats_text = _f(msg, "num_sats")
@@ -259,8 +273,8 @@ def _gga(msg: Any, talker: str) -> NmeaValues:
 def _rmc(msg: Any, talker: str) -> NmeaValues:
     status = _f(msg, "status")
     if status != "A" or not _fix_mode(_f(msg, "mode_indicator")):
-        raise _Bad(SkipKind.NOT_FIX, f"RMC: status {status!r}/mode "
-                   f"{_f(msg, 'mode_indicator')!r} is not a fix")
+        raise _not_fix(f"RMC: status {status!r}/mode {_f(msg, 'mode_indicator')!r} is not a fix",
+                       _f(msg, "timestamp"), _f(msg, "datestamp"))
     time_s = _time(_f(msg, "timestamp"))
     day = _ddmmyy(_f(msg, "datestamp"))
     lat, lon = _position(msg, "RMC", "lat", "lat_dir", "lon", "lon_dir")
@@ -273,8 +287,8 @@ def _rmc(msg: Any, talker: str) -> NmeaValues:
 def _gll(msg: Any, talker: str) -> NmeaValues:
     status = _f(msg, "status")
     if status != "A" or not _fix_mode(_f(msg, "faa_mode")):
-        raise _Bad(SkipKind.NOT_FIX, f"GLL: status {status!r}/mode {_f(msg, 'faa_mode')!r} "
-                   "is not a fix")
+        raise _not_fix(f"GLL: status {status!r}/mode {_f(msg, 'faa_mode')!r} is not a fix",
+                       _f(msg, "timestamp"))
     time_s = _time(_f(msg, "timestamp"))
     lat, lon = _position(msg, "GLL", "lat", "lat_dir", "lon", "lon_dir")
     return NmeaValues("GLL", talker, time_s=time_s, lat_deg=lat, lon_deg=lon)
@@ -283,8 +297,12 @@ def _gll(msg: Any, talker: str) -> NmeaValues:
 def _zda(msg: Any, talker: str) -> NmeaValues:
     time_s = _time(_f(msg, "timestamp"))
     parts = [_f(msg, "day"), _f(msg, "month"), _f(msg, "year")]
-    if time_s is None or not all(parts):
-        raise _Bad(SkipKind.EMPTY, "ZDA: no time or date")
+    if time_s is None:
+        raise _Bad(SkipKind.EMPTY, "ZDA: no time")
+    if not any(parts):  # time only (some instruments leave the date empty): as a GLL's time
+        return NmeaValues("ZDA", talker, time_s=time_s, notes=("ZDA without date",))
+    if not all(parts):
+        raise _Bad(SkipKind.MALFORMED, f"ZDA: date incomplete (got {','.join(parts)!r})")
     if not all(p.isascii() and p.isdigit() for p in parts):
         raise _Bad(SkipKind.MALFORMED, f"ZDA: date not digits (got {','.join(parts)!r})")
     try:
@@ -466,7 +484,7 @@ def parse_nmea_line(
     try:
         values = _values(msg, kind, talker, variation_deg)
     except _Bad as bad:
-        return SentenceSkip(bad.kind, bad.message, kind)
+        return SentenceSkip(bad.kind, bad.message, kind, bad.time_s, bad.day)
     if values is None:  # pragma: no cover - USED_TYPES and _values agree
         return SentenceSkip(SkipKind.UNKNOWN, f"{kind}: sentence type not used", kind)
     for v in (values.hdop, values.heading_deg, values.stw_kn, values.cog_deg, values.sog_kn,

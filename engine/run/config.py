@@ -784,7 +784,8 @@ class NmeaConfig:
     cog_sog_stale_s: float = 3.0
     depth_stale_s: float = 10.0
     date: str = ""
-    variation_deg: Any = "none"
+    variation_deg: float | str = "none"
+    """Magnetic variation [deg, east positive], or "none"."""
     accept_no_checksum: bool = False
 
     def __post_init__(self) -> None:

@@ -18,10 +18,13 @@ from engine.io.nmea_epochs import NmeaStats
 from engine.io.nmea_log import scan_nmea_log
 from engine.run.config import DeccaConfig, GpsConfig, NmeaConfig, RunConfig, SensorsConfig
 
-__all__ = ["NO_FIX_MESSAGE", "config_from_stats", "derive_nmea_config", "derived_config_lines"]
+__all__ = ["NO_DATE_MESSAGE", "NO_FIX_MESSAGE", "config_from_stats", "derive_nmea_config",
+           "derived_config_lines"]
 
 NO_FIX_MESSAGE = ("No valid position fix in the NMEA log: give --config FILE with a "
                   "dr_position !")
+NO_DATE_MESSAGE = ("No date in the NMEA log (no RMC, no ZDA with a date): give --date "
+                   "YYYY-MM-DD (or [nmea] date in a --config FILE) !")
 
 
 def derive_nmea_config(
@@ -37,6 +40,8 @@ def derive_nmea_config(
     path = Path(os.path.abspath(log))
     stats = scan_nmea_log(path, nmea.options)
     if stats.first_fix is None:
+        if stats.undated_fixes:
+            raise InputError(NO_DATE_MESSAGE, file=str(path), field="date")
         raise InputError(NO_FIX_MESSAGE, file=str(path), field="position")
     return config_from_stats(stats, data_dir, nmea, run_file=path.name,
                              config_dir=path.parent), stats

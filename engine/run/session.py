@@ -1,5 +1,6 @@
-"""A run in progress: reads the ``.RUN`` file, steps the cycle, applies operator commands and
-keeps the ``.OUT`` / JSON-lines logs.  The console and the headless replay both drive this.
+"""A run in progress: reads the ``.RUN`` file (or an NMEA 0183 log, docs/NMEA.md), steps the
+cycle, applies operator commands and keeps the ``.OUT`` / JSON-lines logs.  The console and the
+headless replay both drive this.
 
 The session is the only stateful object of the engine; it holds one run's context and state and
 nothing global.  Every completed cycle is on disk (flushed) before :meth:`Session.step` returns.
@@ -245,14 +246,15 @@ class Session:
         self.nmea_stats: NmeaStats | None = None
         """Sentences used/skipped of an NMEA log run file (None for a ``.RUN``); complete at the
         end of the run (docs/NMEA.md)."""
-        self.nmea_header: tuple[str, ...] = ()
+        self.nmea_scan: NmeaStats | None = None
         """What the whole NMEA log gives (sentences used/skipped, events, sensors it lacks),
-        read before the run for the ``.OUT`` header (``nmea_scan`` if the caller has it)."""
+        read once before the run (``nmea_scan`` if the caller has it) for the ``.OUT`` header
+        and the console's start-up messages; None for a ``.RUN``."""
+        self.nmea_header: tuple[str, ...] = ()
         if isinstance(self._records, NmeaLog):
             self.nmea_stats = self._records.stats
-            if out_path is not None:
-                scan = nmea_scan or scan_nmea_log(self._run_name, config.nmea.options)
-                self.nmea_header = tuple(_header_text(ln) for ln in scan.summary_lines())
+            self.nmea_scan = nmea_scan or scan_nmea_log(self._run_name, config.nmea.options)
+            self.nmea_header = tuple(_header_text(ln) for ln in self.nmea_scan.summary_lines())
         self._since_processed: int | None = None
         """Good records read since the last processed one (None before the first)."""
         self._prev_nav: NavState | None = None

@@ -56,3 +56,59 @@ def test_replay_nmea_log_with_config(tmp_path: Path, capsys: pytest.CaptureFixtu
     mpp = cycles[-1].first("MPP")
     assert mpp["lat"] == pytest.approx(LAT0 + 59 * 5.0 / 216000.0, abs=60.0 / 111_000.0)
     assert mpp["lon"] == pytest.approx(LON0, abs=60.0 / 67_000.0)
+
+
+def test_replay_nmea_log_without_config_derives_one(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "yacht.nmea"
+    write_log(log, n=20, heading=False)  # a yacht log: no heading, no depth
+    assert main(["replay", str(log)]) == 0
+    text = capsys.readouterr().out
+    assert "derived from the NMEA log" in text
+    assert "config: datum WGS84, GNSS datum WGS84, DR position 52 50 00.000 N 004 30 00.000 E" \
+        in text
+    assert "config: GPS on (C/A), Decca off, filter on (honest preset)" in text
+    assert "config: sensors: gyro n/a, log on, echo sounder n/a" in text
+    assert "nmea: no heading (HDT/HDG/VHW) in the log" in text
+    assert "nmea: no depth (DBT/DPT) in the log" in text
+    out = read_out_log(tmp_path / "yacht.OUT")
+    assert len(out.cycles) == 20
+    assert "nmea no heading (HDT/HDG/VHW) in the log" in out.header
+    assert 'datum = "WGS84"' in out.config_text and 'gyro = "n/a"' in out.config_text
+
+
+def test_explicit_config_wins_and_no_fix_is_reported(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "nofix.nmea"
+    log.write_text("\n".join([nmea("GPRMC,120000,V,,,,,,,021226,,,N"), nmea("HEHDT,10.0,T"),
+                              nmea("GPRMC,120001,V,,,,,,,021226,,,N")]) + "\n")
+    assert main(["replay", str(log)]) == 2
+    assert "No valid position fix in the NMEA log" in capsys.readouterr().err
+    write_config(tmp_path / "other.toml", "nofix.nmea")
+    assert main(["replay", str(log), "--config", str(tmp_path / "other.toml"), "--no-out"]) == 3
+    assert "derived" not in capsys.readouterr().out
+
+
+def test_log_without_date_needs_date_option(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """GLL + ZDA without a date (as some instrument buses send): no date, so the derived
+    configuration asks for --date; with it the log replays."""
+    lines = []
+    for k in range(5):
+        t = 36000 + 2 * k  # every 2 s
+        lines += [nmea(f"GPZDA,{hhmmss(t)},,,,00,"),
+                  nmea(f"GPGLL,{ddmm(LAT0)},N,{ddmm(LON0, 3)},E,{hhmmss(t)},A,D"),
+                  nmea("IIVHW,,T,,M,05.10,N,09.45,K")]
+    log = tmp_path / "nodate.nmea"
+    log.write_text("\n".join(lines) + "\n")
+    assert main(["replay", str(log), "--no-out"]) == 2
+    assert "No date in the NMEA log" in capsys.readouterr().err
+    assert main(["replay", str(log), "--no-out", "--date", "2014-02-30"]) == 2
+    assert "--date: Must be" in capsys.readouterr().err
+    assert main(["replay", str(log), "--no-out", "--date", "2014-07-18"]) == 0
+    text = capsys.readouterr().out
+    # 10:00:00 to 10:00:08, sentences every 2 s: an epoch every second (the water speed is
+    # fresh for 5 s), each of the 5 fixes in one epoch only
+    assert "epochs 9  fixes 5" in text
+    assert "final MPP (" in text and "10:00:08Z" in text
+    assert "config: sensors: gyro n/a, log on, echo sounder n/a" in text

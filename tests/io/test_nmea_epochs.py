@@ -6,6 +6,8 @@ from __future__ import annotations
 from datetime import UTC, date, datetime
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from engine.io.nmea_epochs import EpochBuilder, NmeaOptions
 from engine.io.runfile import BadRecord, RunRecord, parse_run_line
@@ -73,7 +75,7 @@ def test_date_from_options_and_held_until_rmc() -> None:
 
 def test_no_date_at_all_is_reported() -> None:
     recs, _, b = run([gga(3600), gga(3601)])
-    assert recs == [] and b.stats.skipped["no date yet"] == 2
+    assert recs == [] and b.stats.skipped["no date yet"] == 2 and b.stats.undated_fixes == 2
     assert any("no date in the log" in e and e.startswith("T.nmea:2:") for e in b.stats.events)
 
 
@@ -135,3 +137,113 @@ def test_options_are_checked(bad: dict[str, object]) -> None:
     from engine.errors import InputError
     with pytest.raises(InputError):
         NmeaOptions(**bad)  # type: ignore[arg-type]
+
+
+_EVENT = st.tuples(st.sampled_from(["GGA", "RMC", "ZDA", "HDT", "DBT", "NOISE"]),
+                   st.integers(0, 86399), st.integers(0, 3))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(_EVENT, max_size=60), st.booleans())
+def test_any_sentence_order_gives_increasing_parsable_records(
+        events: list[tuple[str, int, int]], with_date: bool) -> None:
+    """Whatever the order of times and dates (resets, midnight, days apart), no exception,
+    record times strictly increase (the session's rule) and each record is its .RUN line."""
+    lines = []
+    for kind, t, day in events:
+        if kind == "GGA":
+            lines.append(gga(t))
+        elif kind == "RMC":
+            lines.append(rmc(t, f"{1 + day:02d}1226"))
+        elif kind == "ZDA":
+            lines.append(nmea(f"GPZDA,{hhmmss(t)},{1 + day:02d},12,2026,00,00"))
+        elif kind == "HDT":
+            lines.append(nmea(f"HEHDT,{t % 360}.5,T"))
+        elif kind == "DBT":
+            lines.append(nmea(f"SDDBT,,f,{t % 100}.0,M,,F"))
+        else:
+            lines.append(nmea(f"GPGGA,{t}")[:-1])
+    options = NmeaOptions(date=date(2026, 12, 1)) if with_date else NmeaOptions()
+    recs, _, b = run(lines, options)
+    times = [r.time for r in recs]
+    assert times == sorted(set(times))
+    for r in recs:
+        assert parse_run_line(r.raw, r.line_no, "T.nmea") == r
+    assert b.stats.epochs == len(recs)
+
+
+def test_held_sentences_before_midnight_get_the_previous_day() -> None:
+    # no date until the RMC of 00:00:01 on 3 Dec: the GGAs of 23:59:58/59 are on 2 Dec
+    recs, _, _ = run([gga(86398), gga(86399), gga(0), rmc(1, "031226"), gga(2)])
+    assert [r.time for r in recs] == [
+        datetime(2026, 12, 2, 23, 59, 58, tzinfo=UTC), datetime(2026, 12, 2, 23, 59, 59,
+                                                                tzinfo=UTC),
+        datetime(2026, 12, 3, 0, 0, 0, tzinfo=UTC), datetime(2026, 12, 3, 0, 0, 1, tzinfo=UTC),
+        datetime(2026, 12, 3, 0, 0, 2, tzinfo=UTC)]
+
+
+def test_too_many_sentences_without_date_drop_the_oldest(monkeypatch: pytest.MonkeyPatch) -> None:
+    import engine.io.nmea_epochs as ne
+
+    monkeypatch.setattr(ne, "DATE_HOLD_LINES", 3)
+    recs, _, b = run([gga(43200 + k) for k in range(6)] + [rmc(43206)])
+    assert [r.time.second for r in recs] == [3, 4, 5, 6]  # the 3 newest held + the RMC's
+    assert b.stats.skipped["no date yet"] == 3
+    assert any(e.startswith("T.nmea:4: no date (RMC/ZDA) in the first 3") for e in b.stats.events)
+
+
+def test_hdg_with_variation_from_options_in_a_record() -> None:
+    # HDG 100.0 magnetic, deviation 1.0 W, no variation; options: 2.5 E → 101.5 true
+    recs, _, b = run([rmc(43200), nmea("HCHDG,100.0,1.0,W,,"), rmc(43201)],
+                     NmeaOptions(variation_deg=2.5))
+    assert recs[0].heading_deg == 101.5
+    recs, _, b = run([rmc(43200), nmea("HCHDG,100.0,1.0,W,,"), rmc(43201)])
+    assert recs[0].heading_deg is None and b.stats.notes["HDG without variation: not used"] == 1
+
+
+def gga_lost(t_s: int) -> str:
+    return nmea(f"GPGGA,{hhmmss(t_s)},,,,,0,00,99.9,,M,,M,,")
+
+
+def test_fix_outage_keeps_the_clock_and_the_other_sensors() -> None:
+    """After a valid fix, quality-0 GGAs still carry GPS time: the epochs of the outage are
+    made from the heading alone (no position)."""
+    lines = [rmc(43200), gga(43200), nmea("HEHDT,10.0,T")]
+    for k in range(1, 6):
+        lines += [gga_lost(43200 + k), nmea("HEHDT,10.0,T")]
+    lines += [gga(43206)]
+    recs, _, b = run(lines)
+    assert [r.time.second for r in recs] == [0, 1, 2, 3, 4, 5, 6]
+    # the fix of 12:00:00 is used once; the outage epochs have the heading only
+    assert [r.gps_lat_deg is not None for r in recs] == [True, False, False, False, False, False,
+                                                         True]
+    assert all(r.heading_deg == 10.0 for r in recs)
+    assert b.stats.skipped["not a fix"] == 5
+
+
+def test_no_fix_yet_times_are_not_used() -> None:
+    """Before the first valid fix a receiver's own clock may be wrong: its times are ignored
+    (here a 1980 clock that would otherwise set the date)."""
+    lines = [nmea("GPRMC,000010,V,,,,,,,060180,,,N"), nmea("HEHDT,10.0,T"), rmc(43200),
+             nmea("HEHDT,11.0,T"), rmc(43201)]
+    recs, bad, _ = run(lines)
+    assert not bad and [r.time for r in recs] == [
+        datetime(2026, 12, 2, 12, 0, 0, tzinfo=UTC), datetime(2026, 12, 2, 12, 0, 1, tzinfo=UTC)]
+
+
+def test_a_fix_goes_into_one_epoch_only() -> None:
+    """A 0.5 Hz receiver with a 1 Hz heading: positions every other record, never repeated
+    (a repeated fix would be weighed by the filter as a second, independent one); the GGA and
+    RMC of the same second are one fix."""
+    lines = []
+    for k in range(6):
+        if k % 2 == 0:
+            lines += [rmc(43200 + k), gga(43200 + k)]
+        lines.append(nmea("HEHDT,90.0,T"))
+        if k % 2 == 1:
+            lines.append(nmea(f"GPZDA,{hhmmss(43200 + k)},02,12,2026,00,00"))
+    recs, _, _ = run(lines)
+    assert [r.time.second for r in recs] == [0, 1, 2, 3, 4, 5]
+    assert [r.gps_quality for r in recs] == [1, None, 1, None, 1, None]
+    assert [r.gps_lat_deg is not None for r in recs] == [True, False] * 3
+    assert all(r.heading_deg == 90.0 for r in recs)

@@ -142,3 +142,11 @@ def test_random_bytes_never_crash(data: bytes) -> None:
 def test_random_fields_with_valid_checksum_never_crash(kind: str, fields: list[str]) -> None:
     out = parse_nmea_line(nmea("GP" + kind + "," + ",".join(fields)), variation_deg=1.0)
     assert isinstance(out, NmeaValues | SentenceSkip)
+
+
+def test_zda_without_date_gives_its_time() -> None:
+    # the form some instruments send (e.g. the Signal K sample log of data/nmea)
+    assert nmea("GPZDA,095559,,,,00,") == "$GPZDA,095559,,,,00,*4D"
+    v = _values("$GPZDA,095559,,,,00,*4D")
+    assert (v.time_s, v.date) == (9 * 3600 + 55 * 60 + 59, None)
+    assert _skip(nmea("GPZDA,095559,18,,2014,00,00")).kind == SkipKind.MALFORMED

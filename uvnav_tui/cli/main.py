@@ -40,8 +40,9 @@ INTERRUPTED_NOTE = {
 
 USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
                     [--nmea-out udp://HOST:PORT] [--live URL]
-       uvnav replay RUN [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
+       uvnav replay RUN_or_NMEA_LOG [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
                         [--smooth [FILE]] [--force] [--nmea-out udp://HOST:PORT|FILE]
+                        [--date YYYY-MM-DD]
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
                       [--nmea NAME.nmea]
        uvnav script FILE [--headless]

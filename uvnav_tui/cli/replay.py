@@ -45,6 +45,7 @@ from engine.api import (
     DatumFile,
     DeccaChain,
     InputError,
+    NmeaConfig,
     NmeaOutOptions,
     NmeaPositionOut,
     NmeaStats,
@@ -101,6 +102,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "to udp://HOST:PORT (e.g. a chart plotter on udp://127.0.0.1:10110) or to a "
                    "file (an existing file is kept: a free NAME_N is chosen)")
     p.add_argument("--nmea-gll", action="store_true", help="with --nmea-out: add GLL")
+    p.add_argument("--date", metavar="YYYY-MM-DD",
+                   help="UTC date of an NMEA log whose first sentences (or all) carry no date "
+                   "(no RMC, no ZDA with a date); overrides nmea.date (docs/NMEA.md)")
     p.add_argument("--lop-reject", choices=("Y", "N", "y", "n"), metavar="Y|N",
                    help="what to do with an LOP that fails the w-test when lsq.lop_reject is "
                    '"A" (ask: there is no operator here): Y reject it, N keep it flagged '
@@ -149,21 +153,31 @@ def bundled_data_dir() -> Path:
     raise InputError("File not found !", file="data/TO_WGS84.DAT", field="data_dir")
 
 
+def _with_date(nmea: NmeaConfig, date: str | None) -> NmeaConfig:
+    """``[nmea]`` with ``--date`` applied (checked as the key is; the message names --date)."""
+    if date is None:
+        return nmea
+    try:
+        return dataclasses.replace(nmea, date=date)
+    except InputError as exc:
+        raise InputError(exc.message, field="--date", text=date) from None
+
+
 def _config_for(
-    run: Path, config_path: Path | None
+    run: Path, config_path: Path | None, date: str | None = None
 ) -> tuple[RunConfig, tuple[DatumFile, dict[str, DeccaChain]], NmeaStats | None]:
     """The configuration (every name checked against the data files), the data files and,
     for a configuration derived from an NMEA log (none given, none beside it), what the log
-    gave."""
+    gave. ``date`` (``--date``) overrides ``nmea.date``."""
     if config_path is None:
         if not is_nmea_file(run):
             raise InputError(NO_CONFIG_MESSAGE, file=str(run.with_suffix(".toml")),
                              field="configuration")
-        cfg, stats = derive_nmea_config(run, bundled_data_dir())
+        cfg, stats = derive_nmea_config(run, bundled_data_dir(), _with_date(NmeaConfig(), date))
         return cfg, load_data(cfg), stats
     cfg, data = load_run_config(config_path)
     # The RUN given on the command line wins over the configuration's run_file.
-    return cfg.replace(run_file=str(run.resolve())), data, None
+    return cfg.replace(run_file=str(run.resolve()), nmea=_with_date(cfg.nmea, date)), data, None
 
 
 def _check_run_file(run: Path) -> None:
@@ -309,7 +323,7 @@ def run_replay(argv: list[str]) -> int:
     try:
         _check_run_file(run)
         config_path = _config_path(run, args.config)
-        cfg, data, derived = _config_for(run, config_path)
+        cfg, data, derived = _config_for(run, config_path, args.date)
         if derived is not None:
             print(f"config: none given and no {run.with_suffix('.toml').name} beside the log: "
                   "derived from the NMEA log (docs/NMEA.md):")

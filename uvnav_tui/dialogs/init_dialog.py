@@ -2,12 +2,14 @@
 
 Asks, in the thesis' order, for the geodetic datum (choices from ``TO_WGS84.DAT``), the initial
 DR position, the depth, the current speed and direction (the set) and the ``.RUN`` file name
-without extension, or a live NMEA source's URL (``udp://0.0.0.0:10110``, docs/LIVE.md). Every
-field is checked as it is typed; Return starts the run.
+without extension (or an NMEA 0183 log's file name in full, recognised by its content,
+docs/NMEA.md; or a live NMEA source's URL, ``udp://0.0.0.0:10110``, docs/LIVE.md). Every field is
+checked as it is typed; Return starts the run.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -18,6 +20,7 @@ from engine.api import (
     FILE_NOT_FOUND_MESSAGE,
     InputError,
     RunConfig,
+    is_nmea_file,
     is_source_url,
     parse_datum_name,
     parse_depth_m,
@@ -29,6 +32,16 @@ from engine.api import (
 )
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField, number_text
+
+_LOG_NAME_RE = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9_.-]*")
+"""A run file named in full in the run directory (an NMEA log): no path, no leading dot."""
+
+
+def _shown_run_name(run_file: str) -> str:
+    """The run file as the field shows it: the name without ``.RUN`` (the thesis' field), an
+    NMEA log's name in full."""
+    path = Path(run_file)
+    return path.stem if path.suffix.upper() in (".RUN", "") else path.name
 
 
 def datum_hint(names: list[str]) -> Callable[[str], str]:
@@ -63,12 +76,23 @@ class InitDialog(Dialog[RunConfig]):
         self.run_dir = config.run_path.parent
 
     def _run_name(self, text: str) -> str:
+        """The run file's name in the run directory: ``NAME.RUN`` for a typed ``NAME`` (the
+        thesis' field), or a file named in full that is an NMEA 0183 log by its content
+        (docs/NMEA.md), e.g. ``trip.nmea``, or a live source's URL (docs/LIVE.md)."""
         if is_source_url(text):  # a live source (docs/LIVE.md)
             return parse_source_url(text).url
-        name = parse_run_name(text, field="run file")
-        if not (self.run_dir / f"{name}.RUN").is_file():
-            raise InputError(FILE_NOT_FOUND_MESSAGE, field="run file", text=text)
-        return name
+        try:
+            name = parse_run_name(text, field="run file")
+        except InputError:
+            if _LOG_NAME_RE.fullmatch(text.strip()) is None:
+                raise
+            name = None
+        if name is not None and (self.run_dir / f"{name}.RUN").is_file():
+            return f"{name}.RUN"
+        log = self.run_dir / text.strip()
+        if _LOG_NAME_RE.fullmatch(text.strip()) is not None and is_nmea_file(log):
+            return log.name
+        raise InputError(FILE_NOT_FOUND_MESSAGE, field="run file", text=text)
 
     def compose_body(self) -> ComposeResult:
         """The six start-up questions, pre-filled from the configuration."""
@@ -84,9 +108,9 @@ class InitDialog(Dialog[RunConfig]):
                              parse_speed_kn, id="init-speed")
         yield ValidatedField("Current direction (°)", number_text(cfg.current_set_deg),
                              parse_direction_deg, id="init-set")
-        run_text = cfg.run_file if is_source_url(cfg.run_file) else Path(cfg.run_file).stem
-        yield ValidatedField("Run file (no .RUN)", run_text, self._run_name,
-                             id="init-run")
+        run_text = (cfg.run_file if is_source_url(cfg.run_file)
+                    else _shown_run_name(cfg.run_file))
+        yield ValidatedField("Run file (no .RUN)", run_text, self._run_name, id="init-run")
 
     def on_mount(self) -> None:
         """The cursor starts in the datum field."""
@@ -105,7 +129,7 @@ class InitDialog(Dialog[RunConfig]):
             current_speed_kn=f["init-speed"].value_or(cfg.current_speed_kn),
             current_set_deg=f["init-set"].value_or(cfg.current_set_deg),
             run_file=(cfg.run_file if not run.edited else run.parsed if is_source_url(run.parsed)
-                      else str(self.run_dir / f"{run.parsed}.RUN")),
+                      else str(self.run_dir / run.parsed)),
         )
 
     def collect(self) -> RunConfig | None:
