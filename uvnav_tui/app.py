@@ -207,8 +207,9 @@ class UVNAVApp(App[None]):
         self.refresh_display()
         for warning in self.control.session.data_warnings:  # a modified data file (DATAFILES.md)
             self.say(f"Warning: {warning}")
-        if session.nmea_scan is not None:  # an NMEA log without heading, log … (docs/NMEA.md)
-            for missing in session.nmea_scan.missing_sensors():
+        scan = self.control.session.nmea_scan
+        if scan is not None:  # an NMEA log without heading, log … (docs/NMEA.md)
+            for missing in scan.missing_sensors():
                 self.say(f"NMEA log: {missing}")
         self.kick()
         return None

@@ -81,8 +81,14 @@ def test_console_runs_on_a_udp_source(tmp_path: Path, monkeypatch: pytest.Monkey
         assert f"Source receiving again from {url}" in texts
         app.stop_run()
 
+    async def guarded(pilot: Pilot[None]) -> None:
+        try:
+            await script(pilot)
+        finally:
+            app.stop_run()  # the live worker ends (also when an assertion failed)
+
     try:
-        drive(app, script, size=(140, 40))
+        drive(app, guarded, size=(140, 40))
     finally:
         stop.set()
     assert not any(t.name.startswith("uvnav-live") for t in threading.enumerate())
