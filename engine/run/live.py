@@ -10,8 +10,9 @@ arrive (real time: nothing is paced here). Every completed cycle is on disk when
 
 The ``.OUT`` header names the source's URL (``run udp://…``), and the configuration logged in it
 has the raw log as its ``run_file``, so ``uvnav replay NAME.raw.nmea`` with that configuration
-reproduces the run (without a raw log, the URL). The log time comes from the sentences; the UTC
-date of today is the date of sentences that come before any RMC/ZDA (a live stream is today's).
+reproduces the run (without a raw log, the URL). The log time comes from the sentences; the
+date from the stream's RMC/ZDA, or today's UTC date when none arrives within
+:data:`LIVE_DATE_HOLD_LINES` sentences (a live stream is today's).
 """
 
 from __future__ import annotations
@@ -145,9 +146,16 @@ def live_nmea_options(options: NmeaOptions | None = None,
                       today: datetime | None = None) -> NmeaOptions:
     """``options`` with today's UTC date when they give none (module docstring)."""
     options = options if options is not None else NmeaOptions()
+    hold = min(options.date_hold_lines, LIVE_DATE_HOLD_LINES)
     if options.date is not None:
-        return options
-    return replace(options, date=(today or datetime.now(UTC)).date())
+        return replace(options, date_hold_lines=hold)
+    return replace(options, date=(today or datetime.now(UTC)).date(), date_hold_lines=hold)
+
+
+LIVE_DATE_HOLD_LINES = 100
+"""Sentences a live run holds while waiting for a date (RMC/ZDA) in the stream before it takes
+today's: a few seconds of a typical stream, so one without RMC/ZDA starts at once while a
+stream that has them (an old log replayed into the port included) keeps its own date."""
 
 
 LEARN_S = 10.0
