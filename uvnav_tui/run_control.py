@@ -244,16 +244,7 @@ class RunController:
             self.log.add(self.note, self.latest.time if self.latest is not None else None,
                          "data")
             return None
-        self.cycles += 1
-        if self.budget is not None:
-            self.budget -= 1
-        self.latest = result
-        self._log_messages(result)
-        if self.on_cycle is not None:
-            self.on_cycle(result)
-        if result.fix is not None and result.fix.candidate_slot is not None:
-            self.awaiting_answer = True
-        return result
+        return self._count(result)
 
     def run_cycles(self, cancelled: Callable[[], bool], *, advanced: Callable[[], None],
                    ended: Callable[[], None], question: Callable[[CycleResult], None]) -> None:
@@ -321,7 +312,8 @@ class RunController:
                 question(result)
 
     def _count(self, result: CycleResult) -> CycleResult:
-        """Book a cycle computed outside :meth:`step` (live)."""
+        """Book a computed cycle (from :meth:`step`, or from a live source): count it, keep it,
+        log its messages, hand it on, and note an LOP question."""
         self._last_step = time.monotonic()
         self.cycles += 1
         if self.budget is not None:
