@@ -49,7 +49,13 @@ from engine.io.runfile import BadRecord, RunRecord
 from engine.lsq.confidence import error_ellipse
 from engine.lsq.fix import lop_name
 from engine.run.commands import Command, SetDatum, apply_command
-from engine.run.config import UNKNOWN_CHAIN_MESSAGE, RunConfig, dump_config, load_config
+from engine.run.config import (
+    UNKNOWN_CHAIN_MESSAGE,
+    RunConfig,
+    dump_config,
+    load_config,
+    resolve_vessel,
+)
 from engine.run.cycle import (
     CycleResult,
     NavState,
@@ -214,6 +220,7 @@ class Session:
         guard: OutputGuard | None = None,
         nmea_scan: NmeaStats | None = None,
     ) -> None:
+        config = resolve_vessel(config)  # "auto": surface for an NMEA log (docs/CONFIG.md)
         if data is None:
             data = load_data(config)
         else:
