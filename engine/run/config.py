@@ -691,9 +691,11 @@ VESSEL_PRESETS: dict[str, dict[str, Any]] = {
 vessel decision"). "submarine" is the class defaults (the thesis' gyro compass, EM log and slow
 drifts). "surface" is a small surface vessel with consumer instruments (a fluxgate or
 magnetic compass, a paddle-wheel log, leeway and tidal stream that change with every course),
-tuned on the first half of the Markermeer windows and the Baltic log and validated on the
-rest (docs/REALDATA.md). "auto" (the default) is "surface" when the run file is an NMEA 0183
-log and "submarine" for a 1993 ``.RUN`` (:func:`resolve_vessel`)."""
+values from consumer instruments and a yacht's motion, checked on the first half of the
+Markermeer GNSS-denied windows (validation: the second half) and on the Baltic and Plaka
+stand-in runs (docs/REALDATA.md, "Tuning the surface vessel"). "auto" (the default) is
+"surface" when the run file is an NMEA 0183 log and "submarine" for a 1993 ``.RUN``
+(:func:`resolve_vessel`)."""
 
 _VESSEL_CHECK = _choice("auto", "submarine", "surface")
 
