@@ -133,9 +133,10 @@ def test_denied_ellipse_holds_the_hidden_fix_on_real_data(markermeer: DeniedRepo
 def test_standin_outage_ellipse_holds_the_hidden_fix_on_plaka() -> None:
     """COG/SOG stand-in (no heading in the log) through 10-minute GNSS outages on the Plaka log:
     the filter coasts on its process noise (the "surface" vessel's), and its 95 % ellipse must
-    hold the hidden fix in at least 20 of the 23 windows at 1, 5 and 10 minutes (an honest
-    ellipse: 19 or fewer has probability 2.6 %, binomial n = 23, p = 0.95; the windows are
-    10 minutes apart and do not overlap, though they share a day's wind). Before the vessel
+    miss the hidden fix in at most 3 of the 23–24 windows at 1, 5 and 10 minutes (an honest
+    ellipse misses 4 or more with probability 3.0 %, binomial n = 24, p = 0.05; measured 0–1
+    misses); the windows are 10 minutes apart and do not overlap, though they share a day's
+    wind). Before the vessel
     preset and with the log's water speed fed into the ground speed, 40 % at 10 minutes
     (docs/REALDATA.md)."""
     cfg, data = load_run_config(NMEA / "signalk-plaka-gulf-of-finland.toml")
@@ -144,8 +145,8 @@ def test_standin_outage_ellipse_holds_the_hidden_fix_on_plaka() -> None:
     rep = denied_experiment(cfg, data, run_records(cfg), [600.0], every_s=600.0,
                             warmup_s=300.0, checkpoints_s=(60.0, 300.0, 600.0))
     for r in rep.rows:
-        assert r.n == 23
-        assert r.coverage * r.n >= 20, r
+        assert r.n >= 23  # 24 starts; a checkpoint without a fix within 5 s is not scored
+        assert r.n - round(r.coverage * r.n) <= 3, r
 
 
 def gga_fixes(path: Path, day: datetime) -> dict[datetime, tuple[float, float]]:
