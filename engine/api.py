@@ -17,6 +17,7 @@ Groups, in the order of a run:
   console must agree);
 * headless work: replay outputs, the simulator, the accuracy assessment and the exports
   (GPX, GeoJSON, CSV, KML; docs/EXPORT.md).
+* live NMEA sources (:func:`open_live_run`, docs/LIVE.md), imported on first use.
 
 One small function is defined here rather than re-exported: :func:`run_record` (a cycle's
 ``.RUN`` record, parsed by the run-file reader). The names of the headless assessment,
@@ -146,7 +147,9 @@ if TYPE_CHECKING:
         read_smoothed,
     )
     from engine.io.export_write import csv_text, geojson_text, gpx_text, kml_text
+    from engine.io.live_sources import SourceState, is_source_url, parse_source_url
     from engine.io.nmea_send import NmeaSender, open_nmea_sender, parse_nmea_destination
+    from engine.run.live import LEARN_S, LiveCycle, LiveRun, LiveStep, open_live_run
     from engine.run.nmea_out import NmeaOutOptions, NmeaPositionOut
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
@@ -175,6 +178,8 @@ _DENIED_NAMES = frozenset(
 _SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
 _NMEA_SEND_NAMES = frozenset({"NmeaSender", "open_nmea_sender", "parse_nmea_destination"})
 _NMEA_OUT_NAMES = frozenset({"NmeaOutOptions", "NmeaPositionOut"})
+_LIVE_RUN_NAMES = frozenset({"LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "open_live_run"})
+_LIVE_SOURCE_NAMES = frozenset({"SourceState", "is_source_url", "parse_source_url"})
 """The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
 console never load the assessment or the simulator (start-up time)."""
 
@@ -211,6 +216,7 @@ __all__ = [
     "PositionEstimate",
     "RunContext",
     "RunRecord",
+    "BadRecord",
     "Session",
     "SetCurrent",
     "SetDRPosition",
@@ -299,6 +305,15 @@ __all__ = [
     "NmeaSender",
     "open_nmea_sender",
     "parse_nmea_destination",
+    # live NMEA sources (docs/LIVE.md), imported on first use
+    "LEARN_S",
+    "LiveCycle",
+    "LiveRun",
+    "LiveStep",
+    "SourceState",
+    "is_source_url",
+    "open_live_run",
+    "parse_source_url",
     # NMEA 0183 logs as run input (docs/NMEA.md)
     "BadRecord",
     "NmeaConfig",
@@ -371,9 +386,18 @@ def __getattr__(name: str) -> object:
         from engine.run import nmea_out
 
         return getattr(nmea_out, name)
+    if name in _LIVE_RUN_NAMES:
+        from engine.run import live
+
+        return getattr(live, name)
+    if name in _LIVE_SOURCE_NAMES:
+        from engine.io import live_sources
+
+        return getattr(live_sources, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
     return sorted({*globals(), *_ASSESS_NAMES, *_DENIED_NAMES, *_SIMULATE_NAMES, *_EXPORT_NAMES,
-                   *_NMEA_SEND_NAMES, *_NMEA_OUT_NAMES, "load_scenario"})
+                   *_NMEA_SEND_NAMES, *_NMEA_OUT_NAMES, "load_scenario", *_LIVE_RUN_NAMES,
+                   *_LIVE_SOURCE_NAMES})

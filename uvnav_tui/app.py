@@ -32,6 +32,7 @@ from engine.api import (
     DatumFile,
     DeccaChain,
     RunConfig,
+    Session,
     load_data,
 )
 from uvnav_tui.actions import MenuActions
@@ -180,8 +181,9 @@ class UVNAVApp(App[None]):
 
     # ------------------------------------------------------------------ runs
     def start_run(self, cfg: RunConfig) -> str | None:
-        """Open a session for ``cfg`` (the .OUT goes next to the .RUN file under a free name);
-        returns an error message instead if it cannot be opened."""
+        """Open a session for ``cfg`` (the .OUT goes next to the .RUN file under a free name;
+        a live-source URL as run file: docs/LIVE.md); returns an error message instead if it
+        cannot be opened."""
         session = open_session(cfg, self.data, write_out=self.write_logs)
         if isinstance(session, str):
             return session
@@ -190,7 +192,8 @@ class UVNAVApp(App[None]):
         if self.nmea_sender is not None:
             from engine.api import NmeaPositionOut  # only when asked for (start-up time)
 
-            nmea, sender = NmeaPositionOut(session.datums), self.nmea_sender
+            run_session = session if isinstance(session, Session) else session.session
+            nmea, sender = NmeaPositionOut(run_session.datums), self.nmea_sender
 
             def on_cycle(r: CycleResult) -> None:
                 sender.send(nmea.sentences(r))
@@ -202,10 +205,11 @@ class UVNAVApp(App[None]):
         self.message = ""
         self.show_page(100)
         self.refresh_display()
-        for warning in session.data_warnings:  # a modified data file (docs/DATAFILES.md)
+        for warning in self.control.session.data_warnings:  # a modified data file (DATAFILES.md)
             self.say(f"Warning: {warning}")
-        if session.nmea_scan is not None:  # an NMEA log without heading, log … (docs/NMEA.md)
-            for missing in session.nmea_scan.missing_sensors():
+        scan = self.control.session.nmea_scan
+        if scan is not None:  # an NMEA log without heading, log … (docs/NMEA.md)
+            for missing in scan.missing_sensors():
                 self.say(f"NMEA log: {missing}")
         self.kick()
         return None

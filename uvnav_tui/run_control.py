@@ -15,9 +15,11 @@ import asyncio
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
-from datetime import datetime
+from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from engine.api import (
     Command,
@@ -31,6 +33,9 @@ from engine.api import (
 )
 from uvnav_tui.widgets.message_log import MessageLog
 
+if TYPE_CHECKING:
+    from engine.api import BadRecord, LiveRun, RunRecord, SourceState
+
 STATE_WORDS = {
     "working": "Working...",
     "interrupted": "Interrupted...",
@@ -39,6 +44,12 @@ STATE_WORDS = {
 
 PACE_SLICE_S = 0.02
 """Longest single sleep while waiting for the next cycle (so a pause takes effect at once)."""
+LIVE_POLL_S = 0.1
+"""Longest wait for a live source's data in one turn of the worker [s]."""
+LIVE_LOST_AFTER_S = 5.0
+"""Seconds without data before a live source shows ``SOURCE LOST`` (docs/LIVE.md)."""
+LIVE_TICK_S = 1.0
+"""While a live source is lost, the state line is repainted this often (its counter) [s]."""
 
 
 def bad_record_text(error: InputError, line_no: int) -> str:
@@ -52,14 +63,27 @@ def bad_record_text(error: InputError, line_no: int) -> str:
 
 
 def open_session(cfg: RunConfig, data: tuple[DatumFile, dict[str, DeccaChain]], *,
-                 write_out: bool) -> Session | str:
+                 write_out: bool) -> Session | LiveRun | str:
     """A session for ``cfg`` (its ``.OUT`` next to the ``.RUN`` file under a free name if
-    ``write_out``), or the message saying why it cannot be opened."""
-    out = cfg.run_path.with_suffix(".OUT") if write_out else None
+    ``write_out``), or the message saying why it cannot be opened. A ``run_file`` that is a
+    live-source URL (``udp://…``, ``tcp://…``, ``serial://…``) opens a live run instead: its
+    ``.OUT`` ``live-YYYYMMDDTHHMMSSZ.OUT`` and the raw log beside it go to the configuration's
+    directory (docs/LIVE.md)."""
+    from engine.api import is_source_url
+
     try:
+        if is_source_url(cfg.run_file):
+            from engine.api import open_live_run
+
+            out = (cfg.config_dir / f"live-{datetime.now(UTC):%Y%m%dT%H%M%SZ}.OUT"
+                   if write_out else None)
+            return open_live_run(cfg.run_file, cfg, data, out_path=out, collect_smoother=True,
+                                 lost_after_s=LIVE_LOST_AFTER_S)
+        out = cfg.run_path.with_suffix(".OUT") if write_out else None
         return Session(cfg, out_path=out, collect_smoother=True, data=data)
     except InputError as exc:
-        return exc.message
+        return exc.message if exc.field is None or not exc.field.startswith("source") else (
+            f"{exc.field}: {exc.message}")
     except OSError as exc:
         return f"File error: {exc.strerror or exc}"
 
@@ -67,12 +91,21 @@ def open_session(cfg: RunConfig, data: tuple[DatumFile, dict[str, DeccaChain]], 
 class RunController:
     """One run's state flags, cycle budget, pacing and the lock around its session."""
 
-    def __init__(self, session: Session, *, pace_override: str | None = None,
+    def __init__(self, session: Session | LiveRun, *, pace_override: str | None = None,
                  log: MessageLog | None = None,
                  on_cycle: Callable[[CycleResult], None] | None = None) -> None:
+        self.live: LiveRun | None = None
+        """The live source feeding the session (None: a run file)."""
+        if not isinstance(session, Session):
+            self.live, session = session, session.session
         self.session = session
         self.on_cycle = on_cycle
         """Called with every new cycle (worker thread): the console's NMEA output."""
+        self.source_state: SourceState | None = None
+        """The live source's state at the last turn of the worker."""
+        self.pending: deque[RunRecord | BadRecord] = deque()
+        """Live records received but not yet processed (the run may not advance now)."""
+        self._logged_state: SourceState | None = None
         self.log = log if log is not None else MessageLog()
         """Where every engine message and bad record of the run goes (with its record time)."""
         self._bad_seen = 0
@@ -109,8 +142,28 @@ class RunController:
 
     @property
     def pace(self) -> str:
-        """The pace in force: the override (headless scripts) or ``config.demo.pace``."""
+        """The pace in force: the override (headless scripts) or ``config.demo.pace``;
+        ``live`` on a live source (the data's own pace)."""
+        if self.live is not None:
+            return "live"
         return self.pace_override or self.session.config.demo.pace
+
+    @property
+    def live_text(self) -> str:
+        """``LIVE udp://0.0.0.0:10110 receiving`` / ``SOURCE LOST 12 s (…)`` for the state
+        line ("" for a run file)."""
+        if self.live is None:
+            return ""
+        state = self.live.state
+        if state.is_lost:
+            return f"{state.describe()} {self.live.url}"
+        return f"LIVE {self.live.url} {state.describe()}"
+
+    @property
+    def status_note(self) -> str:
+        """The state line's note: the run's note (end of data, engine error) or the live
+        source's state."""
+        return self.note or self.live_text
 
     def can_run(self) -> bool:
         """True if the worker may compute the next cycle now."""
@@ -123,6 +176,8 @@ class RunController:
 
     def interval_s(self) -> float:
         """Wall-clock seconds between cycles at the current pace (0 = as fast as possible)."""
+        if self.live is not None:
+            return 0.0  # the data come at their own pace
         factor = pace_factor(self.pace)
         if math.isinf(factor):
             return 0.0
@@ -137,10 +192,15 @@ class RunController:
     def begin_worker(self) -> bool:
         """True (and marked active) if a new worker should start now."""
         with self._worker_lock:
-            if self.worker_active or not self.can_run():
+            if self.worker_active or not (self.can_run() or self._live_open()):
                 return False
             self.worker_active = True
             return True
+
+    def _live_open(self) -> bool:
+        """A live run that has not been stopped: its worker keeps receiving (raw log written)
+        even while the run may not advance."""
+        return self.live is not None and not self.stopped
 
     def worker_may_continue(self) -> bool:
         """Checked by the worker before each cycle; it ends (inactive) when False."""
@@ -202,6 +262,9 @@ class RunController:
         ``question(result)`` when a cycle flags an LOP for rejection and ``ended()`` at the end
         of the data or on an engine error (the run is then suspended with a note)."""
         try:
+            if self.live is not None:
+                self._run_live(cancelled, advanced, question)
+                return
             while self.worker_may_continue() and not cancelled():
                 if not self.wait_due(lambda: cancelled() or not self.can_run()):
                     continue
@@ -220,6 +283,68 @@ class RunController:
             ended()
         finally:
             self.end_worker()
+
+    def _run_live(self, cancelled: Callable[[], bool], advanced: Callable[[], None],
+                  question: Callable[[CycleResult], None]) -> None:
+        """The worker's loop on a live source, until the run is stopped: receive (without the
+        lock, so operator commands are never kept waiting by the network; the raw log is
+        written), then run the cycles under the lock while the run may advance. Records that
+        arrive while it may not (a menu open, suspended, an LOP question) wait in
+        :attr:`pending`. A change of the source's state, and every :data:`LIVE_TICK_S` while it
+        is lost, repaints."""
+        live = self.live
+        assert live is not None
+        ticked = time.monotonic()
+        while not self.stopped and not cancelled():
+            if not self.pending or not self.can_run():
+                batch = live.receive(LIVE_POLL_S)
+                self.pending.extend(r.item for r in batch.records)
+                for s in batch.states:
+                    self._log_state(s)
+            result: CycleResult | None = None
+            with self.lock:
+                if self.stopped:
+                    return
+                while self.pending and self.can_run():
+                    r = self.session.process(self.pending.popleft())
+                    self._log_bad_records(r.time if r is not None else None)
+                    if r is not None:
+                        result = self._count(r)
+            state = live.state
+            changed = state != self.source_state
+            self.source_state = state
+            now = time.monotonic()
+            if result is not None or changed or (state.is_lost and now - ticked >= LIVE_TICK_S):
+                ticked = now
+                advanced()
+            if result is not None and self.awaiting_answer:
+                question(result)
+
+    def _count(self, result: CycleResult) -> CycleResult:
+        """Book a cycle computed outside :meth:`step` (live)."""
+        self._last_step = time.monotonic()
+        self.cycles += 1
+        if self.budget is not None:
+            self.budget -= 1
+        self.latest = result
+        self._log_messages(result)
+        if self.on_cycle is not None:
+            self.on_cycle(result)
+        if result.fix is not None and result.fix.candidate_slot is not None:
+            self.awaiting_answer = True
+        return result
+
+    def _log_state(self, state: SourceState) -> None:
+        """A live source's change of state, in the message log."""
+        assert self.live is not None
+        when = self.latest.time if self.latest is not None else None
+        was_lost = self._logged_state is not None and self._logged_state.is_lost
+        if state.status == "lost" and not was_lost:
+            self.log.add(f"Source lost: {self.live.url} ({state.detail})", when, "data")
+        elif state.status == "receiving":
+            again = "again " if was_lost else ""
+            self.log.add(f"Source receiving {again}from {self.live.url}", when, "data")
+        self._logged_state = state
 
     async def wait_cycles(self, n: int, kick: Callable[[], None], timeout_s: float) -> int:
         """Let ``n`` more cycles run (granting them when the run is held; ``kick()`` starts the
@@ -283,6 +408,8 @@ class RunController:
             return self.session.apply(cmd)
 
     def close(self) -> None:
-        """Close the session's logs."""
+        """Close the session's logs (and a live source: its thread joined, its raw log)."""
+        if self.live is not None:
+            self.live.feed.close()  # not under the lock: a receive in progress ends first
         with self.lock:
             self.session.close()

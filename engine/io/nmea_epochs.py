@@ -20,9 +20,14 @@ log has had a valid fix (so a GNSS outage keeps its heading/log/depth epochs). E
 no sensor has a fresh value are not emitted (a gap in the log gives no empty records; gaps over
 :data:`GAP_REPORT_S` are reported).
 
-**Date.** Until a date is known (no ``options.date``, no RMC/ZDA yet) the sentences are held,
-up to :data:`DATE_HOLD_LINES` of them (oldest dropped and counted beyond); when a date arrives
-they are dated from it and used. A time of day is put on the day (date − 1, date, date + 1)
+**Date.** Until the log gives a date (RMC/ZDA) the sentences are held, up to
+``options.date_hold_lines`` of them (:data:`DATE_HOLD_LINES` for a file); when a date arrives
+they are dated from it and used. When none arrives within the hold (or before the log ends),
+``options.date`` (``--date``, ``[nmea] date``; today's UTC date for a live source) dates them,
+reported; without it the oldest are dropped and counted. A date in the log always wins over
+``options.date``: a wrong ``--date``, or an old log replayed into a live port, would otherwise
+put the first epochs years away from the rest and make the log's own time "go backwards".
+A time of day is put on the day (date − 1, date, date + 1)
 that is nearest the log clock, so a time of day that wraps past midnight without a new date
 moves to the next day (a *midnight roll-over*, reported).
 
@@ -110,7 +115,12 @@ class NmeaOptions:
     cog_sog_stale_s: float = 3.0
     depth_stale_s: float = 10.0
     date: date | None = None
-    """UTC date of the log's first sentences when they come before any RMC/ZDA."""
+    """UTC date for sentences when the log gives none: used only when no RMC/ZDA date arrives
+    within :attr:`date_hold_lines` sentences (or before the log ends), so a date in the log
+    always wins over it (a live stream replayed from an old log, a wrong ``--date``)."""
+    date_hold_lines: int = DATE_HOLD_LINES
+    """Sentences held while waiting for a date in the log before :attr:`date` is used (a live
+    source holds fewer, so a stream without RMC/ZDA starts within seconds)."""
     variation_deg: float | None = None
     """Magnetic variation [deg, east positive] for HDG/VHW magnetic headings without one."""
     accept_no_checksum: bool = False
@@ -133,6 +143,10 @@ class NmeaOptions:
                 and -180.0 <= self.variation_deg <= 180.0):
             raise InputError("Variation must be -180 to 180 degrees !",
                              field="nmea.variation_deg", text=str(self.variation_deg))
+        if (isinstance(self.date_hold_lines, bool) or not isinstance(self.date_hold_lines, int)
+                or self.date_hold_lines < 0):
+            raise InputError("Date hold must be a whole number of lines >= 0 !",
+                             field="nmea.date_hold_lines", text=str(self.date_hold_lines))
         if self.date is not None and not isinstance(self.date, date):
             raise InputError("Date must be YYYY-MM-DD !", field="nmea.date", text=str(self.date))
 
@@ -223,7 +237,8 @@ class EpochBuilder:
         self.options = options if options is not None else NmeaOptions()
         self.source = source
         self.stats = NmeaStats(source=source)
-        self._date: date | None = self.options.date
+        self._date: date | None = None
+        """The log's date once known (from RMC/ZDA, or ``options.date`` after the hold)."""
         self._clock: float | None = None
         self._next_epoch: int | None = None
         self._latest = _Latest()
@@ -255,7 +270,7 @@ class EpochBuilder:
                 self._clock_only(parsed, line_no, line, out)
             return out
         if self._date is None and parsed.date is None:
-            self._hold(line_no, line, parsed)
+            self._hold(line_no, line, parsed, out)
             return out
         if self._held:
             self._release(parsed, out)
@@ -266,6 +281,8 @@ class EpochBuilder:
         """The end of the log: the last open epoch (if its time was reached) and a report of
         sentences still held for want of a date."""
         out: list[RunRecord | BadRecord] = []
+        if self._held and self.options.date is not None:
+            self._date_from_options(out)
         if self._held:
             n = len(self._held)
             self.stats.skipped[NO_DATE] += n
@@ -315,17 +332,31 @@ class EpochBuilder:
             self._behind_count += 1
 
     # ------------------------------------------------------------------ date
-    def _hold(self, line_no: int, raw: str, v: NmeaValues) -> None:
+    def _hold(self, line_no: int, raw: str, v: NmeaValues,
+              out: list[RunRecord | BadRecord]) -> None:
         self._held.append((line_no, raw, v))
-        if len(self._held) > DATE_HOLD_LINES:
+        limit = self.options.date_hold_lines
+        if len(self._held) > limit and self.options.date is not None:
+            self._date_from_options(out)
+        elif len(self._held) > limit:
             dropped = self._held.popleft()[2]
             self.stats.skipped[NO_DATE] += 1
             self.stats.undated_fixes += dropped.lat_deg is not None
             if not self._no_date_reported:
                 self._no_date_reported = True
-                self.stats.event(line_no, f"no date (RMC/ZDA) in the first {DATE_HOLD_LINES} "
+                self.stats.event(line_no, f"no date (RMC/ZDA) in the first {limit} "
                                  "sentences: the oldest are dropped until one arrives; set "
                                  "[nmea] date = YYYY-MM-DD")
+
+    def _date_from_options(self, out: list[RunRecord | BadRecord]) -> None:
+        """No date arrived while sentences were held: date them with ``options.date``."""
+        assert self.options.date is not None
+        self._date = self.options.date
+        self.stats.event(self._held[0][0], f"no date (RMC/ZDA) in the first {len(self._held)} "
+                         f"sentences: dated {self._date.isoformat()} (the configured date)")
+        held, self._held = self._held, deque()
+        for line_no, raw, v in held:
+            self._use(v, line_no, raw, out)
 
     def _release(self, dated: NmeaValues, out: list[RunRecord | BadRecord]) -> None:
         """A date arrived: date the held sentences from it and use them in order."""

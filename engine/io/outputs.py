@@ -89,6 +89,10 @@ def _is_truth(line: bytes) -> bool:
     return line.startswith(b"# UVNAV simulator truth")
 
 
+def _is_raw_times(line: bytes) -> bool:
+    return line.startswith(b"# UVNAV live receive times")
+
+
 def _is_nmea(line: bytes) -> bool:
     """An NMEA 0183 sentence with a correct checksum (``$TTKKK,…*HH``, CR LF or LF)."""
     from engine.io.nmea_write import checksum
@@ -146,6 +150,10 @@ SIGNATURES: dict[str, Signature] = {
                          _is_geojson),
     "csv": Signature("CSV export (header 'time_utc,cycle,record,…')", _is_export_csv),
     "kml": Signature("KML export (named 'UVNAV export')", _is_kml, whole_head=True),
+    "raw_times": Signature("live receive-time log (first line '# UVNAV live receive times')",
+                           _is_raw_times),
+    "nmea_raw": Signature("(nothing: a raw NMEA recording is never replaced)",
+                          lambda _line: False),
 }
 
 
@@ -331,12 +339,14 @@ class OutputGuard:
         kind: str,
         force: bool = False,
         existing: str = "free",
+        encoding: str = "utf-8",
     ) -> OutputFile:
         """Open a new output by the module's rule and register it; returns the open file (its
         ``path`` is the name actually used).
 
         ``kind`` is a key of :data:`SIGNATURES` (what ``force`` may replace); ``existing`` is
-        ``"free"`` (an existing name gets a free ``stem_N`` sibling) or ``"refuse"``.
+        ``"free"`` (an existing name gets a free ``stem_N`` sibling) or ``"refuse"``;
+        ``encoding`` of the text (``latin-1`` writes one byte per character: the live raw log).
         """
         signature = SIGNATURES[kind]
         target = self.check(path, label)
@@ -357,7 +367,7 @@ class OutputGuard:
                 raise OSError(exc.errno, exc.strerror, str(target)) from None
         st = os.fstat(fd)
         self.ids[(st.st_dev, st.st_ino)] = label
-        handle = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
+        handle = os.fdopen(fd, "w", encoding=encoding, newline="\n")
         return OutputFile(handle, target)
 
     @staticmethod

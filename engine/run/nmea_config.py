@@ -26,7 +26,8 @@ from engine.run.config import (
     SensorsConfig,
 )
 
-__all__ = ["NO_DATE_MESSAGE", "NO_FIX_MESSAGE", "derive_nmea_config", "derived_config_lines"]
+__all__ = ["NO_DATE_MESSAGE", "NO_FIX_MESSAGE", "config_from_stats", "derive_nmea_config",
+           "derived_config_lines"]
 
 NO_FIX_MESSAGE = ("No valid position fix in the NMEA log: give --config FILE with a "
                   "dr_position !")
@@ -50,15 +51,27 @@ def derive_nmea_config(
         if stats.undated_fixes:
             raise InputError(NO_DATE_MESSAGE, file=str(path), field="date")
         raise InputError(NO_FIX_MESSAGE, file=str(path), field="position")
+    return config_from_stats(stats, data_dir, nmea, run_file=path.name,
+                             config_dir=path.parent), stats
+
+
+def config_from_stats(
+    stats: NmeaStats, data_dir: str | os.PathLike[str], nmea: NmeaConfig, *, run_file: str,
+    config_dir: Path,
+) -> RunConfig:
+    """The derived configuration (module docstring) from what a log or stream gave so far
+    (``stats.first_fix`` must be set); also used by a live run without a configuration
+    (engine/run/live.py)."""
+    assert stats.first_fix is not None
     seen = stats.sensors
 
     def state(sensor: str) -> str:
         return "on" if sensor in seen else "n/a"
 
-    cfg = RunConfig(
+    return RunConfig(
         datum="WGS84",
         dr_position=format_dms_input(*stats.first_fix),
-        run_file=path.name,
+        run_file=run_file,
         run_gps_datum="WGS84",
         data_dir_text=str(Path(os.path.abspath(data_dir))),
         gps=GpsConfig(on=True),
@@ -68,9 +81,8 @@ def derive_nmea_config(
                               echosounder=state("depth")),
         filter=FilterConfig.from_vessel("surface"),
         nmea=nmea,
-        config_dir=path.parent,
+        config_dir=config_dir,
     )
-    return cfg, stats
 
 
 def derived_config_lines(cfg: RunConfig) -> list[str]:

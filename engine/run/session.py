@@ -27,7 +27,7 @@ import os
 import struct
 import tempfile
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -218,9 +218,15 @@ class Session:
         collect_smoother: bool = False,
         data: tuple[DatumFile, dict[str, DeccaChain]] | None = None,
         guard: OutputGuard | None = None,
+        records: Iterable[RunRecord | BadRecord] | None = None,
+        source_name: str | None = None,
         nmea_scan: NmeaStats | None = None,
     ) -> None:
-        config = resolve_vessel(config)  # "auto": surface for an NMEA log (docs/CONFIG.md)
+        """``records`` replaces reading ``config.run_path`` (a live source pushes its records
+        with :meth:`process` instead: pass ``records=()``); ``source_name`` names the source in
+        messages and the ``.OUT`` header (default the run file). ``filter.vessel = "auto"`` is
+        resolved here: "surface" for an NMEA log or a live (NMEA) source (docs/CONFIG.md)."""
+        config = resolve_vessel(config, nmea=True if records is not None else None)
         if data is None:
             data = load_data(config)
         else:
@@ -241,9 +247,10 @@ class Session:
         """Data files that differ from the bundled ones (engine.io.datafile_io.modified_bundled);
         written to the .OUT header, shown by the replay."""
         self._counts = [0, 0, 0, 0]  # cycle_counts summed
-        self._run_name = os.fspath(config.run_path)
-        self._records: Iterator[RunRecord | BadRecord] = open_records(
-            self._run_name, config.nmea.options)
+        self._run_name = source_name if source_name is not None else os.fspath(config.run_path)
+        self._records: Iterator[RunRecord | BadRecord] = (
+            open_records(self._run_name, config.nmea.options) if records is None
+            else iter(records))
         self.nmea_stats: NmeaStats | None = None
         """Sentences used/skipped of an NMEA log run file (None for a ``.RUN``); complete at the
         end of the run (docs/NMEA.md)."""
@@ -285,7 +292,7 @@ class Session:
             if out_path is not None:
                 self._out = OutLogWriter.create(
                     out_path,
-                    header=[f"engine {__version__}", f"run {config.run_path}",
+                    header=[f"engine {__version__}", f"run {self._run_name}",
                             *(f"warning {w}" for w in self.data_warnings),
                             *(f"nmea {line}" for line in self.nmea_header)],
                     config_text=dump_config(_logged_config(config)),
@@ -323,23 +330,30 @@ class Session:
 
     # ------------------------------------------------------------------ running
     def _next_record(self) -> RunRecord | None:
-        delta = self.config.demo.delta_t_s
         for item in self._records:
-            if isinstance(item, BadRecord):
-                self._log_bad(item.line_no, item.error.field or "record", item.error.message,
-                              item.raw)
-                self._keep_bad(item)
-                continue
-            # DeltaT: process every DeltaT-th record (THEORY D43), counted from the last
-            # processed one, so a new DeltaT takes effect from the next cycle.
-            since = delta if self._since_processed is None else self._since_processed + 1
-            if since < delta:
-                self._since_processed = since
-                continue
-            self._since_processed = 0
-            return item
+            rec = self._admit(item)
+            if rec is not None:
+                return rec
         self.eof = True
         return None
+
+    def _admit(self, item: RunRecord | BadRecord) -> RunRecord | None:
+        """The record if the run processes it now; None for a bad one (logged, kept) or one
+        DeltaT skips."""
+        if isinstance(item, BadRecord):
+            self._log_bad(item.line_no, item.error.field or "record", item.error.message,
+                          item.raw)
+            self._keep_bad(item)
+            return None
+        # DeltaT: process every DeltaT-th record (THEORY D43), counted from the last
+        # processed one, so a new DeltaT takes effect from the next cycle.
+        delta = self.config.demo.delta_t_s
+        since = delta if self._since_processed is None else self._since_processed + 1
+        if since < delta:
+            self._since_processed = since
+            return None
+        self._since_processed = 0
+        return item
 
     def _log_bad(self, line_no: int, field: str, message: str, raw: str) -> None:
         if self._out is not None:
@@ -356,21 +370,34 @@ class Session:
             rec = self._next_record()
             if rec is None:
                 return None
-            last = self.nav.last_time
-            if last is not None and rec.time <= last:
-                self._reject(rec, InputError(
-                    NOT_ADVANCING_MESSAGE, file=self._run_name, line=rec.line_no, field="time",
-                    text=rec.raw.split()[1],
-                ))
-                continue
-            try:
-                nav, result = step(self.context, self.nav, rec)
-            except Exception as exc:
-                exc.add_note(f"while processing {self._run_name}:{rec.line_no}: {rec.raw!r}")
-                raise
-            self._prev_nav, self._prev_record = self.nav, rec
-            self._commit(nav, result)
-            return result
+            result = self._cycle(rec)
+            if result is not None:
+                return result
+
+    def process(self, item: RunRecord | BadRecord) -> CycleResult | None:
+        """Process one record pushed by the caller (a live source, docs/LIVE.md) exactly as
+        :meth:`step` processes the next record of the file: a cycle, or None when the record is
+        bad, skipped by DeltaT or not later than the last one (each logged as in :meth:`step`)."""
+        rec = self._admit(item)
+        return None if rec is None else self._cycle(rec)
+
+    def _cycle(self, rec: RunRecord) -> CycleResult | None:
+        """One cycle for ``rec``; None (rejected, logged) if its time does not advance."""
+        last = self.nav.last_time
+        if last is not None and rec.time <= last:
+            self._reject(rec, InputError(
+                NOT_ADVANCING_MESSAGE, file=self._run_name, line=rec.line_no, field="time",
+                text=rec.raw.split()[1] if len(rec.raw.split()) > 1 else rec.time.isoformat(),
+            ))
+            return None
+        try:
+            nav, result = step(self.context, self.nav, rec)
+        except Exception as exc:
+            exc.add_note(f"while processing {self._run_name}:{rec.line_no}: {rec.raw!r}")
+            raise
+        self._prev_nav, self._prev_record = self.nav, rec
+        self._commit(nav, result)
+        return result
 
     def _reject(self, rec: RunRecord, error: InputError) -> None:
         """Skip a parsed record the run cannot use: log it (``BAD``) and keep it."""

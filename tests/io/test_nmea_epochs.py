@@ -182,11 +182,9 @@ def test_held_sentences_before_midnight_get_the_previous_day() -> None:
         datetime(2026, 12, 3, 0, 0, 2, tzinfo=UTC)]
 
 
-def test_too_many_sentences_without_date_drop_the_oldest(monkeypatch: pytest.MonkeyPatch) -> None:
-    import engine.io.nmea_epochs as ne
-
-    monkeypatch.setattr(ne, "DATE_HOLD_LINES", 3)
-    recs, _, b = run([gga(43200 + k) for k in range(6)] + [rmc(43206)])
+def test_too_many_sentences_without_date_drop_the_oldest() -> None:
+    recs, _, b = run([gga(43200 + k) for k in range(6)] + [rmc(43206)],
+                     NmeaOptions(date_hold_lines=3))
     assert [r.time.second for r in recs] == [3, 4, 5, 6]  # the 3 newest held + the RMC's
     assert b.stats.skipped["no date yet"] == 3
     assert any(e.startswith("T.nmea:4: no date (RMC/ZDA) in the first 3") for e in b.stats.events)
@@ -247,3 +245,23 @@ def test_a_fix_goes_into_one_epoch_only() -> None:
     assert [r.gps_quality for r in recs] == [1, None, 1, None, 1, None]
     assert [r.gps_lat_deg is not None for r in recs] == [True, False] * 3
     assert all(r.heading_deg == 90.0 for r in recs)
+
+
+def test_a_date_in_the_log_wins_over_the_configured_one() -> None:
+    # An old log replayed into a live port (configured date = today) or a wrong --date: the
+    # GGAs before the first RMC are dated from the RMC, not from the option, so the log's time
+    # never "goes back" years and nothing is skipped.
+    recs, _, b = run([gga(3600), gga(3601), rmc(3602, "150816"), gga(3603)],
+                     NmeaOptions(date=date(2026, 12, 2)))
+    assert [r.time for r in recs] == [datetime(2016, 8, 15, 1, 0, s, tzinfo=UTC)
+                                      for s in (0, 1, 2, 3)]
+    assert not b.stats.skipped
+
+
+def test_configured_date_used_when_the_hold_fills() -> None:
+    recs, _, b = run([gga(3600 + k) for k in range(5)],
+                     NmeaOptions(date=date(2025, 1, 2), date_hold_lines=2))
+    assert [r.time for r in recs] == [datetime(2025, 1, 2, 1, 0, s, tzinfo=UTC)
+                                      for s in range(5)]
+    assert any(e.startswith("T.nmea:1: no date (RMC/ZDA) in the first 3 sentences: dated "
+                            "2025-01-02") for e in b.stats.events)

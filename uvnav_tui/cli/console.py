@@ -1,7 +1,9 @@
-"""``uvnav [--config FILE.toml] [--dev] [--nmea-out udp://HOST:PORT]``: open the navigation console.
+"""``uvnav [--config FILE.toml] [--dev] [--live URL] [--nmea-out udp://HOST:PORT]``: open the
+navigation console.
 
-``--nmea-out`` sends the MPP of every cycle as NMEA 0183 to a UDP port (docs/NMEA_OUT.md), e.g.
-to OpenCPN on the same machine: ``--nmea-out udp://127.0.0.1:10110``.
+``--live URL`` runs on a live NMEA source instead of the configuration's run file
+(docs/LIVE.md). ``--nmea-out`` sends the MPP of every cycle as NMEA 0183 to a UDP port
+(docs/NMEA_OUT.md), e.g. to OpenCPN on the same machine: ``--nmea-out udp://127.0.0.1:10110``.
 
 Without ``--config`` the bundled demo ``data/DEMO.toml`` is used: first the one in the ``data``
 directory next to the installed package (the repository checkout), then ``./data/DEMO.toml``.
@@ -22,6 +24,7 @@ from engine.api import (
     load_run_config,
     open_nmea_sender,
     parse_nmea_destination,
+    parse_source_url,
 )
 
 DEFAULT_CONFIG_NAME = "DEMO.toml"
@@ -44,6 +47,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="uvnav", description="Open the UVNAV navigation console.")
     p.add_argument("--config", help=f"run configuration TOML (default: data/{DEFAULT_CONFIG_NAME})")
     p.add_argument("--dev", action="store_true", help="start in developer mode (A4)")
+    p.add_argument("--live", metavar="URL",
+                   help="run on a live NMEA source instead of the configuration's run file: "
+                   "udp://0.0.0.0:10110, tcp://HOST:10110, serial:///dev/ttyUSB0?baud=4800 "
+                   "(docs/LIVE.md)")
     p.add_argument("--hardcopy-dir", default="hardcopy",
                    help="directory for Edit ▸ Hardcopy files (default: ./hardcopy)")
     p.add_argument("--nmea-out", metavar="udp://HOST:PORT",
@@ -74,6 +81,8 @@ def run_console(argv: list[str]) -> int:
     sender = None
     try:
         cfg, data = resolve_config(args.config)
+        if args.live is not None:
+            cfg = cfg.replace(run_file=parse_source_url(args.live).url)
         if args.nmea_out is not None:
             dest = parse_nmea_destination(args.nmea_out)
             if dest.kind != "udp":

@@ -3,10 +3,11 @@
 ``uvnav [--config FILE.toml]`` opens the console; sub-commands: ``replay`` (headless run),
 ``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
 ``assess`` (accuracy against truth), ``convert`` (an NMEA 0183 log to its .RUN
-equivalent), ``export`` (GPX, GeoJSON, CSV, KML), ``denied`` (GPS-denied experiment).  Ctrl-C
-in a sub-command prints one line and exits 130 (a replay's logs keep every completed cycle; a
-simulation writes nothing).  Each sub-command lives in its own module and is imported only
-when used, so ``uvnav replay`` never loads Textual.
+equivalent), ``export`` (GPX, GeoJSON, CSV, KML), ``denied`` (GPS-denied experiment),
+``live`` (headless run on a live NMEA source).  Ctrl-C in a sub-command prints one line and
+exits 130 (a replay's logs keep every completed cycle; a simulation writes nothing).  Each
+sub-command lives in its own module and is imported only when used, so ``uvnav replay`` never
+loads Textual.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ SUBCOMMANDS = {
     "convert": ("uvnav_tui.cli.convert", "run_convert"),
     "export": ("uvnav_tui.cli.export", "run_export"),
     "denied": ("uvnav_tui.cli.denied", "run_denied"),
+    "live": ("uvnav_tui.cli.live", "run_live"),
 }
 
 EXIT_INTERRUPTED = 130
@@ -31,12 +33,13 @@ INTERRUPTED_NOTE = {
     "replay": "; the logs keep every cycle completed before it",
     "simulate": "; nothing written",
     "convert": "; the .RUN keeps the records written before it",
+    "live": "; the logs keep every cycle completed and every line received before it",
     "export": "; the file being written may be incomplete",
 }
 """What is left on disk after Ctrl-C, per sub-command."""
 
 USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
-                    [--nmea-out udp://HOST:PORT]
+                    [--nmea-out udp://HOST:PORT] [--live URL]
        uvnav replay RUN_or_NMEA_LOG [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
                         [--smooth [FILE]] [--force] [--nmea-out udp://HOST:PORT|FILE]
                         [--date YYYY-MM-DD]
@@ -50,6 +53,9 @@ USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open
                     [--tracks mpp,lse,gps,smoothed] [--smoothed F] [--datum-file F] [--force]
        uvnav denied RUN [--config TOML] [--window S ...] [--start T ...] [--every S]
                         [--warmup S] [--checkpoint S ...] [--truth CSV] [--windows] [--markdown]
+       uvnav live URL [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE] [--force]
+                      [--cycles N] [--seconds S] [--learn S] [--quiet]   (URL: udp://0.0.0.0:10110,
+                      tcp://HOST:10110, gpsd://HOST:2947, serial:///dev/ttyUSB0?baud=4800)
 """
 
 

@@ -3,7 +3,8 @@
 Asks, in the thesis' order, for the geodetic datum (choices from ``TO_WGS84.DAT``), the initial
 DR position, the depth, the current speed and direction (the set) and the ``.RUN`` file name
 without extension (or an NMEA 0183 log's file name in full, recognised by its content,
-docs/NMEA.md). Every field is checked as it is typed; Return starts the run.
+docs/NMEA.md; or a live NMEA source's URL, ``udp://0.0.0.0:10110``, docs/LIVE.md). Every field is
+checked as it is typed; Return starts the run.
 """
 
 from __future__ import annotations
@@ -20,11 +21,13 @@ from engine.api import (
     InputError,
     RunConfig,
     is_nmea_file,
+    is_source_url,
     parse_datum_name,
     parse_depth_m,
     parse_direction_deg,
     parse_position,
     parse_run_name,
+    parse_source_url,
     parse_speed_kn,
 )
 from uvnav_tui.dialogs.dialog import Dialog
@@ -75,7 +78,9 @@ class InitDialog(Dialog[RunConfig]):
     def _run_name(self, text: str) -> str:
         """The run file's name in the run directory: ``NAME.RUN`` for a typed ``NAME`` (the
         thesis' field), or a file named in full that is an NMEA 0183 log by its content
-        (docs/NMEA.md), e.g. ``trip.nmea``."""
+        (docs/NMEA.md), e.g. ``trip.nmea``, or a live source's URL (docs/LIVE.md)."""
+        if is_source_url(text):  # a live source (docs/LIVE.md)
+            return parse_source_url(text).url
         try:
             name = parse_run_name(text, field="run file")
         except InputError:
@@ -103,8 +108,9 @@ class InitDialog(Dialog[RunConfig]):
                              parse_speed_kn, id="init-speed")
         yield ValidatedField("Current direction (°)", number_text(cfg.current_set_deg),
                              parse_direction_deg, id="init-set")
-        yield ValidatedField("Run file (no .RUN)", _shown_run_name(cfg.run_file),
-                             self._run_name, id="init-run")
+        run_text = (cfg.run_file if is_source_url(cfg.run_file)
+                    else _shown_run_name(cfg.run_file))
+        yield ValidatedField("Run file (no .RUN)", run_text, self._run_name, id="init-run")
 
     def on_mount(self) -> None:
         """The cursor starts in the datum field."""
@@ -122,7 +128,8 @@ class InitDialog(Dialog[RunConfig]):
             depth_m=f["init-depth"].value_or(cfg.depth_m),
             current_speed_kn=f["init-speed"].value_or(cfg.current_speed_kn),
             current_set_deg=f["init-set"].value_or(cfg.current_set_deg),
-            run_file=str(self.run_dir / run.parsed) if run.edited else cfg.run_file,
+            run_file=(cfg.run_file if not run.edited else run.parsed if is_source_url(run.parsed)
+                      else str(self.run_dir / run.parsed)),
         )
 
     def collect(self) -> RunConfig | None:

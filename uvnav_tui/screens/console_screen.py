@@ -99,7 +99,7 @@ class ConsoleScreen(Screen[None]):
         line.state_word = state_word
         line.time_text = format_time_z(r.time) if r is not None else "--:--:--Z"
         line.pace = run.pace if run is not None else ""
-        line.note = run.note if run is not None else ""
+        line.note = run.status_note if run is not None else ""
         line.dev_mode = host.dev_mode
         line.page = host.page
         self.query_one(MenuBar).dev_mode = host.dev_mode
