@@ -121,9 +121,10 @@ def test_denied_ellipse_holds_the_hidden_fix_on_real_data(markermeer: DeniedRepo
     vessel decision"; measured 10–11 of 11). An honest ellipse misses with p = 0.05, so 8 or
     fewer of 11 independent windows has probability 1.5 % (binomial); the windows overlap and
     share one afternoon's leeway, so that is indicative only. With the thesis' submarine gyro
-    and log σ the ellipse held it in 0–2 of 11 at 5 and 10 minutes (docs/REALDATA.md): a filter
-    that claims more than it knows fails here first. The fix's own error (HDOP 0.5, a few
-    metres) is not in the ellipse; it is small against its 45–120 m."""
+    and log σ the ellipse held it in 9 % of the windows at 5 and 10 minutes (every 60 s,
+    docs/REALDATA.md): a filter that claims more than it knows fails here first. The fix's own
+    error (HDOP 0.5: σ ≈ 1.8 m per axis) is not in the ellipse; it matters a little at 1 minute
+    (a95 8 m), not at 5 and 10 (45 and 117 m)."""
     for r in markermeer.rows:
         assert r.n == 11
         assert r.coverage * r.n >= 9, r
