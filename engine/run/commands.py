@@ -16,7 +16,7 @@ import numpy as np
 from engine.filter.state import replace_current, replace_position
 from engine.io.formatting import format_lat_dms, format_lon_dms
 from engine.lsq.fix import MAX_BRR, ManualObservation
-from engine.run.config import FILTER_PRESETS, RunConfig
+from engine.run.config import FILTER_PRESETS, VESSEL_PRESETS, FilterConfig, RunConfig
 from engine.run.cycle import NavState, RunContext
 from engine.systems.sensors import knots_to_ms
 
@@ -189,6 +189,14 @@ def apply_command(
             # A preset switch sets the keys the preset decides; the other keys stay as they are
             # unless edited in the same command (docs/CONFIG.md "The filter decision").
             values = {**FILTER_PRESETS[str(values["preset"]).lower()], **values}
+        if cmd.table == "filter" and "vessel" in values:
+            # Likewise the vessel: "surface" sets its values, "submarine" the thesis' ones back
+            # (docs/CONFIG.md "The vessel decision"); "auto" is resolved when a run starts.
+            vessel = str(values["vessel"]).lower()
+            sub = FilterConfig()
+            decided = {"surface": VESSEL_PRESETS["surface"],
+                       "submarine": {k: getattr(sub, k) for k in VESSEL_PRESETS["surface"]}}
+            values = {**decided.get(vessel, {}), **values}
         table = replace(getattr(cfg, cmd.table), **values)
         text = " ".join(f"{k}={v}" for k, v in cmd.values)
         if cmd.table == "demo" and "press_ref_freq_hz" in dict(cmd.values):

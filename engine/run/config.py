@@ -22,7 +22,9 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from engine.errors import InputError
+from engine.filter.params import accel_variance
 from engine.io.nmea_epochs import NmeaOptions
+from engine.io.nmea_log import is_nmea_file
 from engine.io.operator_input import (
     DATUM_MESSAGE,
     DEPTH_MESSAGE,
@@ -257,6 +259,10 @@ def _validate(obj: object, table: str, keys: tuple[Key, ...]) -> None:
             ) from None
         object.__setattr__(obj, key.attr, value)
 
+
+SUBMARINE_SIGMA_A2 = accel_variance(0.25, 0.01, 0.75)
+"""σ_a² (m²/s³ as a spectral density, eq. 6.35) of the thesis' submarine: the default of
+``filter.sigma_a2``."""
 
 _UERE = _between(0.001, 1000.0)
 """Range of a UERE key (m, 1σ): from a millimetre to a kilometre."""
@@ -615,6 +621,7 @@ class FilterConfig:
 
     on: bool = True
     preset: str = "honest"
+    vessel: str = "auto"
     model: str = "coloured"
     p0: str = "physical"
     q_scale: float = 1.0
@@ -633,9 +640,21 @@ class FilterConfig:
     log_bias_rw_ms_sqrth: float = 0.01
     gyro_bias_rw_deg_sqrth: float = 1.2
     incl_bias_rw_deg_sqrth: float = 0.1
+    sigma_current2: float = 2e-8
+    sigma_a2: float = SUBMARINE_SIGMA_A2
+    set_keys: tuple[str, ...] = field(default=(), compare=False, repr=False)
+    """The keys a TOML ``[filter]`` table set (not a key itself): they win over ``vessel``
+    "auto" when it resolves to "surface" (:func:`resolve_vessel`)."""
 
     def __post_init__(self) -> None:
         _validate(self, self.TABLE, self.KEYS)
+
+    @classmethod
+    def from_vessel(cls, vessel: str, **changes: Any) -> FilterConfig:
+        """The ``[filter]`` table of ``vessel = …`` ("submarine", "surface" or "auto") with
+        ``changes`` on top: what a TOML ``[filter]`` table with that key and those keys gives."""
+        name = _VESSEL_CHECK(vessel)
+        return cls(**{**VESSEL_PRESETS.get(name, {}), "vessel": name, **changes})
 
     @classmethod
     def from_preset(cls, preset: str, **changes: Any) -> FilterConfig:
@@ -656,6 +675,29 @@ derived from the configured receiver and chain, P0 from sensor accuracies, drift
 the biases random constants (L2639–2641)."""
 
 _PRESET_CHECK = _choice("honest", "thesis")
+
+VESSEL_PRESETS: dict[str, dict[str, Any]] = {
+    "submarine": {},
+    "surface": {
+        "sigma_gyro_deg": 3.0,
+        "log_sigma_frac": 0.05,
+        "gyro_bias_rw_deg_sqrth": 5.0,
+        "log_bias_rw_ms_sqrth": 0.2,
+        "sigma_current2": 1e-5,
+        "turn_rate_max_deg_s": 3.0,
+    },
+}
+"""Values ``filter.vessel`` gives to the keys the file does not set (docs/CONFIG.md, "The
+vessel decision"). "submarine" is the class defaults (the thesis' gyro compass, EM log and slow
+drifts). "surface" is a small surface vessel with consumer instruments (a fluxgate or
+magnetic compass, a paddle-wheel log, leeway and tidal stream that change with every course),
+values from consumer instruments and a yacht's motion, checked on the first half of the
+Markermeer GNSS-denied windows (validation: the second half) and on the Baltic and Plaka
+stand-in runs (docs/REALDATA.md, "Tuning the surface vessel"). "auto" (the default) is
+"surface" when the run file is an NMEA 0183 log and "submarine" for a 1993 ``.RUN``
+(:func:`resolve_vessel`)."""
+
+_VESSEL_CHECK = _choice("auto", "submarine", "surface")
 
 
 def _auto_or(check: Callable[[float], float]) -> Callable[[Any], Any]:
@@ -678,6 +720,14 @@ FilterConfig.KEYS = (
         '"honest" (default: the keys below as listed) or "thesis" (model, p0 "thesis", '
         'bias_noise false: the thesis-literal filter); keys set in the file override it',
         "docs/CONFIG.md \"The filter decision\" [not in the thesis]", _PRESET_CHECK),
+    Key("vessel", "vessel", "str", "—",
+        '"submarine" (the thesis\' gyro 0.65°, EM log 2 %, slow drifts: the keys below as '
+        'listed), "surface" (a yacht\'s compass 3°, paddle log 5 %, fast bias drifts, a '
+        'current/leeway random walk 500× the thesis\', turn rate 3°/s) or "auto" (default: '
+        '"surface" for an NMEA 0183 run file, "submarine" for a .RUN); keys set in the file '
+        "override it",
+        "docs/CONFIG.md \"The vessel decision\", docs/REALDATA.md [not in the thesis]",
+        _VESSEL_CHECK),
     Key("model", "model", "str", "—",
         '"coloured" (time-correlated fix error, state augmented) or "thesis" (white noise)',
         "L2291 (no coloured noise implemented); THEORY §8.2", _choice("thesis", "coloured")),
@@ -735,6 +785,13 @@ FilterConfig.KEYS = (
     Key("incl_bias_rw_deg_sqrth", "incl_bias_rw_deg_sqrth", "float", "deg/√h",
         "random-walk rate of the inclinometer bias (with bias_noise)",
         "THEORY D29 [assumption]", _NON_NEGATIVE),
+    Key("sigma_current2", "sigma_current2", "float", "m²/s³",
+        "spectral density of the current random walk per grid component (the rate noise of "
+        "the current states; surface: leeway and stream change with course and wind)",
+        "thesis §6.6 (2·10⁻⁸); THEORY §8.9; docs/CONFIG.md", _NON_NEGATIVE),
+    Key("sigma_a2", "sigma_a2", "float", "m²/s³",
+        "spectral density of the along-track acceleration noise (Gelb's mixed pdf, a_max "
+        "0.25 m/s², P_max 0.01, P_0 0.75)", "eq. 6.35; THEORY §8.9", _NON_NEGATIVE),
 )
 # fmt: on
 
@@ -1038,14 +1095,41 @@ def _build_table(table: str, cls: type, data: Mapping[str, Any]) -> Any:
             raise InputError(err.message, field="filter.preset",
                              text=_toml_value(data["preset"])) from None
         kwargs.update(FILTER_PRESETS[preset])
+    if cls is FilterConfig and "vessel" in data:
+        try:
+            vessel = _VESSEL_CHECK(_typed(data["vessel"], "str"))
+        except InputError as err:
+            raise InputError(err.message, field="filter.vessel",
+                             text=_toml_value(data["vessel"])) from None
+        kwargs.update(VESSEL_PRESETS.get(vessel, {}))
     for name, value in data.items():
         if name not in keys:
             raise InputError(UNKNOWN_KEY_MESSAGE, field=f"{table}.{name}", text=name)
         kwargs[keys[name].attr] = value
+    if cls is FilterConfig:
+        kwargs["set_keys"] = tuple(keys[name].attr for name in data)
     obj = cls(**kwargs)
     if cls is DeccaConfig and "select" not in data:
         obj = dataclasses.replace(obj, select=obj.entered())
     return obj
+
+
+def resolve_vessel(cfg: RunConfig, nmea: bool | None = None) -> RunConfig:
+    """``cfg`` with ``filter.vessel = "auto"`` resolved for its run file: an NMEA 0183 log
+    (``nmea``; None = look at the file's content) makes it "surface", whose values replace the
+    keys the TOML file did not set and that are still at the submarine default; a 1993 ``.RUN``
+    leaves ``cfg`` as it is ("auto" then means "submarine": every .RUN run is unchanged)."""
+    f = cfg.filter
+    if f.vessel != "auto":
+        return cfg
+    if nmea is None:
+        nmea = is_nmea_file(cfg.run_path)
+    if not nmea:
+        return cfg
+    sub = FilterConfig()
+    changes = {k: v for k, v in VESSEL_PRESETS["surface"].items()
+               if k not in f.set_keys and getattr(f, k) == getattr(sub, k)}
+    return cfg.replace(filter=dataclasses.replace(f, vessel="surface", **changes))
 
 
 def _with_names(cfg: RunConfig, known_datums: Iterable[str] | None,

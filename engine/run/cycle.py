@@ -59,7 +59,7 @@ from engine.lsq.fix import (
     slots_of,
 )
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
-from engine.run.config import RunConfig
+from engine.run.config import RunConfig, resolve_vessel
 from engine.systems import registry
 from engine.systems.base import CycleInputs, SystemReading
 from engine.systems.decca import (
@@ -176,7 +176,9 @@ class RunContext:
 
 
 def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain]) -> RunContext:
-    """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain)."""
+    """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain);
+    ``filter.vessel = "auto"`` is resolved for the run file (:func:`resolve_vessel`)."""
+    cfg = resolve_vessel(cfg)
     working = datums.datum(cfg.datum)
     gps_datum = datums.datum(cfg.run_gps_datum) if cfg.run_gps_datum.upper() != "WGS84" else WGS84
     shift = None if gps_datum.name.upper() == working.name.upper() else datum_shift(
@@ -620,6 +622,13 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         # COG/SOG ↔ gyro/log: the current and the two biases belong to the other sensors.
         fstate = restart_dr_states(fstate, params)
         reference = sens.reference
+    if reference == "ground" and sens.reference == "none":
+        # Over ground (COG/SOG stand-in) without COG/SOG this record (a GNSS outage): a water
+        # speed or a compass heading alone is not the ground speed/course the filter's states
+        # are, and the current that separates them is not estimated over ground; using the
+        # log's 2-5 % σ on the ground speed made the outage ellipse far too small on the Plaka
+        # log (docs/REALDATA.md). The filter coasts on its process noise instead.
+        heading_grid = speed_ms = None
     # Heading and speed of this record drive the step into it (THEORY §14.1 item 6: the
     # sample's KF row moves on the mean of the two records' gyro headings). A state just
     # initialised from this record's readings has them already (no double counting).

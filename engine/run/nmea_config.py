@@ -3,8 +3,9 @@
 ``uvnav replay LOG.nmea`` without ``--config`` and without ``LOG.toml`` beside the log runs with
 this: working datum and GNSS datum WGS84 (NMEA positions are WGS84), DR position = the log's
 first valid fix, GPS on, Decca off, gyro / log / echo sounder "on" when the log has heading /
-water speed / depth sentences, else "n/a" (not connected), every other key at its default (the
-Kalman filter on, "honest" preset).
+water speed / depth sentences, else "n/a" (not connected), the filter's sensor and process
+noise of a surface vessel (``filter.vessel = "surface"``, docs/CONFIG.md "The vessel
+decision"), every other key at its default (the Kalman filter on, "honest" preset).
 """
 
 from __future__ import annotations
@@ -16,7 +17,14 @@ from engine.errors import InputError
 from engine.io.formatting import format_dms_input
 from engine.io.nmea_epochs import NmeaStats
 from engine.io.nmea_log import scan_nmea_log
-from engine.run.config import DeccaConfig, GpsConfig, NmeaConfig, RunConfig, SensorsConfig
+from engine.run.config import (
+    DeccaConfig,
+    FilterConfig,
+    GpsConfig,
+    NmeaConfig,
+    RunConfig,
+    SensorsConfig,
+)
 
 __all__ = ["NO_DATE_MESSAGE", "NO_FIX_MESSAGE", "config_from_stats", "derive_nmea_config",
            "derived_config_lines"]
@@ -71,6 +79,7 @@ def config_from_stats(
         sensors=SensorsConfig(gyro=state("heading"), log=state("water speed"), rudder="n/a",
                               inclinometer="n/a", pressure="n/a",
                               echosounder=state("depth")),
+        filter=FilterConfig.from_vessel("surface"),
         nmea=nmea,
         config_dir=config_dir,
     )
@@ -84,6 +93,6 @@ def derived_config_lines(cfg: RunConfig) -> list[str]:
         "(the first valid fix)",
         f"GPS {'on' if cfg.gps.on else 'off'} ({cfg.gps.receiver}), Decca "
         f"{'on' if cfg.decca.on else 'off'}, filter {'on' if cfg.filter.on else 'off'} "
-        f"({cfg.filter.preset} preset)",
+        f"({cfg.filter.preset} preset, {cfg.filter.vessel} vessel)",
         f"sensors: gyro {s.gyro}, log {s.log}, echo sounder {s.echosounder}",
     ]

@@ -49,7 +49,13 @@ from engine.io.runfile import BadRecord, RunRecord
 from engine.lsq.confidence import error_ellipse
 from engine.lsq.fix import lop_name
 from engine.run.commands import Command, SetDatum, apply_command
-from engine.run.config import UNKNOWN_CHAIN_MESSAGE, RunConfig, dump_config, load_config
+from engine.run.config import (
+    UNKNOWN_CHAIN_MESSAGE,
+    RunConfig,
+    dump_config,
+    load_config,
+    resolve_vessel,
+)
 from engine.run.cycle import (
     CycleResult,
     NavState,
@@ -218,7 +224,9 @@ class Session:
     ) -> None:
         """``records`` replaces reading ``config.run_path`` (a live source pushes its records
         with :meth:`process` instead: pass ``records=()``); ``source_name`` names the source in
-        messages and the ``.OUT`` header (default the run file)."""
+        messages and the ``.OUT`` header (default the run file). ``filter.vessel = "auto"`` is
+        resolved here: "surface" for an NMEA log or a live (NMEA) source (docs/CONFIG.md)."""
+        config = resolve_vessel(config, nmea=True if records is not None else None)
         if data is None:
             data = load_data(config)
         else:

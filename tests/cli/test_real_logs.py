@@ -9,6 +9,7 @@ what the replayed track is held to.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from datetime import UTC, datetime, timedelta
@@ -19,6 +20,7 @@ import pytest
 from pyproj import Geod
 
 from engine.assess.denied import DeniedReport, denied_experiment, run_records
+from engine.run.config import resolve_vessel
 from engine.run.session import load_run_config
 from tests.paths import DATA
 from uvnav_tui.cli.main import main
@@ -114,15 +116,38 @@ def test_denied_on_real_data_gives_sane_numbers(markermeer: DeniedReport) -> Non
 
 
 def test_denied_ellipse_holds_the_hidden_fix_on_real_data(markermeer: DeniedReport) -> None:
-    """The console's 95 % ellipse after 5 and 10 minutes without GNSS holds the hidden fix in at
-    least 80 % of the Markermeer windows (the fix's own error, a few metres at HDOP 0.5, is
-    negligible against the measured ellipses of 100–160 m; measured 100 %). The windows overlap
-    and share one afternoon's leeway, so they are far from independent: 80 %, not a binomial
-    bound. This is the filter's honesty on real data: a filter tuned to claim less than it
-    knows fails here first (docs/REALDATA.md)."""
+    """The console's 95 % ellipse after 1, 5 and 10 minutes without GNSS holds the hidden fix in
+    at least 9 of the 11 Markermeer windows (``filter.vessel = "surface"``, docs/CONFIG.md "The
+    vessel decision"; measured 10–11 of 11). An honest ellipse misses with p = 0.05, so 8 or
+    fewer of 11 independent windows has probability 1.5 % (binomial); the windows overlap and
+    share one afternoon's leeway, so that is indicative only. With the thesis' submarine gyro
+    and log σ the ellipse held it in 9 % of the windows at 5 and 10 minutes (every 60 s,
+    docs/REALDATA.md): a filter that claims more than it knows fails here first. The fix's own
+    error (HDOP 0.5: σ ≈ 1.8 m per axis) is not in the ellipse; it matters a little at 1 minute
+    (a95 8 m), not at 5 and 10 (45 and 117 m)."""
     for r in markermeer.rows:
-        if r.checkpoint_s >= 300.0:
-            assert r.coverage >= 0.8
+        assert r.n == 11
+        assert r.coverage * r.n >= 9, r
+
+
+@pytest.mark.slow
+def test_standin_outage_ellipse_holds_the_hidden_fix_on_plaka() -> None:
+    """COG/SOG stand-in (no heading in the log) through 10-minute GNSS outages on the Plaka log:
+    the filter coasts on its process noise (the "surface" vessel's), and its 95 % ellipse must
+    miss the hidden fix in at most 3 of the 23–24 windows at 1, 5 and 10 minutes (an honest
+    ellipse misses 4 or more with probability 3.0 %, binomial n = 24, p = 0.05; measured 0–1
+    misses); the windows are 10 minutes apart and do not overlap, though they share a day's
+    wind). Before the vessel
+    preset and with the log's water speed fed into the ground speed, 40 % at 10 minutes
+    (docs/REALDATA.md)."""
+    cfg, data = load_run_config(NMEA / "signalk-plaka-gulf-of-finland.toml")
+    cfg = cfg.replace(sensors=dataclasses.replace(cfg.sensors, cog_sog="standin"))
+    assert resolve_vessel(cfg).filter.vessel == "surface"
+    rep = denied_experiment(cfg, data, run_records(cfg), [600.0], every_s=600.0,
+                            warmup_s=300.0, checkpoints_s=(60.0, 300.0, 600.0))
+    for r in rep.rows:
+        assert r.n >= 23  # 24 starts; a checkpoint without a fix within 5 s is not scored
+        assert r.n - round(r.coverage * r.n) <= 3, r
 
 
 def gga_fixes(path: Path, day: datetime) -> dict[datetime, tuple[float, float]]:

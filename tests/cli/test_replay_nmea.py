@@ -67,7 +67,8 @@ def test_replay_nmea_log_without_config_derives_one(tmp_path: Path,
     assert "derived from the NMEA log" in text
     assert "config: datum WGS84, GNSS datum WGS84, DR position 52 50 00.000 N 004 30 00.000 E" \
         in text
-    assert "config: GPS on (C/A), Decca off, filter on (honest preset)" in text
+    assert ("config: GPS on (C/A), Decca off, filter on (honest preset, surface vessel)"
+            in text)
     assert "config: sensors: gyro n/a, log on, echo sounder n/a" in text
     assert "nmea: no heading (HDT/HDG/VHW) in the log" in text
     assert "nmea: no depth (DBT/DPT) in the log" in text

@@ -365,6 +365,44 @@ def test_empty_filter_table_is_the_honest_preset() -> None:
     assert (caught.value.field, caught.value.line) == ("filter.preset", 3)
 
 
+def test_vessel_preset_and_auto(tmp_path: Path) -> None:
+    """``filter.vessel`` (docs/CONFIG.md "The vessel decision"): "surface" fills the keys the
+    file leaves out, a key in the file wins; "auto" leaves a .RUN configuration exactly as it
+    is (every 1993 run unchanged) and becomes "surface" for an NMEA log, again except for the
+    keys the file set; an unknown vessel is located."""
+    from engine.run.config import VESSEL_PRESETS, resolve_vessel
+    from engine.run.cycle import filter_params_from_config
+
+    surface = parse_config_text('[filter]\nvessel = "Surface"\nsigma_gyro_deg = 2.0\n').filter
+    assert surface.vessel == "surface" and surface.sigma_gyro_deg == 2.0
+    for key, value in VESSEL_PRESETS["surface"].items():
+        if key != "sigma_gyro_deg":
+            assert getattr(surface, key) == value, key
+    assert FilterConfig.from_vessel("surface") == parse_config_text(
+        '[filter]\nvessel = "surface"\n').filter
+    p = filter_params_from_config(parse_config_text('[filter]\nvessel = "surface"\n'))
+    assert (p.sigma_current2, p.turn_rate_max_deg_s) == (
+        VESSEL_PRESETS["surface"]["sigma_current2"],
+        VESSEL_PRESETS["surface"]["turn_rate_max_deg_s"])
+    # "auto" with a .RUN (the bundled demo's configuration): the very same object.
+    run = parse_config_text('run_file = "DEMO.RUN"\n', base_dir=ROOT / "data")
+    assert run.filter.vessel == "auto" and resolve_vessel(run) is run
+    assert filter_params_from_config(run) == filter_params_from_config(default_config())
+    # "auto" with an NMEA log: surface, but the file's own key stays.
+    (tmp_path / "y.nmea").write_text(
+        "$GPRMC,120000,A,5250.0000,N,00430.0000,E,5.0,10.0,021226,,,A*47\n" * 3)
+    text = 'run_file = "y.nmea"\n[filter]\nlog_sigma_frac = 0.02\n'
+    auto = resolve_vessel(parse_config_text(text, base_dir=tmp_path)).filter
+    assert auto.vessel == "surface" and auto.log_sigma_frac == 0.02
+    assert auto.sigma_gyro_deg == VESSEL_PRESETS["surface"]["sigma_gyro_deg"]
+    kept = resolve_vessel(parse_config_text(text + 'vessel = "submarine"\n',
+                                            base_dir=tmp_path)).filter
+    assert kept == FilterConfig(vessel="submarine")
+    with pytest.raises(InputError) as caught:
+        parse_config_text('[filter]\nvessel = "yacht"\n', "x.toml")
+    assert (caught.value.field, caught.value.line) == ("filter.vessel", 2)
+
+
 @pytest.mark.parametrize(("systems", "tau", "frac"), [
     # C/A: SA τ 240 s; white 5 m against 2500 m² × GPS.SE_SF 0.5 → 1 − 25/1250 = 0.98.
     ('[gps]\non = true\n', 240.0, 0.98),

@@ -14,6 +14,7 @@ unreadable run file), nothing run; 3 no window fits in the run; 130 interrupted 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from datetime import UTC, datetime, time, timedelta
@@ -67,6 +68,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "default 60 300 600 1800)")
     p.add_argument("--truth", metavar="CSV",
                    help="measure against this simulator truth instead of the hidden fixes")
+    p.add_argument("--cog-sog", action="store_true",
+                   help="course/speed over ground stand in for a missing gyro heading / log "
+                   'speed (sets sensors.cog_sog = "standin", as uvnav replay --cog-sog)')
     p.add_argument("--windows", action="store_true", help="also print every window's errors")
     p.add_argument("--markdown", action="store_true",
                    help="print the table as Markdown (for docs/REALDATA.md)")
@@ -186,6 +190,8 @@ def run_denied(argv: list[str]) -> int:
             data = load_data(cfg)
         else:
             raise InputError(NO_CONFIG_MESSAGE, file=str(config_path), field="configuration")
+        if args.cog_sog:
+            cfg = cfg.replace(sensors=dataclasses.replace(cfg.sensors, cog_sog="standin"))
         reader = run_records(cfg)
         records = list(reader)
         first = next((r.time for r in records if isinstance(r, RunRecord)), None)
