@@ -1,7 +1,7 @@
 """Tuning/validation split of the GPS-denied experiment on a bundled real log (docs/REALDATA.md,
 "Tuning the surface vessel").
 
-    PYTHONPATH=. .venv/bin/python tools/denied_halves.py LOG_NAME '{"key": value}' '[600, 1800]' \
+    .venv/bin/python -m tests.denied_halves LOG_NAME '{"key": value}' '[600, 1800]' \
         EVERY_S [standin]
 
 runs ``engine.assess.denied.denied_experiment`` on ``data/nmea/LOG_NAME.nmea`` with its
