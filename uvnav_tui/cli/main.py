@@ -42,7 +42,7 @@ USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open
                     [--nmea-out udp://HOST:PORT] [--live URL]
        uvnav replay RUN_or_NMEA_LOG [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
                         [--smooth [FILE]] [--force] [--nmea-out udp://HOST:PORT|FILE]
-                        [--date YYYY-MM-DD]
+                        [--date YYYY-MM-DD] [--lop-reject Y|N] [--cog-sog]
        uvnav simulate SCENARIO.toml --out NAME.RUN [--truth NAME.truth.csv] [--seed N]
                       [--nmea NAME.nmea]
        uvnav script FILE [--headless]
@@ -52,7 +52,8 @@ USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open
        uvnav export OUT_or_JSONL [--gpx F] [--geojson F] [--csv F] [--kml F]
                     [--tracks mpp,lse,gps,smoothed] [--smoothed F] [--datum-file F] [--force]
        uvnav denied RUN [--config TOML] [--window S ...] [--start T ...] [--every S]
-                        [--warmup S] [--checkpoint S ...] [--truth CSV] [--windows] [--markdown]
+                        [--warmup S] [--checkpoint S ...] [--truth CSV] [--cog-sog] [--windows]
+                        [--markdown]
        uvnav live URL [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE] [--force]
                       [--cycles N] [--seconds S] [--learn S] [--quiet]   (URL: udp://0.0.0.0:10110,
                       tcp://HOST:10110, gpsd://HOST:2947, serial:///dev/ttyUSB0?baud=4800)
