@@ -53,7 +53,7 @@ def render(r: CycleResult, session: Session) -> str:
         # that puts the fix at height 0 on the working datum).
         f"{r.datum:<9}{format_lat_dms(g.lat_deg):<19}{format_lon_dms(g.lon_deg):<20}0.00",
         "",
-        f"input : .RUN record on {cfg.run_gps_datum}, receiver {cfg.gps.receiver}",
+        input_line(g.weight, cfg.run_gps_datum, cfg.gps.receiver),
         *weight_lines(g.weight),
         "",
         "    obs / calc (LSE)",
@@ -78,6 +78,17 @@ def render(r: CycleResult, session: Session) -> str:
     if lse is None:
         out.append("calc : no LSE this cycle")
     return "\n".join(out)
+
+
+def input_line(w: GpsWeight | None, datum: str, receiver: str) -> str:
+    """Where the fix came from: a 1993 ``.RUN`` record of the configured receiver type, or an
+    NMEA fix with the receiver's own figures (then the C/A or P receiver type does not weigh
+    it and is not named)."""
+    if w is not None and w.receiver_weighted:
+        return f"input : NMEA fix on {datum}, weighted by the receiver's HDOP"
+    if w is not None and (w.hdop is not None or w.quality is not None):
+        return f"input : NMEA fix on {datum}, receiver {receiver} weight"
+    return f"input : .RUN record on {datum}, receiver {receiver}"
 
 
 def weight_lines(w: GpsWeight | None) -> list[str]:
