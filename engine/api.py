@@ -58,7 +58,7 @@ from engine.io.formatting import (
     format_zone_lane,
 )
 from engine.io.nmea_epochs import NmeaOptions, NmeaStats
-from engine.io.nmea_log import NmeaLog, is_nmea_file
+from engine.io.nmea_log import CONVERTED_RUN_MARK, NmeaLog, is_nmea_file
 from engine.io.operator_input import (
     ZONE_LETTERS,
     parse_bearing_deg,
@@ -324,6 +324,7 @@ __all__ = [
     "derived_config_lines",
     "format_run_record",
     "is_nmea_file",
+    "CONVERTED_RUN_MARK",
     # headless work: exports (uvnav export, imported on first use)
     "ELLIPSE_POINTS",
     "EXPORT_TRACKS",

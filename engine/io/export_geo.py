@@ -304,6 +304,12 @@ def build_export(log: ExportLog, tracks: Sequence[str], converter: Wgs84Converte
         else:
             raise InputError(f"Unknown track (one of {', '.join(TRACKS)}) !", field="--tracks",
                              text=name)
-        out[name] = converter.points(track_datums, pts, cms, with_depth=name in _DEPTH_TRACKS,
-                                     ring_points=ring_points)
+        try:
+            out[name] = converter.points(track_datums, pts, cms,
+                                         with_depth=name in _DEPTH_TRACKS, ring_points=ring_points)
+        except InputError as exc:
+            if exc.field != "datum":
+                raise
+            # The datum name comes from the log (a damaged or foreign log): name the log.
+            raise InputError(exc.message, file=log.path, field="datum", text=exc.text) from None
     return ExportData(log.path, epochs, out, tuple(dict.fromkeys(datums)))

@@ -50,6 +50,26 @@ def is_nmea_file(path: str | os.PathLike[str]) -> bool:
     return good >= min(2, len(lines)) and good * 2 > len(lines)
 
 
+CONVERTED_RUN_MARK = "* UVNAV .RUN converted from the NMEA 0183 log"
+"""First line of a ``.RUN`` that ``uvnav convert`` wrote from an NMEA log."""
+
+
+def is_converted_nmea_run(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` is a ``.RUN`` written by ``uvnav convert`` (its first line is
+    :data:`CONVERTED_RUN_MARK`): its records come from an NMEA log, so a run treats it as one
+    (``filter.vessel = "auto"``), and replaying it gives the cycles of the log. False for
+    anything unreadable."""
+    try:
+        name = os.fspath(path)
+        if "\0" in name or not stat.S_ISREG(os.stat(name).st_mode):
+            return False
+        with open(name, "rb") as fh:
+            head = fh.read(len(CONVERTED_RUN_MARK))
+    except (OSError, ValueError):
+        return False
+    return head == CONVERTED_RUN_MARK.encode("ascii")
+
+
 class NmeaLog:
     """The records of an NMEA log (an iterable of RunRecord | BadRecord, read once).
 

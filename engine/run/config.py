@@ -24,7 +24,7 @@ from typing import Any, ClassVar
 from engine.errors import InputError
 from engine.filter.params import accel_variance
 from engine.io.nmea_epochs import NmeaOptions
-from engine.io.nmea_log import is_nmea_file
+from engine.io.nmea_log import is_converted_nmea_run, is_nmea_file
 from engine.io.operator_input import (
     DATUM_MESSAGE,
     DEPTH_MESSAGE,
@@ -1116,14 +1116,15 @@ def _build_table(table: str, cls: type, data: Mapping[str, Any]) -> Any:
 
 def resolve_vessel(cfg: RunConfig, nmea: bool | None = None) -> RunConfig:
     """``cfg`` with ``filter.vessel = "auto"`` resolved for its run file: an NMEA 0183 log
-    (``nmea``; None = look at the file's content) makes it "surface", whose values replace the
+    (``nmea``; None = look at the file's content; a ``.RUN`` that ``uvnav convert`` wrote from
+    one counts as one) makes it "surface", whose values replace the
     keys the TOML file did not set and that are still at the submarine default; a 1993 ``.RUN``
     leaves ``cfg`` as it is ("auto" then means "submarine": every .RUN run is unchanged)."""
     f = cfg.filter
     if f.vessel != "auto":
         return cfg
     if nmea is None:
-        nmea = is_nmea_file(cfg.run_path)
+        nmea = is_nmea_file(cfg.run_path) or is_converted_nmea_run(cfg.run_path)
     if not nmea:
         return cfg
     sub = FilterConfig()

@@ -22,6 +22,7 @@ from datetime import date
 from pathlib import Path
 
 from engine.api import (
+    CONVERTED_RUN_MARK,
     BadRecord,
     InputError,
     NmeaLog,
@@ -113,7 +114,7 @@ def run_convert(argv: list[str]) -> int:
     epochs = 0
     shown = 0
     try:
-        fh.write(f"* UVNAV .RUN converted from the NMEA 0183 log {_comment(str(log_path))} "
+        fh.write(f"{CONVERTED_RUN_MARK} {_comment(str(log_path))} "
                  "(uvnav convert, docs/NMEA.md)\n")
         for item in log:
             if isinstance(item, BadRecord):

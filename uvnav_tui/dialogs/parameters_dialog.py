@@ -140,6 +140,12 @@ def key_parser(table: Any, key: Key) -> Callable[[str], Any]:
     return parse
 
 
+FILE_ONLY_KEYS = frozenset({"sigma_current2", "sigma_a2"})
+"""Keys set in the configuration file only, not in the dialog: the filter's current and
+acceleration noise densities (m²/s³) follow the vessel (the dialog's ``vessel`` field sets
+them, docs/CONFIG.md "The vessel decision"); the file is the place for a deliberate value. It
+also keeps the Filter list whole on a 160×50 terminal."""
+
 FRAME_ROWS = 8
 """Rows of a parameter dialog that are not the field list: border 2, help 2, message 1,
 buttons 1, and a margin of 2 so the page stays visible above and below."""
@@ -156,7 +162,9 @@ class ParametersDialog(Dialog[SetParameters]):
         self.table = table
         self.TITLE = TABLE_TITLES.get(table_name, table_name)
         self.keys: tuple[Key, ...] = tuple(
-            k for k in type(table).KEYS if k.kind in ("float", "float_auto", "int", "str", "bool"))
+            k for k in type(table).KEYS
+            if k.kind in ("float", "float_auto", "int", "str", "bool")
+            and k.attr not in FILE_ONLY_KEYS)
 
     def compose_body(self) -> ComposeResult:
         """The fields in the table's key order, then the help line of the focused field."""
