@@ -1,0 +1,30 @@
+"""The ``.OUT`` logs stay byte-identical to the references (issue 14: "output unchanged").
+
+The speed work of issue 14 must not change a single byte of what the engine writes, apart from
+header paths. The references (``tests/run/out_reference/``, see :mod:`tests.out_reference`)
+were written by the engine before that work; each case here replays a run with this tree and
+compares block by block, so a failure names the first cycle that differs. The thesis sample is
+compared as whole text, so its failure shows the lines.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.out_reference import CASES, HERE, digests, normalised, replay
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_out_log_is_byte_identical(name: str, tmp_path: Path) -> None:
+    text = replay(CASES[name], tmp_path / f"{name}.OUT").read_text(encoding="utf-8")
+    if name == "SAMPLE":
+        assert normalised(text) == (HERE / "SAMPLE.OUT").read_text(encoding="utf-8")
+    want = (HERE / f"{name}.digests").read_text(encoding="utf-8").splitlines()
+    got = digests(text)
+    first = next((i for i, (g, w) in enumerate(zip(got, want, strict=False)) if g != w), None)
+    assert first is None, (
+        f"{name}: block {got[first].split()[0]} of the .OUT differs from the reference "
+        f"(python -m tests.out_reference rewrites the references: only for a reviewed change)")
+    assert len(got) == len(want), f"{name}: {len(got)} blocks, the reference has {len(want)}"
