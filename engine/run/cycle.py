@@ -36,7 +36,7 @@ from engine.filter.kalman import (
     stack_measurements,
     update,
 )
-from engine.filter.state import move_to_grid, replace_position
+from engine.filter.state import IX, IY, IZ, move_to_grid, replace_position
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -127,6 +127,27 @@ def lsq_settings_from_config(cfg: RunConfig) -> LsqSettings:
     )
 
 
+@dataclass(frozen=True, slots=True)
+class _ConfigDerived:
+    """Per-configuration values of the cycle, computed once (:meth:`RunContext.derived`)
+    instead of every cycle: the ``.OUT``/JSONL systems string, the sensors' A8.2 status codes
+    in the order of ``SENSOR_NAMES``, and the configuration's part of the fix source
+    (:func:`fix_source`). Keyed by the identity of the (frozen) configuration and of the
+    registry's system tuple they were computed from."""
+
+    config: RunConfig
+    systems: tuple[object, ...]
+    systems_string: str
+    sensor_status: tuple[int, ...]
+    fix_source: tuple[object, ...]
+
+    @classmethod
+    def of(cls, cfg: RunConfig) -> _ConfigDerived:
+        """The values of ``cfg`` under the registry as it is now."""
+        return cls(cfg, registry.SYSTEMS, systems_string(cfg),
+                   tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg))
+
+
 @dataclass
 class RunContext:
     """What a run needs besides its state: configuration, data files and derived solvers.
@@ -151,6 +172,16 @@ class RunContext:
     τ and fraction of a modern receiver (docs/GNSS_WEIGHTS.md); None: as ``filter_params``."""
     _grids: dict[float, TMGrid] = field(default_factory=dict)
     _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
+    _derived: _ConfigDerived | None = field(default=None, repr=False, compare=False)
+
+    def derived(self) -> _ConfigDerived:
+        """What every cycle reads from the configuration and the system registry, computed once
+        per configuration (a test or the console may put another ``config`` in place: then it
+        is computed again; so is it when a test registers another system)."""
+        d = self._derived
+        if d is None or d.config is not self.config or d.systems is not registry.SYSTEMS:
+            d = self._derived = _ConfigDerived.of(self.config)
+        return d
 
     def grid(self, cm_deg: float) -> TMGrid:
         """The TM grid of the working datum at central meridian ``cm_deg``."""
@@ -346,11 +377,7 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
              lat: float, lon: float,
              messages: list[str]) -> tuple[SensorValues, float | None]:
     cfg = ctx.config
-    status = tuple(cfg.sensors.status(n) for n in SENSOR_NAMES)
-
-    def val(i: int, v: float | None) -> float | None:
-        return v if status[i] == 1 else None
-
+    status = ctx.derived().sensor_status
     depth = None
     ref = nav.press_ref_hz
     if status[4] == 1 and rec.press_freq_hz is not None:
@@ -361,7 +388,8 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
             messages.append(f"Pressure {rec.press_freq_hz:.3f} Hz gives depth {depth:.0f} m: "
                             "implausible, not used")
             depth = None
-    heading, speed = val(0, rec.heading_deg), val(1, rec.speed_kn)
+    heading = rec.heading_deg if status[0] == 1 else None
+    speed = rec.speed_kn if status[1] == 1 else None
     reference, h_sigma, s_sigma = "water", None, None
     if heading is None or speed is None:
         reference = "none"
@@ -373,18 +401,18 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
             heading = (rec.cog_deg if rec.cog_deg is not None
                        and rec.sog_kn >= cfg.sensors.cog_min_sog_kn else None)
             h_sigma, s_sigma = standin_sigmas(rec.sog_kn)
-    values = SensorValues(
-        status=status,
-        heading_true_deg=heading,
-        speed_kn=speed,
-        rudder_deg=val(2, rec.rudder_deg),
-        incl_deg=val(3, rec.incl_deg),
-        depth_m=depth,
-        echo_m=val(5, rec.echo_m),
-        convergence_deg=grid.convergence_deg(lat, lon),
-        reference=reference,
-        heading_sigma_deg=h_sigma,
-        speed_sigma_ms=s_sigma,
+    values = SensorValues(  # positional: the order of the fields
+        status,
+        heading,
+        speed,
+        rec.rudder_deg if status[2] == 1 else None,
+        rec.incl_deg if status[3] == 1 else None,
+        depth,
+        rec.echo_m if status[5] == 1 else None,
+        grid.convergence_deg(lat, lon),
+        reference,
+        h_sigma,
+        s_sigma,
     )
     return values, ref
 
@@ -412,8 +440,10 @@ def _reference_messages(nav: NavState, sens: SensorValues, rec: RunRecord,
 
 def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
               cov: np.ndarray) -> PositionEstimate:
+    """A position estimate at grid (x, y) m with its 2×2 VCV ``cov`` (m², made read-only): its
+    geodetic position and, when the VCV is finite, its error ellipse."""
     lat, lon = grid.inverse(x, y)
-    ell = error_ellipse(cov) if np.isfinite(cov).all() else None
+    ell = error_ellipse(cov) if all(map(math.isfinite, cov.ravel().tolist())) else None
     cov.setflags(write=False)
     if ell is not None:
         ell.eigenvectors.setflags(write=False)
@@ -422,7 +452,10 @@ def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
 
 def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstimate:
     """The horizontal position of a filter state as an estimate (grid ``grid``)."""
-    return _estimate(source, grid, *fs.east_north_m, fs.depth_m, fs.position_cov_m2)
+    # The state's position, depth and horizontal VCV as FilterState.east_north_m, depth_m and
+    # position_cov_m2 give them (the same floats; one tolist() instead of three properties).
+    x, y, z = fs.x[IX:IZ + 1].tolist()
+    return _estimate(source, grid, x, y, z, fs.P[IX:IY + 1, IX:IY + 1].copy())
 
 
 def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
@@ -432,21 +465,20 @@ def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
     smoother link's Φ and each filter update's innovation, S, K and LS factors. A cycle result
     is an immutable value (the per-slot arrays inside ``fix.tested`` belong to
     engine.lsq.snooping)."""
-    arrays: list[np.ndarray] = []
     if fix is not None:
-        arrays.append(fix.cov)
+        fix.cov.setflags(write=False)
         if fix.ellipse is not None:
-            arrays.append(fix.ellipse.eigenvectors)
-        if fix.raw_lops is not None:
-            raw = fix.raw_lops
-            arrays += [raw.A, raw.omc_m, raw.Cl, raw.x_ref]
+            fix.ellipse.eigenvectors.setflags(write=False)
+        raw = fix.raw_lops
+        if raw is not None:
+            for a in (raw.A, raw.omc_m, raw.Cl, raw.x_ref):
+                a.setflags(write=False)
     if phi is not None:
-        arrays.append(phi)
+        phi.setflags(write=False)
     for u in updates:
         if u is not None:
-            arrays += [u.innovation, u.S, u.K, u.ls.l_inv, u.ls.w]
-    for a in arrays:
-        a.setflags(write=False)
+            for a in (u.innovation, u.S, u.K, u.ls.l_inv, u.ls.w):
+                a.setflags(write=False)
 
 
 def _cm_for(nav: NavState, lon: float) -> float:
@@ -538,7 +570,7 @@ def step(
     lanes = readings[DECCA.name].detail
     result = CycleResult(
         n=nav.n + 1, record=rec.line_no, time=rec.time, raw=rec.raw, dt_s=dt,
-        datum=ctx.working.name, cm_deg=cm, systems=systems_string(ctx.config), sensors=sens,
+        datum=ctx.working.name, cm_deg=cm, systems=ctx.derived().systems_string, sensors=sens,
         gps=readings[GPS.name].detail, decca_fractions=rec.decca, decca_on=ctx.config.decca.on,
         fix=fix, kf_pred=pred.estimate, kf=kf_est, mpp=mpp, filter_status=filt.status,
         filter_state=filt.state, filter_update=filt.result, cumulative=cumulative,
@@ -762,7 +794,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
         # away with the thesis P0 = I would otherwise pull against every fix.
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
         f.has_fix = True
-        f.source = cycle_fix_source(cfg, gnss, f.source)
+        f.source = _with_gnss(ctx.derived().fix_source, gnss, f.source)
         gp = ctx.filter_params_gnss
         if gnss and gp is not None and gp.coloured and cfg.filter.on:
             # The position now carries this fix's slowly varying error (τ 30 min): its
@@ -801,7 +833,7 @@ def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_
     if gnss and ctx.filter_params_gnss is not None:
         params = ctx.filter_params_gnss
     meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
-    source = cycle_fix_source(ctx.config, gnss, f.source)
+    source = _with_gnss(ctx.derived().fix_source, gnss, f.source)
     if gnss and source == f.source:
         _rescale_gnss_fix_states(f, meas)
     if source != f.source:
@@ -878,7 +910,12 @@ def cycle_fix_source(cfg: RunConfig, gnss: tuple[object, ...] | None,
     """This cycle's fix source: :func:`fix_source` of the configuration plus the receiver part
     (:func:`gnss_source`; a record without GPS keeps the previous one, so a gap in the fixes
     does not restart anything)."""
-    base = fix_source(cfg)
+    return _with_gnss(fix_source(cfg), gnss, previous)
+
+
+def _with_gnss(base: tuple[object, ...], gnss: tuple[object, ...] | None,
+               previous: tuple[object, ...] | None) -> tuple[object, ...]:
+    """:func:`cycle_fix_source` with the configuration's part ``base`` already known."""
     if gnss is None:
         gnss = _gnss_part(previous) if previous is not None and \
             previous[:len(previous) - len(_gnss_part(previous))] == base else ()
