@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import FrozenInstanceError, fields, replace
 from datetime import UTC
 from pathlib import Path
 
@@ -25,7 +25,10 @@ from engine.run.commands import (
     SetSensor,
 )
 from engine.run.config import load_config
+from engine.run.cycle import CycleResult, NavState
 from engine.run.session import Session
+from engine.systems.registry import systems_string
+from engine.systems.sensors import SENSOR_NAMES
 from tests.paths import DATA
 
 SAMPLE = DATA / "920917_1.toml"
@@ -361,6 +364,36 @@ def test_cycle_result_arrays_are_read_only() -> None:
     for a in arrays:
         with pytest.raises(ValueError):
             a[(0,) * a.ndim] = 1.0
+
+
+def test_cycle_values_are_whole_frozen_dataclasses() -> None:
+    """The cycle builds its CycleResult and NavState without the generated __init__ (speed,
+    issue 14): every field is set on the instance, they compare equal to the same values
+    built the ordinary way and stay frozen."""
+    s = Session(load_config(SAMPLE))
+    for _ in range(3):
+        r = s.step()
+        for value, cls in ((r, CycleResult), (s.nav, NavState)):
+            assert set(vars(value)) == {f.name for f in fields(cls)}
+            assert cls(**vars(value)) == value
+            with pytest.raises(FrozenInstanceError):
+                value.n = 0  # type: ignore[misc]
+
+
+def test_per_configuration_values_follow_the_configuration() -> None:
+    """The systems string and the sensor status codes are computed once per configuration,
+    and again for another one put in place (the console's pages do that)."""
+    s = Session(load_config(SAMPLE))
+    assert s.step().systems == systems_string(s.config)
+    cfg = s.config
+    off = cfg.replace(gps=replace(cfg.gps, on=False),
+                      sensors=replace(cfg.sensors, rudder="on"))
+    s.context.config = off
+    r = s.step()
+    assert r.systems == systems_string(off) != systems_string(cfg)
+    assert r.sensors.status == tuple(off.sensors.status(n) for n in SENSOR_NAMES)
+    s.context.config = cfg
+    assert s.step().systems == systems_string(cfg)
 
 
 def test_gps_on_another_datum_than_the_working_one() -> None:
