@@ -520,15 +520,22 @@ def fix_fit(fix: FixResult | None) -> tuple[float, str | None]:
     vt = fix.tested.variance_test
     s2 = fix.s2
     global_fail = vt is not None and s2 is not None and s2 > vt.upper
-    w = [abs(lop.w) for lop in fix.lops if lop.used and math.isfinite(lop.w)]
-    all_flagged = bool(w) and all(v > REJECT_BOUND for v in w)
+    n_w = 0  # used LOPs with a finite w; all flagged while each |w| > REJECT_BOUND
+    all_flagged = True
+    for lop in fix.lops:
+        if lop.used and math.isfinite(lop.w):
+            if not abs(lop.w) > REJECT_BOUND:
+                all_flagged = False
+                break
+            n_w += 1
+    all_flagged = all_flagged and n_w > 0
     if not (global_fail or all_flagged):
         return 1.0, None
     parts = []
     if global_fail and vt is not None and s2 is not None:
         parts.append(f"S² {s2:.3g} > {vt.upper:.3g}")
     if all_flagged:
-        parts.append(f"{len(w)}/{len(w)} w-tests fail")
+        parts.append(f"{n_w}/{n_w} w-tests fail")
     # Short enough for the console's 80-column message line (shown first of the cycle's).
     if fix.tested.adjustment.scaled or s2 is None or s2 <= 1.0:
         return 1.0, f"Fix fails its tests ({'; '.join(parts)})"
@@ -722,8 +729,8 @@ def _provisional(nav: NavState, grid: TMGrid,
     prediction when there is a filter, else the last MPP without a prior."""
     if pred_state is None:
         return grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg), None
-    x_start = pred_state.east_north_m
-    return x_start, PositionPrior(x_start[0], x_start[1], pred_state.position_cov_m2)
+    x, y = pred_state.x[IX:IY + 1].tolist()  # = pred_state.east_north_m
+    return (x, y), PositionPrior(x, y, pred_state.P[IX:IY + 1, IX:IY + 1].copy())
 
 
 def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, cm: float,
@@ -998,6 +1005,8 @@ def gps_voted_out(fix: FixResult) -> str | None:
     """The message for a fix whose w-test rejected (or, under LOPReject 'A', proposes to
     reject) a GPS LOP while Decca lanes are in it: GPS has no integer ambiguity, Decca has, so
     the likelier culprit is a wrong Decca lane and the operator must hear of it (issue 11)."""
+    if not fix.rejected_slots and fix.candidate_slot is None:
+        return None  # nothing voted out (the usual cycle)
     gps_slots = set(slots_of(GPS.name))
     out = gps_slots & set(fix.rejected_slots)
     if fix.candidate_slot in gps_slots:
