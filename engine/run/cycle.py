@@ -572,7 +572,10 @@ def step(
     filt = _update_filter(ctx, nav, pred, sens, fix, fix_cov, gnss, messages)
     kf_est = None
     if filt.state is not None and filt.status == "ON":
-        kf_est = filter_estimate("KF", grid, filt.state)
+        # Without an update at this epoch (dead reckoning only: a dive) the filtered state is
+        # the prediction, whose estimate the cycle has already made: not converted again.
+        kf_est = (pred.estimate if filt.state is pred.state and pred.estimate is not None
+                  else filter_estimate("KF", grid, filt.state))
     mpp = _mpp(ctx, nav, grid, kf_est, filt.state, fix, fix_cov, messages)
     cumulative = nav.cumulative
     if fix is not None and fix.lse_ok and fix.s2 is not None:
