@@ -31,6 +31,9 @@ __all__ = ["TMGrid", "central_meridian_deg"]
 
 FloatArray = npt.NDArray[np.float64]
 
+_INVERSE_MEMO = 8
+"""How many recently inverted grid points a :class:`TMGrid` remembers (a cycle inverts ~6)."""
+
 # Karney (2011) eq. (35): α_j as polynomials in n, lowest power first; the entry for j holds the
 # coefficients of n^j, n^(j+1), ..., n^6.
 _F = Fraction
@@ -117,6 +120,8 @@ class TMGrid:
     _A: float = field(init=False, repr=False, compare=False)
     _alpha: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _beta: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _inverted: dict[tuple[float, float], tuple[float, float]] = field(
+        init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         f = self.ellipsoid.f
@@ -130,6 +135,7 @@ class TMGrid:
         object.__setattr__(self, "_A", big_a)
         object.__setattr__(self, "_alpha", _series(_ALPHA, n))
         object.__setattr__(self, "_beta", _series(_BETA, n))
+        object.__setattr__(self, "_inverted", {})
 
     @classmethod
     def for_longitude(cls, ellipsoid: Ellipsoid, lon_deg: float) -> TMGrid:
@@ -198,8 +204,30 @@ class TMGrid:
     def inverse(self, x_m: float, y_m: float) -> tuple[float, float]:
         """Grid (x easting m, y northing m) → geodetic (lat, lon) in degrees on this ellipsoid.
 
-        Longitude is returned wrapped into (−180, 180].
+        Longitude is returned wrapped into (−180, 180]. The last few points inverted are
+        remembered: within one cycle the same point is inverted more than once (the filter's
+        prediction is the fix's provisional point), and the inverse is a pure function of
+        (x, y). Only Python floats other than zero are looked up (0.0 == −0.0 as a key, but the
+        sign of a zero northing reaches the latitude's).
         """
+        if type(x_m) is float and type(y_m) is float and x_m and y_m:
+            memo = self._inverted
+            key = (x_m, y_m)
+            hit = memo.get(key)
+            if hit is not None:
+                return hit
+            out = self._inverse(x_m, y_m)
+            if len(memo) >= _INVERSE_MEMO:
+                try:  # forget the oldest (insertion order)
+                    del memo[next(iter(memo))]
+                except (KeyError, RuntimeError, StopIteration):  # changed by another thread
+                    memo.clear()
+            memo[key] = out
+            return out
+        return self._inverse(x_m, y_m)
+
+    def _inverse(self, x_m: float, y_m: float) -> tuple[float, float]:
+        """:meth:`inverse` computed (Karney 2011 eqs. 11, 19–21, 36)."""
         z = complex(y_m / self._A, x_m / self._A)
         zp = z - _clenshaw_sum(self._beta, cmath.sin(2.0 * z), cmath.cos(2.0 * z))
         xip = zp.real
