@@ -228,18 +228,18 @@ def _lane_model(
         # ∂D/∂x including the line-scale term (A5.11), ∂D/∂y (A5.12).
         dxp.append(dx / lc - chord * (two_x + xs) / (lsf * lsf * 6.0 * rm2))
         dyp.append(dy / lc)
-    lam = sc.wavelength
-    base = sc.baseline
-    kmin = sc.min_lanes
-    d0, dx0, dy0 = dist[0], dxp[0], dyp[0]
-    n_calc = [(d0 - dist[s] + base[j]) / lam[j] + kmin[j] for j, s in _PATTERN_STATION]
-    row_x = [(dx0 - dxp[s]) / lam[j] for j, s in _PATTERN_STATION]
-    row_y = [(dy0 - dyp[s]) / lam[j] for j, s in _PATTERN_STATION]
-    return dist, n_calc, row_x, row_y
+    l0, l1, l2 = sc.wavelength
+    b0, b1, b2 = sc.baseline
+    k0, k1, k2 = sc.min_lanes
+    d0, d1, d2, d3 = dist
+    x0, x1, x2, x3 = dxp
+    y0, y1, y2, y3 = dyp
+    return (dist,
+            [(d0 - d1 + b0) / l0 + k0, (d0 - d2 + b1) / l1 + k1, (d0 - d3 + b2) / l2 + k2],
+            [(x0 - x1) / l0, (x0 - x2) / l1, (x0 - x3) / l2],
+            [(y0 - y1) / l0, (y0 - y2) / l1, (y0 - y3) / l2])
 
 
-_PATTERN_STATION = ((0, 1), (1, 2), (2, 3))
-"""(pattern, its slave's station index) for Red, Green, Purple."""
 _TWO_PI = 2.0 * math.pi
 _HALF_PI = math.pi / 2.0
 
@@ -309,10 +309,12 @@ def decca_geometry(
 
 _H_100KM = 1e-5
 """Metres → units of 100 km (the argument of the path σ polynomials A4.3)."""
-_MM2 = tuple(m ** 2 for m in MASTER_MULTIPLIER)
-_MS2 = tuple(m ** 2 for m in COMPARISON_MULTIPLIER_SLAVE)
-_MM_IJ = tuple(tuple(a * b for b in MASTER_MULTIPLIER) for a in MASTER_MULTIPLIER)
-_SYNC2 = tuple(s ** 2 for s in SYNC_SIGMA_LANES)
+_MM0_2, _MM1_2, _MM2_2 = (m ** 2 for m in MASTER_MULTIPLIER)
+_MS0_2, _MS1_2, _MS2_2 = (m ** 2 for m in COMPARISON_MULTIPLIER_SLAVE)
+_MM01, _MM02, _MM12 = (MASTER_MULTIPLIER[0] * MASTER_MULTIPLIER[1],
+                       MASTER_MULTIPLIER[0] * MASTER_MULTIPLIER[2],
+                       MASTER_MULTIPLIER[1] * MASTER_MULTIPLIER[2])
+_SYNC0_2, _SYNC1_2, _SYNC2_2 = (s ** 2 for s in SYNC_SIGMA_LANES)
 
 
 def _baseline_sky(baseline_m: Sequence[float]) -> tuple[float, ...]:
@@ -323,18 +325,24 @@ def _baseline_sky(baseline_m: Sequence[float]) -> tuple[float, ...]:
 def _vcv_core(d_master: float, d_slave: Sequence[float], baseline_sky: Sequence[float],
               cf: float) -> list[list[float]]:
     """:func:`decca_vcv_lanes` as nested lists (lanes²) from the distances (m) and
-    :func:`_baseline_sky`."""
+    :func:`_baseline_sky`: A4.1–A4.3 with :func:`sigma_path_a`/``_b`` written out (the same
+    operations; integer multiplier products as Python ints, as ``m_i * m_j`` gives them)."""
     h = _H_100KM
-    s_n2 = sigma_path_a(d_master * h) ** 2
-    s_x = (sigma_path_a(d_slave[0] * h), sigma_path_a(d_slave[1] * h),
-           sigma_path_b(d_slave[2] * h))
-    mm_ij = _MM_IJ
-    off01 = mm_ij[0][1] * s_n2 / cf
-    off02 = mm_ij[0][2] * s_n2 / cf
-    off12 = mm_ij[1][2] * s_n2 / cf
-    diag = [(_MM2[i] * (s_n2 + baseline_sky[i]) + _MS2[i] * s_x[i] ** 2) / cf + _SYNC2[i]
-            for i in range(3)]
-    return [[diag[0], off01, off02], [off01, diag[1], off12], [off02, off12, diag[2]]]
+    d = d_master * h
+    s_n2 = ((2.407 * d * d - 2.273 * d + 4.240) * 1e-3) ** 2  # σ_path_a(D_m)²
+    d = d_slave[0] * h
+    s_r = (2.407 * d * d - 2.273 * d + 4.240) * 1e-3
+    d = d_slave[1] * h
+    s_g = (2.407 * d * d - 2.273 * d + 4.240) * 1e-3
+    d = d_slave[2] * h
+    s_p = (2.843 * d * d - 2.597 * d + 5.000) * 1e-3  # σ_path_b (A4.3b)
+    sb0, sb1, sb2 = baseline_sky
+    o01 = _MM01 * s_n2 / cf
+    o02 = _MM02 * s_n2 / cf
+    o12 = _MM12 * s_n2 / cf
+    return [[(_MM0_2 * (s_n2 + sb0) + _MS0_2 * s_r ** 2) / cf + _SYNC0_2, o01, o02],
+            [o01, (_MM1_2 * (s_n2 + sb1) + _MS1_2 * s_g ** 2) / cf + _SYNC1_2, o12],
+            [o02, o12, (_MM2_2 * (s_n2 + sb2) + _MS2_2 * s_p ** 2) / cf + _SYNC2_2]]
 
 
 def _vcv_lanes(geom: DeccaGeometry, cf: float) -> list[list[float]]:
@@ -353,8 +361,15 @@ def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
 
 
 def _vcv_m2(c: list[list[float]], k: Sequence[float]) -> list[list[float]]:
-    """C_ij·k_i·k_j (m², A4.4) of a lane VCV ``c`` (lanes²) and metres per lane ``k``."""
-    return [[c[i][j] * (k[i] * k[j]) for j in range(3)] for i in range(3)]
+    """C_ij·(k_i·k_j) (m², A4.4) of a symmetric lane VCV ``c`` (lanes²) and metres per lane
+    ``k`` (k_i·k_j = k_j·k_i exactly, so the result is symmetric to the bit)."""
+    (c00, c01, c02), (_c10, c11, c12), (_c20, _c21, c22) = c
+    k0, k1, k2 = k
+    m01 = c01 * (k0 * k1)
+    m02 = c02 * (k0 * k2)
+    m12 = c12 * (k1 * k2)
+    return [[c00 * (k0 * k0), m01, m02], [m01, c11 * (k1 * k1), m12],
+            [m02, m12, c22 * (k2 * k2)]]
 
 
 def decca_vcv_m2(geom: DeccaGeometry, cf: float) -> np.ndarray:
@@ -626,9 +641,9 @@ def decca_totals(
     totals: list[float | None] = [None, None, None]
     new_track = list(track)
     notes: list[str] = []
-    resolver = ZoneLaneResolver(placed, x_start[0], x_start[1], geodesic)
+    resolver: ZoneLaneResolver | None = None  # built on first use (a pattern's first reading)
     at = _LaneAt(placed, geodesic)
-    for i in range(len(PATTERNS)):
+    for i in range(3):
         frac = fractions[i]
         if frac is None:
             continue
@@ -641,6 +656,8 @@ def decca_totals(
             if total is None:
                 continue  # the stale track stays: the next record tries again
         else:
+            if resolver is None:
+                resolver = ZoneLaneResolver(placed, x_start[0], x_start[1], geodesic)
             zl = zone_lane[i]
             lanes = None if zl is None else resolver.resolve_checked(i, zl, frac, notes)
             if lanes is None:
