@@ -802,15 +802,17 @@ class DeccaSystem:
             None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
             None if g is None else LaneSource("GPS", g.x_m + g.corr_east_m,
                                               g.y_m + g.corr_north_m, _EYE2 * g.var_m2))
-        sel = tuple(p in cfg.decca.select for p in PATTERNS)
+        select = cfg.decca.select
         c = cfg.corrections
+        totals = lanes.totals
         reading = DeccaReading(
-            placed, rec.decca, ctx.zone_lane, (sel[0], sel[1], sel[2]),
+            placed, rec.decca, ctx.zone_lane, (PATTERNS[0] in select, PATTERNS[1] in select,
+                                               PATTERNS[2] in select),
             (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes), cfg.lsq.decca_cf,
-            totals=lanes.totals,
+            totals=totals,
         )
         return SystemReading(value=reading, messages=lanes.notes, detail=lanes,
-                             observes=any(t is not None for t in lanes.totals))
+                             observes=totals != (None, None, None))
 
     def observations(self, value: DeccaReading | None, p0: Point) -> DeccaObservations | None:
         """Corrected total lane counts of ``value``: its ``totals``, else resolved from the

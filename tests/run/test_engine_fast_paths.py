@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 from pyproj import Geod
 
 import engine.filter.kalman as kf
+from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoidal import GeodesicSolver, line_scale_factor, mean_radius_sq
 from engine.geodesy.tmgrid import TMGrid, _clenshaw, _clenshaw_sum
 from engine.io.datumfile import read_datum_file
@@ -354,6 +355,43 @@ def test_grid_inverse_memo_returns_the_computed_inverse(points: list[tuple[float
     for x, y in points + points[::-1] + points:
         assert grid.inverse(x, y) == grid._inverse(x, y)
     assert len(grid._inverted) <= 8
+
+
+def _inverse_plain(grid: TMGrid, x_m: float, y_m: float) -> tuple[float, float]:
+    """The grid inverse as before issue 14: through _clenshaw_sum, _tau_from_taup and
+    wrap_180_deg."""
+    z = complex(y_m / grid._A, x_m / grid._A)
+    zp = z - _clenshaw_sum(grid._beta, cmath.sin(2.0 * z), cmath.cos(2.0 * z))
+    sxi, cxi, she = math.sin(zp.real), math.cos(zp.real), math.sinh(zp.imag)
+    r = math.hypot(she, cxi)
+    lon = wrap_180_deg(grid.cm_deg + math.degrees(math.atan2(she, cxi)))
+    if r == 0.0:
+        return math.copysign(90.0, sxi), lon
+    return math.degrees(math.atan(grid._tau_from_taup(sxi / r))), lon
+
+
+@settings(deadline=None, max_examples=300)
+@given(st.floats(-600_000.0, 600_000.0), st.floats(-9.9e6, 9.9e6),
+       st.sampled_from([-179.0, -3.0, 0.0, 5.0, 180.0]))
+def test_inlined_grid_inverse_is_the_composed_one(x: float, y: float, cm: float) -> None:
+    """The inverse with its Clenshaw sum, Newton and wrap written out equals the composition
+    of those routines exactly (zeros and signs included; both hemispheres, the antimeridian)."""
+    grid = TMGrid(ED50.ellipsoid, cm)
+    got, want = grid._inverse(x, y), _inverse_plain(grid, x, y)
+    assert got == want
+    assert [math.copysign(1.0, v) for v in got] == [math.copysign(1.0, v) for v in want]
+
+
+@settings(deadline=None, max_examples=300)
+@given(st.floats(-89.0, 89.0), st.floats(-180.0, 180.0),
+       st.sampled_from([-179.0, -3.0, 0.0, 5.0, 180.0]))
+def test_inlined_grid_forward_is_forward_full(lat: float, dlon: float, cm: float) -> None:
+    """The forward with its wrap, τ' and Clenshaw sum written out equals forward_full's
+    position (which goes through wrap_180_deg, _taup and _clenshaw) exactly, to 30° off the
+    CM (the series' range) and across the antimeridian."""
+    grid = TMGrid(ED50.ellipsoid, cm)
+    lon = wrap_180_deg(cm + dlon / 6.0)
+    assert grid.forward(lat, lon) == grid.forward_full(lat, lon)[:2]
 
 
 def test_grid_inverse_memo_keeps_the_sign_of_zero() -> None:
