@@ -325,6 +325,15 @@ class GeodesicSolver:
         return [inv(lon1_deg, lat1_deg, lon2, lat2, False, False)[0] % 360.0
                 for lat2, lon2 in points]
 
+    def forward_azimuths_rad(
+        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
+    ) -> list[float]:
+        """:meth:`forward_azimuths_deg` in radians (``math.radians`` of each, [0, 2π])."""
+        inv = self._inv_point
+        radians = math.radians
+        return [radians(inv(lon1_deg, lat1_deg, lon2, lat2, False, False)[0] % 360.0)
+                for lat2, lon2 in points]
+
 
 def geodesic_inverse(
     ell: Ellipsoid, lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float

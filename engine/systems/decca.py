@@ -248,8 +248,7 @@ def _azimuths_rad(
     sc: _ChainScalars, geodesic: GeodesicSolver, lat0: float, lon0: float
 ) -> list[float]:
     """Geodetic azimuths ship → master, red, green, purple (radians, from [0°, 360°))."""
-    radians = math.radians
-    return [radians(a) for a in geodesic.forward_azimuths_deg(lat0, lon0, sc.latlon)]
+    return geodesic.forward_azimuths_rad(lat0, lon0, sc.latlon)
 
 
 def _lef(az: list[float]) -> list[float]:
@@ -824,7 +823,8 @@ class DeccaSystem:
         raw: list[float | None] = [None, None, None]
         available = [False] * 3
         messages: list[str] = []
-        resolver = ZoneLaneResolver(value.placed, p0.x, p0.y, p0.geodesic)
+        resolver = (None if value.totals is not None
+                    else ZoneLaneResolver(value.placed, p0.x, p0.y, p0.geodesic))
         for i in range(len(PATTERNS)):
             frac, zl = value.fractions[i], value.zone_lane[i]
             if value.totals is not None:
@@ -835,7 +835,7 @@ class DeccaSystem:
                 if frac is None or zl is None:
                     continue
                 try:
-                    res = resolver.resolve(i, zl, frac)
+                    res = resolver.resolve(i, zl, frac)  # type: ignore[union-attr]
                 except EVAL_ERRORS as exc:
                     raise ObservationError("Decca lane count not resolved at the provisional "
                                            f"position: {exc}", messages) from exc

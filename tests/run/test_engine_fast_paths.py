@@ -342,6 +342,7 @@ def test_scalar_geodesic_path_is_geod_inv(lat1: float, lon1: float, lat2: float,
     assert GEOD.azimuth_distance(lat1, lon1, lat2, lon2) == want
     assert GEOD.azimuth_distance(np.float64(lat1), lon1, lat2, lon2) == want
     assert GEOD.forward_azimuths_deg(lat1, lon1, [(lat2, lon2), (lat2, lon2)]) == [want[0]] * 2
+    assert GEOD.forward_azimuths_rad(lat1, lon1, [(lat2, lon2)]) == [math.radians(want[0])]
     fb = GEOD._inv_fallback(lon1, lat1, lon2, lat2, False, False)
     assert fb == GEOD._geod._inv_point(lon1, lat1, lon2, lat2, False, False)
 
