@@ -372,8 +372,18 @@ def _vcv_m2(c: list[list[float]], k: Sequence[float]) -> list[list[float]]:
 
 
 def decca_vcv_m2(geom: DeccaGeometry, cf: float) -> np.ndarray:
-    """A priori 3×3 Decca VCV in m² across the LOPs: C_ij·k_i·k_j with k = λc·LEF/2 (A4.4)."""
+    """A priori 3×3 Decca VCV in m² across the LOPs: C_ij·k_i·k_j with k = λc·LEF/2 (A4.4).
+
+    The fix's Decca block (:meth:`DeccaObservations.linearise`) is this VCV, computed there
+    from the same numbers without the geometry's arrays; a function put in this name's place
+    (the thesis' printed VCV of Pg 615/821, in the tests) is called with the geometry instead.
+    """
     return np.array(_vcv_m2(_vcv_lanes(geom, cf), geom.metres_per_lane.tolist()))
+
+
+_DECCA_VCV_M2 = decca_vcv_m2
+"""The model's own :func:`decca_vcv_m2` (linearise takes its shortcut only while it is the one
+under that name)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -738,7 +748,13 @@ class DeccaObservations:
                 A[2 * i + 1] = row_y[j] * kj
                 b[i] = (obs - n_calc[j]) * kj
         s = slice(slot0, slot0 + len(PATTERNS))
-        Cl[s, s] = _vcv_m2(_vcv_core(dist[0], dist[1:], sc.baseline_sky, self.reading.cf), k)
+        vcv_m2 = decca_vcv_m2
+        if vcv_m2 is _DECCA_VCV_M2:
+            Cl[s, s] = _vcv_m2(_vcv_core(dist[0], dist[1:], sc.baseline_sky, self.reading.cf),
+                               k)
+        else:  # another a priori VCV put in its place (the printed one of Pg 615/821)
+            geom = decca_geometry(placed, p.x, p.y, p.geodesic, (lat0, lon0))
+            Cl[s, s] = vcv_m2(geom, self.reading.cf)
 
     def geometry_at(self, p: Point) -> DeccaGeometry:
         """The lane geometry at the estimate ``p`` (computed once per point; Pg 810)."""

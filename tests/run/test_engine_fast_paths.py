@@ -301,6 +301,28 @@ def test_decca_geometry_and_linearise_are_the_pre_issue_14_numbers(
     assert np.array_equal(Cl[2:, 2:], np.array(vcv))
 
 
+def test_a_vcv_put_in_decca_vcv_m2_s_place_is_the_fix_s(monkeypatch: pytest.MonkeyPatch) -> None:
+    """linearise computes the model VCV itself, but a function put in ``decca_vcv_m2``'s place
+    (the printed VCV of Pg 615/821) is what the fix then takes, called with the geometry."""
+    import engine.systems.decca as decca_mod
+
+    seen = []
+
+    def printed(geom: object, cf: float) -> np.ndarray:
+        seen.append(geom)
+        return np.full((3, 3), 7.0)
+
+    monkeypatch.setattr(decca_mod, "decca_vcv_m2", printed)
+    reading = DeccaReading(_PLACED, (0.1, 0.2, 0.3), (None, None, None), (True, True, True),
+                           totals=(44.1, 274.2, 1.3))
+    obs = DeccaObservations(reading, [44.1, 274.2, 1.3], [44.1, 274.2, 1.3], [True] * 3, [])
+    Cl = np.eye(5)
+    obs.linearise(Point(GRID, GEOD, -31615.4, 5857300.2), 2, [0.0] * 10, [0.0] * 5, Cl)
+    assert np.array_equal(Cl[2:, 2:], np.full((3, 3), 7.0))
+    want = decca_geometry(_PLACED, -31615.4, 5857300.2, GEOD)
+    assert np.array_equal(seen[0].n_calc, want.n_calc)  # type: ignore[attr-defined]
+
+
 @settings(deadline=None, max_examples=200)
 @given(_SHIP, st.floats(1.0, 1e7), st.floats(-0.9, 0.9))
 def test_lane_check_numbers_are_the_geometry_s(ship: tuple[float, float], var: float,
