@@ -441,7 +441,8 @@ def _wrap_half(d: float) -> float:
 def track_lane(previous_total: float, fraction: float) -> float:
     """Decometer lane tracking: the total count nearest to ``previous_total`` whose fraction is
     ``fraction`` (valid while the ship moves less than half a lane between readings)."""
-    return previous_total + _wrap_half(fraction - (previous_total - math.floor(previous_total)))
+    d = fraction - (previous_total - math.floor(previous_total))
+    return previous_total + (d - math.floor(d + 0.5))  # _wrap_half(d), written out
 
 
 def identify_lane(n_calc: float, fraction: float) -> float:

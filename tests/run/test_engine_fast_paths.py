@@ -35,6 +35,7 @@ from engine.systems.decca import (
     DeccaReading,
     LaneSource,
     _LaneAt,
+    _wrap_half,
     decca_geometry,
     decca_vcv_lanes,
     decca_vcv_m2,
@@ -42,6 +43,7 @@ from engine.systems.decca import (
     place_chain,
     sigma_path_a,
     sigma_path_b,
+    track_lane,
 )
 from tests.paths import DATA
 
@@ -338,6 +340,13 @@ def test_lane_check_numbers_are_the_geometry_s(ship: tuple[float, float], var: f
         n, sigma = at(src, i)  # type: ignore[misc]
         assert n == ref["n_calc"][i]  # type: ignore[index]
         assert sigma == lane_sigma(np.array(ref["row"][i]), cov)  # type: ignore[index]
+
+
+@given(st.floats(-1e4, 1e4), st.floats(0.0, 1.0, exclude_max=True))
+def test_track_lane_is_the_wrapped_difference(previous: float, fraction: float) -> None:
+    """track_lane with _wrap_half written out: the same number as through _wrap_half."""
+    want = previous + _wrap_half(fraction - (previous - math.floor(previous)))
+    assert track_lane(previous, fraction) == want
 
 
 def test_lane_check_refuses_where_the_geometry_raised() -> None:
