@@ -15,6 +15,7 @@ the first :class:`DatumShift` or :class:`GeodesicSolver` is built, not with this
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 from engine.geodesy.ellipsoid import WGS84, WGS84_ELLIPSOID, Datum, Ellipsoid
@@ -276,13 +277,24 @@ class GeodesicSolver:
     Build once per ellipsoid; :meth:`inverse` is then cheap.
     """
 
-    __slots__ = ("ellipsoid", "_geod")
+    __slots__ = ("ellipsoid", "_geod", "_inv_point")
 
     def __init__(self, ell: Ellipsoid) -> None:
         self.ellipsoid = ell
         from pyproj import Geod
 
         self._geod = Geod(a=ell.a_m, f=ell.f)
+        # The scalar path that Geod.inv itself takes for float input (same C geod_inverse, the
+        # same bits), called without the wrapper's frame; Geod.inv where pyproj lacks it.
+        point = getattr(self._geod, "_inv_point", None)
+        self._inv_point = point if point is not None else self._inv_fallback
+
+    def _inv_fallback(self, lon1: float, lat1: float, lon2: float, lat2: float,
+                      radians: bool, back: bool) -> tuple[float, float, float]:
+        """``Geod._inv_point``'s signature on ``Geod.inv`` (pyproj without the scalar path)."""
+        az12, az21, dist = self._geod.inv(lon1, lat1, lon2, lat2, radians=radians,
+                                          return_back_azimuth=back)
+        return float(az12), float(az21), float(dist)
 
     def inverse(
         self, lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float
@@ -296,8 +308,31 @@ class GeodesicSolver:
         self, lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float
     ) -> tuple[float, float]:
         """(forward azimuth 1 → 2 in degrees [0, 360), distance in metres)."""
-        az12, _az21, dist = self._geod.inv(lon1_deg, lat1_deg, lon2_deg, lat2_deg)
+        try:
+            az12, _az21, dist = self._inv_point(lon1_deg, lat1_deg, lon2_deg, lat2_deg, False,
+                                                False)
+        except TypeError:  # not a Python/numpy float or int: Geod.inv converts it
+            az12, _az21, dist = self._geod.inv(lon1_deg, lat1_deg, lon2_deg, lat2_deg)
         return float(az12) % 360.0, float(dist)
+
+    def forward_azimuths_deg(
+        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
+    ) -> list[float]:
+        """Forward azimuths (degrees, [0, 360)) from one point to each (lat, lon) of ``points``
+        (degrees): :meth:`azimuth_distance`'s azimuths in one call (the Decca geometry's ship →
+        station azimuths, four per evaluation)."""
+        inv = self._inv_point
+        return [inv(lon1_deg, lat1_deg, lon2, lat2, False, False)[0] % 360.0
+                for lat2, lon2 in points]
+
+    def forward_azimuths_rad(
+        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
+    ) -> list[float]:
+        """:meth:`forward_azimuths_deg` in radians (``math.radians`` of each, [0, 2π])."""
+        inv = self._inv_point
+        radians = math.radians
+        return [radians(inv(lon1_deg, lat1_deg, lon2, lat2, False, False)[0] % 360.0)
+                for lat2, lon2 in points]
 
 
 def geodesic_inverse(

@@ -31,6 +31,9 @@ __all__ = ["TMGrid", "central_meridian_deg"]
 
 FloatArray = npt.NDArray[np.float64]
 
+_INVERSE_MEMO = 8
+"""How many recently inverted grid points a :class:`TMGrid` remembers (a cycle inverts ~6)."""
+
 # Karney (2011) eq. (35): α_j as polynomials in n, lowest power first; the entry for j holds the
 # coefficients of n^j, n^(j+1), ..., n^6.
 _F = Fraction
@@ -117,6 +120,8 @@ class TMGrid:
     _A: float = field(init=False, repr=False, compare=False)
     _alpha: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _beta: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _inverted: dict[tuple[float, float], tuple[float, float]] = field(
+        init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         f = self.ellipsoid.f
@@ -130,6 +135,7 @@ class TMGrid:
         object.__setattr__(self, "_A", big_a)
         object.__setattr__(self, "_alpha", _series(_ALPHA, n))
         object.__setattr__(self, "_beta", _series(_BETA, n))
+        object.__setattr__(self, "_inverted", {})
 
     @classmethod
     def for_longitude(cls, ellipsoid: Ellipsoid, lon_deg: float) -> TMGrid:
@@ -179,8 +185,13 @@ class TMGrid:
         return self._A * z.imag, self._A * z.real, math.degrees(gamma), k
 
     def forward(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
-        """Geodetic (degrees, on this ellipsoid) → grid (x easting m, y northing m)."""
-        lam = math.radians(wrap_180_deg(lon_deg - self.cm_deg))
+        """Geodetic (degrees, on this ellipsoid) → grid (x easting m, y northing m).
+
+        :func:`wrap_180_deg`, :meth:`_taup` and :func:`_clenshaw_sum` written out (the same
+        operations: this runs every cycle).
+        """
+        w = math.remainder(lon_deg - self.cm_deg, 360.0)  # wrap_180_deg
+        lam = math.radians(180.0 if w == -180.0 else w + 0.0)
         phi = math.radians(lat_deg)
         cphi = math.cos(phi)
         clam = math.cos(lam)
@@ -188,32 +199,88 @@ class TMGrid:
             xip = math.copysign(math.pi / 2, lat_deg)
             etap = 0.0
         else:
-            taup = self._taup(math.sin(phi) / cphi)
+            tau = math.sin(phi) / cphi
+            e = self._e
+            tau1 = math.hypot(1.0, tau)  # τ' (Karney eqs. 7–9), as _taup
+            sig = math.sinh(e * math.atanh(e * tau / tau1))
+            taup = tau * math.hypot(1.0, sig) - sig * tau1
             xip = math.atan2(taup, clam)
             etap = math.asinh(math.sin(lam) / math.hypot(taup, clam))
         zp = complex(xip, etap)
-        z = zp + _clenshaw_sum(self._alpha, cmath.sin(2.0 * zp), cmath.cos(2.0 * zp))
-        return self._A * z.imag, self._A * z.real
+        s2 = cmath.sin(2.0 * zp)
+        a = 2.0 * cmath.cos(2.0 * zp)
+        y1: complex | float = 0.0
+        y2: complex | float = 0.0
+        for cj in reversed(self._alpha):  # Clenshaw, as _clenshaw_sum
+            y1, y2 = a * y1 - y2 + cj, y1
+        z = zp + s2 * y1
+        big_a = self._A
+        return big_a * z.imag, big_a * z.real
 
     def inverse(self, x_m: float, y_m: float) -> tuple[float, float]:
         """Grid (x easting m, y northing m) → geodetic (lat, lon) in degrees on this ellipsoid.
 
-        Longitude is returned wrapped into (−180, 180].
+        Longitude is returned wrapped into (−180, 180]. The last few points inverted are
+        remembered: within one cycle the same point is inverted more than once (the filter's
+        prediction is the fix's provisional point), and the inverse is a pure function of
+        (x, y). Only Python floats other than zero are looked up (0.0 == −0.0 as a key, but the
+        sign of a zero northing reaches the latitude's).
         """
-        z = complex(y_m / self._A, x_m / self._A)
-        zp = z - _clenshaw_sum(self._beta, cmath.sin(2.0 * z), cmath.cos(2.0 * z))
+        if type(x_m) is float and type(y_m) is float and x_m and y_m:
+            memo = self._inverted
+            key = (x_m, y_m)
+            hit = memo.get(key)
+            if hit is not None:
+                return hit
+            out = self._inverse(x_m, y_m)
+            if len(memo) >= _INVERSE_MEMO:
+                try:  # forget the oldest (insertion order)
+                    del memo[next(iter(memo))]
+                except (KeyError, RuntimeError, StopIteration):  # changed by another thread
+                    memo.clear()
+            memo[key] = out
+            return out
+        return self._inverse(x_m, y_m)
+
+    def _inverse(self, x_m: float, y_m: float) -> tuple[float, float]:
+        """:meth:`inverse` computed (Karney 2011 eqs. 11, 19–21, 36), with
+        :func:`_clenshaw_sum`, :meth:`_tau_from_taup` and :func:`wrap_180_deg` written out (the
+        same operations: this runs several times a cycle)."""
+        big_a = self._A
+        z = complex(y_m / big_a, x_m / big_a)
+        s2 = cmath.sin(2.0 * z)
+        a = 2.0 * cmath.cos(2.0 * z)
+        y1: complex | float = 0.0
+        y2: complex | float = 0.0
+        for cj in reversed(self._beta):  # Clenshaw, as _clenshaw_sum
+            y1, y2 = a * y1 - y2 + cj, y1
+        zp = z - s2 * y1
         xip = zp.real
         etap = zp.imag
         sxi = math.sin(xip)
         cxi = math.cos(xip)
         she = math.sinh(etap)
         r = math.hypot(she, cxi)
-        lam = math.atan2(she, cxi)
+        w = math.remainder(self.cm_deg + math.degrees(math.atan2(she, cxi)), 360.0)
+        lon = 180.0 if w == -180.0 else w + 0.0  # wrap_180_deg
         if r == 0.0:
-            return math.copysign(90.0, sxi), wrap_180_deg(self.cm_deg + math.degrees(lam))
+            return math.copysign(90.0, sxi), lon
         taup = sxi / r
-        tau = self._tau_from_taup(taup)
-        return math.degrees(math.atan(tau)), wrap_180_deg(self.cm_deg + math.degrees(lam))
+        # τ = tan φ from τ' by Newton, as _tau_from_taup.
+        e2m = self._e2m
+        e = self._e
+        hypot = math.hypot
+        tau = taup / e2m
+        tol = 1e-15 * max(1.0, abs(taup))
+        for _ in range(6):
+            tau1 = hypot(1.0, tau)
+            sig = math.sinh(e * math.atanh(e * tau / tau1))
+            taupa = tau * hypot(1.0, sig) - sig * tau1
+            dtau = (taup - taupa) * (1.0 + e2m * tau * tau) / (e2m * tau1 * hypot(1.0, taupa))
+            tau += dtau
+            if abs(dtau) <= tol:
+                break
+        return math.degrees(math.atan(tau)), lon
 
     def _tau_from_taup(self, taup: float) -> float:
         """Invert τ' (tan conformal latitude) → τ = tan φ by Newton (Karney eqs. 19–21)."""

@@ -21,8 +21,6 @@ from engine.geodesy.ellipsoidal import (
     DatumShift,
     GeodesicSolver,
     andoyer_lambert_m,
-    line_scale_factor,
-    mean_radius_sq,
 )
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.deccafile import DeccaChain
@@ -34,7 +32,6 @@ from engine.systems.base import (
     ObservationError,
     Point,
     SystemReading,
-    set_row,
 )
 
 PATTERNS: tuple[str, str, str] = ("red", "green", "purple")
@@ -82,24 +79,45 @@ class ChainOnGrid:
     _scalars: _ChainScalars = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        xy = tuple(tuple(r) for r in np.asarray(self.station_xy_m, dtype=float).tolist())
+        latlon = tuple(tuple(r) for r in np.asarray(self.station_latlon_deg,
+                                                    dtype=float).tolist())
+        base = tuple(np.asarray(self.baseline_m, dtype=float).tolist())
+        ell = self.grid.ellipsoid
+        e2 = ell.e2
+        a = ell.a_m
         object.__setattr__(self, "_scalars", _ChainScalars(
-            tuple(tuple(r) for r in np.asarray(self.station_xy_m, dtype=float).tolist()),
-            tuple(tuple(r) for r in np.asarray(self.station_latlon_deg, dtype=float).tolist()),
+            xy,
+            latlon,
             tuple(np.asarray(self.wavelength_m, dtype=float).tolist()),
-            tuple(np.asarray(self.baseline_m, dtype=float).tolist()),
+            base,
             tuple(np.asarray(self.min_lanes, dtype=float).tolist()),
+            tuple((xs, ys, xs * xs, lat) for (xs, ys), (lat, _lon) in zip(xy, latlon,
+                                                                          strict=True)),
+            e2,
+            a * a * (1.0 - e2),
+            _baseline_sky(base),
         ))
 
 
 class _ChainScalars(NamedTuple):
     """ChainOnGrid's per-station numbers as floats: grid (x, y) m and (lat, lon) degrees of
-    master, red, green, purple; λc (m), baselines (m) and k per pattern."""
+    master, red, green, purple; λc (m), baselines (m) and k per pattern; and what the
+    per-epoch arithmetic of :func:`_lane_model` and :func:`_vcv_core` would otherwise
+    recompute from these every evaluation (the same operations, done once per placement):
+    per station (x, y, x², lat), e² and a²(1 − e²) of the working ellipsoid (R_m² numerator,
+    :func:`engine.geodesy.ellipsoidal.mean_radius_sq`), the baselines' sky-wave variances
+    σ_path_a(B)² (A4.3a, lanes²)."""
 
     xy: tuple[tuple[float, float], ...]
     latlon: tuple[tuple[float, float], ...]
     wavelength: tuple[float, ...]
     baseline: tuple[float, ...]
     min_lanes: tuple[float, ...]
+    stations: tuple[tuple[float, float, float, float], ...]
+    e2: float
+    rm2_numerator: float
+    baseline_sky: tuple[float, ...]
 
 
 def place_chain(
@@ -174,6 +192,77 @@ class DeccaGeometry:
     row: np.ndarray
 
 
+def _lane_model(
+    sc: _ChainScalars, x_m: float, y_m: float, lat0: float
+) -> tuple[list[float], list[float], list[float], list[float]]:
+    """(D per station (m), N_calc per pattern (lanes), ∂N/∂x and ∂N/∂y per pattern (lanes/m))
+    at grid point (x, y) of geodetic latitude ``lat0`` (degrees); stations master, red, green,
+    purple, patterns red, green, purple.
+
+    D = grid chord / L (A5.10, L at the mean latitude of the two end points, THEORY §2.4),
+    N_calc = (D_m − D_s + B)/λc + k (eq. 4.9), the partials A5.11–A5.12. The operations of
+    :func:`engine.geodesy.ellipsoidal.mean_radius_sq` and ``line_scale_factor`` written out
+    in the same order (the ``.OUT`` is reproducible to the last bit), with the per-station
+    constants of the placement.
+    """
+    e2 = sc.e2
+    num = sc.rm2_numerator
+    sin = math.sin
+    radians = math.radians
+    hypot = math.hypot
+    xx = x_m * x_m
+    two_x = 2.0 * x_m
+    dist = []
+    dxp = []
+    dyp = []
+    for xs, ys, xs2, slat in sc.stations:
+        s = sin(radians(0.5 * (lat0 + slat)))
+        w2 = 1.0 - e2 * s * s
+        rm2 = num / (w2 * w2)  # R_m² = ρν at the mean latitude
+        dx = x_m - xs
+        dy = y_m - ys
+        chord = hypot(dx, dy)
+        lsf = 1.0 + (xx + x_m * xs + xs2) / (6.0 * rm2)  # L (A5.10)
+        lc = lsf * chord
+        dist.append(chord / lsf)
+        # ∂D/∂x including the line-scale term (A5.11), ∂D/∂y (A5.12).
+        dxp.append(dx / lc - chord * (two_x + xs) / (lsf * lsf * 6.0 * rm2))
+        dyp.append(dy / lc)
+    l0, l1, l2 = sc.wavelength
+    b0, b1, b2 = sc.baseline
+    k0, k1, k2 = sc.min_lanes
+    d0, d1, d2, d3 = dist
+    x0, x1, x2, x3 = dxp
+    y0, y1, y2, y3 = dyp
+    return (dist,
+            [(d0 - d1 + b0) / l0 + k0, (d0 - d2 + b1) / l1 + k1, (d0 - d3 + b2) / l2 + k2],
+            [(x0 - x1) / l0, (x0 - x2) / l1, (x0 - x3) / l2],
+            [(y0 - y1) / l0, (y0 - y2) / l1, (y0 - y3) / l2])
+
+
+_TWO_PI = 2.0 * math.pi
+_HALF_PI = math.pi / 2.0
+
+
+def _azimuths_rad(
+    sc: _ChainScalars, geodesic: GeodesicSolver, lat0: float, lon0: float
+) -> list[float]:
+    """Geodetic azimuths ship → master, red, green, purple (radians, from [0°, 360°))."""
+    return geodesic.forward_azimuths_rad(lat0, lon0, sc.latlon)
+
+
+def _lef(az: list[float]) -> list[float]:
+    """Lane expansion factor 1/sin(γ/2) per pattern, γ the angle master–ship–slave (eq. 4.12)."""
+    out = []
+    az0 = az[0]
+    for s in (1, 2, 3):
+        gamma = abs(az[s] - az0) % _TWO_PI
+        if gamma > math.pi:
+            gamma = _TWO_PI - gamma
+        out.append(1.0 / math.sin(gamma / 2.0))
+    return out
+
+
 def decca_geometry(
     placed: ChainOnGrid,
     x_m: float,
@@ -186,49 +275,23 @@ def decca_geometry(
     N_calc = (D_m − D_s + B)/λc + k with D = grid chord / L (A5.10, L at the mean latitude of the
     two end points, THEORY §2.4).  ``latlon_deg`` is the point's geodetic (lat, lon) in degrees
     when the caller already has it (else the grid is inverted here).  Scalar arithmetic
-    throughout: this runs in every LS iteration.
+    throughout (:func:`_lane_model`).
     """
     lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
-    ell = placed.grid.ellipsoid
     sc = placed._scalars
-    azimuth = geodesic.azimuth_distance
-    dist = [0.0] * 4
-    dxp = [0.0] * 4
-    dyp = [0.0] * 4
-    az = [0.0] * 4
-    for i in range(4):
-        xs, ys = sc.xy[i]
-        slat, slon = sc.latlon[i]
-        rm2 = mean_radius_sq(ell, lat0, slat)
-        chord = math.hypot(x_m - xs, y_m - ys)
-        lsf = line_scale_factor(x_m, xs, rm2)
-        dist[i] = chord / lsf
-        # ∂D/∂x including the line-scale term (A5.11), ∂D/∂y (A5.12).
-        dxp[i] = (x_m - xs) / (lsf * chord) - chord * (2.0 * x_m + xs) / (lsf * lsf * 6.0 * rm2)
-        dyp[i] = (y_m - ys) / (lsf * chord)
-        az[i] = math.radians(azimuth(lat0, lon0, slat, slon)[0])
+    dist, n_calc, row_x, row_y = _lane_model(sc, x_m, y_m, lat0)
+    az = _azimuths_rad(sc, geodesic, lat0, lon0)
+    lef = _lef(az)
     lam = sc.wavelength
-    base = sc.baseline
-    kmin = sc.min_lanes
-    two_pi = 2.0 * math.pi
-    n_calc, row, lef, lop_az, k = [], [], [], [], []
-    for j in range(3):
-        s = j + 1
-        n_calc.append((dist[0] - dist[s] + base[j]) / lam[j] + kmin[j])
-        row.append(((dxp[0] - dxp[s]) / lam[j], (dyp[0] - dyp[s]) / lam[j]))
-        gamma = abs(az[s] - az[0]) % two_pi
-        if gamma > math.pi:
-            gamma = two_pi - gamma
-        lef_j = 1.0 / math.sin(gamma / 2.0)
-        lef.append(lef_j)
-        k.append(lam[j] * lef_j / 2.0)  # metres per lane, λc·LEF/2 (A4.4)
-        # Direction in which N increases: −ê(Az_m) + ê(Az_s); the LOP runs 90° from it (§5.7).
-        gx = -math.sin(az[0]) + math.sin(az[s])
-        gy = -math.cos(az[0]) + math.cos(az[s])
-        lop_az.append((math.atan2(gx, gy) + math.pi / 2.0) % two_pi)
+    sin, cos, atan2 = math.sin, math.cos, math.atan2
+    two_pi = _TWO_PI
+    k = [lam[j] * lef[j] / 2.0 for j in range(3)]  # metres per lane, λc·LEF/2 (A4.4)
+    # Direction in which N increases: −ê(Az_m) + ê(Az_s); the LOP runs 90° from it (§5.7).
+    s0, c0 = sin(az[0]), cos(az[0])
+    lop_az = [(atan2(-s0 + sin(a), -c0 + cos(a)) + _HALF_PI) % two_pi for a in az[1:]]
     # One conversion for all per-pattern numbers (rows of `block` are views, in this order).
     block = np.array(dist[1:] + [a % two_pi for a in az[1:]] + lef + k + lop_az + n_calc
-                     + [r for pair in row for r in pair])
+                     + [row_x[0], row_y[0], row_x[1], row_y[1], row_x[2], row_y[2]])
     return DeccaGeometry(
         d_master_m=dist[0],
         az_master_rad=az[0] % two_pi,
@@ -243,19 +306,48 @@ def decca_geometry(
     )
 
 
+_H_100KM = 1e-5
+"""Metres → units of 100 km (the argument of the path σ polynomials A4.3)."""
+_MM0_2, _MM1_2, _MM2_2 = (m ** 2 for m in MASTER_MULTIPLIER)
+_MS0_2, _MS1_2, _MS2_2 = (m ** 2 for m in COMPARISON_MULTIPLIER_SLAVE)
+_MM01, _MM02, _MM12 = (MASTER_MULTIPLIER[0] * MASTER_MULTIPLIER[1],
+                       MASTER_MULTIPLIER[0] * MASTER_MULTIPLIER[2],
+                       MASTER_MULTIPLIER[1] * MASTER_MULTIPLIER[2])
+_SYNC0_2, _SYNC1_2, _SYNC2_2 = (s ** 2 for s in SYNC_SIGMA_LANES)
+
+
+def _baseline_sky(baseline_m: Sequence[float]) -> tuple[float, ...]:
+    """σ_path_a(B)² per pattern (lanes², A4.3a): the baseline term of A4.1's diagonal."""
+    return tuple(sigma_path_a(b * _H_100KM) ** 2 for b in baseline_m)
+
+
+def _vcv_core(d_master: float, d_slave: Sequence[float], baseline_sky: Sequence[float],
+              cf: float) -> list[list[float]]:
+    """:func:`decca_vcv_lanes` as nested lists (lanes²) from the distances (m) and
+    :func:`_baseline_sky`: A4.1–A4.3 with :func:`sigma_path_a`/``_b`` written out (the same
+    operations; integer multiplier products as Python ints, as ``m_i * m_j`` gives them)."""
+    h = _H_100KM
+    d = d_master * h
+    s_n2 = ((2.407 * d * d - 2.273 * d + 4.240) * 1e-3) ** 2  # σ_path_a(D_m)²
+    d = d_slave[0] * h
+    s_r = (2.407 * d * d - 2.273 * d + 4.240) * 1e-3
+    d = d_slave[1] * h
+    s_g = (2.407 * d * d - 2.273 * d + 4.240) * 1e-3
+    d = d_slave[2] * h
+    s_p = (2.843 * d * d - 2.597 * d + 5.000) * 1e-3  # σ_path_b (A4.3b)
+    sb0, sb1, sb2 = baseline_sky
+    o01 = _MM01 * s_n2 / cf
+    o02 = _MM02 * s_n2 / cf
+    o12 = _MM12 * s_n2 / cf
+    return [[(_MM0_2 * (s_n2 + sb0) + _MS0_2 * s_r ** 2) / cf + _SYNC0_2, o01, o02],
+            [o01, (_MM1_2 * (s_n2 + sb1) + _MS1_2 * s_g ** 2) / cf + _SYNC1_2, o12],
+            [o02, o12, (_MM2_2 * (s_n2 + sb2) + _MS2_2 * s_p ** 2) / cf + _SYNC2_2]]
+
+
 def _vcv_lanes(geom: DeccaGeometry, cf: float) -> list[list[float]]:
     """:func:`decca_vcv_lanes` as nested lists (lanes²)."""
-    h = 1e-5  # metres → units of 100 km
-    s_n2 = sigma_path_a(geom.d_master_m * h) ** 2
-    d_s = geom.d_slave_m.tolist()
-    base = geom.baseline_m.tolist()
-    s_x = (sigma_path_a(d_s[0] * h), sigma_path_a(d_s[1] * h), sigma_path_b(d_s[2] * h))
-    mm, ms = MASTER_MULTIPLIER, COMPARISON_MULTIPLIER_SLAVE
-    c = [[mm[i] * mm[j] * s_n2 / cf for j in range(3)] for i in range(3)]
-    for i in range(3):
-        sky = mm[i] ** 2 * (s_n2 + sigma_path_a(base[i] * h) ** 2) + ms[i] ** 2 * s_x[i] ** 2
-        c[i][i] = sky / cf + SYNC_SIGMA_LANES[i] ** 2
-    return c
+    return _vcv_core(geom.d_master_m, geom.d_slave_m.tolist(),
+                     _baseline_sky(geom.baseline_m.tolist()), cf)
 
 
 def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
@@ -267,11 +359,31 @@ def decca_vcv_lanes(geom: DeccaGeometry, cf: float) -> np.ndarray:
     return np.array(_vcv_lanes(geom, cf))
 
 
+def _vcv_m2(c: list[list[float]], k: Sequence[float]) -> list[list[float]]:
+    """C_ij·(k_i·k_j) (m², A4.4) of a symmetric lane VCV ``c`` (lanes²) and metres per lane
+    ``k`` (k_i·k_j = k_j·k_i exactly, so the result is symmetric to the bit)."""
+    (c00, c01, c02), (_c10, c11, c12), (_c20, _c21, c22) = c
+    k0, k1, k2 = k
+    m01 = c01 * (k0 * k1)
+    m02 = c02 * (k0 * k2)
+    m12 = c12 * (k1 * k2)
+    return [[c00 * (k0 * k0), m01, m02], [m01, c11 * (k1 * k1), m12],
+            [m02, m12, c22 * (k2 * k2)]]
+
+
 def decca_vcv_m2(geom: DeccaGeometry, cf: float) -> np.ndarray:
-    """A priori 3×3 Decca VCV in m² across the LOPs: C_ij·k_i·k_j with k = λc·LEF/2 (A4.4)."""
-    k = geom.metres_per_lane.tolist()
-    c = _vcv_lanes(geom, cf)
-    return np.array([[c[i][j] * (k[i] * k[j]) for j in range(3)] for i in range(3)])
+    """A priori 3×3 Decca VCV in m² across the LOPs: C_ij·k_i·k_j with k = λc·LEF/2 (A4.4).
+
+    The fix's Decca block (:meth:`DeccaObservations.linearise`) is this VCV, computed there
+    from the same numbers without the geometry's arrays; a function put in this name's place
+    (the thesis' printed VCV of Pg 615/821, in the tests) is called with the geometry instead.
+    """
+    return np.array(_vcv_m2(_vcv_lanes(geom, cf), geom.metres_per_lane.tolist()))
+
+
+_DECCA_VCV_M2 = decca_vcv_m2
+"""The model's own :func:`decca_vcv_m2` (linearise takes its shortcut only while it is the one
+under that name)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -329,7 +441,8 @@ def _wrap_half(d: float) -> float:
 def track_lane(previous_total: float, fraction: float) -> float:
     """Decometer lane tracking: the total count nearest to ``previous_total`` whose fraction is
     ``fraction`` (valid while the ship moves less than half a lane between readings)."""
-    return previous_total + _wrap_half(fraction - (previous_total - math.floor(previous_total)))
+    d = fraction - (previous_total - math.floor(previous_total))
+    return previous_total + (d - math.floor(d + 0.5))  # _wrap_half(d), written out
 
 
 def identify_lane(n_calc: float, fraction: float) -> float:
@@ -419,27 +532,42 @@ class LaneSource:
 
 class _LaneAt:
     """(N_calc, σ along the gradient) of a pattern at a :class:`LaneSource` (lanes), or None
-    where the lane model cannot be evaluated; geometries are cached per source name."""
+    where the lane model cannot be evaluated; the lane counts and gradients are cached per
+    source name."""
 
     def __init__(self, placed: ChainOnGrid, geodesic: GeodesicSolver) -> None:
         self.placed = placed
         self.geodesic = geodesic
-        self.cache: dict[str, DeccaGeometry | None] = {}
+        self.cache: dict[str, tuple[list[float], np.ndarray] | None] = {}
+
+    def _lanes(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
+        """(N_calc per pattern, 3×2 gradients) at ``src``: :func:`decca_geometry`'s numbers
+        without its page data (None where it raises or N_calc is not finite)."""
+        placed = self.placed
+        sc = placed._scalars
+        try:
+            lat0, lon0 = placed.grid.inverse(src.x_m, src.y_m)
+            _d, n_calc, row_x, row_y = _lane_model(sc, src.x_m, src.y_m, lat0)
+            # Not used here, but where decca_geometry cannot form the LEF (γ = 0) it raises.
+            _lef(_azimuths_rad(sc, self.geodesic, lat0, lon0))
+        except (ValueError, ArithmeticError):
+            return None
+        isfinite = math.isfinite
+        if not (isfinite(n_calc[0]) and isfinite(n_calc[1]) and isfinite(n_calc[2])):
+            return None
+        return n_calc, np.array([[row_x[0], row_y[0]], [row_x[1], row_y[1]],
+                                 [row_x[2], row_y[2]]])
 
     def __call__(self, src: LaneSource, i: int) -> tuple[float, float] | None:
-        if src.name not in self.cache:
-            try:
-                geom: DeccaGeometry | None = decca_geometry(self.placed, src.x_m, src.y_m,
-                                                            self.geodesic)
-            except (ValueError, ArithmeticError):
-                geom = None
-            if geom is not None and not np.isfinite(geom.n_calc).all():
-                geom = None
-            self.cache[src.name] = geom
-        g = self.cache[src.name]
+        cache = self.cache
+        name = src.name
+        if name in cache:
+            g = cache[name]
+        else:
+            g = cache[name] = self._lanes(src)
         if g is None:
             return None
-        return float(g.n_calc[i]), lane_sigma(g.row[i], src.cov)
+        return g[0][i], lane_sigma(g[1][i], src.cov)
 
 
 @dataclass(frozen=True)
@@ -523,9 +651,9 @@ def decca_totals(
     totals: list[float | None] = [None, None, None]
     new_track = list(track)
     notes: list[str] = []
-    resolver = ZoneLaneResolver(placed, x_start[0], x_start[1], geodesic)
+    resolver: ZoneLaneResolver | None = None  # built on first use (a pattern's first reading)
     at = _LaneAt(placed, geodesic)
-    for i in range(len(PATTERNS)):
+    for i in range(3):
         frac = fractions[i]
         if frac is None:
             continue
@@ -538,6 +666,8 @@ def decca_totals(
             if total is None:
                 continue  # the stale track stays: the next record tries again
         else:
+            if resolver is None:
+                resolver = ZoneLaneResolver(placed, x_start[0], x_start[1], geodesic)
             zl = zone_lane[i]
             lanes = None if zl is None else resolver.resolve_checked(i, zl, frac, notes)
             if lanes is None:
@@ -600,17 +730,32 @@ class DeccaObservations:
 
     def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
                   Cl: np.ndarray) -> None:
-        geom = decca_geometry(self.reading.placed, p.x, p.y, p.geodesic)
-        k = geom.metres_per_lane.tolist()
-        rows = geom.row.tolist()
-        n_calc = geom.n_calc.tolist()
+        """:func:`decca_geometry`'s rows at ``p`` without its page data: lane model, LEF and
+        the VCV as Python floats (the same operations; ``p.latlon`` where ``p`` is on the
+        chain's grid, as :meth:`geometry_at`)."""
+        placed = self.reading.placed
+        sc = placed._scalars
+        grid = placed.grid
+        lat0, lon0 = p.latlon if p.grid is grid else grid.inverse(p.x, p.y)
+        dist, n_calc, row_x, row_y = _lane_model(sc, p.x, p.y, lat0)
+        lef = _lef(_azimuths_rad(sc, p.geodesic, lat0, lon0))
+        lam = sc.wavelength
+        k = [lam[0] * lef[0] / 2.0, lam[1] * lef[1] / 2.0, lam[2] * lef[2] / 2.0]  # A4.4
         for j, obs in enumerate(self.observed):
             if obs == obs:  # a reading (NaN: none); A5.9–A5.12 in metres across the LOP
                 kj = k[j]
-                set_row(A, slot0 + j, rows[j][0] * kj, rows[j][1] * kj)
-                b[slot0 + j] = (obs - n_calc[j]) * kj
+                i = slot0 + j
+                A[2 * i] = row_x[j] * kj
+                A[2 * i + 1] = row_y[j] * kj
+                b[i] = (obs - n_calc[j]) * kj
         s = slice(slot0, slot0 + len(PATTERNS))
-        Cl[s, s] = decca_vcv_m2(geom, self.reading.cf)
+        vcv_m2 = decca_vcv_m2
+        if vcv_m2 is _DECCA_VCV_M2:
+            Cl[s, s] = _vcv_m2(_vcv_core(dist[0], dist[1:], sc.baseline_sky, self.reading.cf),
+                               k)
+        else:  # another a priori VCV put in its place (the printed one of Pg 615/821)
+            geom = decca_geometry(placed, p.x, p.y, p.geodesic, (lat0, lon0))
+            Cl[s, s] = vcv_m2(geom, self.reading.cf)
 
     def geometry_at(self, p: Point) -> DeccaGeometry:
         """The lane geometry at the estimate ``p`` (computed once per point; Pg 810)."""
@@ -673,15 +818,17 @@ class DeccaSystem:
             None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
             None if g is None else LaneSource("GPS", g.x_m + g.corr_east_m,
                                               g.y_m + g.corr_north_m, _EYE2 * g.var_m2))
-        sel = tuple(p in cfg.decca.select for p in PATTERNS)
+        select = cfg.decca.select
         c = cfg.corrections
+        totals = lanes.totals
         reading = DeccaReading(
-            placed, rec.decca, ctx.zone_lane, (sel[0], sel[1], sel[2]),
+            placed, rec.decca, ctx.zone_lane, (PATTERNS[0] in select, PATTERNS[1] in select,
+                                               PATTERNS[2] in select),
             (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes), cfg.lsq.decca_cf,
-            totals=lanes.totals,
+            totals=totals,
         )
         return SystemReading(value=reading, messages=lanes.notes, detail=lanes,
-                             observes=any(t is not None for t in lanes.totals))
+                             observes=totals != (None, None, None))
 
     def observations(self, value: DeccaReading | None, p0: Point) -> DeccaObservations | None:
         """Corrected total lane counts of ``value``: its ``totals``, else resolved from the
@@ -693,7 +840,8 @@ class DeccaSystem:
         raw: list[float | None] = [None, None, None]
         available = [False] * 3
         messages: list[str] = []
-        resolver = ZoneLaneResolver(value.placed, p0.x, p0.y, p0.geodesic)
+        resolver = (None if value.totals is not None
+                    else ZoneLaneResolver(value.placed, p0.x, p0.y, p0.geodesic))
         for i in range(len(PATTERNS)):
             frac, zl = value.fractions[i], value.zone_lane[i]
             if value.totals is not None:
@@ -704,7 +852,7 @@ class DeccaSystem:
                 if frac is None or zl is None:
                     continue
                 try:
-                    res = resolver.resolve(i, zl, frac)
+                    res = resolver.resolve(i, zl, frac)  # type: ignore[union-attr]
                 except EVAL_ERRORS as exc:
                     raise ObservationError("Decca lane count not resolved at the provisional "
                                            f"position: {exc}", messages) from exc

@@ -17,16 +17,34 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from pyproj import Geod
 
 import engine.filter.kalman as kf
-from engine.geodesy.ellipsoidal import GeodesicSolver
+from engine.geodesy.angles import wrap_180_deg
+from engine.geodesy.ellipsoidal import GeodesicSolver, line_scale_factor, mean_radius_sq
 from engine.geodesy.tmgrid import TMGrid, _clenshaw, _clenshaw_sum
 from engine.io.datumfile import read_datum_file
 from engine.io.deccafile import read_chain_file
 from engine.io.outlog import _NEEDS_QUOTES, format_value
 from engine.lsq.confidence import eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import _worst
-from engine.systems.decca import decca_geometry, decca_vcv_lanes, decca_vcv_m2, place_chain
+from engine.systems.base import Point
+from engine.systems.decca import (
+    ChainOnGrid,
+    DeccaObservations,
+    DeccaReading,
+    LaneSource,
+    _LaneAt,
+    _wrap_half,
+    decca_geometry,
+    decca_vcv_lanes,
+    decca_vcv_m2,
+    lane_sigma,
+    place_chain,
+    sigma_path_a,
+    sigma_path_b,
+    track_lane,
+)
 from tests.paths import DATA
 
 ED50 = read_datum_file(DATA / "TO_WGS84.DAT").datum("ED50")
@@ -189,3 +207,230 @@ def test_stacked_priors_of_two_parts_are_block_diagonal() -> None:
     expected[1:, 1:] = b.bias_cov
     np.testing.assert_array_equal(m.bias_cov, expected)
     assert m.bias_tau_s == (100.0, 240.0, 240.0)
+
+
+# --------------------------------------------------------------------------- issue 14: Decca
+
+
+_PYPROJ_GEOD = Geod(a=ED50.ellipsoid.a_m, f=ED50.ellipsoid.f)
+
+
+def _reference_geometry(placed: ChainOnGrid, x_m: float, y_m: float) -> dict[str, object]:
+    """decca_geometry as the engine computed it before issue 14 (9578da6), written plainly: the
+    grid inverted here, ``mean_radius_sq``/``line_scale_factor`` per station, one
+    ``Geod.inv`` per station, LEF and k per pattern, the VCV of A4.1–A4.4 by its loops."""
+    lat0, lon0 = placed.grid.inverse(x_m, y_m)
+    ell = placed.grid.ellipsoid
+    xy = placed.station_xy_m.tolist()
+    ll = placed.station_latlon_deg.tolist()
+    dist, dxp, dyp, az = [], [], [], []
+    for (xs, ys), (slat, slon) in zip(xy, ll, strict=True):
+        rm2 = mean_radius_sq(ell, lat0, slat)
+        chord = math.hypot(x_m - xs, y_m - ys)
+        lsf = line_scale_factor(x_m, xs, rm2)
+        dist.append(chord / lsf)
+        dxp.append((x_m - xs) / (lsf * chord) - chord * (2.0 * x_m + xs) / (lsf * lsf * 6.0 * rm2))
+        dyp.append((y_m - ys) / (lsf * chord))
+        az.append(math.radians(float(_PYPROJ_GEOD.inv(lon0, lat0, slon, slat)[0]) % 360.0))
+    lam = placed.wavelength_m.tolist()
+    base = placed.baseline_m.tolist()
+    kmin = placed.min_lanes.tolist()
+    two_pi = 2.0 * math.pi
+    n_calc, row, lef, lop, k = [], [], [], [], []
+    for j in range(3):
+        s = j + 1
+        n_calc.append((dist[0] - dist[s] + base[j]) / lam[j] + kmin[j])
+        row.append([(dxp[0] - dxp[s]) / lam[j], (dyp[0] - dyp[s]) / lam[j]])
+        gamma = abs(az[s] - az[0]) % two_pi
+        if gamma > math.pi:
+            gamma = two_pi - gamma
+        lef.append(1.0 / math.sin(gamma / 2.0))
+        k.append(lam[j] * lef[j] / 2.0)
+        gx = -math.sin(az[0]) + math.sin(az[s])
+        gy = -math.cos(az[0]) + math.cos(az[s])
+        lop.append((math.atan2(gx, gy) + math.pi / 2.0) % two_pi)
+    return {"d_master_m": dist[0], "az_master_rad": az[0] % two_pi, "d_slave_m": dist[1:],
+            "az_slave_rad": [a % two_pi for a in az[1:]], "baseline_m": base, "lef": lef,
+            "metres_per_lane": k, "lop_azimuth_rad": lop, "n_calc": n_calc, "row": row}
+
+
+def _reference_vcv_m2(g: dict[str, object], cf: float) -> list[list[float]]:
+    """A4.1–A4.4 (m²) as before issue 14, from a reference geometry."""
+    h = 1e-5
+    s_n2 = sigma_path_a(g["d_master_m"] * h) ** 2  # type: ignore[operator]
+    d_s, base, k = g["d_slave_m"], g["baseline_m"], g["metres_per_lane"]
+    s_x = (sigma_path_a(d_s[0] * h), sigma_path_a(d_s[1] * h),  # type: ignore[index]
+           sigma_path_b(d_s[2] * h))  # type: ignore[index]
+    mm, ms = (4, 3, 5), (3, 2, 6)
+    c = [[mm[i] * mm[j] * s_n2 / cf for j in range(3)] for i in range(3)]
+    for i in range(3):
+        sky = (mm[i] ** 2 * (s_n2 + sigma_path_a(base[i] * h) ** 2)  # type: ignore[index]
+               + ms[i] ** 2 * s_x[i] ** 2)
+        c[i][i] = sky / cf + (0.012, 0.009, 0.015)[i] ** 2
+    return [[c[i][j] * (k[i] * k[j]) for j in range(3)] for i in range(3)]  # type: ignore[index]
+
+
+_PLACED = place_chain(read_chain_file(DATA / "DECCA.CHN")["9B"], GRID)
+_SHIP = st.tuples(st.floats(-150_000.0, 300_000.0), st.floats(5_700_000.0, 6_200_000.0))
+
+
+@settings(deadline=None, max_examples=300)
+@given(_SHIP, st.sampled_from([64.0, 4.0, 1.0, 1 / 2.25]))
+def test_decca_geometry_and_linearise_are_the_pre_issue_14_numbers(
+        ship: tuple[float, float], cf: float) -> None:
+    """The lane model with per-placement constants, pyproj's scalar inverse and the rows
+    formed without the Pg 810 arrays give the former routine's numbers to the last bit: the
+    geometry, decca_vcv_m2, and the rows, misclosures and VCV block of linearise."""
+    x, y = ship
+    ref = _reference_geometry(_PLACED, x, y)
+    geom = decca_geometry(_PLACED, x, y, GEOD)
+    for name, want in ref.items():
+        assert np.array_equal(getattr(geom, name), np.array(want)), name
+    vcv = _reference_vcv_m2(ref, cf)
+    assert np.array_equal(decca_vcv_m2(geom, cf), np.array(vcv))
+    reading = DeccaReading(_PLACED, (0.1, 0.2, 0.3), (None, None, None), (True, True, True),
+                           cf=cf, totals=(44.1, 274.2, 1.3))
+    observed = [44.1, math.nan, 1.3]
+    obs = DeccaObservations(reading, observed, [44.1, None, 1.3], [True, False, True], [])
+    A, b, Cl = [9.0] * 10, [9.0] * 5, np.eye(5)
+    obs.linearise(Point(GRID, GEOD, x, y), 2, A, b, Cl)
+    k, row, n_calc = ref["metres_per_lane"], ref["row"], ref["n_calc"]
+    for j in (0, 2):  # Green has no reading: its row stays as it was
+        i = 2 + j
+        assert (A[2 * i], A[2 * i + 1]) == (row[j][0] * k[j], row[j][1] * k[j])  # type: ignore[index]
+        assert b[i] == (observed[j] - n_calc[j]) * k[j]  # type: ignore[index]
+    assert A[6:8] == [9.0, 9.0] and b[3] == 9.0
+    assert np.array_equal(Cl[2:, 2:], np.array(vcv))
+
+
+def test_a_vcv_put_in_decca_vcv_m2_s_place_is_the_fix_s(monkeypatch: pytest.MonkeyPatch) -> None:
+    """linearise computes the model VCV itself, but a function put in ``decca_vcv_m2``'s place
+    (the printed VCV of Pg 615/821) is what the fix then takes, called with the geometry."""
+    import engine.systems.decca as decca_mod
+
+    seen = []
+
+    def printed(geom: object, cf: float) -> np.ndarray:
+        seen.append(geom)
+        return np.full((3, 3), 7.0)
+
+    monkeypatch.setattr(decca_mod, "decca_vcv_m2", printed)
+    reading = DeccaReading(_PLACED, (0.1, 0.2, 0.3), (None, None, None), (True, True, True),
+                           totals=(44.1, 274.2, 1.3))
+    obs = DeccaObservations(reading, [44.1, 274.2, 1.3], [44.1, 274.2, 1.3], [True] * 3, [])
+    Cl = np.eye(5)
+    obs.linearise(Point(GRID, GEOD, -31615.4, 5857300.2), 2, [0.0] * 10, [0.0] * 5, Cl)
+    assert np.array_equal(Cl[2:, 2:], np.full((3, 3), 7.0))
+    want = decca_geometry(_PLACED, -31615.4, 5857300.2, GEOD)
+    assert np.array_equal(seen[0].n_calc, want.n_calc)  # type: ignore[attr-defined]
+
+
+@settings(deadline=None, max_examples=200)
+@given(_SHIP, st.floats(1.0, 1e7), st.floats(-0.9, 0.9))
+def test_lane_check_numbers_are_the_geometry_s(ship: tuple[float, float], var: float,
+                                                rho: float) -> None:
+    """The GPS lane check's (N_calc, σ along the gradient) without the full geometry: equal to
+    those of the pre-issue-14 geometry (``lane_sigma`` of its gradient row)."""
+    x, y = ship
+    ref = _reference_geometry(_PLACED, x, y)
+    cov = np.array([[var, rho * var], [rho * var, 2.0 * var]])
+    at = _LaneAt(_PLACED, GEOD)
+    src = LaneSource("GPS", x, y, cov)
+    for i in range(3):
+        n, sigma = at(src, i)  # type: ignore[misc]
+        assert n == ref["n_calc"][i]  # type: ignore[index]
+        assert sigma == lane_sigma(np.array(ref["row"][i]), cov)  # type: ignore[index]
+
+
+@given(st.floats(-1e4, 1e4), st.floats(0.0, 1.0, exclude_max=True))
+def test_track_lane_is_the_wrapped_difference(previous: float, fraction: float) -> None:
+    """track_lane with _wrap_half written out: the same number as through _wrap_half."""
+    want = previous + _wrap_half(fraction - (previous - math.floor(previous)))
+    assert track_lane(previous, fraction) == want
+
+
+def test_lane_check_refuses_where_the_geometry_raised() -> None:
+    """At a station the gradient divides by a zero chord: no lane, as before."""
+    xs, ys = _PLACED.station_xy_m[1].tolist()
+    with pytest.raises(ZeroDivisionError):
+        _reference_geometry(_PLACED, xs, ys)
+    assert _LaneAt(_PLACED, GEOD)(LaneSource("GPS", xs, ys, np.eye(2)), 0) is None
+
+
+# --------------------------------------------------------------------------- issue 14: geodesy
+
+
+@settings(deadline=None)
+@given(st.floats(-89.0, 89.0), st.floats(-180.0, 180.0), st.floats(-89.0, 89.0),
+       st.floats(-180.0, 180.0))
+def test_scalar_geodesic_path_is_geod_inv(lat1: float, lon1: float, lat2: float,
+                                          lon2: float) -> None:
+    """azimuth_distance and forward_azimuths_deg (pyproj's scalar inverse without Geod.inv's
+    wrapper) equal Geod.inv's azimuth (in [0, 360)) and distance exactly; so does the fallback
+    for a pyproj without the scalar path."""
+    az12, _az21, dist = _PYPROJ_GEOD.inv(lon1, lat1, lon2, lat2)
+    want = (float(az12) % 360.0, float(dist))
+    assert GEOD.azimuth_distance(lat1, lon1, lat2, lon2) == want
+    assert GEOD.azimuth_distance(np.float64(lat1), lon1, lat2, lon2) == want
+    assert GEOD.forward_azimuths_deg(lat1, lon1, [(lat2, lon2), (lat2, lon2)]) == [want[0]] * 2
+    assert GEOD.forward_azimuths_rad(lat1, lon1, [(lat2, lon2)]) == [math.radians(want[0])]
+    fb = GEOD._inv_fallback(lon1, lat1, lon2, lat2, False, False)
+    assert fb == GEOD._geod._inv_point(lon1, lat1, lon2, lat2, False, False)
+
+
+@settings(deadline=None)
+@given(st.lists(st.tuples(st.floats(-400_000.0, 400_000.0), st.floats(-9e6, 9e6)),
+                min_size=1, max_size=30))
+def test_grid_inverse_memo_returns_the_computed_inverse(points: list[tuple[float, float]]) -> None:
+    """The remembered inverses are the computed ones, through evictions and repeats."""
+    grid = TMGrid(ED50.ellipsoid, 5.0)
+    for x, y in points + points[::-1] + points:
+        assert grid.inverse(x, y) == grid._inverse(x, y)
+    assert len(grid._inverted) <= 8
+
+
+def _inverse_plain(grid: TMGrid, x_m: float, y_m: float) -> tuple[float, float]:
+    """The grid inverse as before issue 14: through _clenshaw_sum, _tau_from_taup and
+    wrap_180_deg."""
+    z = complex(y_m / grid._A, x_m / grid._A)
+    zp = z - _clenshaw_sum(grid._beta, cmath.sin(2.0 * z), cmath.cos(2.0 * z))
+    sxi, cxi, she = math.sin(zp.real), math.cos(zp.real), math.sinh(zp.imag)
+    r = math.hypot(she, cxi)
+    lon = wrap_180_deg(grid.cm_deg + math.degrees(math.atan2(she, cxi)))
+    if r == 0.0:
+        return math.copysign(90.0, sxi), lon
+    return math.degrees(math.atan(grid._tau_from_taup(sxi / r))), lon
+
+
+@settings(deadline=None, max_examples=300)
+@given(st.floats(-600_000.0, 600_000.0), st.floats(-9.9e6, 9.9e6),
+       st.sampled_from([-179.0, -3.0, 0.0, 5.0, 180.0]))
+def test_inlined_grid_inverse_is_the_composed_one(x: float, y: float, cm: float) -> None:
+    """The inverse with its Clenshaw sum, Newton and wrap written out equals the composition
+    of those routines exactly (zeros and signs included; both hemispheres, the antimeridian)."""
+    grid = TMGrid(ED50.ellipsoid, cm)
+    got, want = grid._inverse(x, y), _inverse_plain(grid, x, y)
+    assert got == want
+    assert [math.copysign(1.0, v) for v in got] == [math.copysign(1.0, v) for v in want]
+
+
+@settings(deadline=None, max_examples=300)
+@given(st.floats(-89.0, 89.0), st.floats(-180.0, 180.0),
+       st.sampled_from([-179.0, -3.0, 0.0, 5.0, 180.0]))
+def test_inlined_grid_forward_is_forward_full(lat: float, dlon: float, cm: float) -> None:
+    """The forward with its wrap, τ' and Clenshaw sum written out equals forward_full's
+    position (which goes through wrap_180_deg, _taup and _clenshaw) exactly, to 30° off the
+    CM (the series' range) and across the antimeridian."""
+    grid = TMGrid(ED50.ellipsoid, cm)
+    lon = wrap_180_deg(cm + dlon / 6.0)
+    assert grid.forward(lat, lon) == grid.forward_full(lat, lon)[:2]
+
+
+def test_grid_inverse_memo_keeps_the_sign_of_zero() -> None:
+    """0.0 and −0.0 are one dict key, but a zero northing's sign reaches the latitude."""
+    grid = TMGrid(ED50.ellipsoid, 5.0)
+    for first, second in ((0.0, -0.0), (-0.0, 0.0)):
+        grid.inverse(-1000.0, first)
+        lat, _lon = grid.inverse(-1000.0, second)
+        assert math.copysign(1.0, lat) == math.copysign(1.0, second)  # west of the CM: the sign
+    assert grid == TMGrid(ED50.ellipsoid, 5.0)  # the memo is not part of the value
