@@ -26,6 +26,7 @@ from engine.lsq.statistics import (
     SlotStatistics,
     UnitVarianceTest,
     delta0,
+    frozen_instance,
     statistics_view,
     unit_variance_test,
     used_statistics,
@@ -456,34 +457,34 @@ def _adjustment(
     else:
         cov = cx
         trace = sum((sol.cx2[0], sol.cx2[2])) if u == 2 else sum(cx.diagonal().tolist())
-    return Adjustment(
-        ok=run.converged,
-        reason=None if run.converged else "no convergence",
-        x=run.x,
-        cov_x=cov,
-        cov_x_apriori=cx,
-        used=run.used,
-        n_used=m,
-        u=u,
-        redundancy=r,
-        category=category(m, u),
-        iterations=run.it,
-        converged=run.converged,
-        steps=tuple(run.steps),
-        dx=sol.dx,
-        v=_spread_slots(vu, idx, n),
-        s2=s2,
-        rms_m=math.sqrt(float(vu.dot(vu)) / m),
-        drms_m=math.sqrt(max(trace, 0.0)),
-        stats_block=_statistics_block(sol, vu, wv, idx, n, r, alpha, power),
-        A_used=Au,
-        b_used=bu,
-        Cl_used=sol.Clu,
-        W_used=Wu,
-        variance_test=unit_variance_test(s2, r, alpha, s02) if s2 is not None else None,
-        scaled=scaled,
-        damping=None if damping is None else np.asarray(damping, dtype=float).copy(),
-    )
+    return frozen_instance(Adjustment, {
+        "ok": run.converged,
+        "reason": None if run.converged else "no convergence",
+        "x": run.x,
+        "cov_x": cov,
+        "cov_x_apriori": cx,
+        "used": run.used,
+        "n_used": m,
+        "u": u,
+        "redundancy": r,
+        "category": category(m, u),
+        "iterations": run.it,
+        "converged": run.converged,
+        "steps": tuple(run.steps),
+        "dx": sol.dx,
+        "v": _spread_slots(vu, idx, n),
+        "s2": s2,
+        "rms_m": math.sqrt(float(vu.dot(vu)) / m),
+        "drms_m": math.sqrt(max(trace, 0.0)),
+        "stats_block": _statistics_block(sol, vu, wv, idx, n, r, alpha, power),
+        "A_used": Au,
+        "b_used": bu,
+        "Cl_used": sol.Clu,
+        "W_used": Wu,
+        "variance_test": unit_variance_test(s2, r, alpha, s02) if s2 is not None else None,
+        "scaled": scaled,
+        "damping": None if damping is None else np.asarray(damping, dtype=float).copy(),
+    })
 
 
 def _spread_slots(vu: np.ndarray, idx: np.ndarray, n: int) -> np.ndarray:
@@ -509,15 +510,21 @@ def _statistics_block(
     """The (7 + u, n) per-slot statistics (statistics.used_statistics), NaN for unused slots
     and for r < 1."""
     u = sol.cx.shape[0]
+    m = idx.size
     if r < 1:
         return np.full((7 + u, n), np.nan)
-    block = used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, delta0(alpha, power), sol.gain,
-                            wv, sol.atw)
-    if idx.size == n:
-        return block
+    d0 = delta0(alpha, power)
+    if m == n:
+        return used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv, sol.atw)
     full = np.empty((7 + u, n))
     full.fill(np.nan)
-    full[:, idx] = block
+    first = int(idx[0])
+    if int(idx[-1]) - first == m - 1:  # consecutive slots (GPS and Decca): write in place
+        used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv, sol.atw,
+                        out=full[:, first:first + m])
+    else:
+        full[:, idx] = used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv,
+                                       sol.atw)
     return full
 
 

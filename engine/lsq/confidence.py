@@ -13,7 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from engine.lsq.statistics import chi2_quantile
+from engine.lsq.statistics import chi2_quantile, frozen_instance
 
 _F64 = np.dtype(np.float64)
 
@@ -92,7 +92,9 @@ def error_ellipse(C2: np.ndarray) -> Ellipse:
     az = math.degrees(math.atan2(ee, en)) % 180.0
     phi = math.degrees(math.atan2(en, ee))
     vecs = np.array(((ee, -en), (en, ee)))
-    return Ellipse(math.sqrt(max(l1, 0.0)), math.sqrt(max(l2, 0.0)), az, (l1, l2), vecs, phi)
+    return frozen_instance(Ellipse, {
+        "a_m": math.sqrt(max(l1, 0.0)), "b_m": math.sqrt(max(l2, 0.0)), "az_deg": az,
+        "eigenvalues": (l1, l2), "eigenvectors": vecs, "phi_deg": phi})
 
 
 @dataclass(frozen=True, eq=False)

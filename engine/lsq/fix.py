@@ -27,7 +27,7 @@ from engine.geodesy.tmgrid import TMGrid
 from engine.lsq.adjustment import Adjustment, Linearisation
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import TestedAdjustment, adjust_with_testing
-from engine.lsq.statistics import REJECT_BOUND, w_critical
+from engine.lsq.statistics import REJECT_BOUND, frozen_instance, w_critical
 from engine.systems import registry
 from engine.systems.base import (
     EVAL_ERRORS,
@@ -355,7 +355,9 @@ def _at_estimate(
         ellipse = error_ellipse(adj.cov_x)
         used = adj.used.tolist()
         if not problem.uses_prior:
-            reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout)
+            # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
+            l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None
+            reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
             if reason is not None:
                 return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
         raw = _raw_lops(model, adj, x_start) if problem.uses_prior else None
@@ -364,29 +366,30 @@ def _at_estimate(
     except EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
                        tested, messages)
-    return FixResult(
-        ok=True,
-        reason=None,
-        x_m=xe,
-        y_m=yn,
-        lat_deg=lat,
-        lon_deg=lon,
-        cov=adj.cov_x,
-        ellipse=ellipse,
-        category=adj.category,
-        n_used=adj.n_used,
-        rms_m=adj.rms_m,
-        s2=adj.s2,
-        lops=tuple(lops),
-        tested=tested,
-        decca_observed=decca.raw if isinstance(decca, DeccaObservations) else (None, None, None),
-        decca_geometry=geom,
-        rejected_slots=tuple(s for s, _w in tested.rejected),
-        candidate_slot=tested.candidate,
-        uses_prior=problem.uses_prior,
-        messages=tuple(messages),
-        raw_lops=raw,
-    )
+    return frozen_instance(FixResult, {
+        "ok": True,
+        "reason": None,
+        "x_m": xe,
+        "y_m": yn,
+        "lat_deg": lat,
+        "lon_deg": lon,
+        "cov": adj.cov_x,
+        "ellipse": ellipse,
+        "category": adj.category,
+        "n_used": adj.n_used,
+        "rms_m": adj.rms_m,
+        "s2": adj.s2,
+        "lops": tuple(lops),
+        "tested": tested,
+        "decca_observed": (decca.raw if isinstance(decca, DeccaObservations)
+                           else (None, None, None)),
+        "decca_geometry": geom,
+        "rejected_slots": tuple(s for s, _w in tested.rejected),
+        "candidate_slot": tested.candidate,
+        "uses_prior": problem.uses_prior,
+        "messages": tuple(messages),
+        "raw_lops": raw,
+    })
 
 
 def _raw_lops(model: _Model, adj: Adjustment, x_start: np.ndarray) -> RawLops:
@@ -402,10 +405,12 @@ def _raw_lops(model: _Model, adj: Adjustment, x_start: np.ndarray) -> RawLops:
 def _beyond_linear_range(
     adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,
     used: list[bool] | None = None, layout: Mapping[str, range] | None = None,
+    l1: float | None = None,
 ) -> str | None:
     """The "no fix" reason when the standard semi-major axis (a priori C_x̂) reaches the nearest
     station of a used LOP (see :func:`compute_fix`), else None. ``used``: ``adj.used`` as a
-    list; ``layout``: ``registry.layout()`` (both looked up when not given)."""
+    list; ``layout``: ``registry.layout()``; ``l1``: the larger eigenvalue of the a priori
+    C_x̂[:2, :2] (m², :func:`eigenvalues_2x2`); each computed here when not given."""
     if used is None:
         used = adj.used.tolist()
     if layout is None:
@@ -416,8 +421,10 @@ def _beyond_linear_range(
         near = min(near, obs.nearest_station_m(p_hat, used[slots.start:slots.stop]))
     if near == math.inf:
         return None
-    (sxx, sxy), (_, syy) = adj.cov_x_apriori[:2, :2].tolist()
-    a = math.sqrt(max(eigenvalues_2x2(sxx, sxy, syy)[0], 0.0))
+    if l1 is None:
+        (sxx, sxy), (_, syy) = adj.cov_x_apriori[:2, :2].tolist()
+        l1 = eigenvalues_2x2(sxx, sxy, syy)[0]
+    a = math.sqrt(max(l1, 0.0))
     if a < near:
         return None
     return (f"ill-conditioned geometry: the error ellipse's semi-major axis {a / 1000:.3g} km "
