@@ -271,7 +271,10 @@ def gauss_newton(
     ``damping`` of the wrong length.
     """
     _settings_ok(epsilon, max_iter, s02, cond_max, max_axis_ratio, alpha, power)
-    run = _Run(np.array(x0, dtype=float).reshape(-1), np.array(used, dtype=bool).reshape(-1))
+    x = np.array(x0, dtype=float)
+    used_b = np.array(used, dtype=bool)
+    run = _Run(x if x.ndim == 1 else x.reshape(-1),
+               used_b if used_b.ndim == 1 else used_b.reshape(-1))
     u = run.x.size
     sq = _damping_roots(damping, run.idx, run.used.size)
     try:
@@ -300,12 +303,16 @@ class _Run:
     """Internal progress of :func:`gauss_newton`: the current x, the used slots, the iteration
     count, the step lengths [m] and whether it converged."""
 
-    __slots__ = ("x", "used", "idx", "it", "steps", "converged")
+    __slots__ = ("x", "used", "idx", "block", "it", "steps", "converged")
 
     def __init__(self, x: np.ndarray, used: np.ndarray) -> None:
         self.x = x
         self.used = used
         self.idx = used.nonzero()[0]
+        m = self.idx.size
+        first = int(self.idx[0]) if m else 0
+        # the used slots as one slice when they are consecutive (GPS and Decca), else None
+        self.block = slice(first, first + m) if m and int(self.idx[-1]) - first == m - 1 else None
         self.it = 0
         self.steps: list[float] = []
         self.converged = False
@@ -378,9 +385,11 @@ def _evaluate(
             f"linearisation shapes A{A.shape} b{b.shape} Cl{Cl.shape} do not match "
             f"n = {n} slots and u = {u} parameters"
         )
-    idx = run.idx
+    idx, blk = run.idx, run.block
     if idx.size == n:
         Au, bu, Clu = A, b, Cl
+    elif blk is not None:  # views: the same numbers, A and b rows still contiguous
+        Au, bu, Clu = A[blk], b[blk], Cl[blk, blk]
     else:
         Au, bu, Clu = A.take(idx, 0), b.take(idx), Cl.take(idx, 0).take(idx, 1)
     if sq is not None:
@@ -476,7 +485,7 @@ def _adjustment(
         "s2": s2,
         "rms_m": math.sqrt(float(vu.dot(vu)) / m),
         "drms_m": math.sqrt(max(trace, 0.0)),
-        "stats_block": _statistics_block(sol, vu, wv, idx, n, r, alpha, power),
+        "stats_block": _statistics_block(sol, vu, wv, idx, run.block, n, r, alpha, power),
         "A_used": Au,
         "b_used": bu,
         "Cl_used": sol.Clu,
@@ -502,13 +511,14 @@ def _statistics_block(
     vu: np.ndarray,
     wv: np.ndarray,
     idx: np.ndarray,
+    block: slice | None,
     n: int,
     r: int,
     alpha: float,
     power: float,
 ) -> np.ndarray:
     """The (7 + u, n) per-slot statistics (statistics.used_statistics), NaN for unused slots
-    and for r < 1."""
+    and for r < 1; ``block``: the used slots ``idx`` as a slice when consecutive."""
     u = sol.cx.shape[0]
     m = idx.size
     if r < 1:
@@ -518,10 +528,9 @@ def _statistics_block(
         return used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv, sol.atw)
     full = np.empty((7 + u, n))
     full.fill(np.nan)
-    first = int(idx[0])
-    if int(idx[-1]) - first == m - 1:  # consecutive slots (GPS and Decca): write in place
+    if block is not None:  # consecutive slots (GPS and Decca): write in place
         used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv, sol.atw,
-                        out=full[:, first:first + m])
+                        out=full[:, block])
     else:
         full[:, idx] = used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv,
                                        sol.atw)

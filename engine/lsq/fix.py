@@ -216,7 +216,8 @@ class _Model:
         p = Point(self.grid, self.geodesic, x0, y0)
         for slot0, obs in self.parts:
             obs.linearise(p, slot0, A, b, Cl)
-        return Linearisation(A=np.array(A).reshape(n, 2), b=np.array(b), Cl=Cl)
+        return frozen_instance(Linearisation, {"A": np.array(A).reshape(n, 2),
+                                               "b": np.array(b), "Cl": Cl})
 
 
 @lru_cache(maxsize=8)
