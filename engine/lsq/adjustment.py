@@ -481,7 +481,7 @@ def _adjustment(
         "converged": run.converged,
         "steps": tuple(run.steps),
         "dx": sol.dx,
-        "v": _spread_slots(vu, idx, n),
+        "v": _spread_slots(vu, idx, n, run.block),
         "s2": s2,
         "rms_m": math.sqrt(float(vu.dot(vu)) / m),
         "drms_m": math.sqrt(max(trace, 0.0)),
@@ -496,13 +496,15 @@ def _adjustment(
     })
 
 
-def _spread_slots(vu: np.ndarray, idx: np.ndarray, n: int) -> np.ndarray:
-    """A used-slot vector laid out over all n slots, NaN for the unused ones."""
+def _spread_slots(vu: np.ndarray, idx: np.ndarray, n: int,
+                  block: slice | None = None) -> np.ndarray:
+    """A used-slot vector laid out over all n slots, NaN for the unused ones (``block``: the
+    used slots ``idx`` as a slice when consecutive)."""
     if idx.size == n:
         return vu
     v = np.empty(n)
     v.fill(np.nan)
-    v[idx] = vu
+    v[idx if block is None else block] = vu
     return v
 
 
