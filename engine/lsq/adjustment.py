@@ -12,15 +12,21 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import NamedTuple
 
 import numpy as np
+
+try:  # the gufunc behind numpy.linalg.inv: the same LAPACK call without the wrapper's checks
+    from numpy.linalg import _umath_linalg as _ULA
+except ImportError:  # pragma: no cover - another numpy layout: the public function
+    _ULA = None
 
 from engine.lsq.statistics import (
     SlotStatistics,
     UnitVarianceTest,
     delta0,
+    frozen_instance,
     statistics_view,
     unit_variance_test,
     used_statistics,
@@ -264,18 +270,21 @@ def gauss_newton(
     and finite, ``cond_max`` ≤ 1, ``max_axis_ratio`` < 1, ``alpha``/``power`` outside (0, 1), a
     ``damping`` of the wrong length.
     """
-    _check_settings(epsilon, max_iter, s02, cond_max, max_axis_ratio, alpha, power)
-    run = _Run(np.array(x0, dtype=float).reshape(-1), np.array(used, dtype=bool).reshape(-1))
+    _settings_ok(epsilon, max_iter, s02, cond_max, max_axis_ratio, alpha, power)
+    x = np.array(x0, dtype=float)
+    used_b = np.array(used, dtype=bool)
+    run = _Run(x if x.ndim == 1 else x.reshape(-1),
+               used_b if used_b.ndim == 1 else used_b.reshape(-1))
     u = run.x.size
     sq = _damping_roots(damping, run.idx, run.used.size)
     try:
         if run.idx.size < u:
             raise _Stop(NOT_ENOUGH)
-        if not np.isfinite(run.x).all():
+        if not all(map(math.isfinite, run.x.tolist())):
             raise _Stop("provisional point not finite")
         sol = _iterate(linearise, run, sq, epsilon, max_iter, cond_max)
         if max_axis_ratio is not None and u >= 2:
-            _check_axis_ratio(sol.cx, max_axis_ratio)
+            _check_axis_ratio(sol.cx2, max_axis_ratio)
     except _Stop as stop:
         return _failed(stop.reason, run.x, run.used, run.used.size, u, run.it, run.steps,
                        damping)
@@ -294,12 +303,16 @@ class _Run:
     """Internal progress of :func:`gauss_newton`: the current x, the used slots, the iteration
     count, the step lengths [m] and whether it converged."""
 
-    __slots__ = ("x", "used", "idx", "it", "steps", "converged")
+    __slots__ = ("x", "used", "idx", "block", "it", "steps", "converged")
 
     def __init__(self, x: np.ndarray, used: np.ndarray) -> None:
         self.x = x
         self.used = used
         self.idx = used.nonzero()[0]
+        m = self.idx.size
+        first = int(self.idx[0]) if m else 0
+        # the used slots as one slice when they are consecutive (GPS and Decca), else None
+        self.block = slice(first, first + m) if m and int(self.idx[-1]) - first == m - 1 else None
         self.it = 0
         self.steps: list[float] = []
         self.converged = False
@@ -316,6 +329,7 @@ class _Solution(NamedTuple):
     cx: np.ndarray  # C_x̂ = (AᵀWA)⁻¹ (5.1e)
     gain: np.ndarray  # G = C_x̂ AᵀW
     dx: np.ndarray  # δx̂ = G b (5.1c)
+    cx2: tuple[float, float, float]  # (C_x̂[0, 0], C_x̂[0, 1], C_x̂[1, 1]) as floats
 
 
 def _damping_roots(damping: np.ndarray | None, idx: np.ndarray, n: int) -> np.ndarray | None:
@@ -371,9 +385,11 @@ def _evaluate(
             f"linearisation shapes A{A.shape} b{b.shape} Cl{Cl.shape} do not match "
             f"n = {n} slots and u = {u} parameters"
         )
-    idx = run.idx
+    idx, blk = run.idx, run.block
     if idx.size == n:
         Au, bu, Clu = A, b, Cl
+    elif blk is not None:  # views: the same numbers, A and b rows still contiguous
+        Au, bu, Clu = A[blk], b[blk], Cl[blk, blk]
     else:
         Au, bu, Clu = A.take(idx, 0), b.take(idx), Cl.take(idx, 0).take(idx, 1)
     if sq is not None:
@@ -381,14 +397,28 @@ def _evaluate(
     return Au, bu, Clu
 
 
+def _inv(m: np.ndarray) -> np.ndarray:
+    """``numpy.linalg.inv`` of a float64 square matrix (the same LAPACK gesv call, so the same
+    bits) without the wrapper's type checks; LinAlgError when singular, as there."""
+    if _ULA is None:  # pragma: no cover
+        return np.linalg.inv(m)
+    with np.errstate(call=_singular, invalid="call", over="ignore", divide="ignore",
+                     under="ignore"):
+        return _ULA.inv(m, signature="d->d")
+
+
+def _singular(err: object, flag: object) -> None:
+    raise np.linalg.LinAlgError("Singular matrix")
+
+
 def _solve(Au: np.ndarray, bu: np.ndarray, Clu: np.ndarray, cond_max: float) -> _Solution:
     """W = C_l⁻¹, C_x̂ = (AᵀWA)⁻¹ with the conditioning guard, δx̂ = C_x̂ AᵀW b (5.1c, 5.1e)."""
     try:
-        Wu = np.linalg.inv(Clu)
+        Wu = _inv(Clu)
     except np.linalg.LinAlgError:
         raise _Stop("a priori VCV not invertible") from None
     atw = Au.T.dot(Wu)
-    cx, cond = _inv_normal(atw.dot(Au))
+    cx, cond, cx2 = _inv_normal(atw.dot(Au))
     if not cond <= cond_max:  # also catches NaN
         if not (np.isfinite(Au).all() and np.isfinite(Clu).all()):
             raise _Stop("non-finite linearisation")
@@ -399,12 +429,13 @@ def _solve(Au: np.ndarray, bu: np.ndarray, Clu: np.ndarray, cond_max: float) -> 
     if not math.isfinite(float(np.add.reduce(bu))):
         raise _Stop("non-finite linearisation")
     gain = cx.dot(atw)  # G = C_x̂ Aᵀ W
-    return _Solution(Au, bu, Clu, Wu, atw, cx, gain, gain.dot(bu))  # δx̂ (5.1c)
+    return _Solution(Au, bu, Clu, Wu, atw, cx, gain, gain.dot(bu), cx2)  # δx̂ (5.1c)
 
 
-def _check_axis_ratio(cx: np.ndarray, max_axis_ratio: float) -> None:
-    """_Stop when the horizontal error ellipse is too elongated (see :data:`MAX_AXIS_RATIO`)."""
-    ratio = _axis_ratio(cx)
+def _check_axis_ratio(cx2: tuple[float, float, float], max_axis_ratio: float) -> None:
+    """_Stop when the horizontal error ellipse is too elongated (see :data:`MAX_AXIS_RATIO`);
+    ``cx2`` = (C_x̂[0, 0], C_x̂[0, 1], C_x̂[1, 1])."""
+    ratio = _axis_ratio2(*cx2)
     if not ratio <= max_axis_ratio:
         raise _Stop(f"ill-conditioned geometry: the LOPs are nearly parallel (error ellipse "
                     f"axis ratio a/b = {ratio:.3g} > {max_axis_ratio:.3g})")
@@ -429,44 +460,51 @@ def _adjustment(
     r = m - u
     s2 = float(vu.dot(wv)) / r if r >= 1 else None  # (5.13)
     scaled = bool(scale_vcv and s2 is not None)
-    cov = cx * s2 if scaled else cx  # type: ignore[operator]
-    return Adjustment(
-        ok=run.converged,
-        reason=None if run.converged else "no convergence",
-        x=run.x,
-        cov_x=cov,
-        cov_x_apriori=cx,
-        used=run.used,
-        n_used=m,
-        u=u,
-        redundancy=r,
-        category=category(m, u),
-        iterations=run.it,
-        converged=run.converged,
-        steps=tuple(run.steps),
-        dx=sol.dx,
-        v=_spread_slots(vu, idx, n),
-        s2=s2,
-        rms_m=math.sqrt(float(vu.dot(vu)) / m),
-        drms_m=math.sqrt(max(sum(cov.diagonal().tolist()), 0.0)),
-        stats_block=_statistics_block(sol, vu, wv, idx, n, r, alpha, power),
-        A_used=Au,
-        b_used=bu,
-        Cl_used=sol.Clu,
-        W_used=Wu,
-        variance_test=unit_variance_test(s2, r, alpha, s02) if s2 is not None else None,
-        scaled=scaled,
-        damping=None if damping is None else np.asarray(damping, dtype=float).copy(),
-    )
+    if scaled:
+        cov = cx * s2
+        trace = sum(cov.diagonal().tolist())
+    else:
+        cov = cx
+        trace = sum((sol.cx2[0], sol.cx2[2])) if u == 2 else sum(cx.diagonal().tolist())
+    return frozen_instance(Adjustment, {
+        "ok": run.converged,
+        "reason": None if run.converged else "no convergence",
+        "x": run.x,
+        "cov_x": cov,
+        "cov_x_apriori": cx,
+        "used": run.used,
+        "n_used": m,
+        "u": u,
+        "redundancy": r,
+        "category": category(m, u),
+        "iterations": run.it,
+        "converged": run.converged,
+        "steps": tuple(run.steps),
+        "dx": sol.dx,
+        "v": _spread_slots(vu, idx, n, run.block),
+        "s2": s2,
+        "rms_m": math.sqrt(float(vu.dot(vu)) / m),
+        "drms_m": math.sqrt(max(trace, 0.0)),
+        "stats_block": _statistics_block(sol, vu, wv, idx, run.block, n, r, alpha, power),
+        "A_used": Au,
+        "b_used": bu,
+        "Cl_used": sol.Clu,
+        "W_used": Wu,
+        "variance_test": unit_variance_test(s2, r, alpha, s02) if s2 is not None else None,
+        "scaled": scaled,
+        "damping": None if damping is None else np.asarray(damping, dtype=float).copy(),
+    })
 
 
-def _spread_slots(vu: np.ndarray, idx: np.ndarray, n: int) -> np.ndarray:
-    """A used-slot vector laid out over all n slots, NaN for the unused ones."""
+def _spread_slots(vu: np.ndarray, idx: np.ndarray, n: int,
+                  block: slice | None = None) -> np.ndarray:
+    """A used-slot vector laid out over all n slots, NaN for the unused ones (``block``: the
+    used slots ``idx`` as a slice when consecutive)."""
     if idx.size == n:
         return vu
     v = np.empty(n)
     v.fill(np.nan)
-    v[idx] = vu
+    v[idx if block is None else block] = vu
     return v
 
 
@@ -475,24 +513,47 @@ def _statistics_block(
     vu: np.ndarray,
     wv: np.ndarray,
     idx: np.ndarray,
+    block: slice | None,
     n: int,
     r: int,
     alpha: float,
     power: float,
 ) -> np.ndarray:
     """The (7 + u, n) per-slot statistics (statistics.used_statistics), NaN for unused slots
-    and for r < 1."""
+    and for r < 1; ``block``: the used slots ``idx`` as a slice when consecutive."""
     u = sol.cx.shape[0]
+    m = idx.size
     if r < 1:
         return np.full((7 + u, n), np.nan)
-    block = used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, delta0(alpha, power), sol.gain,
-                            wv, sol.atw)
-    if idx.size == n:
-        return block
+    d0 = delta0(alpha, power)
+    if m == n:
+        return used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv, sol.atw)
     full = np.empty((7 + u, n))
     full.fill(np.nan)
-    full[:, idx] = block
+    if block is not None:  # consecutive slots (GPS and Decca): write in place
+        used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv, sol.atw,
+                        out=full[:, block])
+    else:
+        full[:, idx] = used_statistics(sol.Au, sol.Clu, sol.Wu, sol.cx, vu, d0, sol.gain, wv,
+                                       sol.atw)
     return full
+
+
+def _settings_ok(
+    epsilon: float,
+    max_iter: int,
+    s02: float,
+    cond_max: float,
+    max_axis_ratio: float | None,
+    alpha: float,
+    power: float,
+) -> None:
+    """:func:`_check_settings`, remembered for settings already found valid (every fix of a
+    run has the same ones)."""
+    try:
+        _check_settings_cached(epsilon, max_iter, s02, cond_max, max_axis_ratio, alpha, power)
+    except TypeError:  # an unhashable value: check it plainly (its error)
+        _check_settings(epsilon, max_iter, s02, cond_max, max_axis_ratio, alpha, power)
 
 
 def _check_settings(
@@ -519,9 +580,17 @@ def _check_settings(
             raise ValueError(f"{name} must be in (0, 1), got {val!r}")
 
 
+_check_settings_cached = lru_cache(maxsize=32, typed=True)(_check_settings)
+
+
 def _axis_ratio(cx: np.ndarray) -> float:
     """a/b of the standard ellipse of the first two parameters of C_x̂ (inf if degenerate)."""
     (a, c), (_, d) = cx[:2, :2].tolist()
+    return _axis_ratio2(a, c, d)
+
+
+def _axis_ratio2(a: float, c: float, d: float) -> float:
+    """:func:`_axis_ratio` of [[a, c], [c, d]]."""
     lmax = 0.5 * (a + d) + math.hypot(0.5 * (a - d), c)
     det = a * d - c * c
     if not (lmax > 0.0 and det > 0.0):
@@ -529,9 +598,10 @@ def _axis_ratio(cx: np.ndarray) -> float:
     return lmax / math.sqrt(det)  # sqrt(λmax/λmin) with λmin = det/λmax (no cancellation)
 
 
-def _inv_normal(nmat: np.ndarray) -> tuple[np.ndarray, float]:
-    """(AᵀWA)⁻¹ and the condition number of the parameter-scaled D^-½ N D^-½ (D = diag N; see
-    :data:`COND_MAX`); inf when singular or not positive definite, NaN when non-finite.
+def _inv_normal(nmat: np.ndarray) -> tuple[np.ndarray, float, tuple[float, float, float]]:
+    """(AᵀWA)⁻¹, the condition number of the parameter-scaled D^-½ N D^-½ (D = diag N; see
+    :data:`COND_MAX`; inf when singular or not positive definite, NaN when non-finite) and the
+    floats (C_x̂[0, 0], C_x̂[0, 1], C_x̂[1, 1]) of the inverse (NaN when there is none).
 
     Closed form for 2×2 (the usual 2-D fix); ``numpy.linalg`` otherwise.
     """
@@ -540,17 +610,23 @@ def _inv_normal(nmat: np.ndarray) -> tuple[np.ndarray, float]:
         det = a * d - c * c
         if not (a > 0.0 and d > 0.0 and det > 0.0):
             bad = math.isfinite(a) and math.isfinite(d) and math.isfinite(det)
-            return nmat, (math.inf if bad else math.nan)
+            return nmat, (math.inf if bad else math.nan), _NAN3
         # scaled matrix [[1, ρ], [ρ, 1]], ρ = c/sqrt(ad): κ = (1 + |ρ|)/(1 − |ρ|)
         # = (1 + |ρ|)²·ad/det, which avoids the cancellation of 1 − |ρ|
         ad = a * d
         rho = abs(c) / math.sqrt(ad)
-        inv = np.array([d / det, -c / det, -c / det, a / det]).reshape(2, 2)
-        return inv, (1.0 + rho) ** 2 * ad / det
+        i00, i01, i11 = d / det, -c / det, a / det
+        inv = np.array(((i00, i01), (i01, i11)))
+        return inv, (1.0 + rho) ** 2 * ad / det, (i00, i01, i11)
     cond = _cond_sym(nmat)
     if not cond < math.inf:
-        return nmat, cond
-    return np.linalg.inv(nmat), cond
+        return nmat, cond, _NAN3
+    inv = np.linalg.inv(nmat)
+    (i00, i01), (_, i11) = inv[:2, :2].tolist()
+    return inv, cond, (i00, i01, i11)
+
+
+_NAN3 = (math.nan, math.nan, math.nan)
 
 
 def _cond_sym(nmat: np.ndarray) -> float:

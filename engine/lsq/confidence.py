@@ -13,7 +13,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from engine.lsq.statistics import chi2_quantile
+from engine.lsq.statistics import chi2_quantile, frozen_instance
+
+_F64 = np.dtype(np.float64)
 
 
 @lru_cache(maxsize=64)
@@ -68,10 +70,15 @@ def error_ellipse(C2: np.ndarray) -> Ellipse:
     chosen so that its azimuth lies in [0°, 180°); the minor one is it turned +90° (det E = +1).
     An isotropic VCV gives Az = 90° (major axis East, φ = 0). Raises ValueError if not finite.
     """
-    (sxx, sxy), (_, syy) = np.asarray(C2, dtype=float)[:2, :2].tolist()
+    if type(C2) is np.ndarray and C2.shape == (2, 2) and C2.dtype == _F64:
+        (sxx, sxy), (_, syy) = C2.tolist()  # the usual case: no conversion, no slicing
+    else:
+        (sxx, sxy), (_, syy) = np.asarray(C2, dtype=float)[:2, :2].tolist()
     if not (math.isfinite(sxx) and math.isfinite(sxy) and math.isfinite(syy)):
         raise ValueError("error_ellipse: non-finite covariance")
-    l1, l2 = eigenvalues_2x2(sxx, sxy, syy)
+    half = 0.5 * (sxx + syy)  # eigenvalues_2x2, inlined
+    root = math.hypot(0.5 * (sxx - syy), sxy)
+    l1, l2 = half + root, half - root
     if sxy == 0.0 and 0.5 * (sxx - syy) == 0.0:  # isotropic (the square root is 0)
         ee, en = 1.0, 0.0
     elif sxx >= syy:  # (λ1 − σy², σxy) is the better-conditioned eigenvector form here
@@ -84,15 +91,10 @@ def error_ellipse(C2: np.ndarray) -> Ellipse:
         ee, en = -ee, -en
     az = math.degrees(math.atan2(ee, en)) % 180.0
     phi = math.degrees(math.atan2(en, ee))
-    vecs = np.array([[ee, -en], [en, ee]])
-    return Ellipse(
-        a_m=math.sqrt(max(l1, 0.0)),
-        b_m=math.sqrt(max(l2, 0.0)),
-        az_deg=az,
-        eigenvalues=(l1, l2),
-        eigenvectors=vecs,
-        phi_deg=phi,
-    )
+    vecs = np.array(((ee, -en), (en, ee)))
+    return frozen_instance(Ellipse, {
+        "a_m": math.sqrt(max(l1, 0.0)), "b_m": math.sqrt(max(l2, 0.0)), "az_deg": az,
+        "eigenvalues": (l1, l2), "eigenvectors": vecs, "phi_deg": phi})
 
 
 @dataclass(frozen=True, eq=False)

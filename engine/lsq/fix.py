@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -26,7 +27,7 @@ from engine.geodesy.tmgrid import TMGrid
 from engine.lsq.adjustment import Adjustment, Linearisation
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import TestedAdjustment, adjust_with_testing
-from engine.lsq.statistics import classify_w
+from engine.lsq.statistics import REJECT_BOUND, frozen_instance, w_critical
 from engine.systems import registry
 from engine.systems.base import (
     EVAL_ERRORS,
@@ -177,12 +178,14 @@ class RawLops:
 @dataclass
 class _Problem:
     """The observation sets of one fix by system name (registry order), which slots are used,
-    whether the filter's prediction stands in for GPS, and the operator texts so far."""
+    whether the filter's prediction stands in for GPS, the operator texts so far and the
+    registry's slot layout (``registry.layout()``)."""
 
     sets: dict[str, ObservationSet]
     used: list[bool]
     uses_prior: bool
     messages: list[str]
+    layout: Mapping[str, range]
 
 
 class _Model:
@@ -190,12 +193,14 @@ class _Model:
     rows of its slots."""
 
     def __init__(self, grid: TMGrid, geodesic: GeodesicSolver,
-                 sets: Mapping[str, ObservationSet]) -> None:
+                 sets: Mapping[str, ObservationSet],
+                 layout: Mapping[str, range] | None = None) -> None:
         self.grid = grid
         self.geodesic = geodesic
-        self.parts = [(slots_of(name).start, obs) for name, obs in sets.items()]
-        self.n_slots = registry.n_slots()
-        self._eye = np.eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
+        slots = registry.layout() if layout is None else layout
+        self.parts = [(slots[name].start, obs) for name, obs in sets.items()]
+        self.n_slots = sum(len(r) for r in slots.values())
+        self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
 
     def __call__(self, x: np.ndarray) -> Linearisation:
         """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N).
@@ -211,7 +216,16 @@ class _Model:
         p = Point(self.grid, self.geodesic, x0, y0)
         for slot0, obs in self.parts:
             obs.linearise(p, slot0, A, b, Cl)
-        return Linearisation(A=np.array(A).reshape(n, 2), b=np.array(b), Cl=Cl)
+        return frozen_instance(Linearisation, {"A": np.array(A).reshape(n, 2),
+                                               "b": np.array(b), "Cl": Cl})
+
+
+@lru_cache(maxsize=8)
+def _eye(n: int) -> np.ndarray:
+    """A read-only n×n identity (the start of C_l, copied per linearisation)."""
+    eye = np.eye(n)
+    eye.setflags(write=False)
+    return eye
 
 
 def _gather(
@@ -223,8 +237,9 @@ def _gather(
     """Every system's observations of ``values`` at the provisional point ``p0``; the filter's
     ``prior`` takes the GPS slots when GPS is absent and fewer than two LOPs are available
     (table 5.1 category I, THEORY §4.6). Raises ObservationError (with the texts so far)."""
+    layout = registry.layout()
     sets: dict[str, ObservationSet] = {}
-    used = [False] * registry.n_slots()
+    used = [False] * sum(len(r) for r in layout.values())
     messages: list[str] = []
     for system in registry.SYSTEMS:
         try:
@@ -235,19 +250,19 @@ def _gather(
             continue
         sets[system.name] = obs
         messages.extend(obs.messages)
-        first = slots_of(system.name).start
-        for i, available in enumerate(obs.available()):
-            used[first + i] = available
+        available = obs.available()
+        first = layout[system.name].start
+        used[first:first + len(available)] = available
     for slot in excluded_slots:
         used[slot] = False
     uses_prior = False
     if GPS.name not in sets and prior is not None and 0 < sum(used) < 2:
-        for slot in slots_of(GPS.name):
+        for slot in layout[GPS.name]:
             used[slot] = True
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
         sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
-    return _Problem(sets, used, uses_prior, messages)
+    return _Problem(sets, used, uses_prior, messages, layout)
 
 
 def compute_fix(
@@ -294,7 +309,7 @@ def compute_fix(
     if n_avail < 2:
         return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
                        messages=messages)
-    model = _Model(grid, geodesic, problem.sets)
+    model = _Model(grid, geodesic, problem.sets, problem.layout)
     x_start = np.array(x0, dtype=float)
     uses_prior = problem.uses_prior
     tested = adjust_with_testing(
@@ -339,38 +354,43 @@ def _at_estimate(
         decca = problem.sets.get(DECCA.name)
         geom = decca.geometry_at(p_hat) if isinstance(decca, DeccaObservations) else None
         ellipse = error_ellipse(adj.cov_x)
+        used = adj.used.tolist()
         if not problem.uses_prior:
-            reason = _beyond_linear_range(adj, problem.sets, p_hat)
+            # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
+            l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None
+            reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
             if reason is not None:
                 return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
         raw = _raw_lops(model, adj, x_start) if problem.uses_prior else None
-        lops = _lop_rows(adj, problem.sets, p_hat, settings.reliab_interval / 100.0)
+        lops = _lop_rows(adj, problem.sets, p_hat, settings.reliab_interval / 100.0, used,
+                         problem.layout)
     except EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
                        tested, messages)
-    return FixResult(
-        ok=True,
-        reason=None,
-        x_m=xe,
-        y_m=yn,
-        lat_deg=lat,
-        lon_deg=lon,
-        cov=adj.cov_x,
-        ellipse=ellipse,
-        category=adj.category,
-        n_used=adj.n_used,
-        rms_m=adj.rms_m,
-        s2=adj.s2,
-        lops=tuple(lops),
-        tested=tested,
-        decca_observed=decca.raw if isinstance(decca, DeccaObservations) else (None, None, None),
-        decca_geometry=geom,
-        rejected_slots=tuple(s for s, _w in tested.rejected),
-        candidate_slot=tested.candidate,
-        uses_prior=problem.uses_prior,
-        messages=tuple(messages),
-        raw_lops=raw,
-    )
+    return frozen_instance(FixResult, {
+        "ok": True,
+        "reason": None,
+        "x_m": xe,
+        "y_m": yn,
+        "lat_deg": lat,
+        "lon_deg": lon,
+        "cov": adj.cov_x,
+        "ellipse": ellipse,
+        "category": adj.category,
+        "n_used": adj.n_used,
+        "rms_m": adj.rms_m,
+        "s2": adj.s2,
+        "lops": tuple(lops),
+        "tested": tested,
+        "decca_observed": (decca.raw if isinstance(decca, DeccaObservations)
+                           else (None, None, None)),
+        "decca_geometry": geom,
+        "rejected_slots": tuple(s for s, _w in tested.rejected),
+        "candidate_slot": tested.candidate,
+        "uses_prior": problem.uses_prior,
+        "messages": tuple(messages),
+        "raw_lops": raw,
+    })
 
 
 def _raw_lops(model: _Model, adj: Adjustment, x_start: np.ndarray) -> RawLops:
@@ -384,19 +404,28 @@ def _raw_lops(model: _Model, adj: Adjustment, x_start: np.ndarray) -> RawLops:
 
 
 def _beyond_linear_range(
-    adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point
+    adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,
+    used: list[bool] | None = None, layout: Mapping[str, range] | None = None,
+    l1: float | None = None,
 ) -> str | None:
     """The "no fix" reason when the standard semi-major axis (a priori C_x̂) reaches the nearest
-    station of a used LOP (see :func:`compute_fix`), else None."""
-    used = adj.used.tolist()
+    station of a used LOP (see :func:`compute_fix`), else None. ``used``: ``adj.used`` as a
+    list; ``layout``: ``registry.layout()``; ``l1``: the larger eigenvalue of the a priori
+    C_x̂[:2, :2] (m², :func:`eigenvalues_2x2`); each computed here when not given."""
+    if used is None:
+        used = adj.used.tolist()
+    if layout is None:
+        layout = registry.layout()
     near = math.inf
     for name, obs in sets.items():
-        slots = slots_of(name)
+        slots = layout[name]
         near = min(near, obs.nearest_station_m(p_hat, used[slots.start:slots.stop]))
     if near == math.inf:
         return None
-    (sxx, sxy), (_, syy) = adj.cov_x_apriori[:2, :2].tolist()
-    a = math.sqrt(max(eigenvalues_2x2(sxx, sxy, syy)[0], 0.0))
+    if l1 is None:
+        (sxx, sxy), (_, syy) = adj.cov_x_apriori[:2, :2].tolist()
+        l1 = eigenvalues_2x2(sxx, sxy, syy)[0]
+    a = math.sqrt(max(l1, 0.0))
     if a < near:
         return None
     return (f"ill-conditioned geometry: the error ellipse's semi-major axis {a / 1000:.3g} km "
@@ -438,21 +467,38 @@ def _no_fix(
 
 
 def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,
-              alpha: float) -> list[LopRow]:
-    """The Pg 631/633 table rows: each system's page data with the final adjustment's tests."""
+              alpha: float, used: list[bool] | None = None,
+              layout: Mapping[str, range] | None = None) -> list[LopRow]:
+    """The Pg 631/633 table rows: each system's page data with the final adjustment's tests
+    (``used``/``layout`` as in :func:`_beyond_linear_range`)."""
     sigma_d, w_all, tau, vf = adj.stats_block[:4].tolist()
-    used = adj.used.tolist()
+    if used is None:
+        used = adj.used.tolist()
+    if layout is None:
+        layout = registry.layout()
     v = adj.v.tolist()
+    k = w_critical(alpha)
     rows: list[LopRow] = []
     for name, obs in sets.items():
-        first = slots_of(name).start
+        first = layout[name].start
         for r in obs.readings(p_hat):
             slot = first + r.index
             w = w_all[slot]
             rows.append(LopRow(slot, r.system, r.pattern, r.read, r.correction, r.calc, v[slot],
                                r.az_deg, used[slot], sigma_d[slot], w, tau[slot], vf[slot],
-                               classify_w(w, alpha)))
+                               _verdict(w, k)))
     return rows
+
+
+def _verdict(w: float, k: float, bound: float = REJECT_BOUND) -> str:
+    """:func:`engine.lsq.statistics.classify_w` with the critical value ``k`` = k_α looked up
+    once per table."""
+    if w != w:  # NaN: not computed
+        return ""
+    aw = abs(w)
+    if aw > bound:
+        return "reject"
+    return "monitor" if aw > k else "accept"
 
 
 __all__ = [

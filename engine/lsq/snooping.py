@@ -18,6 +18,7 @@ from engine.lsq.robust import RobustAdjustment, robust_adjust
 from engine.lsq.statistics import (
     REJECT_BOUND,
     UnitVarianceTest,
+    frozen_instance,
     unit_variance_test,
     w_critical,
 )
@@ -230,17 +231,17 @@ def _finish(
             )
             if not prog.flagged and prog.candidate is None and adj.category == "IV":
                 messages.append("advice: scale the a priori VCV by S²")
-    return TestedAdjustment(
-        adjustment=adj,
-        rejected=tuple(prog.rejected),
-        candidate=prog.candidate,
-        candidate_w=prog.candidate_w,
-        flagged=tuple(prog.flagged),
-        monitor=monitor,
-        not_identifiable=prog.not_identifiable,
-        variance_test=vt,
-        messages=tuple(messages),
-        policy=policy,
-        estimator=estimator,
-        robust=prog.robust,
-    )
+    return frozen_instance(TestedAdjustment, {
+        "adjustment": adj,
+        "rejected": tuple(prog.rejected),
+        "candidate": prog.candidate,
+        "candidate_w": prog.candidate_w,
+        "flagged": tuple(prog.flagged),
+        "monitor": monitor,
+        "not_identifiable": prog.not_identifiable,
+        "variance_test": vt,
+        "messages": tuple(messages),
+        "policy": policy,
+        "estimator": estimator,
+        "robust": prog.robust,
+    })

@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 from statistics import NormalDist
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -27,6 +28,18 @@ from engine.lsq.chi2_table import CHI2_QUANTILES
 REJECT_BOUND = 2.576
 
 _NORMAL = NormalDist()
+
+_T = TypeVar("_T")
+
+
+def frozen_instance(cls: type[_T], values: dict[str, Any]) -> _T:
+    """The instance ``cls(**values)`` of a frozen dataclass without ``__slots__`` or
+    ``__post_init__``, made without the generated ``__init__``'s ``object.__setattr__`` per
+    field (a fix makes several such results per epoch). ``values`` names every field, in order.
+    """
+    obj = object.__new__(cls)
+    obj.__dict__.update(values)
+    return obj
 
 
 # --------------------------------------------------------------------------------------------
@@ -126,9 +139,11 @@ def used_statistics(
     gain: np.ndarray | None = None,
     wv: np.ndarray | None = None,
     atw: np.ndarray | None = None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """Statistics on the USED sub-block (m rows), as one (7 + u, m) array with rows
-    σ_d, w, τ, VF, r_i, MDB, |∇x̂|_h, then the u components of ∇x̂ (units as in SlotStatistics).
+    σ_d, w, τ, VF, r_i, MDB, |∇x̂|_h, then the u components of ∇x̂ (units as in SlotStatistics);
+    written into ``out`` (a (7 + u, m) float64 array or view) when given.
 
     With G = C_x̂ Aᵀ W (``gain``, u × m) and C_v = C_l − A C_x̂ Aᵀ (5.5b corrected):
     σ_d = (e_iᵀ W C_v W e_i)^(−1/2) = (W_ii − (AᵀW)_·i·G_·i)^(−1/2) (5.8b);
@@ -140,7 +155,8 @@ def used_statistics(
     e_iᵀWC_vWe_i ≤ 1e-10·W_ii) gets σ_d = τ = MDB = inf and w = ∇x̂ = NaN (not testable).
     """
     m, u = Au.shape
-    out = np.empty((7 + u, m))
+    if out is None:
+        out = np.empty((7 + u, m))
     if atw is None:
         atw = Au.T.dot(Wu)
     if gain is None:
@@ -269,7 +285,9 @@ def unit_variance_test(
     lo, hi = chi2_bounds(float(alpha), dof)
     lower = s02 * lo / dof
     upper = s02 * hi / dof
-    return UnitVarianceTest(dof * s2 / s02, lower, upper, bool(lower < s2 < upper), dof)
+    return frozen_instance(UnitVarianceTest, {
+        "statistic": dof * s2 / s02, "lower": lower, "upper": upper,
+        "accepted": bool(lower < s2 < upper), "dof": dof})
 
 
 @dataclass(frozen=True)
