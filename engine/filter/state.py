@@ -89,7 +89,12 @@ class FilterState:
         """The same estimate with the stationary VCV of fix-error states ``keys`` set to ``cov``
         (m², over ``keys``); their covariances with the other fix-error states become 0."""
         C = np.asarray(cov, dtype=float)
-        C = 0.5 * (C + C.T)
+        if C.ndim == 2 and C.shape[0] == C.shape[1] > 0:
+            c = C.tolist()  # (C + Cᵀ)/2 entry by entry: the same operations, fewer numpy calls
+            C = np.array([[0.5 * (a + b) for a, b in zip(row, col, strict=True)]
+                          for row, col in zip(c, zip(*c, strict=True), strict=True)])
+        else:
+            C = 0.5 * (C + C.T)
         if tuple(keys) == self.fix_states:  # the usual case: the LSE pair is all there is
             fc = C
         else:
@@ -98,9 +103,11 @@ class FilterState:
             fc[idx, :] = 0.0
             fc[:, idx] = 0.0
             fc[np.ix_(idx, idx)] = C
-        new = self._with(self.t, self.x, self.P)
         fc.flags.writeable = False
-        new.__dict__["fix_cov"] = fc
+        new = object.__new__(FilterState)  # x and P are shared, and read-only already
+        d = new.__dict__
+        d.update(self.__dict__)
+        d["fix_cov"] = fc
         return new
 
     def _with(self, t: float, x: np.ndarray, P: np.ndarray) -> FilterState:
