@@ -117,9 +117,27 @@ def sensor_measurement(
     ``gyro_sigma_deg`` replace this cycle's σ of the speed / heading row (a COG/SOG stand-in,
     docs/GNSS_WEIGHTS.md); None: the parameters' σ.
     """
-    return nav_measurement(state, params, depth_m=depth_m, log_ms=log_ms,
-                           gyro_grid_rad=gyro_grid_rad, incl_rad=incl_rad,
-                           log_sigma_ms=log_sigma_ms, gyro_sigma_deg=gyro_sigma_deg)
+    zs: list[float] = []
+    var: list[float] = []
+    labels: list[str] = []
+    cols: list[tuple[int, ...]] = []
+    _sensor_rows(zs, var, labels, cols, params, depth_m, log_ms, gyro_grid_rad, incl_rad,
+                 log_sigma_ms, gyro_sigma_deg)
+    return _white_rows(zs, var, labels, cols)
+
+
+def _white_rows(zs: list[float], var: list[float], labels: list[str],
+                cols: list[tuple[int, ...]]) -> Measurement:
+    """The measurement of rows with independent white noise (R diagonal, ``var``), H a
+    template: what :func:`nav_measurement` gives without an LSE."""
+    p = len(zs)
+    cols_t = tuple(cols)
+    R = np.zeros((p, p))
+    for i, s2 in enumerate(var):
+        R[i, i] = s2
+    lab = tuple(labels)
+    return _measurement(np.array(zs, dtype=float), h_template(cols_t, N_NAV), R, lab,
+                        (lab.index("psi_m"),) if "psi_m" in lab else (), cols=cols_t)
 
 
 def nav_measurement(
@@ -267,45 +285,63 @@ def stack_measurements(*parts: Measurement) -> Measurement:
     parts = tuple(p for p in parts if p.z.shape[0])
     if not parts:
         return Measurement(np.zeros(0), np.zeros((0, N_NAV)), np.zeros((0, 0)), ())
-    n = max(p.H.shape[1] for p in parts)
-    sizes = [p.z.shape[0] for p in parts]
-    p_tot = sum(sizes)
-    part_cols = [p._cols for p in parts]
-    cols: tuple[tuple[int, ...], ...] | None = None
-    if all(c is not None for c in part_cols):
-        cols = tuple(row for c in part_cols for row in c)  # type: ignore[union-attr]
-        H = h_template(cols, n)
-    else:
-        H = np.zeros((p_tot, n))
+    n = p_tot = 0
+    sizes: list[int] = []
+    cols: list[tuple[int, ...]] | None = []
+    for p in parts:
+        k = p.z.shape[0]
+        sizes.append(k)
+        p_tot += k
+        w = p.H.shape[1]
+        if w > n:
+            n = w
+        c = p._cols
+        if c is None:
+            cols = None
+        elif cols is not None:
+            cols += c
+    cols_t = None if cols is None else tuple(cols)
+    H = np.zeros((p_tot, n)) if cols_t is None else h_template(cols_t, n)
     R = np.zeros((p_tot, p_tot))
     angle: list[int] = []
     keys: list[str | None] = []
+    labels: list[str] = []
+    with_keys = False
     prior: dict[str, tuple[int, int, float, np.ndarray]] = {}  # key -> (part, index, τ, cov)
     i = 0
-    for j, (p, k) in enumerate(zip(parts, sizes, strict=True)):
-        if cols is None:
+    for j, p in enumerate(parts):
+        k = sizes[j]
+        if cols_t is None:
             H[i:i + k, :p.H.shape[1]] = p.H
         R[i:i + k, i:i + k] = p.R
         if p.angle_rows:
-            angle.extend(i + a for a in p.angle_rows)
-        keys.extend(p.bias_keys if p.bias_keys else (None,) * k)
+            angle += [i + a for a in p.angle_rows]
+        labels += p.labels
+        if p.bias_keys:
+            keys += p.bias_keys
+            with_keys = True
+        else:
+            keys += (None,) * k
         if p.bias_cov is not None:
+            taus_p = p.bias_tau_s
             for m, key in enumerate(distinct_keys(p.bias_keys)):
-                tau = p.bias_tau_s[m] if m < len(p.bias_tau_s) else float("nan")
-                prior.setdefault(key, (j, m, tau, p.bias_cov))
+                if key not in prior:
+                    prior[key] = (j, m, taus_p[m] if m < len(taus_p) else float("nan"),
+                                  p.bias_cov)
         i += k
     z = np.concatenate([p.z for p in parts])
-    labels = tuple(lab for p in parts for lab in p.labels)
-    if not any(k is not None for k in keys):
-        return _measurement(z, H, R, labels, tuple(angle), cols=cols)
-    dk = distinct_keys(keys)
+    dk = distinct_keys(keys) if with_keys else []
+    if not dk:
+        return _measurement(z, H, R, tuple(labels), tuple(angle), cols=cols_t)
     cov = None
+    taus: tuple[float, ...] = ()
     if all(k in prior for k in dk):
         src = [prior[k] for k in dk]
         m_dk = len(dk)
         first = np.asarray(src[0][3])
-        if all(e[0] == src[0][0] for e in src) and [e[1] for e in src] == list(range(m_dk)) \
-                and first.ndim == 2 and min(first.shape) >= m_dk:
+        j0 = src[0][0]
+        if first.ndim == 2 and min(first.shape) >= m_dk and \
+                all(e[0] == j0 and e[1] == a for a, e in enumerate(src)):
             # One block gives every prior, in its own order: its leading m×m block.
             cov = np.array(first[:m_dk, :m_dk], dtype=float)
         else:
@@ -314,5 +350,5 @@ def stack_measurements(*parts: Measurement) -> Measurement:
                 for b_, (jb, mb, _, _) in enumerate(src):
                     if ja == jb:
                         cov[a_, b_] = bc[ma, mb]
-    taus = tuple(prior[k][2] for k in dk) if cov is not None else ()
-    return _measurement(z, H, R, labels, tuple(angle), tuple(keys), cov, taus, cols)
+        taus = tuple(e[2] for e in src)
+    return _measurement(z, H, R, tuple(labels), tuple(angle), tuple(keys), cov, taus, cols_t)

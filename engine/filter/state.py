@@ -89,10 +89,9 @@ class FilterState:
         """The same estimate with the stationary VCV of fix-error states ``keys`` set to ``cov``
         (m², over ``keys``); their covariances with the other fix-error states become 0."""
         C = np.asarray(cov, dtype=float)
-        if C.ndim == 2 and C.shape[0] == C.shape[1] > 0:
-            c = C.tolist()  # (C + Cᵀ)/2 entry by entry: the same operations, fewer numpy calls
-            C = np.array([[0.5 * (a + b) for a, b in zip(row, col, strict=True)]
-                          for row, col in zip(c, zip(*c, strict=True), strict=True)])
+        if C.shape == (2, 2):  # the LSE pair: (C + Cᵀ)/2 entry by entry, the same operations
+            (a, b), (c, d) = C.tolist()
+            C = np.array([[0.5 * (a + a), 0.5 * (b + c)], [0.5 * (c + b), 0.5 * (d + d)]])
         else:
             C = 0.5 * (C + C.T)
         if tuple(keys) == self.fix_states:  # the usual case: the LSE pair is all there is
