@@ -6,10 +6,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
+from typing import ClassVar
 
 import numpy as np
 
-from engine.filter.params import DEG, FilterParams
+from engine.filter.params import DEG, FilterParams, read_only
 from engine.filter.state import IDEPS, IDPSI, IDV, IEPS, IPSI, IV, IX, IY, IZ, N_NAV, FilterState
 
 
@@ -33,6 +35,45 @@ class Measurement:
     bias_keys: tuple[str | None, ...] = ()
     bias_cov: np.ndarray | None = None
     bias_tau_s: tuple[float, ...] = ()
+    _cols: ClassVar[tuple[tuple[int, ...], ...] | None] = None
+    """Set (per instance, not a field) by the constructors here whose H is an
+    :func:`h_template`: the columns of the 1s of each row. None: H is a general matrix."""
+
+
+@lru_cache(maxsize=128)
+def h_template(cols: tuple[tuple[int, ...], ...], n: int) -> np.ndarray:
+    """The read-only p×n H with a 1 in row i at each column of ``cols[i]``, 0 elsewhere (shared:
+    the rows of an LSE, a sensor or a stack of them, over the nav or all n states)."""
+    H = np.zeros((len(cols), n))
+    for i, row in enumerate(cols):
+        for c in row:
+            H[i, c] = 1.0
+    return read_only(H)
+
+
+def _measurement(
+    z: np.ndarray,
+    H: np.ndarray,
+    R: np.ndarray,
+    labels: tuple[str, ...],
+    angle_rows: tuple[int, ...] = (),
+    bias_keys: tuple[str | None, ...] = (),
+    bias_cov: np.ndarray | None = None,
+    bias_tau_s: tuple[float, ...] = (),
+    cols: tuple[tuple[int, ...], ...] | None = None,
+) -> Measurement:
+    """A :class:`Measurement` built without its dataclass __init__ (hot path; it has no
+    __post_init__), with ``cols`` (:attr:`Measurement._cols`) when H is an :func:`h_template`."""
+    m = object.__new__(Measurement)
+    m.__dict__.update(z=z, H=H, R=R, labels=labels, angle_rows=angle_rows, bias_keys=bias_keys,
+                      bias_cov=bias_cov, bias_tau_s=bias_tau_s)
+    if cols is not None:
+        m.__dict__["_cols"] = cols
+    return m
+
+
+_LSE_COLS = ((IX,), (IY,))
+_LSE_LABELS = ("x_LSE", "y_LSE")
 
 
 def lse_measurement(
@@ -49,14 +90,13 @@ def lse_measurement(
     R = (1 − frac)·C2, the white part (THEORY §8.2 option (a)).
     """
     C = np.asarray(C2, dtype=float)
-    H = np.zeros((2, N_NAV))
-    H[0, IX] = H[1, IY] = 1.0
+    H = h_template(_LSE_COLS, N_NAV)
     z = np.array([x_m, y_m], dtype=float)
     if params is not None and params.coloured:
         f = params.fix_sigma_frac
-        return Measurement(z, H, C * (1.0 - f), ("x_LSE", "y_LSE"), (), keys, C * f,
-                           (params.fix_tau_s, params.fix_tau_s))
-    return Measurement(z, H, C, ("x_LSE", "y_LSE"))
+        return _measurement(z, H, C * (1.0 - f), _LSE_LABELS, (), keys, C * f,
+                            (params.fix_tau_s, params.fix_tau_s), _LSE_COLS)
+    return _measurement(z, H, C, _LSE_LABELS, cols=_LSE_COLS)
 
 
 def sensor_measurement(
@@ -77,13 +117,27 @@ def sensor_measurement(
     ``gyro_sigma_deg`` replace this cycle's σ of the speed / heading row (a COG/SOG stand-in,
     docs/GNSS_WEIGHTS.md); None: the parameters' σ.
     """
-    return nav_measurement(state, params, depth_m=depth_m, log_ms=log_ms,
-                           gyro_grid_rad=gyro_grid_rad, incl_rad=incl_rad,
-                           log_sigma_ms=log_sigma_ms, gyro_sigma_deg=gyro_sigma_deg)
+    zs: list[float] = []
+    var: list[float] = []
+    labels: list[str] = []
+    cols: list[tuple[int, ...]] = []
+    _sensor_rows(zs, var, labels, cols, params, depth_m, log_ms, gyro_grid_rad, incl_rad,
+                 log_sigma_ms, gyro_sigma_deg)
+    return _white_rows(zs, var, labels, cols)
 
 
-_Row = tuple[float, float, str, tuple[int, ...]]
-"""One measurement row: value, variance of its white noise, label, state columns with a 1 in H."""
+def _white_rows(zs: list[float], var: list[float], labels: list[str],
+                cols: list[tuple[int, ...]]) -> Measurement:
+    """The measurement of rows with independent white noise (R diagonal, ``var``), H a
+    template: what :func:`nav_measurement` gives without an LSE."""
+    p = len(zs)
+    cols_t = tuple(cols)
+    R = np.zeros((p, p))
+    for i, s2 in enumerate(var):
+        R[i, i] = s2
+    lab = tuple(labels)
+    return _measurement(np.array(zs, dtype=float), h_template(cols_t, N_NAV), R, lab,
+                        (lab.index("psi_m"),) if "psi_m" in lab else (), cols=cols_t)
 
 
 def nav_measurement(
@@ -105,36 +159,45 @@ def nav_measurement(
     sensor rows that are available, in the fixed order x, y, z_p, v_m, ψ_m, ε_m. ``state`` is
     not read (kept for symmetry with :func:`sensor_measurement`); H has the 11 nav columns.
     ``log_sigma_ms``/``gyro_sigma_deg`` as in :func:`sensor_measurement`."""
-    rows: list[_Row] = []
+    zs: list[float] = []
+    var: list[float] = []
+    labels: list[str] = []
+    cols: list[tuple[int, ...]] = []
     if fix_xy is not None:
         if fix_cov is None:
             raise ValueError("an LSE needs its 2×2 VCV fix_cov")
-        rows += [(float(fix_xy[0]), 0.0, "x_LSE", (IX,)), (float(fix_xy[1]), 0.0, "y_LSE", (IY,))]
-    rows += _sensor_rows(params, depth_m, log_ms, gyro_grid_rad, incl_rad, log_sigma_ms,
-                         gyro_sigma_deg)
-    p = len(rows)
-    H = np.zeros((p, N_NAV))
+        zs += (float(fix_xy[0]), float(fix_xy[1]))
+        var += (0.0, 0.0)
+        labels += _LSE_LABELS
+        cols += _LSE_COLS
+    _sensor_rows(zs, var, labels, cols, params, depth_m, log_ms, gyro_grid_rad, incl_rad,
+                 log_sigma_ms, gyro_sigma_deg)
+    p = len(zs)
+    cols_t = tuple(cols)
+    H = h_template(cols_t, N_NAV)
     R = np.zeros((p, p))
-    for i, (_, var, _, cols) in enumerate(rows):
-        for c in cols:
-            H[i, c] = 1.0
-        R[i, i] = var
-    zz = np.array([row[0] for row in rows], dtype=float)
-    labels = tuple(row[2] for row in rows)
-    angle = tuple(i for i, row in enumerate(rows) if row[2] == "psi_m")
+    for i, s2 in enumerate(var):
+        R[i, i] = s2
+    zz = np.array(zs, dtype=float)
+    lab = tuple(labels)
+    angle = (lab.index("psi_m"),) if "psi_m" in lab else ()
     if fix_xy is not None:
         C = np.asarray(fix_cov, dtype=float)
         if params.coloured:
             f = params.fix_sigma_frac
             R[:2, :2] = C * (1.0 - f)
             keys = (fix_keys[0], fix_keys[1]) + (None,) * (p - 2)
-            return Measurement(zz, H, R, labels, angle, keys, C * f,
-                               (params.fix_tau_s, params.fix_tau_s))
+            return _measurement(zz, H, R, lab, angle, keys, C * f,
+                                (params.fix_tau_s, params.fix_tau_s), cols_t)
         R[:2, :2] = C
-    return Measurement(zz, H, R, labels, angle)
+    return _measurement(zz, H, R, lab, angle, cols=cols_t)
 
 
 def _sensor_rows(
+    zs: list[float],
+    var: list[float],
+    labels: list[str],
+    cols: list[tuple[int, ...]],
     params: FilterParams,
     depth_m: float | None,
     log_ms: float | None,
@@ -142,26 +205,37 @@ def _sensor_rows(
     incl_rad: float | None,
     log_sigma_ms: float | None = None,
     gyro_sigma_deg: float | None = None,
-) -> list[_Row]:
-    """The rows of the sensors that gave a value, in the order z_p, v_m, ψ_m, ε_m: pressure
-    depth (σ_p), log speed + log bias (σ = max(frac·v, floor), 4.19, or ``log_sigma_ms``), gyro
-    GRID heading + gyro bias (σ ``params.sigma_gyro_deg`` or ``gyro_sigma_deg``), inclination +
+) -> None:
+    """Append the rows of the sensors that gave a value (value, variance of its white noise,
+    label, state columns with a 1 in H), in the order z_p, v_m, ψ_m, ε_m: pressure depth (σ_p),
+    log speed + log bias (σ = max(frac·v, floor), 4.19, or ``log_sigma_ms``), gyro GRID
+    heading + gyro bias (σ ``params.sigma_gyro_deg`` or ``gyro_sigma_deg``), inclination +
     inclinometer bias (eqs. 6.26b–6.29)."""
-    out: list[_Row] = []
     if depth_m is not None:
-        out.append((depth_m, params.sigma_press_m**2, "z_p", (IZ,)))
+        zs.append(depth_m)
+        var.append(params.sigma_press_m**2)
+        labels.append("z_p")
+        cols.append((IZ,))
     if log_ms is not None:
         if log_sigma_ms is None:
-            var = max(params.log_sigma_frac * abs(log_ms), params.log_sigma_floor_ms) ** 2
+            s2 = max(params.log_sigma_frac * abs(log_ms), params.log_sigma_floor_ms) ** 2
         else:
-            var = log_sigma_ms**2
-        out.append((log_ms, var, "v_m", (IV, IDV)))
+            s2 = log_sigma_ms**2
+        zs.append(log_ms)
+        var.append(s2)
+        labels.append("v_m")
+        cols.append((IV, IDV))
     if gyro_grid_rad is not None:
         sd = params.sigma_gyro_deg if gyro_sigma_deg is None else gyro_sigma_deg
-        out.append((gyro_grid_rad, (sd * DEG) ** 2, "psi_m", (IPSI, IDPSI)))
+        zs.append(gyro_grid_rad)
+        var.append((sd * DEG) ** 2)
+        labels.append("psi_m")
+        cols.append((IPSI, IDPSI))
     if incl_rad is not None:
-        out.append((incl_rad, (params.sigma_incl_deg * DEG) ** 2, "eps_m", (IEPS, IDEPS)))
-    return out
+        zs.append(incl_rad)
+        var.append((params.sigma_incl_deg * DEG) ** 2)
+        labels.append("eps_m")
+        cols.append((IEPS, IDEPS))
 
 
 def lop_measurement(
@@ -211,37 +285,70 @@ def stack_measurements(*parts: Measurement) -> Measurement:
     parts = tuple(p for p in parts if p.z.shape[0])
     if not parts:
         return Measurement(np.zeros(0), np.zeros((0, N_NAV)), np.zeros((0, 0)), ())
-    n = max(p.H.shape[1] for p in parts)
-    p_tot = sum(p.z.shape[0] for p in parts)
-    H = np.zeros((p_tot, n))
+    n = p_tot = 0
+    sizes: list[int] = []
+    cols: list[tuple[int, ...]] | None = []
+    for p in parts:
+        k = p.z.shape[0]
+        sizes.append(k)
+        p_tot += k
+        w = p.H.shape[1]
+        if w > n:
+            n = w
+        c = p._cols
+        if c is None:
+            cols = None
+        elif cols is not None:
+            cols += c
+    cols_t = None if cols is None else tuple(cols)
+    H = np.zeros((p_tot, n)) if cols_t is None else h_template(cols_t, n)
     R = np.zeros((p_tot, p_tot))
     angle: list[int] = []
     keys: list[str | None] = []
+    labels: list[str] = []
+    with_keys = False
     prior: dict[str, tuple[int, int, float, np.ndarray]] = {}  # key -> (part, index, τ, cov)
     i = 0
     for j, p in enumerate(parts):
-        k = p.z.shape[0]
-        H[i:i + k, :p.H.shape[1]] = p.H
+        k = sizes[j]
+        if cols_t is None:
+            H[i:i + k, :p.H.shape[1]] = p.H
         R[i:i + k, i:i + k] = p.R
-        angle.extend(i + a for a in p.angle_rows)
-        keys.extend(p.bias_keys if p.bias_keys else (None,) * k)
+        if p.angle_rows:
+            angle += [i + a for a in p.angle_rows]
+        labels += p.labels
+        if p.bias_keys:
+            keys += p.bias_keys
+            with_keys = True
+        else:
+            keys += (None,) * k
         if p.bias_cov is not None:
+            taus_p = p.bias_tau_s
             for m, key in enumerate(distinct_keys(p.bias_keys)):
-                tau = p.bias_tau_s[m] if m < len(p.bias_tau_s) else float("nan")
-                prior.setdefault(key, (j, m, tau, p.bias_cov))
+                if key not in prior:
+                    prior[key] = (j, m, taus_p[m] if m < len(taus_p) else float("nan"),
+                                  p.bias_cov)
         i += k
     z = np.concatenate([p.z for p in parts])
-    labels = tuple(lab for p in parts for lab in p.labels)
-    if not any(k is not None for k in keys):
-        return Measurement(z, H, R, labels, tuple(angle))
-    dk = distinct_keys(keys)
+    dk = distinct_keys(keys) if with_keys else []
+    if not dk:
+        return _measurement(z, H, R, tuple(labels), tuple(angle), cols=cols_t)
     cov = None
+    taus: tuple[float, ...] = ()
     if all(k in prior for k in dk):
-        cov = np.zeros((len(dk), len(dk)))
-        for a_, ka in enumerate(dk):
-            for b_, kb in enumerate(dk):
-                (ja, ma, _, bc), (jb, mb, _, _) = prior[ka], prior[kb]
-                if ja == jb:
-                    cov[a_, b_] = bc[ma, mb]
-    taus = tuple(prior[k][2] for k in dk) if cov is not None else ()
-    return Measurement(z, H, R, labels, tuple(angle), tuple(keys), cov, taus)
+        src = [prior[k] for k in dk]
+        m_dk = len(dk)
+        first = np.asarray(src[0][3])
+        j0 = src[0][0]
+        if first.ndim == 2 and min(first.shape) >= m_dk and \
+                all(e[0] == j0 and e[1] == a for a, e in enumerate(src)):
+            # One block gives every prior, in its own order: its leading m×m block.
+            cov = np.array(first[:m_dk, :m_dk], dtype=float)
+        else:
+            cov = np.zeros((m_dk, m_dk))
+            for a_, (ja, ma, _, bc) in enumerate(src):
+                for b_, (jb, mb, _, _) in enumerate(src):
+                    if ja == jb:
+                        cov[a_, b_] = bc[ma, mb]
+        taus = tuple(e[2] for e in src)
+    return _measurement(z, H, R, tuple(labels), tuple(angle), tuple(keys), cov, taus, cols_t)

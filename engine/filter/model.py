@@ -159,17 +159,116 @@ def noise_from_transition(Phi: np.ndarray, dt: float, params: FilterParams) -> n
     """:func:`discrete_noise` from the step's Φ (Δt > 0).
 
     With A = G√q and B = F G √q (rows 0–2 only), "thesis" is U Uᵀ with U = Γ√q = AΔt + BΔt²/2;
-    "psd" the same with q/Δt, U = A√Δt + BΔt^{3/2}/2; "vanloan" is the exact integral
+    "psd" the same with q/Δt, U = A√Δt + BΔt^{3/2}/2; "vanloan" the exact integral
     AAᵀΔt + (ABᵀ + BAᵀ)Δt²/2 + BBᵀΔt³/3 = (psd U Uᵀ) + V Vᵀ with V = BΔt^{3/2}/√12.
     """
-    c = dt if params.q_mode == "thesis" else math.sqrt(dt)  # psd/vanloan: Q·(1 s/Δt) on Γ
-    Gs = params._g8sq * c  # Γ Q^{1/2}: rows 3–10 Δt·√q, rows 0–2 F[:3, 3:] Δt²/2·√q
-    Gs[:3] = Phi[:3, 3:] * (params._sq * (0.5 * c))
+    return step_noise(Phi, step_constants(params, dt))
+
+
+def step_noise(Phi: np.ndarray, c: StepConstants) -> np.ndarray:
+    """:func:`noise_from_transition` with the step's constants ``c`` (:func:`step_constants`)."""
+    F3 = Phi[:3, 3:]  # F[:3, 3:] Δt
+    Gs = c.gs.copy()  # Γ Q^{1/2}: rows 3–10 Δt·√q (or √Δt·√q), rows 0–2 F[:3, 3:] Δt²/2·√q
+    np.multiply(F3, c.gs_scale, out=Gs[:3])
     Q = Gs.dot(Gs.T)
-    if params.q_mode == "vanloan":
-        V = Phi[:3, 3:] * (params._sq * math.sqrt(dt / 12.0))  # F[:3, 3:]√q Δt^{3/2}/√12
+    if c.v_scale is not None:  # "vanloan": + V Vᵀ, V = F[:3, 3:]√q Δt^{3/2}/√12
+        V = F3 * c.v_scale
         Q[:3, :3] += V.dot(V.T)
     return Q
+
+
+_PHI_AT = np.ravel_multi_index(
+    ([IX, IX, IX, IY, IY, IY, IZ, IZ], [IV, IPSI, IEPS, IV, IPSI, IEPS, IV, IEPS]),
+    (N_NAV, N_NAV))
+"""Flat indices of the Φ entries that depend on the state (6.31; F1…F4 of L2585), in the order
+:func:`transition_and_mean` writes them."""
+
+_MEMO_SIZE = 16
+"""Δt values whose :class:`StepConstants` a :class:`FilterParams` keeps (a run with a steady
+record interval needs one; a log with jittering time stamps must not grow the memo)."""
+
+
+class FixDecay:
+    """The parts of one step of the Gauss–Markov fix-error states (A6, THEORY §8.2) that depend
+    on Δt and their correlation times τ only: d = e^{−Δt/τ} (array and floats), d_i d_j,
+    1 − d_i d_j and the full n×n Φ with zeros where the nav block goes (read-only)."""
+
+    __slots__ = ("d", "d_list", "dd", "one_minus_dd", "phi")
+
+    def __init__(self, dt: float, fix_tau_s: tuple[float, ...]) -> None:
+        d = np.exp(-dt / np.asarray(fix_tau_s))
+        dd = d[:, None] * d[None, :]
+        m = d.shape[0]
+        n = N_NAV + m
+        phi = np.zeros((n, n))
+        for i, di in enumerate(d.tolist(), start=N_NAV):
+            phi[i, i] = di
+        self.d = read_only(d)
+        self.d_list: list[float] = d.tolist()
+        self.dd = read_only(dd)
+        self.one_minus_dd = read_only(1.0 - dd)
+        self.phi = read_only(phi)
+
+
+class StepConstants:
+    """What one time update of Δt s needs that depends on Δt and the parameters only, built
+    once per Δt (:func:`step_constants`): Φ's constant part (I with Δt at (x, v_cx) and (y,
+    v_cy), 6.31), Γ√q's constant rows 3–10 and the factors of its rows 0–2 and of V in
+    :func:`noise_from_transition`, and the fix-error decay per set of τ (:class:`FixDecay`).
+    The arrays are read-only and computed by the same operations as the per-step code did."""
+
+    __slots__ = ("dt", "phi", "gs", "gs_scale", "v_scale", "fix")
+
+    def __init__(self, params: FilterParams, dt: float) -> None:
+        c = dt if params.q_mode == "thesis" else math.sqrt(dt)  # psd/vanloan: Q·(1 s/Δt) on Γ
+        phi = _EYE11.copy()
+        phi[IX, IVCX] = phi[IY, IVCY] = dt
+        self.dt = dt
+        self.phi = read_only(phi)
+        self.gs = read_only(params._g8sq * c)
+        self.gs_scale = read_only(params._sq * (0.5 * c))
+        self.v_scale = (read_only(params._sq * math.sqrt(dt / 12.0))
+                        if params.q_mode == "vanloan" else None)
+        self.fix: dict[tuple[float, ...], FixDecay] = {}
+
+    def fix_decay(self, fix_tau_s: tuple[float, ...]) -> FixDecay:
+        """The :class:`FixDecay` of fix-error states with correlation times ``fix_tau_s`` (s)."""
+        f = self.fix.get(fix_tau_s)
+        if f is None:
+            if len(self.fix) >= _MEMO_SIZE:
+                self.fix.clear()
+            f = self.fix[fix_tau_s] = FixDecay(self.dt, fix_tau_s)
+        return f
+
+
+def step_constants(params: FilterParams, dt: float) -> StepConstants:
+    """The :class:`StepConstants` of a step of ``dt`` s (Δt > 0), kept by ``params``."""
+    memo = params._memo
+    c = memo.get(dt)
+    if c is None:
+        if len(memo) >= _MEMO_SIZE:
+            memo.clear()
+        c = memo[dt] = StepConstants(params, dt)
+    return c
+
+
+def transition_and_mean(xs: list[float], c: StepConstants) -> np.ndarray:
+    """Φ of the nav states (:func:`transition`) for a step of ``c.dt`` s at the state ``xs``
+    (a list), and ``xs`` advanced in place by :func:`propagate_mean` (eq. 6.30): both from the
+    same sines and cosines, with the same operations as those two functions."""
+    dt = c.dt
+    v, psi, eps = xs[IV], xs[IPSI], xs[IEPS]
+    ce, se, cp, sp = math.cos(eps), math.sin(eps), math.cos(psi), math.sin(psi)
+    vdt = v * dt
+    Phi = c.phi.copy()
+    Phi.put(_PHI_AT, (ce * sp * dt, vdt * ce * cp, -vdt * se * sp,
+                      ce * cp * dt, -vdt * ce * sp, -vdt * se * cp,
+                      se * dt, vdt * ce))
+    vc = v * ce
+    xs[IX] += (vc * sp + xs[IVCX]) * dt
+    xs[IY] += (vc * cp + xs[IVCY]) * dt
+    xs[IZ] += v * se * dt
+    return Phi
 
 
 def van_loan(F: np.ndarray, Qc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:

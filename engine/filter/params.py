@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -23,6 +23,17 @@ def read_only(a: np.ndarray) -> np.ndarray:
     """``a`` itself, made read-only (shared constants and the arrays of immutable values)."""
     a.flags.writeable = False
     return a
+
+
+_HALF = read_only(np.array(0.5))
+
+
+def symmetrised(P: np.ndarray) -> np.ndarray:
+    """(P + Pᵀ)/2 as (P + Pᵀ)·0.5, a new array (the transpose copied first: a contiguous add is
+    cheaper than one with a transposed operand, and gives the same sums)."""
+    S = P + P.T.copy()
+    S *= _HALF
+    return S
 
 
 G8 = read_only(np.vstack([np.zeros((3, 8)), np.eye(8)]))
@@ -86,6 +97,8 @@ class FilterParams:
     _q: np.ndarray = field(init=False, repr=False, compare=False)
     _sq: np.ndarray = field(init=False, repr=False, compare=False)
     _g8sq: np.ndarray = field(init=False, repr=False, compare=False)
+    _memo: dict[float, Any] = field(init=False, repr=False, compare=False)
+    """Per-Δt constants of the time update (``engine.filter.model.step_constants``)."""
 
     def __post_init__(self) -> None:
         if self.p0 not in ("thesis", "physical"):
@@ -103,6 +116,7 @@ class FilterParams:
         object.__setattr__(self, "_q", q)
         object.__setattr__(self, "_sq", sq)
         object.__setattr__(self, "_g8sq", g8sq)
+        object.__setattr__(self, "_memo", {})
 
 
 def _rate_variances(params: FilterParams) -> np.ndarray:

@@ -8,8 +8,8 @@ import math
 
 import numpy as np
 
-from engine.filter.model import noise_from_transition, propagate_mean, transition
-from engine.filter.params import FilterParams
+from engine.filter.model import step_constants, step_noise, transition_and_mean
+from engine.filter.params import FilterParams, symmetrised
 from engine.filter.state import N_NAV, FilterState
 
 
@@ -31,43 +31,42 @@ def predict(state: FilterState, dt: float, params: FilterParams) -> FilterState:
 def _predict(
     state: FilterState, dt: float, params: FilterParams, want_phi: bool
 ) -> tuple[FilterState, np.ndarray]:
-    """Shared propagation; the full n×n Φ is assembled only if ``want_phi`` (else Φ_nav)."""
+    """Shared propagation; the full n×n Φ is assembled only if ``want_phi`` (else Φ_nav).
+
+    Φ_nav, Q_d and the mean come from :func:`transition_and_mean` and :func:`step_noise` with
+    the step's constants (built once per Δt); the products are those of 6.20b, block by block.
+    """
     if dt < 0.0:
         raise ValueError(f"negative time step {dt} s")
     if dt == 0.0:
         return state, np.eye(state.n)
-    x, P = state.x, state.P
-    Phi = transition(x, dt)
-    Qd = noise_from_transition(Phi, dt, params)
-    xn = propagate_mean(x, dt)
+    c = step_constants(params, dt)
+    P = state.P
+    xs = state.x.tolist()
+    Phi = transition_and_mean(xs, c)
+    Qd = step_noise(Phi, c)
     if not state.fix_states:
         Pn = Phi.dot(P).dot(Phi.T)
         Pn += Qd
-        Pn = Pn + Pn.T
-        Pn *= 0.5
-        return state._with(state.t + dt, xn, Pn), Phi
+        return state._with(state.t + dt, np.array(xs), symmetrised(Pn)), Phi
     # Augmented: Φ = blockdiag(Φ_nav, D), D = diag(e^{−Δt/τ}); done block by block.
-    n = state.n
-    d = np.exp(-dt / np.asarray(state.fix_tau_s))
-    dd = d[:, None] * d[None, :]
-    xn[N_NAV:] = x[N_NAV:] * d
+    fd = c.fix_decay(state.fix_tau_s)
+    for i, di in enumerate(fd.d_list, start=N_NAV):
+        xs[i] = xs[i] * di
+    n = len(xs)
     Pn = np.empty((n, n))
-    Pnn = Phi.dot(P[:N_NAV, :N_NAV]).dot(Phi.T)
-    Pnn += Qd
-    Pn[:N_NAV, :N_NAV] = Pnn
-    Pnb = Phi.dot(P[:N_NAV, N_NAV:]) * d
-    Pn[:N_NAV, N_NAV:] = Pnb
+    np.add(Phi.dot(P[:N_NAV, :N_NAV]).dot(Phi.T), Qd, out=Pn[:N_NAV, :N_NAV])
+    Pnb = Pn[:N_NAV, N_NAV:]
+    np.multiply(Phi.dot(P[:N_NAV, N_NAV:]), fd.d, out=Pnb)
     Pn[N_NAV:, :N_NAV] = Pnb.T
-    Pn[N_NAV:, N_NAV:] = P[N_NAV:, N_NAV:] * dd + state.fix_cov * (1.0 - dd)
-    Pn = Pn + Pn.T
-    Pn *= 0.5
+    Pbb = Pn[N_NAV:, N_NAV:]
+    np.multiply(P[N_NAV:, N_NAV:], fd.dd, out=Pbb)
+    Pbb += state.fix_cov * fd.one_minus_dd
     if want_phi:
-        full = np.zeros((n, n))
+        full = fd.phi.copy()
         full[:N_NAV, :N_NAV] = Phi
-        for i, di in enumerate(d.tolist(), start=N_NAV):
-            full[i, i] = di
         Phi = full
-    return state._with(state.t + dt, xn, Pn), Phi
+    return state._with(state.t + dt, np.array(xs), symmetrised(Pn)), Phi
 
 
 def predict_horizon(

@@ -89,7 +89,11 @@ class FilterState:
         """The same estimate with the stationary VCV of fix-error states ``keys`` set to ``cov``
         (m², over ``keys``); their covariances with the other fix-error states become 0."""
         C = np.asarray(cov, dtype=float)
-        C = 0.5 * (C + C.T)
+        if C.shape == (2, 2):  # the LSE pair: (C + Cᵀ)/2 entry by entry, the same operations
+            (a, b), (c, d) = C.tolist()
+            C = np.array([[0.5 * (a + a), 0.5 * (b + c)], [0.5 * (c + b), 0.5 * (d + d)]])
+        else:
+            C = 0.5 * (C + C.T)
         if tuple(keys) == self.fix_states:  # the usual case: the LSE pair is all there is
             fc = C
         else:
@@ -98,9 +102,11 @@ class FilterState:
             fc[idx, :] = 0.0
             fc[:, idx] = 0.0
             fc[np.ix_(idx, idx)] = C
-        new = self._with(self.t, self.x, self.P)
         fc.flags.writeable = False
-        new.__dict__["fix_cov"] = fc
+        new = object.__new__(FilterState)  # x and P are shared, and read-only already
+        d = new.__dict__
+        d.update(self.__dict__)
+        d["fix_cov"] = fc
         return new
 
     def _with(self, t: float, x: np.ndarray, P: np.ndarray) -> FilterState:

@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 
 from engine.filter.lazy_scipy import blas, lapack
-from engine.filter.measurements import Measurement, distinct_keys
-from engine.filter.params import FilterParams, read_only
+from engine.filter.measurements import Measurement, distinct_keys, h_template
+from engine.filter.params import FilterParams, read_only, symmetrised
 from engine.filter.state import IPSI, N_NAV, FilterState, add_fix_states
 from engine.geodesy.angles import wrap_2pi, wrap_pi
 from engine.lsq.statistics import chi2_bounds
@@ -115,12 +115,25 @@ def lom_bounds(p: int, alpha: float) -> tuple[float, float]:
     return chi2_bounds(alpha, p, digits)
 
 
-def _lom_from_nis(nis: float, p: int, alpha: float) -> LomTest:
+@lru_cache(maxsize=64)
+def _lom_limits(p: int, alpha: float) -> tuple[float, float]:
+    """The LOM bounds on T = v̂ᵀS⁻¹v̂/p: the χ²_p bounds of :func:`lom_bounds` divided by p."""
     lo, hi = lom_bounds(p, alpha)
+    return lo / p, hi / p
+
+
+def _lom_from_nis(nis: float, p: int, alpha: float) -> LomTest:
+    lower, upper = _lom_limits(p, alpha)
     t = nis / p
-    lower, upper = lo / p, hi / p
     verdict = "reject" if t > upper else ("too small" if t < lower else "accept")
-    return LomTest(t, lower, upper, p, verdict)
+    lom = _new(LomTest)
+    lom.__dict__.update(t=t, lower=lower, upper=upper, dof=p, verdict=verdict)
+    return lom
+
+
+_new = object.__new__
+"""Hot path: the per-update results are built by filling the instance dict of a bare instance
+(the frozen dataclasses have no __post_init__), not through their __init__."""
 
 
 def _factor_solve(S: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -148,10 +161,10 @@ def innovation_distance(result: UpdateResult, rows: slice = slice(None)) -> floa
     if v.shape[0] == 0:
         return 0.0
     S = np.asarray(result.S[rows, rows], dtype=float)
-    try:
-        w = _factor_solve(S, v)
-    except np.linalg.LinAlgError:
+    L, info = lapack.dpotrf(S, 1, 1)  # _factor_solve(S, v) inline (per epoch): lower, clean
+    if info != 0:
         return math.inf
+    w = blas.dtrsm(1.0, L, v.reshape(-1, 1), 0, 1).reshape(-1)  # side=0, lower=1
     d2 = float(w @ w)
     return math.sqrt(d2) if d2 >= 0.0 else math.inf
 
@@ -184,13 +197,26 @@ def _with_bias_columns(
         # The fix's own VCV changes with geometry and receiver: its coloured part frac·C is the
         # stationary VCV that drives the next prediction (no longer frozen at the first fix).
         state = state.with_fix_cov(dk, rows.bias_cov)
-    n = state.n
+    n = state.x.shape[0]
+    fs = state.fix_states
+    cols = rows._cols
+    if cols is not None:  # H is a template: so is H with the 1s of b
+        return state, _bias_h(cols, keys, fs, n)
     H = np.zeros((rows.z.shape[0], n))
     H[:, :rows.H.shape[1]] = rows.H
     for i, k in enumerate(keys):
         if k is not None:
-            H[i, N_NAV + state.fix_states.index(k)] = 1.0
+            H[i, N_NAV + fs.index(k)] = 1.0
     return state, H
+
+
+@lru_cache(maxsize=64)
+def _bias_h(cols: tuple[tuple[int, ...], ...], keys: tuple[str | None, ...],
+            fix_states: tuple[str, ...], n: int) -> np.ndarray:
+    """The template H (:func:`h_template`) of rows ``cols`` plus the 1 of each row's fix-error
+    state ``keys[i]`` among ``fix_states`` (columns 11…), over n states."""
+    return h_template(tuple(c if k is None else (*c, N_NAV + fix_states.index(k))
+                            for c, k in zip(cols, keys, strict=True)), n)
 
 
 def update(state: FilterState, rows: Measurement, params: FilterParams) -> UpdateResult:
@@ -203,12 +229,13 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     Gauss–Markov states (so the returned state may be larger than the input). Raises
     :class:`FilterDivergence` if S is not PD or a variance becomes ≤ 0 (or non-finite).
     """
-    p = rows.z.shape[0]
+    z = rows.z
+    p = z.shape[0]
     if p == 0:
         return _empty_update(state)
     state, H = _full_width(state, rows, params)
     x, P, R = state.x, state.P, rows.R
-    v = rows.z - H.dot(x)
+    v = z - H.dot(x)
     for i in rows.angle_rows:
         v[i] = wrap_pi(v[i])
     HP = H.dot(P)
@@ -216,7 +243,8 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     S += R
     # Cholesky S = L Lᵀ (LAPACK potrf) and one forward substitution L Y = [HP | v | I] (BLAS
     # trsm): numpy has neither a Cholesky solve nor a triangular solve for small matrices.
-    L, info = lapack.dpotrf(S, lower=1, clean=1)
+    # (f2py arguments by position: lower=1, clean=1; a keyword costs ~0.3 µs to parse.)
+    L, info = lapack.dpotrf(S, 1, 1)
     if info != 0:
         raise FilterDivergence("innovation covariance S is not positive definite", state)
     LiHPt, w, Li = _whitened(L, HP, v)
@@ -226,11 +254,20 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     Pn = _updated_cov(P, K, H, HP, R, params.joseph)
     new = state._with(state.t, xn, Pn)
     nis = float(w.dot(w))
-    if not (np.minimum.reduce(Pn.diagonal()) > 0.0 and math.isfinite(nis)):
+    # min(diag) > 0, NaN failing as np.minimum.reduce's NaN would.
+    if not (all(map(_POSITIVE, Pn.diagonal().tolist())) and math.isfinite(nis)):
         raise FilterDivergence("non-positive or non-finite variance after update", new)
     lom = _lom_from_nis(nis, p, params.alpha)
-    ls = LsTest(Li, w, lom.verdict == "reject")
-    return UpdateResult(new, v, S, K, rows.labels, lom, ls)
+    ls = _new(LsTest)
+    ls.__dict__.update(l_inv=Li, w=w, lom_reject=lom.verdict == "reject")
+    result = _new(UpdateResult)
+    result.__dict__.update(state=new, innovation=v, S=S, K=K, labels=rows.labels, lom=lom,
+                           ls=ls)
+    return result
+
+
+_POSITIVE = (0.0).__lt__
+"""x ↦ 0 < x (False for NaN)."""
 
 
 def _empty_update(state: FilterState) -> UpdateResult:
@@ -248,8 +285,12 @@ def _full_width(
     if rows.bias_keys:
         return _with_bias_columns(state, rows, params)
     H = rows.H
-    if H.shape[1] < state.n:
-        Hp = np.zeros((H.shape[0], state.n))
+    n = state.x.shape[0]
+    if H.shape[1] < n:
+        cols = rows._cols
+        if cols is not None:
+            return state, h_template(cols, n)
+        Hp = np.zeros((H.shape[0], n))
         Hp[:, :H.shape[1]] = H
         return state, Hp
     return state, H
@@ -258,13 +299,13 @@ def _full_width(
 def _whitened(
     L: np.ndarray, HP: np.ndarray, v: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(L⁻¹HP)ᵀ, L⁻¹v̂ and L⁻¹ from one triangular solve L Y = [HP | v̂ | I]."""
+    """(L⁻¹HP)ᵀ, L⁻¹v̂ and L⁻¹ from one triangular solve L Y = [HP | v̂ | I].
+
+    B = [HP | v̂ | I] is built as the C-ordered transpose [HPᵀ; v̂ᵀ; I] (one concatenation),
+    whose transpose is the Fortran-ordered B trsm solves in place."""
     p, n = HP.shape
-    B = np.zeros((p, n + 1 + p), order="F")
-    B[:, :n] = HP
-    B[:, n] = v
-    B[:, n + 1:] = _eye(p)
-    Y = blas.dtrsm(1.0, L, B, lower=1)
+    B = np.concatenate((HP.T, v[None], _eye(p))).T
+    Y = blas.dtrsm(1.0, L, B, 0, 1, 0, 0, 1)  # side=0, lower=1, trans_a=0, diag=0, overwrite_b=1
     return Y[:, :n].T, Y[:, n], Y[:, n + 1:]
 
 
@@ -279,6 +320,4 @@ def _updated_cov(
         Pn += K.dot(R).dot(K.T)
     else:
         Pn = P - K.dot(HP)
-    Pn = Pn + Pn.T
-    Pn *= 0.5
-    return Pn
+    return symmetrised(Pn)
