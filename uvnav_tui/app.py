@@ -58,7 +58,7 @@ most this share of the process's CPU time: when a refresh costs more than the cy
 meanwhile allow (a 160×50 terminal costs 15–20 ms a refresh on the 2-core bench machine), the
 next one waits, so the cycles keep the rest (issue 14: the console at ≥ 2,000 cycles/s). CPU
 time, not wall time: on a loaded machine the process gets less of it, and so does its display."""
-MAX_REFRESH_S = 0.5
+MAX_REFRESH_S = 1.0
 """Longest time between two refreshes while cycles run, whatever a refresh costs."""
 PANEL_REFRESH_S = 0.5
 """At pace fast, the message panel under Pg 100 takes the new messages at most this often (the
