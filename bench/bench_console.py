@@ -9,8 +9,12 @@
    frame, as a terminal does), on Pg 100 and on Pg 642 (the position plot), from Return in the
    start-up dialog to "End of data file" on the screen.  LOPReject is set to N in the private
    copy of the configuration so that no question stops the run.
-3. The same run headless (Textual's test driver, 100×30, Pg 100) and the bare engine, for
-   comparison: the headless figure leaves out the terminal and is not what a user sees.
+   Also per CPU-second of the console process (all its threads, from ``/proc``) and the UI
+   thread's share of it: on a shared machine the wall-clock rate follows the load, these don't.
+3. The bare engine, without and with the ``.OUT`` written (the console writes it, so the
+   ratio console / engine alone is taken against the latter, in CPU time), and the same run
+   headless (Textual's test driver, 100×30, Pg 100): the headless figure leaves out the
+   terminal and is not what a user sees.
 
 Run: ``.venv/bin/python bench/bench_console.py [--repeats N]`` (``make bench`` runs it).
 """
@@ -101,17 +105,23 @@ def startup_once(config: Path, timeout_s: float = 30.0, pycache: Path | None = N
     return elapsed
 
 
-def engine_rate(config: Path) -> float:
+def engine_rate(config: Path, *, out: bool = False, cpu: bool = False) -> float:
     """Cycles/s of the bare engine over the whole demo (with smoother collection, as the
-    console runs it)."""
+    console runs it); ``out``: the ``.OUT`` written too (as the console does: the fair
+    comparison); ``cpu``: per CPU-second (``time.process_time``) instead of wall-clock."""
     from engine.run.session import Session
 
-    session = Session.from_file(config, collect_smoother=True)
-    t0 = time.perf_counter()
+    out_path = config.parent / "ENGINE.OUT" if out else None
+    session = Session.from_file(config, collect_smoother=True, out_path=out_path, force=True)
+    clock = time.process_time if cpu else time.perf_counter
+    t0 = clock()
     n = 0
-    while session.step() is not None:
-        n += 1
-    return n / (time.perf_counter() - t0)
+    try:
+        while session.step() is not None:
+            n += 1
+        return n / (clock() - t0)
+    finally:
+        session.close()
 
 
 async def _console_rate(config: Path) -> tuple[float, int]:
@@ -160,30 +170,62 @@ def _wait_screen(session: str, needle: str, timeout_s: float) -> bool:
     return False
 
 
-def tmux_rate(config: Path, page: int, timeout_s: float = 600.0) -> float:
-    """Cycles/s of the whole demo at pace fast in a detached tmux session of
-    :data:`TERM_SIZE`, showing ``page`` (typed as its number right after the start)."""
+def _thread_cpu(pid: int) -> dict[str, float]:
+    """CPU seconds (user + system) of each thread of process ``pid`` (Linux ``/proc``; empty
+    elsewhere)."""
+    tick = os.sysconf("SC_CLK_TCK")
+    out: dict[str, float] = {}
+    try:
+        for tid in os.listdir(f"/proc/{pid}/task"):
+            with open(f"/proc/{pid}/task/{tid}/stat", encoding="ascii") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            out[tid] = (int(fields[11]) + int(fields[12])) / tick
+    except OSError:
+        pass
+    return out
+
+
+def tmux_run(config: Path, page: int, timeout_s: float = 600.0) -> tuple[float, float, float]:
+    """The whole demo at pace fast in a detached tmux session of :data:`TERM_SIZE`, showing
+    ``page`` (typed as its number right after the start): (cycles per wall-clock second,
+    cycles per CPU-second of the console process, the UI thread's share of that CPU time);
+    NaN when it failed.  The CPU figures do not depend on what else the machine runs."""
     cols, rows = TERM_SIZE
     session = f"uvnav-bench-{os.getpid()}"
     cmd = (f"cd {config.parent} && PYTHONPATH={ROOT} exec {sys.executable} -m uvnav_tui.cli.main "
            f"--config {config} --hardcopy-dir {config.parent / 'hardcopy'}")
     _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
+    nan = float("nan")
     try:
+        pid = int(_tmux("display", "-p", "-t", session, "#{pane_pid}").strip())
         if not _wait_screen(session, "Parameter Initialization", 60.0):
-            return float("nan")
+            return nan, nan, nan
+        before = _thread_cpu(pid)
         _tmux("send-keys", "-t", session, "Enter")
         t0 = time.perf_counter()
         if page != 100:
             _tmux("send-keys", "-t", session, *str(page))
         if not _wait_screen(session, "End of data file", timeout_s):
-            return float("nan")
+            return nan, nan, nan
         elapsed = time.perf_counter() - t0
+        after = _thread_cpu(pid)
         screen = _tmux("capture-pane", "-p", "-t", session)
         if f"Pg {page}" not in screen:
-            return float("nan")
-        return 7200 / elapsed
+            return nan, nan, nan
+        used = {tid: t - before.get(tid, 0.0) for tid, t in after.items()}
+        total = sum(used.values())
+        ui = used.get(str(pid), nan)  # the main thread's id is the process id
+        if total <= 0.0:
+            return 7200 / elapsed, nan, nan
+        return 7200 / elapsed, 7200 / total, ui / total
     finally:
         subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
+
+
+def tmux_rate(config: Path, page: int, timeout_s: float = 600.0) -> float:
+    """Cycles/s of the whole demo at pace fast in a detached tmux session of
+    :data:`TERM_SIZE`, showing ``page`` (typed as its number right after the start)."""
+    return tmux_run(config, page, timeout_s)[0]
 
 
 def tmux_keys(config: Path, tries: int = 10) -> tuple[int, int]:
@@ -218,9 +260,9 @@ def tmux_keys(config: Path, tries: int = 10) -> tuple[int, int]:
         subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
 
 
-def _median(xs: list[float]) -> str:
+def _median(xs: list[float], decimals: int = 2) -> str:
     good = [x for x in xs if x == x]
-    return f"{statistics.median(good):.2f}" if good else "n/a"
+    return f"{statistics.median(good):.{decimals}f}" if good else "n/a"
 
 
 def main() -> None:
@@ -231,6 +273,7 @@ def main() -> None:
     data = private_data()
     config = data / "DEMO.toml"
     cols, rows = TERM_SIZE
+    console_cpu: dict[int, str] = {}
     print(f"console, real terminal {cols}×{rows}, {os.cpu_count()} CPU(s), load average "
           f"{os.getloadavg()[0]:.1f} at the start, Python {sys.version.split()[0]}")
     cold = []
@@ -248,16 +291,28 @@ def main() -> None:
         print("tmux not found: the real-terminal cycle rates are skipped")
     else:
         for page in (100, 642):
-            rates = [tmux_rate(config, page) for _ in range(args.repeats)]
-            good = [r for r in rates if r == r]
-            med = f"{statistics.median(good):.0f}" if good else "n/a"
-            print(f"console in tmux {cols}×{rows} at pace fast, Pg {page}: median {med} "
-                  f"cycles/s (runs: {', '.join(f'{r:.0f}' for r in rates)})")
+            runs = [tmux_run(config, page) for _ in range(args.repeats)]
+            rates, cpu_rates, ui = zip(*runs, strict=True)
+            print(f"console in tmux {cols}×{rows} at pace fast, Pg {page}: median "
+                  f"{_median(list(rates), 0)} cycles/s (runs: "
+                  f"{', '.join(f'{r:.0f}' for r in rates)}); {_median(list(cpu_rates), 0)} "
+                  f"cycles per CPU-second of the process, UI thread "
+                  f"{_median([100 * u for u in ui], 0)} % of it")
+            console_cpu[page] = _median(list(cpu_rates), 0)
         hits, made = tmux_keys(config)
         print(f"keys in tmux at pace fast: Alt+T L in one write took effect {hits} of {made} "
               "times")
     engine = [engine_rate(config) for _ in range(args.repeats)]
     print(f"bare engine, demo 7200 records: median {statistics.median(engine):.0f} cycles/s")
+    engine_out = [engine_rate(config, out=True) for _ in range(args.repeats)]
+    engine_cpu = [engine_rate(config, out=True, cpu=True) for _ in range(args.repeats)]
+    med_cpu = statistics.median(engine_cpu)
+    print(f"bare engine with the .OUT written (the console's work): median "
+          f"{statistics.median(engine_out):.0f} cycles/s, {med_cpu:.0f} cycles per CPU-second")
+    for page, rate in console_cpu.items():
+        if rate != "n/a":
+            print(f"console / engine alone (CPU time, .OUT both), Pg {page}: "
+                  f"{float(rate) / med_cpu:.2f}")
     console = [console_rate(config) for _ in range(args.repeats)]
     print(f"console headless (no terminal, 100×30) at pace fast, Pg 100: median "
           f"{statistics.median(console):.0f} cycles/s "

@@ -6,10 +6,12 @@
    ``new-session`` call until the menu bar ("Quit  Edit  Setup") is on the tmux screen, read
    every :data:`POLL_S` seconds.
 
-Each is measured with a warm bytecode cache (filled by one untimed run) and without one: an empty
-``PYTHONPYCACHEPREFIX`` per run, so every module (the project, NumPy, SciPy, Textual…) is
-compiled from source, as on the first start after installing.  Timings belong here, never in a
-test: the machine is shared and the figures vary with its load (printed with them).
+Each also gives the CPU time of the process (user + system): the machine is shared, and wall
+time follows its load while CPU time hardly does.  Each is measured with a warm bytecode cache
+(filled by one untimed run) and without one: an empty ``PYTHONPYCACHEPREFIX`` per run, so every
+module (the project, NumPy, SciPy, Textual…) is compiled from source, as on the first start
+after installing.  Timings belong here, never in a test: the machine is shared and the figures
+vary with its load (printed with them).
 
 Run: ``.venv/bin/python bench/bench_startup.py [--repeats N]`` (``make bench`` runs it).
 """
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -50,12 +53,26 @@ def _env(pycache: Path | None) -> dict[str, str]:
     return env
 
 
-def replay_once(pycache: Path | None = None) -> float:
-    """Seconds of one ``uvnav replay data/920917_1.RUN --no-out`` in a fresh process."""
+def replay_once(pycache: Path | None = None) -> tuple[float, float]:
+    """Seconds of one ``uvnav replay data/920917_1.RUN --no-out`` in a fresh process: wall
+    clock and CPU time (user + system) of the process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run([*_uvnav(), *REPLAY_ARGS], cwd=ROOT, env=_env(pycache), check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def _process_cpu(pid: int) -> float:
+    """CPU seconds (user + system) of process ``pid`` so far (Linux ``/proc``; NaN elsewhere)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def _tmux(*args: str, check: bool = True) -> str:
@@ -63,9 +80,11 @@ def _tmux(*args: str, check: bool = True) -> str:
                           capture_output=True, text=True).stdout
 
 
-def first_paint_once(pycache: Path | None = None, timeout_s: float = 60.0) -> float:
-    """Seconds from starting ``uvnav`` in a new tmux session until the menu bar is painted
-    (NaN if it did not appear within ``timeout_s``)."""
+def first_paint_once(pycache: Path | None = None, timeout_s: float = 60.0
+                     ) -> tuple[float, float]:
+    """Seconds from starting ``uvnav`` in a new tmux session until the menu bar is painted,
+    wall clock and CPU time of the process by then (±10 ms; NaN if it did not appear within
+    ``timeout_s``)."""
     cols, rows = TERM_SIZE
     session = f"paint{time.monotonic_ns()}"
     prefix = f"PYTHONPYCACHEPREFIX={pycache} " if pycache is not None else ""
@@ -73,18 +92,19 @@ def first_paint_once(pycache: Path | None = None, timeout_s: float = 60.0) -> fl
     t0 = time.perf_counter()
     _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
     try:
+        pid = int(_tmux("display", "-p", "-t", session, "#{pane_pid}", check=False) or 0)
         while time.perf_counter() - t0 < timeout_s:
             screen = _tmux("capture-pane", "-p", "-t", session, check=False)
             if MENU_TEXT in screen:
-                return time.perf_counter() - t0
+                return time.perf_counter() - t0, _process_cpu(pid)
             time.sleep(POLL_S)
-        return float("nan")
+        return float("nan"), float("nan")
     finally:
         _tmux("kill-session", "-t", session, check=False)
 
 
-def _cold_and_warm(once: Callable[[Path | None], float], repeats: int
-                   ) -> tuple[list[float], list[float]]:
+def _cold_and_warm(once: Callable[[Path | None], tuple[float, float]], repeats: int
+                   ) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
     """``repeats`` runs without a bytecode cache, then ``repeats`` with a warm one."""
     cold = []
     for _ in range(repeats):
@@ -96,10 +116,13 @@ def _cold_and_warm(once: Callable[[Path | None], float], repeats: int
     return cold, warm
 
 
-def _line(what: str, xs: list[float]) -> str:
+def _line(what: str, runs: list[tuple[float, float]]) -> str:
+    xs = [wall for wall, _cpu in runs]
     good = [x for x in xs if x == x]
     med = f"{statistics.median(good):.3f} s" if good else "n/a"
-    return f"{what}: median {med} (runs: {', '.join(f'{x:.3f}' for x in xs)})"
+    cpus = [cpu for _wall, cpu in runs if cpu == cpu]
+    cpu = f", CPU {statistics.median(cpus):.3f} s" if cpus else ""
+    return f"{what}: median {med}{cpu} (runs: {', '.join(f'{x:.3f}' for x in xs)})"
 
 
 def main() -> None:

@@ -52,6 +52,19 @@ REFRESH_S = 0.1
 """Shortest time between two display refreshes while cycles run (≤ 10 Hz)."""
 HEADLESS_REFRESH_S = 0.5
 """The same without a terminal (scripted hardcopies, tests): nobody watches in between."""
+DISPLAY_SHARE = 0.1
+"""At pace fast, the display (the UI thread: repaint, compositing, terminal output) may use at
+most this share of the process's CPU time: when a refresh costs more than the cycles computed
+meanwhile allow (a 160×50 terminal costs 15–20 ms a refresh on the 2-core bench machine), the
+next one waits, so the cycles keep the rest (issue 14: the console at ≥ 2,000 cycles/s). CPU
+time, not wall time: on a loaded machine the process gets less of it, and so does its display."""
+MAX_REFRESH_S = 1.0
+"""Longest time between two refreshes while cycles run, whatever a refresh costs."""
+PANEL_REFRESH_S = 0.5
+"""At pace fast, the message panel under Pg 100 takes the new messages at most this often (the
+message line shows the newest at every refresh; every other refresh, and the end of the data,
+brings the panel up to date): a panel that scrolls costs a layout of the whole screen and a
+repaint of all its lines, 3–4 times the cost of the rest of a refresh."""
 
 MONOCHROME = Theme(
     name="uvnav-mono",
@@ -146,6 +159,9 @@ class UVNAVApp(App[None]):
         self.hardcopies: list[tuple[Path, Path]] = []
         self._refresh_pending = False
         self._last_refresh = -1.0
+        self._last_refresh_cpu = (0.0, 0.0)
+        """CPU times of the UI thread and of the process at the last refresh [s]."""
+        self._last_panel_sync = -1.0
         self.actions = MenuActions(self)
         """The handlers of the menu actions."""
 
@@ -260,18 +276,40 @@ class UVNAVApp(App[None]):
             self._refresh_pending = True
             self.post_message(Advanced())
 
+    def _refresh_delay(self) -> float:
+        """Seconds until the display may be refreshed again for new cycles: at most every
+        :data:`REFRESH_S`; at pace fast also not before the UI thread's CPU time since the last
+        refresh (that refresh's compositing and output included) is within
+        :data:`DISPLAY_SHARE` of the process's; at least every :data:`MAX_REFRESH_S`."""
+        interval = HEADLESS_REFRESH_S if self.is_headless else REFRESH_S
+        since = time.monotonic() - self._last_refresh
+        wait = interval - since
+        run = self.control
+        if run is not None and run.live is None and run.interval_s() == 0.0:
+            ui0, all0 = self._last_refresh_cpu
+            ui = time.thread_time() - ui0
+            owed = ui / DISPLAY_SHARE - (time.process_time() - all0)
+            wait = max(wait, min(owed, MAX_REFRESH_S - since))
+        return wait
+
     @on(Advanced)
     def _advanced(self, _event: Advanced) -> None:
-        interval = HEADLESS_REFRESH_S if self.is_headless else REFRESH_S
-        delay = self._last_refresh + interval - time.monotonic()
+        delay = self._refresh_delay()
         if delay > 0:
             self.set_timer(delay, self._refresh_from_worker)
         else:
             self._refresh_from_worker()
 
     def _refresh_from_worker(self) -> None:
+        delay = self._refresh_delay()  # the compositing of the last refresh may have come since
+        if delay > 0.005:
+            self.set_timer(delay, self._refresh_from_worker)
+            return
         self._refresh_pending = False
-        self.refresh_display()
+        run = self.control
+        fast = run is not None and run.live is None and run.interval_s() == 0.0
+        self.refresh_display(
+            panel=not fast or time.monotonic() - self._last_panel_sync >= PANEL_REFRESH_S)
 
     @on(EndOfData)
     def _end_of_data(self, _event: EndOfData) -> None:
@@ -304,12 +342,16 @@ class UVNAVApp(App[None]):
         screen = self.screen_stack[0] if self.screen_stack else None
         return screen if isinstance(screen, ConsoleScreen) and screen.is_mounted else None
 
-    def refresh_display(self) -> None:
-        """Repaint the state line, the visible page and the message line from engine state."""
+    def refresh_display(self, *, panel: bool = True) -> None:
+        """Repaint the state line, the visible page and the message line from engine state
+        (``panel``: and bring the message panel under Pg 100 up to date)."""
         self._last_refresh = time.monotonic()
+        self._last_refresh_cpu = (time.thread_time(), time.process_time())
+        if panel:
+            self._last_panel_sync = self._last_refresh
         base = self._base()
         if base is not None:
-            base.repaint(self.control, self.state_word, self.config)
+            base.repaint(self.control, self.state_word, self.config, panel=panel)
 
     def show_page(self, number: int) -> None:
         """Show page ``number`` (100 = main page); Data pages (8xx) only in developer mode."""

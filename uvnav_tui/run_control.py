@@ -42,6 +42,10 @@ STATE_WORDS = {
     "suspended": "Suspended...",
 }
 
+BATCH_S = 0.01
+"""At pace fast the worker computes cycles in batches of up to this long under one hold of the
+lock (one wake-up of the display per batch, not per cycle; a menu, a question, the end of the
+data or an operator command stop a batch at the next cycle)."""
 PACE_SLICE_S = 0.02
 """Longest single sleep while waiting for the next cycle (so a pause takes effect at once)."""
 LIVE_POLL_S = 0.1
@@ -266,6 +270,8 @@ class RunController:
                     if not self.can_run():
                         continue
                     result = self.step()
+                    if result is not None and self.interval_s() == 0.0:
+                        result = self._batch(result, cancelled)
                 if result is None:
                     ended()
                     continue
@@ -277,6 +283,19 @@ class RunController:
             ended()
         finally:
             self.end_worker()
+
+    def _batch(self, result: CycleResult, cancelled: Callable[[], bool]) -> CycleResult | None:
+        """More cycles after ``result`` (caller holds :attr:`lock`, pace fast) while the run may
+        advance, for up to :data:`BATCH_S`; the last one (None at the end of the data). Each
+        cycle is counted, logged and written to the ``.OUT`` by :meth:`step` as one at a time."""
+        deadline = time.monotonic() + BATCH_S
+        while (not self.awaiting_answer and self.can_run() and not cancelled()
+               and time.monotonic() < deadline):
+            nxt = self.step()
+            if nxt is None:
+                return None
+            result = nxt
+        return result
 
     def _run_live(self, cancelled: Callable[[], bool], advanced: Callable[[], None],
                   question: Callable[[CycleResult], None]) -> None:

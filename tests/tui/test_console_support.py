@@ -189,3 +189,54 @@ def test_hardcopy_names(tmp_path: Path) -> None:
     (tmp_path / f"{stem}.txt").write_text("x")
     assert free_stem(tmp_path, stem) == f"{stem}_2"
 
+
+
+def test_fast_pace_runs_cycles_in_batches(data_dir: Path) -> None:
+    """At pace fast the worker computes several cycles per wake-up of the display, and every
+    cycle is still counted and kept; a budget stops a batch at its last cycle."""
+    run = RunController(Session.from_file(data_dir / "920917_1.toml"), pace_override="fast")
+    woken: list[int] = []
+    ended: list[bool] = []
+    run.budget = 7
+    run.run_cycles(lambda: False, advanced=lambda: woken.append(run.cycles),
+                   ended=lambda: ended.append(True), question=lambda r: None)
+    assert run.cycles == 7 and run.budget == 0 and not ended
+    assert 1 <= len(woken) < 7 and woken[-1] == 7
+    run.budget = None
+    run.run_cycles(lambda: False, advanced=lambda: woken.append(run.cycles),
+                   ended=lambda: ended.append(True), question=lambda r: None)
+    assert run.cycles == 10 and run.eof and ended == [True]
+    assert [r.n for r in run.session.history] == list(range(1, 11))
+    run.close()
+
+
+def test_message_panel_sync_writes_as_one_write_per_entry(data_dir: Path) -> None:
+    """The panel's lines after one sync of many entries are those of one write per entry."""
+    from rich.text import Text
+
+    from uvnav_tui.widgets.message_log import MessageLog
+    from uvnav_tui.widgets.message_panel import MessageLogView
+
+    app = make_app(data_dir)
+    log = MessageLog()
+    for i in range(40):
+        log.add(f"message {i} " + "long words " * (i % 9), wall_s=0.0)
+
+    async def run() -> tuple[list[str], list[str]]:
+        async with app.run_test(size=(100, 40)) as pilot:
+            await pilot.pause()
+            synced, written = MessageLogView(), MessageLogView()
+            await app.screen.mount(synced)
+            await app.screen.mount(written)
+            await pilot.pause()
+            assert synced._size_known  # the batched path, not RichLog's deferred writes
+            synced.sync(log)
+            for e in log.since(0)[1]:
+                written.write(Text(e.line()))
+            await pilot.pause()
+            assert synced.virtual_size == written.virtual_size
+            assert synced.scroll_offset == written.scroll_offset
+            return ([s.text for s in synced.lines], [s.text for s in written.lines])
+
+    synced, written = asyncio.run(run())
+    assert len(synced) > 40 and synced == written

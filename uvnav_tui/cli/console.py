@@ -22,9 +22,6 @@ from engine.api import (
     InputError,
     RunConfig,
     load_run_config,
-    open_nmea_sender,
-    parse_nmea_destination,
-    parse_source_url,
 )
 
 DEFAULT_CONFIG_NAME = "DEMO.toml"
@@ -82,8 +79,12 @@ def run_console(argv: list[str]) -> int:
     try:
         cfg, data = resolve_config(args.config)
         if args.live is not None:
+            from engine.api import parse_source_url  # only when asked for (start-up time)
+
             cfg = cfg.replace(run_file=parse_source_url(args.live).url)
         if args.nmea_out is not None:
+            from engine.api import open_nmea_sender, parse_nmea_destination
+
             dest = parse_nmea_destination(args.nmea_out)
             if dest.kind != "udp":
                 raise InputError(CONSOLE_UDP_ONLY, field="--nmea-out", text=args.nmea_out)

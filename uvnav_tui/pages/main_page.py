@@ -175,7 +175,7 @@ class MainPage(Widget):
     def _set(self, box: str, text: str) -> None:
         if self._texts.get(box) != text:
             self._texts[box] = text
-            self.query_one(f"#{box}", Static).update(text)
+            self.query_one(f"#{box}", Static).update(text, layout=False)
 
     def show(self, r: CycleResult | None, cfg: RunConfig) -> None:
         """Render the cycle ``r`` (None before the first cycle) with the run's settings."""

@@ -90,9 +90,11 @@ class ConsoleScreen(Screen[None]):
             switcher.current = "page-frame"
         self.page_shown()
 
-    def repaint(self, run: RunController | None, state_word: str, config: RunConfig) -> None:
+    def repaint(self, run: RunController | None, state_word: str, config: RunConfig, *,
+                panel: bool = True) -> None:
         """Paint the state line, the visible page and the message line from the run's latest
-        cycle (``config``: the configuration in force)."""
+        cycle (``config``: the configuration in force; ``panel``: the message panel under
+        Pg 100 too)."""
         host = self.uvnav
         r = run.latest if run is not None else None
         line = self.query_one(StateLine)
@@ -105,7 +107,8 @@ class ConsoleScreen(Screen[None]):
         self.query_one(MenuBar).dev_mode = host.dev_mode
         if host.page == 100:
             self.query_one(MainPage).show(r, config)
-            self.query_one(MessagePanel).sync(host.message_log)
+            if panel:
+                self.query_one(MessagePanel).sync(host.message_log)
         else:
             self.query_one(StatusColumn).bad_records = run.bad_records if run else 0
             self.query_one(PageFrame).show(r, run.session if run is not None else None)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import time
 
+from rich.cells import cell_len
 from textual.content import Content
 from textual.widget import Widget
 
@@ -52,8 +53,11 @@ class MessageLine(Widget):
         e = self._entry
         text = e.line() if e is not None and now_s - e.wall_s <= MESSAGE_TTL_S else ""
         if text != self._text:
+            width = self.content_region.width
+            # one line before and after: same height, no layout of the whole screen needed
+            same = 0 < cell_len(self._text) <= width and 0 < cell_len(text) <= width
             self._text = text
-            self.refresh(layout=True)
+            self.refresh(layout=not same)
 
     def render(self) -> Content:
         """The text as literal content, wrapped; cut with an ellipsis past three lines."""

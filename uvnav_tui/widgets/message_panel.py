@@ -7,8 +7,11 @@ follows the newest line unless the operator has scrolled up.
 
 from __future__ import annotations
 
+from typing import Self
+
 from rich.text import Text
 from textual.containers import Vertical
+from textual.geometry import Region
 from textual.widgets import RichLog
 
 from uvnav_tui.widgets.message_log import LOG_LIMIT, MessageLog
@@ -24,17 +27,41 @@ class MessageLogView(RichLog):
         super().__init__(id=id, classes=classes, max_lines=LOG_LIMIT, auto_scroll=True,
                          wrap=True, markup=False, highlight=False, min_width=20)
         self._next = 0
+        self._batch: list[bool] | None = None
+        """While :meth:`sync` writes: the ``layout`` flags of the refreshes asked for."""
 
     def sync(self, log: MessageLog) -> None:
-        """Write the entries added since the last call."""
+        """Write the entries added since the last call (each one as its own ``write``, so the
+        lines are those of one write per entry; the refreshes they ask for and the scroll to
+        the end are done once: at pace fast a sync may bring many entries)."""
         if log.total == self._next:
             return
         start, entries = log.since(self._next)
+        texts = [Text(e.line()) for e in entries]
         if start > self._next:
-            self.write(Text(f"({start - self._next} older messages no longer kept)"))
+            texts.insert(0, Text(f"({start - self._next} older messages no longer kept)"))
         self._next = start + len(entries)
-        for e in entries:
-            self.write(Text(e.line()))
+        if not self._size_known or len(texts) == 1:
+            for text in texts:  # the first writes wait for the size (RichLog defers them)
+                self.write(text)
+            return
+        self._batch = []
+        try:
+            for text in texts:
+                self.write(text, scroll_end=False)
+        finally:
+            layout = any(self._batch)
+            self._batch = None
+        super().refresh(layout=layout)
+        self.scroll_end(animate=False, immediate=False, x_axis=False)
+
+    def refresh(self, *regions: Region, repaint: bool = True, layout: bool = False,
+                recompose: bool = False) -> Self:
+        """As the widget's refresh; while :meth:`sync` writes, kept for the end of it."""
+        if self._batch is not None and not regions and repaint and not recompose:
+            self._batch.append(layout)
+            return self
+        return super().refresh(*regions, repaint=repaint, layout=layout, recompose=recompose)
 
 
 class MessagePanel(MessageLogView):

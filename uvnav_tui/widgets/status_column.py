@@ -70,4 +70,4 @@ class StatusColumn(Static):
         text = "\n".join(status_lines(r, cfg, self.bad_records))
         if text != self._text:
             self._text = text
-            self.update(text)
+            self.update(text, layout=False)
