@@ -30,6 +30,7 @@ from array import array
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
+from itertools import starmap
 from numbers import Integral
 from pathlib import Path
 from typing import Any, overload
@@ -62,8 +63,13 @@ def _format_text(text: str) -> str:
     """A string value: bare if it reads back as itself, else JSON-quoted (cached: the same
     short words (verdicts, systems, sources) recur in every cycle)."""
     if text in ("", "-") or _NEEDS_QUOTES(text) or _looks_numeric(text):
-        return json.dumps(text, ensure_ascii=False)
+        return _json_string(text)
     return text
+
+
+_json_string: Callable[[str], str] = json.encoder.encode_basestring  # type: ignore[attr-defined]
+"""``json.dumps(text, ensure_ascii=False)`` for a str: the very function ``JSONEncoder.encode``
+calls for one (the C encoder), without building an encoder per call."""
 
 
 def _format_none(_value: None) -> str:
@@ -84,8 +90,17 @@ _BY_TYPE: dict[type, Callable[[Any], str]] = {
 """Formatter per exact type (a dict look-up instead of an isinstance chain on the hot path)."""
 
 
+_NEVER_IN_A_NUMBER = re.compile(r"[:,;/()<>|!?@#$%&*'^~`\[\]{}bcdghj-mo-su-xzBCDGHJ-MO-SU-XZ]").search
+"""ASCII characters that ``float()`` rejects wherever they stand: it takes only blanks, a sign,
+digits (any script), ``_``, ``.``, an exponent ``e``/``E`` and the words inf, infinity, nan (any
+case: the letters a e f i n t y). A word with one of these cannot be a number (a time stamp's
+``:``, a list's ``,``), which spares the exception of a failed ``float()``."""
+
+
 def _looks_numeric(text: str) -> bool:
     """True if a bare word would be read back as a number (so it must be quoted)."""
+    if _NEVER_IN_A_NUMBER(text):
+        return False
     try:
         float(text)
     except ValueError:
@@ -101,6 +116,106 @@ def _append_fields(parts: list[str], fields: Mapping[str, Value]) -> None:
             parts.append(f" {k}={v!r}")
         else:
             parts.append(f" {k}={fv(v)}")
+
+
+_NoneType = type(None)
+_Template = tuple[str, tuple[tuple[int, Callable[[Any], str]], ...]]
+_TEMPLATES: dict[tuple[str, tuple[str, ...], tuple[type, ...]], _Template] = {}
+_TEMPLATES_MAX = 4096
+"""Compiled line templates (bounded: a run has a few dozen line shapes; a caller with ever new
+keys only costs a recompile after the cache is cleared)."""
+
+
+def _compile_line(prefix: str, keys: tuple[str, ...], types: tuple[type, ...]) -> _Template:
+    """A ``%`` template giving exactly ``prefix + format_fields(dict(zip(keys, values)))`` for
+    values of exactly these ``types``, and the (index, converter) of the values to convert first.
+
+    A float or int slot is ``%r`` (``repr``, as :func:`format_value`), a bool ``%d`` (``1``/``0``),
+    None ``%.0s-`` (nothing of ``str(None)``, then ``-``); a str goes through
+    :func:`_format_text` and anything else (numpy scalars, ...) through :func:`format_value`
+    into a ``%s`` slot. Keys are put in with the same ``f"{k}"`` as :func:`_append_fields`.
+    """
+    parts = [prefix.replace("%", "%%")]
+    conv: list[tuple[int, Callable[[Any], str]]] = []
+    for i, (k, t) in enumerate(zip(keys, types, strict=True)):
+        head = f" {k}=".replace("%", "%%")
+        if t is float or t is int:
+            parts.append(head + "%r")
+        elif t is bool:
+            parts.append(head + "%d")
+        elif t is _NoneType:
+            parts.append(head + "%.0s-")
+        else:
+            parts.append(head + "%s")
+            conv.append((i, _format_text if t is str else format_value))
+    return "".join(parts), tuple(conv)
+
+
+def render_line(prefix: str, keys: tuple[str, ...], values: tuple[Value, ...]) -> str:
+    """``prefix + format_fields(dict(zip(keys, values)))`` from a cached template (the ``.OUT``
+    hot path: one ``%`` per line, each float's ``repr`` done in C). ``keys`` must be exact
+    ``str`` (as every caller's are); the result is the same text as :func:`format_line`."""
+    types = tuple(map(type, values))
+    key = (prefix, keys, types)
+    tpl = _TEMPLATES.get(key)
+    if tpl is None:
+        if len(_TEMPLATES) >= _TEMPLATES_MAX:
+            _TEMPLATES.clear()
+        tpl = _TEMPLATES[key] = _compile_line(prefix, keys, types)
+    fmt, conv = tpl
+    if conv:
+        vals = list(values)
+        for i, fn in conv:
+            vals[i] = fn(vals[i])
+        return fmt % tuple(vals)
+    return fmt % values
+
+
+def _render_fields(prefix: str, fields: Mapping[str, Value]) -> str:
+    """``prefix + format_fields(fields)``: a plain dict with str keys by :func:`render_line`,
+    any other mapping by the general :func:`_append_fields`."""
+    if type(fields) is dict:
+        keys = tuple(fields)
+        if all(type(k) is str for k in keys):
+            return render_line(prefix, keys, tuple(fields.values()))
+    parts = [prefix]
+    _append_fields(parts, fields)
+    return "".join(parts)
+
+
+class KeyedLines(Sequence[tuple[str, dict[str, Value]]]):
+    """The inner lines of a cycle block as rows (``"\\n  " + tag``, keys, values), the keys a
+    tuple of exact ``str``: what :meth:`OutLogWriter.write_cycle` renders without building a
+    dict per line. Read as a sequence it gives the same (tag, fields dict) pairs as a plain
+    list of lines (the dicts are built on demand)."""
+
+    __slots__ = ("rows",)
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[str, tuple[str, ...], tuple[Value, ...]]] = []
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    @overload
+    def __getitem__(self, index: int) -> tuple[str, dict[str, Value]]: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[tuple[str, dict[str, Value]]]: ...
+
+    def __getitem__(
+        self, index: int | slice,
+    ) -> tuple[str, dict[str, Value]] | list[tuple[str, dict[str, Value]]]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        prefix, keys, values = self.rows[index]
+        return prefix[3:], dict(zip(keys, values, strict=True))
+
+    def __iter__(self) -> Iterator[tuple[str, dict[str, Value]]]:
+        for prefix, keys, values in self.rows:
+            yield prefix[3:], dict(zip(keys, values, strict=True))
+
+    def __repr__(self) -> str:
+        return f"KeyedLines({list(self)!r})"
 
 
 def format_fields(fields: Mapping[str, Value]) -> str:
@@ -265,14 +380,14 @@ class OutLogWriter:
         self, fields: Mapping[str, Value], lines: Sequence[tuple[str, Mapping[str, Value]]]
     ) -> None:
         """Write one complete cycle block (``CYCLE`` … ``END``) in a single flushed write."""
-        parts = ["CYCLE"]
-        _append_fields(parts, fields)
-        for tag, f in lines:
-            parts.append("\n  " + tag)
-            _append_fields(parts, f)
-        parts.append("\nEND")
-        _append_fields(parts, {"n": fields.get("n")})
-        parts.append("\n")
+        parts = [_render_fields("CYCLE", fields)]
+        if type(lines) is KeyedLines:
+            parts.extend(starmap(render_line, lines.rows))
+        else:
+            render = _render_fields
+            for tag, f in lines:
+                parts.append(render("\n  " + tag, f))
+        parts.append(f"\nEND n={format_value(fields.get('n'))}\n")
         self._write("".join(parts))
 
     def write_action(self, fields: Mapping[str, Value]) -> None:
