@@ -90,7 +90,8 @@ _BY_TYPE: dict[type, Callable[[Any], str]] = {
 """Formatter per exact type (a dict look-up instead of an isinstance chain on the hot path)."""
 
 
-_NEVER_IN_A_NUMBER = re.compile(r"[:,;/()<>|!?@#$%&*'^~`\[\]{}bcdghj-mo-su-xzBCDGHJ-MO-SU-XZ]").search
+_NEVER_IN_A_NUMBER = re.compile(
+    r"[:,;/()<>|!?@#$%&*'^~`\[\]{}bcdghj-mo-su-xzBCDGHJ-MO-SU-XZ]").search
 """ASCII characters that ``float()`` rejects wherever they stand: it takes only blanks, a sign,
 digits (any script), ``_``, ``.``, an exponent ``e``/``E`` and the words inf, infinity, nan (any
 case: the letters a e f i n t y). A word with one of these cannot be a number (a time stamp's
