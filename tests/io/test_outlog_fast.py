@@ -11,7 +11,9 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
+import random
 import re
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +21,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from engine.io import outlog
 from engine.io.outlog import (
     _NEVER_IN_A_NUMBER,
     KeyedLines,
@@ -165,3 +168,70 @@ def test_sample_cycles_render_as_the_general_path(tmp_path: Path) -> None:
                          + [format_line(t, f, "  ") for t, f in lines]
                          + [format_line("END", {"n": head["n"]})]) + "\n"
         assert got == want
+
+
+# --- the batched float writer (orjson where installed) -------------------------------------
+
+TIES = [n + f for n in (101065508335255, 123456789012345, 99999999999999, 10**14 + 7)
+        for f in (0.125, 0.375, 0.625, 0.875)]
+EDGES = [0.0, -0.0, 1.0, -1.0, 0.1, 1e-4, -1e-4, 9.999999999999999e-05, 0.00010000000000000002,
+         1e16, 9999999999999998.0, -1e16, 1e-5, 5e-324, -5e-324, 2.2250738585072014e-308,
+         1.7976931348623157e308, math.nan, math.inf, -math.inf, -math.nan, 1e22, 123.0]
+
+
+@settings(max_examples=300)
+@given(st.lists(floats, max_size=40))
+def test_float_texts_are_repr(values: list[float]) -> None:
+    assert outlog.float_texts(values) == [repr(v) for v in values]
+    assert outlog.float_texts(values, compiled=False) == [repr(v) for v in values]
+
+
+def test_float_texts_on_ties_edges_and_random_bits() -> None:
+    rng = random.Random(14)
+    bits = [struct.unpack("<d", struct.pack("<Q", rng.getrandbits(64)))[0]
+            for _ in range(20000)]
+    scaled = [rng.uniform(-1.0, 1.0) * 10.0 ** rng.uniform(-7.0, 18.0) for _ in range(20000)]
+    rounded = [round(v, rng.randint(0, 12)) for v in scaled]
+    for values in (TIES, EDGES, bits, scaled, rounded, EDGES * 3 + TIES):
+        assert outlog.float_texts(list(values)) == [repr(v) for v in values]
+        assert outlog.float_texts(list(values), compiled=False) == [repr(v) for v in values]
+
+
+def test_the_compiled_writer_is_used_where_installed() -> None:
+    """The speed of the .OUT rests on it (orjson, an optional dependency): where it is
+    installed it must have passed its probes."""
+    pytest.importorskip("orjson")
+    assert outlog._FLOAT_DUMPS is not None
+
+
+def test_a_writer_that_differs_from_repr_is_not_used() -> None:
+    good = outlog._FLOAT_DUMPS
+    if good is not None:
+        assert outlog._checked_float_writer(good) is good
+
+    def plain_big(values: list[float]) -> bytes:  # 1e16 without exponent
+        return ("[" + ",".join(f"{v:.1f}" if abs(v) >= 1e16 and math.isfinite(v) else repr(v)
+                               for v in values) + "]").encode()
+
+    def short(values: list[float]) -> bytes:  # 15 digits: not the shortest round trip
+        return ("[" + ",".join(f"{v:.15g}" for v in values) + "]").encode()
+
+    def exp_small(values: list[float]) -> bytes:  # "0.00001" for 1e-05
+        return ("[" + ",".join(f"{v:.20f}".rstrip("0") if 0 < abs(v) < 1e-4 else repr(v)
+                               for v in values) + "]").encode()
+
+    for bad in (plain_big, short, exp_small):
+        assert outlog._checked_float_writer(bad) is None
+
+
+@given(st.lists(st.tuples(st.sampled_from(["\n  LOP", "\n  KF", "CYCLE", "\n"]),
+                          keys.flatmap(lambda ks: st.tuples(st.just(tuple(ks)),
+                                                            st.tuples(*[values] * len(ks))))),
+                max_size=6))
+@settings(max_examples=200)
+def test_render_rows_is_render_line_per_row(rows: list) -> None:
+    flat_rows = [(p, ks, vs) for p, (ks, vs) in rows]
+    want = "".join(format_line(p, dict(zip(ks, vs, strict=True))) for p, ks, vs in flat_rows)
+    assert outlog.render_rows(flat_rows) == want
+    assert outlog.render_rows(flat_rows) == want  # cached template
+    assert outlog.render_rows(flat_rows, compiled=False) == want
