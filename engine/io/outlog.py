@@ -243,30 +243,40 @@ def float_texts(values: list[float], compiled: bool = True) -> list[str]:
     The compiled writer's text is kept only in the positional form (:func:`_plain_float_text`)
     that it was checked to share with ``repr``; any other value (exponent, < 1e-4, ≥ 1e16, nan,
     inf) is written by ``repr`` itself. ``compiled=False``: ``repr`` only (the reference).
-    The fast check of a whole array: no character but digits, points, commas and minus signs
-    once the ``null``s are out (so no exponent: ≥ 1e16 has one, as the probe of
-    :func:`_probe_float_writer` at 1e16 made sure), no ``0.0000`` (< 1e-4 in positional form)
-    and one point per number; else each text is checked on its own.
+    The writer writes JSON (numbers ``-?d+(.d+)?([eE][+-]?d+)?`` and ``null``), so the fast
+    check of the whole array is: no ``e``/``E`` (no exponent: ≥ 1e16 has one, as the probe of
+    :func:`_probe_float_writer` at 1e16 made sure), no ``n`` (null: nan, inf), no ``0.0000``
+    (< 1e-4 in positional form) and one point per number.
+    Else the texts with a ``null``, an exponent or a ``0.0000`` are checked one by one (found
+    by their markers: any other text is digits, a minus sign and at most one point), and if the
+    rest do not have one point each, every text is.
     """
     dumps = _FLOAT_DUMPS if compiled else None
     if not values:
         return []
     if dumps is None:
         return list(map(repr, values))
-    blob = dumps(values)
-    texts = blob[1:-1].decode("ascii").split(",")
-    n_null = blob.count(b"null")  # nan, inf, -inf: JSON's null, repr's nan/inf/-inf
-    if n_null:
-        blob = blob.replace(b"null", b"")
-    if (not blob.translate(None, _JSON_NUMBER_BYTES) and b"0.0000" not in blob
-            and blob.count(b".") == len(values) - n_null):
-        i = -1
-        for _ in range(n_null):
-            i = texts.index("null", i + 1)
-            texts[i] = repr(values[i])
-        return texts
-    plain = _plain_float_text
-    return [t if plain(t) else repr(v) for t, v in zip(texts, values, strict=True)]
+    text = dumps(values).decode("ascii")[1:-1]
+    texts = text.split(",")
+    n = len(values)
+    if ("e" not in text and "n" not in text and "E" not in text and "0.0000" not in text
+            and text.count(".") == n):
+        return texts  # the common case: every number positional, none < 1e-4
+    suspect = set()  # nan/inf (null), an exponent (e), < 1e-4 in positional form (0.0000)
+    for marker in ("null", "e", "E", "0.0000"):
+        at = text.find(marker)
+        while at >= 0:
+            suspect.add(text.count(",", 0, at))
+            at = text.find(marker, at + 1)
+    dots = text.count(".")
+    for i in suspect:
+        t = texts[i]
+        dots -= t.count(".")
+        texts[i] = t if _plain_float_text(t) else repr(values[i])
+    if dots != n - len(suspect):  # a number without its point (JSON has ≤ 1): each on its own
+        return [t if _plain_float_text(t) else repr(v) for t, v in zip(texts, values,
+                                                                        strict=True)]
+    return texts
 
 
 def _getter(indices: list[int]) -> Callable[[Sequence[Any]], tuple[Any, ...]]:
