@@ -19,6 +19,12 @@ written as a JSON string.  Each cycle block is written with one ``write`` and fl
 process leaves every completed cycle readable; the reader reports a trailing block without its
 ``END`` line as truncated instead of failing.  An existing log is never overwritten unless the
 caller asks for it explicitly (``force=True``): otherwise a new name is chosen.
+
+Writing is the per-cycle hot path (issue 14): a block handed over as :class:`KeyedLines` rows
+is rendered by one cached ``%`` template per block shape (:func:`render_rows`), with all its
+floats written by one compiled call where orjson is installed (:func:`float_texts`, checked
+against ``repr``); :func:`format_line` / :func:`format_fields` stay the general API and the
+reference the fast path is tested against (tests/io/test_outlog_fast.py).
 """
 
 from __future__ import annotations
@@ -233,8 +239,11 @@ def _plain_float_text(text: str) -> bool:
             and text.count(".") == 1)
 
 
-_FLOAT_DUMPS = _probe_float_writer()
-"""The batched float writer (None: every float through ``repr``)."""
+@lru_cache(maxsize=1)
+def _float_writer() -> Callable[[list[float]], bytes] | None:
+    """The batched float writer (None: every float through ``repr``), probed once at its first
+    use (:func:`_probe_float_writer`; importing this module does not import orjson)."""
+    return _probe_float_writer()
 
 
 def float_texts(values: list[float], compiled: bool = True) -> list[str]:
@@ -251,7 +260,7 @@ def float_texts(values: list[float], compiled: bool = True) -> list[str]:
     by their markers: any other text is digits, a minus sign and at most one point), and if the
     rest do not have one point each, every text is.
     """
-    dumps = _FLOAT_DUMPS if compiled else None
+    dumps = _float_writer() if compiled else None
     if not values:
         return []
     if dumps is None:
