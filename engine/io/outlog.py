@@ -19,6 +19,12 @@ written as a JSON string.  Each cycle block is written with one ``write`` and fl
 process leaves every completed cycle readable; the reader reports a trailing block without its
 ``END`` line as truncated instead of failing.  An existing log is never overwritten unless the
 caller asks for it explicitly (``force=True``): otherwise a new name is chosen.
+
+Writing is the per-cycle hot path (issue 14): a block handed over as :class:`KeyedLines` rows
+is rendered by one cached ``%`` template per block shape (:func:`render_rows`), with all its
+floats written by one compiled call where orjson is installed (:func:`float_texts`, checked
+against ``repr``); :func:`format_line` / :func:`format_fields` stay the general API and the
+reference the fast path is tested against (tests/io/test_outlog_fast.py).
 """
 
 from __future__ import annotations
@@ -30,7 +36,9 @@ from array import array
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
+from itertools import chain, starmap
 from numbers import Integral
+from operator import itemgetter
 from pathlib import Path
 from typing import Any, overload
 
@@ -62,8 +70,13 @@ def _format_text(text: str) -> str:
     """A string value: bare if it reads back as itself, else JSON-quoted (cached: the same
     short words (verdicts, systems, sources) recur in every cycle)."""
     if text in ("", "-") or _NEEDS_QUOTES(text) or _looks_numeric(text):
-        return json.dumps(text, ensure_ascii=False)
+        return _json_string(text)
     return text
+
+
+_json_string: Callable[[str], str] = json.encoder.encode_basestring  # type: ignore[attr-defined]
+"""``json.dumps(text, ensure_ascii=False)`` for a str: the very function ``JSONEncoder.encode``
+calls for one (the C encoder), without building an encoder per call."""
 
 
 def _format_none(_value: None) -> str:
@@ -84,8 +97,18 @@ _BY_TYPE: dict[type, Callable[[Any], str]] = {
 """Formatter per exact type (a dict look-up instead of an isinstance chain on the hot path)."""
 
 
+_NEVER_IN_A_NUMBER = re.compile(
+    r"[:,;/()<>|!?@#$%&*'^~`\[\]{}bcdghj-mo-su-xzBCDGHJ-MO-SU-XZ]").search
+"""ASCII characters that ``float()`` rejects wherever they stand: it takes only blanks, a sign,
+digits (any script), ``_``, ``.``, an exponent ``e``/``E`` and the words inf, infinity, nan (any
+case: the letters a e f i n t y). A word with one of these cannot be a number (a time stamp's
+``:``, a list's ``,``), which spares the exception of a failed ``float()``."""
+
+
 def _looks_numeric(text: str) -> bool:
     """True if a bare word would be read back as a number (so it must be quoted)."""
+    if _NEVER_IN_A_NUMBER(text):
+        return False
     try:
         float(text)
     except ValueError:
@@ -101,6 +124,281 @@ def _append_fields(parts: list[str], fields: Mapping[str, Value]) -> None:
             parts.append(f" {k}={v!r}")
         else:
             parts.append(f" {k}={fv(v)}")
+
+
+_NoneType = type(None)
+_Template = tuple[str, tuple[tuple[int, Callable[[Any], str]], ...]]
+_TEMPLATES: dict[tuple[str, tuple[str, ...], tuple[type, ...]], _Template] = {}
+_TEMPLATES_MAX = 4096
+"""Compiled line templates (bounded: a run has a few dozen line shapes; a caller with ever new
+keys only costs a recompile after the cache is cleared)."""
+
+
+def _compile_line(prefix: str, keys: tuple[str, ...], types: tuple[type, ...],
+                  batched: bool = False) -> _Template:
+    """A ``%`` template giving exactly ``prefix + format_fields(dict(zip(keys, values)))`` for
+    values of exactly these ``types``, and the (index, converter) of the values to convert first.
+
+    A float or int slot is ``%r`` (``repr``, as :func:`format_value`), a bool ``%d`` (``1``/``0``),
+    None ``%.0s-`` (nothing of ``str(None)``, then ``-``); a str goes through
+    :func:`_format_text` and anything else (numpy scalars, ...) through :func:`format_value`
+    into a ``%s`` slot. Keys are put in with the same ``f"{k}"`` as :func:`_append_fields`.
+    ``batched``: an exact float's slot is ``%s`` too, for its text from :func:`float_texts`.
+    """
+    parts = [prefix.replace("%", "%%")]
+    conv: list[tuple[int, Callable[[Any], str]]] = []
+    for i, (k, t) in enumerate(zip(keys, types, strict=True)):
+        head = f" {k}=".replace("%", "%%")
+        if t is float and batched:
+            parts.append(head + "%s")
+        elif t is float or t is int:
+            parts.append(head + "%r")
+        elif t is bool:
+            parts.append(head + "%d")
+        elif t is _NoneType:
+            parts.append(head + "%.0s-")
+        else:
+            parts.append(head + "%s")
+            conv.append((i, _format_text if t is str else format_value))
+    return "".join(parts), tuple(conv)
+
+
+def render_line(prefix: str, keys: tuple[str, ...], values: tuple[Value, ...]) -> str:
+    """``prefix + format_fields(dict(zip(keys, values)))`` from a cached template (the ``.OUT``
+    hot path: one ``%`` per line, each float's ``repr`` done in C). ``keys`` must be exact
+    ``str`` (as every caller's are); the result is the same text as :func:`format_line`."""
+    types = tuple(map(type, values))
+    key = (prefix, keys, types)
+    tpl = _TEMPLATES.get(key)
+    if tpl is None:
+        if len(_TEMPLATES) >= _TEMPLATES_MAX:
+            _TEMPLATES.clear()
+        tpl = _TEMPLATES[key] = _compile_line(prefix, keys, types)
+    fmt, conv = tpl
+    if conv:
+        vals = list(values)
+        for i, fn in conv:
+            vals[i] = fn(vals[i])
+        return fmt % tuple(vals)
+    return fmt % values
+
+
+def _render_fields(prefix: str, fields: Mapping[str, Value]) -> str:
+    """``prefix + format_fields(fields)``: a plain dict with str keys by :func:`render_line`,
+    any other mapping by the general :func:`_append_fields`."""
+    if type(fields) is dict:
+        keys = tuple(fields)
+        if all(type(k) is str for k in keys):
+            return render_line(prefix, keys, tuple(fields.values()))
+    parts = [prefix]
+    _append_fields(parts, fields)
+    return "".join(parts)
+
+
+def _probe_float_writer() -> Callable[[list[float]], bytes] | None:
+    """``orjson.dumps`` (compiled shortest round-trip float text, ~20× faster than ``repr`` per
+    float) if it is installed and writes every probe that it writes in plain positional form
+    exactly as ``repr`` does (the nearest of the shortest digits, ties to even: the ``.125``
+    ties; ``1.0``, ``-0.0``), and the values that ``repr`` writes with an exponent (≥ 1e16,
+    < 1e-4) in a form :func:`float_texts` sends back to ``repr``; else None (``repr`` only)."""
+    try:
+        import orjson
+    except ImportError:
+        return None
+    return _checked_float_writer(orjson.dumps)
+
+
+def _checked_float_writer(
+    dumps: Callable[[list[float]], bytes],
+) -> Callable[[list[float]], bytes] | None:
+    """``dumps`` if it passes the probes of :func:`_probe_float_writer`, else None."""
+    probes = [0.0, -0.0, 1.0, -1.0, 2.5, 100.0, 0.1, 0.2, 0.3, 1 / 3, 2 / 3, 0.0001, 0.00012345,
+              0.00099999999999999, 52.84232512345678, 4.531599494383838, -31615.4,
+              5857300.165, -101065508335255.125, 101065508335255.375, 123456789.123, 1e15,
+              9999999999999998.0, 1e16, 1.5e16, 1e17, 1e22, 1e300, 1.7976931348623157e308,
+              9.999999999999999e-05, 1e-5, 1.5e-5, 1e-7, 5e-324, 2.2250738585072014e-308]
+    try:
+        texts = dumps(probes)[1:-1].decode("ascii").split(",")
+    except Exception:  # noqa: BLE001 - any surprise: keep to repr
+        return None
+    for v, t in zip(probes, texts, strict=True):
+        if _plain_float_text(t) and (t != repr(v) or "e" in repr(v)):
+            return None
+    return dumps
+
+
+_JSON_NUMBER_BYTES = b"0123456789.,-[]"
+"""What a JSON array of floats in positional form consists of (no exponent letter or sign)."""
+
+
+def _plain_float_text(text: str) -> bool:
+    """A float's text in the positional form that ``repr`` uses too, by the test that
+    :func:`float_texts` makes of a whole array: only digits, a minus sign and one point (no
+    exponent, null, nan, inf) and no ``0.0000`` (< 1e-4 in positional form)."""
+    return (not text.encode().translate(None, _JSON_NUMBER_BYTES) and "0.0000" not in text
+            and text.count(".") == 1)
+
+
+@lru_cache(maxsize=1)
+def _float_writer() -> Callable[[list[float]], bytes] | None:
+    """The batched float writer (None: every float through ``repr``), probed once at its first
+    use (:func:`_probe_float_writer`; importing this module does not import orjson)."""
+    return _probe_float_writer()
+
+
+def float_texts(values: list[float], compiled: bool = True) -> list[str]:
+    """``[repr(v) for v in values]`` for exact floats, in one compiled call where possible.
+
+    The compiled writer's text is kept only in the positional form (:func:`_plain_float_text`)
+    that it was checked to share with ``repr``; any other value (exponent, < 1e-4, ≥ 1e16, nan,
+    inf) is written by ``repr`` itself. ``compiled=False``: ``repr`` only (the reference).
+    The writer writes JSON (numbers ``-?d+(.d+)?([eE][+-]?d+)?`` and ``null``), so the fast
+    check of the whole array is: no ``e``/``E`` (no exponent: ≥ 1e16 has one, as the probe of
+    :func:`_probe_float_writer` at 1e16 made sure), no ``n`` (null: nan, inf), no ``0.0000``
+    (< 1e-4 in positional form) and one point per number.
+    Else the texts with a ``null``, an exponent or a ``0.0000`` are checked one by one (found
+    by their markers: any other text is digits, a minus sign and at most one point), and if the
+    rest do not have one point each, every text is.
+    """
+    dumps = _float_writer() if compiled else None
+    if not values:
+        return []
+    if dumps is None:
+        return list(map(repr, values))
+    text = dumps(values).decode("ascii")[1:-1]
+    texts = text.split(",")
+    n = len(values)
+    if ("e" not in text and "n" not in text and "E" not in text and "0.0000" not in text
+            and text.count(".") == n):
+        return texts  # the common case: every number positional, none < 1e-4
+    suspect = set()  # nan/inf (null), an exponent (e), < 1e-4 in positional form (0.0000)
+    for marker in ("null", "e", "E", "0.0000"):
+        at = text.find(marker)
+        while at >= 0:
+            suspect.add(text.count(",", 0, at))
+            at = text.find(marker, at + 1)
+    dots = text.count(".")
+    for i in suspect:
+        t = texts[i]
+        dots -= t.count(".")
+        texts[i] = t if _plain_float_text(t) else repr(values[i])
+    if dots != n - len(suspect):  # a number without its point (JSON has ≤ 1): each on its own
+        return [t if _plain_float_text(t) else repr(v) for t, v in zip(texts, values,
+                                                                        strict=True)]
+    return texts
+
+
+def _getter(indices: list[int]) -> Callable[[Sequence[Any]], tuple[Any, ...]]:
+    """``lambda seq: tuple(seq[i] for i in indices)`` as a C-level ``itemgetter`` (which gives
+    a bare item, not a 1-tuple, for one index)."""
+    if len(indices) >= 2:
+        return itemgetter(*indices)
+    if len(indices) == 1:
+        i = indices[0]
+        return lambda seq: (seq[i],)
+    return lambda seq: ()
+
+
+_Getter = Callable[[Sequence[Any]], tuple[Any, ...]]
+_N = ("n",)
+_BlockTemplate = tuple[str, _Getter, _Getter, _Getter, _Getter, _Getter]
+_BLOCK_TEMPLATES: dict[tuple[tuple[tuple[str, tuple[str, ...]], ...], tuple[type, ...]],
+                       _BlockTemplate] = {}
+_BLOCK_TEMPLATES_MAX = 512
+"""Whole-block templates by (line shapes, value types): a run has a few dozen (LOP count,
+TEST lines, messages, which values are None)."""
+
+
+def _compile_block(shape: tuple[tuple[str, tuple[str, ...]], ...],
+                   types: tuple[type, ...]) -> _BlockTemplate:
+    """The ``%`` template of a whole block of lines (:func:`_compile_line` per line, exact-float
+    slots as ``%s``), and getters that pick from the flat values: the exact floats, the str
+    values, the other-typed values (through :func:`format_value`), the int/bool/None values
+    (formatted by the template), and the permutation that puts [float texts, str texts, other
+    texts, int/bool/None values] back in line order."""
+    fmts = []
+    groups: tuple[list[int], list[int], list[int], list[int]] = ([], [], [], [])
+    at = 0
+    for prefix, keys in shape:
+        line_types = types[at:at + len(keys)]
+        fmt, _conv = _compile_line(prefix, keys, line_types, batched=True)
+        fmts.append(fmt)
+        for i, t in enumerate(line_types, start=at):
+            if t is float:
+                groups[0].append(i)
+            elif t is str:
+                groups[1].append(i)
+            elif t is int or t is bool or t is _NoneType:
+                groups[3].append(i)
+            else:
+                groups[2].append(i)
+        at += len(keys)
+    where = {}
+    for pos, i in enumerate(i for g in groups for i in g):
+        where[i] = pos
+    perm = _getter([where[i] for i in range(at)])
+    return ("".join(fmts), _getter(groups[0]), _getter(groups[1]), _getter(groups[2]),
+            _getter(groups[3]), perm)
+
+
+_ROW_SHAPE = itemgetter(0, 1)
+_ROW_VALUES = itemgetter(2)
+
+
+def render_rows(rows: Sequence[tuple[str, tuple[str, ...], tuple[Value, ...]]],
+                compiled: bool = True) -> str:
+    """``"".join(render_line(*row) for row in rows)`` by one ``%`` with a cached whole-block
+    template, all exact floats written by one :func:`float_texts` call and all str values by
+    one ``map`` (the ``.OUT`` hot path: one cycle, ~17 lines, ~160 values, no per-value
+    Python code). ``compiled=False``: the floats through ``repr`` only."""
+    flat = list(chain.from_iterable(map(_ROW_VALUES, rows)))
+    key = (tuple(map(_ROW_SHAPE, rows)), tuple(map(type, flat)))
+    tpl = _BLOCK_TEMPLATES.get(key)
+    if tpl is None:
+        if len(_BLOCK_TEMPLATES) >= _BLOCK_TEMPLATES_MAX:
+            _BLOCK_TEMPLATES.clear()
+        tpl = _BLOCK_TEMPLATES[key] = _compile_block(*key)
+    fmt, floats, strs, others, plain, perm = tpl
+    texts = float_texts(list(floats(flat)), compiled)
+    texts.extend(map(_format_text, strs(flat)))
+    texts.extend(map(format_value, others(flat)))
+    texts.extend(plain(flat))
+    return fmt % perm(texts)
+
+
+class KeyedLines(Sequence[tuple[str, dict[str, Value]]]):
+    """The inner lines of a cycle block as rows (``"\\n  " + tag``, keys, values), the keys a
+    tuple of exact ``str``: what :meth:`OutLogWriter.write_cycle` renders without building a
+    dict per line. Read as a sequence it gives the same (tag, fields dict) pairs as a plain
+    list of lines (the dicts are built on demand)."""
+
+    __slots__ = ("rows",)
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[str, tuple[str, ...], tuple[Value, ...]]] = []
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    @overload
+    def __getitem__(self, index: int) -> tuple[str, dict[str, Value]]: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[tuple[str, dict[str, Value]]]: ...
+
+    def __getitem__(
+        self, index: int | slice,
+    ) -> tuple[str, dict[str, Value]] | list[tuple[str, dict[str, Value]]]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        prefix, keys, values = self.rows[index]
+        return prefix[3:], dict(zip(keys, values, strict=True))
+
+    def __iter__(self) -> Iterator[tuple[str, dict[str, Value]]]:
+        for prefix, keys, values in self.rows:
+            yield prefix[3:], dict(zip(keys, values, strict=True))
+
+    def __repr__(self) -> str:
+        return f"KeyedLines({list(self)!r})"
 
 
 def format_fields(fields: Mapping[str, Value]) -> str:
@@ -265,14 +563,21 @@ class OutLogWriter:
         self, fields: Mapping[str, Value], lines: Sequence[tuple[str, Mapping[str, Value]]]
     ) -> None:
         """Write one complete cycle block (``CYCLE`` … ``END``) in a single flushed write."""
-        parts = ["CYCLE"]
-        _append_fields(parts, fields)
-        for tag, f in lines:
-            parts.append("\n  " + tag)
-            _append_fields(parts, f)
-        parts.append("\nEND")
-        _append_fields(parts, {"n": fields.get("n")})
-        parts.append("\n")
+        if type(lines) is KeyedLines and type(fields) is dict:
+            keys = tuple(fields)
+            if all(type(k) is str for k in keys):
+                n = fields.get("n")
+                self._write(render_rows([("CYCLE", keys, tuple(fields.values())), *lines.rows,
+                                         ("\nEND", _N, (n,)), ("\n", (), ())]))
+                return
+        parts = [_render_fields("CYCLE", fields)]
+        if type(lines) is KeyedLines:
+            parts.extend(starmap(render_line, lines.rows))
+        else:
+            render = _render_fields
+            for tag, f in lines:
+                parts.append(render("\n  " + tag, f))
+        parts.append(f"\nEND n={format_value(fields.get('n'))}\n")
         self._write("".join(parts))
 
     def write_action(self, fields: Mapping[str, Value]) -> None:

@@ -8,14 +8,15 @@ and the major-axis azimuth in degrees from grid north.
 from __future__ import annotations
 
 import math
+from datetime import datetime
 from math import isfinite, sqrt
 from typing import Any
 
 import numpy as np
 
 from engine.filter.kalman import STATE_LABELS, UpdateResult
-from engine.io.outlog import Value
-from engine.lsq.confidence import Ellipse
+from engine.io.outlog import KeyedLines, Value
+from engine.lsq.confidence import Ellipse, k_factor
 from engine.run.cycle import CycleResult, PositionEstimate
 
 P95 = 0.95
@@ -140,19 +141,44 @@ def _gnss_json(r: CycleResult) -> dict[str, Any]:
     return out
 
 
-def _position_fields(lat: float, lon: float, x: float, y: float, depth: float,
-                     cov: np.ndarray | None, ellipse: Ellipse | None) -> dict[str, Value]:
-    """The position keys of an ``.OUT`` line: geodetic degrees, grid metres, depth (m), the 95 %
-    ellipse (m, degrees) and the VCV entries (m²) when finite."""
-    out: dict[str, Value] = {"lat": lat, "lon": lon, "x": x, "y": y, "depth": depth}
-    if ellipse is not None:
-        a, b = ellipse.scaled(P95)
-        out["a95"], out["b95"], out["az"] = a, b, ellipse.az_deg
+_K95 = k_factor(P95, 2)
+"""The 2-D expansion factor of the 95 % ellipse: :meth:`Ellipse.scaled` (P95) multiplies the
+standard semi-axes by exactly this (thesis eq. 5.24–5.25), so ``_K95 * a_m`` is its value."""
+
+_POS_KEYS = ("lat", "lon", "x", "y", "depth")
+_ELL_KEYS = ("a95", "b95", "az")
+_COV_KEYS = ("cxx", "cxy", "cyy")
+_POS_VARIANTS = {
+    (False, False): _POS_KEYS,
+    (True, False): _POS_KEYS + _ELL_KEYS,
+    (False, True): _POS_KEYS + _COV_KEYS,
+    (True, True): _POS_KEYS + _ELL_KEYS + _COV_KEYS,
+}
+"""The position keys by (ellipse present, VCV finite)."""
+
+
+def _position_row(lat: float, lon: float, x: float, y: float, depth: float,
+                  cov: np.ndarray | None,
+                  ellipse: Ellipse | None) -> tuple[tuple[str, ...], tuple[Value, ...]]:
+    """(keys, values) of the position part of an ``.OUT`` line: geodetic degrees, grid metres,
+    depth (m), the 95 % ellipse (m, degrees) and the VCV entries (m²) when finite."""
+    values: tuple[Value, ...] = (lat, lon, x, y, depth)
+    has_ell = ellipse is not None
+    if has_ell:
+        values += (_K95 * ellipse.a_m, _K95 * ellipse.b_m, ellipse.az_deg)  # type: ignore[union-attr]
+    has_cov = False
     if cov is not None:
         (cxx, cxy), (cyx, cyy) = cov.tolist()
         if isfinite(cxx) and isfinite(cxy) and isfinite(cyx) and isfinite(cyy):
-            out["cxx"], out["cxy"], out["cyy"] = cxx, cxy, cyy
-    return out
+            values += (cxx, cxy, cyy)
+            has_cov = True
+    return _POS_VARIANTS[has_ell, has_cov], values
+
+
+def _position_fields(lat: float, lon: float, x: float, y: float, depth: float,
+                     cov: np.ndarray | None, ellipse: Ellipse | None) -> dict[str, Value]:
+    """The position keys of an ``.OUT`` line as a dict (see :func:`_position_row`)."""
+    return dict(zip(*_position_row(lat, lon, x, y, depth, cov, ellipse), strict=True))
 
 
 def _pos_fields(p: PositionEstimate) -> dict[str, Value]:
@@ -161,8 +187,23 @@ def _pos_fields(p: PositionEstimate) -> dict[str, Value]:
 
 _KF_KEYS = STATE_LABELS + tuple("s_" + name for name in STATE_LABELS)
 """Keys of the KF line: the 11 navigation states, then their standard deviations."""
+_N_NAV = len(STATE_LABELS)
+_HEAD_KEYS = ("n", "t", "record", "filter", "source", "datum", "cm", "dt")
 _SENSOR_KEYS = ("gyro", "log", "rudder", "incl", "depth", "echo", "conv")
+_SENSOR_REF_KEYS = _SENSOR_KEYS + ("ref",)
+_SENSOR_STANDIN_KEYS = _SENSOR_REF_KEYS + ("s_hdg", "s_spd")
 _GPS_KEYS = ("lat_in", "lon_in", "lat", "lon", "x", "y", "hg")
+_GPS_WEIGHT_KEYS = _GPS_KEYS + ("hdop", "q", "sats", "uere", "sigma")
+_OBS_KEYS = ("kind", "station", "lat", "lon", "value", "sigma", "sensor")
+_LOP_KEYS = ("sys", "pat", "obs", "corr", "calc", "v", "w", "sd", "tau", "az", "used", "verdict")
+_LSE_KEYS = ("kind", "n", "cat", "s2", "rms")
+_TEST_KEYS = ("lom", "lo", "hi", "dof", "verdict", "ls", "upd", "rows")
+_IN = ("\n  IN", ("raw",))
+_SYS = ("\n  SYS", ("systems", "sensors"))
+_MSG = ("\n  MSG", ("text",))
+_NOFIX = ("\n  NOFIX", ("reason",))
+_REJECTED = ("rejected",)
+_FAILED = ("tests", "cov_scale")
 
 
 def _sigma(var: float) -> float:
@@ -170,82 +211,92 @@ def _sigma(var: float) -> float:
     return sqrt(var) if var > 0.0 else (var if var != var else 0.0)
 
 
-def cycle_block(
-    r: CycleResult,
-) -> tuple[dict[str, Value], list[tuple[str, dict[str, Value]]]]:
-    """The ``.OUT`` block of one cycle: the CYCLE line's fields and the tagged inner lines."""
-    head: dict[str, Value] = {
-        "n": r.n,
-        "t": r.time.strftime("%Y-%m-%dT%H:%M:%SZ"),
-        "record": r.record,
-        "filter": r.filter_status,
-        "source": r.mpp.source,
-        "datum": r.datum,
-        "cm": r.cm_deg,
-        "dt": r.dt_s,
-    }
+def _utc_text(t: datetime) -> str:
+    """``t.strftime("%Y-%m-%dT%H:%M:%SZ")``, by integer formatting for years 1000–9999 (where
+    ``%Y`` is the 4-digit year; any other year goes through ``strftime`` itself)."""
+    if 1000 <= t.year <= 9999:
+        return (f"{t.year}-{t.month:02d}-{t.day:02d}T"
+                f"{t.hour:02d}:{t.minute:02d}:{t.second:02d}Z")
+    return t.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
+    """The ``.OUT`` block of one cycle: the CYCLE line's fields and the tagged inner lines.
+
+    The inner lines are a :class:`~engine.io.outlog.KeyedLines` (rows of keys and values that
+    :meth:`~engine.io.outlog.OutLogWriter.write_cycle` renders by template; read as a sequence
+    they are (tag, fields dict) pairs)."""
+    mpp = r.mpp
+    head: dict[str, Value] = dict(zip(_HEAD_KEYS, (
+        r.n, _utc_text(r.time), r.record, r.filter_status, mpp.source, r.datum, r.cm_deg,
+        r.dt_s), strict=True))
+    block = KeyedLines()
+    rows = block.rows
+    add = rows.append
     s = r.sensors
-    sens: dict[str, Value] = dict(zip(_SENSOR_KEYS, (s.heading_true_deg, s.speed_kn,
-                                                     s.rudder_deg, s.incl_deg, s.depth_m,
-                                                     s.echo_m, s.convergence_deg), strict=True))
+    sens: tuple[Value, ...] = (s.heading_true_deg, s.speed_kn, s.rudder_deg, s.incl_deg,
+                               s.depth_m, s.echo_m, s.convergence_deg)
+    sens_keys = _SENSOR_KEYS
     if s.reference != "water":  # docs/GNSS_WEIGHTS.md: "ground" = COG/SOG stand-in, "none"
-        sens["ref"] = s.reference
+        sens += (s.reference,)
+        sens_keys = _SENSOR_REF_KEYS
         if s.standin:
-            sens["s_hdg"], sens["s_spd"] = s.heading_sigma_deg, s.speed_sigma_ms
-    lines: list[tuple[str, dict[str, Value]]] = [
-        ("IN", {"raw": r.raw}),
-        ("SYS", {"systems": r.systems, "sensors": "".join(map(str, s.status))}),
-        ("SENS", sens),
-    ]
-    if r.gps is not None:
-        g = r.gps
-        gps: dict[str, Value] = dict(zip(_GPS_KEYS, (g.lat_in_deg, g.lon_in_deg, g.lat_deg,
-                                                     g.lon_deg, g.x_m, g.y_m, g.hg_m),
-                                         strict=True))
+            sens += (s.heading_sigma_deg, s.speed_sigma_ms)
+            sens_keys = _SENSOR_STANDIN_KEYS
+    add((*_IN, (r.raw,)))
+    add((*_SYS, (r.systems, "".join(map(str, s.status)))))
+    add(("\n  SENS", sens_keys, sens))
+    g = r.gps
+    if g is not None:
+        gps: tuple[Value, ...] = (g.lat_in_deg, g.lon_in_deg, g.lat_deg, g.lon_deg, g.x_m,
+                                  g.y_m, g.hg_m)
         w = g.weight
         if w is not None and w.receiver_weighted:  # the receiver's weight (GNSS_WEIGHTS.md)
-            gps.update({"hdop": w.hdop, "q": w.quality, "sats": w.sats, "uere": w.uere_m,
-                        "sigma": w.sigma_m})
-        lines.append(("GPS", gps))
+            add(("\n  GPS", _GPS_WEIGHT_KEYS,
+                 gps + (w.hdop, w.quality, w.sats, w.uere_m, w.sigma_m)))
+        else:
+            add(("\n  GPS", _GPS_KEYS, gps))
     for o in r.manual:
-        lines.append(("OBS", {"kind": o.kind, "station": o.station, "lat": o.lat_deg,
-                              "lon": o.lon_deg, "value": o.value, "sigma": o.sigma,
-                              "sensor": o.sensor}))
+        add(("\n  OBS", _OBS_KEYS, (o.kind, o.station, o.lat_deg, o.lon_deg, o.value, o.sigma,
+                                   o.sensor)))
     f = r.fix
     if f is not None:
         for lop in f.lops:
-            lines.append(("LOP", {
-                "sys": lop.system, "pat": lop.pattern, "obs": lop.read, "corr": lop.correction,
-                "calc": lop.calc, "v": lop.v_m, "w": lop.w, "sd": lop.sigma_d, "tau": lop.tau,
-                "az": lop.az_deg, "used": lop.used, "verdict": lop.verdict,
-            }))
+            add(("\n  LOP", _LOP_KEYS, (
+                lop.system, lop.pattern, lop.read, lop.correction, lop.calc, lop.v_m, lop.w,
+                lop.sigma_d, lop.tau, lop.az_deg, lop.used, lop.verdict)))
         if f.ok:
-            fields: dict[str, Value] = {"kind": "hybrid" if f.uses_prior else "lse",
-                                        "n": f.n_used, "cat": f.category, "s2": f.s2,
-                                        "rms": f.rms_m}
-            fields.update(_position_fields(f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov,
-                                           f.ellipse))
+            pos_keys, pos = _position_row(f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov,
+                                          f.ellipse)
+            keys = _LSE_KEYS + pos_keys
+            values = ("hybrid" if f.uses_prior else "lse", f.n_used, f.category, f.s2,
+                      f.rms_m) + pos
             if f.rejected_slots:
-                fields["rejected"] = ",".join(str(s) for s in f.rejected_slots)
+                keys += _REJECTED
+                values += (",".join(str(s) for s in f.rejected_slots),)
             if r.fix_fails_tests:  # issue 15: the fix failed its tests; VCV × scale downstream
-                fields["tests"] = "fail"
-                fields["cov_scale"] = r.fix_cov_scale
-            lines.append(("LSE", fields))
+                keys += _FAILED
+                values += ("fail", r.fix_cov_scale)
+            add(("\n  LSE", keys, values))
         else:
-            lines.append(("NOFIX", {"reason": f.reason}))
-    if r.kf_pred is not None:
-        lines.append(("KFP", _pos_fields(r.kf_pred)))
+            add((*_NOFIX, (f.reason,)))
+    p = r.kf_pred
+    if p is not None:
+        add(("\n  KFP", *_position_row(p.lat_deg, p.lon_deg, p.x_m, p.y_m, p.depth_m, p.cov,
+                                        p.ellipse)))
     fs = r.filter_state
     if fs is not None:
-        n_nav = len(STATE_LABELS)
-        values = fs.x[:n_nav].tolist() + [_sigma(v) for v in fs.P.diagonal()[:n_nav].tolist()]
-        lines.append(("KF", dict(zip(_KF_KEYS, values, strict=True))))
+        sig = _sigma
+        add(("\n  KF", _KF_KEYS, tuple(fs.x[:_N_NAV].tolist())
+             + tuple([sig(v) for v in fs.P.diagonal()[:_N_NAV].tolist()])))
     for kind, u in updates(r):  # the epoch's update first: readers take the first TEST line
-        lines.append(("TEST", {"lom": u.lom.t, "lo": u.lom.lower, "hi": u.lom.upper,
-                               "dof": u.lom.dof, "verdict": u.lom.verdict,
-                               "ls": ",".join([f"{t:.3f}" for t in u.ls.t.tolist()]),
-                               "upd": kind, "rows": ",".join(u.labels)}))
-    lines.append(("MPP", {"source": r.mpp.source, **_pos_fields(r.mpp)}))
+        lom = u.lom
+        add(("\n  TEST", _TEST_KEYS, (
+            lom.t, lom.lower, lom.upper, lom.dof, lom.verdict,
+            ",".join([f"{t:.3f}" for t in u.ls.t.tolist()]), kind, ",".join(u.labels))))
+    pos_keys, pos = _position_row(mpp.lat_deg, mpp.lon_deg, mpp.x_m, mpp.y_m, mpp.depth_m,
+                                  mpp.cov, mpp.ellipse)
+    add(("\n  MPP", ("source",) + pos_keys, (mpp.source,) + pos))
     for m in r.messages:
-        lines.append(("MSG", {"text": m}))
-    return head, lines
+        add((*_MSG, (m,)))
+    return head, block
