@@ -11,9 +11,9 @@ timed on its own. "rest of the cycle" is the time inside ``engine.run.cycle.step
 stage functions; the session's own bookkeeping (history, counters) is in no row. The timers
 cost about a microsecond per call, so the rows add up to a little more than the headline.
 
-The same run also compares against the engine before issue 14's per-epoch work
-(``BASELINE_REV``, extracted once with ``git archive`` into the temp folder): each round replays
-the same epochs with the baseline tree and with this tree, each in a fresh process (warm-up
+The same run also compares against the engines of issue 14's start and of main before the bit-exact
+speed work (``BASELINE_REVS``, extracted once with ``git archive`` into the temp folder): each round
+replays the same epochs with each baseline tree and with this tree, each in a fresh process (warm-up
 first), alternating, and the ratio is of the medians of the CPU times (CPU, not wall: the
 machine may be shared). Skipped with a note where the checkout has no git history.
 """
@@ -52,11 +52,14 @@ STAGES = {
     "Decca lane tracking": ("engine.systems.decca:decca_totals",),
     "LSQ fix + tests": ("compute_fix",),
     "filter (predict, updates)": (
-        "predict_step", "update", "sensor_measurement", "lse_measurement", "stack_measurements"),
+        "predict_step", "update", "sensor_measurement", "lse_measurement", "stack_measurements",
+        "innovation_distance"),
 }
 """Stage → the functions of ``engine.run.cycle`` (as ``step`` calls them) whose time it is."""
-BASELINE_REV = "f81acd7"
-"""The engine before issue 14's per-epoch work (the same-run comparison's baseline)."""
+BASELINE_REVS = {"f81acd7": "when issue 14 was filed", "7aa241a": "before the bit-exact speed work"}
+"""The engines the same-run comparison measures this tree against: the one issue 14's figures
+were taken on, and ``main`` just before the 2026-12-02 speed work (the engine whose ``.OUT``
+the guard references hold, with issue 13's features)."""
 _RUNNER = """
 import sys, tempfile, time
 from pathlib import Path
@@ -150,7 +153,7 @@ def _stage_split(cfg: RunConfig, out: Path, n: int) -> dict[str, float]:
     return {k: statistics.median(v) for k, v in spent.items()}
 
 
-def _baseline_tree(rev: str = BASELINE_REV) -> Path | None:
+def _baseline_tree(rev: str) -> Path | None:
     """The baseline engine's source tree (extracted once into the temp folder), or None."""
     dest = Path(tempfile.gettempdir()) / f"uvnav-bench-baseline-{rev}"
     if (dest / ".complete").exists():
@@ -175,16 +178,18 @@ def _cpu_replay(tree: Path, n: int) -> float:
     return float(done.stdout.split()[-1])
 
 
-def compare_baseline(n: int, rounds: int = REPEATS) -> tuple[float, float] | None:
-    """Median CPU seconds of (baseline, this tree) for ``n`` epochs, alternating per round."""
-    base = _baseline_tree()
-    if base is None:
+def compare_baselines(n: int, rounds: int = REPEATS) -> dict[str, float] | None:
+    """Median CPU seconds for ``n`` epochs of each baseline in :data:`BASELINE_REVS` and of this
+    tree (key ``""``), one fresh process each, alternating per round; None without git."""
+    trees = {rev: _baseline_tree(rev) for rev in BASELINE_REVS}
+    if any(t is None for t in trees.values()):
         return None
-    times: tuple[list[float], list[float]] = ([], [])
+    trees[""] = ROOT
+    times: dict[str, list[float]] = defaultdict(list)
     for _ in range(rounds):
-        for acc, tree in zip(times, (base, ROOT), strict=True):
-            acc.append(_cpu_replay(tree, n))
-    return statistics.median(times[0]), statistics.median(times[1])
+        for rev, tree in trees.items():
+            times[rev].append(_cpu_replay(tree, n))  # type: ignore[arg-type]
+    return {rev: statistics.median(ts) for rev, ts in times.items()}
 
 
 def main() -> None:
@@ -209,14 +214,16 @@ def main() -> None:
     total = sum(t for _, t in rows)
     for name, t in rows:
         print(f"  {name:34s}: {t / n * 1e6:7.1f} µs/epoch  {100 * t / total:5.1f} %")
-    cmp = compare_baseline(n)
+    cmp = compare_baselines(n)
     if cmp is None:
-        print(f"  baseline {BASELINE_REV}: not compared (no git history here)")
+        print(f"  baselines {', '.join(BASELINE_REVS)}: not compared (no git history here)")
         return
-    t_base, t_now = cmp
+    t_now = cmp.pop("")
     print(f"  same run, CPU time, fresh processes alternating, median of {REPEATS}:")
-    print(f"    baseline {BASELINE_REV:9s}: {n / t_base:7.0f} epochs/s")
-    print(f"    this tree          : {n / t_now:7.0f} epochs/s  (ratio {t_base / t_now:.2f})")
+    for rev, t_base in cmp.items():
+        print(f"    {rev} ({BASELINE_REVS[rev]}): {n / t_base:7.0f} epochs/s")
+    print(f"    this tree: {n / t_now:7.0f} epochs/s  (ratio "
+          + ", ".join(f"{t / t_now:.2f} to {rev}" for rev, t in cmp.items()) + ")")
 
 
 if __name__ == "__main__":
