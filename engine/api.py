@@ -20,9 +20,11 @@ Groups, in the order of a run:
 * live NMEA sources (:func:`open_live_run`, docs/LIVE.md), imported on first use.
 
 One small function is defined here rather than re-exported: :func:`run_record` (a cycle's
-``.RUN`` record, parsed by the run-file reader). The names of the headless assessment,
-simulation and export are imported on first use (:func:`__getattr__`), so that a replay and
-the console start without them.
+``.RUN`` record, parsed by the run-file reader). Only the configuration, the data files and
+the text rules are imported with this module; the names of the run itself (the session, the
+cycle, the filter, the fix: NumPy) and of the headless assessment, simulation and export are
+imported on first use (:func:`__getattr__`, :data:`_LAZY_MODULES`), so that the console paints
+its first frame before NumPy loads and a replay starts without the headless commands.
 """
 
 from __future__ import annotations
@@ -30,16 +32,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from engine.errors import InputError, read_error
-from engine.filter.kalman import (
-    IDEPS,
-    IDPSI,
-    IDV,
-    STATE_LABELS,
-    FilterState,
-    UpdateResult,
-    sensor_measurement,
-)
-from engine.filter.poe import PoeSample, drms, poe_states
 from engine.geodesy.ellipsoid import Ellipsoid
 from engine.io.datumfile import DatumFile, read_datum_file
 from engine.io.deccafile import DeccaChain
@@ -57,8 +49,6 @@ from engine.io.formatting import (
     format_time_z,
     format_zone_lane,
 )
-from engine.io.nmea_epochs import NmeaOptions, NmeaStats
-from engine.io.nmea_log import CONVERTED_RUN_MARK, NmeaLog, is_nmea_file
 from engine.io.operator_input import (
     ZONE_LETTERS,
     parse_bearing_deg,
@@ -74,28 +64,6 @@ from engine.io.operator_input import (
 from engine.io.outputs import EXISTS_MESSAGE, OutputFile, OutputGuard, remove_created
 from engine.io.runfile import BadRecord, RunRecord, format_run_record, parse_run_line
 from engine.io.tomlsource import FILE_NOT_FOUND_MESSAGE, read_text
-from engine.lsq.adjustment import Adjustment
-from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
-from engine.lsq.fix import (
-    MAX_BRR,
-    FixResult,
-    LopRow,
-    ManualObservation,
-    lop_name,
-)
-from engine.lsq.statistics import REJECT_BOUND, w_critical
-from engine.run.commands import (
-    AddObservation,
-    Command,
-    SetCurrent,
-    SetDatum,
-    SetDecca,
-    SetDRPosition,
-    SetFiltering,
-    SetGps,
-    SetParameters,
-    SetSensor,
-)
 from engine.run.config import (
     DECCA_CF_CONDITIONS,
     CorrectionsConfig,
@@ -113,12 +81,7 @@ from engine.run.config import (
     pace_factor,
     parse_decca_cf,
 )
-from engine.run.cycle import CycleResult, PositionEstimate, RunContext
-from engine.run.nmea_config import derive_nmea_config, derived_config_lines
-from engine.run.records import lse_estimate, position_json
-from engine.run.session import RunSummary, Session, load_data, load_run_config, run_inputs
-from engine.systems.gps import GpsWeight, quality_name
-from engine.systems.registry import SLOT_LABELS, slots_of
+from engine.run.setup import load_data, load_run_config, run_inputs
 from engine.systems.sensors import KNOT_MS, SENSOR_STATUS_WORD, knots_to_ms
 
 if TYPE_CHECKING:
@@ -138,6 +101,16 @@ if TYPE_CHECKING:
         run_records,
         truth_reference,
     )
+    from engine.filter.kalman import (
+        IDEPS,
+        IDPSI,
+        IDV,
+        STATE_LABELS,
+        FilterState,
+        UpdateResult,
+        sensor_measurement,
+    )
+    from engine.filter.poe import PoeSample, drms, poe_states
     from engine.io.export_geo import ELLIPSE_POINTS, Wgs84Converter, build_export
     from engine.io.export_geo import TRACKS as EXPORT_TRACKS
     from engine.io.export_read import (
@@ -148,40 +121,81 @@ if TYPE_CHECKING:
     )
     from engine.io.export_write import csv_text, geojson_text, gpx_text, kml_text
     from engine.io.live_sources import SourceState, is_source_url, parse_source_url
+    from engine.io.nmea_epochs import NmeaOptions, NmeaStats
+    from engine.io.nmea_log import CONVERTED_RUN_MARK, NmeaLog, is_nmea_file
     from engine.io.nmea_send import NmeaSender, open_nmea_sender, parse_nmea_destination
+    from engine.lsq.adjustment import Adjustment
+    from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
+    from engine.lsq.fix import MAX_BRR, FixResult, LopRow, ManualObservation, lop_name
+    from engine.lsq.statistics import REJECT_BOUND, w_critical
+    from engine.run.commands import (
+        AddObservation,
+        Command,
+        SetCurrent,
+        SetDatum,
+        SetDecca,
+        SetDRPosition,
+        SetFiltering,
+        SetGps,
+        SetParameters,
+        SetSensor,
+    )
+    from engine.run.cycle import CycleResult, PositionEstimate, RunContext
     from engine.run.live import LEARN_S, LiveCycle, LiveRun, LiveStep, open_live_run
+    from engine.run.nmea_config import derive_nmea_config, derived_config_lines
     from engine.run.nmea_out import NmeaOutOptions, NmeaPositionOut
+    from engine.run.records import lse_estimate, position_json
+    from engine.run.session import RunSummary, Session
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
+    from engine.systems.gps import GpsWeight, quality_name
+    from engine.systems.registry import SLOT_LABELS, slots_of
 
-_EXPORT_NAMES = {
-    "EXPORT_TRACKS": ("engine.io.export_geo", "TRACKS"),
-    "ELLIPSE_POINTS": ("engine.io.export_geo", "ELLIPSE_POINTS"),
-    "Wgs84Converter": ("engine.io.export_geo", "Wgs84Converter"),
-    "build_export": ("engine.io.export_geo", "build_export"),
-    "align_smoothed": ("engine.io.export_read", "align_smoothed"),
-    "logged_datum_file": ("engine.io.export_read", "logged_datum_file"),
-    "read_export_log": ("engine.io.export_read", "read_export_log"),
-    "read_smoothed": ("engine.io.export_read", "read_smoothed"),
-    "csv_text": ("engine.io.export_write", "csv_text"),
-    "geojson_text": ("engine.io.export_write", "geojson_text"),
-    "gpx_text": ("engine.io.export_write", "gpx_text"),
-    "kml_text": ("engine.io.export_write", "kml_text"),
+_LAZY_MODULES: dict[str, tuple[str, ...]] = {
+    # the run: NumPy, the filter, the fix, the NMEA reader (pynmea2)
+    "engine.filter.kalman": ("IDEPS", "IDPSI", "IDV", "STATE_LABELS", "FilterState",
+                             "UpdateResult", "sensor_measurement"),
+    "engine.filter.poe": ("PoeSample", "drms", "poe_states"),
+    "engine.io.nmea_epochs": ("NmeaOptions", "NmeaStats"),
+    "engine.io.nmea_log": ("CONVERTED_RUN_MARK", "NmeaLog", "is_nmea_file"),
+    "engine.lsq.adjustment": ("Adjustment",),
+    "engine.lsq.confidence": ("Ellipse", "Ellipsoid3", "error_ellipsoid"),
+    "engine.lsq.fix": ("MAX_BRR", "FixResult", "LopRow", "ManualObservation", "lop_name"),
+    "engine.lsq.statistics": ("REJECT_BOUND", "w_critical"),
+    "engine.run.commands": ("AddObservation", "Command", "SetCurrent", "SetDatum", "SetDecca",
+                            "SetDRPosition", "SetFiltering", "SetGps", "SetParameters",
+                            "SetSensor"),
+    "engine.run.cycle": ("CycleResult", "PositionEstimate", "RunContext"),
+    "engine.run.nmea_config": ("derive_nmea_config", "derived_config_lines"),
+    "engine.run.records": ("lse_estimate", "position_json"),
+    "engine.run.session": ("RunSummary", "Session"),
+    "engine.systems.gps": ("GpsWeight", "quality_name"),
+    "engine.systems.registry": ("SLOT_LABELS", "slots_of"),
+    # headless work: assessment, GPS-denied experiment, simulation, NMEA out, live sources
+    "engine.assess.accuracy": ("ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment",
+                               "assess", "read_nav_log", "read_truth"),
+    "engine.assess.denied": ("CHECKPOINTS_S", "DeniedReport", "denied_experiment",
+                             "run_records", "truth_reference"),
+    "engine.sim.scenario": ("load_scenario",),
+    "engine.sim.simulate": ("read_data_files", "write_simulation"),
+    "engine.io.nmea_send": ("NmeaSender", "open_nmea_sender", "parse_nmea_destination"),
+    "engine.run.nmea_out": ("NmeaOutOptions", "NmeaPositionOut"),
+    "engine.run.live": ("LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "open_live_run"),
+    "engine.io.live_sources": ("SourceState", "is_source_url", "parse_source_url"),
+    # uvnav export (docs/EXPORT.md)
+    "engine.io.export_geo": ("ELLIPSE_POINTS", "Wgs84Converter", "build_export"),
+    "engine.io.export_read": ("align_smoothed", "logged_datum_file", "read_export_log",
+                              "read_smoothed"),
+    "engine.io.export_write": ("csv_text", "geojson_text", "gpx_text", "kml_text"),
 }
-"""``uvnav export``'s names (docs/EXPORT.md), imported on first use like the assessment's."""
-_ASSESS_NAMES = frozenset(
-    {"ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment", "assess", "read_nav_log",
-     "read_truth"})
-_DENIED_NAMES = frozenset(
-    {"CHECKPOINTS_S", "DeniedReport", "denied_experiment", "run_records", "truth_reference"})
-"""``uvnav denied`` (GPS-denied experiment, docs/REALDATA.md), imported on first use."""
-_SIMULATE_NAMES = frozenset({"read_data_files", "write_simulation"})
-_NMEA_SEND_NAMES = frozenset({"NmeaSender", "open_nmea_sender", "parse_nmea_destination"})
-_NMEA_OUT_NAMES = frozenset({"NmeaOutOptions", "NmeaPositionOut"})
-_LIVE_RUN_NAMES = frozenset({"LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "open_live_run"})
-_LIVE_SOURCE_NAMES = frozenset({"SourceState", "is_source_url", "parse_source_url"})
-"""The headless commands' names, imported on first use (:func:`__getattr__`): a replay and the
-console never load the assessment or the simulator (start-up time)."""
+"""The modules whose names are imported on first use (:func:`__getattr__`), with those names:
+everything a cycle computes (NumPy and the numeric engine) and the headless commands. The
+console's first paint (the Parameter Initialization dialog) needs only the configuration, the
+data files and the text rules imported above (issue 14, start-up time)."""
+_LAZY: dict[str, tuple[str, str]] = {
+    name: (module, name) for module, names in _LAZY_MODULES.items() for name in names}
+_LAZY["EXPORT_TRACKS"] = ("engine.io.export_geo", "TRACKS")
+"""Name here → (module, name there)."""
 
 __all__ = [
     # errors
@@ -357,48 +371,17 @@ def run_record(r: CycleResult) -> RunRecord | None:
 
 
 def __getattr__(name: str) -> object:
-    """The assessment's and the simulator's names (PEP 562), imported when first asked for."""
-    if name in _EXPORT_NAMES:
-        import importlib
+    """A name of :data:`_LAZY_MODULES` (PEP 562), imported when first asked for and kept."""
+    try:
+        module, attr = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    import importlib
 
-        module, attr = _EXPORT_NAMES[name]
-        return getattr(importlib.import_module(module), attr)
-    if name in _ASSESS_NAMES:
-        from engine.assess import accuracy
-
-        return getattr(accuracy, name)
-    if name in _DENIED_NAMES:
-        from engine.assess import denied
-
-        return getattr(denied, name)
-    if name == "load_scenario":
-        from engine.sim.scenario import load_scenario
-
-        return load_scenario
-    if name in _SIMULATE_NAMES:
-        from engine.sim import simulate
-
-        return getattr(simulate, name)
-    if name in _NMEA_SEND_NAMES:
-        from engine.io import nmea_send
-
-        return getattr(nmea_send, name)
-    if name in _NMEA_OUT_NAMES:
-        from engine.run import nmea_out
-
-        return getattr(nmea_out, name)
-    if name in _LIVE_RUN_NAMES:
-        from engine.run import live
-
-        return getattr(live, name)
-    if name in _LIVE_SOURCE_NAMES:
-        from engine.io import live_sources
-
-        return getattr(live_sources, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), attr)
+    globals()[name] = value
+    return value
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_ASSESS_NAMES, *_DENIED_NAMES, *_SIMULATE_NAMES, *_EXPORT_NAMES,
-                   *_NMEA_SEND_NAMES, *_NMEA_OUT_NAMES, "load_scenario", *_LIVE_RUN_NAMES,
-                   *_LIVE_SOURCE_NAMES})
+    return sorted({*globals(), *_LAZY})

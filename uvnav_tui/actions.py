@@ -11,28 +11,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 from textual.app import App
 from textual.screen import Screen
 
-from engine.api import (
-    MAX_BRR,
-    AddObservation,
-    Command,
-    CycleResult,
-    InputError,
-    PositionEstimate,
-    RunConfig,
-    SetCurrent,
-    SetDatum,
-    SetDRPosition,
-    SetFiltering,
-    SetParameters,
-    SetSensor,
-    format_dms_input,
-    lop_name,
-)
+from engine import api
+from engine.api import InputError, RunConfig, format_dms_input
 from uvnav_tui.dialogs.confirm_dialog import ConfirmDialog
 from uvnav_tui.dialogs.current_dialog import CurrentDialog
 from uvnav_tui.dialogs.datum_dialog import DatumDialog
@@ -52,6 +37,16 @@ from uvnav_tui.pages.registry import DEV_PAGES_FROM
 from uvnav_tui.run_control import RunController
 from uvnav_tui.screens.message_screen import MessageScreen
 from uvnav_tui.screens.table_screen import TableScreen, predict_table, smoothing_table
+
+if TYPE_CHECKING:
+    from engine.api import (
+        AddObservation,
+        Command,
+        CycleResult,
+        PositionEstimate,
+        SetParameters,
+        SetSensor,
+    )
 
 NOT_CONNECTED = "System not connected !"
 NO_RUN = "No run: Run ▸ Start opens Parameter Initialization"
@@ -164,20 +159,20 @@ class MenuActions:
         """Setup ▸ Params ▸ Datum."""
         host = self.host
         host.push_screen(DatumDialog(host.datum_names, host.config.datum),
-                         callback=lambda name: name is not None and self.apply(SetDatum(name)))
+                         callback=lambda name: name is not None and self.apply(api.SetDatum(name)))
 
     def dr_pos(self) -> None:
         """Setup ▸ Params ▸ DR Pos."""
         nav = self._run.session.nav
         current = format_dms_input(nav.mpp_lat_deg, nav.mpp_lon_deg)
         self.host.push_screen(PositionDialog(current), callback=lambda pos: pos is not None
-                              and self.apply(SetDRPosition(*pos)))
+                              and self.apply(api.SetDRPosition(*pos)))
 
     def current(self) -> None:
         """Setup ▸ Params ▸ Current."""
         cfg = self.host.config
         self.host.push_screen(CurrentDialog(cfg.current_set_deg, cfg.current_speed_kn),
-                              callback=lambda v: v is not None and self.apply(SetCurrent(*v)))
+                              callback=lambda v: v is not None and self.apply(api.SetCurrent(*v)))
 
     def develop(self) -> None:
         """Setup ▸ Params ▸ Develop."""
@@ -233,7 +228,7 @@ class MenuActions:
         def pending() -> str:
             run = self.host.control
             n = len(run.session.nav.pending_obs) if run is not None else 0
-            return f" — {n} observation(s) for the next cycle (at most {MAX_BRR})"
+            return f" — {n} observation(s) for the next cycle (at most {api.MAX_BRR})"
 
         def done(cmd: AddObservation | None) -> None:
             if cmd is not None:
@@ -245,7 +240,7 @@ class MenuActions:
     def filtering(self) -> None:
         """Kalman ▸ Filtering."""
         self.host.push_screen(FilteringDialog(self.host.config.filter.on), callback=lambda on:
-                              on is not None and self.apply(SetFiltering(on)))
+                              on is not None and self.apply(api.SetFiltering(on)))
 
     def predict(self) -> None:
         """Kalman ▸ Predict.: the interval and step, then the table."""
@@ -369,7 +364,7 @@ class MenuActions:
             return
         slot = fix.candidate_slot
         row = next((lop for lop in fix.lops if lop.slot == slot), None)
-        what = lop_name(slot, system=row.system if row is not None else "GPS",
+        what = api.lop_name(slot, system=row.system if row is not None else "GPS",
                         manual=result.manual)
         w = f" (w = {row.w:.2f})" if row is not None and row.w == row.w else ""
         question = f"The w-test rejects LOP {what}{w}.\nDiscard LOP {what}?"

@@ -13,6 +13,7 @@ are :class:`uvnav_tui.actions.MenuActions`, the pages are found by
 
 from __future__ import annotations
 
+import gc
 import time
 from collections.abc import Iterable
 from functools import partial
@@ -27,14 +28,8 @@ from textual.screen import Screen
 from textual.theme import Theme
 from textual.worker import get_current_worker
 
-from engine.api import (
-    CycleResult,
-    DatumFile,
-    DeccaChain,
-    RunConfig,
-    Session,
-    load_data,
-)
+from engine import api
+from engine.api import DatumFile, DeccaChain, RunConfig, load_data
 from uvnav_tui.actions import MenuActions
 from uvnav_tui.menus import palette_entries
 from uvnav_tui.pages.registry import next_sub_page, page_refusal
@@ -46,7 +41,7 @@ from uvnav_tui.widgets.message_log import MessageLog
 from uvnav_tui.widgets.pulldown import PulldownScreen
 
 if TYPE_CHECKING:
-    from engine.api import NmeaSender
+    from engine.api import CycleResult, NmeaSender
 
 REFRESH_S = 0.1
 """Shortest time between two display refreshes while cycles run (≤ 10 Hz)."""
@@ -97,6 +92,23 @@ CSS_FILES = [
     "widgets/message_panel.tcss",
 ]
 """The console screen's style sheets (the other screens name their own)."""
+
+def load_engine() -> None:
+    """Import the engine's run-time modules (the session, the cycle, the commands): what
+    :mod:`engine.api` would otherwise import when the run starts. The cyclic garbage collector
+    is paused meanwhile, as for the imports at start-up (``uvnav_tui.cli.main``)."""
+    gc.disable()
+    try:
+        for name in PRELOADED:
+            getattr(api, name)
+    finally:
+        gc.enable()
+
+
+PRELOADED = ("Session", "CycleResult", "SetDatum", "lse_estimate", "quality_name", "lop_name")
+"""Names of :mod:`engine.api` whose modules :func:`load_engine` imports (together they load
+all a run needs: the session imports the cycle, the filter, the fix and the NMEA reader)."""
+
 
 class Advanced(Message):
     """The worker computed one or more cycles since the last refresh."""
@@ -177,6 +189,15 @@ class UVNAVApp(App[None]):
         self.refresh_display()
         if self.show_init:
             self.actions.parameter_initialization()
+        self.call_after_refresh(self._preload_engine)
+
+    def _preload_engine(self) -> None:
+        """Once the first frame is on screen, load the numeric engine (NumPy, the filter, the
+        session) in a worker thread while the operator reads the Parameter Initialization
+        dialog, so that Return starts the run as soon as before. :mod:`engine.api` imports it
+        on first use: the first paint needs only the configuration and the data files
+        (issue 14, start-up time)."""
+        self.run_worker(load_engine, thread=True, group="preload", exit_on_error=False)
 
     @property
     def datum_names(self) -> list[str]:
@@ -208,7 +229,7 @@ class UVNAVApp(App[None]):
         if self.nmea_sender is not None:
             from engine.api import NmeaPositionOut  # only when asked for (start-up time)
 
-            run_session = session if isinstance(session, Session) else session.session
+            run_session = session if isinstance(session, api.Session) else session.session
             nmea, sender = NmeaPositionOut(run_session.datums), self.nmea_sender
 
             def on_cycle(r: CycleResult) -> None:

@@ -21,20 +21,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from engine.api import (
-    Command,
-    CycleResult,
-    DatumFile,
-    DeccaChain,
-    InputError,
-    RunConfig,
-    Session,
-    pace_factor,
-)
+from engine import api
+from engine.api import DatumFile, DeccaChain, InputError, RunConfig, pace_factor
 from uvnav_tui.widgets.message_log import MessageLog
 
 if TYPE_CHECKING:
-    from engine.api import BadRecord, LiveRun, RunRecord, SourceState
+    from engine.api import BadRecord, Command, CycleResult, LiveRun, RunRecord, Session, SourceState
 
 STATE_WORDS = {
     "working": "Working...",
@@ -84,7 +76,7 @@ def open_session(cfg: RunConfig, data: tuple[DatumFile, dict[str, DeccaChain]], 
             return open_live_run(cfg.run_file, cfg, data, out_path=out, collect_smoother=True,
                                  lost_after_s=LIVE_LOST_AFTER_S)
         out = cfg.run_path.with_suffix(".OUT") if write_out else None
-        return Session(cfg, out_path=out, collect_smoother=True, data=data)
+        return api.Session(cfg, out_path=out, collect_smoother=True, data=data)
     except InputError as exc:
         return exc.message if exc.field is None or not exc.field.startswith("source") else (
             f"{exc.field}: {exc.message}")
@@ -100,7 +92,7 @@ class RunController:
                  on_cycle: Callable[[CycleResult], None] | None = None) -> None:
         self.live: LiveRun | None = None
         """The live source feeding the session (None: a run file)."""
-        if not isinstance(session, Session):
+        if not isinstance(session, api.Session):
             self.live, session = session, session.session
         self.session = session
         self.on_cycle = on_cycle

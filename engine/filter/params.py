@@ -13,10 +13,13 @@ from typing import Any, Literal
 
 import numpy as np
 
-from engine.geodesy.angles import TWO_PI
+from engine.filter.variances import accel_variance, current_rate_variance
 
 DEG = math.pi / 180.0
 """Radians per degree."""
+
+__all__ = ["DEG", "G8", "FilterParams", "accel_variance", "current_rate_variance",
+           "read_only", "symmetrised"]
 
 
 def read_only(a: np.ndarray) -> np.ndarray:
@@ -38,17 +41,6 @@ def symmetrised(P: np.ndarray) -> np.ndarray:
 
 G8 = read_only(np.vstack([np.zeros((3, 8)), np.eye(8)]))
 """G of eq. 6.1 (11×8): the eight process-noise inputs w drive states 3–10."""
-
-
-def accel_variance(a_max: float, p_max: float, p_zero: float) -> float:
-    """σ_a² (m²/s⁴) of Gelb's mixed acceleration pdf, eq. 6.35: (a_max²/3)(1 + 4 p_max − p_0)."""
-    return a_max * a_max / 3.0 * (1.0 + 4.0 * p_max - p_zero)
-
-
-def current_rate_variance(v_cm_ms: float, period_s: float) -> float:
-    """σ_vc² (m²/s⁴) per current component, THEORY §8.9: σ = ½ V_cm (ω_v + ω_ψ), ω = 2π/period."""
-    omega = TWO_PI / period_s
-    return (0.5 * v_cm_ms * 2.0 * omega) ** 2
 
 
 @dataclass(frozen=True)

@@ -19,12 +19,10 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from datetime import date
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from engine.errors import InputError
-from engine.filter.params import accel_variance
-from engine.io.nmea_epochs import NmeaOptions
-from engine.io.nmea_log import is_converted_nmea_run, is_nmea_file
+from engine.filter.variances import accel_variance
 from engine.io.operator_input import (
     DATUM_MESSAGE,
     DEPTH_MESSAGE,
@@ -48,6 +46,9 @@ from engine.io.tomlsource import (
     read_text,
 )
 from engine.systems.sensors import SENSOR_STATUS
+
+if TYPE_CHECKING:
+    from engine.io.nmea_epochs import NmeaOptions
 
 UNKNOWN_PATTERN_MESSAGE = "Unknown Decca pattern !"
 PATTERN_NOT_ENTERED_MESSAGE = "No zone/lane entered for this pattern !"
@@ -908,6 +909,8 @@ class NmeaConfig:
     @property
     def options(self) -> NmeaOptions:
         """These settings as the reader's :class:`~engine.io.nmea_epochs.NmeaOptions`."""
+        from engine.io.nmea_epochs import NmeaOptions  # not at start-up: it loads pynmea2
+
         return NmeaOptions(
             interval_s=self.interval_s,
             position_stale_s=self.position_stale_s,
@@ -1124,6 +1127,8 @@ def resolve_vessel(cfg: RunConfig, nmea: bool | None = None) -> RunConfig:
     if f.vessel != "auto":
         return cfg
     if nmea is None:
+        from engine.io.nmea_log import is_converted_nmea_run, is_nmea_file  # loads pynmea2
+
         nmea = is_nmea_file(cfg.run_path) or is_converted_nmea_run(cfg.run_path)
     if not nmea:
         return cfg

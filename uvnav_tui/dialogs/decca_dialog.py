@@ -5,15 +5,20 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import Checkbox, Label, RadioSet
 
-from engine.api import ZONE_LETTERS, DeccaConfig, InputError, SetDecca, parse_zone_lane
+from engine import api
+from engine.api import ZONE_LETTERS, DeccaConfig, InputError, parse_zone_lane
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphCheckbox, GlyphRadioButton
 from uvnav_tui.widgets.validated_field import ValidatedField
+
+if TYPE_CHECKING:
+    from engine.api import SetDecca
 
 PATTERNS = ("red", "green", "purple")
 
@@ -30,7 +35,7 @@ def zone_lane_parser(pattern: str) -> Callable[[str], str]:
     return parse
 
 
-class DeccaDialog(Dialog[SetDecca]):
+class DeccaDialog(Dialog["SetDecca"]):
     """Dismissed with the :class:`SetDecca` command."""
 
     TITLE = "Setup ▸ Systems ▸ Decca"
@@ -77,5 +82,5 @@ class DeccaDialog(Dialog[SetDecca]):
         except InputError as exc:
             self.set_message(exc.message)
             return None
-        return SetDecca(on=on, chain=chain, red=zl["red"], green=zl["green"],
+        return api.SetDecca(on=on, chain=chain, red=zl["red"], green=zl["green"],
                         purple=zl["purple"], select=select)

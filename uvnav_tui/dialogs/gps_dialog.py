@@ -2,18 +2,24 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import Checkbox, Label, RadioSet
 
-from engine.api import GpsConfig, SetGps
+from engine import api
+from engine.api import GpsConfig
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphCheckbox, GlyphRadioButton
+
+if TYPE_CHECKING:
+    from engine.api import SetGps
 
 RECEIVERS = (("C/A", "C/A code (SPS)"), ("P", "P code (PPS)"))
 
 
-class GpsDialog(Dialog[SetGps]):
+class GpsDialog(Dialog["SetGps"]):
     """Space toggles, ←/→ choose the receiver; dismissed with the :class:`SetGps` command."""
 
     TITLE = "Setup ▸ Systems ▸ GPS"
@@ -41,4 +47,4 @@ class GpsDialog(Dialog[SetGps]):
         on = self.query_one("#gps-on", Checkbox).value
         index = self.query_one("#gps-receiver", RadioSet).pressed_index
         receiver = RECEIVERS[index][0] if index >= 0 else self.gps.receiver
-        return SetGps(on=on, receiver=receiver)
+        return api.SetGps(on=on, receiver=receiver)

@@ -16,11 +16,11 @@ from pathlib import Path
 from textual.app import ComposeResult
 from textual.suggester import SuggestFromList
 
+from engine import api
 from engine.api import (
     FILE_NOT_FOUND_MESSAGE,
     InputError,
     RunConfig,
-    is_nmea_file,
     is_source_url,
     parse_datum_name,
     parse_depth_m,
@@ -90,7 +90,7 @@ class InitDialog(Dialog[RunConfig]):
         if name is not None and (self.run_dir / f"{name}.RUN").is_file():
             return f"{name}.RUN"
         log = self.run_dir / text.strip()
-        if _LOG_NAME_RE.fullmatch(text.strip()) is not None and is_nmea_file(log):
+        if _LOG_NAME_RE.fullmatch(text.strip()) is not None and api.is_nmea_file(log):
             return log.name
         raise InputError(FILE_NOT_FOUND_MESSAGE, field="run file", text=text)
 

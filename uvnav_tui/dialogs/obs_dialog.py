@@ -8,22 +8,20 @@ sensor that took it (compass repeater, periscope or radar), the radar distance (
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import Label, RadioSet
 
-from engine.api import (
-    AddObservation,
-    InputError,
-    LsqConfig,
-    ManualObservation,
-    parse_bearing_deg,
-    parse_distance_nm,
-    parse_position,
-)
+from engine import api
+from engine.api import InputError, LsqConfig, parse_bearing_deg, parse_distance_nm, parse_position
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphRadioButton
 from uvnav_tui.widgets.validated_field import ValidatedField
+
+if TYPE_CHECKING:
+    from engine.api import AddObservation, ManualObservation
 
 NM_M = 1852.0
 STATION_MESSAGE = "Wrong station name !"
@@ -51,7 +49,7 @@ def bearing_sigma(lsq: LsqConfig, sensor: str) -> float:
     }[sensor]
 
 
-class ObsDialog(Dialog[AddObservation]):
+class ObsDialog(Dialog["AddObservation"]):
     """``kind`` is "bearing", "distance" or "radar"; dismissed with :class:`AddObservation`."""
 
     CANCEL_IF_UNCHANGED = False
@@ -96,11 +94,11 @@ class ObsDialog(Dialog[AddObservation]):
             if self.kind == "bearing":
                 index = self.query_one("#obs-sensor", RadioSet).pressed_index
                 sensor = BEARING_SENSORS[max(index, 0)][0]
-            obs.append(ManualObservation("bearing", station, lat, lon,
+            obs.append(api.ManualObservation("bearing", station, lat, lon,
                                          float(self._value("bearing")),  # type: ignore[arg-type]
                                          bearing_sigma(self.lsq, sensor), sensor))
         if self.kind in ("distance", "radar"):
             metres = float(self._value("distance")) * NM_M  # type: ignore[arg-type]
-            obs.append(ManualObservation("distance", station, lat, lon, metres,
+            obs.append(api.ManualObservation("distance", station, lat, lon, metres,
                                          self.lsq.sigma_radar_range_m, "radar"))
-        return AddObservation(tuple(obs))
+        return api.AddObservation(tuple(obs))

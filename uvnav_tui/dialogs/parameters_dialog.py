@@ -11,24 +11,21 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from textual import events
 from textual.app import ComposeResult
 from textual.containers import VerticalScroll
 from textual.widgets import Checkbox, Static
 
-from engine.api import (
-    DECCA_CF_CONDITIONS,
-    InputError,
-    Key,
-    SetParameters,
-    decca_cf_condition,
-    parse_decca_cf,
-)
+from engine import api
+from engine.api import DECCA_CF_CONDITIONS, InputError, Key, decca_cf_condition, parse_decca_cf
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphCheckbox
 from uvnav_tui.widgets.validated_field import ValidatedField, number_text
+
+if TYPE_CHECKING:
+    from engine.api import SetParameters
 
 NUMBER_MESSAGE = "Wrong number input !"
 WHOLE_NUMBER_MESSAGE = "Wrong whole number input !"
@@ -151,7 +148,7 @@ FRAME_ROWS = 8
 buttons 1, and a margin of 2 so the page stays visible above and below."""
 
 
-class ParametersDialog(Dialog[SetParameters]):
+class ParametersDialog(Dialog["SetParameters"]):
     """One field per key of a configuration table (booleans as check boxes)."""
 
     CSS_PATH = ["dialog.tcss", "parameters_dialog.tcss"]
@@ -236,4 +233,4 @@ class ParametersDialog(Dialog[SetParameters]):
         except InputError as exc:
             self.set_message(exc.message)
             return None
-        return SetParameters(self.table_name, tuple(changes.items()))
+        return api.SetParameters(self.table_name, tuple(changes.items()))

@@ -7,14 +7,20 @@ that no MPP can be computed). Sensors that are not connected are shown but canno
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from textual import on
 from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import Checkbox, Label
 
-from engine.api import SensorsConfig, SetSensor
+from engine import api
+from engine.api import SensorsConfig
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.widgets.toggles import GlyphCheckbox
+
+if TYPE_CHECKING:
+    from engine.api import SetSensor
 
 SENSORS = (
     ("gyro", "Gyro compass"),
@@ -27,7 +33,7 @@ SENSORS = (
 GYRO_LOG_MESSAGE = "Gyro and log must stay switched on !"
 
 
-class SensorsDialog(Dialog[tuple[SetSensor, ...]]):
+class SensorsDialog(Dialog["tuple[SetSensor, ...]"]):
     """Dismissed with one :class:`SetSensor` per changed sensor."""
 
     TITLE = "Setup ▸ Sensors"
@@ -69,5 +75,5 @@ class SensorsDialog(Dialog[tuple[SetSensor, ...]]):
                 continue
             state = "on" if self.query_one(f"#sensor-{name}", Checkbox).value else "off"
             if state != getattr(self.sensors, name):
-                out.append(SetSensor(name, state))
+                out.append(api.SetSensor(name, state))
         return tuple(out)

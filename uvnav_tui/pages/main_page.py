@@ -9,16 +9,16 @@ engine's thesis format; each box is repainted only when its text changes (no fli
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widget import Widget
 from textual.widgets import Static
 
+from engine import api
 from engine.api import (
     PLACEHOLDER,
-    CycleResult,
-    PositionEstimate,
     RunConfig,
     format_angle_deg,
     format_lat_dm,
@@ -28,9 +28,10 @@ from engine.api import (
     format_metres,
     format_speed_kn,
     format_zone_lane,
-    lse_estimate,
-    quality_name,
 )
+
+if TYPE_CHECKING:
+    from engine.api import CycleResult, PositionEstimate
 
 SENSOR_LABELS = (("GYRO", 0), ("LOG", 1), ("RUDR", 2), ("INCL", 3), ("PRESS", 4), ("ECHO", 5))
 """Sensor strip labels and their index in ``SensorValues.status``."""
@@ -116,7 +117,7 @@ def gps_box_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
     w = g.weight
     extra = ""
     if w is not None and w.hdop is not None:  # NMEA GGA only: a 1993 box is unchanged
-        extra = f"{quality_name(w.quality)} HDOP {w.hdop:.1f}"
+        extra = f"{api.quality_name(w.quality)} HDOP {w.hdop:.1f}"
     return [
         f"X {x:.2f}".ljust(15) + f"Lat {format_lat_dm(g.wgs84_lat_deg, space=True)}",
         f"Y {y:.2f}".ljust(15) + f"Lon {format_lon_dm(g.wgs84_lon_deg, space=True)}",
@@ -182,7 +183,7 @@ class MainPage(Widget):
         level = cfg.lsq.conf_region_pct / 100.0
         datum = r.datum if r is not None else cfg.datum
         mpp = r.mpp if r is not None else None
-        lse = lse_estimate(r) if r is not None else None
+        lse = api.lse_estimate(r) if r is not None else None
         rms = mpp_rms(r) if r is not None else None
         self._set("box-mpp", "\n".join(position_box_lines(mpp, datum, rms, level)))
         self._set("box-lse", "\n".join(position_box_lines(

@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from textual.app import ComposeResult
 from textual.containers import Horizontal
 from textual.widget import Widget
 from textual.widgets import ContentSwitcher
 
-from engine.api import CycleResult, Session
 from uvnav_tui.pages.registry import make_page
 from uvnav_tui.widgets.status_column import StatusColumn
+
+if TYPE_CHECKING:
+    from engine.api import CycleResult, Session
 
 
 class PageFrame(Horizontal):

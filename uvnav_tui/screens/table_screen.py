@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from datetime import datetime, timedelta
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 from textual.actions import SkipAction
 from textual.app import ComposeResult
@@ -19,8 +19,6 @@ from textual.screen import ModalScreen
 from textual.widgets import Static
 
 from engine.api import (
-    CycleResult,
-    PositionEstimate,
     format_angle_deg,
     format_lat_dms,
     format_lon_dms,
@@ -30,6 +28,9 @@ from engine.api import (
 from uvnav_tui.host import ConsoleHost
 from uvnav_tui.keys_help import menu_key_bindings
 from uvnav_tui.menus import visible_bar
+
+if TYPE_CHECKING:
+    from engine.api import CycleResult, PositionEstimate
 
 
 class TableScreen(ModalScreen[None]):

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from textual.widgets import Static
 
 from engine.api import (
     PLACEHOLDER,
-    CycleResult,
     RunConfig,
     format_angle_deg,
     format_lat_dm,
@@ -16,6 +16,9 @@ from engine.api import (
     format_metres,
     format_time_z,
 )
+
+if TYPE_CHECKING:
+    from engine.api import CycleResult
 
 
 def status_lines(r: CycleResult | None, cfg: RunConfig, bad_records: int = 0) -> list[str]:
