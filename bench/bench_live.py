@@ -137,8 +137,8 @@ def measure_console(epochs: int, rate_hz: float) -> dict[str, list[float]]:
         app = UVNAVApp(cfg, show_init=False, hardcopy_dir=Path(tmp))
         repaint = app.refresh_display
 
-        def timed_refresh() -> None:  # the instance's repaint, timed (every caller uses it)
-            repaint()
+        def timed_refresh(**kw: bool) -> None:  # the instance's repaint, timed (all callers)
+            repaint(**kw)
             run = app.control
             if run is not None and run.latest is not None and app.page == 100:
                 shown.setdefault(run.latest.n, time.monotonic())
