@@ -97,12 +97,14 @@ def load_engine() -> None:
     """Import the engine's run-time modules (the session, the cycle, the commands): what
     :mod:`engine.api` would otherwise import when the run starts. The cyclic garbage collector
     is paused meanwhile, as for the imports at start-up (``uvnav_tui.cli.main``)."""
+    was_enabled = gc.isenabled()
     gc.disable()
     try:
         for name in PRELOADED:
             getattr(api, name)
     finally:
-        gc.enable()
+        if was_enabled:  # never switch on a collector somebody else paused
+            gc.enable()
 
 
 PRELOADED = ("Session", "CycleResult", "SetDatum", "lse_estimate", "quality_name", "lop_name")
