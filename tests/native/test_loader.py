@@ -1,0 +1,55 @@
+"""The compiled kernels are found, refused when stale, and built wherever a compiler exists."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+import engine.native as native
+from engine.native import blas
+
+
+def test_every_kernel_is_compiled_where_a_compiler_exists(monkeypatch: pytest.MonkeyPatch):
+    """`make test` builds every engine/native/*.c (setup.py); on a machine with cc, a kernel
+    that is not "compiled" means the speed-up silently fell back to Python."""
+    monkeypatch.delenv(native.PURE_ENV, raising=False)
+    if shutil.which("cc") is None and shutil.which("gcc") is None:
+        pytest.skip("no C compiler here: the pure-Python path is used, by design")
+    for name in native.kernel_names():
+        assert native.status(name) == "compiled", name
+
+
+def test_pure_env_turns_every_kernel_off(monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    for name in native.kernel_names():
+        assert native.kernel(name) is None
+        assert native.status(name) == f"pure ({native.PURE_ENV}=1)"
+
+
+def test_a_stale_build_is_refused(monkeypatch: pytest.MonkeyPatch):
+    """A module whose SOURCE_DIGEST is not that of the source in the tree is not used."""
+    names = native.kernel_names()
+    if not names:
+        pytest.skip("no kernel sources")
+    name = names[0]
+    native._load.cache_clear()
+    monkeypatch.setattr(native, "source_digest", lambda n: "0" * 32)
+    try:
+        mod, why = native._load(name)
+        assert mod is None and why.startswith(("stale build", "not built"))
+    finally:
+        native._load.cache_clear()
+
+
+def test_the_routine_addresses_are_found_for_the_bundled_openblas():
+    """numpy's and SciPy's wheels bundle OpenBLAS; the kernels need both libraries' routines."""
+    cfg = np.__config__.CONFIG["Build Dependencies"]["blas"]
+    if cfg.get("name") not in ("scipy-openblas", "scipy-openblas64"):
+        pytest.skip(f"numpy is built against {cfg.get('name')}, not the bundled OpenBLAS")
+    addresses = blas.all_addresses()
+    assert addresses is not None
+    assert set(addresses) == ({f"np_{n}" for n in blas.NUMPY_CBLAS}
+                              | {f"sp_{n}" for n in blas.SCIPY_LAPACK})
+    assert all(a > 0 for a in addresses.values())
