@@ -9,11 +9,15 @@ compared as whole text, so its failure shows the lines.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 from tests.out_reference import CASES, HERE, digests, normalised, replay
+from tests.paths import ROOT
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -28,3 +32,30 @@ def test_out_log_is_byte_identical(name: str, tmp_path: Path) -> None:
         f"{name}: block {got[first].split()[0]} of the .OUT differs from the reference "
         f"(python -m tests.out_reference rewrites the references: only for a reviewed change)")
     assert len(got) == len(want), f"{name}: {len(got)} blocks, the reference has {len(want)}"
+
+
+_PURE_CHECK = """
+import sys
+from pathlib import Path
+from engine import native
+from tests.out_reference import CASES, HERE, digests, replay
+assert all(native.kernel(n) is None for n in native.kernel_names())
+bad = []
+for name, config in sorted(CASES.items()):
+    got = digests(replay(config, Path(sys.argv[1]) / (name + ".OUT")).read_text(encoding="utf-8"))
+    want = (HERE / (name + ".digests")).read_text(encoding="utf-8").splitlines()
+    if got != want:
+        first = next(i for i, (g, w) in enumerate(zip(got + [""], want + [""])) if g != w)
+        bad.append(f"{name}: block {first} differs")
+print("; ".join(bad) or "same")
+sys.exit(1 if bad else 0)
+"""
+
+
+def test_out_logs_are_byte_identical_on_the_pure_python_path(tmp_path: Path) -> None:
+    """With ``UVNAV_PURE=1`` (no compiled kernel, engine/native) every case gives the same
+    bytes too: the kernels and the Python they mirror are both held to the references."""
+    env = {**os.environ, "UVNAV_PURE": "1"}
+    done = subprocess.run([sys.executable, "-c", _PURE_CHECK, str(tmp_path)], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
