@@ -15,7 +15,9 @@ The same run also compares against the engines of issue 14's start and of main b
 speed work (``BASELINE_REVS``, extracted once with ``git archive`` into the temp folder): each round
 replays the same epochs with each baseline tree and with this tree, each in a fresh process (warm-up
 first), alternating, and the ratio is of the medians of the CPU times (CPU, not wall: the
-machine may be shared). Skipped with a note where the checkout has no git history.
+machine may be shared). This tree is also replayed with ``UVNAV_PURE=1`` (its compiled kernels,
+``engine/native``, switched off), so the kernels' own gain is measured in the same run. Skipped
+with a note where the checkout has no git history.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from pathlib import Path
 
 import engine.run.cycle as cycle_mod
 import engine.run.session as session_mod
+from engine import native
 from engine.io.outlog import OutLogWriter
 from engine.io.runfile import RunRecord, iter_run_file
 from engine.run.config import RunConfig, load_config
@@ -80,6 +83,8 @@ print(time.process_time() - t0)
 """
 """One timed replay (CPU s) of the first n epochs with the .OUT written, in the engine of the
 tree on ``sys.path`` (the same code for the baseline and this tree)."""
+PURE = "pure"
+"""Key of this tree replayed with ``UVNAV_PURE=1`` in :func:`compare_baselines`."""
 LOG_STAGE = ".OUT block + write"
 CYCLE = "cycle total"
 
@@ -170,25 +175,30 @@ def _baseline_tree(rev: str) -> Path | None:
     return dest
 
 
-def _cpu_replay(tree: Path, n: int) -> float:
-    """CPU seconds of one replay of ``n`` epochs by the engine of ``tree``, in a fresh process."""
+def _cpu_replay(tree: Path, n: int, pure: bool = False) -> float:
+    """CPU seconds of one replay of ``n`` epochs by the engine of ``tree``, in a fresh process
+    (``pure``: with ``UVNAV_PURE=1``, no compiled kernel)."""
     env = {**os.environ, "PYTHONPATH": str(tree)}
+    env.pop(native.PURE_ENV, None)
+    if pure:
+        env[native.PURE_ENV] = "1"
     done = subprocess.run([sys.executable, "-c", _RUNNER, str(tree / "data" / "DEMO.toml"),
                            str(n)], cwd=tree, env=env, capture_output=True, text=True, check=True)
     return float(done.stdout.split()[-1])
 
 
 def compare_baselines(n: int, rounds: int = REPEATS) -> dict[str, float] | None:
-    """Median CPU seconds for ``n`` epochs of each baseline in :data:`BASELINE_REVS` and of this
-    tree (key ``""``), one fresh process each, alternating per round; None without git."""
+    """Median CPU seconds for ``n`` epochs of each baseline in :data:`BASELINE_REVS`, of this
+    tree (key ``""``) and of this tree on its pure-Python path (key ``PURE``), one fresh process
+    each, alternating per round; None without git."""
     trees = {rev: _baseline_tree(rev) for rev in BASELINE_REVS}
     if any(t is None for t in trees.values()):
         return None
-    trees[""] = ROOT
+    trees[""] = trees[PURE] = ROOT
     times: dict[str, list[float]] = defaultdict(list)
     for _ in range(rounds):
         for rev, tree in trees.items():
-            times[rev].append(_cpu_replay(tree, n))  # type: ignore[arg-type]
+            times[rev].append(_cpu_replay(tree, n, pure=rev == PURE))  # type: ignore[arg-type]
     return {rev: statistics.median(ts) for rev, ts in times.items()}
 
 
@@ -208,6 +218,8 @@ def main() -> None:
     rate = n / t_full
     print(f"UVNAV engine benchmark: {n} epochs of data/DEMO.RUN (GPS + Decca + filter), "
           f"median of {REPEATS} runs")
+    print("  compiled kernels: " + (", ".join(f"{k} {native.status(k)}"
+                                              for k in native.kernel_names()) or "none"))
     print(f"  replay incl. .OUT : {t_full / n * 1e6:7.1f} µs/epoch = {rate:7.0f} epochs/s"
           f"  (target {TARGET_EPOCHS_S:,} epochs/s; ratio to target "
           f"{rate / TARGET_EPOCHS_S:.2f})")
@@ -219,11 +231,14 @@ def main() -> None:
         print(f"  baselines {', '.join(BASELINE_REVS)}: not compared (no git history here)")
         return
     t_now = cmp.pop("")
+    t_pure = cmp.pop(PURE)
     print(f"  same run, CPU time, fresh processes alternating, median of {REPEATS}:")
     for rev, t_base in cmp.items():
         print(f"    {rev} ({BASELINE_REVS[rev]}): {n / t_base:7.0f} epochs/s")
+    print(f"    this tree, UVNAV_PURE=1 (no compiled kernel): {n / t_pure:7.0f} epochs/s")
     print(f"    this tree: {n / t_now:7.0f} epochs/s  (ratio "
-          + ", ".join(f"{t / t_now:.2f} to {rev}" for rev, t in cmp.items()) + ")")
+          + ", ".join(f"{t / t_now:.2f} to {rev}" for rev, t in cmp.items())
+          + f", {t_pure / t_now:.2f} to its pure path)")
 
 
 if __name__ == "__main__":
