@@ -38,7 +38,8 @@ INTERRUPTED_NOTE = {
 }
 """What is left on disk after Ctrl-C, per sub-command."""
 
-USAGE = """usage: uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
+USAGE = """usage: uvnav --version                                    version and compiled kernels
+       uvnav [--config FILE.toml] [--dev] [--hardcopy-dir DIR]   open the console
                     [--nmea-out udp://HOST:PORT] [--live URL]
        uvnav replay RUN_or_NMEA_LOG [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE]
                         [--smooth [FILE]] [--force] [--nmea-out udp://HOST:PORT|FILE]
@@ -74,11 +75,30 @@ def _import_quietly(module: str) -> object:
         gc.enable()
 
 
+def version_text() -> str:
+    """``uvnav --version``: the package version and, per compiled kernel (engine/native), whether
+    it is in use ("compiled") or why the engine runs that part in Python (same results)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from engine import native
+
+    try:
+        v = version("uvnav")
+    except PackageNotFoundError:
+        v = "(not installed)"
+    names = native.kernel_names()
+    kernels = "\n".join(f"  {n}: {native.status(n)}" for n in names) or "  none"
+    return f"uvnav {v}\ncompiled kernels (engine/native, docs/PERFORMANCE.md):\n{kernels}"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Dispatch to the sub-command (or the console); returns the exit status."""
     args = list(sys.argv[1:] if argv is None else argv)
     if args and args[0] in ("-h", "--help"):
         print(USAGE)
+        return 0
+    if args and args[0] == "--version":
+        print(version_text())
         return 0
     if args and args[0] in SUBCOMMANDS:
         module, func = SUBCOMMANDS[args[0]]
