@@ -128,6 +128,7 @@ if TYPE_CHECKING:
     from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
     from engine.lsq.fix import MAX_BRR, FixResult, LopRow, ManualObservation, lop_name
     from engine.lsq.statistics import REJECT_BOUND, w_critical
+    from engine.native import PURE_ENV, kernel_report
     from engine.run.commands import (
         AddObservation,
         Command,
@@ -177,6 +178,7 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     "engine.assess.denied": ("CHECKPOINTS_S", "DeniedReport", "denied_experiment",
                              "run_records", "truth_reference"),
     "engine.sim.scenario": ("load_scenario",),
+    "engine.native": ("PURE_ENV", "kernel_report"),
     "engine.sim.simulate": ("read_data_files", "write_simulation"),
     "engine.io.nmea_send": ("NmeaSender", "open_nmea_sender", "parse_nmea_destination"),
     "engine.run.nmea_out": ("NmeaOutOptions", "NmeaPositionOut"),
@@ -319,6 +321,9 @@ __all__ = [
     "NmeaSender",
     "open_nmea_sender",
     "parse_nmea_destination",
+    # the compiled kernels (engine/native, docs/PERFORMANCE.md): which are in use
+    "PURE_ENV",
+    "kernel_report",
     # live NMEA sources (docs/LIVE.md), imported on first use
     "LEARN_S",
     "LiveCycle",

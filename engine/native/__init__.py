@@ -77,3 +77,8 @@ def status(name: str) -> str:
 def kernel_names() -> list[str]:
     """The kernels whose sources are in this folder (sorted)."""
     return sorted(p.stem for p in HERE.glob("*.c"))
+
+
+def kernel_report() -> list[tuple[str, str]]:
+    """(name, :func:`status`) of every kernel whose source is in this folder."""
+    return [(name, status(name)) for name in kernel_names()]

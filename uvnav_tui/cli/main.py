@@ -80,14 +80,13 @@ def version_text() -> str:
     it is in use ("compiled") or why the engine runs that part in Python (same results)."""
     from importlib.metadata import PackageNotFoundError, version
 
-    from engine import native
+    from engine.api import kernel_report
 
     try:
         v = version("uvnav")
     except PackageNotFoundError:
         v = "(not installed)"
-    names = native.kernel_names()
-    kernels = "\n".join(f"  {n}: {native.status(n)}" for n in names) or "  none"
+    kernels = "\n".join(f"  {n}: {why}" for n, why in kernel_report()) or "  none"
     return f"uvnav {v}\ncompiled kernels (engine/native, docs/PERFORMANCE.md):\n{kernels}"
 
 
