@@ -20,8 +20,13 @@ import importlib.util
 from functools import lru_cache
 from pathlib import Path
 
-NUMPY_CBLAS = ("dgemm", "dgemv", "ddot", "dsyrk")
+NUMPY_CBLAS = ("dgemm", "dgemv", "ddot", "dsyrk", "daxpy")
 """numpy's routines (its ILP64 OpenBLAS: ``scipy_cblas_<name>64_``, 64-bit integer arguments)."""
+
+NUMPY_LAPACK = ("dgesv", "dgetrf", "dpotrf", "dsyevd")
+"""numpy's own LAPACK (same ILP64 OpenBLAS, Fortran ``scipy_<name>_64_``), the routines
+``numpy.linalg`` calls (``inv``/``solve`` → dgesv, ``det`` → dgetrf, ``cholesky`` → dpotrf,
+``eigh``/``eigvalsh`` → dsyevd)."""
 
 SCIPY_LAPACK = ("dpotrf", "dtrsm", "dgesv", "dgetrf", "dgetrs")
 """SciPy's routines (its LP64 OpenBLAS: Fortran ``scipy_<name>_``, 32-bit integer arguments),
@@ -61,6 +66,18 @@ def numpy_cblas() -> dict[str, int] | None:
                       "scipy_cblas_{}64_")
 
 
+@lru_cache(maxsize=1)
+def numpy_lapack() -> dict[str, int] | None:
+    """Addresses of numpy's Fortran ``dgesv``, ``dgetrf``, ``dpotrf``, ``dsyevd`` (ILP64), or
+    None if numpy is not linked to its bundled scipy-openblas64."""
+    import numpy as np
+
+    if not _numpy_uses_bundled_openblas(np):
+        return None
+    return _addresses(_libs("numpy", "libscipy_openblas64_*.so"), NUMPY_LAPACK,
+                      "scipy_{}_64_")
+
+
 def _numpy_uses_bundled_openblas(np: object) -> bool:
     """True if numpy's build configuration names scipy-openblas64 (ILP64) as its BLAS."""
     try:
@@ -79,9 +96,10 @@ def scipy_lapack() -> dict[str, int] | None:
 
 
 def all_addresses() -> dict[str, int] | None:
-    """numpy's CBLAS and SciPy's LAPACK addresses in one dict (keys ``np_<name>`` and
-    ``sp_<name>``), or None if either is missing."""
-    a, b = numpy_cblas(), scipy_lapack()
-    if a is None or b is None:
+    """numpy's CBLAS, numpy's LAPACK and SciPy's LAPACK addresses in one dict (keys
+    ``np_<name>``, ``npl_<name>`` and ``sp_<name>``), or None if any is missing."""
+    a, la, b = numpy_cblas(), numpy_lapack(), scipy_lapack()
+    if a is None or la is None or b is None:
         return None
-    return {**{f"np_{k}": v for k, v in a.items()}, **{f"sp_{k}": v for k, v in b.items()}}
+    return {**{f"np_{k}": v for k, v in a.items()}, **{f"npl_{k}": v for k, v in la.items()},
+            **{f"sp_{k}": v for k, v in b.items()}}

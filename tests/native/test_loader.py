@@ -51,5 +51,6 @@ def test_the_routine_addresses_are_found_for_the_bundled_openblas():
     addresses = blas.all_addresses()
     assert addresses is not None
     assert set(addresses) == ({f"np_{n}" for n in blas.NUMPY_CBLAS}
+                              | {f"npl_{n}" for n in blas.NUMPY_LAPACK}
                               | {f"sp_{n}" for n in blas.SCIPY_LAPACK})
     assert all(a > 0 for a in addresses.values())
