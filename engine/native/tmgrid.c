@@ -8,10 +8,13 @@
  *     _Py_c_abs;
  *   - cmath.sin, cmath.cos, cmath.phase and math.hypot are called through the C API (cached
  *     function objects): CPython's own code, not libm's;
- *   - math.sin/cos/sinh/atanh/asinh/atan/atan2/remainder are glibc's, as CPython's math module
- *     calls them, through volatile pointers so that gcc neither folds nor merges them (sin and
- *     cos of one argument into sincos); math.radians/degrees are one product with the
- *     constants math.radians(1.0)/math.degrees(1.0), packed from Python.
+ *   - math.sin/cos/sinh/atanh/asinh/atan/atan2 are glibc's, as CPython's math module calls
+ *     them (m_atan2's own special cases are those of C99 Annex F, and only concern infinite or
+ *     zero arguments), through volatile pointers so that gcc neither folds nor merges them
+ *     (sin and cos of one argument into sincos); math.remainder is CPython's m_remainder, but
+ *     the IEEE remainder is exact (a zero takes the sign of x in both), so glibc's remainder
+ *     gives the same bits for the finite arguments it gets here; math.radians/degrees are one
+ *     product with the constants math.radians(1.0)/math.degrees(1.0), packed from Python.
  * Built with -ffp-contract=off (no FMA) and without -ffast-math (no reassociation).
  *
  * Only complex sums and differences are written out here (c_sum, c_diff: one IEEE addition or

@@ -135,6 +135,16 @@ def test_forward_over_the_domain(key: tuple[str, float], lat: float, dlon: float
 
 
 @needs_kernel
+@settings(deadline=None, max_examples=100)
+@given(grid_keys, st.floats(89.9, 271.0), st.sampled_from([-1.0, 1.0]), st.floats(-40.0, 40.0))
+def test_forward_beyond_the_poles(key: tuple[str, float], lat: float, sign: float,
+                                  dlon: float) -> None:
+    """|φ| ≥ 90° (cos φ ≤ 0): the pole branch of forward and forward_full."""
+    grid = GRIDS[key]
+    _check_forward(grid, sign * lat, grid.cm_deg + dlon)
+
+
+@needs_kernel
 @settings(deadline=None, max_examples=400)
 @given(grid_keys, st.floats(-3.5e6, 3.5e6), st.floats(-1.0e7, 1.0e7))
 def test_inverse_over_the_domain(key: tuple[str, float], x: float, y: float) -> None:
