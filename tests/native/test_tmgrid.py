@@ -1,0 +1,248 @@
+"""The compiled TM grid (engine/native/tmgrid.c) gives the pure Python's bits (issue 14).
+
+``TMGrid.forward``, ``forward_full`` and ``inverse`` go through the kernel when it is built;
+``_forward_py``, ``_forward_full_py`` and ``_inverse_py`` are the Python it mirrors. Every
+comparison here is exact (``float.hex``, so the sign of a zero counts): on the calls a short
+demo replay really makes, on hypothesis inputs over the grid's domain (both hemispheres, west
+and east of the CM, the antimeridian, the poles), and on the edges where the kernel declines
+and the Python decides (non-float arguments, non-finite values, math errors).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import engine.geodesy.tmgrid as tmgrid
+from engine import native
+from engine.geodesy.ellipsoid import WGS84_ELLIPSOID, Ellipsoid
+from engine.geodesy.tmgrid import TMGrid
+from tests.paths import DATA, ROOT
+
+KERNEL = tmgrid._K
+needs_kernel = pytest.mark.skipif(KERNEL is None, reason="engine.native.tmgrid not built")
+
+INTL = Ellipsoid("INTERNATIONAL", 6378388.0, 297.0)
+CMS = (-179.0, -3.0, 0.0, 5.0, 180.0)
+GRIDS = {(ell.name, cm): TMGrid(ell, cm) for ell in (INTL, WGS84_ELLIPSOID) for cm in CMS}
+
+
+def _bits(v: Any) -> Any:
+    """A result with every float as its hex text (exact, zero signs and NaN included)."""
+    if isinstance(v, tuple):
+        return tuple(_bits(x) for x in v)
+    return float.hex(v) if isinstance(v, float) else v
+
+
+def _outcome(fn: Callable[..., Any], *args: Any) -> Any:
+    """``fn(*args)`` as bits, or the type and text of the exception it raises."""
+    try:
+        out = fn(*args)
+    except Exception as exc:  # noqa: BLE001 - the exception is the outcome compared
+        return type(exc), str(exc)
+    assert all(type(v) is float for v in out)
+    return _bits(out)
+
+
+def _check_forward(grid: TMGrid, lat: Any, lon: Any) -> None:
+    assert _outcome(grid.forward, lat, lon) == _outcome(grid._forward_py, lat, lon)
+    assert _outcome(grid.forward_full, lat, lon) == _outcome(grid._forward_full_py, lat, lon)
+
+
+def _check_inverse(grid: TMGrid, x: Any, y: Any) -> None:
+    want = _outcome(grid._inverse_py, x, y)
+    assert _outcome(grid._inverse, x, y) == want
+    assert _outcome(grid.inverse, x, y) == want  # the kernel's memo (a miss, then a hit)
+    assert _outcome(grid.inverse, x, y) == want
+
+
+# --------------------------------------------------------------------------- replayed calls
+@pytest.fixture(scope="module")
+def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
+    """The grid calls of the first 200 demo epochs (grid, argument, argument), recorded."""
+    from engine.run.config import load_config
+    from engine.run.session import Session
+
+    calls: dict[str, list[tuple[TMGrid, Any, Any]]] = {"forward": [], "_forward_full": [],
+                                                        "inverse": []}
+    originals = {name: getattr(TMGrid, name) for name in calls}
+
+    def recorder(name: str) -> Callable[..., Any]:
+        def record(self: TMGrid, a: Any, b: Any) -> Any:
+            calls[name].append((self, a, b))
+            return originals[name](self, a, b)
+        return record
+
+    mp = pytest.MonkeyPatch()
+    for name in calls:
+        mp.setattr(TMGrid, name, recorder(name))
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            s = Session(load_config(DATA / "DEMO.toml"), out_path=Path(tmp) / "D.OUT",
+                        force=True, history=1)
+            try:
+                s.run(max_cycles=200)
+            finally:
+                s.close()
+    finally:
+        mp.undo()
+    return calls
+
+
+@needs_kernel
+def test_replayed_calls_give_the_pure_bits(replayed: dict[str, list[tuple]]) -> None:
+    """Every forward, forward_full and inverse of 200 demo epochs: kernel == Python, and the
+    kernel never declined (so the replay really runs compiled)."""
+    assert all(len(v) >= 150 for v in replayed.values()), {k: len(v) for k, v in replayed.items()}
+    for grid, lat, lon in replayed["forward"]:
+        assert KERNEL.forward(grid._packed, lat, lon) is not None
+        assert _bits(grid.forward(lat, lon)) == _bits(grid._forward_py(lat, lon))
+    for grid, lat, lon in replayed["_forward_full"]:
+        assert KERNEL.forward_full(grid._packed, lat, lon) is not None
+        assert _bits(grid._forward_full(lat, lon)) == _bits(grid._forward_full_py(lat, lon))
+    fresh: dict[float, TMGrid] = {}
+    for grid, x, y in replayed["inverse"]:
+        assert KERNEL.inverse(grid._packed, x, y, False) is not None
+        want = _bits(grid._inverse_py(x, y))
+        assert _bits(grid._inverse(x, y)) == want
+        # In replay order through the memo of one grid (hits and evictions as in the run).
+        g = fresh.setdefault(grid.cm_deg, TMGrid(grid.ellipsoid, grid.cm_deg))
+        assert _bits(g.inverse(x, y)) == want
+
+
+# --------------------------------------------------------------------------- generated inputs
+grid_keys = st.sampled_from(sorted(GRIDS))
+
+
+@needs_kernel
+@settings(deadline=None, max_examples=400)
+@given(grid_keys, st.floats(-90.0, 90.0), st.floats(-30.0, 30.0))
+def test_forward_over_the_domain(key: tuple[str, float], lat: float, dlon: float) -> None:
+    """Both hemispheres, west and east of the CM (negative x), across the antimeridian."""
+    grid = GRIDS[key]
+    _check_forward(grid, lat, grid.cm_deg + dlon)
+
+
+@needs_kernel
+@settings(deadline=None, max_examples=100)
+@given(grid_keys, st.floats(89.9, 271.0), st.sampled_from([-1.0, 1.0]), st.floats(-40.0, 40.0))
+def test_forward_beyond_the_poles(key: tuple[str, float], lat: float, sign: float,
+                                  dlon: float) -> None:
+    """|φ| ≥ 90° (cos φ ≤ 0): the pole branch of forward and forward_full."""
+    grid = GRIDS[key]
+    _check_forward(grid, sign * lat, grid.cm_deg + dlon)
+
+
+@needs_kernel
+@settings(deadline=None, max_examples=400)
+@given(grid_keys, st.floats(-3.5e6, 3.5e6), st.floats(-1.0e7, 1.0e7))
+def test_inverse_over_the_domain(key: tuple[str, float], x: float, y: float) -> None:
+    """x to ±3500 km (≈ ±30° at the equator), y over both hemispheres to the poles."""
+    _check_inverse(GRIDS[key], x, y)
+
+
+@needs_kernel
+@settings(deadline=None, max_examples=200)
+@given(grid_keys, st.floats(allow_nan=True, allow_infinity=True),
+       st.floats(allow_nan=True, allow_infinity=True))
+def test_any_float_gives_the_pure_outcome(key: tuple[str, float], a: float, b: float) -> None:
+    """Far outside the domain too, NaN and infinities: the same result or the same
+    exception (the kernel declines and the Python decides)."""
+    grid = GRIDS[key]
+    _check_forward(grid, a, b)
+    _check_inverse(grid, a, b)
+
+
+EDGES = [0.0, -0.0, 1e-300, -1e-300, 5e-324, 1.0, -1.0, 90.0, -90.0, 89.99999999, 180.0,
+         -180.0, 185.0, -175.0, 360.0, 1e5, -1e5, 3.3e6, -3.3e6, 9.99e6, -9.99e6, 1.0e7,
+         2.0e7, 1e9, -1e12, 1e300, math.inf, -math.inf, math.nan]
+
+
+@needs_kernel
+@pytest.mark.parametrize("key", sorted(GRIDS)[:5])
+def test_edges(key: tuple[str, float]) -> None:
+    """Zeros of both signs, poles, the antimeridian, overflowing and non-finite values."""
+    grid = GRIDS[key]
+    for a in EDGES:
+        for b in EDGES:
+            _check_forward(grid, a, b)
+            _check_forward(grid, a, grid.cm_deg + b)
+            _check_inverse(grid, a, b)
+
+
+@needs_kernel
+def test_other_argument_types() -> None:
+    """ints, bools and numpy floats give the Python's bits; other types go to the Python."""
+    grid = GRIDS[("INTERNATIONAL", 5.0)]
+    for a, b in [(52, 4), (True, 3), (np.float64(52.5), np.float64(4.25)), (52.5, 10**400),
+                 (np.float32(52.5), 4.0), ("52", 4.0), (None, 1.0)]:
+        _check_forward(grid, a, b)
+    for a, b in [(-20000, 5800000), (np.float64(-2.5e4), np.float64(5.8e6)), (1, True),
+                 (0, 0), (10**400, 1.0), (np.float32(1e4), 5.8e6), ("1", 2.0)]:
+        _check_inverse(grid, a, b)
+    int_cm = TMGrid(INTL, 5)
+    assert int_cm._packed is not None
+    _check_forward(int_cm, 52.5, 4.25)
+    _check_inverse(int_cm, -2.5e4, 5.8e6)
+
+
+@needs_kernel
+def test_memo_keeps_zero_signs_and_evicts() -> None:
+    """Hits are the computed inverses through many evictions; a zero is never looked up (its
+    sign reaches the latitude)."""
+    grid = TMGrid(INTL, 5.0)
+    pts = [(-1000.0 * i - 1.5, 5.8e6 + 7.25 * i) for i in range(12)]
+    for x, y in pts + pts[::-1] + pts[:3] * 3:
+        assert _bits(grid.inverse(x, y)) == _bits(grid._inverse_py(x, y))
+    for first, second in ((0.0, -0.0), (-0.0, 0.0)):
+        grid.inverse(-1000.0, first)
+        assert _bits(grid.inverse(-1000.0, second)) == _bits(grid._inverse_py(-1000.0, second))
+    assert grid._inverted == {}  # the kernel keeps its own memo
+    assert grid == TMGrid(INTL, 5.0)
+
+
+# --------------------------------------------------------------------------- the pure path
+def test_pure_path_without_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With no kernel the Python methods run (and the dict memo)."""
+    monkeypatch.setattr(tmgrid, "_K", None)
+    grid = TMGrid(INTL, 5.0)
+    assert grid._packed is None
+    seen: list[str] = []
+
+    def spy(name: str) -> Callable[..., Any]:
+        orig = getattr(TMGrid, name)
+
+        def wrapped(self: TMGrid, a: float, b: float) -> Any:
+            seen.append(name)
+            return orig(self, a, b)
+        return wrapped
+
+    for name in ("_forward_py", "_forward_full_py", "_inverse_py"):
+        monkeypatch.setattr(TMGrid, name, spy(name))
+    x, y = grid.forward(52.5, 4.25)
+    grid.forward_full(52.5, 4.25)
+    grid.inverse(x, y)
+    grid.inverse(x, y)  # a hit of the dict memo
+    assert seen == ["_forward_py", "_forward_full_py", "_inverse_py"]
+    assert len(grid._inverted) == 1
+
+
+def test_pure_env_leaves_the_kernel_unloaded() -> None:
+    """UVNAV_PURE=1: no kernel, grids carry no packed state."""
+    code = ("from engine.geodesy import tmgrid as t; from engine.geodesy.ellipsoid import "
+            "WGS84_ELLIPSOID as W; g = t.TMGrid(W, 3.0); "
+            "assert t._K is None and g._packed is None; print(g.inverse(*g.forward(52.0, 4.0)))")
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120, env={**os.environ, native.PURE_ENV: "1"})
+    assert done.returncode == 0, done.stderr
