@@ -1,0 +1,171 @@
+"""The compiled time update (engine/native/kalman_predict.c) gives the very bits of the Python
+it mirrors (engine.filter.predict._predict_py), on the states a replay produces and on
+generated ones around them; with ``UVNAV_PURE=1`` the Python runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import engine.filter.predict as pr
+import engine.run.cycle as cycle_mod
+from engine import native
+from engine.filter.params import FilterParams
+from engine.filter.state import N_NAV, FilterState
+from engine.run.config import load_config
+from engine.run.session import Session
+from tests.paths import DATA
+
+KERNEL = pr._kernel()
+needs_kernel = pytest.mark.skipif(KERNEL is None, reason=f"kernel not used: "
+                                  f"{native.status('kalman_predict')}")
+
+
+def _same(a: tuple[FilterState, np.ndarray], b: tuple[FilterState, np.ndarray]) -> None:
+    """Bit-identical results: t, x, P, Φ (values, shapes, dtype, C order)."""
+    (sa, pa), (sb, pb) = a, b
+    assert sa.t == sb.t
+    for u, v in ((sa.x, sb.x), (sa.P, sb.P), (pa, pb)):
+        assert u.shape == v.shape and u.dtype == v.dtype == np.float64
+        assert u.flags.c_contiguous and v.flags.c_contiguous
+        assert u.tobytes() == v.tobytes()
+    assert sa.fix_states == sb.fix_states and sa.fix_tau_s == sb.fix_tau_s
+    assert not sa.x.flags.writeable and not sa.P.flags.writeable
+
+
+@pytest.fixture(scope="module")
+def replay_steps(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[FilterState, float,
+                                                                          FilterParams]]:
+    """(state, Δt, params) of every prediction of 200 demo epochs and the thesis sample."""
+    steps: list[tuple[FilterState, float, FilterParams]] = []
+    real = cycle_mod.predict_step
+
+    def recording(state: FilterState, dt: float,
+                  params: FilterParams) -> tuple[FilterState, np.ndarray]:
+        steps.append((state, dt, params))
+        return real(state, dt, params)
+
+    out = tmp_path_factory.mktemp("kp")
+    mp = pytest.MonkeyPatch()
+    mp.setattr(cycle_mod, "predict_step", recording)
+    try:
+        for name, n in (("DEMO.toml", 200), ("920917_1.toml", None)):
+            s = Session(load_config(DATA / name), out_path=out / f"{name}.OUT", force=True,
+                        history=1)
+            try:
+                s.run(max_cycles=n)
+            finally:
+                s.close()
+    finally:
+        mp.undo()
+    return steps
+
+
+@needs_kernel
+def test_replay_predictions_are_bit_identical(replay_steps):
+    assert len(replay_steps) > 150
+    assert {s.n for s, _, _ in replay_steps} == {11, 13}
+    for state, dt, params in replay_steps:
+        for want_phi in (True, False):
+            _same(pr._predict(state, dt, params, want_phi),
+                  pr._predict_py(state, dt, params, want_phi))
+
+
+@needs_kernel
+def test_the_kernel_is_what_runs(replay_steps, monkeypatch: pytest.MonkeyPatch):
+    """The kernel answers (not None) for the replay's states: the Python is not called."""
+    def boom(*a: object) -> None:
+        raise AssertionError("Python path taken")
+
+    monkeypatch.setattr(pr, "_predict_py", boom)
+    for state, dt, params in replay_steps[:20]:
+        pr.predict_step(state, dt, params)
+
+
+def _spd(rng_vals: list[float], n: int, sym: bool) -> np.ndarray:
+    a = np.array(rng_vals[: n * n]).reshape(n, n)
+    return a.dot(a.T) + np.eye(n) if sym else a
+
+
+_PARAMS = {mode: [FilterParams(q_mode=mode),
+                  FilterParams(q_mode=mode, bias_noise=True, hold_course=True, q_scale=2.5)]
+           for mode in ("vanloan", "psd", "thesis")}
+
+
+@needs_kernel
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    m=st.sampled_from([0, 0, 1, 2, 2, 3, 5]),
+    x=st.lists(st.floats(-1e4, 1e4, allow_nan=False), min_size=16, max_size=16),
+    p=st.lists(st.floats(-3.0, 3.0, allow_nan=False), min_size=256, max_size=256),
+    dt=st.one_of(st.just(1.0), st.floats(1e-3, 30.0)),
+    mode=st.sampled_from(["vanloan", "psd", "thesis"]),
+    which=st.integers(0, 1),
+    sym=st.booleans(),
+    fortran=st.booleans(),
+    taus=st.lists(st.floats(1.0, 3600.0), min_size=5, max_size=5),
+    want_phi=st.booleans(),
+)
+def test_generated_predictions_are_bit_identical(m, x, p, dt, mode, which, sym, fortran, taus,
+                                                 want_phi):
+    n = N_NAV + m
+    xs = np.array(x[:n])
+    xs[4] = xs[4] % 6.3  # ψ, ε as angles (rad)
+    xs[5] = xs[5] * 1e-4
+    P = _spd(p, n, sym)
+    state = FilterState(0.0, xs, P, tuple(f"k{i}" for i in range(m)), tuple(taus[:m]),
+                        _spd(p[::-1], m, True) if m else np.zeros((0, 0)))
+    if fortran:  # an F-ordered P (numpy passes it to dgemm as transposed)
+        Pf = np.asfortranarray(state.P)
+        Pf.flags.writeable = False
+        object.__setattr__(state, "P", Pf)
+    params = _PARAMS[mode][which]
+    _same(pr._predict(state, dt, params, want_phi), pr._predict_py(state, dt, params, want_phi))
+
+
+@needs_kernel
+def test_inputs_it_does_not_cover_go_to_python():
+    """More states than the kernel's stack buffers: None, and _predict runs the Python."""
+    m = 30
+    n = N_NAV + m
+    state = FilterState(0.0, np.arange(n) * 0.1, np.eye(n), tuple(f"k{i}" for i in range(m)),
+                        (240.0,) * m, np.eye(m))
+    params = FilterParams()
+    c = pr.step_constants(params, 1.0)
+    assert KERNEL.predict(state.x, state.P, c, c.fix_decay(state.fix_tau_s), state.fix_cov,
+                          True) is None
+    _same(pr._predict(state, 1.0, params, True), pr._predict_py(state, 1.0, params, True))
+
+
+def test_pure_env_runs_the_python(monkeypatch: pytest.MonkeyPatch):
+    """UVNAV_PURE=1: the kernel is not resolved (None) and the Python gives the result."""
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    monkeypatch.setattr(pr, "_K", pr._UNRESOLVED)
+    calls: list[int] = []
+    real = pr._predict_py
+
+    def counted(*a: object) -> tuple[FilterState, np.ndarray]:
+        calls.append(1)
+        return real(*a)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(pr, "_predict_py", counted)
+    state = FilterState(0.0, np.arange(11) * 0.1, np.eye(11))
+    pr.predict_step(state, 1.0, FilterParams())
+    assert pr._K is None and calls == [1]
+
+
+def test_the_blas_is_not_loaded_at_import():
+    """Start-up: importing the filter does not resolve the kernel (nor load OpenBLAS by
+    ctypes); that happens at the first prediction."""
+    import subprocess
+    import sys
+
+    code = ("import engine.filter.predict as p, engine.native.blas as b; "
+            "print(p._K is p._UNRESOLVED, b.numpy_cblas.cache_info().currsize)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=Path(__file__).resolve().parents[2])
+    assert out.stdout.split() == ["True", "0"]
