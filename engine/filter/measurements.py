@@ -116,7 +116,75 @@ def sensor_measurement(
     (rad, σ 0.65°, innovation wrapped) and inclination (rad, bow-down +). ``log_sigma_ms`` /
     ``gyro_sigma_deg`` replace this cycle's σ of the speed / heading row (a COG/SOG stand-in,
     docs/GNSS_WEIGHTS.md); None: the parameters' σ.
+
+    The rows' labels, H and angle row come from a table per set of sensors
+    (:func:`_sensor_layout`); values and variances are those of :func:`_sensor_rows`, by the
+    same operations (:func:`_sensor_measurement_py` is the code it replaces).
     """
+    zs: list[float] = []
+    var: list[float] = []
+    which = 0
+    if depth_m is not None:
+        zs.append(depth_m)
+        var.append(params.sigma_press_m**2)
+        which = 1
+    if log_ms is not None:
+        if log_sigma_ms is None:
+            s2 = max(params.log_sigma_frac * abs(log_ms), params.log_sigma_floor_ms) ** 2
+        else:
+            s2 = log_sigma_ms**2
+        zs.append(log_ms)
+        var.append(s2)
+        which |= 2
+    if gyro_grid_rad is not None:
+        sd = params.sigma_gyro_deg if gyro_sigma_deg is None else gyro_sigma_deg
+        zs.append(gyro_grid_rad)
+        var.append((sd * DEG) ** 2)
+        which |= 4
+    if incl_rad is not None:
+        zs.append(incl_rad)
+        var.append((params.sigma_incl_deg * DEG) ** 2)
+        which |= 8
+    layout = _LAYOUTS.get(which)
+    if layout is None:
+        layout = _LAYOUTS[which] = _sensor_layout(which)
+    labels, cols_t, H, angle = layout
+    p = len(zs)
+    R = np.zeros((p, p))
+    for i, s2 in enumerate(var):
+        R[i, i] = s2
+    return _measurement(np.array(zs, dtype=float), H, R, labels, angle, cols=cols_t)
+
+
+_SensorLayout = tuple[tuple[str, ...], tuple[tuple[int, ...], ...], np.ndarray, tuple[int, ...]]
+_LAYOUTS: dict[int, _SensorLayout] = {}
+"""Bit set of the sensors present (1 depth, 2 log, 4 gyro, 8 inclinometer) → layout."""
+
+
+def _sensor_layout(which: int) -> _SensorLayout:
+    """(labels, H columns, H template, angle rows) of the sensor rows in bit set ``which``
+    (1 depth, 2 log, 4 gyro, 8 inclinometer), in :func:`_sensor_rows`' order."""
+    rows = [(label, cols) for bit, label, cols in
+            ((1, "z_p", (IZ,)), (2, "v_m", (IV, IDV)), (4, "psi_m", (IPSI, IDPSI)),
+             (8, "eps_m", (IEPS, IDEPS))) if which & bit]
+    labels = tuple(r[0] for r in rows)
+    cols_t = tuple(r[1] for r in rows)
+    angle = (labels.index("psi_m"),) if "psi_m" in labels else ()
+    return labels, cols_t, h_template(cols_t, N_NAV), angle
+
+
+def _sensor_measurement_py(
+    state: FilterState,
+    *,
+    depth_m: float | None = None,
+    log_ms: float | None = None,
+    gyro_grid_rad: float | None = None,
+    incl_rad: float | None = None,
+    params: FilterParams,
+    log_sigma_ms: float | None = None,
+    gyro_sigma_deg: float | None = None,
+) -> Measurement:
+    """:func:`sensor_measurement` as it was written first (the reference of the tests)."""
     zs: list[float] = []
     var: list[float] = []
     labels: list[str] = []
@@ -280,8 +348,57 @@ def stack_measurements(*parts: Measurement) -> Measurement:
     """Concatenate measurement blocks (R block-diagonal), e.g. LSE rows then sensor rows.
 
     Fix-error keys are concatenated per row; their prior VCVs block-diagonally (a key already
-    given by an earlier block keeps that block's prior).
+    given by an earlier block keeps that block's prior). The cycle's case — rows without
+    fix-error keys (the pressure depth) stacked before rows that may carry them (the LSE),
+    both with template H — takes :func:`_stack_two`; anything else :func:`_stack_py`, the
+    general code (both give the same arrays, bit for bit).
     """
+    if len(parts) == 2:
+        a, b = parts
+        if not a.bias_keys and a.bias_cov is None and a._cols is not None and \
+                b._cols is not None and a.z.shape[0] and b.z.shape[0]:
+            m = _stack_two(a, b)
+            if m is not None:
+                return m
+    return _stack_py(*parts)
+
+
+def _stack_two(a: Measurement, b: Measurement) -> Measurement | None:
+    """:func:`_stack_py` of two non-empty blocks with template H, ``a`` without fix-error keys
+    or priors: b's keys and prior are the stack's (the priors' one source is b, in its own
+    order). None where b's prior is not a matrix covering its keys (the general code then)."""
+    ka = a.z.shape[0]
+    kb = b.z.shape[0]
+    p_tot = ka + kb
+    cols_t = a._cols + b._cols  # type: ignore[operator]
+    wa = a.H.shape[1]
+    wb = b.H.shape[1]
+    H = h_template(cols_t, wa if wa > wb else wb)
+    R = np.zeros((p_tot, p_tot))
+    R[:ka, :ka] = a.R
+    R[ka:, ka:] = b.R
+    angle = tuple(a.angle_rows) + tuple(ka + i for i in b.angle_rows)
+    labels = tuple(a.labels) + tuple(b.labels)
+    z = np.concatenate([a.z, b.z])
+    bk = b.bias_keys
+    dk = distinct_keys(bk) if bk else []
+    if not dk:
+        return _measurement(z, H, R, labels, angle, cols=cols_t)
+    keys = (None,) * ka + tuple(bk)
+    if b.bias_cov is None:
+        return _measurement(z, H, R, labels, angle, keys, None, (), cols_t)
+    first = np.asarray(b.bias_cov)
+    m_dk = len(dk)
+    if first.ndim != 2 or min(first.shape) < m_dk:
+        return None
+    taus_b = b.bias_tau_s
+    taus = tuple(taus_b[m] if m < len(taus_b) else float("nan") for m in range(m_dk))
+    return _measurement(z, H, R, labels, angle, keys, np.array(first[:m_dk, :m_dk], dtype=float),
+                        taus, cols_t)
+
+
+def _stack_py(*parts: Measurement) -> Measurement:
+    """:func:`stack_measurements` in general (any number of blocks, general H and priors)."""
     parts = tuple(p for p in parts if p.z.shape[0])
     if not parts:
         return Measurement(np.zeros(0), np.zeros((0, N_NAV)), np.zeros((0, 0)), ())

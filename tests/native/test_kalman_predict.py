@@ -11,9 +11,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import engine.filter.measurements as ms
 import engine.filter.predict as pr
 import engine.run.cycle as cycle_mod
 from engine import native
+from engine.filter.measurements import Measurement
 from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState
 from engine.run.config import load_config
@@ -169,3 +171,84 @@ def test_the_blas_is_not_loaded_at_import():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=Path(__file__).resolve().parents[2])
     assert out.stdout.split() == ["True", "0"]
+
+
+# ---- measurement rows (engine.filter.measurements): the lean paths give the same arrays ----
+
+
+def _same_meas(a: Measurement, b: Measurement) -> None:
+    """Same z, H, R, prior (values, shape, dtype, order) and the same labels, angle rows, keys,
+    τ and template columns."""
+    for f in ("z", "H", "R", "bias_cov"):
+        u, v = getattr(a, f), getattr(b, f)
+        if u is None or v is None:
+            assert u is v, f
+            continue
+        assert u.shape == v.shape and u.dtype == v.dtype, f
+        assert u.flags.c_contiguous == v.flags.c_contiguous, f
+        assert u.tobytes() == v.tobytes(), f
+    for f in ("labels", "angle_rows", "bias_keys", "bias_tau_s", "_cols"):
+        u, v = getattr(a, f), getattr(b, f)
+        assert u == v and type(u) is type(v), (f, u, v)
+
+
+@pytest.fixture(scope="module")
+def replay_rows(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[str, tuple, dict]]:
+    """(function name, args, kwargs) of the measurement builders over 200 demo epochs."""
+    calls: list[tuple[str, tuple, dict]] = []
+    mp = pytest.MonkeyPatch()
+    for name in ("sensor_measurement", "stack_measurements", "lse_measurement"):
+        real = getattr(cycle_mod, name)
+
+        def recording(*a: object, _name: str = name, _real=real, **k: object) -> Measurement:
+            calls.append((_name, a, k))
+            return _real(*a, **k)
+
+        mp.setattr(cycle_mod, name, recording)
+    try:
+        s = Session(load_config(DATA / "DEMO.toml"),
+                    out_path=tmp_path_factory.mktemp("kpm") / "D.OUT", force=True, history=1)
+        try:
+            s.run(max_cycles=200)
+        finally:
+            s.close()
+    finally:
+        mp.undo()
+    return calls
+
+
+def test_replay_measurement_rows_are_the_same(replay_rows):
+    names = {c[0] for c in replay_rows}
+    assert names == {"sensor_measurement", "stack_measurements", "lse_measurement"}
+    for name, a, k in replay_rows:
+        if name == "sensor_measurement":
+            _same_meas(ms.sensor_measurement(*a, **k), ms._sensor_measurement_py(*a, **k))
+        elif name == "stack_measurements":
+            _same_meas(ms.stack_measurements(*a), ms._stack_py(*a))
+
+
+_opt_float = st.one_of(st.none(), st.floats(-50.0, 50.0, allow_nan=False))
+
+
+@settings(max_examples=200, deadline=None)
+@given(depth=_opt_float, log=_opt_float, gyro=_opt_float, incl=_opt_float,
+       log_sigma=_opt_float, gyro_sigma=_opt_float, frac=st.floats(0.0, 0.99),
+       coloured=st.booleans(), c2=st.lists(st.floats(-100.0, 100.0), min_size=4, max_size=4),
+       order=st.booleans(), lse_first=st.booleans())
+def test_generated_measurement_rows_are_the_same(depth, log, gyro, incl, log_sigma, gyro_sigma,
+                                                 frac, coloured, c2, order, lse_first):
+    params = FilterParams(coloured=coloured, fix_sigma_frac=frac)
+    state = FilterState(0.0, np.zeros(11), np.eye(11))
+    kw = dict(depth_m=depth, log_ms=log, gyro_grid_rad=gyro, incl_rad=incl, params=params,
+              log_sigma_ms=log_sigma, gyro_sigma_deg=gyro_sigma)
+    sens = ms.sensor_measurement(state, **kw)
+    _same_meas(sens, ms._sensor_measurement_py(state, **kw))
+    lse = ms.lse_measurement(1.5, -2.5, np.array(c2).reshape(2, 2), params)
+    parts = (lse, sens) if lse_first else (sens, lse)
+    if order:
+        parts = (ms.sensor_measurement(state, depth_m=depth, params=params),) + parts[1:]
+    _same_meas(ms.stack_measurements(*parts), ms._stack_py(*parts))
+    lop = ms.lop_measurement(np.array([[0.6, 0.8]]), np.array([1.0]), np.array([3.0, 4.0]),
+                             np.array([[2.0]]), ["fix_e"], None, np.eye(1) * 5.0, (240.0,))
+    _same_meas(ms.stack_measurements(sens, lop), ms._stack_py(sens, lop))
+    _same_meas(ms.stack_measurements(sens, lse, lop), ms._stack_py(sens, lse, lop))
