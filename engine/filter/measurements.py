@@ -7,12 +7,27 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
+from engine import native
 from engine.filter.params import DEG, FilterParams, read_only
 from engine.filter.state import IDEPS, IDPSI, IDV, IEPS, IPSI, IV, IX, IY, IZ, N_NAV, FilterState
+
+_UNRESOLVED = object()
+_K: Any = _UNRESOLVED
+"""The compiled helpers of ``engine/native/kalman_predict.c`` that build the rows' arrays
+(``rows``, ``stack2``: copies only, the same arrays), or None (not built, stale,
+``UVNAV_PURE=1``): then numpy builds them. Resolved on first use, not at import."""
+
+
+def _kernel() -> Any:
+    """:data:`_K`, resolved on first use."""
+    global _K
+    if _K is _UNRESOLVED:
+        _K = native.kernel("kalman_predict")
+    return _K
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,11 +164,15 @@ def sensor_measurement(
     if layout is None:
         layout = _LAYOUTS[which] = _sensor_layout(which)
     labels, cols_t, H, angle = layout
-    p = len(zs)
-    R = np.zeros((p, p))
-    for i, s2 in enumerate(var):
-        R[i, i] = s2
-    return _measurement(np.array(zs, dtype=float), H, R, labels, angle, cols=cols_t)
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    zr = k.rows(zs, var) if k is not None else None
+    if zr is None:
+        p = len(zs)
+        R = np.zeros((p, p))
+        for i, s2 in enumerate(var):
+            R[i, i] = s2
+        return _measurement(np.array(zs, dtype=float), H, R, labels, angle, cols=cols_t)
+    return _measurement(zr[0], H, zr[1], labels, angle, cols=cols_t)
 
 
 _SensorLayout = tuple[tuple[str, ...], tuple[tuple[int, ...], ...], np.ndarray, tuple[int, ...]]
@@ -368,33 +387,40 @@ def _stack_two(a: Measurement, b: Measurement) -> Measurement | None:
     or priors: b's keys and prior are the stack's (the priors' one source is b, in its own
     order). None where b's prior is not a matrix covering its keys (the general code then)."""
     ka = a.z.shape[0]
-    kb = b.z.shape[0]
-    p_tot = ka + kb
     cols_t = a._cols + b._cols  # type: ignore[operator]
     wa = a.H.shape[1]
     wb = b.H.shape[1]
     H = h_template(cols_t, wa if wa > wb else wb)
-    R = np.zeros((p_tot, p_tot))
-    R[:ka, :ka] = a.R
-    R[ka:, ka:] = b.R
-    angle = tuple(a.angle_rows) + tuple(ka + i for i in b.angle_rows)
+    angle = tuple(a.angle_rows)
+    if b.angle_rows:
+        angle += tuple(ka + i for i in b.angle_rows)
     labels = tuple(a.labels) + tuple(b.labels)
-    z = np.concatenate([a.z, b.z])
     bk = b.bias_keys
     dk = distinct_keys(bk) if bk else []
+    first = None if not dk or b.bias_cov is None else np.asarray(b.bias_cov)
+    m_dk = len(dk)
+    if first is not None and (first.ndim != 2 or min(first.shape) < m_dk):
+        return None
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    arrays = k.stack2(a.z, b.z, a.R, b.R, first, m_dk) if k is not None else None
+    if arrays is None:
+        p_tot = ka + b.z.shape[0]
+        R = np.zeros((p_tot, p_tot))
+        R[:ka, :ka] = a.R
+        R[ka:, ka:] = b.R
+        z = np.concatenate([a.z, b.z])
+        cov = None if first is None else np.array(first[:m_dk, :m_dk], dtype=float)
+    else:
+        z, R, cov = arrays
     if not dk:
         return _measurement(z, H, R, labels, angle, cols=cols_t)
     keys = (None,) * ka + tuple(bk)
-    if b.bias_cov is None:
+    if cov is None:
         return _measurement(z, H, R, labels, angle, keys, None, (), cols_t)
-    first = np.asarray(b.bias_cov)
-    m_dk = len(dk)
-    if first.ndim != 2 or min(first.shape) < m_dk:
-        return None
     taus_b = b.bias_tau_s
-    taus = tuple(taus_b[m] if m < len(taus_b) else float("nan") for m in range(m_dk))
-    return _measurement(z, H, R, labels, angle, keys, np.array(first[:m_dk, :m_dk], dtype=float),
-                        taus, cols_t)
+    taus = tuple(taus_b[:m_dk]) if len(taus_b) >= m_dk else \
+        tuple(taus_b[m] if m < len(taus_b) else float("nan") for m in range(m_dk))
+    return _measurement(z, H, R, labels, angle, keys, cov, taus, cols_t)
 
 
 def _stack_py(*parts: Measurement) -> Measurement:

@@ -13,6 +13,8 @@
  * Python API: _bind(addresses) once (engine.native.blas.all_addresses()); then
  * predict(x, P, c, fd, fix_cov, want_phi) -> (x, P, Φ) as new arrays, or None when the inputs
  * are of a kind this kernel does not cover (the caller then runs the Python).
+ * Also the arrays of the measurement rows (engine/filter/measurements.py), copies only, no
+ * BLAS: rows(zs, var) and stack2(za, zb, Ra, Rb, cov, m), None likewise.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -359,6 +361,127 @@ done:
     return result;
 }
 
+/* ---- measurement rows (engine/filter/measurements.py): arrays built by copies only ---- */
+
+/* rows(zs, var) -> (z, R): z = np.array(zs, dtype=float), R = p×p zeros with var on the
+ * diagonal (sensor_measurement), or None unless both are lists of p >= 1 exact floats. */
+static PyObject *kp_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "rows(zs, var)");
+        return NULL;
+    }
+    PyObject *zs = args[0], *var = args[1];
+    if (!PyList_CheckExact(zs) || !PyList_CheckExact(var))
+        Py_RETURN_NONE;
+    Py_ssize_t p = PyList_GET_SIZE(zs);
+    if (p < 1 || p > NMAX || PyList_GET_SIZE(var) != p)
+        Py_RETURN_NONE;
+    for (Py_ssize_t i = 0; i < p; i++)
+        if (!PyFloat_CheckExact(PyList_GET_ITEM(zs, i)) ||
+            !PyFloat_CheckExact(PyList_GET_ITEM(var, i)))
+            Py_RETURN_NONE;
+    double *zd, *Rd;
+    PyObject *z = new_array(p, 0, 1, &zd);
+    if (z == NULL)
+        return NULL;
+    PyObject *R = new_array(p, p, 2, &Rd);
+    if (R == NULL) {
+        Py_DECREF(z);
+        return NULL;
+    }
+    memset(Rd, 0, sizeof(double) * (size_t)(p * p));
+    for (Py_ssize_t i = 0; i < p; i++) {
+        zd[i] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(zs, i));
+        Rd[i * p + i] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(var, i));
+    }
+    PyObject *r = PyTuple_Pack(2, z, R);
+    Py_DECREF(z);
+    Py_DECREF(R);
+    return r;
+}
+
+/* stack2(za, zb, Ra, Rb, cov, m) -> (z, R, prior): z = concatenate([za, zb]), R = blockdiag(Ra,
+ * Rb), prior = np.array(cov[:m, :m], dtype=float) (None if cov is None) — stack_measurements
+ * of two blocks; None unless all are float64 of the right shapes and cov is C-ordered. */
+static PyObject *kp_stack2(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "stack2(za, zb, Ra, Rb, cov, m)");
+        return NULL;
+    }
+    Py_ssize_t m = PyLong_AsSsize_t(args[5]);
+    if (m == -1 && PyErr_Occurred())
+        return NULL;
+    view_t w[5];
+    for (int i = 0; i < 5; i++)
+        w[i].ok = 0;
+    PyObject *result = NULL, *z = NULL, *R = NULL, *C = NULL;
+    Py_buffer zb;
+    Py_ssize_t ka, kb;
+    if (PyObject_GetBuffer(args[0], &zb, PyBUF_RECORDS_RO) < 0)
+        goto unsupported_clear;
+    ka = zb.ndim == 1 ? zb.shape[0] : -1;
+    PyBuffer_Release(&zb);
+    if (PyObject_GetBuffer(args[1], &zb, PyBUF_RECORDS_RO) < 0)
+        goto unsupported_clear;
+    kb = zb.ndim == 1 ? zb.shape[0] : -1;
+    PyBuffer_Release(&zb);
+    if (ka < 1 || kb < 1 || ka + kb > 4 * NMAX)
+        goto unsupported;
+    if (!view_get(args[0], 1, ka, 0, &w[0]) || !view_get(args[1], 1, kb, 0, &w[1]) ||
+        !view_get(args[2], 2, ka, ka, &w[2]) || !view_get(args[3], 2, kb, kb, &w[3]))
+        goto unsupported;
+    int with_cov = args[4] != Py_None;
+    if (with_cov) {
+        if (PyObject_GetBuffer(args[4], &zb, PyBUF_RECORDS_RO) < 0)
+            goto unsupported_clear;
+        int ok = zb.ndim == 2 && zb.shape[0] >= m && zb.shape[1] >= m && m >= 1;
+        Py_ssize_t c0 = ok ? zb.shape[0] : 0, c1 = ok ? zb.shape[1] : 0;
+        PyBuffer_Release(&zb);
+        if (!ok || !view_get(args[4], 2, c0, c1, &w[4]) || w[4].v.strides[1] != 8 ||
+            w[4].v.strides[0] != 8 * c1)
+            goto unsupported;
+    }
+    Py_ssize_t p = ka + kb;
+    double *zd, *Rd, *Cd;
+    if ((z = new_array(p, 0, 1, &zd)) == NULL || (R = new_array(p, p, 2, &Rd)) == NULL)
+        goto done;
+    for (Py_ssize_t i = 0; i < ka; i++)
+        zd[i] = at1(&w[0], i);
+    for (Py_ssize_t i = 0; i < kb; i++)
+        zd[ka + i] = at1(&w[1], i);
+    memset(Rd, 0, sizeof(double) * (size_t)(p * p));
+    for (Py_ssize_t i = 0; i < ka; i++)
+        for (Py_ssize_t j = 0; j < ka; j++)
+            Rd[i * p + j] = at2(&w[2], i, j);
+    for (Py_ssize_t i = 0; i < kb; i++)
+        for (Py_ssize_t j = 0; j < kb; j++)
+            Rd[(ka + i) * p + ka + j] = at2(&w[3], i, j);
+    if (with_cov) {
+        if ((C = new_array(m, m, 2, &Cd)) == NULL)
+            goto done;
+        for (Py_ssize_t i = 0; i < m; i++)
+            for (Py_ssize_t j = 0; j < m; j++)
+                Cd[i * m + j] = at2(&w[4], i, j);
+    } else {
+        C = Py_NewRef(Py_None);
+    }
+    result = PyTuple_Pack(3, z, R, C);
+    goto done;
+unsupported_clear:
+    PyErr_Clear();
+unsupported:
+    result = Py_NewRef(Py_None);
+done:
+    Py_XDECREF(z);
+    Py_XDECREF(R);
+    Py_XDECREF(C);
+    for (int i = 0; i < 5; i++)
+        view_release(&w[i]);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"_bind", (PyCFunction)kp_bind, METH_O,
      "_bind(addresses): the BLAS routines (engine.native.blas.all_addresses())."},
@@ -366,6 +489,10 @@ static PyMethodDef methods[] = {
     {"predict", (PyCFunction)(void (*)(void))kp_predict, METH_FASTCALL,
      "predict(x, P, c, fd, fix_cov, want_phi) -> (x, P, Phi) or None: one time update of "
      "engine.filter.predict (c: StepConstants, fd: FixDecay or None for the nav-only state)."},
+    {"rows", (PyCFunction)(void (*)(void))kp_rows, METH_FASTCALL,
+     "rows(zs, var) -> (z, R) or None: the arrays of sensor_measurement's rows."},
+    {"stack2", (PyCFunction)(void (*)(void))kp_stack2, METH_FASTCALL,
+     "stack2(za, zb, Ra, Rb, cov, m) -> (z, R, prior) or None: two stacked blocks' arrays."},
     {NULL, NULL, 0, NULL},
 };
 

@@ -252,3 +252,35 @@ def test_generated_measurement_rows_are_the_same(depth, log, gyro, incl, log_sig
                              np.array([[2.0]]), ["fix_e"], None, np.eye(1) * 5.0, (240.0,))
     _same_meas(ms.stack_measurements(sens, lop), ms._stack_py(sens, lop))
     _same_meas(ms.stack_measurements(sens, lse, lop), ms._stack_py(sens, lse, lop))
+
+
+def test_measurement_arrays_fall_back_to_numpy(monkeypatch: pytest.MonkeyPatch):
+    """Inputs the compiled helpers decline (numpy scalars, other dtypes, an F-ordered prior)
+    and no kernel at all (UVNAV_PURE=1) give the same measurements as the first code."""
+    params = FilterParams(coloured=True)
+    state = FilterState(0.0, np.zeros(11), np.eye(11))
+    cases = [dict(depth_m=np.float64(3.25), params=params),
+             dict(depth_m=3, log_ms=2.5, params=params),
+             dict(gyro_grid_rad=1.0, incl_rad=np.float32(0.25), params=params)]
+    C2 = np.asfortranarray(np.array([[4.0, 1.0], [1.0, 9.0]]))
+    for kernel in (ms._kernel(), None):
+        monkeypatch.setattr(ms, "_K", kernel)
+        for kw in cases:
+            sens = ms.sensor_measurement(state, **kw)
+            _same_meas(sens, ms._sensor_measurement_py(state, **kw))
+            for c in (C2, np.ascontiguousarray(C2), C2.astype(np.float32)):
+                lse = ms.lse_measurement(1.0, 2.0, c, params)
+                _same_meas(ms.stack_measurements(sens, lse), ms._stack_py(sens, lse))
+            odd = ms._measurement(np.array([1, 2]), np.eye(2, 11), np.eye(2, dtype=int),
+                                  ("a", "b"), (1,), ("k", None), np.eye(3), (5.0,),
+                                  ((0,), (1,)))
+            _same_meas(ms.stack_measurements(sens, odd), ms._stack_py(sens, odd))
+
+
+def test_pure_env_builds_measurements_with_numpy(monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    monkeypatch.setattr(ms, "_K", ms._UNRESOLVED)
+    state = FilterState(0.0, np.zeros(11), np.eye(11))
+    kw = dict(depth_m=1.5, log_ms=2.0, params=FilterParams())
+    _same_meas(ms.sensor_measurement(state, **kw), ms._sensor_measurement_py(state, **kw))
+    assert ms._K is None
