@@ -102,8 +102,28 @@ def lse_measurement(
 
     With ``params.coloured`` the rows become x + b_e, y + b_n on the Gauss–Markov states
     ``keys`` (added by :func:`update` on first use, stationary VCV frac·C2, τ = fix_tau_s) and
-    R = (1 − frac)·C2, the white part (THEORY §8.2 option (a)).
+    R = (1 − frac)·C2, the white part (THEORY §8.2 option (a)). The coloured arrays come from
+    the compiled helper where it takes the inputs (the same products; :func:`_lse_py`).
     """
+    if params is not None and params.coloured:
+        k = _K if _K is not _UNRESOLVED else _kernel()
+        if k is not None:
+            arrays = k.lse(x_m, y_m, C2, params.fix_sigma_frac)
+            if arrays is not None:
+                return _measurement(arrays[0], h_template(_LSE_COLS, N_NAV), arrays[1],
+                                    _LSE_LABELS, (), keys, arrays[2],
+                                    (params.fix_tau_s, params.fix_tau_s), _LSE_COLS)
+    return _lse_py(x_m, y_m, C2, params, keys)
+
+
+def _lse_py(
+    x_m: float,
+    y_m: float,
+    C2: np.ndarray,
+    params: FilterParams | None = None,
+    keys: tuple[str, str] = ("fix_e", "fix_n"),
+) -> Measurement:
+    """:func:`lse_measurement` with numpy (the reference of the compiled helper)."""
     C = np.asarray(C2, dtype=float)
     H = h_template(_LSE_COLS, N_NAV)
     z = np.array([x_m, y_m], dtype=float)

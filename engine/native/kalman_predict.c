@@ -14,7 +14,7 @@
  * predict(x, P, c, fd, fix_cov, want_phi) -> (x, P, Φ) as new arrays, or None when the inputs
  * are of a kind this kernel does not cover (the caller then runs the Python).
  * Also the arrays of the measurement rows (engine/filter/measurements.py), copies only, no
- * BLAS: rows(zs, var) and stack2(za, zb, Ra, Rb, cov, m), None likewise.
+ * BLAS: rows(zs, var), lse(x, y, C, f) and stack2(za, zb, Ra, Rb, cov, m), None likewise.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -482,6 +482,45 @@ done:
     return result;
 }
 
+/* lse(x, y, C, f) -> (z, R, prior): z = np.array([x, y], dtype=float), R = C * (1.0 - f),
+ * prior = C * f (lse_measurement, coloured); None unless x, y, f are exact floats and C a
+ * C-ordered 2×2 float64 array. */
+static PyObject *kp_lse(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "lse(x, y, C, f)");
+        return NULL;
+    }
+    if (!PyFloat_CheckExact(args[0]) || !PyFloat_CheckExact(args[1]) ||
+        !PyFloat_CheckExact(args[3]))
+        Py_RETURN_NONE;
+    view_t w;
+    if (!view_get(args[2], 2, 2, 2, &w) || w.v.strides[1] != 8 || w.v.strides[0] != 16) {
+        view_release(&w);
+        Py_RETURN_NONE;
+    }
+    double f = PyFloat_AS_DOUBLE(args[3]), omf = 1.0 - f;
+    double *zd, *Rd, *Cd;
+    PyObject *z = NULL, *R = NULL, *C = NULL, *result = NULL;
+    if ((z = new_array(2, 0, 1, &zd)) == NULL || (R = new_array(2, 2, 2, &Rd)) == NULL ||
+        (C = new_array(2, 2, 2, &Cd)) == NULL)
+        goto done;
+    zd[0] = PyFloat_AS_DOUBLE(args[0]);
+    zd[1] = PyFloat_AS_DOUBLE(args[1]);
+    const double *c = (const double *)w.v.buf;
+    for (int i = 0; i < 4; i++) {
+        Rd[i] = c[i] * omf;
+        Cd[i] = c[i] * f;
+    }
+    result = PyTuple_Pack(3, z, R, C);
+done:
+    Py_XDECREF(z);
+    Py_XDECREF(R);
+    Py_XDECREF(C);
+    view_release(&w);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"_bind", (PyCFunction)kp_bind, METH_O,
      "_bind(addresses): the BLAS routines (engine.native.blas.all_addresses())."},
@@ -491,6 +530,8 @@ static PyMethodDef methods[] = {
      "engine.filter.predict (c: StepConstants, fd: FixDecay or None for the nav-only state)."},
     {"rows", (PyCFunction)(void (*)(void))kp_rows, METH_FASTCALL,
      "rows(zs, var) -> (z, R) or None: the arrays of sensor_measurement's rows."},
+    {"lse", (PyCFunction)(void (*)(void))kp_lse, METH_FASTCALL,
+     "lse(x, y, C, f) -> (z, R, prior) or None: the arrays of a coloured LSE measurement."},
     {"stack2", (PyCFunction)(void (*)(void))kp_stack2, METH_FASTCALL,
      "stack2(za, zb, Ra, Rb, cov, m) -> (z, R, prior) or None: two stacked blocks' arrays."},
     {NULL, NULL, 0, NULL},

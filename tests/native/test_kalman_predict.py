@@ -99,7 +99,7 @@ _PARAMS = {mode: [FilterParams(q_mode=mode),
 
 
 @needs_kernel
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     m=st.sampled_from([0, 0, 1, 2, 2, 3, 5]),
     x=st.lists(st.floats(-1e4, 1e4, allow_nan=False), min_size=16, max_size=16),
@@ -225,12 +225,14 @@ def test_replay_measurement_rows_are_the_same(replay_rows):
             _same_meas(ms.sensor_measurement(*a, **k), ms._sensor_measurement_py(*a, **k))
         elif name == "stack_measurements":
             _same_meas(ms.stack_measurements(*a), ms._stack_py(*a))
+        else:
+            _same_meas(ms.lse_measurement(*a, **k), ms._lse_py(*a, **k))
 
 
 _opt_float = st.one_of(st.none(), st.floats(-50.0, 50.0, allow_nan=False))
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(depth=_opt_float, log=_opt_float, gyro=_opt_float, incl=_opt_float,
        log_sigma=_opt_float, gyro_sigma=_opt_float, frac=st.floats(0.0, 0.99),
        coloured=st.booleans(), c2=st.lists(st.floats(-100.0, 100.0), min_size=4, max_size=4),
@@ -284,3 +286,17 @@ def test_pure_env_builds_measurements_with_numpy(monkeypatch: pytest.MonkeyPatch
     kw = dict(depth_m=1.5, log_ms=2.0, params=FilterParams())
     _same_meas(ms.sensor_measurement(state, **kw), ms._sensor_measurement_py(state, **kw))
     assert ms._K is None
+
+
+@settings(max_examples=100, deadline=None)
+@given(x=st.floats(-1e7, 1e7), y=st.floats(-1e7, 1e7),
+       c2=st.lists(st.floats(-1e6, 1e6), min_size=4, max_size=4), frac=st.floats(0.0, 0.99),
+       coloured=st.booleans(), layout=st.sampled_from(["C", "F", "f32", "list", "np"]))
+def test_lse_rows_are_the_same(x, y, c2, frac, coloured, layout):
+    params = FilterParams(coloured=coloured, fix_sigma_frac=frac)
+    C = np.array(c2).reshape(2, 2)
+    C2 = {"C": C, "F": np.asfortranarray(C), "f32": C.astype(np.float32),
+          "list": C.tolist(), "np": C}[layout]
+    xs = (np.float64(x), np.float64(y)) if layout == "np" else (x, y)
+    _same_meas(ms.lse_measurement(*xs, C2, params), ms._lse_py(*xs, C2, params))
+    _same_meas(ms.lse_measurement(*xs, C2), ms._lse_py(*xs, C2))
