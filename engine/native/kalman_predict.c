@@ -83,12 +83,23 @@ static inline double at1(const view_t *w, Py_ssize_t i)
     return *(const double *)((const char *)w->v.buf + i * w->v.strides[0]);
 }
 
+#define NSHAPE 64
+static PyObject *shape_cache[2][NSHAPE];  /* (n,) and (n, n) for n < NSHAPE, built on use */
+
 /* A new C-ordered float64 numpy array (numpy.empty) and a pointer to its data. */
 static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data)
 {
-    PyObject *shape = ndim == 1 ? Py_BuildValue("(n)", d0) : Py_BuildValue("(nn)", d0, d1);
-    if (shape == NULL)
-        return NULL;
+    PyObject *shape;
+    int cached = d0 >= 0 && d0 < NSHAPE && (ndim == 1 || d1 == d0);
+    if (cached && shape_cache[ndim - 1][d0] != NULL) {
+        shape = Py_NewRef(shape_cache[ndim - 1][d0]);
+    } else {
+        shape = ndim == 1 ? Py_BuildValue("(n)", d0) : Py_BuildValue("(nn)", d0, d1);
+        if (shape == NULL)
+            return NULL;
+        if (cached)
+            shape_cache[ndim - 1][d0] = Py_NewRef(shape);
+    }
     PyObject *a = PyObject_CallOneArg(np_empty, shape);
     Py_DECREF(shape);
     if (a == NULL)
