@@ -7,12 +7,27 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
+from engine import native
 from engine.filter.params import DEG, FilterParams, read_only
 from engine.filter.state import IDEPS, IDPSI, IDV, IEPS, IPSI, IV, IX, IY, IZ, N_NAV, FilterState
+
+_UNRESOLVED = object()
+_K: Any = _UNRESOLVED
+"""The compiled helpers of ``engine/native/kalman_predict.c`` that build the rows' arrays
+(``rows``, ``stack2``: copies only, the same arrays), or None (not built, stale,
+``UVNAV_PURE=1``): then numpy builds them. Resolved on first use, not at import."""
+
+
+def _kernel() -> Any:
+    """:data:`_K`, resolved on first use."""
+    global _K
+    if _K is _UNRESOLVED:
+        _K = native.kernel("kalman_predict")
+    return _K
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,8 +102,28 @@ def lse_measurement(
 
     With ``params.coloured`` the rows become x + b_e, y + b_n on the Gauss–Markov states
     ``keys`` (added by :func:`update` on first use, stationary VCV frac·C2, τ = fix_tau_s) and
-    R = (1 − frac)·C2, the white part (THEORY §8.2 option (a)).
+    R = (1 − frac)·C2, the white part (THEORY §8.2 option (a)). The coloured arrays come from
+    the compiled helper where it takes the inputs (the same products; :func:`_lse_py`).
     """
+    if params is not None and params.coloured:
+        k = _K if _K is not _UNRESOLVED else _kernel()
+        if k is not None:
+            arrays = k.lse(x_m, y_m, C2, params.fix_sigma_frac)
+            if arrays is not None:
+                return _measurement(arrays[0], h_template(_LSE_COLS, N_NAV), arrays[1],
+                                    _LSE_LABELS, (), keys, arrays[2],
+                                    (params.fix_tau_s, params.fix_tau_s), _LSE_COLS)
+    return _lse_py(x_m, y_m, C2, params, keys)
+
+
+def _lse_py(
+    x_m: float,
+    y_m: float,
+    C2: np.ndarray,
+    params: FilterParams | None = None,
+    keys: tuple[str, str] = ("fix_e", "fix_n"),
+) -> Measurement:
+    """:func:`lse_measurement` with numpy (the reference of the compiled helper)."""
     C = np.asarray(C2, dtype=float)
     H = h_template(_LSE_COLS, N_NAV)
     z = np.array([x_m, y_m], dtype=float)
@@ -116,7 +151,79 @@ def sensor_measurement(
     (rad, σ 0.65°, innovation wrapped) and inclination (rad, bow-down +). ``log_sigma_ms`` /
     ``gyro_sigma_deg`` replace this cycle's σ of the speed / heading row (a COG/SOG stand-in,
     docs/GNSS_WEIGHTS.md); None: the parameters' σ.
+
+    The rows' labels, H and angle row come from a table per set of sensors
+    (:func:`_sensor_layout`); values and variances are those of :func:`_sensor_rows`, by the
+    same operations (:func:`_sensor_measurement_py` is the code it replaces).
     """
+    zs: list[float] = []
+    var: list[float] = []
+    which = 0
+    if depth_m is not None:
+        zs.append(depth_m)
+        var.append(params.sigma_press_m**2)
+        which = 1
+    if log_ms is not None:
+        if log_sigma_ms is None:
+            s2 = max(params.log_sigma_frac * abs(log_ms), params.log_sigma_floor_ms) ** 2
+        else:
+            s2 = log_sigma_ms**2
+        zs.append(log_ms)
+        var.append(s2)
+        which |= 2
+    if gyro_grid_rad is not None:
+        sd = params.sigma_gyro_deg if gyro_sigma_deg is None else gyro_sigma_deg
+        zs.append(gyro_grid_rad)
+        var.append((sd * DEG) ** 2)
+        which |= 4
+    if incl_rad is not None:
+        zs.append(incl_rad)
+        var.append((params.sigma_incl_deg * DEG) ** 2)
+        which |= 8
+    layout = _LAYOUTS.get(which)
+    if layout is None:
+        layout = _LAYOUTS[which] = _sensor_layout(which)
+    labels, cols_t, H, angle = layout
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    zr = k.rows(zs, var) if k is not None else None
+    if zr is None:
+        p = len(zs)
+        R = np.zeros((p, p))
+        for i, s2 in enumerate(var):
+            R[i, i] = s2
+        return _measurement(np.array(zs, dtype=float), H, R, labels, angle, cols=cols_t)
+    return _measurement(zr[0], H, zr[1], labels, angle, cols=cols_t)
+
+
+_SensorLayout = tuple[tuple[str, ...], tuple[tuple[int, ...], ...], np.ndarray, tuple[int, ...]]
+_LAYOUTS: dict[int, _SensorLayout] = {}
+"""Bit set of the sensors present (1 depth, 2 log, 4 gyro, 8 inclinometer) → layout."""
+
+
+def _sensor_layout(which: int) -> _SensorLayout:
+    """(labels, H columns, H template, angle rows) of the sensor rows in bit set ``which``
+    (1 depth, 2 log, 4 gyro, 8 inclinometer), in :func:`_sensor_rows`' order."""
+    rows = [(label, cols) for bit, label, cols in
+            ((1, "z_p", (IZ,)), (2, "v_m", (IV, IDV)), (4, "psi_m", (IPSI, IDPSI)),
+             (8, "eps_m", (IEPS, IDEPS))) if which & bit]
+    labels = tuple(r[0] for r in rows)
+    cols_t = tuple(r[1] for r in rows)
+    angle = (labels.index("psi_m"),) if "psi_m" in labels else ()
+    return labels, cols_t, h_template(cols_t, N_NAV), angle
+
+
+def _sensor_measurement_py(
+    state: FilterState,
+    *,
+    depth_m: float | None = None,
+    log_ms: float | None = None,
+    gyro_grid_rad: float | None = None,
+    incl_rad: float | None = None,
+    params: FilterParams,
+    log_sigma_ms: float | None = None,
+    gyro_sigma_deg: float | None = None,
+) -> Measurement:
+    """:func:`sensor_measurement` as it was written first (the reference of the tests)."""
     zs: list[float] = []
     var: list[float] = []
     labels: list[str] = []
@@ -280,8 +387,64 @@ def stack_measurements(*parts: Measurement) -> Measurement:
     """Concatenate measurement blocks (R block-diagonal), e.g. LSE rows then sensor rows.
 
     Fix-error keys are concatenated per row; their prior VCVs block-diagonally (a key already
-    given by an earlier block keeps that block's prior).
+    given by an earlier block keeps that block's prior). The cycle's case — rows without
+    fix-error keys (the pressure depth) stacked before rows that may carry them (the LSE),
+    both with template H — takes :func:`_stack_two`; anything else :func:`_stack_py`, the
+    general code (both give the same arrays, bit for bit).
     """
+    if len(parts) == 2:
+        a, b = parts
+        if not a.bias_keys and a.bias_cov is None and a._cols is not None and \
+                b._cols is not None and a.z.shape[0] and b.z.shape[0]:
+            m = _stack_two(a, b)
+            if m is not None:
+                return m
+    return _stack_py(*parts)
+
+
+def _stack_two(a: Measurement, b: Measurement) -> Measurement | None:
+    """:func:`_stack_py` of two non-empty blocks with template H, ``a`` without fix-error keys
+    or priors: b's keys and prior are the stack's (the priors' one source is b, in its own
+    order). None where b's prior is not a matrix covering its keys (the general code then)."""
+    ka = a.z.shape[0]
+    cols_t = a._cols + b._cols  # type: ignore[operator]
+    wa = a.H.shape[1]
+    wb = b.H.shape[1]
+    H = h_template(cols_t, wa if wa > wb else wb)
+    angle = tuple(a.angle_rows)
+    if b.angle_rows:
+        angle += tuple(ka + i for i in b.angle_rows)
+    labels = tuple(a.labels) + tuple(b.labels)
+    bk = b.bias_keys
+    dk = distinct_keys(bk) if bk else []
+    first = None if not dk or b.bias_cov is None else np.asarray(b.bias_cov)
+    m_dk = len(dk)
+    if first is not None and (first.ndim != 2 or min(first.shape) < m_dk):
+        return None
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    arrays = k.stack2(a.z, b.z, a.R, b.R, first, m_dk) if k is not None else None
+    if arrays is None:
+        p_tot = ka + b.z.shape[0]
+        R = np.zeros((p_tot, p_tot))
+        R[:ka, :ka] = a.R
+        R[ka:, ka:] = b.R
+        z = np.concatenate([a.z, b.z])
+        cov = None if first is None else np.array(first[:m_dk, :m_dk], dtype=float)
+    else:
+        z, R, cov = arrays
+    if not dk:
+        return _measurement(z, H, R, labels, angle, cols=cols_t)
+    keys = (None,) * ka + tuple(bk)
+    if cov is None:
+        return _measurement(z, H, R, labels, angle, keys, None, (), cols_t)
+    taus_b = b.bias_tau_s
+    taus = tuple(taus_b[:m_dk]) if len(taus_b) >= m_dk else \
+        tuple(taus_b[m] if m < len(taus_b) else float("nan") for m in range(m_dk))
+    return _measurement(z, H, R, labels, angle, keys, cov, taus, cols_t)
+
+
+def _stack_py(*parts: Measurement) -> Measurement:
+    """:func:`stack_measurements` in general (any number of blocks, general H and priors)."""
     parts = tuple(p for p in parts if p.z.shape[0])
     if not parts:
         return Measurement(np.zeros(0), np.zeros((0, N_NAV)), np.zeros((0, 0)), ())

@@ -5,12 +5,39 @@
 from __future__ import annotations
 
 import math
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 
+from engine import native
 from engine.filter.model import step_constants, step_noise, transition_and_mean
 from engine.filter.params import FilterParams, symmetrised
 from engine.filter.state import N_NAV, FilterState
+
+_UNRESOLVED = object()
+_K: Any = _UNRESOLVED
+"""The compiled time update (``engine/native/kalman_predict.c``) once resolved and bound to
+numpy's BLAS, or None (not built, stale, ``UVNAV_PURE=1``, or numpy's OpenBLAS not found):
+then :func:`_predict_py` runs. Resolved on the first prediction, not at import, because finding
+the BLAS addresses loads the OpenBLAS libraries (start-up time)."""
+
+
+def _kernel() -> ModuleType | None:
+    """:data:`_K`, resolving and binding it on first use."""
+    global _K
+    if _K is _UNRESOLVED:
+        k = native.kernel("kalman_predict")
+        if k is not None:
+            from engine.native import blas
+
+            addresses = blas.all_addresses()
+            if addresses is None:
+                k = None
+            else:
+                k._bind(addresses)
+        _K = k
+    return _K
 
 
 def predict_step(
@@ -35,11 +62,27 @@ def _predict(
 
     Φ_nav, Q_d and the mean come from :func:`transition_and_mean` and :func:`step_noise` with
     the step's constants (built once per Δt); the products are those of 6.20b, block by block.
+    The compiled kernel does the same operations in one call (same bits); :func:`_predict_py`
+    is the Python it mirrors, run where the kernel is not available or declines the inputs.
     """
     if dt < 0.0:
         raise ValueError(f"negative time step {dt} s")
     if dt == 0.0:
         return state, np.eye(state.n)
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    if k is not None:
+        c = step_constants(params, dt)
+        fd = c.fix_decay(state.fix_tau_s) if state.fix_states else None
+        r = k.predict(state.x, state.P, c, fd, state.fix_cov, want_phi)
+        if r is not None:
+            return state._with(state.t + dt, r[0], r[1]), r[2]
+    return _predict_py(state, dt, params, want_phi)
+
+
+def _predict_py(
+    state: FilterState, dt: float, params: FilterParams, want_phi: bool
+) -> tuple[FilterState, np.ndarray]:
+    """:func:`_predict` in Python and numpy (Δt > 0): the reference of the compiled kernel."""
     c = step_constants(params, dt)
     P = state.P
     xs = state.x.tolist()

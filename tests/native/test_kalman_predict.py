@@ -1,0 +1,302 @@
+"""The compiled time update (engine/native/kalman_predict.c) gives the very bits of the Python
+it mirrors (engine.filter.predict._predict_py), on the states a replay produces and on
+generated ones around them; with ``UVNAV_PURE=1`` the Python runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import engine.filter.measurements as ms
+import engine.filter.predict as pr
+import engine.run.cycle as cycle_mod
+from engine import native
+from engine.filter.measurements import Measurement
+from engine.filter.params import FilterParams
+from engine.filter.state import N_NAV, FilterState
+from engine.run.config import load_config
+from engine.run.session import Session
+from tests.paths import DATA
+
+KERNEL = pr._kernel()
+needs_kernel = pytest.mark.skipif(KERNEL is None, reason=f"kernel not used: "
+                                  f"{native.status('kalman_predict')}")
+
+
+def _same(a: tuple[FilterState, np.ndarray], b: tuple[FilterState, np.ndarray]) -> None:
+    """Bit-identical results: t, x, P, Φ (values, shapes, dtype, C order)."""
+    (sa, pa), (sb, pb) = a, b
+    assert sa.t == sb.t
+    for u, v in ((sa.x, sb.x), (sa.P, sb.P), (pa, pb)):
+        assert u.shape == v.shape and u.dtype == v.dtype == np.float64
+        assert u.flags.c_contiguous and v.flags.c_contiguous
+        assert u.tobytes() == v.tobytes()
+    assert sa.fix_states == sb.fix_states and sa.fix_tau_s == sb.fix_tau_s
+    assert not sa.x.flags.writeable and not sa.P.flags.writeable
+
+
+@pytest.fixture(scope="module")
+def replay_steps(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[FilterState, float,
+                                                                          FilterParams]]:
+    """(state, Δt, params) of every prediction of 200 demo epochs and the thesis sample."""
+    steps: list[tuple[FilterState, float, FilterParams]] = []
+    real = cycle_mod.predict_step
+
+    def recording(state: FilterState, dt: float,
+                  params: FilterParams) -> tuple[FilterState, np.ndarray]:
+        steps.append((state, dt, params))
+        return real(state, dt, params)
+
+    out = tmp_path_factory.mktemp("kp")
+    mp = pytest.MonkeyPatch()
+    mp.setattr(cycle_mod, "predict_step", recording)
+    try:
+        for name, n in (("DEMO.toml", 200), ("920917_1.toml", None)):
+            s = Session(load_config(DATA / name), out_path=out / f"{name}.OUT", force=True,
+                        history=1)
+            try:
+                s.run(max_cycles=n)
+            finally:
+                s.close()
+    finally:
+        mp.undo()
+    return steps
+
+
+@needs_kernel
+def test_replay_predictions_are_bit_identical(replay_steps):
+    assert len(replay_steps) > 150
+    assert {s.n for s, _, _ in replay_steps} == {11, 13}
+    for state, dt, params in replay_steps:
+        for want_phi in (True, False):
+            _same(pr._predict(state, dt, params, want_phi),
+                  pr._predict_py(state, dt, params, want_phi))
+
+
+@needs_kernel
+def test_the_kernel_is_what_runs(replay_steps, monkeypatch: pytest.MonkeyPatch):
+    """The kernel answers (not None) for the replay's states: the Python is not called."""
+    def boom(*a: object) -> None:
+        raise AssertionError("Python path taken")
+
+    monkeypatch.setattr(pr, "_predict_py", boom)
+    for state, dt, params in replay_steps[:20]:
+        pr.predict_step(state, dt, params)
+
+
+def _spd(rng_vals: list[float], n: int, sym: bool) -> np.ndarray:
+    a = np.array(rng_vals[: n * n]).reshape(n, n)
+    return a.dot(a.T) + np.eye(n) if sym else a
+
+
+_PARAMS = {mode: [FilterParams(q_mode=mode),
+                  FilterParams(q_mode=mode, bias_noise=True, hold_course=True, q_scale=2.5)]
+           for mode in ("vanloan", "psd", "thesis")}
+
+
+@needs_kernel
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    m=st.sampled_from([0, 0, 1, 2, 2, 3, 5]),
+    x=st.lists(st.floats(-1e4, 1e4, allow_nan=False), min_size=16, max_size=16),
+    p=st.lists(st.floats(-3.0, 3.0, allow_nan=False), min_size=256, max_size=256),
+    dt=st.one_of(st.just(1.0), st.floats(1e-3, 30.0)),
+    mode=st.sampled_from(["vanloan", "psd", "thesis"]),
+    which=st.integers(0, 1),
+    sym=st.booleans(),
+    fortran=st.booleans(),
+    taus=st.lists(st.floats(1.0, 3600.0), min_size=5, max_size=5),
+    want_phi=st.booleans(),
+)
+def test_generated_predictions_are_bit_identical(m, x, p, dt, mode, which, sym, fortran, taus,
+                                                 want_phi):
+    n = N_NAV + m
+    xs = np.array(x[:n])
+    xs[4] = xs[4] % 6.3  # ψ, ε as angles (rad)
+    xs[5] = xs[5] * 1e-4
+    P = _spd(p, n, sym)
+    state = FilterState(0.0, xs, P, tuple(f"k{i}" for i in range(m)), tuple(taus[:m]),
+                        _spd(p[::-1], m, True) if m else np.zeros((0, 0)))
+    if fortran:  # an F-ordered P (numpy passes it to dgemm as transposed)
+        Pf = np.asfortranarray(state.P)
+        Pf.flags.writeable = False
+        object.__setattr__(state, "P", Pf)
+    params = _PARAMS[mode][which]
+    _same(pr._predict(state, dt, params, want_phi), pr._predict_py(state, dt, params, want_phi))
+
+
+@needs_kernel
+def test_inputs_it_does_not_cover_go_to_python():
+    """More states than the kernel's stack buffers: None, and _predict runs the Python."""
+    m = 30
+    n = N_NAV + m
+    state = FilterState(0.0, np.arange(n) * 0.1, np.eye(n), tuple(f"k{i}" for i in range(m)),
+                        (240.0,) * m, np.eye(m))
+    params = FilterParams()
+    c = pr.step_constants(params, 1.0)
+    assert KERNEL.predict(state.x, state.P, c, c.fix_decay(state.fix_tau_s), state.fix_cov,
+                          True) is None
+    _same(pr._predict(state, 1.0, params, True), pr._predict_py(state, 1.0, params, True))
+
+
+def test_pure_env_runs_the_python(monkeypatch: pytest.MonkeyPatch):
+    """UVNAV_PURE=1: the kernel is not resolved (None) and the Python gives the result."""
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    monkeypatch.setattr(pr, "_K", pr._UNRESOLVED)
+    calls: list[int] = []
+    real = pr._predict_py
+
+    def counted(*a: object) -> tuple[FilterState, np.ndarray]:
+        calls.append(1)
+        return real(*a)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(pr, "_predict_py", counted)
+    state = FilterState(0.0, np.arange(11) * 0.1, np.eye(11))
+    pr.predict_step(state, 1.0, FilterParams())
+    assert pr._K is None and calls == [1]
+
+
+def test_the_blas_is_not_loaded_at_import():
+    """Start-up: importing the filter does not resolve the kernel (nor load OpenBLAS by
+    ctypes); that happens at the first prediction."""
+    import subprocess
+    import sys
+
+    code = ("import engine.filter.predict as p, engine.native.blas as b; "
+            "print(p._K is p._UNRESOLVED, b.numpy_cblas.cache_info().currsize)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=Path(__file__).resolve().parents[2])
+    assert out.stdout.split() == ["True", "0"]
+
+
+# ---- measurement rows (engine.filter.measurements): the lean paths give the same arrays ----
+
+
+def _same_meas(a: Measurement, b: Measurement) -> None:
+    """Same z, H, R, prior (values, shape, dtype, order) and the same labels, angle rows, keys,
+    τ and template columns."""
+    for f in ("z", "H", "R", "bias_cov"):
+        u, v = getattr(a, f), getattr(b, f)
+        if u is None or v is None:
+            assert u is v, f
+            continue
+        assert u.shape == v.shape and u.dtype == v.dtype, f
+        assert u.flags.c_contiguous == v.flags.c_contiguous, f
+        assert u.tobytes() == v.tobytes(), f
+    for f in ("labels", "angle_rows", "bias_keys", "bias_tau_s", "_cols"):
+        u, v = getattr(a, f), getattr(b, f)
+        assert u == v and type(u) is type(v), (f, u, v)
+
+
+@pytest.fixture(scope="module")
+def replay_rows(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[str, tuple, dict]]:
+    """(function name, args, kwargs) of the measurement builders over 200 demo epochs."""
+    calls: list[tuple[str, tuple, dict]] = []
+    mp = pytest.MonkeyPatch()
+    for name in ("sensor_measurement", "stack_measurements", "lse_measurement"):
+        real = getattr(cycle_mod, name)
+
+        def recording(*a: object, _name: str = name, _real=real, **k: object) -> Measurement:
+            calls.append((_name, a, k))
+            return _real(*a, **k)
+
+        mp.setattr(cycle_mod, name, recording)
+    try:
+        s = Session(load_config(DATA / "DEMO.toml"),
+                    out_path=tmp_path_factory.mktemp("kpm") / "D.OUT", force=True, history=1)
+        try:
+            s.run(max_cycles=200)
+        finally:
+            s.close()
+    finally:
+        mp.undo()
+    return calls
+
+
+def test_replay_measurement_rows_are_the_same(replay_rows):
+    names = {c[0] for c in replay_rows}
+    assert names == {"sensor_measurement", "stack_measurements", "lse_measurement"}
+    for name, a, k in replay_rows:
+        if name == "sensor_measurement":
+            _same_meas(ms.sensor_measurement(*a, **k), ms._sensor_measurement_py(*a, **k))
+        elif name == "stack_measurements":
+            _same_meas(ms.stack_measurements(*a), ms._stack_py(*a))
+        else:
+            _same_meas(ms.lse_measurement(*a, **k), ms._lse_py(*a, **k))
+
+
+_opt_float = st.one_of(st.none(), st.floats(-50.0, 50.0, allow_nan=False))
+
+
+@settings(max_examples=100, deadline=None)
+@given(depth=_opt_float, log=_opt_float, gyro=_opt_float, incl=_opt_float,
+       log_sigma=_opt_float, gyro_sigma=_opt_float, frac=st.floats(0.0, 0.99),
+       coloured=st.booleans(), c2=st.lists(st.floats(-100.0, 100.0), min_size=4, max_size=4),
+       order=st.booleans(), lse_first=st.booleans())
+def test_generated_measurement_rows_are_the_same(depth, log, gyro, incl, log_sigma, gyro_sigma,
+                                                 frac, coloured, c2, order, lse_first):
+    params = FilterParams(coloured=coloured, fix_sigma_frac=frac)
+    state = FilterState(0.0, np.zeros(11), np.eye(11))
+    kw = dict(depth_m=depth, log_ms=log, gyro_grid_rad=gyro, incl_rad=incl, params=params,
+              log_sigma_ms=log_sigma, gyro_sigma_deg=gyro_sigma)
+    sens = ms.sensor_measurement(state, **kw)
+    _same_meas(sens, ms._sensor_measurement_py(state, **kw))
+    lse = ms.lse_measurement(1.5, -2.5, np.array(c2).reshape(2, 2), params)
+    parts = (lse, sens) if lse_first else (sens, lse)
+    if order:
+        parts = (ms.sensor_measurement(state, depth_m=depth, params=params),) + parts[1:]
+    _same_meas(ms.stack_measurements(*parts), ms._stack_py(*parts))
+    lop = ms.lop_measurement(np.array([[0.6, 0.8]]), np.array([1.0]), np.array([3.0, 4.0]),
+                             np.array([[2.0]]), ["fix_e"], None, np.eye(1) * 5.0, (240.0,))
+    _same_meas(ms.stack_measurements(sens, lop), ms._stack_py(sens, lop))
+    _same_meas(ms.stack_measurements(sens, lse, lop), ms._stack_py(sens, lse, lop))
+
+
+def test_measurement_arrays_fall_back_to_numpy(monkeypatch: pytest.MonkeyPatch):
+    """Inputs the compiled helpers decline (numpy scalars, other dtypes, an F-ordered prior)
+    and no kernel at all (UVNAV_PURE=1) give the same measurements as the first code."""
+    params = FilterParams(coloured=True)
+    state = FilterState(0.0, np.zeros(11), np.eye(11))
+    cases = [dict(depth_m=np.float64(3.25), params=params),
+             dict(depth_m=3, log_ms=2.5, params=params),
+             dict(gyro_grid_rad=1.0, incl_rad=np.float32(0.25), params=params)]
+    C2 = np.asfortranarray(np.array([[4.0, 1.0], [1.0, 9.0]]))
+    for kernel in (ms._kernel(), None):
+        monkeypatch.setattr(ms, "_K", kernel)
+        for kw in cases:
+            sens = ms.sensor_measurement(state, **kw)
+            _same_meas(sens, ms._sensor_measurement_py(state, **kw))
+            for c in (C2, np.ascontiguousarray(C2), C2.astype(np.float32)):
+                lse = ms.lse_measurement(1.0, 2.0, c, params)
+                _same_meas(ms.stack_measurements(sens, lse), ms._stack_py(sens, lse))
+            odd = ms._measurement(np.array([1, 2]), np.eye(2, 11), np.eye(2, dtype=int),
+                                  ("a", "b"), (1,), ("k", None), np.eye(3), (5.0,),
+                                  ((0,), (1,)))
+            _same_meas(ms.stack_measurements(sens, odd), ms._stack_py(sens, odd))
+
+
+def test_pure_env_builds_measurements_with_numpy(monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    monkeypatch.setattr(ms, "_K", ms._UNRESOLVED)
+    state = FilterState(0.0, np.zeros(11), np.eye(11))
+    kw = dict(depth_m=1.5, log_ms=2.0, params=FilterParams())
+    _same_meas(ms.sensor_measurement(state, **kw), ms._sensor_measurement_py(state, **kw))
+    assert ms._K is None
+
+
+@settings(max_examples=100, deadline=None)
+@given(x=st.floats(-1e7, 1e7), y=st.floats(-1e7, 1e7),
+       c2=st.lists(st.floats(-1e6, 1e6), min_size=4, max_size=4), frac=st.floats(0.0, 0.99),
+       coloured=st.booleans(), layout=st.sampled_from(["C", "F", "f32", "list", "np"]))
+def test_lse_rows_are_the_same(x, y, c2, frac, coloured, layout):
+    params = FilterParams(coloured=coloured, fix_sigma_frac=frac)
+    C = np.array(c2).reshape(2, 2)
+    C2 = {"C": C, "F": np.asfortranarray(C), "f32": C.astype(np.float32),
+          "list": C.tolist(), "np": C}[layout]
+    xs = (np.float64(x), np.float64(y)) if layout == "np" else (x, y)
+    _same_meas(ms.lse_measurement(*xs, C2, params), ms._lse_py(*xs, C2, params))
+    _same_meas(ms.lse_measurement(*xs, C2), ms._lse_py(*xs, C2))
