@@ -14,11 +14,13 @@
  *   - the geodesic inverse is PROJ's geod_inverse, the very function pyproj's Geod calls, looked
  *     up in pyproj's bundled libproj (engine/geodesy/ellipsoidal.py binds it through ctypes) and
  *     called on a geod_geodesic initialised by geod_init with pyproj's (a, f).
+ *   - lane_sigma's row @ cov @ row is numpy's matmul: cblas_dgemv (RowMajor, Trans) for the
+ *     vector @ matrix, then DOUBLE_dot's 0.0 + cblas_ddot, numpy's own OpenBLAS routines
+ *     (addresses from engine.native.blas, bound on first use).
  * Functions given arguments of other types than the Python fast path sees (not floats, not
  * tuples/lists of the expected lengths) return NotImplemented: the caller then runs its Python.
  */
-#define PY_SSIZE_T_CLEAN
-#include <Python.h>
+#include "uvn_blas.h" /* the BLAS typedefs (PY_SSIZE_T_CLEAN, Python.h) */
 #include <math.h>
 #include <errno.h>
 #include <string.h>
@@ -793,6 +795,80 @@ static PyObject *py_vcv_m2(PyObject *m, PyObject *args)
                          out[1][1], out[1][2], out[2][0], out[2][1], out[2][2]);
 }
 
+/* ------------------------------------------------------------------ lane_sigma */
+static uvn_dgemv_t p_dgemv = NULL;
+static uvn_ddot_t p_ddot = NULL;
+
+/* A C-contiguous native float64 buffer of ndim dims with these shape entries, else 1. */
+static int f64_buffer(PyObject *o, Py_buffer *v, int ndim, const Py_ssize_t *shape)
+{
+    if (!PyObject_CheckBuffer(o) || PyObject_GetBuffer(o, v, PyBUF_RECORDS_RO) < 0) {
+        PyErr_Clear();
+        return 1;
+    }
+    if (v->ndim != ndim || v->itemsize != 8 || v->format == NULL
+        || !(strcmp(v->format, "d") == 0 || strcmp(v->format, "<d") == 0)
+        || v->suboffsets != NULL || !PyBuffer_IsContiguous(v, 'C'))
+        goto no;
+    for (int i = 0; i < ndim; i++)
+        if (v->shape[i] != shape[i])
+            goto no;
+    return 0;
+no:
+    PyBuffer_Release(v);
+    return 1;
+}
+
+/* lane_sigma(row, cov) -> decca._lane_sigma_py(row, cov) = sqrt(max(float(row @ cov @ row),
+ * 0.0)) for a contiguous float64 row (2,) and a C-contiguous float64 cov (2, 2), through
+ * numpy's matmul routines: y = dgemv(RowMajor, Trans, 2, 2, 1.0, cov, 2, row, 1, 0.0, y, 1),
+ * then DOUBLE_dot's sum = 0.0; sum += ddot(2, y, 1, row, 1). NotImplemented otherwise. */
+static PyObject *py_lane_sigma(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
+    Py_buffer vr, vc;
+    double y[2], sum, q;
+    if (nargs != 2 || p_dgemv == NULL || p_ddot == NULL)
+        Py_RETURN_NOTIMPLEMENTED;
+    if (f64_buffer(args[0], &vr, 1, s1))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (f64_buffer(args[1], &vc, 2, s2)) {
+        PyBuffer_Release(&vr);
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    y[0] = y[1] = 0.0;
+    p_dgemv(UvnRowMajor, UvnTrans, 2, 2, 1.0, (const double *)vc.buf, 2,
+            (const double *)vr.buf, 1, 0.0, y, 1);
+    sum = 0.;
+    sum += p_ddot(2, y, 1, (const double *)vr.buf, 1);
+    PyBuffer_Release(&vr);
+    PyBuffer_Release(&vc);
+    q = (0.0 > sum) ? 0.0 : sum; /* max(q, 0.0) */
+    return PyFloat_FromDouble(sqrt(q));
+}
+
+/* _bind_blas(cblas_dgemv address, cblas_ddot address): numpy's (ILP64) routines. */
+static PyObject *py_bind_blas(PyObject *m, PyObject *args)
+{
+    PyObject *a, *b;
+    void *pa, *pb;
+    if (!PyArg_ParseTuple(args, "OO:_bind_blas", &a, &b))
+        return NULL;
+    pa = PyLong_AsVoidPtr(a);
+    if (pa == NULL && PyErr_Occurred())
+        return NULL;
+    pb = PyLong_AsVoidPtr(b);
+    if (pb == NULL && PyErr_Occurred())
+        return NULL;
+    if (pa == NULL || pb == NULL) {
+        PyErr_SetString(PyExc_ValueError, "null routine address");
+        return NULL;
+    }
+    p_dgemv = (uvn_dgemv_t)pa;
+    p_ddot = (uvn_ddot_t)pb;
+    Py_RETURN_NONE;
+}
+
 /* _bind_geod(geod_init address, geod_inverse address) */
 static PyObject *py_bind_geod(PyObject *m, PyObject *args)
 {
@@ -836,6 +912,10 @@ static PyMethodDef methods[] = {
     {"linearise", (PyCFunction)(void (*)(void))py_linearise, METH_FASTCALL,
      "DeccaObservations.linearise's rows and VCV block."},
     {"vcv_m2", (PyCFunction)py_vcv_m2, METH_VARARGS, "_vcv_m2(_vcv_core(...), k)."},
+    {"lane_sigma", (PyCFunction)(void (*)(void))py_lane_sigma, METH_FASTCALL,
+     "decca.lane_sigma through numpy's dgemv and ddot."},
+    {"_bind_blas", (PyCFunction)py_bind_blas, METH_VARARGS,
+     "Bind numpy's cblas_dgemv and cblas_ddot (addresses)."},
     {"_bind_geod", (PyCFunction)py_bind_geod, METH_VARARGS,
      "Bind PROJ's geod_init and geod_inverse (addresses)."},
     {"geod_bound", (PyCFunction)py_geod_bound, METH_NOARGS, "True once _bind_geod ran."},

@@ -580,9 +580,43 @@ class ZoneLaneResolver:
         return self.resolve(i, zone_lane, fraction)
 
 
+_UNSET: Any = object()
+_SIGMA: Any = _UNSET
+"""The kernel's ``lane_sigma`` with numpy's dgemv/ddot bound (resolved on first use), or None."""
+
+
+def _sigma_kernel() -> Any:
+    """Bind numpy's ``cblas_dgemv``/``cblas_ddot`` (engine.native.blas) to the kernel once;
+    its ``lane_sigma``, or None (no kernel, numpy not on its bundled OpenBLAS)."""
+    global _SIGMA
+    k = None
+    if _K is not None:
+        from engine.native import blas
+
+        addresses = blas.numpy_cblas()
+        if addresses is not None:
+            _K._bind_blas(addresses["dgemv"], addresses["ddot"])
+            k = _K.lane_sigma
+    _SIGMA = k
+    return k
+
+
 def lane_sigma(row: np.ndarray, cov: np.ndarray) -> float:
     """1σ (lanes) along a lane gradient ``row`` (lanes/m, ∂N/∂(x, y)) of a position whose 2×2
-    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ)."""
+    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ). :func:`_lane_sigma_py`, through numpy's
+    matmul routines from C where the kernel is (float64 contiguous arrays)."""
+    k = _SIGMA
+    if k is _UNSET:
+        k = _sigma_kernel()
+    if k is not None and _K is not None:
+        r = k(row, cov)
+        if r is not NotImplemented:
+            return r  # type: ignore[no-any-return]
+    return _lane_sigma_py(row, cov)
+
+
+def _lane_sigma_py(row: np.ndarray, cov: np.ndarray) -> float:
+    """:func:`lane_sigma` through numpy (the pure path)."""
     r = np.asarray(row, dtype=float)
     return math.sqrt(max(float(r @ np.asarray(cov, dtype=float) @ r), 0.0))
 

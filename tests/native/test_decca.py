@@ -163,6 +163,11 @@ def test_lanes_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
         with _Pure():
             pure = decca._LaneAt(placed, PURE)._lanes_py(src)
         assert hexes(fast) == hexes(pure)
+        for i in range(3):
+            got = decca._LaneAt(placed, FAST)(src, i)
+            with _Pure():
+                want = decca._LaneAt(placed, PURE)(src, i)
+            assert hexes(got) == hexes(want)
 
 
 # --------------------------------------------------------------------------- around them
@@ -226,6 +231,37 @@ def test_vcv_anywhere(dm: float, ds: tuple[float, float, float], cf: float,
                       k: tuple[float, float, float]) -> None:
     want = decca._vcv_m2(decca._vcv_core(dm, list(ds), SC.baseline_sky, cf), k)
     assert hexes(K.vcv_m2(dm, ds, SC.baseline_sky, cf, k)) == hexes(want)
+
+
+_ROW = st.floats(-1e-1, 1e-1) | st.sampled_from([0.0, -0.0, 1e-300, math.nan, math.inf])
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # numpy's FPE note on inf·0 (not C's)
+@settings(max_examples=300, deadline=None)
+@given(row=st.tuples(_ROW, _ROW), c=st.tuples(*[st.floats(-1e6, 1e6)] * 4),
+       sym=st.booleans(), pick=st.integers(0, 2))
+def test_lane_sigma_anywhere(row: tuple[float, float], c: tuple[float, ...], sym: bool,
+                             pick: int) -> None:
+    """numpy's matmul (dgemv, then 0.0 + ddot) called from C: the same bits, for symmetric and
+    general 2×2 matrices and a row that is a view into a 3×2 array (as _LaneAt passes it)."""
+    rows = np.zeros((3, 2))
+    rows[pick] = row
+    cov = np.array([[c[0], c[1]], [c[1] if sym else c[2], c[3]]])
+    r = rows[pick]
+    with _Pure():
+        want = outcome(decca.lane_sigma, r, cov)
+    assert outcome(decca.lane_sigma, r, cov) == want
+    assert decca._SIGMA is not None
+
+
+def test_lane_sigma_of_other_types_is_numpys() -> None:
+    for row, cov in (([1e-3, 2e-3], [[4.0, 1.0], [1.0, 9.0]]),
+                     (np.array([1e-3, 2e-3], dtype=np.float32), np.eye(2)),
+                     (np.array([1e-3, 2e-3, 0.0])[::2], np.eye(2)),
+                     (np.array([1e-3, 2e-3]), np.asfortranarray([[4.0, 1.0], [2.0, 9.0]]))):
+        with _Pure():
+            want = outcome(decca.lane_sigma, row, cov)
+        assert outcome(decca.lane_sigma, row, cov) == want
 
 
 def test_sync_constants_are_pythons() -> None:
