@@ -847,6 +847,66 @@ static PyObject *py_lane_sigma(PyObject *m, PyObject *const *args, Py_ssize_t na
     return PyFloat_FromDouble(sqrt(q));
 }
 
+/* sigma of lane_sigma into *out: 0, 1 (not the fast path's buffers) */
+static int sigma_of(PyObject *row, PyObject *cov, double *out)
+{
+    static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
+    Py_buffer vr, vc;
+    double y[2], sum;
+    if (p_dgemv == NULL || p_ddot == NULL || f64_buffer(row, &vr, 1, s1))
+        return 1;
+    if (f64_buffer(cov, &vc, 2, s2)) {
+        PyBuffer_Release(&vr);
+        return 1;
+    }
+    y[0] = y[1] = 0.0;
+    p_dgemv(UvnRowMajor, UvnTrans, 2, 2, 1.0, (const double *)vc.buf, 2,
+            (const double *)vr.buf, 1, 0.0, y, 1);
+    sum = 0.;
+    sum += p_ddot(2, y, 1, (const double *)vr.buf, 1);
+    PyBuffer_Release(&vr);
+    PyBuffer_Release(&vc);
+    *out = sqrt((0.0 > sum) ? 0.0 : sum);
+    return 0;
+}
+
+/* lane_check(n_calc, row, cov, frac, total, sigma_max) -> (value, slip): the numbers of
+ * decca._gps_lane_check_py once GPS's lane (n_calc, row) is known: (total, 0) when GPS does
+ * not settle the lane (sigma > sigma_max or NaN) or the count agrees with it, else
+ * (identify_lane(n_calc, frac), round(total - expected)). NotImplemented for arguments or
+ * values where the Python would raise or take another path (non-finite, other types). */
+static PyObject *py_lane_check(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    double n_calc, frac, total, smax, sigma, d, fl, expected, x, rounded;
+    PyObject *slip;
+    if (nargs != 6 || arg_float(args[0], &n_calc) || arg_float(args[3], &frac)
+        || arg_float(args[4], &total) || arg_float(args[5], &smax)
+        || sigma_of(args[1], args[2], &sigma))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (!(sigma <= smax))
+        return Py_BuildValue("(Oi)", args[4], 0);
+    /* identify_lane = track_lane(n_calc, frac); math.floor's int converts back exactly */
+    if (!isfinite(n_calc))
+        Py_RETURN_NOTIMPLEMENTED;
+    fl = floor(n_calc);
+    d = frac - (n_calc - fl);
+    if (!isfinite(d + 0.5))
+        Py_RETURN_NOTIMPLEMENTED;
+    expected = n_calc + (d - floor(d + 0.5));
+    x = total - expected;
+    if (!isfinite(x))
+        Py_RETURN_NOTIMPLEMENTED;
+    rounded = round(x); /* float.__round__ without ndigits: half to even */
+    if (fabs(x - rounded) == 0.5)
+        rounded = 2.0 * round(x / 2.0);
+    if (rounded == 0.0)
+        return Py_BuildValue("(Oi)", args[4], 0);
+    slip = PyLong_FromDouble(rounded);
+    if (slip == NULL)
+        return NULL;
+    return Py_BuildValue("(dN)", expected, slip);
+}
+
 /* _bind_blas(cblas_dgemv address, cblas_ddot address): numpy's (ILP64) routines. */
 static PyObject *py_bind_blas(PyObject *m, PyObject *args)
 {
@@ -914,6 +974,8 @@ static PyMethodDef methods[] = {
     {"vcv_m2", (PyCFunction)py_vcv_m2, METH_VARARGS, "_vcv_m2(_vcv_core(...), k)."},
     {"lane_sigma", (PyCFunction)(void (*)(void))py_lane_sigma, METH_FASTCALL,
      "decca.lane_sigma through numpy's dgemv and ddot."},
+    {"lane_check", (PyCFunction)(void (*)(void))py_lane_check, METH_FASTCALL,
+     "decca._gps_lane_check's numbers: (value, slip)."},
     {"_bind_blas", (PyCFunction)py_bind_blas, METH_VARARGS,
      "Bind numpy's cblas_dgemv and cblas_ddot (addresses)."},
     {"_bind_geod", (PyCFunction)py_bind_geod, METH_VARARGS,

@@ -41,6 +41,8 @@ None (not built, stale, ``UVNAV_PURE=1``): then the ``_..._py`` functions below 
 functions return NotImplemented for arguments the fast path does not take (then the Python
 runs as well)."""
 
+_KGeodesic: Any = None if _K is None else _K.Geodesic
+
 PATTERNS: tuple[str, str, str] = ("red", "green", "purple")
 """Pattern order used everywhere (slots 3–5 of the LS observation vector)."""
 
@@ -284,8 +286,11 @@ def _geodesic_kernel(geodesic: GeodesicSolver) -> Any:
     in use, else None (a solver without one: the Python path)."""
     if _K is None:
         return None
-    g = getattr(geodesic, "native", None)
-    return None if g is None else g()
+    g = getattr(geodesic, "_native", None)
+    if g is None or type(g) is _KGeodesic:
+        return g
+    native_of = getattr(geodesic, "native", None)  # not resolved yet (or not a solver)
+    return None if native_of is None else native_of()
 
 
 def _lef_py(az: list[float]) -> list[float]:
@@ -679,6 +684,15 @@ class _LaneAt:
         return n_calc, np.array([[row_x[0], row_y[0]], [row_x[1], row_y[1]],
                                  [row_x[2], row_y[2]]])
 
+    def lanes_at(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
+        """:meth:`_lanes` at ``src``, cached per source name."""
+        cache = self.cache
+        name = src.name
+        if name in cache:
+            return cache[name]
+        g = cache[name] = self._lanes(src)
+        return g
+
     def __call__(self, src: LaneSource, i: int) -> tuple[float, float] | None:
         cache = self.cache
         name = src.name
@@ -729,6 +743,31 @@ def _identify_after_gap(at: _LaneAt, i: int, frac: float, sources: Sequence[Lane
 
 def _gps_lane_check(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSource,
                     notes: list[str]) -> tuple[float, int]:
+    """:func:`_gps_lane_check_py`, its numbers (σ along the gradient, the lane, the slip) in
+    one compiled call where the kernel is."""
+    if _K is not None and _SIGMA is not None:
+        g = at.lanes_at(gps)
+        if g is None:
+            return total, 0
+        r = _K.lane_check(g[0][i], g[1][i], gps.cov, frac, total, LANE_SIGMA_MAX)
+        if r is not NotImplemented:
+            expected, slip = r
+            if slip == 0:
+                return total, 0
+            notes.append(_slip_note(i, slip, total, expected))
+            return expected, 1
+    return _gps_lane_check_py(at, i, frac, total, gps, notes)
+
+
+def _slip_note(i: int, slip: int, total: float, expected: float) -> str:
+    """The operator note of a lane slip of pattern ``i`` corrected from GPS."""
+    return (f"Decca {PATTERNS[i]}: lane slip of {slip:+d} lane"
+            f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
+            f"({total:.2f} → {expected:.2f})")
+
+
+def _gps_lane_check_py(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSource,
+                       notes: list[str]) -> tuple[float, int]:
     """``total`` checked against GPS's lane when GPS settles it: (total, 1) corrected to GPS's
     lane with a note for a slip of a whole lane or more, else (total, 0)."""
     lane = at(gps, i)
@@ -738,9 +777,7 @@ def _gps_lane_check(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSou
     slip = round(total - expected)
     if slip == 0:
         return total, 0
-    notes.append(f"Decca {PATTERNS[i]}: lane slip of {slip:+d} lane"
-                 f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
-                 f"({total:.2f} → {expected:.2f})")
+    notes.append(_slip_note(i, slip, total, expected))
     return expected, 1
 
 

@@ -89,9 +89,14 @@ def outcome(f: Any, *args: Any) -> Any:
 @pytest.fixture(scope="module")
 def replay_values() -> dict[str, list[Any]]:
     """Arguments of the Decca work in the first 120 demo epochs (linearise, _LaneAt._lanes)."""
-    got: dict[str, list[Any]] = {"lin": [], "lanes": []}
+    got: dict[str, list[Any]] = {"lin": [], "lanes": [], "totals": []}
     orig_lin = decca.DeccaObservations.linearise
     orig_lanes = decca._LaneAt._lanes
+    orig_totals = decca.decca_totals
+
+    def totals(*args: Any) -> Any:
+        got["totals"].append(args)
+        return orig_totals(*args)
 
     def lin(self: Any, p: Point, slot0: int, A: list[float], b: list[float], Cl: Any) -> None:
         got["lin"].append((self, p.x, p.y, p.latlon, slot0, len(A), len(b), Cl.shape))
@@ -103,6 +108,7 @@ def replay_values() -> dict[str, list[Any]]:
 
     decca.DeccaObservations.linearise = lin  # type: ignore[method-assign]
     decca._LaneAt._lanes = lanes  # type: ignore[method-assign]
+    decca.decca_totals = totals
     try:
         with tempfile.TemporaryDirectory() as tmp:
             s = Session(load_config(DATA / "DEMO.toml"), out_path=Path(tmp) / "D.OUT",
@@ -114,6 +120,7 @@ def replay_values() -> dict[str, list[Any]]:
     finally:
         decca.DeccaObservations.linearise = orig_lin  # type: ignore[method-assign]
         decca._LaneAt._lanes = orig_lanes  # type: ignore[method-assign]
+        decca.decca_totals = orig_totals
     assert len(got["lin"]) > 100 and len(got["lanes"]) > 100
     return got
 
@@ -168,6 +175,54 @@ def test_lanes_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
             with _Pure():
                 want = decca._LaneAt(placed, PURE)(src, i)
             assert hexes(got) == hexes(want)
+
+
+def test_lane_totals_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
+    """decca_totals (the GPS lane check, _LaneAt, lane_sigma) as the replay called it."""
+    assert len(replay_values["totals"]) > 100
+    for placed, _geodesic, *rest in replay_values["totals"]:
+        got = decca.decca_totals(placed, FAST, *rest)
+        with _Pure():
+            want = decca.decca_totals(placed, PURE, *rest)
+        assert hexes(got.totals) == hexes(want.totals)
+        assert (got.track, got.notes, got.slips) == (want.track, want.notes, want.slips)
+
+
+class _At:
+    """A _LaneAt whose lanes are given (n_calc per pattern, 3×2 rows)."""
+
+    def __init__(self, n: list[float], rows: np.ndarray) -> None:
+        self.g = (n, rows)
+
+    def lanes_at(self, src: Any) -> Any:
+        return self.g
+
+    def __call__(self, src: Any, i: int) -> Any:
+        return self.g[0][i], decca.lane_sigma(self.g[1][i], src.cov)
+
+
+@settings(max_examples=300, deadline=None)
+@given(n=st.floats(-1e5, 1e5), frac=st.floats(0.0, 1.0, exclude_max=True),
+       off=st.sampled_from([0.0, 0.5, -0.5, 1.0, -1.0, 1.5, 2.5, -2.5, 3.0, 0.4999999999]) |
+       st.floats(-5.0, 5.0), var=st.sampled_from([1.0, 25.0, 400.0, 1e4]),
+       grad=st.tuples(st.floats(-2e-2, 2e-2), st.floats(-2e-2, 2e-2)), i=st.integers(0, 2))
+def test_gps_lane_check_anywhere(n: float, frac: float, off: float, var: float,
+                                 grad: tuple[float, float], i: int) -> None:
+    """The lane check's σ, lane and slip (round half to even) and its note, as the Python."""
+    decca.lane_sigma(np.zeros(2), np.eye(2))  # the BLAS bound
+    rows = np.zeros((3, 2))
+    rows[i] = grad
+    at = _At([n, n + 1.0, n - 1.0], rows)
+    total = decca.identify_lane(at.g[0][i], frac) + off
+    gps = decca.LaneSource("GPS", 0.0, 0.0, np.eye(2) * var)
+    notes: list[str] = []
+    got = decca._gps_lane_check(at, i, frac, total, gps, notes)  # type: ignore[arg-type]
+    with _Pure():
+        want_notes: list[str] = []
+        want = decca._gps_lane_check_py(at, i, frac, total, gps,  # type: ignore[arg-type]
+                                        want_notes)
+    assert (hexes(got[0]), got[1], notes) == (hexes(want[0]), want[1], want_notes)
+    assert type(got[1]) is int
 
 
 # --------------------------------------------------------------------------- around them
