@@ -339,6 +339,11 @@ class GeodesicSolver:
         self._inv_point = point if point is not None else self._inv_fallback
         self._native: Any = _UNSET
 
+    def __reduce__(self) -> tuple[Any, tuple[Ellipsoid]]:
+        """Pickled (and copied) as its ellipsoid: a copy builds its own Geod and resolves its
+        own compiled geodesic."""
+        return GeodesicSolver, (self.ellipsoid,)
+
     def native(self) -> Any:
         """The compiled geodesic (``engine.native.decca.Geodesic``: PROJ's ``geod_geodesic``
         initialised by ``geod_init`` with this Geod's a and f, as pyproj does), or None where
