@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import cache
 from typing import Any
 
 from engine.geodesy.ellipsoid import WGS84, WGS84_ELLIPSOID, Datum, Ellipsoid
@@ -271,13 +272,61 @@ def wgs84_fix_ecef(lat_deg: float, lon_deg: float, h_datum_m: float) -> tuple[fl
 
 
 # --------------------------------------------------------------------------- geodesics
+_UNSET: Any = object()
+"""A :class:`GeodesicSolver`'s compiled geodesic before it is resolved (first use)."""
+
+_PROBE_POINTS: tuple[tuple[float, float, float, float], ...] = (
+    (3.1, 53.2, 4.9, 52.4), (-1.25, 57.7, 2.0, 58.9), (5.0, 0.0, 5.0, 0.0),
+    (0.0, 0.0, 179.5, 0.5), (-179.9, 89.9, 179.9, -89.9), (10.0, -45.0, -170.0, 45.0),
+    (0.0, 90.0, 33.0, 10.0), (1e-9, 52.0, -1e-9, 52.0), (120.0, -33.8, 151.2, -33.9),
+)
+"""(lon1, lat1, lon2, lat2) degrees on which the compiled geodesic must give pyproj's bits:
+near and far lines, a zero-length line, near-antipodal and polar ones."""
+
+
+@cache
+def _geod_kernel() -> Any:
+    """``engine.native.decca`` with PROJ's ``geod_init``/``geod_inverse`` bound (looked up
+    through ctypes in pyproj's bundled libproj, the library pyproj's Geod calls), or None: the
+    kernel is not built, ``UVNAV_PURE=1``, or pyproj is not a wheel with its own libproj."""
+    from engine import native
+
+    k = native.kernel("decca")
+    if k is None:
+        return None
+    if not k.geod_bound():
+        import ctypes
+        import importlib.util
+        from pathlib import Path
+
+        spec = importlib.util.find_spec("pyproj")
+        if spec is None or spec.origin is None:
+            return None
+        libs = sorted((Path(spec.origin).parent.parent / "pyproj.libs").glob("libproj*.so*"))
+        if len(libs) != 1:
+            return None
+        try:
+            lib = ctypes.CDLL(str(libs[0]))
+            init = ctypes.cast(lib.geod_init, ctypes.c_void_p).value
+            inverse = ctypes.cast(lib.geod_inverse, ctypes.c_void_p).value
+        except (OSError, AttributeError):
+            return None
+        if not init or not inverse:
+            return None
+        k._bind_geod(init, inverse)
+    return k
+
+
 class GeodesicSolver:
     """Exact geodesic problems on one ellipsoid (Karney's algorithm through ``pyproj.Geod``).
 
-    Build once per ellipsoid; :meth:`inverse` is then cheap.
+    Build once per ellipsoid; :meth:`inverse` is then cheap. The per-epoch azimuths
+    (:meth:`forward_azimuths_rad`) call PROJ's ``geod_inverse`` from the compiled
+    ``engine.native.decca`` where it is built (:meth:`native`; the same C function on the same
+    ``geod_geodesic``, so the same bits), else pyproj's scalar inverse.
     """
 
-    __slots__ = ("ellipsoid", "_geod", "_inv_point")
+    __slots__ = ("ellipsoid", "_geod", "_inv_point", "_native")
 
     def __init__(self, ell: Ellipsoid) -> None:
         self.ellipsoid = ell
@@ -288,6 +337,30 @@ class GeodesicSolver:
         # same bits), called without the wrapper's frame; Geod.inv where pyproj lacks it.
         point = getattr(self._geod, "_inv_point", None)
         self._inv_point = point if point is not None else self._inv_fallback
+        self._native: Any = _UNSET
+
+    def __reduce__(self) -> tuple[Any, tuple[Ellipsoid]]:
+        """Pickled (and copied) as its ellipsoid: a copy builds its own Geod and resolves its
+        own compiled geodesic."""
+        return GeodesicSolver, (self.ellipsoid,)
+
+    def native(self) -> Any:
+        """The compiled geodesic (``engine.native.decca.Geodesic``: PROJ's ``geod_geodesic``
+        initialised by ``geod_init`` with this Geod's a and f, as pyproj does), or None where
+        the kernel is not available or fails the bit check against pyproj on
+        :data:`_PROBE_POINTS`. Resolved on first use."""
+        g = self._native
+        if g is _UNSET:
+            g = None
+            k = _geod_kernel()
+            point = getattr(self._geod, "_inv_point", None)
+            if k is not None and point is not None:
+                cand = k.Geodesic(float(self._geod.a), float(self._geod.f))
+                if all(list(map(float.hex, cand.inverse_point(*q)))
+                       == list(map(float.hex, point(*q, False, False))) for q in _PROBE_POINTS):
+                    g = cand
+            self._native = g
+        return g
 
     def _inv_fallback(self, lon1: float, lat1: float, lon2: float, lat2: float,
                       radians: bool, back: bool) -> tuple[float, float, float]:
@@ -320,7 +393,18 @@ class GeodesicSolver:
     ) -> list[float]:
         """Forward azimuths (degrees, [0, 360)) from one point to each (lat, lon) of ``points``
         (degrees): :meth:`azimuth_distance`'s azimuths in one call (the Decca geometry's ship →
-        station azimuths, four per evaluation)."""
+        station azimuths, four per evaluation); compiled where :meth:`native` is."""
+        g = self._native
+        if g is _UNSET:
+            g = self.native()
+        if g is not None:
+            return g.forward_azimuths_deg(lat1_deg, lon1_deg, points)  # type: ignore[no-any-return]
+        return self._forward_azimuths_deg_py(lat1_deg, lon1_deg, points)
+
+    def _forward_azimuths_deg_py(
+        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
+    ) -> list[float]:
+        """:meth:`forward_azimuths_deg` through pyproj's scalar inverse (the pure path)."""
         inv = self._inv_point
         return [inv(lon1_deg, lat1_deg, lon2, lat2, False, False)[0] % 360.0
                 for lat2, lon2 in points]
@@ -328,7 +412,19 @@ class GeodesicSolver:
     def forward_azimuths_rad(
         self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
     ) -> list[float]:
-        """:meth:`forward_azimuths_deg` in radians (``math.radians`` of each, [0, 2π])."""
+        """:meth:`forward_azimuths_deg` in radians (``math.radians`` of each, [0, 2π]);
+        compiled where :meth:`native` is."""
+        g = self._native
+        if g is _UNSET:
+            g = self.native()
+        if g is not None:
+            return g.forward_azimuths_rad(lat1_deg, lon1_deg, points)  # type: ignore[no-any-return]
+        return self._forward_azimuths_rad_py(lat1_deg, lon1_deg, points)
+
+    def _forward_azimuths_rad_py(
+        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
+    ) -> list[float]:
+        """:meth:`forward_azimuths_rad` through pyproj's scalar inverse (the pure path)."""
         inv = self._inv_point
         radians = math.radians
         return [radians(inv(lon1_deg, lat1_deg, lon2, lat2, False, False)[0] % 360.0)

@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from engine import native
 from engine.geodesy.ellipsoidal import (
     DatumShift,
     GeodesicSolver,
@@ -33,6 +34,14 @@ from engine.systems.base import (
     Point,
     SystemReading,
 )
+
+_K: Any = native.kernel("decca")
+"""The compiled lane model (``engine/native/decca.c``: the same operations, the same bits) or
+None (not built, stale, ``UVNAV_PURE=1``): then the ``_..._py`` functions below run. Its
+functions return NotImplemented for arguments the fast path does not take (then the Python
+runs as well)."""
+
+_KGeodesic: Any = None if _K is None else _K.Geodesic
 
 PATTERNS: tuple[str, str, str] = ("red", "green", "purple")
 """Pattern order used everywhere (slots 3–5 of the LS observation vector)."""
@@ -195,6 +204,17 @@ class DeccaGeometry:
 def _lane_model(
     sc: _ChainScalars, x_m: float, y_m: float, lat0: float
 ) -> tuple[list[float], list[float], list[float], list[float]]:
+    """:func:`_lane_model_py`, compiled where the kernel is (the same bits)."""
+    if _K is not None:
+        r = _K.lane_model(sc, x_m, y_m, lat0)
+        if r is not NotImplemented:
+            return r  # type: ignore[no-any-return]
+    return _lane_model_py(sc, x_m, y_m, lat0)
+
+
+def _lane_model_py(
+    sc: _ChainScalars, x_m: float, y_m: float, lat0: float
+) -> tuple[list[float], list[float], list[float], list[float]]:
     """(D per station (m), N_calc per pattern (lanes), ∂N/∂x and ∂N/∂y per pattern (lanes/m))
     at grid point (x, y) of geodetic latitude ``lat0`` (degrees); stations master, red, green,
     purple, patterns red, green, purple.
@@ -252,7 +272,29 @@ def _azimuths_rad(
 
 
 def _lef(az: list[float]) -> list[float]:
-    """Lane expansion factor 1/sin(γ/2) per pattern, γ the angle master–ship–slave (eq. 4.12)."""
+    """Lane expansion factor 1/sin(γ/2) per pattern, γ the angle master–ship–slave (eq. 4.12);
+    :func:`_lef_py`, compiled where the kernel is."""
+    if _K is not None:
+        r = _K.lef(az)
+        if r is not NotImplemented:
+            return r  # type: ignore[no-any-return]
+    return _lef_py(az)
+
+
+def _geodesic_kernel(geodesic: GeodesicSolver) -> Any:
+    """The solver's compiled geodesic (:meth:`GeodesicSolver.native`) while the lane kernel is
+    in use, else None (a solver without one: the Python path)."""
+    if _K is None:
+        return None
+    g = getattr(geodesic, "_native", None)
+    if g is None or type(g) is _KGeodesic:
+        return g
+    native_of = getattr(geodesic, "native", None)  # not resolved yet (or not a solver)
+    return None if native_of is None else native_of()
+
+
+def _lef_py(az: list[float]) -> list[float]:
+    """:func:`_lef` in Python (the pure path)."""
     out = []
     az0 = az[0]
     for s in (1, 2, 3):
@@ -264,6 +306,37 @@ def _lef(az: list[float]) -> list[float]:
 
 
 def decca_geometry(
+    placed: ChainOnGrid,
+    x_m: float,
+    y_m: float,
+    geodesic: GeodesicSolver,
+    latlon_deg: tuple[float, float] | None = None,
+) -> DeccaGeometry:
+    """:func:`_decca_geometry_py` (lane counts, partials, LEF and LOP azimuths at grid point
+    (x, y), eq. 4.9, A5.9–12), its numbers computed in one compiled call where the kernel is."""
+    kg = _geodesic_kernel(geodesic)
+    if kg is not None:
+        lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
+        r = _K.geometry(placed._scalars, kg, x_m, y_m, lat0, lon0)
+        if r is not NotImplemented:
+            d_master, az_master, values = r
+            block = np.array(values)
+            return DeccaGeometry(
+                d_master_m=d_master,
+                az_master_rad=az_master,
+                d_slave_m=block[0:3],
+                az_slave_rad=block[3:6],
+                baseline_m=placed.baseline_m,
+                lef=block[6:9],
+                metres_per_lane=block[9:12],
+                lop_azimuth_rad=block[12:15],
+                n_calc=block[15:18],
+                row=block[18:24].reshape(3, 2),
+            )
+    return _decca_geometry_py(placed, x_m, y_m, geodesic, latlon_deg)
+
+
+def _decca_geometry_py(
     placed: ChainOnGrid,
     x_m: float,
     y_m: float,
@@ -512,9 +585,43 @@ class ZoneLaneResolver:
         return self.resolve(i, zone_lane, fraction)
 
 
+_UNSET: Any = object()
+_SIGMA: Any = _UNSET
+"""The kernel's ``lane_sigma`` with numpy's dgemv/ddot bound (resolved on first use), or None."""
+
+
+def _sigma_kernel() -> Any:
+    """Bind numpy's ``cblas_dgemv``/``cblas_ddot`` (engine.native.blas) to the kernel once;
+    its ``lane_sigma``, or None (no kernel, numpy not on its bundled OpenBLAS)."""
+    global _SIGMA
+    k = None
+    if _K is not None:
+        from engine.native import blas
+
+        addresses = blas.numpy_cblas()
+        if addresses is not None:
+            _K._bind_blas(addresses["dgemv"], addresses["ddot"])
+            k = _K.lane_sigma
+    _SIGMA = k
+    return k
+
+
 def lane_sigma(row: np.ndarray, cov: np.ndarray) -> float:
     """1σ (lanes) along a lane gradient ``row`` (lanes/m, ∂N/∂(x, y)) of a position whose 2×2
-    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ)."""
+    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ). :func:`_lane_sigma_py`, through numpy's
+    matmul routines from C where the kernel is (float64 contiguous arrays)."""
+    k = _SIGMA
+    if k is _UNSET:
+        k = _sigma_kernel()
+    if k is not None and _K is not None:
+        r = k(row, cov)
+        if r is not NotImplemented:
+            return r  # type: ignore[no-any-return]
+    return _lane_sigma_py(row, cov)
+
+
+def _lane_sigma_py(row: np.ndarray, cov: np.ndarray) -> float:
+    """:func:`lane_sigma` through numpy (the pure path)."""
     r = np.asarray(row, dtype=float)
     return math.sqrt(max(float(r @ np.asarray(cov, dtype=float) @ r), 0.0))
 
@@ -541,6 +648,25 @@ class _LaneAt:
         self.cache: dict[str, tuple[list[float], np.ndarray] | None] = {}
 
     def _lanes(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
+        """:meth:`_lanes_py`, the lane model in one compiled call where the kernel is."""
+        kg = _geodesic_kernel(self.geodesic)
+        if kg is None:
+            return self._lanes_py(src)
+        placed = self.placed
+        try:
+            lat0, lon0 = placed.grid.inverse(src.x_m, src.y_m)
+            r = _K.lanes(placed._scalars, kg, src.x_m, src.y_m, lat0, lon0)
+        except (ValueError, ArithmeticError):
+            return None
+        if r is NotImplemented:
+            return self._lanes_py(src)
+        n_calc, rows = r
+        isfinite = math.isfinite
+        if not (isfinite(n_calc[0]) and isfinite(n_calc[1]) and isfinite(n_calc[2])):
+            return None
+        return n_calc, np.array(rows)
+
+    def _lanes_py(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
         """(N_calc per pattern, 3×2 gradients) at ``src``: :func:`decca_geometry`'s numbers
         without its page data (None where it raises or N_calc is not finite)."""
         placed = self.placed
@@ -557,6 +683,15 @@ class _LaneAt:
             return None
         return n_calc, np.array([[row_x[0], row_y[0]], [row_x[1], row_y[1]],
                                  [row_x[2], row_y[2]]])
+
+    def lanes_at(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
+        """:meth:`_lanes` at ``src``, cached per source name."""
+        cache = self.cache
+        name = src.name
+        if name in cache:
+            return cache[name]
+        g = cache[name] = self._lanes(src)
+        return g
 
     def __call__(self, src: LaneSource, i: int) -> tuple[float, float] | None:
         cache = self.cache
@@ -608,6 +743,31 @@ def _identify_after_gap(at: _LaneAt, i: int, frac: float, sources: Sequence[Lane
 
 def _gps_lane_check(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSource,
                     notes: list[str]) -> tuple[float, int]:
+    """:func:`_gps_lane_check_py`, its numbers (σ along the gradient, the lane, the slip) in
+    one compiled call where the kernel is."""
+    if _K is not None and _SIGMA is not None:
+        g = at.lanes_at(gps)
+        if g is None:
+            return total, 0
+        r = _K.lane_check(g[0][i], g[1][i], gps.cov, frac, total, LANE_SIGMA_MAX)
+        if r is not NotImplemented:
+            expected, slip = r
+            if slip == 0:
+                return total, 0
+            notes.append(_slip_note(i, slip, total, expected))
+            return expected, 1
+    return _gps_lane_check_py(at, i, frac, total, gps, notes)
+
+
+def _slip_note(i: int, slip: int, total: float, expected: float) -> str:
+    """The operator note of a lane slip of pattern ``i`` corrected from GPS."""
+    return (f"Decca {PATTERNS[i]}: lane slip of {slip:+d} lane"
+            f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
+            f"({total:.2f} → {expected:.2f})")
+
+
+def _gps_lane_check_py(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSource,
+                       notes: list[str]) -> tuple[float, int]:
     """``total`` checked against GPS's lane when GPS settles it: (total, 1) corrected to GPS's
     lane with a note for a slip of a whole lane or more, else (total, 0)."""
     lane = at(gps, i)
@@ -617,9 +777,7 @@ def _gps_lane_check(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSou
     slip = round(total - expected)
     if slip == 0:
         return total, 0
-    notes.append(f"Decca {PATTERNS[i]}: lane slip of {slip:+d} lane"
-                 f"{'s' if abs(slip) > 1 else ''} corrected from GPS "
-                 f"({total:.2f} → {expected:.2f})")
+    notes.append(_slip_note(i, slip, total, expected))
     return expected, 1
 
 
@@ -730,6 +888,25 @@ class DeccaObservations:
 
     def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
                   Cl: np.ndarray) -> None:
+        """:meth:`_linearise_py` in one compiled call where the kernel is (and the model's own
+        :func:`decca_vcv_m2` is in place)."""
+        kg = _geodesic_kernel(p.geodesic)
+        if kg is not None and decca_vcv_m2 is _DECCA_VCV_M2:
+            placed = self.reading.placed
+            grid = placed.grid
+            lat0, lon0 = p.latlon if p.grid is grid else grid.inverse(p.x, p.y)
+            r = _K.linearise(placed._scalars, kg, p.x, p.y, lat0, lon0, self.observed, slot0,
+                             A, b, Cl, self.reading.cf)
+            if r is None:
+                return
+            if r is not NotImplemented:  # Cl is not a float64 buffer: numpy assigns the block
+                s = slice(slot0, slot0 + len(PATTERNS))
+                Cl[s, s] = r
+                return
+        self._linearise_py(p, slot0, A, b, Cl)
+
+    def _linearise_py(self, p: Point, slot0: int, A: list[float], b: list[float],
+                      Cl: np.ndarray) -> None:
         """:func:`decca_geometry`'s rows at ``p`` without its page data: lane model, LEF and
         the VCV as Python floats (the same operations; ``p.latlon`` where ``p`` is on the
         chain's grid, as :meth:`geometry_at`)."""

@@ -1,0 +1,1021 @@
+/* Decca hyperbolic lanes: the lane model, the ship -> station azimuths, the LEF, the fix's
+ * Decca rows and VCV, compiled (engine.native.decca).
+ *
+ * Every function does the IEEE operations of the Python it replaces (engine/systems/decca.py:
+ * _lane_model, _lef, decca_geometry, DeccaObservations.linearise, _LaneAt._lanes;
+ * engine/geodesy/ellipsoidal.py: GeodesicSolver.forward_azimuths_rad) in the same order, so the
+ * results are the same bits (docs/PERFORMANCE.md; tests/native/test_decca.py):
+ *   - Python's math.sin/cos/atan2/radians and float ** 2 are glibc's sin/cos/atan2/pow, called
+ *     through volatile pointers (gcc may neither fold pow(x, 2.0) into x*x nor merge sin and
+ *     cos into sincos), with CPython's error rules (math domain error, float division by zero,
+ *     overflow of **);
+ *   - math.hypot is CPython's own (correctly rounded) function, called through its object;
+ *   - float % is CPython's float_rem (fmod, then the sign of the divisor);
+ *   - the geodesic inverse is PROJ's geod_inverse, the very function pyproj's Geod calls, looked
+ *     up in pyproj's bundled libproj (engine/geodesy/ellipsoidal.py binds it through ctypes) and
+ *     called on a geod_geodesic initialised by geod_init with pyproj's (a, f).
+ *   - lane_sigma's row @ cov @ row is numpy's matmul: cblas_dgemv (RowMajor, Trans) for the
+ *     vector @ matrix, then DOUBLE_dot's 0.0 + cblas_ddot, numpy's own OpenBLAS routines
+ *     (addresses from engine.native.blas, bound on first use).
+ * Functions given arguments of other types than the Python fast path sees (not floats, not
+ * tuples/lists of the expected lengths) return NotImplemented: the caller then runs its Python.
+ */
+#include "uvn_blas.h" /* the BLAS typedefs (PY_SSIZE_T_CLEAN, Python.h) */
+#include <math.h>
+#include <errno.h>
+#include <string.h>
+
+#ifndef UVN_SOURCE_DIGEST
+#define UVN_SOURCE_DIGEST "unknown"
+#endif
+
+/* ------------------------------------------------------------------ libm, CPython's rules */
+static double (*volatile v_sin)(double) = sin;
+static double (*volatile v_cos)(double) = cos;
+static double (*volatile v_atan2)(double, double) = atan2;
+static double (*volatile v_pow)(double, double) = pow;
+static double (*volatile v_fmod)(double, double) = fmod;
+
+static const double DEG_TO_RAD = Py_MATH_PI / 180.0; /* CPython mathmodule's degToRad */
+static const double TWO_PI = 2.0 * Py_MATH_PI;        /* decca._TWO_PI */
+static const double HALF_PI = Py_MATH_PI / 2.0;       /* decca._HALF_PI */
+
+static PyObject *math_hypot = NULL; /* math.hypot (CPython's vector_norm) */
+static PyObject *math_atan2 = NULL; /* math.atan2 for non-finite arguments (its special cases) */
+
+static int domain_error(void)
+{
+    PyErr_SetString(PyExc_ValueError, "math domain error");
+    return -1;
+}
+
+static int zero_division(void)
+{
+    PyErr_SetString(PyExc_ZeroDivisionError, "float division by zero");
+    return -1;
+}
+
+/* math.sin / math.cos (math_1, can_overflow 0): NaN from a non-NaN argument or an infinite
+ * result from a finite one is a domain error. */
+static int py_sin(double x, double *out)
+{
+    double r = v_sin(x);
+    if ((isnan(r) && !isnan(x)) || (isinf(r) && isfinite(x)))
+        return domain_error();
+    *out = r;
+    return 0;
+}
+
+static int py_cos(double x, double *out)
+{
+    double r = v_cos(x);
+    if ((isnan(r) && !isnan(x)) || (isinf(r) && isfinite(x)))
+        return domain_error();
+    *out = r;
+    return 0;
+}
+
+/* a / b as Python's float division (ZeroDivisionError for b == 0). */
+#define PYDIV(out, a, b)                  \
+    do {                                  \
+        double den_ = (b);                \
+        if (den_ == 0.0)                  \
+            return zero_division();       \
+        (out) = (a) / den_;               \
+    } while (0)
+
+/* Python's float % (float_rem) for a non-zero divisor w. */
+static double py_mod(double v, double w)
+{
+    double mod = v_fmod(v, w);
+    if (mod) {
+        if ((w < 0) != (mod < 0))
+            mod += w;
+    }
+    else {
+        mod = copysign(0.0, w);
+    }
+    return mod;
+}
+
+/* x ** 2 on a float (float_pow with iw = 2.0). */
+static int py_square(double iv, double *out)
+{
+    double ix;
+    if (isnan(iv)) {
+        *out = iv;
+        return 0;
+    }
+    if (isinf(iv)) {
+        *out = fabs(iv);
+        return 0;
+    }
+    if (iv == 0.0) {
+        *out = 0.0;
+        return 0;
+    }
+    if (iv == 1.0) {
+        *out = 1.0;
+        return 0;
+    }
+    if (iv < 0.0)
+        iv = -iv; /* even integer power: not negated */
+    errno = 0;
+    ix = v_pow(iv, 2.0);
+    if (isinf(ix)) {
+        errno = ERANGE;
+        PyErr_SetFromErrno(PyExc_OverflowError);
+        return -1;
+    }
+    *out = ix;
+    return 0;
+}
+
+/* math.hypot(a, b) through the function object. */
+static int py_hypot(double a, double b, double *out)
+{
+    PyObject *args[2], *r;
+    args[0] = PyFloat_FromDouble(a);
+    if (args[0] == NULL)
+        return -1;
+    args[1] = PyFloat_FromDouble(b);
+    if (args[1] == NULL) {
+        Py_DECREF(args[0]);
+        return -1;
+    }
+    r = PyObject_Vectorcall(math_hypot, args, 2, NULL);
+    Py_DECREF(args[0]);
+    Py_DECREF(args[1]);
+    if (r == NULL)
+        return -1;
+    *out = PyFloat_AS_DOUBLE(r);
+    Py_DECREF(r);
+    return 0;
+}
+
+/* math.atan2(y, x): glibc's atan2 for finite arguments (CPython's m_atan2 only special-cases
+ * NaN, infinities and y == 0, where C99's atan2 gives the same); math.atan2 otherwise. */
+static int py_atan2(double y, double x, double *out)
+{
+    PyObject *args[2], *r;
+    if (isfinite(x) && isfinite(y) && y != 0.0) {
+        *out = v_atan2(y, x);
+        return 0;
+    }
+    args[0] = PyFloat_FromDouble(y);
+    if (args[0] == NULL)
+        return -1;
+    args[1] = PyFloat_FromDouble(x);
+    if (args[1] == NULL) {
+        Py_DECREF(args[0]);
+        return -1;
+    }
+    r = PyObject_Vectorcall(math_atan2, args, 2, NULL);
+    Py_DECREF(args[0]);
+    Py_DECREF(args[1]);
+    if (r == NULL)
+        return -1;
+    *out = PyFloat_AS_DOUBLE(r);
+    Py_DECREF(r);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ PROJ's geodesic */
+typedef void (*geod_init_t)(void *g, double a, double f);
+typedef void (*geod_inverse_t)(const void *g, double lat1, double lon1, double lat2,
+                               double lon2, double *ps12, double *pazi1, double *pazi2);
+static geod_init_t p_geod_init = NULL;
+static geod_inverse_t p_geod_inverse = NULL;
+
+/* struct geod_geodesic is 51 doubles in PROJ's geodesic.h (a, f, f1, e2, ep2, n, b, c2, etol2,
+ * A3x[6], C3x[15], C4x[21]); room for more, aligned, so a later layout still fits. */
+#define GEOD_STRUCT_DOUBLES 128
+
+typedef struct {
+    PyObject_HEAD
+    double a, f;
+    double g[GEOD_STRUCT_DOUBLES];
+} GeodesicObject;
+
+static PyTypeObject GeodesicType;
+
+static int geodesic_init(GeodesicObject *self, PyObject *args, PyObject *kwds)
+{
+    double a, f;
+    if (!PyArg_ParseTuple(args, "dd:Geodesic", &a, &f))
+        return -1;
+    if (p_geod_init == NULL || p_geod_inverse == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "geod_init/geod_inverse not bound (_bind_geod)");
+        return -1;
+    }
+    memset(self->g, 0, sizeof self->g);
+    self->a = a;
+    self->f = f;
+    p_geod_init(self->g, a, f);
+    return 0;
+}
+
+/* Geod._inv_point's forward azimuth (degrees), return_back_azimuth False, radians False. */
+static double geod_az12(const GeodesicObject *g, double lon1, double lat1, double lon2,
+                        double lat2)
+{
+    double s12, azi1, azi2;
+    p_geod_inverse(g->g, lat1, lon1, lat2, lon2, &s12, &azi1, &azi2);
+    return azi1;
+}
+
+/* Float value of a Python float or int (what Geod._inv_point accepts), -1 with TypeError. */
+static int inv_arg(PyObject *o, double *out)
+{
+    if (PyFloat_CheckExact(o)) {
+        *out = PyFloat_AS_DOUBLE(o);
+        return 0;
+    }
+    *out = PyFloat_AsDouble(o);
+    if (*out == -1.0 && PyErr_Occurred())
+        return -1;
+    if (!PyFloat_Check(o) && !PyLong_Check(o)) {
+        PyErr_SetString(PyExc_TypeError, "Scalar input is required for point based functions");
+        return -1;
+    }
+    return 0;
+}
+
+/* forward_azimuths_rad(lat1, lon1, points): [radians(az12 % 360.0) for lat2, lon2 in points]
+ * (GeodesicSolver.forward_azimuths_rad). */
+static PyObject *geodesic_forward_azimuths(GeodesicObject *self, PyObject *const *args,
+                                           Py_ssize_t nargs, int rad)
+{
+    double lat1, lon1, lat2, lon2, az;
+    PyObject *seq, *out = NULL;
+    Py_ssize_t n, i;
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "forward_azimuths needs (lat1, lon1, points)");
+        return NULL;
+    }
+    seq = PySequence_Fast(args[2], "points must be a sequence of (lat, lon)");
+    if (seq == NULL)
+        return NULL;
+    n = PySequence_Fast_GET_SIZE(seq);
+    if (n > 0 && (inv_arg(args[1], &lon1) < 0 || inv_arg(args[0], &lat1) < 0)) {
+        Py_DECREF(seq);
+        return NULL;
+    }
+    out = PyList_New(n);
+    if (out == NULL)
+        goto fail;
+    for (i = 0; i < n; i++) {
+        PyObject *pt = PySequence_Fast_GET_ITEM(seq, i), *v;
+        if (!PyTuple_CheckExact(pt) || PyTuple_GET_SIZE(pt) != 2) {
+            PyObject *t = PySequence_Tuple(pt);
+            if (t == NULL)
+                goto fail;
+            if (PyTuple_GET_SIZE(t) != 2) {
+                Py_DECREF(t);
+                PyErr_SetString(PyExc_ValueError, "a point is (lat, lon)");
+                goto fail;
+            }
+            if (inv_arg(PyTuple_GET_ITEM(t, 1), &lon2) < 0
+                || inv_arg(PyTuple_GET_ITEM(t, 0), &lat2) < 0) {
+                Py_DECREF(t);
+                goto fail;
+            }
+            Py_DECREF(t);
+        }
+        else if (inv_arg(PyTuple_GET_ITEM(pt, 1), &lon2) < 0
+                 || inv_arg(PyTuple_GET_ITEM(pt, 0), &lat2) < 0) {
+            goto fail;
+        }
+        az = py_mod(geod_az12(self, lon1, lat1, lon2, lat2), 360.0);
+        v = PyFloat_FromDouble(rad ? az * DEG_TO_RAD : az);
+        if (v == NULL)
+            goto fail;
+        PyList_SET_ITEM(out, i, v);
+    }
+    Py_DECREF(seq);
+    return out;
+fail:
+    Py_XDECREF(out);
+    Py_DECREF(seq);
+    return NULL;
+}
+
+static PyObject *geodesic_forward_azimuths_rad(GeodesicObject *self, PyObject *const *args,
+                                               Py_ssize_t nargs)
+{
+    return geodesic_forward_azimuths(self, args, nargs, 1);
+}
+
+static PyObject *geodesic_forward_azimuths_deg(GeodesicObject *self, PyObject *const *args,
+                                               Py_ssize_t nargs)
+{
+    return geodesic_forward_azimuths(self, args, nargs, 0);
+}
+
+/* inverse_point(lon1, lat1, lon2, lat2) -> (az12, az21, s12) as geod_inverse gives them
+ * (Geod._inv_point with radians and return_back_azimuth False), for the tests. */
+static PyObject *geodesic_inverse_point(GeodesicObject *self, PyObject *args)
+{
+    double lon1, lat1, lon2, lat2, s12, azi1, azi2;
+    if (!PyArg_ParseTuple(args, "dddd:inverse_point", &lon1, &lat1, &lon2, &lat2))
+        return NULL;
+    p_geod_inverse(self->g, lat1, lon1, lat2, lon2, &s12, &azi1, &azi2);
+    return Py_BuildValue("(ddd)", azi1, azi2, s12);
+}
+
+static PyMethodDef geodesic_methods[] = {
+    {"forward_azimuths_rad", (PyCFunction)(void (*)(void))geodesic_forward_azimuths_rad,
+     METH_FASTCALL, "GeodesicSolver.forward_azimuths_rad (radians, [0, 2pi])."},
+    {"forward_azimuths_deg", (PyCFunction)(void (*)(void))geodesic_forward_azimuths_deg,
+     METH_FASTCALL, "GeodesicSolver.forward_azimuths_deg (degrees, [0, 360))."},
+    {"inverse_point", (PyCFunction)geodesic_inverse_point, METH_VARARGS,
+     "(az12, az21, s12) of geod_inverse (degrees, metres)."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyObject *geodesic_get_a(GeodesicObject *self, void *c) { return PyFloat_FromDouble(self->a); }
+static PyObject *geodesic_get_f(GeodesicObject *self, void *c) { return PyFloat_FromDouble(self->f); }
+
+static PyGetSetDef geodesic_getset[] = {
+    {"a", (getter)geodesic_get_a, NULL, "semi-major axis (m)", NULL},
+    {"f", (getter)geodesic_get_f, NULL, "flattening", NULL},
+    {NULL, NULL, NULL, NULL, NULL},
+};
+
+static PyTypeObject GeodesicType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "engine.native.decca.Geodesic",
+    .tp_basicsize = sizeof(GeodesicObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "PROJ's geod_geodesic initialised with (a, f) as pyproj's Geod(a=, f=) does.",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)geodesic_init,
+    .tp_methods = geodesic_methods,
+    .tp_getset = geodesic_getset,
+};
+
+/* ------------------------------------------------------------------ the chain's scalars */
+typedef struct {
+    double st[4][4];   /* per station (x, y, x^2, lat) */
+    double latlon[4][2];
+    double lam[3], base[3], kmin[3], sky[3];
+    double e2, num;
+} chain_t;
+
+/* A float of a tuple item (exact float or subclass), else 1 (not the fast path's type). */
+static int item_float(PyObject *t, Py_ssize_t i, double *out)
+{
+    PyObject *o = PyTuple_GET_ITEM(t, i);
+    if (!PyFloat_Check(o))
+        return 1;
+    *out = PyFloat_AS_DOUBLE(o);
+    return 0;
+}
+
+static int floats_of(PyObject *t, Py_ssize_t n, double *out)
+{
+    if (!PyTuple_Check(t) || PyTuple_GET_SIZE(t) != n)
+        return 1;
+    for (Py_ssize_t i = 0; i < n; i++)
+        if (item_float(t, i, out + i))
+            return 1;
+    return 0;
+}
+
+/* _ChainScalars (xy, latlon, wavelength, baseline, min_lanes, stations, e2, rm2_numerator,
+ * baseline_sky) -> chain_t; 1 where it is not of that form. */
+static int read_chain(PyObject *sc, chain_t *c)
+{
+    PyObject *lst, *o;
+    if (!PyTuple_Check(sc) || PyTuple_GET_SIZE(sc) != 9)
+        return 1;
+    lst = PyTuple_GET_ITEM(sc, 5);
+    if (!PyTuple_Check(lst) || PyTuple_GET_SIZE(lst) != 4)
+        return 1;
+    for (int s = 0; s < 4; s++)
+        if (floats_of(PyTuple_GET_ITEM(lst, s), 4, c->st[s]))
+            return 1;
+    lst = PyTuple_GET_ITEM(sc, 1);
+    if (!PyTuple_Check(lst) || PyTuple_GET_SIZE(lst) != 4)
+        return 1;
+    for (int s = 0; s < 4; s++)
+        if (floats_of(PyTuple_GET_ITEM(lst, s), 2, c->latlon[s]))
+            return 1;
+    if (floats_of(PyTuple_GET_ITEM(sc, 2), 3, c->lam) || floats_of(PyTuple_GET_ITEM(sc, 3), 3, c->base)
+        || floats_of(PyTuple_GET_ITEM(sc, 4), 3, c->kmin)
+        || floats_of(PyTuple_GET_ITEM(sc, 8), 3, c->sky))
+        return 1;
+    o = PyTuple_GET_ITEM(sc, 6);
+    if (!PyFloat_Check(o))
+        return 1;
+    c->e2 = PyFloat_AS_DOUBLE(o);
+    o = PyTuple_GET_ITEM(sc, 7);
+    if (!PyFloat_Check(o))
+        return 1;
+    c->num = PyFloat_AS_DOUBLE(o);
+    return 0;
+}
+
+static int arg_float(PyObject *o, double *out)
+{
+    if (!PyFloat_Check(o))
+        return 1;
+    *out = PyFloat_AS_DOUBLE(o);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ the lane model */
+typedef struct {
+    double dist[4], n_calc[3], row_x[3], row_y[3];
+} lanes_t;
+
+/* decca._lane_model_py, the same operations in the same order. */
+static int lane_model(const chain_t *c, double x_m, double y_m, double lat0, lanes_t *o)
+{
+    double e2 = c->e2, num = c->num;
+    double xx = x_m * x_m, two_x = 2.0 * x_m;
+    double dxp[4], dyp[4];
+    for (int i = 0; i < 4; i++) {
+        double xs = c->st[i][0], ys = c->st[i][1], xs2 = c->st[i][2], slat = c->st[i][3];
+        double s, w2, rm2, dx, dy, chord, lsf, lc, t;
+        if (py_sin((0.5 * (lat0 + slat)) * DEG_TO_RAD, &s) < 0)
+            return -1;
+        w2 = 1.0 - e2 * s * s;
+        PYDIV(rm2, num, w2 * w2);
+        dx = x_m - xs;
+        dy = y_m - ys;
+        if (py_hypot(dx, dy, &chord) < 0)
+            return -1;
+        PYDIV(t, xx + x_m * xs + xs2, 6.0 * rm2);
+        lsf = 1.0 + t;
+        lc = lsf * chord;
+        PYDIV(o->dist[i], chord, lsf);
+        {
+            double a, b;
+            PYDIV(a, dx, lc);
+            PYDIV(b, chord * (two_x + xs), lsf * lsf * 6.0 * rm2);
+            dxp[i] = a - b;
+        }
+        PYDIV(dyp[i], dy, lc);
+    }
+    {
+        const double *l = c->lam, *b = c->base, *k = c->kmin, *d = o->dist;
+        for (int j = 0; j < 3; j++) {
+            double t;
+            PYDIV(t, d[0] - d[j + 1] + b[j], l[j]);
+            o->n_calc[j] = t + k[j];
+        }
+        for (int j = 0; j < 3; j++)
+            PYDIV(o->row_x[j], dxp[0] - dxp[j + 1], l[j]);
+        for (int j = 0; j < 3; j++)
+            PYDIV(o->row_y[j], dyp[0] - dyp[j + 1], l[j]);
+    }
+    return 0;
+}
+
+/* decca._azimuths_rad through the compiled geodesic. */
+static void azimuths(const GeodesicObject *g, const chain_t *c, double lat0, double lon0,
+                     double az[4])
+{
+    for (int i = 0; i < 4; i++)
+        az[i] = py_mod(geod_az12(g, lon0, lat0, c->latlon[i][1], c->latlon[i][0]), 360.0)
+                * DEG_TO_RAD;
+}
+
+/* decca._lef_py. */
+static int lef_of(const double az[4], double lef[3])
+{
+    double az0 = az[0];
+    for (int s = 1; s < 4; s++) {
+        double gamma = py_mod(fabs(az[s] - az0), TWO_PI), sn;
+        if (gamma > Py_MATH_PI)
+            gamma = TWO_PI - gamma;
+        if (py_sin(gamma / 2.0, &sn) < 0)
+            return -1;
+        PYDIV(lef[s - 1], 1.0, sn);
+    }
+    return 0;
+}
+
+static PyObject *list_of(const double *v, Py_ssize_t n)
+{
+    PyObject *out = PyList_New(n);
+    if (out == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *f = PyFloat_FromDouble(v[i]);
+        if (f == NULL) {
+            Py_DECREF(out);
+            return NULL;
+        }
+        PyList_SET_ITEM(out, i, f);
+    }
+    return out;
+}
+
+/* Parse (sc, x, y, lat0): 1 = not the fast path's types. */
+static int parse_model_args(PyObject *const *args, chain_t *c, double *x, double *y,
+                            double *lat0)
+{
+    return read_chain(args[0], c) || arg_float(args[1], x) || arg_float(args[2], y)
+           || arg_float(args[3], lat0);
+}
+
+static PyObject *lanes_result(const lanes_t *o)
+{
+    PyObject *d = list_of(o->dist, 4), *n = list_of(o->n_calc, 3), *rx = list_of(o->row_x, 3),
+             *ry = list_of(o->row_y, 3);
+    if (d == NULL || n == NULL || rx == NULL || ry == NULL) {
+        Py_XDECREF(d);
+        Py_XDECREF(n);
+        Py_XDECREF(rx);
+        Py_XDECREF(ry);
+        return NULL;
+    }
+    return Py_BuildValue("(NNNN)", d, n, rx, ry);
+}
+
+/* lane_model(sc, x, y, lat0) -> decca._lane_model_py's (dist, n_calc, row_x, row_y). */
+static PyObject *py_lane_model(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    double x, y, lat0;
+    lanes_t o;
+    if (nargs != 4 || parse_model_args(args, &c, &x, &y, &lat0))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (lane_model(&c, x, y, lat0, &o) < 0)
+        return NULL;
+    return lanes_result(&o);
+}
+
+/* lef(az) -> decca._lef_py(az) for a list/tuple of 4 floats. */
+static PyObject *py_lef(PyObject *m, PyObject *arg)
+{
+    double az[4], lef[3];
+    PyObject *t = NULL;
+    int bad;
+    if (PyList_CheckExact(arg)) {
+        t = PyList_AsTuple(arg);
+        if (t == NULL)
+            return NULL;
+        bad = floats_of(t, 4, az);
+        Py_DECREF(t);
+    }
+    else {
+        bad = floats_of(arg, 4, az);
+    }
+    if (bad)
+        Py_RETURN_NOTIMPLEMENTED;
+    if (lef_of(az, lef) < 0)
+        return NULL;
+    return list_of(lef, 3);
+}
+
+static int check_geodesic(PyObject *o)
+{
+    return !PyObject_TypeCheck(o, &GeodesicType);
+}
+
+/* geometry(sc, geodesic, x, y, lat0, lon0) -> (d_master, az_master, block): decca_geometry's
+ * numbers, ``block`` its 24 per-pattern floats in the order of the Python's ``block`` list. */
+static PyObject *py_geometry(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    double x, y, lat0, lon0, az[4], lef[3], block[24], s0, c0;
+    lanes_t o;
+    if (nargs != 6 || read_chain(args[0], &c) || check_geodesic(args[1])
+        || arg_float(args[2], &x) || arg_float(args[3], &y) || arg_float(args[4], &lat0)
+        || arg_float(args[5], &lon0))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (lane_model(&c, x, y, lat0, &o) < 0)
+        return NULL;
+    azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
+    if (lef_of(az, lef) < 0)
+        return NULL;
+    for (int j = 0; j < 3; j++) {
+        block[j] = o.dist[j + 1];
+        block[3 + j] = py_mod(az[j + 1], TWO_PI);
+        block[6 + j] = lef[j];
+        block[9 + j] = c.lam[j] * lef[j] / 2.0;
+    }
+    if (py_sin(az[0], &s0) < 0 || py_cos(az[0], &c0) < 0)
+        return NULL;
+    for (int j = 0; j < 3; j++) {
+        double sa, ca, t;
+        if (py_sin(az[j + 1], &sa) < 0 || py_cos(az[j + 1], &ca) < 0
+            || py_atan2(-s0 + sa, -c0 + ca, &t) < 0)
+            return NULL;
+        block[12 + j] = py_mod(t + HALF_PI, TWO_PI);
+    }
+    for (int j = 0; j < 3; j++) {
+        block[15 + j] = o.n_calc[j];
+        block[18 + 2 * j] = o.row_x[j];
+        block[19 + 2 * j] = o.row_y[j];
+    }
+    return Py_BuildValue("(ddN)", o.dist[0], py_mod(az[0], TWO_PI), list_of(block, 24));
+}
+
+/* lanes(sc, geodesic, x, y, lat0, lon0) -> (n_calc, [[rx0, ry0], [rx1, ry1], [rx2, ry2]]):
+ * _LaneAt._lanes' numbers (the LEF formed, for its errors, and dropped); raises as the Python
+ * does, the caller turns ValueError/ArithmeticError and a non-finite N_calc into None. */
+static PyObject *py_lanes(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    double x, y, lat0, lon0, az[4], lef[3];
+    lanes_t o;
+    if (nargs != 6 || read_chain(args[0], &c) || check_geodesic(args[1])
+        || arg_float(args[2], &x) || arg_float(args[3], &y) || arg_float(args[4], &lat0)
+        || arg_float(args[5], &lon0))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (lane_model(&c, x, y, lat0, &o) < 0)
+        return NULL;
+    azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
+    if (lef_of(az, lef) < 0)
+        return NULL;
+    return Py_BuildValue("(N[[dd][dd][dd]])", list_of(o.n_calc, 3), o.row_x[0], o.row_y[0],
+                         o.row_x[1], o.row_y[1], o.row_x[2], o.row_y[2]);
+}
+
+/* decca._vcv_core then decca._vcv_m2 (m^2), the same operations. */
+static const double MM01 = 12.0, MM02 = 20.0, MM12 = 15.0;     /* 4*3, 4*5, 3*5 */
+static const double MM0_2 = 16.0, MM1_2 = 9.0, MM2_2 = 25.0;   /* (4, 3, 5) ** 2 */
+static const double MS0_2 = 9.0, MS1_2 = 4.0, MS2_2 = 36.0;    /* (3, 2, 6) ** 2 */
+static double SYNC_2[3];                                       /* (0.012, 0.009, 0.015) ** 2 */
+
+static int vcv_m2(double d_master, const double d_slave[3], const double sky[3], double cf,
+                  const double k[3], double out[3][3])
+{
+    const double h = 1e-5;
+    double d, s_n2, s_r, s_g, s_p, q, o01, o02, o12, c00, c11, c22, t;
+    d = d_master * h;
+    if (py_square((2.407 * d * d - 2.273 * d + 4.240) * 1e-3, &s_n2) < 0)
+        return -1;
+    d = d_slave[0] * h;
+    s_r = (2.407 * d * d - 2.273 * d + 4.240) * 1e-3;
+    d = d_slave[1] * h;
+    s_g = (2.407 * d * d - 2.273 * d + 4.240) * 1e-3;
+    d = d_slave[2] * h;
+    s_p = (2.843 * d * d - 2.597 * d + 5.000) * 1e-3;
+    PYDIV(o01, MM01 * s_n2, cf);
+    PYDIV(o02, MM02 * s_n2, cf);
+    PYDIV(o12, MM12 * s_n2, cf);
+    if (py_square(s_r, &q) < 0)
+        return -1;
+    PYDIV(t, MM0_2 * (s_n2 + sky[0]) + MS0_2 * q, cf);
+    c00 = t + SYNC_2[0];
+    if (py_square(s_g, &q) < 0)
+        return -1;
+    PYDIV(t, MM1_2 * (s_n2 + sky[1]) + MS1_2 * q, cf);
+    c11 = t + SYNC_2[1];
+    if (py_square(s_p, &q) < 0)
+        return -1;
+    PYDIV(t, MM2_2 * (s_n2 + sky[2]) + MS2_2 * q, cf);
+    c22 = t + SYNC_2[2];
+    {
+        double m01 = o01 * (k[0] * k[1]), m02 = o02 * (k[0] * k[2]), m12 = o12 * (k[1] * k[2]);
+        out[0][0] = c00 * (k[0] * k[0]);
+        out[0][1] = m01;
+        out[0][2] = m02;
+        out[1][0] = m01;
+        out[1][1] = c11 * (k[1] * k[1]);
+        out[1][2] = m12;
+        out[2][0] = m02;
+        out[2][1] = m12;
+        out[2][2] = c22 * (k[2] * k[2]);
+    }
+    return 0;
+}
+
+static int set_float(PyObject *seq, Py_ssize_t i, double v)
+{
+    PyObject *f = PyFloat_FromDouble(v);
+    int r;
+    if (f == NULL)
+        return -1;
+    r = PySequence_SetItem(seq, i, f);
+    Py_DECREF(f);
+    return r;
+}
+
+/* Write out[3][3] into Cl[s0:s0+3, s0:s0+3] through the buffer protocol: 1 where Cl is not a
+ * writable 2-D float64 buffer holding that block (the caller assigns the returned list). */
+static int write_block(PyObject *cl, Py_ssize_t s0, double out[3][3])
+{
+    Py_buffer v;
+    if (PyObject_GetBuffer(cl, &v, PyBUF_RECORDS) < 0) {
+        PyErr_Clear();
+        return 1;
+    }
+    if (v.ndim != 2 || v.itemsize != 8 || v.format == NULL
+        || !(strcmp(v.format, "d") == 0 || strcmp(v.format, "<d") == 0
+             || strcmp(v.format, "=d") == 0)
+        || v.strides == NULL || s0 < 0 || s0 + 3 > v.shape[0] || s0 + 3 > v.shape[1]
+        || v.suboffsets != NULL) {
+        PyBuffer_Release(&v);
+        return 1;
+    }
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            *(double *)((char *)v.buf + (s0 + i) * v.strides[0] + (s0 + j) * v.strides[1]) =
+                out[i][j];
+    PyBuffer_Release(&v);
+    return 0;
+}
+
+/* linearise(sc, geodesic, x, y, lat0, lon0, observed, slot0, A, b, Cl, cf): the body of
+ * DeccaObservations._linearise_py after (lat0, lon0), with the model's own decca_vcv_m2.
+ * Returns None (Cl written), the 3x3 nested list for Cl[s, s] (Cl not a float64 buffer), or
+ * NotImplemented (arguments not of the fast path's types; nothing written). */
+static PyObject *py_linearise(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    double x, y, lat0, lon0, cf, az[4], lef[3], k[3], obs[3], out[3][3];
+    Py_ssize_t slot0;
+    PyObject *observed, *A, *b;
+    lanes_t o;
+    if (nargs != 12 || read_chain(args[0], &c) || check_geodesic(args[1])
+        || arg_float(args[2], &x) || arg_float(args[3], &y) || arg_float(args[4], &lat0)
+        || arg_float(args[5], &lon0) || arg_float(args[11], &cf))
+        Py_RETURN_NOTIMPLEMENTED;
+    observed = args[6];
+    if (!PyList_CheckExact(observed) || PyList_GET_SIZE(observed) != 3)
+        Py_RETURN_NOTIMPLEMENTED;
+    for (int j = 0; j < 3; j++) {
+        PyObject *ob = PyList_GET_ITEM(observed, j);
+        if (!PyFloat_Check(ob))
+            Py_RETURN_NOTIMPLEMENTED;
+        obs[j] = PyFloat_AS_DOUBLE(ob);
+    }
+    if (!PyLong_CheckExact(args[7]))
+        Py_RETURN_NOTIMPLEMENTED;
+    slot0 = PyLong_AsSsize_t(args[7]);
+    if (slot0 < 0) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    A = args[8];
+    b = args[9];
+    if (!PyList_CheckExact(A) || !PyList_CheckExact(b))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (lane_model(&c, x, y, lat0, &o) < 0)
+        return NULL;
+    azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
+    if (lef_of(az, lef) < 0)
+        return NULL;
+    for (int j = 0; j < 3; j++)
+        k[j] = c.lam[j] * lef[j] / 2.0;
+    for (int j = 0; j < 3; j++) {
+        double ob = obs[j];
+        if (ob == ob) {
+            Py_ssize_t i = slot0 + j;
+            if (set_float(A, 2 * i, o.row_x[j] * k[j]) < 0
+                || set_float(A, 2 * i + 1, o.row_y[j] * k[j]) < 0
+                || set_float(b, i, (ob - o.n_calc[j]) * k[j]) < 0)
+                return NULL;
+        }
+    }
+    if (vcv_m2(o.dist[0], o.dist + 1, c.sky, cf, k, out) < 0)
+        return NULL;
+    if (write_block(args[10], slot0, out) == 0)
+        Py_RETURN_NONE;
+    return Py_BuildValue("[[ddd][ddd][ddd]]", out[0][0], out[0][1], out[0][2], out[1][0],
+                         out[1][1], out[1][2], out[2][0], out[2][1], out[2][2]);
+}
+
+/* vcv_m2(d_master, d_slave, baseline_sky, cf, k) -> _vcv_m2(_vcv_core(...), k), for the tests. */
+static PyObject *py_vcv_m2(PyObject *m, PyObject *args)
+{
+    double dm, ds[3], sky[3], cf, k[3], out[3][3];
+    if (!PyArg_ParseTuple(args, "d(ddd)(ddd)d(ddd):vcv_m2", &dm, ds, ds + 1, ds + 2, sky,
+                          sky + 1, sky + 2, &cf, k, k + 1, k + 2))
+        return NULL;
+    if (vcv_m2(dm, ds, sky, cf, k, out) < 0)
+        return NULL;
+    return Py_BuildValue("[[ddd][ddd][ddd]]", out[0][0], out[0][1], out[0][2], out[1][0],
+                         out[1][1], out[1][2], out[2][0], out[2][1], out[2][2]);
+}
+
+/* ------------------------------------------------------------------ lane_sigma */
+static uvn_dgemv_t p_dgemv = NULL;
+static uvn_ddot_t p_ddot = NULL;
+
+/* A C-contiguous native float64 buffer of ndim dims with these shape entries, else 1. */
+static int f64_buffer(PyObject *o, Py_buffer *v, int ndim, const Py_ssize_t *shape)
+{
+    if (!PyObject_CheckBuffer(o) || PyObject_GetBuffer(o, v, PyBUF_RECORDS_RO) < 0) {
+        PyErr_Clear();
+        return 1;
+    }
+    if (v->ndim != ndim || v->itemsize != 8 || v->format == NULL
+        || !(strcmp(v->format, "d") == 0 || strcmp(v->format, "<d") == 0)
+        || v->suboffsets != NULL || !PyBuffer_IsContiguous(v, 'C'))
+        goto no;
+    for (int i = 0; i < ndim; i++)
+        if (v->shape[i] != shape[i])
+            goto no;
+    return 0;
+no:
+    PyBuffer_Release(v);
+    return 1;
+}
+
+/* lane_sigma(row, cov) -> decca._lane_sigma_py(row, cov) = sqrt(max(float(row @ cov @ row),
+ * 0.0)) for a contiguous float64 row (2,) and a C-contiguous float64 cov (2, 2), through
+ * numpy's matmul routines: y = dgemv(RowMajor, Trans, 2, 2, 1.0, cov, 2, row, 1, 0.0, y, 1),
+ * then DOUBLE_dot's sum = 0.0; sum += ddot(2, y, 1, row, 1). NotImplemented otherwise. */
+static PyObject *py_lane_sigma(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
+    Py_buffer vr, vc;
+    double y[2], sum, q;
+    if (nargs != 2 || p_dgemv == NULL || p_ddot == NULL)
+        Py_RETURN_NOTIMPLEMENTED;
+    if (f64_buffer(args[0], &vr, 1, s1))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (f64_buffer(args[1], &vc, 2, s2)) {
+        PyBuffer_Release(&vr);
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    y[0] = y[1] = 0.0;
+    p_dgemv(UvnRowMajor, UvnTrans, 2, 2, 1.0, (const double *)vc.buf, 2,
+            (const double *)vr.buf, 1, 0.0, y, 1);
+    sum = 0.;
+    sum += p_ddot(2, y, 1, (const double *)vr.buf, 1);
+    PyBuffer_Release(&vr);
+    PyBuffer_Release(&vc);
+    q = (0.0 > sum) ? 0.0 : sum; /* max(q, 0.0) */
+    return PyFloat_FromDouble(sqrt(q));
+}
+
+/* sigma of lane_sigma into *out: 0, 1 (not the fast path's buffers) */
+static int sigma_of(PyObject *row, PyObject *cov, double *out)
+{
+    static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
+    Py_buffer vr, vc;
+    double y[2], sum;
+    if (p_dgemv == NULL || p_ddot == NULL || f64_buffer(row, &vr, 1, s1))
+        return 1;
+    if (f64_buffer(cov, &vc, 2, s2)) {
+        PyBuffer_Release(&vr);
+        return 1;
+    }
+    y[0] = y[1] = 0.0;
+    p_dgemv(UvnRowMajor, UvnTrans, 2, 2, 1.0, (const double *)vc.buf, 2,
+            (const double *)vr.buf, 1, 0.0, y, 1);
+    sum = 0.;
+    sum += p_ddot(2, y, 1, (const double *)vr.buf, 1);
+    PyBuffer_Release(&vr);
+    PyBuffer_Release(&vc);
+    *out = sqrt((0.0 > sum) ? 0.0 : sum);
+    return 0;
+}
+
+/* lane_check(n_calc, row, cov, frac, total, sigma_max) -> (value, slip): the numbers of
+ * decca._gps_lane_check_py once GPS's lane (n_calc, row) is known: (total, 0) when GPS does
+ * not settle the lane (sigma > sigma_max or NaN) or the count agrees with it, else
+ * (identify_lane(n_calc, frac), round(total - expected)). NotImplemented for arguments or
+ * values where the Python would raise or take another path (non-finite, other types). */
+static PyObject *py_lane_check(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    double n_calc, frac, total, smax, sigma, d, fl, expected, x, rounded;
+    PyObject *slip;
+    if (nargs != 6 || arg_float(args[0], &n_calc) || arg_float(args[3], &frac)
+        || arg_float(args[4], &total) || arg_float(args[5], &smax)
+        || sigma_of(args[1], args[2], &sigma))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (!(sigma <= smax))
+        return Py_BuildValue("(Oi)", args[4], 0);
+    /* identify_lane = track_lane(n_calc, frac); math.floor's int converts back exactly */
+    if (!isfinite(n_calc))
+        Py_RETURN_NOTIMPLEMENTED;
+    fl = floor(n_calc);
+    d = frac - (n_calc - fl);
+    if (!isfinite(d + 0.5))
+        Py_RETURN_NOTIMPLEMENTED;
+    expected = n_calc + (d - floor(d + 0.5));
+    x = total - expected;
+    if (!isfinite(x))
+        Py_RETURN_NOTIMPLEMENTED;
+    rounded = round(x); /* float.__round__ without ndigits: half to even */
+    if (fabs(x - rounded) == 0.5)
+        rounded = 2.0 * round(x / 2.0);
+    if (rounded == 0.0)
+        return Py_BuildValue("(Oi)", args[4], 0);
+    slip = PyLong_FromDouble(rounded);
+    if (slip == NULL)
+        return NULL;
+    return Py_BuildValue("(dN)", expected, slip);
+}
+
+/* _bind_blas(cblas_dgemv address, cblas_ddot address): numpy's (ILP64) routines. */
+static PyObject *py_bind_blas(PyObject *m, PyObject *args)
+{
+    PyObject *a, *b;
+    void *pa, *pb;
+    if (!PyArg_ParseTuple(args, "OO:_bind_blas", &a, &b))
+        return NULL;
+    pa = PyLong_AsVoidPtr(a);
+    if (pa == NULL && PyErr_Occurred())
+        return NULL;
+    pb = PyLong_AsVoidPtr(b);
+    if (pb == NULL && PyErr_Occurred())
+        return NULL;
+    if (pa == NULL || pb == NULL) {
+        PyErr_SetString(PyExc_ValueError, "null routine address");
+        return NULL;
+    }
+    p_dgemv = (uvn_dgemv_t)pa;
+    p_ddot = (uvn_ddot_t)pb;
+    Py_RETURN_NONE;
+}
+
+/* _bind_geod(geod_init address, geod_inverse address) */
+static PyObject *py_bind_geod(PyObject *m, PyObject *args)
+{
+    PyObject *a, *b;
+    void *pa, *pb;
+    if (!PyArg_ParseTuple(args, "OO:_bind_geod", &a, &b))
+        return NULL;
+    pa = PyLong_AsVoidPtr(a);
+    if (pa == NULL && PyErr_Occurred())
+        return NULL;
+    pb = PyLong_AsVoidPtr(b);
+    if (pb == NULL && PyErr_Occurred())
+        return NULL;
+    if (pa == NULL || pb == NULL) {
+        PyErr_SetString(PyExc_ValueError, "null routine address");
+        return NULL;
+    }
+    p_geod_init = (geod_init_t)pa;
+    p_geod_inverse = (geod_inverse_t)pb;
+    Py_RETURN_NONE;
+}
+
+static PyObject *py_geod_bound(PyObject *m, PyObject *noargs)
+{
+    return PyBool_FromLong(p_geod_init != NULL && p_geod_inverse != NULL);
+}
+
+static PyObject *py_sync_sq(PyObject *m, PyObject *noargs)
+{
+    return Py_BuildValue("(ddd)", SYNC_2[0], SYNC_2[1], SYNC_2[2]);
+}
+
+static PyMethodDef methods[] = {
+    {"lane_model", (PyCFunction)(void (*)(void))py_lane_model, METH_FASTCALL,
+     "decca._lane_model: (dist, n_calc, row_x, row_y)."},
+    {"lef", (PyCFunction)py_lef, METH_O, "decca._lef: 1/sin(gamma/2) per pattern."},
+    {"geometry", (PyCFunction)(void (*)(void))py_geometry, METH_FASTCALL,
+     "decca_geometry's numbers: (d_master, az_master, block of 24)."},
+    {"lanes", (PyCFunction)(void (*)(void))py_lanes, METH_FASTCALL,
+     "_LaneAt._lanes' numbers: (n_calc, 3x2 rows)."},
+    {"linearise", (PyCFunction)(void (*)(void))py_linearise, METH_FASTCALL,
+     "DeccaObservations.linearise's rows and VCV block."},
+    {"vcv_m2", (PyCFunction)py_vcv_m2, METH_VARARGS, "_vcv_m2(_vcv_core(...), k)."},
+    {"lane_sigma", (PyCFunction)(void (*)(void))py_lane_sigma, METH_FASTCALL,
+     "decca.lane_sigma through numpy's dgemv and ddot."},
+    {"lane_check", (PyCFunction)(void (*)(void))py_lane_check, METH_FASTCALL,
+     "decca._gps_lane_check's numbers: (value, slip)."},
+    {"_bind_blas", (PyCFunction)py_bind_blas, METH_VARARGS,
+     "Bind numpy's cblas_dgemv and cblas_ddot (addresses)."},
+    {"_bind_geod", (PyCFunction)py_bind_geod, METH_VARARGS,
+     "Bind PROJ's geod_init and geod_inverse (addresses)."},
+    {"geod_bound", (PyCFunction)py_geod_bound, METH_NOARGS, "True once _bind_geod ran."},
+    {"_sync_sq", (PyCFunction)py_sync_sq, METH_NOARGS, "SYNC_SIGMA_LANES ** 2 (tests)."},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "engine.native.decca",
+    "Decca lanes and PROJ's geodesic inverse, compiled (same bits as the Python).", -1,
+    methods,
+};
+
+PyMODINIT_FUNC PyInit_decca(void)
+{
+    PyObject *m, *math;
+    static const double sync[3] = {0.012, 0.009, 0.015};
+    for (int i = 0; i < 3; i++)
+        if (py_square(sync[i], &SYNC_2[i]) < 0)
+            return NULL;
+    math = PyImport_ImportModule("math");
+    if (math == NULL)
+        return NULL;
+    math_hypot = PyObject_GetAttrString(math, "hypot");
+    math_atan2 = PyObject_GetAttrString(math, "atan2");
+    Py_DECREF(math);
+    if (math_hypot == NULL || math_atan2 == NULL)
+        return NULL;
+    if (PyType_Ready(&GeodesicType) < 0)
+        return NULL;
+    m = PyModule_Create(&module);
+    if (m == NULL)
+        return NULL;
+    Py_INCREF(&GeodesicType);
+    if (PyModule_AddObject(m, "Geodesic", (PyObject *)&GeodesicType) < 0
+        || PyModule_AddStringConstant(m, "SOURCE_DIGEST", UVN_SOURCE_DIGEST) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

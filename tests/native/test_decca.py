@@ -1,0 +1,420 @@
+"""The compiled Decca kernel (engine/native/decca.c) gives the pure Python's bits exactly.
+
+The Python it replaces (engine.systems.decca ``_lane_model_py``, ``_lef_py``,
+``_decca_geometry_py``, ``DeccaObservations._linearise_py``, ``_LaneAt._lanes_py``;
+``GeodesicSolver._forward_azimuths_*_py``) is the reference: every float is compared by its
+bits (``float.hex``, ``ndarray.tobytes``) on the values a short demo replay really produces,
+on hypothesis-generated points around them, and PROJ's geodesic called from C is compared
+with pyproj's own on points all over the ellipsoid.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import engine.systems.decca as decca
+from engine import native
+from engine.geodesy.ellipsoidal import GeodesicSolver
+from engine.geodesy.tmgrid import TMGrid
+from engine.io.datumfile import read_datum_file
+from engine.io.deccafile import read_chain_file
+from engine.run.config import load_config
+from engine.run.session import Session
+from engine.systems.base import Point
+from tests.paths import DATA
+
+K = native.kernel("decca")
+pytestmark = pytest.mark.skipif(K is None, reason=f"decca kernel: {native.status('decca')}")
+
+ED50 = read_datum_file(DATA / "TO_WGS84.DAT").datum("ED50")
+GRID = TMGrid(ED50.ellipsoid, 5.0)
+PLACED = decca.place_chain(read_chain_file(DATA / "DECCA.CHN")["9B"], GRID)
+SC = PLACED._scalars
+MX, MY = SC.xy[0]
+
+
+def solvers() -> tuple[GeodesicSolver, GeodesicSolver]:
+    """(compiled, pure) solvers on the demo's ellipsoid."""
+    fast = GeodesicSolver(ED50.ellipsoid)
+    pure = GeodesicSolver(ED50.ellipsoid)
+    pure._native = None
+    assert fast.native() is not None
+    return fast, pure
+
+
+FAST, PURE = (None, None) if K is None else solvers()
+
+
+def hexes(v: Any) -> Any:
+    """Bits of nested lists/tuples of floats (NaN-safe equality)."""
+    if isinstance(v, (list, tuple)):
+        return [hexes(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return v.dtype.str, v.shape, v.tobytes()
+    if v is None:
+        return None
+    return float.hex(float(v))
+
+
+class _Pure:
+    """Context: the module's kernel switched off (the pure path)."""
+
+    def __enter__(self) -> None:
+        self.saved = decca._K
+        decca._K = None
+
+    def __exit__(self, *exc: object) -> None:
+        decca._K = self.saved
+
+
+def outcome(f: Any, *args: Any) -> Any:
+    """(bits of the result) or (exception type, message)."""
+    try:
+        return ("ok", hexes(f(*args)))
+    except Exception as exc:  # noqa: BLE001 - both paths must raise alike
+        return (type(exc).__name__, str(exc))
+
+
+# --------------------------------------------------------------------------- a short replay
+
+
+@pytest.fixture(scope="module")
+def replay_values() -> dict[str, list[Any]]:
+    """Arguments of the Decca work in the first 120 demo epochs (linearise, _LaneAt._lanes)."""
+    got: dict[str, list[Any]] = {"lin": [], "lanes": [], "totals": []}
+    orig_lin = decca.DeccaObservations.linearise
+    orig_lanes = decca._LaneAt._lanes
+    orig_totals = decca.decca_totals
+
+    def totals(*args: Any) -> Any:
+        got["totals"].append(args)
+        return orig_totals(*args)
+
+    def lin(self: Any, p: Point, slot0: int, A: list[float], b: list[float], Cl: Any) -> None:
+        got["lin"].append((self, p.x, p.y, p.latlon, slot0, len(A), len(b), Cl.shape))
+        return orig_lin(self, p, slot0, A, b, Cl)
+
+    def lanes(self: Any, src: Any) -> Any:
+        got["lanes"].append((self.placed, src))
+        return orig_lanes(self, src)
+
+    decca.DeccaObservations.linearise = lin  # type: ignore[method-assign]
+    decca._LaneAt._lanes = lanes  # type: ignore[method-assign]
+    decca.decca_totals = totals
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            s = Session(load_config(DATA / "DEMO.toml"), out_path=Path(tmp) / "D.OUT",
+                        force=True, history=1)
+            try:
+                s.run(max_cycles=120)
+            finally:
+                s.close()
+    finally:
+        decca.DeccaObservations.linearise = orig_lin  # type: ignore[method-assign]
+        decca._LaneAt._lanes = orig_lanes  # type: ignore[method-assign]
+        decca.decca_totals = orig_totals
+    assert len(got["lin"]) > 100 and len(got["lanes"]) > 100
+    return got
+
+
+def _linearise_both(obs: decca.DeccaObservations, x: float, y: float,
+                    latlon: tuple[float, float], slot0: int, na: int, nb: int,
+                    shape: tuple[int, int]) -> tuple[Any, Any]:
+    out = []
+    for solver, pure in ((FAST, False), (PURE, True)):
+        A = [0.25] * na
+        b = [0.5] * nb
+        Cl = np.full(shape, 0.75)
+        p = Point(obs.reading.placed.grid, solver, x, y, latlon)  # type: ignore[arg-type]
+        if pure:
+            with _Pure():
+                r = outcome(obs._linearise_py, p, slot0, A, b, Cl)
+        else:
+            r = outcome(obs.linearise, p, slot0, A, b, Cl)
+        out.append((r, hexes(A), hexes(b), hexes(Cl)))
+    return out[0], out[1]
+
+
+def test_linearise_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
+    for obs, x, y, latlon, slot0, na, nb, shape in replay_values["lin"]:
+        fast, pure = _linearise_both(obs, x, y, latlon, slot0, na, nb, shape)
+        assert fast == pure
+
+
+def test_geometry_and_lane_model_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
+    for obs, x, y, (lat, lon), *_ in replay_values["lin"]:
+        placed = obs.reading.placed
+        sc = placed._scalars
+        assert hexes(K.lane_model(sc, x, y, lat)) == hexes(decca._lane_model_py(sc, x, y, lat))
+        g = decca.decca_geometry(placed, x, y, FAST, (lat, lon))
+        with _Pure():
+            h = decca._decca_geometry_py(placed, x, y, PURE, (lat, lon))
+        for name in decca.DeccaGeometry.__slots__:
+            assert hexes(getattr(g, name)) == hexes(getattr(h, name)), name
+        az = FAST.forward_azimuths_rad(lat, lon, sc.latlon)
+        assert hexes(az) == hexes(PURE.forward_azimuths_rad(lat, lon, sc.latlon))
+        assert hexes(K.lef(az)) == hexes(decca._lef_py(az))
+
+
+def test_lanes_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
+    for placed, src in replay_values["lanes"]:
+        fast = decca._LaneAt(placed, FAST)._lanes(src)
+        with _Pure():
+            pure = decca._LaneAt(placed, PURE)._lanes_py(src)
+        assert hexes(fast) == hexes(pure)
+        for i in range(3):
+            got = decca._LaneAt(placed, FAST)(src, i)
+            with _Pure():
+                want = decca._LaneAt(placed, PURE)(src, i)
+            assert hexes(got) == hexes(want)
+
+
+def test_lane_totals_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
+    """decca_totals (the GPS lane check, _LaneAt, lane_sigma) as the replay called it."""
+    assert len(replay_values["totals"]) > 100
+    for placed, _geodesic, *rest in replay_values["totals"]:
+        got = decca.decca_totals(placed, FAST, *rest)
+        with _Pure():
+            want = decca.decca_totals(placed, PURE, *rest)
+        assert hexes(got.totals) == hexes(want.totals)
+        assert (got.track, got.notes, got.slips) == (want.track, want.notes, want.slips)
+
+
+class _At:
+    """A _LaneAt whose lanes are given (n_calc per pattern, 3×2 rows)."""
+
+    def __init__(self, n: list[float], rows: np.ndarray) -> None:
+        self.g = (n, rows)
+
+    def lanes_at(self, src: Any) -> Any:
+        return self.g
+
+    def __call__(self, src: Any, i: int) -> Any:
+        return self.g[0][i], decca.lane_sigma(self.g[1][i], src.cov)
+
+
+@settings(max_examples=200, deadline=None)
+@given(n=st.floats(-1e5, 1e5), frac=st.floats(0.0, 1.0, exclude_max=True),
+       off=st.sampled_from([0.0, 0.5, -0.5, 1.0, -1.0, 1.5, 2.5, -2.5, 3.0, 0.4999999999]) |
+       st.floats(-5.0, 5.0), var=st.sampled_from([1.0, 25.0, 400.0, 1e4]),
+       grad=st.tuples(st.floats(-2e-2, 2e-2), st.floats(-2e-2, 2e-2)), i=st.integers(0, 2))
+def test_gps_lane_check_anywhere(n: float, frac: float, off: float, var: float,
+                                 grad: tuple[float, float], i: int) -> None:
+    """The lane check's σ, lane and slip (round half to even) and its note, as the Python."""
+    decca.lane_sigma(np.zeros(2), np.eye(2))  # the BLAS bound
+    rows = np.zeros((3, 2))
+    rows[i] = grad
+    at = _At([n, n + 1.0, n - 1.0], rows)
+    total = decca.identify_lane(at.g[0][i], frac) + off
+    gps = decca.LaneSource("GPS", 0.0, 0.0, np.eye(2) * var)
+    notes: list[str] = []
+    got = decca._gps_lane_check(at, i, frac, total, gps, notes)  # type: ignore[arg-type]
+    with _Pure():
+        want_notes: list[str] = []
+        want = decca._gps_lane_check_py(at, i, frac, total, gps,  # type: ignore[arg-type]
+                                        want_notes)
+    assert (hexes(got[0]), got[1], notes) == (hexes(want[0]), want[1], want_notes)
+    assert type(got[1]) is int
+
+
+# --------------------------------------------------------------------------- around them
+
+_OFFSET = st.floats(-3e5, 3e5, allow_nan=False)
+
+
+@settings(max_examples=250, deadline=None)
+@given(dx=_OFFSET, dy=_OFFSET, cf=st.sampled_from([64.0, 4.0, 1.0, 1 / 2.25, 0.0]),
+       slot0=st.integers(0, 3), have=st.tuples(st.booleans(), st.booleans(), st.booleans()),
+       obs=st.floats(-1e3, 1e3))
+def test_linearise_anywhere(dx: float, dy: float, cf: float, slot0: int,
+                            have: tuple[bool, bool, bool], obs: float) -> None:
+    x, y = MX + dx, MY + dy
+    reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3,
+                                 cf=cf)
+    observed = [obs + i if h else math.nan for i, h in enumerate(have)]
+    o = decca.DeccaObservations(reading, observed, [None] * 3, list(have), [])
+    fast, pure = _linearise_both(o, x, y, GRID.inverse(x, y), slot0, 2 * (slot0 + 3),
+                                 slot0 + 3, (slot0 + 3, slot0 + 3))
+    assert fast == pure
+
+
+@settings(max_examples=250, deadline=None)
+@given(dx=_OFFSET, dy=_OFFSET)
+def test_geometry_anywhere(dx: float, dy: float) -> None:
+    x, y = MX + dx, MY + dy
+    lat, lon = GRID.inverse(x, y)
+    g = outcome(decca.decca_geometry, PLACED, x, y, FAST, (lat, lon))
+    with _Pure():
+        h = outcome(decca._decca_geometry_py, PLACED, x, y, PURE, (lat, lon))
+    assert g == h
+
+
+@pytest.mark.parametrize("station", range(4))
+def test_at_a_station_both_raise_alike(station: int) -> None:
+    """On a station the chord is 0: ZeroDivisionError from both paths (caught as None by
+    _LaneAt)."""
+    x, y = SC.xy[station]
+    lat, lon = GRID.inverse(x, y)
+    assert outcome(K.lane_model, SC, x, y, lat) == outcome(decca._lane_model_py, SC, x, y, lat)
+    with _Pure():
+        pure = outcome(decca._decca_geometry_py, PLACED, x, y, PURE, (lat, lon))
+    assert outcome(decca.decca_geometry, PLACED, x, y, FAST, (lat, lon)) == pure
+    src = decca.LaneSource("GPS", x, y, np.eye(2))
+    assert decca._LaneAt(PLACED, FAST)._lanes(src) is None
+
+
+@settings(max_examples=200, deadline=None)
+@given(az=st.lists(st.floats(-10.0, 10.0) | st.sampled_from([0.0, -0.0, math.pi, 2 * math.pi,
+                                                             math.inf, math.nan]),
+                   min_size=4, max_size=4))
+def test_lef_anywhere(az: list[float]) -> None:
+    assert outcome(K.lef, az) == outcome(decca._lef_py, az)
+
+
+@settings(max_examples=200, deadline=None)
+@given(dm=st.floats(0.0, 1e7), ds=st.tuples(*[st.floats(0.0, 1e7)] * 3),
+       cf=st.sampled_from([64.0, 4.0, 1.0, 1 / 2.25]), k=st.tuples(*[st.floats(1.0, 1e4)] * 3))
+def test_vcv_anywhere(dm: float, ds: tuple[float, float, float], cf: float,
+                      k: tuple[float, float, float]) -> None:
+    want = decca._vcv_m2(decca._vcv_core(dm, list(ds), SC.baseline_sky, cf), k)
+    assert hexes(K.vcv_m2(dm, ds, SC.baseline_sky, cf, k)) == hexes(want)
+
+
+_ROW = st.floats(-1e-1, 1e-1) | st.sampled_from([0.0, -0.0, 1e-300, math.nan, math.inf])
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # numpy's FPE note on inf·0 (not C's)
+@settings(max_examples=200, deadline=None)
+@given(row=st.tuples(_ROW, _ROW), c=st.tuples(*[st.floats(-1e6, 1e6)] * 4),
+       sym=st.booleans(), pick=st.integers(0, 2))
+def test_lane_sigma_anywhere(row: tuple[float, float], c: tuple[float, ...], sym: bool,
+                             pick: int) -> None:
+    """numpy's matmul (dgemv, then 0.0 + ddot) called from C: the same bits, for symmetric and
+    general 2×2 matrices and a row that is a view into a 3×2 array (as _LaneAt passes it)."""
+    rows = np.zeros((3, 2))
+    rows[pick] = row
+    cov = np.array([[c[0], c[1]], [c[1] if sym else c[2], c[3]]])
+    r = rows[pick]
+    with _Pure():
+        want = outcome(decca.lane_sigma, r, cov)
+    assert outcome(decca.lane_sigma, r, cov) == want
+    assert decca._SIGMA is not None
+
+
+def test_lane_sigma_of_other_types_is_numpys() -> None:
+    for row, cov in (([1e-3, 2e-3], [[4.0, 1.0], [1.0, 9.0]]),
+                     (np.array([1e-3, 2e-3], dtype=np.float32), np.eye(2)),
+                     (np.array([1e-3, 2e-3, 0.0])[::2], np.eye(2)),
+                     (np.array([1e-3, 2e-3]), np.asfortranarray([[4.0, 1.0], [2.0, 9.0]]))):
+        with _Pure():
+            want = outcome(decca.lane_sigma, row, cov)
+        assert outcome(decca.lane_sigma, row, cov) == want
+
+
+def test_sync_constants_are_pythons() -> None:
+    assert hexes(K._sync_sq()) == hexes([decca._SYNC0_2, decca._SYNC1_2, decca._SYNC2_2])
+
+
+# --------------------------------------------------------------------------- PROJ's geodesic
+
+_LAT = st.floats(-90.0, 90.0)
+_LON = st.floats(-540.0, 540.0)
+
+
+@settings(max_examples=500, deadline=None)
+@given(lat1=_LAT, lon1=_LON, lat2=_LAT, lon2=_LON)
+def test_geod_inverse_is_pyprojs(lat1: float, lon1: float, lat2: float, lon2: float) -> None:
+    g = FAST.native()
+    want = FAST._geod._inv_point(lon1, lat1, lon2, lat2, False, False)
+    assert hexes(g.inverse_point(lon1, lat1, lon2, lat2)) == hexes(want)
+    pts = [(lat2, lon2), (lat1, lon2)]
+    assert hexes(FAST.forward_azimuths_deg(lat1, lon1, pts)) == hexes(
+        PURE.forward_azimuths_deg(lat1, lon1, pts))
+    assert hexes(FAST.forward_azimuths_rad(lat1, lon1, pts)) == hexes(
+        PURE.forward_azimuths_rad(lat1, lon1, pts))
+
+
+def test_geod_on_a_grid_of_points_and_other_ellipsoids() -> None:
+    rng = np.random.default_rng(14)
+    spheroids = read_datum_file(DATA / "TO_WGS84.DAT").spheroids.values()
+    assert len(spheroids) > 3
+    for ell in spheroids:
+        s = GeodesicSolver(ell)
+        g = s.native()
+        assert g is not None and (g.a, g.f) == (s._geod.a, s._geod.f)
+        pts = rng.uniform([-90, -180, -90, -180], [90, 180, 90, 180], (1000, 4)).tolist()
+        for lat1, lon1, lat2, lon2 in pts:
+            assert hexes(g.inverse_point(lon1, lat1, lon2, lat2)) == hexes(
+                s._geod._inv_point(lon1, lat1, lon2, lat2, False, False))
+
+
+def test_geod_argument_types_as_pyproj() -> None:
+    g = FAST.native()
+    assert g.forward_azimuths_deg(52, 4, [(53, 5)]) == PURE.forward_azimuths_deg(52, 4, [(53, 5)])
+    for bad in ("52", None, np.array([52.0])):
+        with pytest.raises(TypeError):
+            FAST.forward_azimuths_rad(bad, 4.0, [(53.0, 5.0)])
+        with pytest.raises(TypeError):
+            PURE.forward_azimuths_rad(bad, 4.0, [(53.0, 5.0)])
+    assert FAST.forward_azimuths_rad("x", 4.0, []) == PURE.forward_azimuths_rad("x", 4.0, []) == []
+
+
+# --------------------------------------------------------------------------- the pure path
+
+
+def test_pure_env_takes_the_python(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    assert native.kernel("decca") is None
+    from engine.geodesy import ellipsoidal
+
+    ellipsoidal._geod_kernel.cache_clear()
+    try:
+        s = GeodesicSolver(ED50.ellipsoid)
+        assert s.native() is None
+        lat, lon = GRID.inverse(MX + 1e4, MY - 2e4)
+        assert hexes(s.forward_azimuths_rad(lat, lon, SC.latlon)) == hexes(
+            FAST.forward_azimuths_rad(lat, lon, SC.latlon))
+    finally:
+        ellipsoidal._geod_kernel.cache_clear()
+
+
+def test_kernel_none_takes_the_python(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[str] = []
+    real = decca._lane_model_py
+    monkeypatch.setattr(decca, "_K", None)
+    monkeypatch.setattr(decca, "_lane_model_py",
+                        lambda *a: calls.append("lane") or real(*a))  # type: ignore[func-returns-value]
+    x, y = MX + 5e4, MY + 5e4
+    g = decca.decca_geometry(PLACED, x, y, FAST)
+    assert calls == ["lane"] and np.isfinite(g.n_calc).all()
+
+
+def test_not_the_fast_path_types_fall_back() -> None:
+    """Arguments the kernel does not take (ints, numpy scalars, other containers) give
+    NotImplemented, and the wrappers run the Python."""
+    lat, _lon = GRID.inverse(MX, MY + 1e4)
+    assert K.lane_model(SC, int(MX), MY + 1e4, lat) is NotImplemented
+    assert K.lane_model(tuple(SC)[:8], MX, MY + 1e4, lat) is NotImplemented
+    assert K.lef((1, 2, 3, 4)) is NotImplemented
+    assert hexes(decca._lane_model(SC, np.float64(MX), MY + 1e4, lat)) == hexes(
+        decca._lane_model_py(SC, np.float64(MX), MY + 1e4, lat))
+
+
+def test_a_solver_pickles_and_copies() -> None:
+    """The compiled geodesic is not pickled: a copy resolves its own."""
+    import copy
+    import pickle
+
+    for twin in (pickle.loads(pickle.dumps(FAST)), copy.deepcopy(FAST)):
+        assert twin.ellipsoid == FAST.ellipsoid
+        lat, lon = GRID.inverse(MX + 3e4, MY)
+        assert hexes(twin.forward_azimuths_rad(lat, lon, SC.latlon)) == hexes(
+            PURE.forward_azimuths_rad(lat, lon, SC.latlon))
