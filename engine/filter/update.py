@@ -291,15 +291,20 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     K = empty((n, p))
     xn = empty(n)
     Pn = empty((n, n))
-    nis = k.update(x, new.P, H, z, rows.R, Yc, v, S, K, xn, Pn, rows.angle_rows, params.joseph,
-                   IPSI)
-    if nis is None:
+    t = empty(p)
+    out = k.update(x, new.P, H, z, rows.R, Yc, v, S, K, xn, Pn, t, rows.angle_rows,
+                   params.joseph, IPSI)
+    if out is None:
         return _update_py(state, rows, params)
+    nis, t_ok = out
     new = new._with(new.t, xn, Pn)
     lom = _lom_from_nis(nis, p, params.alpha)
     Y = Yc.T
     ls = _new(LsTest)
     ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject")
+    if t_ok:  # LsTest.t, computed by the kernel (same bits); else on access as usual
+        t.setflags(write=False)
+        ls.__dict__["t"] = t
     result = _new(UpdateResult)
     result.__dict__.update(state=new, innovation=v, S=S, K=K, labels=rows.labels, lom=lom,
                            ls=ls)

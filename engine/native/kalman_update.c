@@ -312,34 +312,64 @@ static double *get(bufs_t *bs, PyObject *obj, int nd, int64_t d0, int64_t d1, in
 
 /* ------------------------------------------------------------------ update */
 
+/* LsTest.t: lt = L⁻¹ᵀ (C p×p at li, row stride p), t = lt.dot(w) / np.sqrt(np.add.reduce(lt * lt,
+ * axis=1)). numpy's add.reduce of a row of fewer than 8 items is 0.0 + (((-0.0 + a0) + a1) + …)
+ * (pairwise_sum's short case); 8 or more (pairwise blocks) are left to the Python, and so is any
+ * non-finite step (where numpy would warn). Returns 1 if t was filled. */
+static int ls_t(const double *li, const double *w, int64_t p, double *t)
+{
+    double num[8];
+    arr_t alt = mk2(li, p, p, p, 1), aw = mk1(w, p, 1);
+    if (p >= 8 || np_dot(&alt, &aw, num, p))
+        return 0;
+    for (int64_t i = 0; i < p; i++) {
+        double res = -0.0, sum = 0.0;
+        for (int64_t j = 0; j < p; j++) {
+            double sq = li[i * p + j] * li[i * p + j];
+            if (!isfinite(sq))
+                return 0;
+            res += sq;
+        }
+        sum += res;
+        double root = sqrt(sum);
+        if (!isfinite(num[i]) || !isfinite(root))
+            return 0;
+        t[i] = num[i] / root;
+        if (!isfinite(t[i]))
+            return 0;
+    }
+    return 1;
+}
+
 PyDoc_STRVAR(update_doc,
-"update(x, P, H, z, R, Y, v, S, K, xn, Pn, angle_rows, joseph, ipsi) -> float | None\n\n"
+"update(x, P, H, z, R, Y, v, S, K, xn, Pn, t, angle_rows, joseph, ipsi) -> (nis, t_ok) | None\n\n"
 "The numeric core of engine.filter.update._update_py into the given C-contiguous arrays:\n"
-"v (p,), S (p,p), Y ((n+1+p)×p: Y.T is L⁻¹[HP | v | I]), K (n,p), xn (n,), Pn (n,n).\n"
-"Returns the NIS wᵀw, or None (the caller then runs the Python).");
+"v (p,), S (p,p), Y ((n+1+p)×p: Y.T is L⁻¹[HP | v | I]), K (n,p), xn (n,), Pn (n,n) and the\n"
+"LS statistics t (p,). Returns the NIS wᵀw and whether t was filled (not for p ≥ 8 or a\n"
+"non-finite step), or None (the caller then runs the Python).");
 
 static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     bufs_t bs = {.n = 0};
     PyObject *result = NULL;
     double *work = NULL;
-    if (nargs != 14) {
-        PyErr_SetString(PyExc_TypeError, "update takes 14 arguments");
+    if (nargs != 15) {
+        PyErr_SetString(PyExc_TypeError, "update takes 15 arguments");
         return NULL;
     }
     if (!bound) {
         PyErr_SetString(PyExc_RuntimeError, "kalman_update: _bind(addresses) first");
         return NULL;
     }
-    int joseph = PyObject_IsTrue(args[12]);
+    int joseph = PyObject_IsTrue(args[13]);
     if (joseph < 0)
         return NULL;
-    Py_ssize_t ipsi = PyNumber_AsSsize_t(args[13], PyExc_OverflowError);
+    Py_ssize_t ipsi = PyNumber_AsSsize_t(args[14], PyExc_OverflowError);
     if (ipsi == -1 && PyErr_Occurred())
         return NULL;
 
     const double *H, *x, *P, *z, *R;
-    double *Y, *v, *S, *K, *xn, *Pn;
+    double *Y, *v, *S, *K, *xn, *Pn, *t_ls;
     int64_t p, n;
     {
         Py_buffer *hv = &bs.v[0];
@@ -354,7 +384,8 @@ static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nar
         !(z = get(&bs, args[3], 1, p, 0, 0)) || !(R = get(&bs, args[4], 2, p, p, 0)) ||
         !(Y = get(&bs, args[5], 2, n + 1 + p, p, 1)) || !(v = get(&bs, args[6], 1, p, 0, 1)) ||
         !(S = get(&bs, args[7], 2, p, p, 1)) || !(K = get(&bs, args[8], 2, n, p, 1)) ||
-        !(xn = get(&bs, args[9], 1, n, 0, 1)) || !(Pn = get(&bs, args[10], 2, n, n, 1)))
+        !(xn = get(&bs, args[9], 1, n, 0, 1)) || !(Pn = get(&bs, args[10], 2, n, n, 1)) ||
+        !(t_ls = get(&bs, args[11], 1, p, 0, 1)))
         goto fallback;
 
     /* scratch: Hx p, HP p·n, L p·p, t n, KH, A, AP, Pj, KRKt n·n each, KR n·p */
@@ -375,7 +406,7 @@ static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nar
     for (int64_t i = 0; i < p; i++)
         v[i] = z[i] - Hx[i];
     {
-        PyObject *seq = PySequence_Fast(args[11], "angle_rows must be a sequence");
+        PyObject *seq = PySequence_Fast(args[12], "angle_rows must be a sequence");
         if (seq == NULL)
             goto done;
         Py_ssize_t na = PySequence_Fast_GET_SIZE(seq);
@@ -469,7 +500,8 @@ static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nar
             goto fallback;
     if (!isfinite(nis))
         goto fallback;
-    result = PyFloat_FromDouble(nis);
+    int t_ok = ls_t(Y + (n + 1) * p, Y + n * p, p, t_ls);
+    result = Py_BuildValue("(dO)", nis, t_ok ? Py_True : Py_False);
     goto done;
 
 fallback:
