@@ -1,5 +1,12 @@
 """Measurement update of the filter (6.21, Joseph form) and its innovation tests: the Local
 Overall Model test (6.38–6.40, THEORY D30) and the Local Slippage w-statistics (6.41).
+
+The per-epoch numeric core (:func:`update`, :func:`innovation_distance`, the LS statistics of an
+update) runs in the compiled kernel ``engine.native.kalman_update`` where it is built: the same
+BLAS/LAPACK routines with the same arguments as the numpy/SciPy code here, so the same bits
+(docs/PERFORMANCE.md). The Python (:func:`_update_py`, :func:`_innovation_distance_py`) is the
+reference, runs with ``UVNAV_PURE=1`` or without the kernel, and wherever the kernel declines
+(errors, unusual layouts). :func:`lom_test` and :func:`ls_test` (not per epoch) stay numpy.
 """
 
 from __future__ import annotations
