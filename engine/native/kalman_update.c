@@ -413,6 +413,10 @@ static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nar
         PyObject **items = PySequence_Fast_ITEMS(seq);
         int bad = 0;
         for (Py_ssize_t k = 0; k < na && !bad; k++) {
+            if (PyBool_Check(items[k])) { /* numpy reads v[True] as a mask: the Python's case */
+                bad = 1;
+                break;
+            }
             Py_ssize_t i = PyNumber_AsSsize_t(items[k], NULL);
             if (i == -1 && PyErr_Occurred()) {
                 PyErr_Clear();
