@@ -1,5 +1,12 @@
 """Measurement update of the filter (6.21, Joseph form) and its innovation tests: the Local
 Overall Model test (6.38–6.40, THEORY D30) and the Local Slippage w-statistics (6.41).
+
+The per-epoch numeric core (:func:`update`, :func:`innovation_distance`, the LS statistics of an
+update) runs in the compiled kernel ``engine.native.kalman_update`` where it is built: the same
+BLAS/LAPACK routines with the same arguments as the numpy/SciPy code here, so the same bits
+(docs/PERFORMANCE.md). The Python (:func:`_update_py`, :func:`_innovation_distance_py`) is the
+reference, runs with ``UVNAV_PURE=1`` or without the kernel, and wherever the kernel declines
+(errors, unusual layouts). :func:`lom_test` and :func:`ls_test` (not per epoch) stay numpy.
 """
 
 from __future__ import annotations
@@ -7,9 +14,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
+from types import ModuleType
 
 import numpy as np
 
+from engine import native
 from engine.filter.lazy_scipy import blas, lapack
 from engine.filter.measurements import Measurement, distinct_keys, h_template
 from engine.filter.params import FilterParams, read_only, symmetrised
@@ -18,6 +27,37 @@ from engine.geodesy.angles import wrap_2pi, wrap_pi
 from engine.lsq.statistics import chi2_bounds
 
 _EYES = tuple(read_only(np.eye(k)) for k in range(21))  # identities up to 20×20
+
+
+_UNRESOLVED = object()
+_K: ModuleType | None | object = _UNRESOLVED
+"""The compiled twin ``engine.native.kalman_update`` once bound to the BLAS/LAPACK routines
+(resolved on the first update, not at import: binding loads both OpenBLAS libraries), or None:
+not built, stale, ``UVNAV_PURE=1`` or no bundled OpenBLAS. Then the Python below runs."""
+
+
+def _kernel() -> ModuleType | None:
+    """Resolve :data:`_K` (once per process; :func:`_reset_kernel` forgets it, for tests)."""
+    global _K
+    if _K is _UNRESOLVED:
+        k = native.kernel("kalman_update")
+        if k is not None:
+            from engine.native import blas as routines
+
+            addresses = routines.all_addresses()
+            if addresses is None:
+                k = None
+            else:
+                k._bind(addresses)
+        _K = k
+    return _K  # type: ignore[return-value]
+
+
+def _reset_kernel() -> None:
+    """Forget the resolved kernel (the next update resolves it again, e.g. after a change of
+    ``UVNAV_PURE``)."""
+    global _K
+    _K = _UNRESOLVED
 
 
 def _eye(k: int) -> np.ndarray:
@@ -155,8 +195,23 @@ def innovation_distance(result: UpdateResult, rows: slice = slice(None)) -> floa
     """Mahalanobis length √(v̂ᵀ S⁻¹ v̂) of the innovation ``rows`` of an update (in σ).
 
     Under H0 its square is χ²_p; a length of tens of σ is no statistical question any more but
-    a gross error (a fix thousands of km away), which the cycle keeps out of the filter.
+    a gross error (a fix thousands of km away), which the cycle keeps out of the filter. The
+    compiled kernel computes it for a slice of step 1 (the same LAPACK/BLAS calls, the same
+    bits); :func:`_innovation_distance_py` otherwise.
     """
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    if k is not None and type(rows) is slice:
+        v = result.innovation
+        start, stop, step = rows.indices(v.shape[0])
+        if step == 1:
+            d = k.distance(v, result.S, start, stop)
+            if d is not None:
+                return d  # type: ignore[no-any-return]
+    return _innovation_distance_py(result, rows)
+
+
+def _innovation_distance_py(result: UpdateResult, rows: slice = slice(None)) -> float:
+    """:func:`innovation_distance` in numpy/SciPy (the reference of the compiled kernel)."""
     v = np.asarray(result.innovation[rows], dtype=float)
     if v.shape[0] == 0:
         return 0.0
@@ -220,7 +275,51 @@ def _bias_h(cols: tuple[tuple[int, ...], ...], keys: tuple[str | None, ...],
 
 
 def update(state: FilterState, rows: Measurement, params: FilterParams) -> UpdateResult:
-    """Measurement update (6.21a–c) with the innovation tests (6.37–6.41).
+    """Measurement update (6.21a–c) with the innovation tests (6.37–6.41): :func:`_update_py`,
+    its numeric core (innovation, S, factor and solve, gain, x and P, the NIS) done by the
+    compiled kernel ``engine.native.kalman_update`` when it is built (the same BLAS/LAPACK calls
+    in the same order: the same bits). Where the kernel declines (S not positive definite, a
+    non-positive variance, an unusual array layout) the Python runs and raises what it raises.
+    """
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    if k is None:
+        return _update_py(state, rows, params)
+    z = rows.z
+    p = z.shape[0]
+    if p == 0:
+        return _empty_update(state)
+    new, H = _full_width(state, rows, params)
+    x = new.x
+    n = x.shape[0]
+    empty = np.empty
+    Yc = empty((n + 1 + p, p))  # Yc.T: L⁻¹[HP | v̂ | I], Fortran-ordered as trsm leaves it
+    v = empty(p)
+    S = empty((p, p))
+    K = empty((n, p))
+    xn = empty(n)
+    Pn = empty((n, n))
+    t = empty(p)
+    out = k.update(x, new.P, H, z, rows.R, Yc, v, S, K, xn, Pn, t, rows.angle_rows,
+                   params.joseph, IPSI)
+    if out is None:
+        return _update_py(state, rows, params)
+    nis, t_ok = out
+    new = new._with(new.t, xn, Pn)
+    lom = _lom_from_nis(nis, p, params.alpha)
+    Y = Yc.T
+    ls = _new(LsTest)
+    ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject")
+    if t_ok:  # LsTest.t, computed by the kernel (same bits); else on access as usual
+        t.setflags(write=False)
+        ls.__dict__["t"] = t
+    result = _new(UpdateResult)
+    result.__dict__.update(state=new, innovation=v, S=S, K=K, labels=rows.labels, lom=lom,
+                           ls=ls)
+    return result
+
+
+def _update_py(state: FilterState, rows: Measurement, params: FilterParams) -> UpdateResult:
+    """Measurement update (6.21a–c) with the innovation tests (6.37–6.41), in numpy/SciPy.
 
     S = H P Hᵀ + R is Cholesky-factorised (S = L Lᵀ) and one triangular solve L Y = [HP | v̂ | I]
     gives L⁻¹HP, L⁻¹v̂ and L⁻¹, so K = (L⁻¹HP)ᵀ L⁻¹ and T_LOM·p = |L⁻¹v̂|²; neither S nor P is

@@ -1,0 +1,617 @@
+/* The numeric core of the filter's measurement update (engine/filter/update.py), compiled.
+ *
+ * update(): v = z - H x (angle rows wrapped), S = H P Hᵀ + R, Cholesky S = L Lᵀ (SciPy's dpotrf),
+ * one forward substitution L Y = [HP | v | I] (SciPy's dtrsm), K = (L⁻¹HP)ᵀ L⁻¹,
+ * x⁺ = x + (L⁻¹HP)ᵀ w (heading wrapped to [0, 2π)), P⁺ by the Joseph form or P - K HP,
+ * symmetrised, and the NIS wᵀw. distance(): the Mahalanobis length of a block of the innovation
+ * (update.innovation_distance).
+ *
+ * Bits: every numpy product goes through np_dot below, a transcription of the float64 branches
+ * of numpy's cblas_matrixproduct (numpy/_core/src/common/cblasfuncs.c: the same routine —
+ * daxpy, DOUBLE_dot's 0.0 + ddot, gemv, gemm or syrk — with the same order, transposition flags
+ * and leading dimensions numpy derives from the operands' shapes and contiguity), and the LAPACK
+ * calls are the ones SciPy's f2py wrappers make (flapack dpotrf with clean=1, fblas dtrsm), on
+ * the same Fortran-ordered copies. The elementwise steps are written in the order of the
+ * Python. Built with -ffp-contract=off (setup.py): no fused multiply-add.
+ *
+ * The caller allocates the outputs (numpy arrays, C-contiguous; Y C-contiguous (n+1+p)×p, i.e.
+ * the Fortran-ordered p×(n+1+p) the Python's trsm overwrites) and wraps them; any input that is
+ * not a C-contiguous float64 array of the expected shape, a non-finite angle innovation, S not
+ * positive definite or a non-positive variance gives None: the caller then runs the Python,
+ * which raises what it raises.
+ */
+#include "uvn_blas.h"
+
+#include <math.h>
+#include <string.h>
+
+#ifndef UVN_SOURCE_DIGEST
+#define UVN_SOURCE_DIGEST "unknown"
+#endif
+
+static uvn_blas_t blas;
+static int bound = 0;
+
+static const double TWO_PI = 2.0 * 3.14159265358979311599796346854;  /* 2.0 * math.pi */
+static const double PI = 3.14159265358979311599796346854;            /* math.pi */
+
+/* ------------------------------------------------------------------ numpy's dot, float64 */
+
+typedef struct {
+    const double *d;
+    int nd;
+    int64_t dim[2];
+    int64_t st[2]; /* strides in elements */
+} arr_t;
+
+enum { SH_SCALAR, SH_COLUMN, SH_ROW, SH_MATRIX };
+
+static arr_t mk1(const double *d, int64_t n, int64_t st)
+{
+    arr_t a = {d, 1, {n, 0}, {st, 0}};
+    return a;
+}
+
+static arr_t mk2(const double *d, int64_t r, int64_t c, int64_t sr, int64_t sc)
+{
+    arr_t a = {d, 2, {r, c}, {sr, sc}};
+    return a;
+}
+
+/* numpy's relaxed C / F contiguity (dimensions of length 1 ignored; a 0-length one: both). */
+static int is_c(const arr_t *a)
+{
+    int64_t sd = 1;
+    for (int i = a->nd - 1; i >= 0; i--) {
+        if (a->dim[i] == 0)
+            return 1;
+        if (a->dim[i] != 1) {
+            if (a->st[i] != sd)
+                return 0;
+            sd *= a->dim[i];
+        }
+    }
+    return 1;
+}
+
+static int is_f(const arr_t *a)
+{
+    int64_t sd = 1;
+    for (int i = 0; i < a->nd; i++) {
+        if (a->dim[i] == 0)
+            return 1;
+        if (a->dim[i] != 1) {
+            if (a->st[i] != sd)
+                return 0;
+            sd *= a->dim[i];
+        }
+    }
+    return 1;
+}
+
+static int shape_of(const arr_t *a)
+{
+    if (a->nd == 1)
+        return a->dim[0] > 1 ? SH_COLUMN : SH_SCALAR;
+    if (a->dim[0] > 1)
+        return a->dim[1] == 1 ? SH_COLUMN : SH_MATRIX;
+    return a->dim[1] == 1 ? SH_SCALAR : SH_ROW;
+}
+
+static int64_t max1(int64_t k) { return k > 1 ? k : 1; }
+
+/* numpy's DOUBLE_dot: 0.0 + cblas_ddot (one chunk: n is small). */
+static double np_vdot(int64_t n, const double *x, int64_t incx, const double *y, int64_t incy)
+{
+    double sum = 0.;
+    sum += blas.ddot(n, x, incx, y, incy);
+    return sum;
+}
+
+/* out (C-contiguous, `size` elements, zeroed here) = numpy.dot(a, b) for 1-/2-d float64
+ * operands with positive strides, as cblas_matrixproduct computes it. Returns 0, or -1 for a
+ * layout numpy would first copy (not used by the callers here). */
+static int np_dot(const arr_t *ap1, const arr_t *ap2, double *out, int64_t size)
+{
+    const arr_t *a = ap1, *b = ap2;
+    int s1 = shape_of(ap1), s2 = shape_of(ap2);
+    int64_t l, a1stride = 0, odim1 = 1;
+
+    memset(out, 0, (size_t)size * sizeof(double));
+    if (s1 == SH_SCALAR || s2 == SH_SCALAR) {
+        const arr_t *oa = ap1, *ob = ap2;
+        int nd;
+        if (s1 == SH_SCALAR) {
+            a = ap2;
+            b = ap1;
+            s1 = s2;
+            s2 = SH_SCALAR;
+        }
+        a1stride = (s1 == SH_ROW) ? a->st[1] : a->st[0];
+        l = oa->dim[oa->nd - 1];
+        nd = a->nd + b->nd - 2;
+        if (nd == 1) {
+            l = (oa->nd == 2) ? oa->dim[0] : ob->dim[1];
+        }
+        else if (nd == 2) {
+            odim1 = ob->dim[1];
+            l = (s1 == SH_ROW) ? ob->dim[1] : oa->dim[0];
+        }
+        if (oa->dim[oa->nd - 1] == 0)
+            l = 0;
+    }
+    else {
+        l = a->dim[a->nd - 1];
+    }
+    if (size == 0 || l == 0)
+        return 0;
+
+    if (s2 == SH_SCALAR) {
+        if (l == 1)
+            out[0] = b->d[0] * a->d[0];
+        else if (s1 != SH_MATRIX)
+            blas.daxpy(l, b->d[0], a->d, a1stride, out, 1);
+        else
+            return -1; /* (matrix × 1×1 cannot be aligned; numpy's loop is not needed) */
+        (void)odim1;
+    }
+    else if (s2 == SH_COLUMN && s1 != SH_MATRIX) {
+        out[0] = np_vdot(l, a->d, a->st[s1 == SH_ROW], b->d, b->st[0]);
+    }
+    else if (s1 == SH_MATRIX && s2 != SH_MATRIX) {
+        int order;
+        int64_t lda;
+        if (is_c(a)) {
+            order = UvnRowMajor;
+            lda = max1(a->dim[1]);
+        }
+        else if (is_f(a)) {
+            order = UvnColMajor;
+            lda = max1(a->dim[0]);
+        }
+        else
+            return -1;
+        blas.dgemv(order, UvnNoTrans, a->dim[0], a->dim[1], 1., a->d, lda, b->d, b->st[0], 0.,
+                   out, 1);
+    }
+    else if (s1 != SH_MATRIX && s2 == SH_MATRIX) {
+        int order;
+        int64_t lda, a1s;
+        if (is_c(b)) {
+            order = UvnRowMajor;
+            lda = max1(b->dim[1]);
+        }
+        else if (is_f(b)) {
+            order = UvnColMajor;
+            lda = max1(b->dim[0]);
+        }
+        else
+            return -1;
+        a1s = (s1 == SH_ROW) ? a->st[1] : a->st[0];
+        blas.dgemv(order, UvnTrans, b->dim[0], b->dim[1], 1., b->d, lda, a->d, a1s, 0., out, 1);
+    }
+    else {
+        int t1 = UvnNoTrans, t2 = UvnNoTrans;
+        int64_t L, N, M, lda, ldb, ldc;
+        int c1 = is_c(a), f1 = is_f(a), c2 = is_c(b), f2 = is_f(b);
+        if ((!c1 && !f1) || (!c2 && !f2) || a->nd != 2 || b->nd != 2)
+            return -1;
+        L = a->dim[0];
+        N = b->dim[1];
+        M = b->dim[0];
+        lda = max1(a->dim[1]);
+        ldb = max1(b->dim[1]);
+        ldc = max1(N);
+        if (f1) {
+            t1 = UvnTrans;
+            lda = max1(a->dim[0]);
+        }
+        if (f2) {
+            t2 = UvnTrans;
+            ldb = max1(b->dim[0]);
+        }
+        if (a->d == b->d && a->dim[0] == b->dim[1] && a->dim[1] == b->dim[0] &&
+            a->st[0] == b->st[1] && a->st[1] == b->st[0] &&
+            ((t1 == UvnTrans) ^ (t2 == UvnTrans)) && ((t1 == UvnNoTrans) ^ (t2 == UvnNoTrans))) {
+            if (t1 == UvnNoTrans)
+                blas.dsyrk(UvnRowMajor, UvnUpper, t1, N, M, 1., a->d, lda, 0., out, ldc);
+            else
+                blas.dsyrk(UvnRowMajor, UvnUpper, t1, N, M, 1., b->d, ldb, 0., out, ldc);
+            for (int64_t i = 0; i < N; i++)
+                for (int64_t j = i + 1; j < N; j++)
+                    out[j * N + i] = out[i * N + j];
+        }
+        else {
+            blas.dgemm(UvnRowMajor, t1, t2, L, N, M, 1., a->d, lda, b->d, ldb, 0., out, ldc);
+        }
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ SciPy's f2py wrappers */
+
+/* lapack.dpotrf(S, lower=1, clean=1) on the m×m block of a row-major matrix at s with row
+ * stride ld: the Fortran-ordered copy f is factorised in place, its upper triangle zeroed.
+ * Returns info. */
+static int sp_potrf_lower(const double *s, int64_t ld, int m, double *f)
+{
+    int info = 0;
+    for (int j = 0; j < m; j++)
+        for (int i = 0; i < m; i++)
+            f[i + (int64_t)j * m] = s[i * ld + j];
+    blas.dpotrf("L", &m, f, &m, &info);
+    for (int i = 0; i < m; i++)
+        for (int j = i + 1; j < m; j++)
+            f[(int64_t)j * m + i] = 0.0;
+    return info;
+}
+
+/* blas.dtrsm(1.0, L, B, side=0, lower=1, trans_a=0, diag=0): B (Fortran, m×ncol) ← L⁻¹B. */
+static void sp_trsm_lower(const double *l, int m, double *b, int ncol)
+{
+    const double one = 1.0;
+    blas.dtrsm("L", "L", "N", "N", &m, &ncol, &one, l, &m, b, &m);
+}
+
+/* ------------------------------------------------------------------ Python's scalars */
+
+/* engine.geodesy.angles.wrap_pi: fmod(a + π, 2π), + 2π if ≤ 0, − π. */
+static double wrap_pi(double angle)
+{
+    double a = fmod(angle + PI, TWO_PI);
+    if (a <= 0.0)
+        a += TWO_PI;
+    return a - PI;
+}
+
+/* numpy's float64 % 2π (npy_remainder; the same as Python's float %). */
+static double rem_2pi(double a)
+{
+    double mod = fmod(a, TWO_PI);
+    if (mod) {
+        if ((TWO_PI < 0) != (mod < 0))
+            mod += TWO_PI;
+    }
+    else {
+        mod = copysign(0.0, TWO_PI);
+    }
+    return mod;
+}
+
+/* ------------------------------------------------------------------ buffers */
+
+typedef struct {
+    Py_buffer v[12];
+    int n;
+} bufs_t;
+
+static void release(bufs_t *bs)
+{
+    for (int i = 0; i < bs->n; i++)
+        PyBuffer_Release(&bs->v[i]);
+    bs->n = 0;
+}
+
+/* A C-contiguous float64 buffer of `obj` with ndim `nd` and shape (d0[, d1]) (d < 0: any),
+ * or NULL (no exception left set). */
+static double *get(bufs_t *bs, PyObject *obj, int nd, int64_t d0, int64_t d1, int writable)
+{
+    Py_buffer *v = &bs->v[bs->n];
+    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(obj, v, flags) != 0) {
+        PyErr_Clear();
+        return NULL;
+    }
+    bs->n++;
+    if (v->itemsize != 8 || v->format == NULL || strcmp(v->format, "d") != 0 ||
+        v->ndim != nd || (d0 >= 0 && v->shape[0] != d0) ||
+        (nd == 2 && d1 >= 0 && v->shape[1] != d1))
+        return NULL;
+    return (double *)v->buf;
+}
+
+/* ------------------------------------------------------------------ update */
+
+/* LsTest.t: lt = L⁻¹ᵀ (C p×p at li, row stride p), t = lt.dot(w) / np.sqrt(np.add.reduce(lt * lt,
+ * axis=1)). numpy's add.reduce of a row of fewer than 8 items is 0.0 + (((-0.0 + a0) + a1) + …)
+ * (pairwise_sum's short case); 8 or more (pairwise blocks) are left to the Python, and so is any
+ * non-finite step (where numpy would warn). Returns 1 if t was filled. */
+static int ls_t(const double *li, const double *w, int64_t p, double *t)
+{
+    double num[8];
+    arr_t alt = mk2(li, p, p, p, 1), aw = mk1(w, p, 1);
+    if (p >= 8 || np_dot(&alt, &aw, num, p))
+        return 0;
+    for (int64_t i = 0; i < p; i++) {
+        double res = -0.0, sum = 0.0;
+        for (int64_t j = 0; j < p; j++) {
+            double sq = li[i * p + j] * li[i * p + j];
+            if (!isfinite(sq))
+                return 0;
+            res += sq;
+        }
+        sum += res;
+        double root = sqrt(sum);
+        if (!isfinite(num[i]) || !isfinite(root))
+            return 0;
+        t[i] = num[i] / root;
+        if (!isfinite(t[i]))
+            return 0;
+    }
+    return 1;
+}
+
+PyDoc_STRVAR(update_doc,
+"update(x, P, H, z, R, Y, v, S, K, xn, Pn, t, angle_rows, joseph, ipsi) -> (nis, t_ok) | None\n\n"
+"The numeric core of engine.filter.update._update_py into the given C-contiguous arrays:\n"
+"v (p,), S (p,p), Y ((n+1+p)×p: Y.T is L⁻¹[HP | v | I]), K (n,p), xn (n,), Pn (n,n) and the\n"
+"LS statistics t (p,). Returns the NIS wᵀw and whether t was filled (not for p ≥ 8 or a\n"
+"non-finite step), or None (the caller then runs the Python).");
+
+static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    bufs_t bs = {.n = 0};
+    PyObject *result = NULL;
+    double *work = NULL;
+    if (nargs != 15) {
+        PyErr_SetString(PyExc_TypeError, "update takes 15 arguments");
+        return NULL;
+    }
+    if (!bound) {
+        PyErr_SetString(PyExc_RuntimeError, "kalman_update: _bind(addresses) first");
+        return NULL;
+    }
+    int joseph = PyObject_IsTrue(args[13]);
+    if (joseph < 0)
+        return NULL;
+    Py_ssize_t ipsi = PyNumber_AsSsize_t(args[14], PyExc_OverflowError);
+    if (ipsi == -1 && PyErr_Occurred())
+        return NULL;
+
+    const double *H, *x, *P, *z, *R;
+    double *Y, *v, *S, *K, *xn, *Pn, *t_ls;
+    int64_t p, n;
+    {
+        Py_buffer *hv = &bs.v[0];
+        if (!(H = get(&bs, args[2], 2, -1, -1, 0)))
+            goto fallback;
+        p = hv->shape[0];
+        n = hv->shape[1];
+    }
+    if (p < 1 || n < 2 || p > 1000000 || ipsi < 0 || ipsi >= n)
+        goto fallback;
+    if (!(x = get(&bs, args[0], 1, n, 0, 0)) || !(P = get(&bs, args[1], 2, n, n, 0)) ||
+        !(z = get(&bs, args[3], 1, p, 0, 0)) || !(R = get(&bs, args[4], 2, p, p, 0)) ||
+        !(Y = get(&bs, args[5], 2, n + 1 + p, p, 1)) || !(v = get(&bs, args[6], 1, p, 0, 1)) ||
+        !(S = get(&bs, args[7], 2, p, p, 1)) || !(K = get(&bs, args[8], 2, n, p, 1)) ||
+        !(xn = get(&bs, args[9], 1, n, 0, 1)) || !(Pn = get(&bs, args[10], 2, n, n, 1)) ||
+        !(t_ls = get(&bs, args[11], 1, p, 0, 1)))
+        goto fallback;
+
+    /* scratch: Hx p, HP p·n, L p·p, t n, KH, A, AP, Pj, KRKt n·n each, KR n·p */
+    work = PyMem_Malloc(sizeof(double) * (size_t)(p + p * n + p * p + n + 5 * n * n + n * p));
+    if (work == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double *Hx = work, *HP = Hx + p, *Lf = HP + p * n, *t = Lf + p * p, *KH = t + n;
+    double *A = KH + n * n, *AP = A + n * n, *Pj = AP + n * n, *KRKt = Pj + n * n;
+    double *KR = KRKt + n * n;
+
+    arr_t aH = mk2(H, p, n, n, 1), ax = mk1(x, n, 1), aP = mk2(P, n, n, n, 1);
+
+    /* v = z - H.dot(x); v[i] = wrap_pi(v[i]) for i in angle_rows */
+    if (np_dot(&aH, &ax, Hx, p))
+        goto fallback;
+    for (int64_t i = 0; i < p; i++)
+        v[i] = z[i] - Hx[i];
+    {
+        PyObject *seq = PySequence_Fast(args[12], "angle_rows must be a sequence");
+        if (seq == NULL)
+            goto done;
+        Py_ssize_t na = PySequence_Fast_GET_SIZE(seq);
+        PyObject **items = PySequence_Fast_ITEMS(seq);
+        int bad = 0;
+        for (Py_ssize_t k = 0; k < na && !bad; k++) {
+            if (PyBool_Check(items[k])) { /* numpy reads v[True] as a mask: the Python's case */
+                bad = 1;
+                break;
+            }
+            Py_ssize_t i = PyNumber_AsSsize_t(items[k], NULL);
+            if (i == -1 && PyErr_Occurred()) {
+                PyErr_Clear();
+                bad = 1;
+                break;
+            }
+            if (i < 0)
+                i += p;
+            if (i < 0 || i >= p || !isfinite(v[i] + PI)) {
+                bad = 1;
+                break;
+            }
+            v[i] = wrap_pi(v[i]);
+        }
+        Py_DECREF(seq);
+        if (bad)
+            goto fallback;
+    }
+
+    /* HP = H.dot(P); S = HP.dot(H.T); S += R */
+    arr_t aHP = mk2(HP, p, n, n, 1), aHt = mk2(H, n, p, 1, n);
+    if (np_dot(&aH, &aP, HP, p * n) || np_dot(&aHP, &aHt, S, p * p))
+        goto fallback;
+    for (int64_t i = 0; i < p * p; i++)
+        S[i] = S[i] + R[i];
+
+    /* L = dpotrf(S, 1, 1); Y = dtrsm(1.0, L, [HP | v | I]) in place */
+    if (sp_potrf_lower(S, p, (int)p, Lf) != 0)
+        goto fallback;
+    for (int64_t j = 0; j < n; j++)
+        for (int64_t i = 0; i < p; i++)
+            Y[j * p + i] = HP[i * n + j];
+    for (int64_t i = 0; i < p; i++)
+        Y[n * p + i] = v[i];
+    for (int64_t j = 0; j < p; j++)
+        for (int64_t i = 0; i < p; i++)
+            Y[(n + 1 + j) * p + i] = (i == j) ? 1.0 : 0.0;
+    sp_trsm_lower(Lf, (int)p, Y, (int)(n + 1 + p));
+
+    /* LiHPt = Y[:, :n].T (C n×p), w = Y[:, n], Li = Y[:, n+1:] (F p×p) */
+    arr_t aLiHPt = mk2(Y, n, p, p, 1), aw = mk1(Y + n * p, p, 1);
+    arr_t aLi = mk2(Y + (n + 1) * p, p, p, 1, p);
+
+    /* K = LiHPt.dot(Li); xn = x + LiHPt.dot(w); xn[ipsi] = wrap_2pi(xn[ipsi]) */
+    if (np_dot(&aLiHPt, &aLi, K, n * p) || np_dot(&aLiHPt, &aw, t, n))
+        goto fallback;
+    for (int64_t i = 0; i < n; i++)
+        xn[i] = x[i] + t[i];
+    xn[ipsi] = rem_2pi(xn[ipsi]);
+
+    /* Pn: (I - KH) P (I - KH)ᵀ + K R Kᵀ, or P - K HP; then (Pn + Pnᵀ)·0.5 */
+    arr_t aK = mk2(K, n, p, p, 1);
+    if (joseph) {
+        arr_t aA = mk2(A, n, n, n, 1), aAP = mk2(AP, n, n, n, 1), aAt = mk2(A, n, n, 1, n);
+        arr_t aR = mk2(R, p, p, p, 1), aKR = mk2(KR, n, p, p, 1), aKt = mk2(K, p, n, 1, p);
+        if (np_dot(&aK, &aH, KH, n * n))
+            goto fallback;
+        for (int64_t i = 0; i < n; i++)
+            for (int64_t j = 0; j < n; j++)
+                A[i * n + j] = ((i == j) ? 1.0 : 0.0) - KH[i * n + j];
+        if (np_dot(&aA, &aP, AP, n * n) || np_dot(&aAP, &aAt, Pj, n * n) ||
+            np_dot(&aK, &aR, KR, n * p) || np_dot(&aKR, &aKt, KRKt, n * n))
+            goto fallback;
+        for (int64_t i = 0; i < n * n; i++)
+            Pj[i] = Pj[i] + KRKt[i];
+    }
+    else {
+        if (np_dot(&aK, &aHP, KH, n * n))
+            goto fallback;
+        for (int64_t i = 0; i < n * n; i++)
+            Pj[i] = P[i] - KH[i];
+    }
+    for (int64_t i = 0; i < n; i++)
+        for (int64_t j = 0; j < n; j++)
+            Pn[i * n + j] = Pj[i * n + j] + Pj[j * n + i];
+    for (int64_t i = 0; i < n * n; i++)
+        Pn[i] = Pn[i] * 0.5;
+
+    /* nis = float(w.dot(w)); every variance > 0 and nis finite, else the Python raises */
+    double nis;
+    if (np_dot(&aw, &aw, &nis, 1))
+        goto fallback;
+    for (int64_t i = 0; i < n; i++)
+        if (!(0.0 < Pn[i * n + i]))
+            goto fallback;
+    if (!isfinite(nis))
+        goto fallback;
+    int t_ok = ls_t(Y + (n + 1) * p, Y + n * p, p, t_ls);
+    result = Py_BuildValue("(dO)", nis, t_ok ? Py_True : Py_False);
+    goto done;
+
+fallback:
+    result = Py_NewRef(Py_None);
+done:
+    PyMem_Free(work);
+    release(&bs);
+    return result;
+}
+
+/* ------------------------------------------------------------------ innovation distance */
+
+PyDoc_STRVAR(distance_doc,
+"distance(innovation, S, start, stop) -> float | None\n\n"
+"√(v̂ᵀS⁻¹v̂) of rows start:stop (engine.filter.update.innovation_distance): inf if that\n"
+"block of S is not positive definite; None if the arrays are not C-contiguous float64.");
+
+static PyObject *py_distance(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    bufs_t bs = {.n = 0};
+    PyObject *result = NULL;
+    double *work = NULL;
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "distance takes 4 arguments");
+        return NULL;
+    }
+    if (!bound) {
+        PyErr_SetString(PyExc_RuntimeError, "kalman_update: _bind(addresses) first");
+        return NULL;
+    }
+    Py_ssize_t start = PyNumber_AsSsize_t(args[2], PyExc_OverflowError);
+    if (start == -1 && PyErr_Occurred())
+        return NULL;
+    Py_ssize_t stop = PyNumber_AsSsize_t(args[3], PyExc_OverflowError);
+    if (stop == -1 && PyErr_Occurred())
+        return NULL;
+    const double *v, *S;
+    if (!(v = get(&bs, args[0], 1, -1, 0, 0)))
+        goto fallback;
+    int64_t p = bs.v[0].shape[0];
+    if (!(S = get(&bs, args[1], 2, p, p, 0)))
+        goto fallback;
+    if (start < 0 || stop > p || p > 1000000)
+        goto fallback;
+    if (stop <= start) {
+        result = PyFloat_FromDouble(0.0);
+        goto done;
+    }
+    int m = (int)(stop - start);
+    work = PyMem_Malloc(sizeof(double) * (size_t)(m * m + m));
+    if (work == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double *Lf = work, *b = work + m * m;
+    if (sp_potrf_lower(S + start * p + start, p, m, Lf) != 0) {
+        result = PyFloat_FromDouble(Py_HUGE_VAL);
+        goto done;
+    }
+    memcpy(b, v + start, sizeof(double) * (size_t)m);
+    sp_trsm_lower(Lf, m, b, 1);
+    /* float(w @ w): matmul of two vectors is DOUBLE_dot, 0.0 + ddot, for any length */
+    double d2 = np_vdot(m, b, 1, b, 1);
+    result = PyFloat_FromDouble(d2 >= 0.0 ? sqrt(d2) : Py_HUGE_VAL);
+    goto done;
+
+fallback:
+    result = Py_NewRef(Py_None);
+done:
+    PyMem_Free(work);
+    release(&bs);
+    return result;
+}
+
+/* ------------------------------------------------------------------ module */
+
+static PyObject *py_bind(PyObject *self, PyObject *addresses)
+{
+    if (uvn_blas_bind(addresses, &blas) != 0)
+        return NULL;
+    bound = 1;
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"update", (PyCFunction)(void (*)(void))py_update, METH_FASTCALL, update_doc},
+    {"distance", (PyCFunction)(void (*)(void))py_distance, METH_FASTCALL, distance_doc},
+    {"_bind", py_bind, METH_O,
+     "_bind(addresses): the BLAS/LAPACK routines (engine.native.blas.all_addresses())."},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "engine.native.kalman_update",
+    "The filter's measurement update, compiled (engine/filter/update.py's numeric core).", -1,
+    methods,
+};
+
+PyMODINIT_FUNC PyInit_kalman_update(void)
+{
+    PyObject *m = PyModule_Create(&module);
+    if (m == NULL)
+        return NULL;
+    if (PyModule_AddStringConstant(m, "SOURCE_DIGEST", UVN_SOURCE_DIGEST) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

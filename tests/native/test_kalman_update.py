@@ -1,0 +1,311 @@
+"""The compiled measurement update (engine/native/kalman_update.c) gives bit for bit what the
+Python it replaces gives (engine.filter.update._update_py, _innovation_distance_py).
+
+Compared: every array of the result (x, P, fix_cov, v̂, S, K, L⁻¹, w, the LS statistics), its
+layout (strides: later products of these arrays pick their BLAS routine from it) and the LOM
+test; on (a) the updates a short demo replay really makes and (b) random states and rows around
+them — one to seven rows (one row takes numpy's scalar and dot branches), templates and general
+H, fix-error columns, angle rows, Joseph and the thesis' P update. Error paths (S not positive
+definite, a non-positive variance, an infinite angle innovation) raise the same exception with
+the same state, and ``UVNAV_PURE=1`` runs the Python.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import engine.filter.update as U
+import engine.run.cycle as cycle_mod
+from engine import native
+from engine.filter import kalman as kf
+from engine.filter.measurements import Measurement, _measurement
+from engine.filter.params import FilterParams
+from engine.filter.state import N_NAV, FilterState, add_fix_states
+
+ROOT = Path(__file__).resolve().parents[2]
+
+pytestmark = pytest.mark.skipif(native.kernel("kalman_update") is None,
+                                reason="kernel kalman_update not built (or UVNAV_PURE=1)")
+
+
+@pytest.fixture(autouse=True)
+def _kernel_resolved() -> None:
+    U._reset_kernel()
+    if U._kernel() is None:
+        pytest.skip("no bundled OpenBLAS: the kernel is not bound")
+
+
+def same(a: object, b: object) -> bool:
+    """Equal bit for bit (arrays: dtype, shape, strides and bytes)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        assert isinstance(a, np.ndarray) and isinstance(b, np.ndarray)
+        return a.dtype == b.dtype and a.shape == b.shape and a.strides == b.strides and \
+            np.ascontiguousarray(a).tobytes() == np.ascontiguousarray(b).tobytes()
+    if isinstance(a, float) and isinstance(b, float):
+        return a.hex() == b.hex() or (math.isnan(a) and math.isnan(b))
+    return a == b
+
+
+def assert_same_update(state: FilterState, rows: Measurement, params: FilterParams) -> None:
+    """update() (kernel) and _update_py() agree bit for bit, or raise the same."""
+    try:
+        ref = U._update_py(state, rows, params)
+    except Exception as exc:  # noqa: BLE001 — the kernel path must raise the same
+        with pytest.raises(type(exc)) as got:
+            U.update(state, rows, params)
+        assert str(got.value) == str(exc)
+        if isinstance(exc, U.FilterDivergence):
+            assert isinstance(got.value, U.FilterDivergence)
+            assert same(got.value.state.x, exc.state.x) and same(got.value.state.P, exc.state.P)
+        return
+    new = U.update(state, rows, params)
+    for name in ("x", "P", "fix_cov"):
+        assert same(getattr(new.state, name), getattr(ref.state, name)), name
+    assert new.state.x.flags.writeable is False and new.state.P.flags.writeable is False
+    assert (new.state.t, new.state.fix_states, new.state.fix_tau_s) == \
+        (ref.state.t, ref.state.fix_states, ref.state.fix_tau_s)
+    for name in ("innovation", "S", "K"):
+        assert same(getattr(new, name), getattr(ref, name)), name
+    for name in ("l_inv", "w", "t"):
+        assert same(getattr(new.ls, name), getattr(ref.ls, name)), name
+    assert new.ls.lom_reject == ref.ls.lom_reject and new.ls.identified == ref.ls.identified
+    assert new.lom == ref.lom and new.labels == ref.labels
+    p = rows.z.shape[0]
+    for rows_slice in (slice(None), slice(1, None), slice(max(p - 2, 0), None), slice(0, 1),
+                       slice(p, None)):
+        assert same(U.innovation_distance(new, rows_slice),
+                    U._innovation_distance_py(ref, rows_slice)), rows_slice
+
+
+# --------------------------------------------------------------------------- (a) a replay
+
+
+@pytest.fixture(scope="module")
+def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
+    """The (state, rows, params) of every update of the first 200 demo epochs."""
+    from engine.run.config import load_config
+    from engine.run.session import Session
+
+    seen: list[tuple[FilterState, Measurement, FilterParams]] = []
+    orig = cycle_mod.update
+
+    def record(state: FilterState, rows: Measurement, params: FilterParams) -> U.UpdateResult:
+        seen.append((state, rows, params))
+        return orig(state, rows, params)
+
+    cycle_mod.update = record  # type: ignore[assignment]
+    try:
+        cfg = load_config(ROOT / "data" / "DEMO.toml")
+        with tempfile.TemporaryDirectory() as tmp:
+            s = Session(cfg, out_path=Path(tmp) / "T.OUT", force=True, history=1)
+            try:
+                s.run(max_cycles=200)
+            finally:
+                s.close()
+    finally:
+        cycle_mod.update = orig  # type: ignore[assignment]
+    assert len(seen) > 300
+    return seen
+
+
+def test_the_updates_of_a_demo_replay_are_the_same(replay_updates) -> None:
+    for state, rows, params in replay_updates:
+        assert_same_update(state, rows, params)
+
+
+def test_the_kernel_really_runs_on_the_replay(replay_updates, monkeypatch) -> None:
+    """No silent fallback: the kernel answers for every update of the replay."""
+    k = U._kernel()
+    answered = []
+    real = k.update
+
+    class Spy:
+        def __getattr__(self, name: str) -> object:
+            return getattr(k, name)
+
+        @staticmethod
+        def update(*args: object) -> object:
+            out = real(*args)
+            answered.append(out is not None)
+            return out
+
+    monkeypatch.setattr(U, "_K", Spy())
+    for state, rows, params in replay_updates[:50]:
+        U.update(state, rows, params)
+    assert answered and all(answered)
+
+
+@pytest.mark.parametrize("joseph", [True, False])
+def test_replay_states_with_other_rows(replay_updates, joseph: bool) -> None:
+    """The replay's states with one row, two rows and the thesis' P update."""
+    params = FilterParams(joseph=joseph)
+    rng = np.random.default_rng(7)
+    for state, _rows, _ in replay_updates[::15]:
+        n = state.n
+        for p in (1, 2):
+            cols = tuple((int(c),) for c in rng.choice(N_NAV, p, replace=False))
+            H = _template(cols, n)
+            z = H.dot(state.x) + rng.normal(0.0, 1.0, p)
+            R = np.diag(rng.uniform(0.5, 4.0, p))
+            m = _measurement(z, H, R, tuple(f"r{i}" for i in range(p)),
+                             angle_rows=(0,) if rng.random() < 0.5 else (), cols=cols)
+            assert_same_update(state, m, params)
+
+
+def _template(cols: tuple[tuple[int, ...], ...], n: int) -> np.ndarray:
+    from engine.filter.measurements import h_template
+
+    return h_template(cols, n)
+
+
+# --------------------------------------------------------------------------- (b) random
+
+
+def _state(rng: np.random.Generator, fix: int, scale: float) -> FilterState:
+    x = np.concatenate([rng.normal(0.0, 1e3, 3), [abs(rng.normal(3.0, 2.0))],
+                        [rng.uniform(-1.0, 7.5)], rng.normal(0.0, 0.05, 1),
+                        rng.normal(0.0, 0.3, 2), rng.normal(0.0, 0.01, 3)])
+    A = rng.normal(size=(N_NAV, N_NAV)) * rng.uniform(0.01, 10.0, N_NAV) * scale
+    s = FilterState(float(rng.uniform(0, 1e4)), x, A @ A.T + np.eye(N_NAV) * 1e-3)
+    if fix:
+        keys = ("fix_e", "fix_n", "lop_b")[:fix]
+        B = rng.normal(size=(fix, fix)) * 5.0
+        s = add_fix_states(s, keys, B @ B.T + np.eye(fix), FilterParams(coloured=True),
+                           tuple(rng.choice([180.0, 240.0, 1800.0], fix)))
+        xs = np.array(s.x)
+        xs[N_NAV:] = rng.normal(0.0, 3.0, fix)
+        G = rng.normal(size=(s.n, s.n))
+        s = FilterState(s.t, xs, s.P + 0.01 * (G @ G.T), s.fix_states, s.fix_tau_s, s.fix_cov)
+    return s
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), p=st.integers(1, 9), fix=st.integers(0, 3),
+       template=st.booleans(), joseph=st.booleans(), narrow=st.booleans(),
+       scale=st.sampled_from([1e-3, 1.0, 1e3]), r_scale=st.sampled_from([1e-6, 1.0, 1e4]))
+def test_random_updates_are_the_same(seed: int, p: int, fix: int, template: bool, joseph: bool,
+                                     narrow: bool, scale: float, r_scale: float) -> None:
+    rng = np.random.default_rng(seed)
+    s = _state(rng, fix, scale)
+    n = s.n
+    width = N_NAV if narrow else n
+    if template:
+        cols = tuple(tuple(int(c) for c in rng.choice(width, int(rng.integers(1, 3)),
+                                                      replace=False)) for _ in range(p))
+        H = _template(cols, width)
+    else:
+        cols = None
+        H = rng.normal(size=(p, width))
+    z = H.dot(s.x[:width]) + rng.normal(0.0, 3.0, p)
+    C = rng.normal(size=(p, p))
+    D = np.diag(10.0 ** rng.uniform(-3.0, 3.0, p)) if rng.random() < 0.5 else np.eye(p)
+    R = D @ (C @ C.T + np.eye(p)) @ D * r_scale  # rows of L⁻¹ with a wide range (LS sums)
+    angle_rows = tuple(int(i) for i in rng.choice(p, int(rng.integers(0, min(p, 2) + 1)),
+                                                  replace=False))
+    m = _measurement(z, H, R, tuple(f"r{i}" for i in range(p)), angle_rows=angle_rows,
+                     cols=cols)
+    assert_same_update(s, m, FilterParams(joseph=joseph, coloured=bool(fix)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), joseph=st.booleans())
+def test_random_updates_with_fix_error_columns_are_the_same(seed: int, joseph: bool) -> None:
+    """Rows with fix-error keys (states added or their VCV renewed) and a depth row."""
+    rng = np.random.default_rng(seed)
+    params = FilterParams(joseph=joseph, coloured=True)
+    s = _state(rng, int(rng.integers(0, 3)), 1.0)
+    C = rng.normal(size=(2, 2)) * rng.uniform(1.0, 30.0)
+    C = C @ C.T + np.eye(2)
+    fix_xy = (float(s.x[0] + rng.normal(0, 20)), float(s.x[1] + rng.normal(0, 20)))
+    lse = kf.lse_measurement(*fix_xy, C, params)
+    depth = kf.sensor_measurement(s, depth_m=float(rng.normal(20.0, 5.0)), params=params)
+    for rows in (lse, depth, kf.stack_measurements(depth, lse)):
+        assert_same_update(s, rows, params)
+
+
+# --------------------------------------------------------------------------- error paths
+
+
+def _nav_rows(state: FilterState, R: np.ndarray, z: np.ndarray | None = None,
+              angle_rows: tuple[int, ...] = ()) -> Measurement:
+    cols = ((0,), (4,))
+    H = _template(cols, state.n)
+    return _measurement(H.dot(state.x) + 1.0 if z is None else z, H, R, ("x", "psi"),
+                        angle_rows=angle_rows, cols=cols)
+
+
+def test_a_non_positive_definite_s_raises_the_same() -> None:
+    s = _state(np.random.default_rng(3), 0, 1.0)
+    R = np.diag([-1e12, 1.0])
+    with pytest.raises(U.FilterDivergence, match="not positive definite") as got:
+        U.update(s, _nav_rows(s, R), FilterParams())
+    assert got.value.state is s
+    assert_same_update(s, _nav_rows(s, R), FilterParams())
+
+
+def test_a_non_positive_variance_raises_the_same() -> None:
+    s = _state(np.random.default_rng(4), 0, 1.0)
+    R = np.diag([1.0, -0.5 * float(s.P[4, 4])])  # S stays PD; P[4, 4] goes negative
+    assert_same_update(s, _nav_rows(s, R), FilterParams(joseph=False))
+    assert_same_update(s, _nav_rows(s, R), FilterParams(joseph=True))
+
+
+@pytest.mark.parametrize("bad", [math.inf, -math.inf, math.nan])
+def test_a_non_finite_angle_innovation_does_what_python_does(bad: float) -> None:
+    s = _state(np.random.default_rng(5), 0, 1.0)
+    z = np.array([1.0, bad])
+    assert_same_update(s, _nav_rows(s, np.eye(2), z=z, angle_rows=(1,)), FilterParams())
+
+
+def test_unusual_layouts_fall_back_with_the_same_bits() -> None:
+    s = _state(np.random.default_rng(6), 1, 1.0)
+    Pf = np.asfortranarray(s.P)
+    sf = FilterState(s.t, s.x, Pf, s.fix_states, s.fix_tau_s, s.fix_cov)
+    rows = _nav_rows(s, np.asfortranarray(np.array([[2.0, 0.3], [0.3, 1.0]])))
+    assert_same_update(sf, rows, FilterParams())
+    assert_same_update(s, rows, FilterParams())
+
+
+def test_an_empty_update_and_a_strided_distance() -> None:
+    s = _state(np.random.default_rng(8), 0, 1.0)
+    empty = _measurement(np.zeros(0), np.zeros((0, N_NAV)), np.zeros((0, 0)), ())
+    assert U.update(s, empty, FilterParams()).lom.verdict == "none"
+    u = U.update(s, _nav_rows(s, np.eye(2)), FilterParams())
+    assert same(U.innovation_distance(u, slice(None, None, -1)),
+                U._innovation_distance_py(u, slice(None, None, -1)))
+
+
+# --------------------------------------------------------------------------- pure path
+
+
+def test_pure_env_runs_the_python(monkeypatch) -> None:
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    U._reset_kernel()
+    try:
+        assert U._kernel() is None
+        called = []
+        monkeypatch.setattr(U, "_update_py", lambda *a: called.append(a) or "py")
+        s = _state(np.random.default_rng(9), 0, 1.0)
+        assert U.update(s, _nav_rows(s, np.eye(2)), FilterParams()) == "py" and called
+    finally:
+        monkeypatch.delenv(native.PURE_ENV)
+        U._reset_kernel()
+
+
+def test_binding_is_lazy() -> None:
+    """Importing the filter does not load the OpenBLAS libraries through ctypes."""
+    import subprocess
+    import sys
+
+    code = ("import sys, engine.filter.update as U\n"
+            "assert U._K is U._UNRESOLVED\n"
+            "assert 'engine.native.blas' not in sys.modules\n"
+            "assert 'scipy' not in sys.modules\n")
+    subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
