@@ -1,0 +1,56 @@
+"""The compiled LSQ kernel (``engine/native/lsq.c``), bound to numpy's BLAS/LAPACK on first use.
+
+:func:`kernel` returns the module ready to call, or None: not built, stale, ``UVNAV_PURE=1``,
+numpy not on its bundled OpenBLAS, or a CPU where numpy's ``power``/``hypot`` loops would use
+its AVX-512 (SVML) code instead of libm, which the kernel calls. The binding
+(:func:`engine.native.blas.all_addresses`, which loads the OpenBLAS libraries through ctypes)
+happens on the first call, not at import, so start-up does not pay for it.
+"""
+
+from __future__ import annotations
+
+import math
+from types import ModuleType
+
+import numpy as np
+
+from engine import native
+
+_BOUND: dict[int, ModuleType | None] = {}
+"""id(module) → the bound module, or None where it cannot be used (decided once)."""
+
+
+def kernel() -> ModuleType | None:
+    """``engine.native.lsq`` bound and usable, or None (callers run their pure Python)."""
+    mod = native.kernel("lsq")
+    if mod is None:
+        return None
+    key = id(mod)
+    if key in _BOUND:
+        return _BOUND[key]
+    _BOUND[key] = _bind(mod)
+    return _BOUND[key]
+
+
+def _bind(mod: ModuleType) -> ModuleType | None:
+    """Give ``mod`` its routine addresses and Python objects; None if it cannot be exact."""
+    from engine.lsq.adjustment import _Solution
+    from engine.lsq.confidence import Ellipse
+    from engine.native import blas
+
+    if _numpy_uses_svml():
+        return None
+    addresses = blas.all_addresses()
+    if addresses is None:
+        return None
+    mod._bind(addresses, np.empty, math.hypot, _Solution, Ellipse)
+    return mod
+
+
+def _numpy_uses_svml() -> bool:
+    """True where numpy's float64 power/hypot may run its AVX-512 SVML loops (not libm)."""
+    try:
+        features = np._core._multiarray_umath.__cpu_features__  # type: ignore[attr-defined]
+    except AttributeError:
+        return True  # another numpy layout: do not guess
+    return bool(features.get("AVX512_SKX") or features.get("AVX512F"))
