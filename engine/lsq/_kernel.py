@@ -11,25 +11,48 @@ from __future__ import annotations
 
 import math
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 
 from engine import native
 
+_UNSET: Any = object()
+_K: Any = _UNSET
+"""The resolved kernel (module or None) once :func:`kernel` has been called, else _UNSET."""
 _BOUND: dict[int, ModuleType | None] = {}
 """id(module) → the bound module, or None where it cannot be used (decided once)."""
 
 
 def kernel() -> ModuleType | None:
-    """``engine.native.lsq`` bound and usable, or None (callers run their pure Python)."""
+    """``engine.native.lsq`` bound and usable, or None (callers run their pure Python).
+
+    Resolved once per process (``UVNAV_PURE`` is read then, as by the other kernels at import);
+    :func:`reset` forgets it (tests)."""
+    k = _K
+    if k is _UNSET:
+        k = _resolve()
+    return k  # type: ignore[no-any-return]
+
+
+def reset() -> None:
+    """Forget the resolved kernel: the next :func:`kernel` looks again (``UVNAV_PURE``)."""
+    global _K
+    _K = _UNSET
+
+
+def _resolve() -> ModuleType | None:
+    """The kernel as :func:`kernel` returns it, remembered in ``_K``."""
+    global _K
     mod = native.kernel("lsq")
     if mod is None:
+        _K = None
         return None
     key = id(mod)
-    if key in _BOUND:
-        return _BOUND[key]
-    _BOUND[key] = _bind(mod)
-    return _BOUND[key]
+    if key not in _BOUND:
+        _BOUND[key] = _bind(mod)
+    _K = _BOUND[key]
+    return _K  # type: ignore[no-any-return]
 
 
 def _bind(mod: ModuleType) -> ModuleType | None:

@@ -326,6 +326,7 @@ def test_gauss_newton_with_and_without_the_kernel(seed: int, n: int, scale: bool
 
 def test_pure_env_takes_the_python(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(native.PURE_ENV, "1")
+    monkeypatch.setattr(_kernel, "_K", _kernel._UNSET)  # resolved again here, restored after
     assert _kernel.kernel() is None
     calls: list[str] = []
     for name in ("_iterate_py", "_adjustment_py"):
@@ -346,7 +347,8 @@ def test_binding_is_lazy() -> None:
     import sys
 
     code = ("import sys, engine.lsq.fix, engine.lsq.adjustment, engine.lsq._kernel as k; "
-            "assert not k._BOUND; assert 'engine.native.blas' not in sys.modules; print('ok')")
+            "assert not k._BOUND and k._K is k._UNSET; "
+            "assert 'engine.native.blas' not in sys.modules; print('ok')")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT, timeout=60)
     assert done.stdout.strip() == "ok", done.stderr
