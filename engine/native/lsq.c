@@ -6,7 +6,8 @@
  *                                   its conditioning guard, G = C_x A^T W, dx = G b, x + dx;
  *   finish(sol, used, scale_vcv, d0) the residuals, S^2, RMS, drms and the per-slot statistics of
  *                                   adjustment._adjustment / statistics.used_statistics;
- *   ellipse(C2)                     confidence.error_ellipse (closed form).
+ *   ellipse(C2)                     confidence.error_ellipse (closed form);
+ *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band.
  * Each returns None where the Python would take a rare branch (u != 2, a singular or
  * ill-conditioned matrix, non-finite values, an untestable slot, ...): the caller then runs
  * the Python, which gives the same result or the same failure reason.
@@ -610,6 +611,90 @@ fail:
 }
 
 /* ---------------------------------------------------------------------------------------- */
+/* data snooping: the worst w and the monitor band */
+
+PyDoc_STRVAR(worst_doc,
+"worst(w) -> (slot, w[slot]) or None\n"
+"\n"
+"engine.lsq.snooping._worst: the first slot of largest |w| (NaN never wins; slot 0 when all\n"
+"are NaN) of a float64 1-D array; None for an empty or other array (the Python's case).");
+
+static PyObject *lsq_worst(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 1) {
+        PyErr_SetString(PyExc_TypeError, "worst(w)");
+        return NULL;
+    }
+    buf_t w = {0};
+    if (buf_get(args[0], &w, 1) < 0)
+        return Py_NewRef(Py_None);
+    Py_ssize_t n = w.view.shape[0], k = 0;
+    if (n < 1) {
+        buf_release(&w);
+        return Py_NewRef(Py_None);
+    }
+    double best = -1.0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double a = fabs(AT1(w, i));
+        if (a > best) {
+            k = i;
+            best = a;
+        }
+    }
+    double wk = AT1(w, k);
+    buf_release(&w);
+    return Py_BuildValue("(nd)", k, wk);
+}
+
+PyDoc_STRVAR(monitor_doc,
+"monitor(w, k, bound) -> tuple of the slots with k < |w| <= bound, or None\n"
+"\n"
+"The monitor band of engine.lsq.snooping._finish (NaN is never in it) of a float64 1-D array;\n"
+"None for another array (the Python's case).");
+
+static PyObject *lsq_monitor(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "monitor(w, k, bound)");
+        return NULL;
+    }
+    double kc = PyFloat_AsDouble(args[1]);
+    if (kc == -1.0 && PyErr_Occurred())
+        return NULL;
+    double bound = PyFloat_AsDouble(args[2]);
+    if (bound == -1.0 && PyErr_Occurred())
+        return NULL;
+    buf_t w = {0};
+    if (buf_get(args[0], &w, 1) < 0)
+        return Py_NewRef(Py_None);
+    Py_ssize_t n = w.view.shape[0], cnt = 0;
+    Py_ssize_t hit[MAXM];
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double a = fabs(AT1(w, i));
+        if (kc < a && a <= bound) {
+            if (cnt == MAXM) {
+                buf_release(&w);
+                return Py_NewRef(Py_None);
+            }
+            hit[cnt++] = i;
+        }
+    }
+    buf_release(&w);
+    PyObject *t = PyTuple_New(cnt);
+    if (t == NULL)
+        return NULL;
+    for (Py_ssize_t j = 0; j < cnt; j++) {
+        PyObject *v = PyLong_FromSsize_t(hit[j]);
+        if (v == NULL) {
+            Py_DECREF(t);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(t, j, v);
+    }
+    return t;
+}
+
+/* ---------------------------------------------------------------------------------------- */
 
 PyDoc_STRVAR(bind_doc,
 "_bind(addresses, numpy_empty, math_hypot, solution_type, ellipse_type)\n"
@@ -653,6 +738,8 @@ static PyMethodDef methods[] = {
     {"step", (PyCFunction)(void (*)(void))lsq_step, METH_FASTCALL, step_doc},
     {"finish", (PyCFunction)(void (*)(void))lsq_finish, METH_FASTCALL, finish_doc},
     {"ellipse", (PyCFunction)(void (*)(void))lsq_ellipse, METH_FASTCALL, ellipse_doc},
+    {"worst", (PyCFunction)(void (*)(void))lsq_worst, METH_FASTCALL, worst_doc},
+    {"monitor", (PyCFunction)(void (*)(void))lsq_monitor, METH_FASTCALL, monitor_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 
 import engine.lsq.adjustment as adj
 import engine.lsq.confidence as conf
+import engine.lsq.snooping as snoop
 from engine import native
 from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
@@ -267,6 +268,28 @@ def test_declined_cases_go_to_python() -> None:
     assert K.step(np.ones((3, 3)), b, np.eye(3), COND_MAX, np.zeros(3)) is None  # u = 3
     assert K.step(np.asfortranarray(A), b, np.eye(3), COND_MAX, x) is None
     assert K.step(A.astype(np.float32), b, np.eye(3), COND_MAX, x) is None
+
+
+@needs_kernel
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(st.floats(-5.0, 5.0), st.just(math.nan), st.just(2.576),
+                          st.just(-1.959963984540054), st.just(-0.0), st.just(math.inf)),
+                min_size=1, max_size=12), st.booleans())
+def test_worst_and_monitor_are_the_pythons(w: list[float], row: bool) -> None:
+    arr = np.array(w)
+    if row:  # a row of a statistics block, as adj.w is
+        block = np.zeros((3, arr.size))
+        block[1] = arr
+        arr = block[1]
+    else:
+        arr = np.repeat(arr, 2)[::2]  # a strided view
+    fake = type("A", (), {"w": arr})()
+    want = snoop._worst_py(fake)  # type: ignore[arg-type]
+    got = K.worst(arr)
+    assert got[0] == want[0] and same(got[1], want[1])
+    k = 1.959963984540054
+    assert K.monitor(arr, k, 2.576) == snoop._monitor_py(arr, k, 2.576)
+    assert K.worst(np.zeros(0)) is None
 
 
 # ------------------------------------------------------------------------------------------
