@@ -343,6 +343,54 @@ def test_gauss_newton_with_and_without_the_kernel(seed: int, n: int, scale: bool
         assert same(getattr(want, name), getattr(got, name)), name
 
 
+@needs_kernel
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["lsq", "huber", "danish"]),
+       st.sampled_from(["Y", "N", "A"]))
+def test_data_snooping_with_and_without_the_kernel(seed: int, estimator: str,
+                                                   policy: str) -> None:
+    """The whole snooping driver (rejections, robust IRLS with damped C_l, messages)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 9))
+    stations = rng.uniform(-3e4, 3e4, (n, 2))
+    truth = rng.uniform(-5e3, 5e3, 2)
+    sig = rng.uniform(5.0, 50.0, n)
+    obs = np.hypot(*(truth - stations).T) + rng.normal(0, 1, n) * sig
+    obs[rng.integers(n)] += rng.choice([150.0, 400.0])  # an outlier to reject or down-weight
+    lin = _bearings(stations, obs, sig, rng.uniform(-0.3, 0.3))
+    x0 = truth + rng.normal(0, 300, 2)
+    kw: dict[str, Any] = {"policy": policy, "estimator": estimator}
+    got, want = _both_snoop(lin, x0, np.ones(n, bool), **kw)
+    for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
+                 "not_identifiable", "variance_test", "messages"):
+        assert same(getattr(want, name), getattr(got, name)), name
+    for name in ADJ_FIELDS:
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+
+
+def _both_snoop(*args: Any, **kw: Any) -> Iterator[Any]:
+    mp = pytest.MonkeyPatch()
+    yield snoop.adjust_with_testing(*args, **kw)
+    mp.setattr(_kernel, "kernel", lambda: None)
+    try:
+        yield snoop.adjust_with_testing(*args, **kw)
+    finally:
+        mp.undo()
+
+
+@needs_kernel
+def test_an_untestable_slot_goes_to_python() -> None:
+    """Slot 0 is the only x observation (r_0 = 0): finish declines, the Python marks it."""
+    A = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 1.0], [0.0, 1.0]])
+    lin0 = Linearisation(A, np.array([1.0, 2.0, 2.5, 1.5]), np.diag([4.0, 9.0, 9.0, 16.0]))
+    sol = adj._solve(lin0.A, lin0.b, lin0.Cl, COND_MAX)
+    assert K.finish(sol, np.ones(4, bool), False, 2.8) is None
+    got, want = _both(lambda x: lin0, np.zeros(2), np.ones(4, bool))
+    assert math.isinf(got.sigma_d[0]) and math.isnan(got.w[0])
+    for name in ADJ_FIELDS:
+        assert same(getattr(want, name), getattr(got, name)), name
+
+
 # ------------------------------------------------------------------------------------------
 # the pure path
 
