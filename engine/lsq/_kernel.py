@@ -3,8 +3,9 @@
 :func:`kernel` returns the module ready to call, or None: not built, stale, ``UVNAV_PURE=1``,
 numpy not on its bundled OpenBLAS, or a CPU where numpy's ``power``/``hypot`` loops would use
 its AVX-512 (SVML) code instead of libm, which the kernel calls. The binding
-(:func:`engine.native.blas.all_addresses`, which loads the OpenBLAS libraries through ctypes)
-happens on the first call, not at import, so start-up does not pay for it.
+(:mod:`engine.native.blas`, which finds numpy's OpenBLAS through ctypes)
+happens on the first call, not at import, so start-up does not pay for it; only numpy's
+routines are needed (dgemm, dgemv, ddot, LAPACK dgesv), so SciPy's OpenBLAS is not loaded.
 """
 
 from __future__ import annotations
@@ -63,9 +64,11 @@ def _bind(mod: ModuleType) -> ModuleType | None:
 
     if _numpy_uses_svml():
         return None
-    addresses = blas.all_addresses()
-    if addresses is None:
+    cblas, lapack = blas.numpy_cblas(), blas.numpy_lapack()
+    if cblas is None or lapack is None:
         return None
+    addresses = {**{f"np_{k}": v for k, v in cblas.items()},
+                 **{f"npl_{k}": v for k, v in lapack.items()}}  # SciPy's library not needed
     mod._bind(addresses, np.empty, math.hypot, _Solution, Ellipse)
     return mod
 

@@ -699,7 +699,8 @@ static PyObject *lsq_monitor(PyObject *self, PyObject *const *args, Py_ssize_t n
 PyDoc_STRVAR(bind_doc,
 "_bind(addresses, numpy_empty, math_hypot, solution_type, ellipse_type)\n"
 "\n"
-"Bind the BLAS/LAPACK addresses (engine.native.blas.all_addresses()), numpy.empty, math.hypot,\n"
+"Bind numpy's np_dgemm, np_dgemv, np_ddot and npl_dgesv (addresses as engine.native.blas gives\n"
+"them, keys as in all_addresses()), numpy.empty, math.hypot,\n"
 "adjustment._Solution and confidence.Ellipse; called once, on first use.");
 
 static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -708,9 +709,31 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
         PyErr_SetString(PyExc_TypeError, "_bind needs 5 arguments");
         return NULL;
     }
-    uvn_blas_t b;
-    if (uvn_blas_bind(args[0], &b) < 0)
+    /* only numpy's routines: SciPy's OpenBLAS (all_addresses) need not be loaded for this */
+    static const char *keys[4] = {"np_dgemm", "np_dgemv", "np_ddot", "npl_dgesv"};
+    void *ptr[4];
+    if (!PyDict_Check(args[0])) {
+        PyErr_SetString(PyExc_TypeError, "_bind needs a dict of routine addresses");
         return NULL;
+    }
+    for (int i = 0; i < 4; i++) {
+        PyObject *v = PyDict_GetItemString(args[0], keys[i]);
+        if (v == NULL) {
+            PyErr_Format(PyExc_KeyError, "routine address %s missing", keys[i]);
+            return NULL;
+        }
+        ptr[i] = PyLong_AsVoidPtr(v);
+        if (ptr[i] == NULL) {
+            if (!PyErr_Occurred())
+                PyErr_Format(PyExc_ValueError, "routine address %s is null", keys[i]);
+            return NULL;
+        }
+    }
+    uvn_blas_t b = {0};
+    b.dgemm = (uvn_dgemm_t)ptr[0];
+    b.dgemv = (uvn_dgemv_t)ptr[1];
+    b.ddot = (uvn_ddot_t)ptr[2];
+    b.npl_dgesv = (uvn_npl_dgesv_t)ptr[3];
     if (!PyType_Check(args[3]) || !PyType_IsSubtype((PyTypeObject *)args[3], &PyTuple_Type) ||
         !PyType_Check(args[4])) {
         PyErr_SetString(PyExc_TypeError, "_bind: a tuple type and a class expected");
