@@ -22,6 +22,7 @@ try:  # the gufunc behind numpy.linalg.inv: the same LAPACK call without the wra
 except ImportError:  # pragma: no cover - another numpy layout: the public function
     _ULA = None
 
+from engine.lsq import _kernel
 from engine.lsq.statistics import (
     SlotStatistics,
     UnitVarianceTest,
@@ -351,21 +352,62 @@ def _iterate(
     cond_max: float,
 ) -> _Solution:
     """The Gauss–Newton loop (5.1c–d): re-linearise, solve, step, until converged or
-    ``max_iter``; returns the last solution (``run`` holds x, the count and the steps)."""
+    ``max_iter``; returns the last solution (``run`` holds x, the count and the steps).
+
+    Each solve and step runs in the compiled kernel (``engine/native/lsq.c``, same bits) when
+    there is one; an iteration it declines (a rare branch: failure reasons, u ≠ 2) and a run
+    without it take the Python of :func:`_iterate_py`."""
+    k = _kernel.kernel()
+    if k is None:
+        return _iterate_py(linearise, run, sq, epsilon, max_iter, cond_max)
+    step = k.step
     while True:
         run.it += 1
-        sol = _solve(*_evaluate(linearise, run, sq), cond_max)
-        dxl = sol.dx.tolist()
-        big = max(map(abs, dxl))
-        if not math.isfinite(big):
-            raise _Stop("non-finite linearisation")
-        run.x = run.x + sol.dx  # (5.1d)
-        run.steps.append(math.hypot(*dxl))
+        Au, bu, Clu = _evaluate(linearise, run, sq)
+        res = step(Au, bu, Clu, cond_max, run.x)
+        if res is None:
+            sol = _solve(Au, bu, Clu, cond_max)
+            big = _step_py(run, sol)
+        else:
+            sol, run.x, length, big = res
+            run.steps.append(length)
         if big < epsilon:
             run.converged = True
             return sol
         if run.it >= max_iter:
             return sol
+
+
+def _iterate_py(
+    linearise: Callable[[np.ndarray], Linearisation],
+    run: _Run,
+    sq: np.ndarray | None,
+    epsilon: float,
+    max_iter: int,
+    cond_max: float,
+) -> _Solution:
+    """:func:`_iterate` in pure Python (no compiled kernel)."""
+    while True:
+        run.it += 1
+        sol = _solve(*_evaluate(linearise, run, sq), cond_max)
+        big = _step_py(run, sol)
+        if big < epsilon:
+            run.converged = True
+            return sol
+        if run.it >= max_iter:
+            return sol
+
+
+def _step_py(run: _Run, sol: _Solution) -> float:
+    """x ← x + δx̂ (5.1d) and its length |δx̂| [m] noted; returns max |δx̂_j| (_Stop when it is
+    not finite)."""
+    dxl = sol.dx.tolist()
+    big = max(map(abs, dxl))
+    if not math.isfinite(big):
+        raise _Stop("non-finite linearisation")
+    run.x = run.x + sol.dx  # (5.1d)
+    run.steps.append(math.hypot(*dxl))
+    return big
 
 
 def _evaluate(
@@ -451,7 +493,56 @@ def _adjustment(
     damping: np.ndarray | None,
 ) -> Adjustment:
     """The Adjustment of the last solution: residuals (5.1f), S² (5.13), the per-slot
-    statistics and the unit-variance test."""
+    statistics and the unit-variance test; the numbers from the compiled kernel when there is
+    one and it takes the case (same bits), else :func:`_adjustment_py`."""
+    k = _kernel.kernel()
+    res = None if k is None else k.finish(sol, run.used, scale_vcv, delta0(alpha, power))
+    if res is None:
+        return _adjustment_py(run, sol, s02, scale_vcv, alpha, power, damping)
+    v, s2, rms, drms, cov, scaled, block = res
+    m = run.idx.size
+    u = run.x.size
+    r = m - u
+    return frozen_instance(Adjustment, {
+        "ok": run.converged,
+        "reason": None if run.converged else "no convergence",
+        "x": run.x,
+        "cov_x": cov,
+        "cov_x_apriori": sol.cx,
+        "used": run.used,
+        "n_used": m,
+        "u": u,
+        "redundancy": r,
+        "category": category(m, u),
+        "iterations": run.it,
+        "converged": run.converged,
+        "steps": tuple(run.steps),
+        "dx": sol.dx,
+        "v": v,
+        "s2": s2,
+        "rms_m": rms,
+        "drms_m": drms,
+        "stats_block": block,
+        "A_used": sol.Au,
+        "b_used": sol.bu,
+        "Cl_used": sol.Clu,
+        "W_used": sol.Wu,
+        "variance_test": unit_variance_test(s2, r, alpha, s02) if s2 is not None else None,
+        "scaled": scaled,
+        "damping": None if damping is None else np.asarray(damping, dtype=float).copy(),
+    })
+
+
+def _adjustment_py(
+    run: _Run,
+    sol: _Solution,
+    s02: float,
+    scale_vcv: bool,
+    alpha: float,
+    power: float,
+    damping: np.ndarray | None,
+) -> Adjustment:
+    """:func:`_adjustment` in pure Python."""
     Au, bu, Wu, cx = sol.Au, sol.bu, sol.Wu, sol.cx
     idx, n, u = run.idx, run.used.size, run.x.size
     m = idx.size

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from engine.lsq import _kernel
 from engine.lsq.adjustment import Adjustment, Linearisation, gauss_newton
 from engine.lsq.robust import RobustAdjustment, robust_adjust
 from engine.lsq.statistics import (
@@ -53,7 +54,28 @@ class TestedAdjustment:
 
 
 def _worst(adj: Adjustment) -> tuple[int, float]:
-    """Slot and value of the largest |w| among the used slots (w is NaN elsewhere)."""
+    """Slot and value of the largest |w| among the used slots (w is NaN elsewhere): the
+    compiled kernel's (same comparisons) when there is one, else :func:`_worst_py`."""
+    k = _kernel.kernel()
+    res = None if k is None else k.worst(adj.w)
+    return _worst_py(adj) if res is None else res  # type: ignore[no-any-return]
+
+
+def _monitor(w: np.ndarray, k: float, bound: float) -> tuple[int, ...]:
+    """The slots with k_α < |w| ≤ ``bound`` (NaN compares False: unused slots are never in
+    the band); the compiled kernel's when there is one, else :func:`_monitor_py`."""
+    kern = _kernel.kernel()
+    res = None if kern is None else kern.monitor(w, k, bound)
+    return _monitor_py(w, k, bound) if res is None else res  # type: ignore[no-any-return]
+
+
+def _monitor_py(w: np.ndarray, k: float, bound: float) -> tuple[int, ...]:
+    """:func:`_monitor` in pure Python."""
+    return tuple(i for i, wi in enumerate(w.tolist()) if k < abs(wi) <= bound)
+
+
+def _worst_py(adj: Adjustment) -> tuple[int, float]:
+    """:func:`_worst` in pure Python."""
     w = adj.w.tolist()
     k, best = 0, -1.0
     for i, wi in enumerate(w):
@@ -220,8 +242,7 @@ def _finish(
     vt: UnitVarianceTest | None = None
     if adj.ok and adj.s2 is not None:
         k = w_critical(alpha)
-        # NaN compares False: unused slots are never in the band
-        monitor = tuple(i for i, w in enumerate(adj.w.tolist()) if k < abs(w) <= bound)
+        monitor = _monitor(adj.w, k, bound)
         vt = (unit_variance_test(adj.s2, adj.redundancy, alpha, s02, thesis_dof)
               if thesis_dof else adj.variance_test)
         if vt is not None and not vt.accepted:

@@ -1,0 +1,82 @@
+"""The compiled LSQ kernel (``engine/native/lsq.c``), bound to numpy's BLAS/LAPACK on first use.
+
+:func:`kernel` returns the module ready to call, or None: not built, stale, ``UVNAV_PURE=1``,
+numpy not on its bundled OpenBLAS, or a CPU where numpy's ``power``/``hypot`` loops would use
+its AVX-512 (SVML) code instead of libm, which the kernel calls. The binding
+(:mod:`engine.native.blas`, which finds numpy's OpenBLAS through ctypes)
+happens on the first call, not at import, so start-up does not pay for it; only numpy's
+routines are needed (dgemm, dgemv, ddot, LAPACK dgesv), so SciPy's OpenBLAS is not loaded.
+"""
+
+from __future__ import annotations
+
+import math
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from engine import native
+
+_UNSET: Any = object()
+_K: Any = _UNSET
+"""The resolved kernel (module or None) once :func:`kernel` has been called, else _UNSET."""
+_BOUND: dict[int, ModuleType | None] = {}
+"""id(module) → the bound module, or None where it cannot be used (decided once)."""
+
+
+def kernel() -> ModuleType | None:
+    """``engine.native.lsq`` bound and usable, or None (callers run their pure Python).
+
+    Resolved once per process (``UVNAV_PURE`` is read then, as by the other kernels at import);
+    :func:`reset` forgets it (tests)."""
+    k = _K
+    if k is _UNSET:
+        k = _resolve()
+    return k  # type: ignore[no-any-return]
+
+
+def reset() -> None:
+    """Forget the resolved kernel: the next :func:`kernel` looks again (``UVNAV_PURE``)."""
+    global _K
+    _K = _UNSET
+
+
+def _resolve() -> ModuleType | None:
+    """The kernel as :func:`kernel` returns it, remembered in ``_K``."""
+    global _K
+    mod = native.kernel("lsq")
+    if mod is None:
+        _K = None
+        return None
+    key = id(mod)
+    if key not in _BOUND:
+        _BOUND[key] = _bind(mod)
+    _K = _BOUND[key]
+    return _K  # type: ignore[no-any-return]
+
+
+def _bind(mod: ModuleType) -> ModuleType | None:
+    """Give ``mod`` its routine addresses and Python objects; None if it cannot be exact."""
+    from engine.lsq.adjustment import _Solution
+    from engine.lsq.confidence import Ellipse
+    from engine.native import blas
+
+    if _numpy_uses_svml():
+        return None
+    cblas, lapack = blas.numpy_cblas(), blas.numpy_lapack()
+    if cblas is None or lapack is None:
+        return None
+    addresses = {**{f"np_{k}": v for k, v in cblas.items()},
+                 **{f"npl_{k}": v for k, v in lapack.items()}}  # SciPy's library not needed
+    mod._bind(addresses, np.empty, math.hypot, _Solution, Ellipse)
+    return mod
+
+
+def _numpy_uses_svml() -> bool:
+    """True where numpy's float64 power/hypot may run its AVX-512 SVML loops (not libm)."""
+    try:
+        features = np._core._multiarray_umath.__cpu_features__  # type: ignore[attr-defined]
+    except AttributeError:
+        return True  # another numpy layout: do not guess
+    return bool(features.get("AVX512_SKX") or features.get("AVX512F"))

@@ -1,0 +1,785 @@
+/* Compiled twin of the least-squares fix's numeric core (engine/lsq), bit for bit.
+ *
+ * Three entry points, each the happy path of Python code kept beside it (the `_..._py` twins):
+ *   step(Au, bu, Clu, cond_max, x)  one Gauss-Newton iteration (adjustment._solve + the step of
+ *                                   adjustment._iterate): W = C_l^-1, A^T W, (A^T W A)^-1 with
+ *                                   its conditioning guard, G = C_x A^T W, dx = G b, x + dx;
+ *   finish(sol, used, scale_vcv, d0) the residuals, S^2, RMS, drms and the per-slot statistics of
+ *                                   adjustment._adjustment / statistics.used_statistics;
+ *   ellipse(C2)                     confidence.error_ellipse (closed form);
+ *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band.
+ * Each returns None where the Python would take a rare branch (u != 2, a singular or
+ * ill-conditioned matrix, non-finite values, an untestable slot, ...): the caller then runs
+ * the Python, which gives the same result or the same failure reason.
+ *
+ * Same operations in the same order as numpy (docs/PERFORMANCE.md): ndarray.dot goes to the
+ * CBLAS routine numpy's cblas_matrixproduct picks, with its Order/Trans/ld arguments;
+ * numpy.linalg.inv to numpy's LAPACK dgesv on a Fortran-order copy with an identity right-hand
+ * side (numpy's umath_linalg); vector.vector to 0.0 + ddot (numpy's DOUBLE_dot); reductions of
+ * two terms to (0.0 + p0) + p1; np.power / np.hypot to libm (no AVX-512 SVML here: the Python
+ * side probes and refuses the kernel otherwise); Python's float ** and math.* to libm; CPython's
+ * math.hypot (its own algorithm) is called through the function object.
+ */
+#include "uvn_blas.h"
+
+#include <math.h>
+#include <string.h>
+
+#define MAXM 32 /* most observation slots a fix may have on this path (else Python) */
+
+static uvn_blas_t B;
+static int bound = 0;
+static PyObject *np_empty = NULL;     /* numpy.empty */
+static PyObject *py_hypot = NULL;     /* math.hypot (CPython's vector_norm, not libm) */
+static PyTypeObject *sol_type = NULL; /* adjustment._Solution (a NamedTuple) */
+static PyObject *ellipse_type = NULL; /* confidence.Ellipse */
+static PyObject *ellipse_keys[6];
+
+/* libm through volatile pointers: no folding of pow(x, 2) into x*x or of calls into others */
+static double (*volatile vpow)(double, double) = pow;
+static double (*volatile vhypot)(double, double) = hypot;
+static double (*volatile vatan2)(double, double) = atan2;
+static double (*volatile vfmod)(double, double) = fmod;
+
+/* ---------------------------------------------------------------------------------------- */
+/* buffers */
+
+typedef struct {
+    Py_buffer view;
+    int held;
+} buf_t;
+
+static void buf_release(buf_t *b)
+{
+    if (b->held) {
+        PyBuffer_Release(&b->view);
+        b->held = 0;
+    }
+}
+
+/* A float64 buffer of ndim dims (strides allowed); 0, or -1 (no exception) if not usable. */
+static int buf_get(PyObject *obj, buf_t *b, int ndim)
+{
+    b->held = 0;
+    if (PyObject_GetBuffer(obj, &b->view, PyBUF_STRIDES | PyBUF_FORMAT) < 0) {
+        PyErr_Clear();
+        return -1;
+    }
+    b->held = 1;
+    const char *f = b->view.format;
+    if (b->view.ndim != ndim || b->view.itemsize != 8 || f == NULL ||
+        !(strcmp(f, "d") == 0 || strcmp(f, "<d") == 0 || strcmp(f, "=d") == 0)) {
+        buf_release(b);
+        return -1;
+    }
+    for (int i = 0; i < ndim; i++)
+        if (b->view.strides[i] % 8 != 0) {
+            buf_release(b);
+            return -1;
+        }
+    return 0;
+}
+
+static int buf_c_contiguous(const buf_t *b)
+{
+    Py_ssize_t s = 8;
+    for (int i = b->view.ndim - 1; i >= 0; i--) {
+        if (b->view.shape[i] > 1 && b->view.strides[i] != s)
+            return 0;
+        s *= b->view.shape[i];
+    }
+    return ((uintptr_t)b->view.buf % 8) == 0;
+}
+
+#define AT2(b, i, j)                                                                          \
+    (*(const double *)((const char *)(b).view.buf + (i) * (b).view.strides[0] +                \
+                       (j) * (b).view.strides[1]))
+#define AT1(b, i) (*(const double *)((const char *)(b).view.buf + (i) * (b).view.strides[0]))
+
+/* numpy.empty(shape) (cols < 0: 1-D) and its data pointer. New reference or NULL (error). */
+static PyObject *new_array(Py_ssize_t rows, Py_ssize_t cols, double **data)
+{
+    PyObject *shape = cols < 0 ? Py_BuildValue("(n)", rows) : Py_BuildValue("(nn)", rows, cols);
+    if (shape == NULL)
+        return NULL;
+    PyObject *arr = PyObject_CallOneArg(np_empty, shape);
+    Py_DECREF(shape);
+    if (arr == NULL)
+        return NULL;
+    Py_buffer v;
+    if (PyObject_GetBuffer(arr, &v, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0) {
+        Py_DECREF(arr);
+        return NULL;
+    }
+    *data = (double *)v.buf;
+    PyBuffer_Release(&v); /* the array owns its data */
+    return arr;
+}
+
+static int need_bound(void)
+{
+    if (!bound) {
+        PyErr_SetString(PyExc_RuntimeError, "engine.native.lsq: _bind() first");
+        return -1;
+    }
+    return 0;
+}
+
+/* CPython's math.hypot(a, b) (new reference) */
+static PyObject *call_py_hypot(double a, double b)
+{
+    PyObject *fa = PyFloat_FromDouble(a), *fb = PyFloat_FromDouble(b);
+    PyObject *r = NULL;
+    if (fa != NULL && fb != NULL) {
+        PyObject *args[2] = {fa, fb};
+        r = PyObject_Vectorcall(py_hypot, args, 2, NULL);
+    }
+    Py_XDECREF(fa);
+    Py_XDECREF(fb);
+    return r;
+}
+
+/* numpy's pairwise sum (DOUBLE_pairwise_sum, n <= 128) from 0.0: only its finiteness is used */
+static double np_sum(const double *a, Py_ssize_t n)
+{
+    double res;
+    if (n < 8) {
+        res = -0.0;
+        for (Py_ssize_t i = 0; i < n; i++)
+            res += a[i];
+    }
+    else {
+        double r[8];
+        Py_ssize_t i;
+        for (int j = 0; j < 8; j++)
+            r[j] = a[j];
+        for (i = 8; i < n - (n % 8); i += 8)
+            for (int j = 0; j < 8; j++)
+                r[j] += a[i + j];
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++)
+            res += a[i];
+    }
+    return 0.0 + res;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* step */
+
+PyDoc_STRVAR(step_doc,
+"step(Au, bu, Clu, cond_max, x) -> (solution, x + dx, |dx| (math.hypot), max |dx_j|) or None\n"
+"\n"
+"One Gauss-Newton iteration of engine.lsq.adjustment (_solve and the step of _iterate) for\n"
+"u = 2: Au (m, 2) C-contiguous, bu (m,) contiguous, Clu (m, m) any strides, x (2,), float64.\n"
+"None where the Python must run (other shapes, a singular C_l, a normal matrix failing the\n"
+"guard, non-finite misclosures or step).");
+
+static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "step(Au, bu, Clu, cond_max, x)");
+        return NULL;
+    }
+    if (need_bound() < 0)
+        return NULL;
+    double cond_max = PyFloat_AsDouble(args[3]);
+    if (cond_max == -1.0 && PyErr_Occurred())
+        return NULL;
+    buf_t a = {0}, bb = {0}, cl = {0}, xb = {0};
+    PyObject *res = NULL;
+    PyObject *Wo = NULL, *atwo = NULL, *cxo = NULL, *gaino = NULL, *dxo = NULL, *xo = NULL;
+    PyObject *cx2 = NULL, *stepo = NULL;
+    if (buf_get(args[0], &a, 2) < 0 || buf_get(args[1], &bb, 1) < 0 ||
+        buf_get(args[2], &cl, 2) < 0 || buf_get(args[4], &xb, 1) < 0)
+        goto none;
+    Py_ssize_t m = a.view.shape[0];
+    if (a.view.shape[1] != 2 || m < 2 || m > MAXM || bb.view.shape[0] != m ||
+        cl.view.shape[0] != m || cl.view.shape[1] != m || xb.view.shape[0] != 2 ||
+        !buf_c_contiguous(&a) || !buf_c_contiguous(&bb))
+        goto none;
+    const double *Au = (const double *)a.view.buf, *bu = (const double *)bb.view.buf;
+
+    /* W = inv(C_l): numpy copies to Fortran order, solves with an identity right-hand side */
+    double fa[MAXM * MAXM];
+    int64_t ipiv[MAXM];
+    double *W;
+    Wo = new_array(m, m, &W);
+    if (Wo == NULL)
+        goto error;
+    double wf[MAXM * MAXM];
+    for (Py_ssize_t j = 0; j < m; j++)
+        for (Py_ssize_t i = 0; i < m; i++) {
+            fa[i + j * m] = AT2(cl, i, j);
+            wf[i + j * m] = (i == j) ? 1.0 : 0.0;
+        }
+    int64_t n64 = m, info = 0;
+    B.npl_dgesv(&n64, &n64, fa, &n64, ipiv, wf, &n64, &info);
+    if (info != 0)
+        goto none;
+    for (Py_ssize_t i = 0; i < m; i++)
+        for (Py_ssize_t j = 0; j < m; j++)
+            W[i * m + j] = wf[i + j * m];
+
+    /* atw = Au.T.dot(W): Au.T is F-contiguous (Trans, lda 2) */
+    double *atw;
+    atwo = new_array(2, m, &atw);
+    if (atwo == NULL)
+        goto error;
+    memset(atw, 0, sizeof(double) * 2 * m);
+    B.dgemm(UvnRowMajor, UvnTrans, UvnNoTrans, 2, m, m, 1.0, Au, 2, W, m, 0.0, atw, m);
+    /* N = atw.dot(Au) */
+    double nm[4] = {0.0, 0.0, 0.0, 0.0};
+    B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, 2, 2, m, 1.0, atw, m, Au, 2, 0.0, nm, 2);
+
+    /* _inv_normal, 2x2 closed form */
+    double na = nm[0], nc = nm[1], nd = nm[3];
+    double det = na * nd - nc * nc;
+    if (!(na > 0.0 && nd > 0.0 && det > 0.0))
+        goto none;
+    double ad = na * nd;
+    double rho = fabs(nc) / sqrt(ad);
+    double i00 = nd / det, i01 = -nc / det, i11 = na / det;
+    double cond = vpow(1.0 + rho, 2.0) * ad / det;
+    if (!(cond <= cond_max))
+        goto none;
+    if (!isfinite(np_sum(bu, m)))
+        goto none;
+    double *cx;
+    cxo = new_array(2, 2, &cx);
+    if (cxo == NULL)
+        goto error;
+    cx[0] = i00;
+    cx[1] = i01;
+    cx[2] = i01;
+    cx[3] = i11;
+    /* gain = cx.dot(atw); dx = gain.dot(bu) (gemv) */
+    double *gain, *dx;
+    gaino = new_array(2, m, &gain);
+    if (gaino == NULL)
+        goto error;
+    memset(gain, 0, sizeof(double) * 2 * m);
+    B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, 2, m, 2, 1.0, cx, 2, atw, m, 0.0, gain, m);
+    dxo = new_array(2, -1, &dx);
+    if (dxo == NULL)
+        goto error;
+    dx[0] = dx[1] = 0.0;
+    B.dgemv(UvnRowMajor, UvnNoTrans, 2, m, 1.0, gain, m, bu, 1, 0.0, dx, 1);
+    if (!(isfinite(dx[0]) && isfinite(dx[1])))
+        goto none;
+    double *xn;
+    xo = new_array(2, -1, &xn);
+    if (xo == NULL)
+        goto error;
+    xn[0] = AT1(xb, 0) + dx[0];
+    xn[1] = AT1(xb, 1) + dx[1];
+    stepo = call_py_hypot(dx[0], dx[1]);
+    if (stepo == NULL)
+        goto error;
+    cx2 = Py_BuildValue("(ddd)", i00, i01, i11);
+    if (cx2 == NULL)
+        goto error;
+    PyObject *sol = sol_type->tp_alloc(sol_type, 9);
+    if (sol == NULL)
+        goto error;
+    PyObject *items[9] = {args[0], args[1], args[2], Wo, atwo, cxo, gaino, dxo, cx2};
+    for (int k = 0; k < 9; k++) {
+        Py_INCREF(items[k]);
+        PyTuple_SET_ITEM(sol, k, items[k]);
+    }
+    double big = fabs(dx[0]);
+    if (fabs(dx[1]) > big)
+        big = fabs(dx[1]);
+    res = Py_BuildValue("(NOOd)", sol, xo, stepo, big);
+    goto done;
+none:
+    res = Py_None;
+    Py_INCREF(res);
+    goto done;
+error:
+    res = NULL;
+done:
+    Py_XDECREF(Wo);
+    Py_XDECREF(atwo);
+    Py_XDECREF(cxo);
+    Py_XDECREF(gaino);
+    Py_XDECREF(dxo);
+    Py_XDECREF(xo);
+    Py_XDECREF(cx2);
+    Py_XDECREF(stepo);
+    buf_release(&a);
+    buf_release(&bb);
+    buf_release(&cl);
+    buf_release(&xb);
+    return res;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* finish */
+
+PyDoc_STRVAR(finish_doc,
+"finish(sol, used, scale_vcv, d0) -> (v, s2 or None, rms_m, drms_m, cov_x, scaled, stats)\n"
+"or None\n"
+"\n"
+"The results of engine.lsq.adjustment._adjustment for a solution of step(): residuals v over\n"
+"all n slots (NaN unused, m), S^2, RMS and drms (m), the displayed C_x (x S^2 when scaled),\n"
+"and the (9, n) statistics block of statistics.used_statistics (NaN unused, or all NaN when\n"
+"r < 1). None where the Python must run (an untestable slot, other shapes).");
+
+static PyObject *lsq_finish(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "finish(sol, used, scale_vcv, d0)");
+        return NULL;
+    }
+    if (need_bound() < 0)
+        return NULL;
+    PyObject *sol = args[0];
+    if (!PyTuple_Check(sol) || PyTuple_GET_SIZE(sol) != 9)
+        return Py_NewRef(Py_None);
+    int scale_vcv = PyObject_IsTrue(args[2]);
+    if (scale_vcv < 0)
+        return NULL;
+    double d0 = PyFloat_AsDouble(args[3]);
+    if (d0 == -1.0 && PyErr_Occurred())
+        return NULL;
+    buf_t a = {0}, bb = {0}, cl = {0}, w = {0}, at = {0}, cxb = {0}, g = {0}, dxb = {0};
+    Py_buffer ub;
+    int ub_held = 0;
+    PyObject *res = NULL, *vo = NULL, *covo = NULL, *stato = NULL, *s2o = NULL;
+    if (buf_get(PyTuple_GET_ITEM(sol, 0), &a, 2) < 0 || buf_get(PyTuple_GET_ITEM(sol, 1), &bb, 1) < 0
+        || buf_get(PyTuple_GET_ITEM(sol, 2), &cl, 2) < 0
+        || buf_get(PyTuple_GET_ITEM(sol, 3), &w, 2) < 0
+        || buf_get(PyTuple_GET_ITEM(sol, 4), &at, 2) < 0
+        || buf_get(PyTuple_GET_ITEM(sol, 5), &cxb, 2) < 0
+        || buf_get(PyTuple_GET_ITEM(sol, 6), &g, 2) < 0
+        || buf_get(PyTuple_GET_ITEM(sol, 7), &dxb, 1) < 0)
+        goto none;
+    if (PyObject_GetBuffer(args[1], &ub, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+        PyErr_Clear();
+        goto none;
+    }
+    ub_held = 1;
+    Py_ssize_t m = a.view.shape[0], n = ub.len;
+    if (ub.ndim != 1 || ub.itemsize != 1 || ub.format == NULL || strcmp(ub.format, "?") != 0 ||
+        a.view.shape[1] != 2 || m < 2 || m > MAXM || n < m || bb.view.shape[0] != m ||
+        cl.view.shape[0] != m || cl.view.shape[1] != m || w.view.shape[0] != m ||
+        w.view.shape[1] != m || at.view.shape[0] != 2 || at.view.shape[1] != m ||
+        cxb.view.shape[0] != 2 || cxb.view.shape[1] != 2 || g.view.shape[0] != 2 ||
+        g.view.shape[1] != m || dxb.view.shape[0] != 2 || !buf_c_contiguous(&a) ||
+        !buf_c_contiguous(&bb) || !buf_c_contiguous(&w) || !buf_c_contiguous(&at) ||
+        !buf_c_contiguous(&cxb) || !buf_c_contiguous(&g) || !buf_c_contiguous(&dxb))
+        goto none;
+    const unsigned char *used = (const unsigned char *)ub.buf;
+    Py_ssize_t slot[MAXM], k = 0;
+    for (Py_ssize_t i = 0; i < n; i++)
+        if (used[i]) {
+            if (k == m)
+                goto none;
+            slot[k++] = i;
+        }
+    if (k != m)
+        goto none;
+    const double *Au = a.view.buf, *bu = bb.view.buf, *W = w.view.buf, *atw = at.view.buf;
+    const double *cx = cxb.view.buf, *gain = g.view.buf, *dx = dxb.view.buf;
+
+    /* vu = Au.dot(dx) - bu (gemv); wv = W.dot(vu) (gemv) */
+    double vu[MAXM], wv[MAXM];
+    memset(vu, 0, sizeof(double) * m);
+    memset(wv, 0, sizeof(double) * m);
+    B.dgemv(UvnRowMajor, UvnNoTrans, m, 2, 1.0, Au, 2, dx, 1, 0.0, vu, 1);
+    for (Py_ssize_t i = 0; i < m; i++)
+        vu[i] = vu[i] - bu[i];
+    B.dgemv(UvnRowMajor, UvnNoTrans, m, m, 1.0, W, m, vu, 1, 0.0, wv, 1);
+    Py_ssize_t r = m - 2;
+    double s2 = 0.0;
+    if (r >= 1)
+        s2 = (0.0 + B.ddot(m, vu, 1, wv, 1)) / (double)r; /* (5.13) */
+    double rms = sqrt((0.0 + B.ddot(m, vu, 1, vu, 1)) / (double)m);
+    int scaled = scale_vcv && r >= 1;
+    double trace;
+    if (scaled) {
+        double *cov;
+        covo = new_array(2, 2, &cov);
+        if (covo == NULL)
+            goto error;
+        for (int i = 0; i < 4; i++)
+            cov[i] = cx[i] * s2;
+        trace = (0.0 + cov[0]) + cov[3];
+    }
+    else {
+        covo = Py_NewRef(PyTuple_GET_ITEM(sol, 5));
+        trace = (0.0 + cx[0]) + cx[3]; /* sum((cx2[0], cx2[2])) */
+    }
+    if (0.0 > trace) /* max(trace, 0.0) */
+        trace = 0.0;
+    double drms = sqrt(trace);
+
+    double *st;
+    stato = new_array(9, n, &st);
+    if (stato == NULL)
+        goto error;
+    for (Py_ssize_t i = 0; i < 9 * n; i++)
+        st[i] = NAN;
+    if (r >= 1) {
+        /* used_statistics (u = 2) */
+        double q[MAXM], ac[2 * MAXM];
+        for (Py_ssize_t j = 0; j < m; j++) {
+            double wjj = W[j * m + j];
+            q[j] = wjj - ((0.0 + atw[j] * gain[j]) + atw[m + j] * gain[m + j]);
+            if (!(q[j] / wjj > 1e-10))
+                goto none; /* an untestable slot: the Python marks it */
+        }
+        memset(ac, 0, sizeof(double) * 2 * m);
+        B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, m, 2, 2, 1.0, Au, 2, cx, 2, 0.0, ac, 2);
+        for (Py_ssize_t j = 0; j < m; j++) {
+            Py_ssize_t c = slot[j];
+            double var_l = AT2(cl, j, j);
+            double sd = vpow(q[j], -0.5);
+            double mdb = sd * d0;
+            double e0 = gain[j] * mdb, e1 = gain[m + j] * mdb;
+            st[0 * n + c] = sd;
+            st[1 * n + c] = -(wv[j] * sd);
+            st[2 * n + c] = sd / sqrt(var_l);
+            st[3 * n + c] = ((0.0 + Au[2 * j] * ac[2 * j]) + Au[2 * j + 1] * ac[2 * j + 1]) / var_l;
+            st[4 * n + c] = 1.0 - ((0.0 + Au[2 * j] * gain[j]) + Au[2 * j + 1] * gain[m + j]);
+            st[5 * n + c] = mdb;
+            st[6 * n + c] = vhypot(e0, e1);
+            st[7 * n + c] = e0;
+            st[8 * n + c] = e1;
+        }
+    }
+    double *v;
+    vo = new_array(n, -1, &v);
+    if (vo == NULL)
+        goto error;
+    for (Py_ssize_t i = 0; i < n; i++)
+        v[i] = NAN;
+    for (Py_ssize_t j = 0; j < m; j++)
+        v[slot[j]] = vu[j];
+    if (r >= 1) {
+        s2o = PyFloat_FromDouble(s2);
+        if (s2o == NULL)
+            goto error;
+    }
+    else
+        s2o = Py_NewRef(Py_None);
+    res = Py_BuildValue("(OOddOOO)", vo, s2o, rms, drms, covo, scaled ? Py_True : Py_False,
+                        stato);
+    goto done;
+none:
+    res = Py_NewRef(Py_None);
+    goto done;
+error:
+    res = NULL;
+done:
+    Py_XDECREF(vo);
+    Py_XDECREF(covo);
+    Py_XDECREF(stato);
+    Py_XDECREF(s2o);
+    if (ub_held)
+        PyBuffer_Release(&ub);
+    buf_release(&a);
+    buf_release(&bb);
+    buf_release(&cl);
+    buf_release(&w);
+    buf_release(&at);
+    buf_release(&cxb);
+    buf_release(&g);
+    buf_release(&dxb);
+    return res;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* ellipse */
+
+static const double RAD_TO_DEG = 180.0 / 3.14159265358979323846; /* CPython's radToDeg */
+
+/* Python's float % for a positive divisor (float_rem) */
+static double py_mod(double vx, double wx)
+{
+    double mod = vfmod(vx, wx);
+    if (mod) {
+        if ((wx < 0) != (mod < 0))
+            mod += wx;
+    }
+    else
+        mod = copysign(0.0, wx);
+    return mod;
+}
+
+PyDoc_STRVAR(ellipse_doc,
+"ellipse(C2) -> Ellipse or None\n"
+"\n"
+"engine.lsq.confidence.error_ellipse of a float64 (2, 2) VCV [m^2] (closed form, 5.22-5.23);\n"
+"None where the Python must run (another type or shape, non-finite values, a zero norm).");
+
+static PyObject *lsq_ellipse(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 1) {
+        PyErr_SetString(PyExc_TypeError, "ellipse(C2)");
+        return NULL;
+    }
+    if (need_bound() < 0)
+        return NULL;
+    buf_t c = {0};
+    if (buf_get(args[0], &c, 2) < 0)
+        return Py_NewRef(Py_None);
+    if (c.view.shape[0] != 2 || c.view.shape[1] != 2) {
+        buf_release(&c);
+        return Py_NewRef(Py_None);
+    }
+    double sxx = AT2(c, 0, 0), sxy = AT2(c, 0, 1), syy = AT2(c, 1, 1);
+    buf_release(&c);
+    if (!(isfinite(sxx) && isfinite(sxy) && isfinite(syy)))
+        return Py_NewRef(Py_None);
+    double half = 0.5 * (sxx + syy);
+    double hd = 0.5 * (sxx - syy);
+    PyObject *ro = call_py_hypot(hd, sxy);
+    if (ro == NULL)
+        return NULL;
+    double root = PyFloat_AS_DOUBLE(ro);
+    Py_DECREF(ro);
+    double l1 = half + root, l2 = half - root;
+    double ee, en;
+    if (sxy == 0.0 && hd == 0.0) {
+        ee = 1.0;
+        en = 0.0;
+    }
+    else if (sxx >= syy) {
+        ee = l1 - syy;
+        en = sxy;
+    }
+    else {
+        ee = sxy;
+        en = l1 - sxx;
+    }
+    PyObject *no = call_py_hypot(ee, en);
+    if (no == NULL)
+        return NULL;
+    double norm = PyFloat_AS_DOUBLE(no);
+    Py_DECREF(no);
+    if (norm == 0.0)
+        return Py_NewRef(Py_None); /* the Python raises ZeroDivisionError */
+    ee = ee / norm;
+    en = en / norm;
+    if (ee < 0.0 || (ee == 0.0 && en < 0.0)) {
+        ee = -ee;
+        en = -en;
+    }
+    double az = py_mod(vatan2(ee, en) * RAD_TO_DEG, 180.0);
+    double phi = vatan2(en, ee) * RAD_TO_DEG;
+    double *vec;
+    PyObject *veco = new_array(2, 2, &vec);
+    if (veco == NULL)
+        return NULL;
+    vec[0] = ee;
+    vec[1] = -en;
+    vec[2] = en;
+    vec[3] = ee;
+    double ma = (0.0 > l1) ? 0.0 : l1, mb = (0.0 > l2) ? 0.0 : l2; /* Python's max(l, 0.0) */
+    PyObject *vals[6] = {PyFloat_FromDouble(sqrt(ma)), PyFloat_FromDouble(sqrt(mb)),
+                         PyFloat_FromDouble(az), Py_BuildValue("(dd)", l1, l2), veco,
+                         PyFloat_FromDouble(phi)};
+    PyObject *obj = NULL, *dict = NULL, *empty = NULL;
+    for (int i = 0; i < 6; i++)
+        if (vals[i] == NULL)
+            goto fail;
+    empty = PyTuple_New(0);
+    if (empty == NULL)
+        goto fail;
+    obj = PyBaseObject_Type.tp_new((PyTypeObject *)ellipse_type, empty, NULL);
+    if (obj == NULL)
+        goto fail;
+    dict = PyObject_GenericGetDict(obj, NULL);
+    if (dict == NULL)
+        goto fail;
+    for (int i = 0; i < 6; i++)
+        if (PyDict_SetItem(dict, ellipse_keys[i], vals[i]) < 0)
+            goto fail;
+    Py_DECREF(dict);
+    Py_DECREF(empty);
+    for (int i = 0; i < 6; i++)
+        Py_DECREF(vals[i]);
+    return obj;
+fail:
+    Py_XDECREF(dict);
+    Py_XDECREF(obj);
+    Py_XDECREF(empty);
+    for (int i = 0; i < 6; i++)
+        Py_XDECREF(vals[i]);
+    return NULL;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* data snooping: the worst w and the monitor band */
+
+PyDoc_STRVAR(worst_doc,
+"worst(w) -> (slot, w[slot]) or None\n"
+"\n"
+"engine.lsq.snooping._worst: the first slot of largest |w| (NaN never wins; slot 0 when all\n"
+"are NaN) of a float64 1-D array; None for an empty or other array (the Python's case).");
+
+static PyObject *lsq_worst(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 1) {
+        PyErr_SetString(PyExc_TypeError, "worst(w)");
+        return NULL;
+    }
+    buf_t w = {0};
+    if (buf_get(args[0], &w, 1) < 0)
+        return Py_NewRef(Py_None);
+    Py_ssize_t n = w.view.shape[0], k = 0;
+    if (n < 1) {
+        buf_release(&w);
+        return Py_NewRef(Py_None);
+    }
+    double best = -1.0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double a = fabs(AT1(w, i));
+        if (a > best) {
+            k = i;
+            best = a;
+        }
+    }
+    double wk = AT1(w, k);
+    buf_release(&w);
+    return Py_BuildValue("(nd)", k, wk);
+}
+
+PyDoc_STRVAR(monitor_doc,
+"monitor(w, k, bound) -> tuple of the slots with k < |w| <= bound, or None\n"
+"\n"
+"The monitor band of engine.lsq.snooping._finish (NaN is never in it) of a float64 1-D array;\n"
+"None for another array (the Python's case).");
+
+static PyObject *lsq_monitor(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "monitor(w, k, bound)");
+        return NULL;
+    }
+    double kc = PyFloat_AsDouble(args[1]);
+    if (kc == -1.0 && PyErr_Occurred())
+        return NULL;
+    double bound = PyFloat_AsDouble(args[2]);
+    if (bound == -1.0 && PyErr_Occurred())
+        return NULL;
+    buf_t w = {0};
+    if (buf_get(args[0], &w, 1) < 0)
+        return Py_NewRef(Py_None);
+    Py_ssize_t n = w.view.shape[0], cnt = 0;
+    Py_ssize_t hit[MAXM];
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double a = fabs(AT1(w, i));
+        if (kc < a && a <= bound) {
+            if (cnt == MAXM) {
+                buf_release(&w);
+                return Py_NewRef(Py_None);
+            }
+            hit[cnt++] = i;
+        }
+    }
+    buf_release(&w);
+    PyObject *t = PyTuple_New(cnt);
+    if (t == NULL)
+        return NULL;
+    for (Py_ssize_t j = 0; j < cnt; j++) {
+        PyObject *v = PyLong_FromSsize_t(hit[j]);
+        if (v == NULL) {
+            Py_DECREF(t);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(t, j, v);
+    }
+    return t;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+
+PyDoc_STRVAR(bind_doc,
+"_bind(addresses, numpy_empty, math_hypot, solution_type, ellipse_type)\n"
+"\n"
+"Bind numpy's np_dgemm, np_dgemv, np_ddot and npl_dgesv (addresses as engine.native.blas gives\n"
+"them, keys as in all_addresses()), numpy.empty, math.hypot,\n"
+"adjustment._Solution and confidence.Ellipse; called once, on first use.");
+
+static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "_bind needs 5 arguments");
+        return NULL;
+    }
+    /* only numpy's routines: SciPy's OpenBLAS (all_addresses) need not be loaded for this */
+    static const char *keys[4] = {"np_dgemm", "np_dgemv", "np_ddot", "npl_dgesv"};
+    void *ptr[4];
+    if (!PyDict_Check(args[0])) {
+        PyErr_SetString(PyExc_TypeError, "_bind needs a dict of routine addresses");
+        return NULL;
+    }
+    for (int i = 0; i < 4; i++) {
+        PyObject *v = PyDict_GetItemString(args[0], keys[i]);
+        if (v == NULL) {
+            PyErr_Format(PyExc_KeyError, "routine address %s missing", keys[i]);
+            return NULL;
+        }
+        ptr[i] = PyLong_AsVoidPtr(v);
+        if (ptr[i] == NULL) {
+            if (!PyErr_Occurred())
+                PyErr_Format(PyExc_ValueError, "routine address %s is null", keys[i]);
+            return NULL;
+        }
+    }
+    uvn_blas_t b = {0};
+    b.dgemm = (uvn_dgemm_t)ptr[0];
+    b.dgemv = (uvn_dgemv_t)ptr[1];
+    b.ddot = (uvn_ddot_t)ptr[2];
+    b.npl_dgesv = (uvn_npl_dgesv_t)ptr[3];
+    if (!PyType_Check(args[3]) || !PyType_IsSubtype((PyTypeObject *)args[3], &PyTuple_Type) ||
+        !PyType_Check(args[4])) {
+        PyErr_SetString(PyExc_TypeError, "_bind: a tuple type and a class expected");
+        return NULL;
+    }
+    static const char *names[6] = {"a_m", "b_m", "az_deg", "eigenvalues", "eigenvectors",
+                                   "phi_deg"};
+    for (int i = 0; i < 6; i++)
+        if (ellipse_keys[i] == NULL) {
+            ellipse_keys[i] = PyUnicode_InternFromString(names[i]);
+            if (ellipse_keys[i] == NULL)
+                return NULL;
+        }
+    B = b;
+    Py_XSETREF(np_empty, Py_NewRef(args[1]));
+    Py_XSETREF(py_hypot, Py_NewRef(args[2]));
+    Py_XSETREF(sol_type, (PyTypeObject *)Py_NewRef(args[3]));
+    Py_XSETREF(ellipse_type, Py_NewRef(args[4]));
+    bound = 1;
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"_bind", (PyCFunction)(void (*)(void))lsq_bind, METH_FASTCALL, bind_doc},
+    {"step", (PyCFunction)(void (*)(void))lsq_step, METH_FASTCALL, step_doc},
+    {"finish", (PyCFunction)(void (*)(void))lsq_finish, METH_FASTCALL, finish_doc},
+    {"ellipse", (PyCFunction)(void (*)(void))lsq_ellipse, METH_FASTCALL, ellipse_doc},
+    {"worst", (PyCFunction)(void (*)(void))lsq_worst, METH_FASTCALL, worst_doc},
+    {"monitor", (PyCFunction)(void (*)(void))lsq_monitor, METH_FASTCALL, monitor_doc},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "engine.native.lsq",
+    "Compiled twin of the least-squares fix's numeric core (engine/lsq), bit for bit.", -1,
+    methods,
+};
+
+PyMODINIT_FUNC PyInit_lsq(void)
+{
+    PyObject *mod = PyModule_Create(&module);
+    if (mod == NULL)
+        return NULL;
+    if (PyModule_AddStringConstant(mod, "SOURCE_DIGEST", UVN_SOURCE_DIGEST) < 0) {
+        Py_DECREF(mod);
+        return NULL;
+    }
+    return mod;
+}

@@ -1,0 +1,425 @@
+"""The compiled LSQ kernel (engine/native/lsq.c) gives the bits of the Python it replaces.
+
+Each entry point is compared with its pure-Python twin, to the bit (``float.hex`` / the bytes
+of the arrays): ``step`` with ``adjustment._solve`` + ``_step_py``, ``finish`` with
+``adjustment._adjustment_py`` (residuals, S², RMS, drms, the statistics block), ``ellipse``
+with ``confidence._error_ellipse_py``; on (a) the matrices a short demo replay really
+produces and (b) hypothesis-generated inputs around them; and whole ``gauss_newton`` runs with
+and without the kernel. The pure path is the one taken with ``UVNAV_PURE=1``.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import engine.lsq.adjustment as adj
+import engine.lsq.confidence as conf
+import engine.lsq.snooping as snoop
+from engine import native
+from engine.lsq import _kernel
+from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
+from engine.lsq.statistics import delta0
+
+K = _kernel.kernel()
+needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
+ROOT = Path(__file__).resolve().parents[2]
+
+ADJ_FIELDS = ("ok", "reason", "x", "cov_x", "cov_x_apriori", "n_used", "redundancy", "category",
+              "iterations", "converged", "steps", "dx", "v", "s2", "rms_m", "drms_m",
+              "stats_block", "A_used", "b_used", "Cl_used", "W_used", "variance_test",
+              "scaled")
+ELL_FIELDS = ("a_m", "b_m", "az_deg", "eigenvalues", "eigenvectors", "phi_deg")
+
+
+def same(a: Any, b: Any) -> bool:
+    """Equal to the bit: arrays by bytes, shape and dtype; floats by ``float.hex``."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return (a.shape == b.shape and a.dtype == b.dtype
+                and np.ascontiguousarray(a).tobytes() == np.ascontiguousarray(b).tobytes())
+    if isinstance(a, float) and isinstance(b, float):
+        return a.hex() == b.hex()
+    if isinstance(a, tuple) and isinstance(b, tuple):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
+    return type(a) is type(b) and a == b
+
+
+class _Run(adj._Run):
+    """A _Run at x over ``used`` (the state the kernel's callers hand over)."""
+
+    def __init__(self, x: np.ndarray, used: np.ndarray) -> None:
+        super().__init__(np.array(x, dtype=float), np.array(used, dtype=bool))
+
+
+def check_step(Au: np.ndarray, bu: np.ndarray, Clu: np.ndarray, x: np.ndarray,
+               cond_max: float = COND_MAX) -> bool:
+    """The kernel's step equals the Python's (or declines); True when it took the case."""
+    res = K.step(Au, bu, Clu, cond_max, x)
+    try:
+        sol = adj._solve(Au, bu, Clu, cond_max)
+        run = _Run(x, np.ones(bu.size, bool))
+        big = adj._step_py(run, sol)
+    except adj._Stop:
+        assert res is None
+        return False
+    if res is None:
+        return False
+    ksol, kx, length, kbig = res
+    assert type(ksol) is adj._Solution
+    for name, a, b in zip(adj._Solution._fields, sol, ksol, strict=True):
+        assert same(a, b), name
+    assert same(run.x, kx) and same(run.steps[0], length) and same(big, kbig)
+    return True
+
+
+def check_finish(sol: adj._Solution, x: np.ndarray, used: np.ndarray, scale_vcv: bool) -> bool:
+    """The kernel's _adjustment equals the Python's (or declines); True when it took it."""
+    run = _Run(x, used)
+    run.it, run.steps, run.converged = 2, [3.0, 0.5], True
+    d0 = delta0(0.05, 0.80)
+    res = K.finish(sol, run.used, scale_vcv, d0)
+    want = adj._adjustment_py(run, sol, 1.0, scale_vcv, 0.05, 0.80, None)
+    if res is None:
+        return False
+    got = adj._adjustment(run, sol, 1.0, scale_vcv, 0.05, 0.80, None)
+    for name in ADJ_FIELDS:
+        assert same(getattr(want, name), getattr(got, name)), name
+    return True
+
+
+def check_ellipse(c2: np.ndarray) -> bool:
+    """The kernel's ellipse equals the Python's (or declines); True when it took it."""
+    got = K.ellipse(c2)
+    try:
+        want = conf._error_ellipse_py(c2)
+    except (ValueError, ZeroDivisionError):
+        assert got is None
+        return False
+    if got is None:
+        return False
+    assert type(got) is conf.Ellipse
+    for name in ELL_FIELDS:
+        assert same(getattr(want, name), getattr(got, name)), name
+    return True
+
+
+# ------------------------------------------------------------------------------------------
+# (a) what a replay really produces
+
+
+@pytest.fixture(scope="module")
+def recorded() -> dict[str, list[Any]]:
+    """The inputs of every step / finish / ellipse of the first 200 demo epochs (kernel off
+    while recording, so each is recorded as the Python saw it)."""
+    from engine.run.config import load_config
+    from engine.run.session import Session
+
+    rec: dict[str, list[Any]] = {"step": [], "finish": [], "ellipse": []}
+    mp = pytest.MonkeyPatch()
+    evaluate, adjustment, ellipse = adj._evaluate, adj._adjustment_py, conf._error_ellipse_py
+
+    def ev(lin: Any, run: adj._Run, sq: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        out = evaluate(lin, run, sq)
+        rec["step"].append((*out, run.x.copy()))
+        return out
+
+    def fin(run: adj._Run, sol: adj._Solution, *a: Any) -> Any:
+        rec["finish"].append((sol, run.x.copy(), run.used.copy()))
+        return adjustment(run, sol, *a)
+
+    def ell(c2: np.ndarray) -> Any:
+        rec["ellipse"].append(np.array(c2))
+        return ellipse(c2)
+
+    mp.setattr(_kernel, "kernel", lambda: None)
+    mp.setattr(adj, "_evaluate", ev)
+    mp.setattr(adj, "_adjustment_py", fin)
+    mp.setattr(conf, "_error_ellipse_py", ell)
+    try:
+        s = Session(load_config(ROOT / "data" / "DEMO.toml"),
+                    out_path=Path(tempfile.mkdtemp()) / "T.OUT", force=True, history=1)
+        try:
+            s.run(max_cycles=200)
+        finally:
+            s.close()
+    finally:
+        mp.undo()
+    return rec
+
+
+@needs_kernel
+def test_replay_steps_are_bit_identical(recorded: dict[str, list[Any]]) -> None:
+    taken = [check_step(Au, bu, Clu, x) for Au, bu, Clu, x in recorded["step"]]
+    assert len(taken) > 300 and all(taken)  # the kernel takes every iteration of the demo
+
+
+@needs_kernel
+def test_replay_finishes_are_bit_identical(recorded: dict[str, list[Any]]) -> None:
+    for sol, x, used in recorded["finish"]:
+        assert check_finish(sol, x, used, False)
+        assert check_finish(sol, x, used, True)  # ScaleVCV on: C_x̂ × S²
+    assert len(recorded["finish"]) >= 200
+
+
+@needs_kernel
+def test_replay_ellipses_are_bit_identical(recorded: dict[str, list[Any]]) -> None:
+    assert all(check_ellipse(c2) for c2 in recorded["ellipse"])
+    assert len(recorded["ellipse"]) >= 400
+
+
+# ------------------------------------------------------------------------------------------
+# (b) generated inputs around them
+
+
+@st.composite
+def problems(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A (m, 2) design of unit-ish rows, misclosures, an SPD C_l (GPS-like diagonal and a
+    correlated Decca-like block) and a grid point."""
+    m = draw(st.integers(2, 10))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    ang = rng.uniform(0.0, 2.0 * np.pi, m)
+    A = np.column_stack((np.sin(ang), np.cos(ang))) * rng.choice([1.0, 1.0, 0.5, 2.0], (m, 1))
+    b = rng.normal(0.0, 10.0 ** rng.uniform(-3, 2), m)
+    L = np.tril(rng.normal(0, 1, (m, m))) * (rng.random((m, m)) < 0.3)
+    np.fill_diagonal(L, 10.0 ** rng.uniform(0, 2, m))
+    Cl = L @ L.T
+    x = np.array([rng.uniform(-1e5, 1e5), rng.uniform(5.5e6, 6.5e6)])
+    return A, b, Cl, x
+
+
+@needs_kernel
+@settings(max_examples=300, deadline=None)
+@given(problems())
+def test_generated_steps_are_bit_identical(p: tuple[np.ndarray, ...]) -> None:
+    A, b, Cl, x = p
+    check_step(A, b, Cl, x)
+    n = b.size + 2  # the same numbers as strided views of a larger layout (unused slots)
+    big = np.eye(n)
+    big[1:-1, 1:-1] = Cl
+    check_step(A, b, big[1:-1, 1:-1], x)
+
+
+@needs_kernel
+@settings(max_examples=300, deadline=None)
+@given(problems(), st.integers(0, 2**32 - 1), st.booleans())
+def test_generated_finishes_are_bit_identical(p: tuple[np.ndarray, ...], seed: int,
+                                              scale: bool) -> None:
+    A, b, Cl, x = p
+    try:
+        sol = adj._solve(A, b, Cl, COND_MAX)
+    except adj._Stop:
+        return
+    rng = np.random.default_rng(seed)
+    n = b.size + int(rng.integers(0, 4))
+    used = np.zeros(n, bool)
+    used[np.sort(rng.choice(n, b.size, replace=False))] = True  # any layout of the used slots
+    check_finish(sol, x + sol.dx, used, scale)
+
+
+@needs_kernel
+@settings(max_examples=500, deadline=None)
+@given(st.floats(0.0, 1e8), st.floats(0.0, 1e8), st.floats(-1.0, 1.0),
+       st.sampled_from(["any", "iso", "diag", "neg"]))
+def test_generated_ellipses_are_bit_identical(sxx: float, syy: float, rho: float,
+                                              kind: str) -> None:
+    sxy = rho * math.sqrt(sxx * syy)
+    if kind == "iso":
+        syy, sxy = sxx, 0.0
+    elif kind == "diag":
+        sxy = 0.0
+    elif kind == "neg":
+        sxx, sxy = -sxx, -sxy
+    check_ellipse(np.array([[sxx, sxy], [sxy, syy]]))
+
+
+@needs_kernel
+def test_ellipse_edge_cases() -> None:
+    for c in ([[0.0, 0.0], [0.0, 0.0]], [[-0.0, -0.0], [-0.0, -0.0]], [[4.0, 0.0], [0.0, 1.0]],
+              [[1.0, 0.0], [0.0, 4.0]], [[1.0, 2.0], [2.0, 1.0]], [[1e-300, 0.0], [0.0, 0.0]],
+              [[math.nan, 0.0], [0.0, 1.0]], [[math.inf, 0.0], [0.0, 1.0]],
+              [[1e308, 1e308], [1e308, 1e308]]):
+        try:
+            check_ellipse(np.array(c))
+        except OverflowError:
+            pass
+    assert K.ellipse([[1.0, 0.0], [0.0, 1.0]]) is None  # not an array: the Python's case
+    assert K.ellipse(np.eye(3)) is None and K.ellipse(np.eye(2, dtype=np.float32)) is None
+
+
+@needs_kernel
+def test_declined_cases_go_to_python() -> None:
+    A = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    b = np.array([1.0, 2.0, 3.0])
+    x = np.zeros(2)
+    assert K.step(A, b, np.zeros((3, 3)), COND_MAX, x) is None  # singular C_l
+    assert K.step(np.array([[1.0, 1.0], [1.0, 1.0 + 1e-7], [1.0, 1.0]]), b, np.eye(3), COND_MAX,
+                  x) is None  # ill-conditioned normal matrix
+    assert K.step(A, np.array([1.0, np.inf, 0.0]), np.eye(3), COND_MAX, x) is None
+    assert K.step(np.ones((3, 3)), b, np.eye(3), COND_MAX, np.zeros(3)) is None  # u = 3
+    assert K.step(np.asfortranarray(A), b, np.eye(3), COND_MAX, x) is None
+    assert K.step(A.astype(np.float32), b, np.eye(3), COND_MAX, x) is None
+
+
+@needs_kernel
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(st.floats(-5.0, 5.0), st.just(math.nan), st.just(2.576),
+                          st.just(-1.959963984540054), st.just(-0.0), st.just(math.inf)),
+                min_size=1, max_size=12), st.booleans())
+def test_worst_and_monitor_are_the_pythons(w: list[float], row: bool) -> None:
+    arr = np.array(w)
+    if row:  # a row of a statistics block, as adj.w is
+        block = np.zeros((3, arr.size))
+        block[1] = arr
+        arr = block[1]
+    else:
+        arr = np.repeat(arr, 2)[::2]  # a strided view
+    fake = type("A", (), {"w": arr})()
+    want = snoop._worst_py(fake)  # type: ignore[arg-type]
+    got = K.worst(arr)
+    assert got[0] == want[0] and same(got[1], want[1])
+    k = 1.959963984540054
+    assert K.monitor(arr, k, 2.576) == snoop._monitor_py(arr, k, 2.576)
+    assert K.worst(np.zeros(0)) is None
+
+
+# ------------------------------------------------------------------------------------------
+# whole adjustments, kernel against no kernel
+
+
+def _bearings(stations: np.ndarray, obs: np.ndarray, sig: np.ndarray,
+              corr: float) -> Any:
+    """Distance LOPs to ``stations`` (m): a metric linearisation with correlated C_l."""
+    n = len(stations)
+    cl = np.diag(sig**2)
+    for i in range(n - 1):
+        cl[i, i + 1] = cl[i + 1, i] = corr * sig[i] * sig[i + 1]
+
+    def lin(x: np.ndarray) -> Linearisation:
+        d = x - stations
+        r = np.hypot(d[:, 0], d[:, 1])
+        return Linearisation(d / r[:, None], obs - r, cl)
+
+    return lin
+
+
+def _both(*args: Any, **kw: Any) -> Iterator[Any]:
+    mp = pytest.MonkeyPatch()
+    yield gauss_newton(*args, **kw)
+    mp.setattr(_kernel, "kernel", lambda: None)
+    try:
+        yield gauss_newton(*args, **kw)
+    finally:
+        mp.undo()
+
+
+@needs_kernel
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(3, 8), st.booleans(), st.booleans())
+def test_gauss_newton_with_and_without_the_kernel(seed: int, n: int, scale: bool,
+                                                  gap: bool) -> None:
+    rng = np.random.default_rng(seed)
+    stations = rng.uniform(-3e4, 3e4, (n, 2))
+    truth = rng.uniform(-5e3, 5e3, 2)
+    sig = rng.uniform(5.0, 50.0, n)
+    obs = np.hypot(*(truth - stations).T) + rng.normal(0, 1, n) * sig
+    obs[rng.integers(n)] += rng.choice([0.0, 200.0])
+    used = np.ones(n, bool)
+    if gap:
+        used[rng.integers(n)] = False
+    lin = _bearings(stations, obs, sig, rng.uniform(-0.5, 0.5))
+    x0 = truth + rng.normal(0, 300, 2)
+    got, want = _both(lin, x0, used, scale_vcv=scale)
+    for name in ADJ_FIELDS:
+        assert same(getattr(want, name), getattr(got, name)), name
+
+
+@needs_kernel
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["lsq", "huber", "danish"]),
+       st.sampled_from(["Y", "N", "A"]))
+def test_data_snooping_with_and_without_the_kernel(seed: int, estimator: str,
+                                                   policy: str) -> None:
+    """The whole snooping driver (rejections, robust IRLS with damped C_l, messages)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 9))
+    stations = rng.uniform(-3e4, 3e4, (n, 2))
+    truth = rng.uniform(-5e3, 5e3, 2)
+    sig = rng.uniform(5.0, 50.0, n)
+    obs = np.hypot(*(truth - stations).T) + rng.normal(0, 1, n) * sig
+    obs[rng.integers(n)] += rng.choice([150.0, 400.0])  # an outlier to reject or down-weight
+    lin = _bearings(stations, obs, sig, rng.uniform(-0.3, 0.3))
+    x0 = truth + rng.normal(0, 300, 2)
+    kw: dict[str, Any] = {"policy": policy, "estimator": estimator}
+    got, want = _both_snoop(lin, x0, np.ones(n, bool), **kw)
+    for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
+                 "not_identifiable", "variance_test", "messages"):
+        assert same(getattr(want, name), getattr(got, name)), name
+    for name in ADJ_FIELDS:
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+
+
+def _both_snoop(*args: Any, **kw: Any) -> Iterator[Any]:
+    mp = pytest.MonkeyPatch()
+    yield snoop.adjust_with_testing(*args, **kw)
+    mp.setattr(_kernel, "kernel", lambda: None)
+    try:
+        yield snoop.adjust_with_testing(*args, **kw)
+    finally:
+        mp.undo()
+
+
+@needs_kernel
+def test_an_untestable_slot_goes_to_python() -> None:
+    """Slot 0 is the only x observation (r_0 = 0): finish declines, the Python marks it."""
+    A = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 1.0], [0.0, 1.0]])
+    lin0 = Linearisation(A, np.array([1.0, 2.0, 2.5, 1.5]), np.diag([4.0, 9.0, 9.0, 16.0]))
+    sol = adj._solve(lin0.A, lin0.b, lin0.Cl, COND_MAX)
+    assert K.finish(sol, np.ones(4, bool), False, 2.8) is None
+    got, want = _both(lambda x: lin0, np.zeros(2), np.ones(4, bool))
+    assert math.isinf(got.sigma_d[0]) and math.isnan(got.w[0])
+    for name in ADJ_FIELDS:
+        assert same(getattr(want, name), getattr(got, name)), name
+
+
+# ------------------------------------------------------------------------------------------
+# the pure path
+
+
+def test_pure_env_takes_the_python(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    monkeypatch.setattr(_kernel, "_K", _kernel._UNSET)  # resolved again here, restored after
+    assert _kernel.kernel() is None
+    calls: list[str] = []
+    for name in ("_iterate_py", "_adjustment_py"):
+        fn = getattr(adj, name)
+        monkeypatch.setattr(adj, name, lambda *a, _f=fn, _n=name: calls.append(_n) or _f(*a))
+    ell = conf._error_ellipse_py
+    monkeypatch.setattr(conf, "_error_ellipse_py", lambda c: calls.append("ell") or ell(c))
+    lin = _bearings(np.array([[0.0, 1e4], [1e4, 0.0], [-1e4, 0.0]]),
+                    np.array([1e4, 1e4, 1e4]), np.array([10.0, 10.0, 10.0]), 0.0)
+    res = gauss_newton(lin, np.array([100.0, 100.0]), np.ones(3, bool))
+    conf.error_ellipse(res.cov_x)
+    assert res.ok and calls == ["_iterate_py", "_adjustment_py", "ell"]
+
+
+def test_binding_is_lazy() -> None:
+    """Importing the LSQ modules binds nothing (no BLAS libraries loaded at start-up)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, engine.lsq.fix, engine.lsq.adjustment, engine.lsq._kernel as k; "
+            "assert not k._BOUND and k._K is k._UNSET; "
+            "assert 'engine.native.blas' not in sys.modules; print('ok')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=ROOT, timeout=60)
+    assert done.stdout.strip() == "ok", done.stderr
