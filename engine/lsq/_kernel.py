@@ -23,6 +23,15 @@ _K: Any = _UNSET
 """The resolved kernel (module or None) once :func:`kernel` has been called, else _UNSET."""
 _BOUND: dict[int, ModuleType | None] = {}
 """id(module) → the bound module, or None where it cannot be used (decided once)."""
+_CLASSES: dict[str, type] = {}
+"""The result classes the kernel builds (``solution``: adjustment's ``_Solution``,
+``ellipse``: confidence's ``Ellipse``), provided by those modules at import (:func:`provide`),
+so this module imports neither (no import cycle)."""
+
+
+def provide(**classes: type) -> None:
+    """Register result classes for the kernel (called by adjustment.py and confidence.py)."""
+    _CLASSES.update(classes)
 
 
 def kernel() -> ModuleType | None:
@@ -49,6 +58,8 @@ def _resolve() -> ModuleType | None:
     if mod is None:
         _K = None
         return None
+    if not {"solution", "ellipse"} <= _CLASSES.keys():
+        return None  # a result module is not imported yet: pure Python now, look again later
     key = id(mod)
     if key not in _BOUND:
         _BOUND[key] = _bind(mod)
@@ -58,8 +69,6 @@ def _resolve() -> ModuleType | None:
 
 def _bind(mod: ModuleType) -> ModuleType | None:
     """Give ``mod`` its routine addresses and Python objects; None if it cannot be exact."""
-    from engine.lsq.adjustment import _Solution
-    from engine.lsq.confidence import Ellipse
     from engine.native import blas
 
     if _numpy_uses_svml():
@@ -69,7 +78,7 @@ def _bind(mod: ModuleType) -> ModuleType | None:
         return None
     addresses = {**{f"np_{k}": v for k, v in cblas.items()},
                  **{f"npl_{k}": v for k, v in lapack.items()}}  # SciPy's library not needed
-    mod._bind(addresses, np.empty, math.hypot, _Solution, Ellipse)
+    mod._bind(addresses, np.empty, math.hypot, _CLASSES["solution"], _CLASSES["ellipse"])
     return mod
 
 

@@ -774,3 +774,5 @@ def _failed(
         W_used=np.full((m, m), np.nan),
         damping=None if damping is None else np.asarray(damping, dtype=float).copy(),
     )
+
+_kernel.provide(solution=_Solution)

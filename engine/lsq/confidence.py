@@ -183,3 +183,5 @@ def drms(C: np.ndarray) -> float:
 def two_drms(C: np.ndarray) -> float:
     """2drms = 2·d_rms [m] (eq. 5.30); sample 63.6 m."""
     return 2.0 * drms(C)
+
+_kernel.provide(ellipse=Ellipse)
