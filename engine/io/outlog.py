@@ -42,6 +42,7 @@ from operator import itemgetter
 from pathlib import Path
 from typing import Any, overload
 
+from engine import native
 from engine.errors import InputError
 from engine.io.outputs import OutputFile, OutputGuard, free_name
 
@@ -345,8 +346,27 @@ _ROW_SHAPE = itemgetter(0, 1)
 _ROW_VALUES = itemgetter(2)
 
 
-def render_rows(rows: Sequence[tuple[str, tuple[str, ...], tuple[Value, ...]]],
-                compiled: bool = True) -> str:
+_Row = tuple[str, tuple[str, ...], tuple[Value, ...]]
+_K = native.kernel("outfmt")
+"""The compiled block writer (engine/native/outfmt.c), or None: not built, stale, or
+``UVNAV_PURE=1`` (then :func:`_render_rows_py` writes every block)."""
+
+
+def render_rows(rows: list[_Row], compiled: bool = True) -> str:
+    """``"".join(render_line(*row) for row in rows)``: the text of a block's rows, by the
+    compiled kernel (``engine.native.outfmt``: the same characters, no Python per value, its
+    exact floats through the same probed :func:`float_texts` writer and ``repr`` rule) where it
+    is built, else (or for rows it leaves to Python) by :func:`_render_rows_py`.
+    ``compiled=False``: the floats through ``repr`` only."""
+    if _K is not None:
+        text = _K.render_rows(rows, _float_writer() if compiled else None, _format_text,
+                              format_value)
+        if text is not None:
+            return text
+    return _render_rows_py(rows, compiled)
+
+
+def _render_rows_py(rows: Sequence[_Row], compiled: bool = True) -> str:
     """``"".join(render_line(*row) for row in rows)`` by one ``%`` with a cached whole-block
     template, all exact floats written by one :func:`float_texts` call and all str values by
     one ``map`` (the ``.OUT`` hot path: one cycle, ~17 lines, ~160 values, no per-value
