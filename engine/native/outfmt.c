@@ -41,10 +41,8 @@ typedef struct {
     int ascii; /* nothing but ASCII written so far */
 } buf_t;
 
-static int buf_reserve(buf_t *b, Py_ssize_t extra)
+static int buf_grow(buf_t *b, Py_ssize_t extra)
 {
-    if (b->n + extra <= b->cap)
-        return 0;
     Py_ssize_t cap = b->cap * 2;
     while (cap < b->n + extra)
         cap *= 2;
@@ -66,6 +64,11 @@ static int buf_reserve(buf_t *b, Py_ssize_t extra)
     return 0;
 }
 
+static inline int buf_reserve(buf_t *b, Py_ssize_t extra)
+{
+    return b->n + extra <= b->cap ? 0 : buf_grow(b, extra);
+}
+
 static inline int buf_put(buf_t *b, const char *s, Py_ssize_t n)
 {
     if (buf_reserve(b, n) < 0)
@@ -84,7 +87,7 @@ static inline int buf_putc(buf_t *b, char c)
 }
 
 /* The UTF-8 of str `s` (ASCII: its own bytes). FALLBACK if it cannot be encoded. */
-static int buf_put_str(buf_t *b, PyObject *s)
+static inline int buf_put_str(buf_t *b, PyObject *s)
 {
 #if PY_VERSION_HEX < 0x030C0000
     if (PyUnicode_READY(s) < 0)
@@ -118,24 +121,27 @@ static int buf_put_repr(buf_t *b, double x)
     return rc;
 }
 
+/* Classes of a byte in a number of dumps' text: 0 a digit or '-', 1 the point, 2 anything
+ * else. */
+static unsigned char NUM_CLS[256];
+
 /* A number of dumps' text in the positional form repr shares (outlog._plain_float_text):
- * only digits and '-', exactly one point, and no "0.0000" (< 1e-4 written positionally). */
+ * only digits and '-', exactly one point, and no "0.0000" (< 1e-4 written positionally). With
+ * one point, "0.0000" can only stand around it: a '0' before it and four '0' after it. */
 static int plain_float_text(const char *t, Py_ssize_t n)
 {
-    int dots = 0;
+    unsigned other = 0;
+    Py_ssize_t dots = 0, dot = 0;
     for (Py_ssize_t i = 0; i < n; i++) {
-        char c = t[i];
-        if (c == '.')
-            dots++;
-        else if (!((c >= '0' && c <= '9') || c == '-'))
-            return 0;
+        unsigned k = NUM_CLS[(unsigned char)t[i]];
+        other |= k & 2;
+        dots += k & 1;
+        dot = k == 1 ? i : dot;
     }
-    if (dots != 1)
+    if (other || dots != 1)
         return 0;
-    for (Py_ssize_t i = 0; i + 6 <= n; i++)
-        if (memcmp(t + i, "0.0000", 6) == 0)
-            return 0;
-    return 1;
+    return !(dot >= 1 && dot + 4 < n && t[dot - 1] == '0' && t[dot + 1] == '0' &&
+             t[dot + 2] == '0' && t[dot + 3] == '0' && t[dot + 4] == '0');
 }
 
 /* Character classes of ASCII for the str rule of outlog._format_text. */
@@ -155,6 +161,8 @@ static void init_classes(void)
         CLS[(unsigned char)*c] |= NEVER_IN_A_NUMBER;
     for (int c = '0'; c <= '9'; c++)
         CLS[c] |= DIGIT;
+    for (int c = 0; c < 256; c++)
+        NUM_CLS[c] = ((c >= '0' && c <= '9') || c == '-') ? 0 : c == '.' ? 1 : 2;
 }
 
 /* How outlog._format_text writes the ASCII word u[0:n]: 0 bare, 1 JSON-quoted, -1 not
@@ -254,10 +262,16 @@ static int buf_put_value(buf_t *b, PyObject *v, PyObject *format_text, PyObject 
         long long i = PyLong_AsLongLongAndOverflow(v, &overflow);
         if (i == -1 && PyErr_Occurred())
             return -1;
-        if (!overflow) {
-            char s[32];
-            int k = snprintf(s, sizeof s, "%lld", i);
-            return buf_put(b, s, k);
+        if (!overflow) { /* the decimal digits, as int.__repr__ */
+            char s[24], *e = s + sizeof s, *o = e;
+            unsigned long long m = i < 0 ? 0ULL - (unsigned long long)i : (unsigned long long)i;
+            do {
+                *--o = (char)('0' + m % 10);
+                m /= 10;
+            } while (m);
+            if (i < 0)
+                *--o = '-';
+            return buf_put(b, o, e - o);
         }
         return buf_put_result(b, PyObject_Repr(v));
     }
@@ -325,18 +339,18 @@ static PyObject *dump_floats(PyObject *rows, Py_ssize_t nf, PyObject *dumps, spa
     const char *t = PyBytes_AS_STRING(out);
     Py_ssize_t end = PyBytes_GET_SIZE(out) - 1, at = 1;
     k = 0;
-    for (Py_ssize_t i = 1; i <= end && end >= 1; i++) {
-        if (i == end || t[i] == ',') {
-            if (k == nf) {
-                Py_DECREF(out);
-                return NULL;
-            }
-            spans[k].at = at;
-            spans[k].len = i - at;
-            k++;
-            at = i + 1;
-        }
+    while (end >= 1 && k < nf) {
+        const char *comma = memchr(t + at, ',', (size_t)(end - at));
+        Py_ssize_t stop = comma != NULL ? comma - t : end;
+        spans[k].at = at;
+        spans[k].len = stop - at;
+        k++;
+        at = stop + 1;
+        if (comma == NULL)
+            break;
     }
+    if (k == nf && at <= end) /* more numbers than floats */
+        k = -1;
     if (k != nf) {
         Py_DECREF(out);
         return NULL;
