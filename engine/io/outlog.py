@@ -585,10 +585,15 @@ class OutLogWriter:
         """Write one complete cycle block (``CYCLE`` … ``END``) in a single flushed write."""
         if type(lines) is KeyedLines and type(fields) is dict:
             keys = tuple(fields)
+            rows = [("CYCLE", keys, tuple(fields.values())), *lines.rows,
+                    ("\nEND", _N, (fields.get("n"),)), ("\n", (), ())]
+            if _K is not None:  # the kernel checks the keys itself (None: not all exact str)
+                text = _K.render_rows(rows, _float_writer(), _format_text, format_value)
+                if text is not None:
+                    self._write(text)
+                    return
             if all(type(k) is str for k in keys):
-                n = fields.get("n")
-                self._write(render_rows([("CYCLE", keys, tuple(fields.values())), *lines.rows,
-                                         ("\nEND", _N, (n,)), ("\n", (), ())]))
+                self._write(_render_rows_py(rows))
                 return
         parts = [_render_fields("CYCLE", fields)]
         if type(lines) is KeyedLines:
