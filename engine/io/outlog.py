@@ -21,10 +21,12 @@ process leaves every completed cycle readable; the reader reports a trailing blo
 caller asks for it explicitly (``force=True``): otherwise a new name is chosen.
 
 Writing is the per-cycle hot path (issue 14): a block handed over as :class:`KeyedLines` rows
-is rendered by one cached ``%`` template per block shape (:func:`render_rows`), with all its
-floats written by one compiled call where orjson is installed (:func:`float_texts`, checked
-against ``repr``); :func:`format_line` / :func:`format_fields` stay the general API and the
-reference the fast path is tested against (tests/io/test_outlog_fast.py).
+is rendered in one call by the compiled kernel ``engine.native.outfmt`` where it is built, else
+by one cached ``%`` template per block shape (:func:`_render_rows_py`); either way all its
+floats are written by one compiled call where orjson is installed (:func:`float_texts`, checked
+against ``repr``), the rest by ``repr``; :func:`format_line` / :func:`format_fields` stay the
+general API and the reference the fast paths are tested against (tests/io/test_outlog_fast.py,
+tests/native/test_outfmt.py).
 """
 
 from __future__ import annotations
