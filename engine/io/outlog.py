@@ -21,10 +21,12 @@ process leaves every completed cycle readable; the reader reports a trailing blo
 caller asks for it explicitly (``force=True``): otherwise a new name is chosen.
 
 Writing is the per-cycle hot path (issue 14): a block handed over as :class:`KeyedLines` rows
-is rendered by one cached ``%`` template per block shape (:func:`render_rows`), with all its
-floats written by one compiled call where orjson is installed (:func:`float_texts`, checked
-against ``repr``); :func:`format_line` / :func:`format_fields` stay the general API and the
-reference the fast path is tested against (tests/io/test_outlog_fast.py).
+is rendered in one call by the compiled kernel ``engine.native.outfmt`` where it is built, else
+by one cached ``%`` template per block shape (:func:`_render_rows_py`); either way all its
+floats are written by one compiled call where orjson is installed (:func:`float_texts`, checked
+against ``repr``), the rest by ``repr``; :func:`format_line` / :func:`format_fields` stay the
+general API and the reference the fast paths are tested against (tests/io/test_outlog_fast.py,
+tests/native/test_outfmt.py).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from operator import itemgetter
 from pathlib import Path
 from typing import Any, overload
 
+from engine import native
 from engine.errors import InputError
 from engine.io.outputs import OutputFile, OutputGuard, free_name
 
@@ -345,8 +348,27 @@ _ROW_SHAPE = itemgetter(0, 1)
 _ROW_VALUES = itemgetter(2)
 
 
-def render_rows(rows: Sequence[tuple[str, tuple[str, ...], tuple[Value, ...]]],
-                compiled: bool = True) -> str:
+_Row = tuple[str, tuple[str, ...], tuple[Value, ...]]
+_K = native.kernel("outfmt")
+"""The compiled block writer (engine/native/outfmt.c), or None: not built, stale, or
+``UVNAV_PURE=1`` (then :func:`_render_rows_py` writes every block)."""
+
+
+def render_rows(rows: list[_Row], compiled: bool = True) -> str:
+    """``"".join(render_line(*row) for row in rows)``: the text of a block's rows, by the
+    compiled kernel (``engine.native.outfmt``: the same characters, no Python per value, its
+    exact floats through the same probed :func:`float_texts` writer and ``repr`` rule) where it
+    is built, else (or for rows it leaves to Python) by :func:`_render_rows_py`.
+    ``compiled=False``: the floats through ``repr`` only."""
+    if _K is not None:
+        text = _K.render_rows(rows, _float_writer() if compiled else None, _format_text,
+                              format_value)
+        if text is not None:
+            return text
+    return _render_rows_py(rows, compiled)
+
+
+def _render_rows_py(rows: Sequence[_Row], compiled: bool = True) -> str:
     """``"".join(render_line(*row) for row in rows)`` by one ``%`` with a cached whole-block
     template, all exact floats written by one :func:`float_texts` call and all str values by
     one ``map`` (the ``.OUT`` hot path: one cycle, ~17 lines, ~160 values, no per-value
@@ -565,10 +587,15 @@ class OutLogWriter:
         """Write one complete cycle block (``CYCLE`` … ``END``) in a single flushed write."""
         if type(lines) is KeyedLines and type(fields) is dict:
             keys = tuple(fields)
+            rows = [("CYCLE", keys, tuple(fields.values())), *lines.rows,
+                    ("\nEND", _N, (fields.get("n"),)), ("\n", (), ())]
+            if _K is not None:  # the kernel checks the keys itself (None: not all exact str)
+                text = _K.render_rows(rows, _float_writer(), _format_text, format_value)
+                if text is not None:
+                    self._write(text)
+                    return
             if all(type(k) is str for k in keys):
-                n = fields.get("n")
-                self._write(render_rows([("CYCLE", keys, tuple(fields.values())), *lines.rows,
-                                         ("\nEND", _N, (n,)), ("\n", (), ())]))
+                self._write(_render_rows_py(rows))
                 return
         parts = [_render_fields("CYCLE", fields)]
         if type(lines) is KeyedLines:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from datetime import datetime
 from math import isfinite, sqrt
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
@@ -211,13 +212,30 @@ def _sigma(var: float) -> float:
     return sqrt(var) if var > 0.0 else (var if var != var else 0.0)
 
 
+_UTC_FIELDS = attrgetter("year", "month", "day", "hour", "minute", "second")
+_UTC_TEXT = "%04d-%02d-%02dT%02d:%02d:%02dZ"
+
+
 def _utc_text(t: datetime) -> str:
     """``t.strftime("%Y-%m-%dT%H:%M:%SZ")``, by integer formatting for years 1000–9999 (where
-    ``%Y`` is the 4-digit year; any other year goes through ``strftime`` itself)."""
-    if 1000 <= t.year <= 9999:
-        return (f"{t.year}-{t.month:02d}-{t.day:02d}T"
-                f"{t.hour:02d}:{t.minute:02d}:{t.second:02d}Z")
+    ``%Y`` is the 4-digit year; any other year goes through ``strftime`` itself): one
+    ``attrgetter`` call and one ``%`` (each field a non-negative int, as ``%02d`` writes it)."""
+    fields = _UTC_FIELDS(t)
+    if 1000 <= fields[0] <= 9999:
+        return _UTC_TEXT % fields
     return t.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+_SENS_GET = attrgetter("heading_true_deg", "speed_kn", "rudder_deg", "incl_deg", "depth_m",
+                       "echo_m", "convergence_deg")
+_GPS_GET = attrgetter("lat_in_deg", "lon_in_deg", "lat_deg", "lon_deg", "x_m", "y_m", "hg_m")
+_OBS_GET = attrgetter("kind", "station", "lat_deg", "lon_deg", "value", "sigma", "sensor")
+_LOP_GET = attrgetter("system", "pattern", "read", "correction", "calc", "v_m", "w", "sigma_d",
+                      "tau", "az_deg", "used", "verdict")
+"""The values of the SENS, GPS, OBS and LOP lines in key order, fetched by one C call each
+(the same attribute reads, in the same order, as a tuple display of them)."""
+_LS_TEXT = "{:.3f}".format
+"""``f"{t:.3f}"`` of a float (the same ``float.__format__``) as a bound method for ``map``."""
 
 
 def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
@@ -227,15 +245,14 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
     :meth:`~engine.io.outlog.OutLogWriter.write_cycle` renders by template; read as a sequence
     they are (tag, fields dict) pairs)."""
     mpp = r.mpp
-    head: dict[str, Value] = dict(zip(_HEAD_KEYS, (
-        r.n, _utc_text(r.time), r.record, r.filter_status, mpp.source, r.datum, r.cm_deg,
-        r.dt_s), strict=True))
+    head: dict[str, Value] = {"n": r.n, "t": _utc_text(r.time), "record": r.record,
+                              "filter": r.filter_status, "source": mpp.source,
+                              "datum": r.datum, "cm": r.cm_deg, "dt": r.dt_s}
     block = KeyedLines()
     rows = block.rows
     add = rows.append
     s = r.sensors
-    sens: tuple[Value, ...] = (s.heading_true_deg, s.speed_kn, s.rudder_deg, s.incl_deg,
-                               s.depth_m, s.echo_m, s.convergence_deg)
+    sens: tuple[Value, ...] = _SENS_GET(s)
     sens_keys = _SENSOR_KEYS
     if s.reference != "water":  # docs/GNSS_WEIGHTS.md: "ground" = COG/SOG stand-in, "none"
         sens += (s.reference,)
@@ -248,8 +265,7 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
     add(("\n  SENS", sens_keys, sens))
     g = r.gps
     if g is not None:
-        gps: tuple[Value, ...] = (g.lat_in_deg, g.lon_in_deg, g.lat_deg, g.lon_deg, g.x_m,
-                                  g.y_m, g.hg_m)
+        gps: tuple[Value, ...] = _GPS_GET(g)
         w = g.weight
         if w is not None and w.receiver_weighted:  # the receiver's weight (GNSS_WEIGHTS.md)
             add(("\n  GPS", _GPS_WEIGHT_KEYS,
@@ -257,14 +273,11 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
         else:
             add(("\n  GPS", _GPS_KEYS, gps))
     for o in r.manual:
-        add(("\n  OBS", _OBS_KEYS, (o.kind, o.station, o.lat_deg, o.lon_deg, o.value, o.sigma,
-                                   o.sensor)))
+        add(("\n  OBS", _OBS_KEYS, _OBS_GET(o)))
     f = r.fix
     if f is not None:
         for lop in f.lops:
-            add(("\n  LOP", _LOP_KEYS, (
-                lop.system, lop.pattern, lop.read, lop.correction, lop.calc, lop.v_m, lop.w,
-                lop.sigma_d, lop.tau, lop.az_deg, lop.used, lop.verdict)))
+            add(("\n  LOP", _LOP_KEYS, _LOP_GET(lop)))
         if f.ok:
             pos_keys, pos = _position_row(f.lat_deg, f.lon_deg, f.x_m, f.y_m, 0.0, f.cov,
                                           f.ellipse)
@@ -285,15 +298,15 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
         add(("\n  KFP", *_position_row(p.lat_deg, p.lon_deg, p.x_m, p.y_m, p.depth_m, p.cov,
                                         p.ellipse)))
     fs = r.filter_state
-    if fs is not None:
-        sig = _sigma
-        add(("\n  KF", _KF_KEYS, tuple(fs.x[:_N_NAV].tolist())
-             + tuple([sig(v) for v in fs.P.diagonal()[:_N_NAV].tolist()])))
+    if fs is not None:  # the standard deviations as _sigma, inlined (no call per state)
+        add(("\n  KF", _KF_KEYS, (*fs.x[:_N_NAV].tolist(), *[
+            sqrt(v) if v > 0.0 else (v if v != v else 0.0)
+            for v in fs.P.diagonal()[:_N_NAV].tolist()])))
     for kind, u in updates(r):  # the epoch's update first: readers take the first TEST line
         lom = u.lom
         add(("\n  TEST", _TEST_KEYS, (
             lom.t, lom.lower, lom.upper, lom.dof, lom.verdict,
-            ",".join([f"{t:.3f}" for t in u.ls.t.tolist()]), kind, ",".join(u.labels))))
+            ",".join(map(_LS_TEXT, u.ls.t.tolist())), kind, ",".join(u.labels))))
     pos_keys, pos = _position_row(mpp.lat_deg, mpp.lon_deg, mpp.x_m, mpp.y_m, mpp.depth_m,
                                   mpp.cov, mpp.ellipse)
     add(("\n  MPP", ("source",) + pos_keys, (mpp.source,) + pos))

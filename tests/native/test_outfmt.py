@@ -1,0 +1,285 @@
+"""The compiled ``.OUT`` block writer (``engine.native.outfmt``) writes exactly the characters of
+the Python it replaces (:func:`engine.io.outlog._render_rows_py`, issue 14).
+
+Compared with ``==`` on the whole text: the rows of a real replay (200 demo epochs and the
+thesis sample), with orjson's float texts and with ``repr`` only (the kernel's
+``PyOS_double_to_string`` path); hypothesis rows of every value type the log takes; every float
+``repr`` writes differently (-0.0, nan, inf, subnormals, the 1e16 and 1e-4 switches to an
+exponent, ties); the str quoting rule on every ASCII character; a float writer whose texts the
+probe's rule must reject; and the pure path (kernel None / ``UVNAV_PURE=1``).
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import struct
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from engine import native
+from engine.io import outlog
+from engine.io.outlog import _N, KeyedLines, _render_rows_py
+
+K = native._load("outfmt")[0]
+"""The built kernel (whatever ``UVNAV_PURE`` says), or None: the kernel tests are skipped."""
+needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.outfmt not built")
+
+Row = tuple[str, tuple[str, ...], tuple[object, ...]]
+
+
+def kernel_text(rows: list[Row], compiled: bool = True) -> str | None:
+    """The kernel's text of ``rows`` with the writer :func:`outlog.render_rows` gives it."""
+    assert K is not None
+    return K.render_rows(rows, outlog._float_writer() if compiled else None,
+                         outlog._format_text, outlog.format_value)
+
+
+def block_rows(head: dict, lines: KeyedLines) -> list[Row]:
+    """The rows :meth:`OutLogWriter.write_cycle` hands to :func:`outlog.render_rows`."""
+    return [("CYCLE", tuple(head), tuple(head.values())), *lines.rows,
+            ("\nEND", _N, (head.get("n"),)), ("\n", (), ())]
+
+
+@pytest.fixture(scope="module")
+def replay_blocks(tmp_path_factory: pytest.TempPathFactory) -> list[list[Row]]:
+    """The block rows of 200 demo epochs and of the thesis sample, as a replay writes them."""
+    from engine.run.config import load_config
+    from engine.run.records import cycle_block
+    from engine.run.session import Session
+    from tests.paths import DATA
+
+    out = []
+    for cfg, n in ((DATA / "DEMO.toml", 200), (DATA / "920917_1.toml", 60)):
+        s = Session(load_config(cfg), out_path=tmp_path_factory.mktemp("o") / "R.OUT",
+                    force=True, history=1000)
+        try:
+            s.run(max_cycles=n)
+        finally:
+            s.close()
+        out.extend(block_rows(*cycle_block(r)) for r in s.history)
+    assert len(out) > 200
+    return out
+
+
+@needs_kernel
+def test_replay_blocks_are_the_same_text(replay_blocks: list[list[Row]]) -> None:
+    for rows in replay_blocks:
+        for compiled in (True, False):
+            assert kernel_text(rows, compiled) == _render_rows_py(rows, compiled)
+
+
+@needs_kernel
+def test_every_float_of_the_replay_is_repr(replay_blocks: list[list[Row]]) -> None:
+    """``PyOS_double_to_string(x, 'r', 0, Py_DTSF_ADD_DOT_0)`` is ``repr`` on each float."""
+    assert K is not None
+    values = {v for rows in replay_blocks for _p, _k, vs in rows for v in vs
+              if type(v) is float}
+    assert len(values) > 10_000
+    for v in values:
+        assert K.float_repr(v) == repr(v)
+
+
+TIES = [n + f for n in (101065508335255, 123456789012345, 99999999999999, 10**14 + 7)
+        for f in (0.125, 0.375, 0.625, 0.875)]
+EDGES = [0.0, -0.0, 1.0, -1.0, 0.1, 1e-4, -1e-4, 9.999999999999999e-05, 0.00010000000000000002,
+         1e-5, 1.5e-5, 1e16, 9999999999999998.0, -1e16, 1e15, 1.5e16, 1e17, 1e22, 5e-324,
+         -5e-324, 2.2250738585072014e-308, 2.225073858507201e-308, 1.7976931348623157e308,
+         math.nan, -math.nan, math.inf, -math.inf, 123.0, 52.84232512345678]
+floats = st.one_of(st.floats(), st.sampled_from(EDGES + TIES),
+                   st.floats(min_value=1e-6, max_value=1e-3), st.floats(min_value=1e15,
+                                                                        max_value=1e17),
+                   st.floats(allow_subnormal=True, min_value=-1e-307, max_value=1e-307))
+
+
+@needs_kernel
+@settings(max_examples=300)
+@given(st.lists(floats, max_size=30))
+def test_floats_are_repr(values: list[float]) -> None:
+    assert K is not None
+    assert [K.float_repr(v) for v in values] == [repr(v) for v in values]
+    rows: list[Row] = [("F", tuple(f"f{i}" for i in range(len(values))), tuple(values))]
+    want = "F" + "".join(f" f{i}={v!r}" for i, v in enumerate(values))
+    assert kernel_text(rows) == want
+    assert kernel_text(rows, compiled=False) == want
+
+
+@needs_kernel
+def test_random_bits_ties_and_edges_are_repr() -> None:
+    rng = random.Random(14)
+    bits = [struct.unpack("<d", struct.pack("<Q", rng.getrandbits(64)))[0] for _ in range(4000)]
+    scaled = [rng.uniform(-1.0, 1.0) * 10.0 ** rng.uniform(-7.0, 18.0) for _ in range(4000)]
+    for values in (TIES, EDGES, bits, scaled, EDGES * 3 + TIES):
+        rows: list[Row] = [("\n  X", tuple(f"k{i}" for i in range(len(values))), tuple(values))]
+        for compiled in (True, False):
+            assert kernel_text(rows, compiled) == _render_rows_py(rows, compiled)
+
+
+ODD_WORDS = ["", "-", "1", "0", "007", "1e5", "-0.0", "nan", "NaN", "inf", "-Infinity", "1_000",
+             " 1 ", "a b", 'say "hi"', "k=v", "back\\slash", "tab\there", "new\nline",
+             "\x00", "\x1c", "\x7f", "\u00a0nbsp", "\u0661\u0662", "σ ≤ 3 m", "lse", "accept",
+             "1992-09-17T08:35:38Z", "0.123,4.567", "%s", "%r %d", "%%", "\u2028", "G...D",
+             "111111", "ED50", "Lat", "e", "fail", "\ud800", "a\ud800b"]
+texts = st.one_of(st.sampled_from(ODD_WORDS),
+                  st.text(max_size=12),
+                  st.text(alphabet=st.characters(max_codepoint=127), max_size=12),
+                  st.text(alphabet="0123456789.eE+-_ infa:,\"=\\\t", max_size=8))
+values = st.one_of(
+    st.none(), st.booleans(), st.integers(), st.integers(-2**70, 2**70), floats, texts,
+    floats.map(np.float64), st.floats(width=32).map(np.float32),
+    st.integers(-2**63, 2**63 - 1).map(np.int64), st.booleans().map(np.bool_),
+)
+keys = st.lists(st.one_of(st.from_regex(r"[a-z_][a-z0-9_]{0,8}", fullmatch=True),
+                          st.sampled_from(["%", "%s", "a%d", "s_hdg", "n", "σ"])),
+                unique=True, max_size=10)
+rows_st = st.lists(st.tuples(st.sampled_from(["CYCLE", "\n  LOP", "\n  %s", "", "\nEND", "\n"]),
+                             keys.flatmap(lambda ks: st.tuples(st.just(tuple(ks)),
+                                                               st.tuples(*[values] * len(ks))))),
+                   max_size=6).map(lambda rs: [(p, ks, vs) for p, (ks, vs) in rs])
+
+
+def _same_as_python(rows: list[Row], compiled: bool) -> None:
+    """The kernel's text is the Python's, or the kernel leaves the rows to the Python (None)
+    and the Python writes them (or fails) as without the kernel."""
+    got = kernel_text(rows, compiled)
+    try:
+        want = _render_rows_py(rows, compiled)
+    except (UnicodeEncodeError, ValueError):
+        assert got is None
+        return
+    assert got is None or got == want
+    assert outlog.render_rows(rows, compiled) == want
+
+
+@needs_kernel
+@settings(max_examples=150, deadline=None)
+@given(rows_st, st.booleans())
+def test_rows_of_any_values_are_the_same_text(rows: list[Row], compiled: bool) -> None:
+    _same_as_python(rows, compiled)
+
+
+@needs_kernel
+def test_surrogates_are_left_to_the_python() -> None:
+    rows: list[Row] = [("\n  MSG", ("text",), ("a\ud800b",))]
+    assert kernel_text(rows) is None
+    rows = [("\n  MSG\ud800", ("text",), ("x",))]
+    assert kernel_text(rows) is None
+
+
+@needs_kernel
+def test_malformed_rows_are_left_to_the_python() -> None:
+    class Key(str):
+        pass
+
+    for rows in ([("X", ("a", "b"), (1.0,))], [("X", (Key("a"),), (1.0,))],
+                 [("X", ["a"], (1.0,))], [("X", ("a",))], (("X", ("a",), (1.0,)),),
+                 [["X", ("a",), (1.0,)]], [(Key("X"), ("a",), (1.0,))]):
+        assert K is not None
+        assert K.render_rows(rows, None, outlog._format_text, outlog.format_value) is None
+    with pytest.raises(ValueError):
+        outlog.render_rows([("X", ("a", "b"), (1.0,))])
+
+
+@needs_kernel
+def test_str_rule_on_every_ascii_character() -> None:
+    """Where the kernel decides a word's form itself, it is outlog._format_text's."""
+    assert K is not None
+    decided = 0
+    for c in map(chr, range(128)):
+        for word in (c, c * 2, "ab" + c, c + "1", "1" + c + "2", "lse" + c, "1e" + c, c + "5"):
+            form = K.text_form(word)
+            if form is not None:
+                decided += 1
+                assert form == outlog._format_text(word), repr(word)
+    assert decided > 700
+    for word in ("lse", "accept", "KF", "ED50", "GPS", "G...D", "111111", "", "-", "a b",
+                 "1992-09-17T08:35:38Z", "0.123,4.567", 'x"y', "a=b", "\\"):
+        assert K.text_form(word) == outlog._format_text(word), word
+    for word in ("1e5", "nan", "inf", "1_0", "\u00a0", "é"):
+        assert K.text_form(word) is None
+
+
+@needs_kernel
+@given(st.one_of(st.text(alphabet=st.characters(max_codepoint=127), max_size=16), texts))
+def test_str_rule_on_any_word(word: str) -> None:
+    assert K is not None
+    form = K.text_form(word)
+    assert form is None or form == outlog._format_text(word)
+
+
+def _writer(fmt: Callable[[float], str]) -> Callable[[list[float]], bytes]:
+    return lambda vs: ("[" + ",".join(map(fmt, vs)) + "]").encode()
+
+
+@needs_kernel
+@pytest.mark.parametrize("fmt", [
+    lambda v: f"{v:.17e}",           # an exponent everywhere: every float through repr
+    lambda v: f"{v:.17g}",           # plain forms kept (as the Python keeps them), others repr
+    lambda v: "null",
+    lambda v: f"{v:.1f}",             # kept where plain and not "0.0000"
+    lambda v: f"{v:.6f}",
+    lambda v: str(int(v)) if math.isfinite(v) else "1",  # no point: repr
+])
+def test_a_float_writer_is_taken_by_the_python_rule(
+        monkeypatch: pytest.MonkeyPatch, fmt: Callable[[float], str]) -> None:
+    """Whatever texts the float writer gives, the kernel keeps the very ones the Python
+    (:func:`outlog.float_texts`) keeps and writes the others by repr."""
+    dumps = _writer(fmt)
+    monkeypatch.setattr(outlog, "_float_writer", lambda: dumps)
+    values = EDGES + TIES + [0.5, -2.25, 1234.5, 0.00012, 3e-5]
+    rows: list[Row] = [("L", tuple(f"k{i}" for i in range(len(values))), tuple(values)),
+                       ("M", ("a", "b"), ("x", 7))]
+    assert K.render_rows(rows, dumps, outlog._format_text, outlog.format_value) == \
+        _render_rows_py(rows)
+
+
+@needs_kernel
+def test_a_float_writer_with_a_wrong_count_is_not_used() -> None:
+    assert K is not None
+    rows: list[Row] = [("L", ("a", "b"), (1.5, 2.5))]
+    for out in (b"[1.5]", b"[1.5,2.5,3.5]", b"", b"[]", "[1.5,2.5]"):
+        assert K.render_rows(rows, lambda vs, o=out: o, outlog._format_text,
+                             outlog.format_value) == "L a=1.5 b=2.5"
+
+
+def test_pure_path_when_the_kernel_is_none(monkeypatch: pytest.MonkeyPatch,
+                                           replay_blocks: list[list[Row]]) -> None:
+    calls = []
+    real = outlog._render_rows_py
+
+    def spy(rows: list[Row], compiled: bool = True) -> str:
+        calls.append(1)
+        return real(rows, compiled)
+
+    monkeypatch.setattr(outlog, "_K", None)
+    monkeypatch.setattr(outlog, "_render_rows_py", spy)
+    rows = replay_blocks[5]
+    assert outlog.render_rows(rows) == real(rows)
+    assert calls
+
+
+def test_uvnav_pure_gives_no_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    assert native.kernel("outfmt") is None
+
+
+@needs_kernel
+def test_the_writer_writes_the_kernel_text(tmp_path: Path,
+                                           replay_blocks: list[list[Row]]) -> None:
+    """write_cycle goes through the kernel when it is loaded (and flushes each block)."""
+    if outlog._K is None:
+        pytest.skip("UVNAV_PURE=1: the writer uses the Python")
+    rows = replay_blocks[3]
+    head_row, *inner, _end, _nl = rows
+    head = dict(zip(head_row[1], head_row[2], strict=True))
+    lines = KeyedLines()
+    lines.rows.extend(inner)
+    with outlog.OutLogWriter.create(tmp_path / "W.OUT", force=True) as w:
+        w.write_cycle(head, lines)
+        text = (tmp_path / "W.OUT").read_text(encoding="utf-8")  # flushed before close
+    assert text.endswith("# config-end\n" + kernel_text(rows))
