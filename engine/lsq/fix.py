@@ -15,8 +15,8 @@ This module only assembles: each system yields its rows and page data behind one
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, fields
 from functools import lru_cache
 from typing import Any
 
@@ -24,6 +24,7 @@ import numpy as np
 
 from engine.geodesy.ellipsoidal import GeodesicSolver
 from engine.geodesy.tmgrid import TMGrid
+from engine.lsq import _kernel
 from engine.lsq.adjustment import Adjustment, Linearisation
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import TestedAdjustment, adjust_with_testing
@@ -203,7 +204,13 @@ class _Model:
         self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
 
     def __call__(self, x: np.ndarray) -> Linearisation:
-        """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N).
+        """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N)."""
+        A, b, Cl = self.arrays(x)
+        return frozen_instance(Linearisation, {"A": A, "b": b, "Cl": Cl})
+
+    def arrays(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`__call__`'s A (n, 2), b (n,) and C_l (n, n) as a tuple (the adjustment core
+        takes them so, :func:`engine.lsq.adjustment.gauss_newton`).
 
         Rows and misclosures are assembled as Python floats and converted once; C_l starts
         as the identity (unused slots: variance 1, Pg 821) with the system blocks written in.
@@ -216,8 +223,7 @@ class _Model:
         p = Point(self.grid, self.geodesic, x0, y0)
         for slot0, obs in self.parts:
             obs.linearise(p, slot0, A, b, Cl)
-        return frozen_instance(Linearisation, {"A": np.array(A).reshape(n, 2),
-                                               "b": np.array(b), "Cl": Cl})
+        return np.array(A).reshape(n, 2), np.array(b), Cl
 
 
 @lru_cache(maxsize=8)
@@ -478,16 +484,37 @@ def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,
         layout = registry.layout()
     v = adj.v.tolist()
     k = w_critical(alpha)
+    make = _row_maker()
     rows: list[LopRow] = []
     for name, obs in sets.items():
         first = layout[name].start
         for r in obs.readings(p_hat):
             slot = first + r.index
             w = w_all[slot]
-            rows.append(LopRow(slot, r.system, r.pattern, r.read, r.correction, r.calc, v[slot],
-                               r.az_deg, used[slot], sigma_d[slot], w, tau[slot], vf[slot],
-                               _verdict(w, k)))
+            rows.append(make(slot, r.system, r.pattern, r.read, r.correction, r.calc, v[slot],
+                             r.az_deg, used[slot], sigma_d[slot], w, tau[slot], vf[slot],
+                             _verdict(w, k)))
     return rows
+
+
+_LOPROW_FIELDS = tuple(f.name for f in fields(LopRow))
+_ROW_MAKER: list[Any] = [None, LopRow]
+"""[the lsq kernel module the maker was taken from (None: none yet), the maker]."""
+
+
+def _row_maker() -> Callable[..., LopRow]:
+    """``LopRow`` itself, or the compiled lsq kernel's ``row`` (the same instance made without
+    the generated ``__init__``'s ``object.__setattr__`` per field, several rows per fix) while
+    that kernel is in use (not with ``UVNAV_PURE=1``); bound on first use."""
+    k = _kernel.kernel()
+    if k is _ROW_MAKER[0]:
+        return _ROW_MAKER[1]  # type: ignore[no-any-return]
+    maker: Callable[..., LopRow] = LopRow
+    if k is not None:
+        k._bind_row(LopRow, _LOPROW_FIELDS)
+        maker = k.row
+    _ROW_MAKER[:] = [k, maker]
+    return maker
 
 
 def _verdict(w: float, k: float, bound: float = REJECT_BOUND) -> str:
