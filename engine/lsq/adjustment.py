@@ -282,7 +282,7 @@ def gauss_newton(
                used_b if used_b.ndim == 1 else used_b.reshape(-1),
                getattr(linearise, "arrays", None))
     u = run.x.size
-    sq = _damping_roots(damping, run.idx, run.used.size)
+    sq = None if damping is None else _damping_roots(damping, run.idx, run.used.size)
     try:
         if run.idx.size < u:
             raise _Stop(NOT_ENOUGH)

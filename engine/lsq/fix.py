@@ -180,13 +180,14 @@ class RawLops:
 class _Problem:
     """The observation sets of one fix by system name (registry order), which slots are used,
     whether the filter's prediction stands in for GPS, the operator texts so far and the
-    registry's slot layout (``registry.layout()``)."""
+    registry's slot layout (``registry.layout()``) and its number of slots."""
 
     sets: dict[str, ObservationSet]
     used: list[bool]
     uses_prior: bool
     messages: list[str]
     layout: Mapping[str, range]
+    n_slots: int
 
 
 class _Model:
@@ -195,12 +196,12 @@ class _Model:
 
     def __init__(self, grid: TMGrid, geodesic: GeodesicSolver,
                  sets: Mapping[str, ObservationSet],
-                 layout: Mapping[str, range] | None = None) -> None:
+                 layout: Mapping[str, range] | None = None, n_slots: int | None = None) -> None:
         self.grid = grid
         self.geodesic = geodesic
         slots = registry.layout() if layout is None else layout
         self.parts = [(slots[name].start, obs) for name, obs in sets.items()]
-        self.n_slots = sum(len(r) for r in slots.values())
+        self.n_slots = sum(len(r) for r in slots.values()) if n_slots is None else n_slots
         self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
 
     def __call__(self, x: np.ndarray) -> Linearisation:
@@ -245,7 +246,8 @@ def _gather(
     (table 5.1 category I, THEORY §4.6). Raises ObservationError (with the texts so far)."""
     layout = registry.layout()
     sets: dict[str, ObservationSet] = {}
-    used = [False] * sum(len(r) for r in layout.values())
+    n_slots = sum(len(r) for r in layout.values())
+    used = [False] * n_slots
     messages: list[str] = []
     for system in registry.SYSTEMS:
         try:
@@ -268,7 +270,7 @@ def _gather(
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
         sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
-    return _Problem(sets, used, uses_prior, messages, layout)
+    return _Problem(sets, used, uses_prior, messages, layout, n_slots)
 
 
 def compute_fix(
@@ -315,7 +317,7 @@ def compute_fix(
     if n_avail < 2:
         return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
                        messages=messages)
-    model = _Model(grid, geodesic, problem.sets, problem.layout)
+    model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots)
     x_start = np.array(x0, dtype=float)
     uses_prior = problem.uses_prior
     tested = adjust_with_testing(
@@ -391,7 +393,7 @@ def _at_estimate(
         "decca_observed": (decca.raw if isinstance(decca, DeccaObservations)
                            else (None, None, None)),
         "decca_geometry": geom,
-        "rejected_slots": tuple(s for s, _w in tested.rejected),
+        "rejected_slots": tuple([s for s, _w in tested.rejected]) if tested.rejected else (),
         "candidate_slot": tested.candidate,
         "uses_prior": problem.uses_prior,
         "messages": tuple(messages),
@@ -491,9 +493,15 @@ def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,
         for r in obs.readings(p_hat):
             slot = first + r.index
             w = w_all[slot]
+            if w != w:  # _verdict inline: NaN, not computed
+                verdict = ""
+            else:
+                aw = abs(w)
+                verdict = ("reject" if aw > REJECT_BOUND
+                           else ("monitor" if aw > k else "accept"))
             rows.append(make(slot, r.system, r.pattern, r.read, r.correction, r.calc, v[slot],
                              r.az_deg, used[slot], sigma_d[slot], w, tau[slot], vf[slot],
-                             _verdict(w, k)))
+                             verdict))
     return rows
 
 
