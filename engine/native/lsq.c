@@ -7,7 +7,9 @@
  *   finish(sol, used, scale_vcv, d0) the residuals, S^2, RMS, drms and the per-slot statistics of
  *                                   adjustment._adjustment / statistics.used_statistics;
  *   ellipse(C2)                     confidence.error_ellipse (closed form);
- *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band.
+ *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band;
+ *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
+ *                                   same frozen slotted instance; bound by _bind_row).
  * Each returns None where the Python would take a rare branch (u != 2, a singular or
  * ill-conditioned matrix, non-finite values, an untestable slot, ...): the caller then runs
  * the Python, which gives the same result or the same failure reason.
