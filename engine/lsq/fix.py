@@ -518,7 +518,7 @@ def _row_maker() -> Callable[..., LopRow]:
     if k is _ROW_MAKER[0]:
         return _ROW_MAKER[1]  # type: ignore[no-any-return]
     maker: Callable[..., LopRow] = LopRow
-    if k is not None:
+    if k is not None and not hasattr(LopRow, "__post_init__"):  # row() sets the fields only
         k._bind_row(LopRow, _LOPROW_FIELDS)
         maker = k.row
     _ROW_MAKER[:] = [k, maker]

@@ -184,6 +184,10 @@ def test_rows_are_frozen_and_keep_their_references() -> None:
     assert sys.getrefcount(value) == before + 100
     with pytest.raises(dataclasses.FrozenInstanceError):
         rows[0].slot = 2  # type: ignore[misc]
+    import pickle
+
+    row = K.row(*(rows[0].slot, *(getattr(rows[0], f) for f in FIELDS[1:-1]), "accept"))
+    assert pickle.loads(pickle.dumps(row)) == row
     assert dataclasses.replace(rows[0], slot=3).slot == 3
     del rows
     gc.collect()
