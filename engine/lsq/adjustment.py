@@ -253,6 +253,10 @@ def gauss_newton(
 ) -> Adjustment:
     """Iterated least squares, eq. 5.1a–g: δx̂ = (AᵀWA)⁻¹AᵀWb over the used slots, x ← x + δx̂.
 
+    A ``linearise`` object may also offer ``linearise.arrays(x) -> (A, b, C_l)``: the same
+    numbers as float64 ndarrays in a tuple, without the Linearisation (the fix's model does);
+    it is then called instead.
+
     Stops when every |δx̂_j| < ``epsilon`` (thesis ε, default 1 m, in the parameters' units), at
     most ``max_iter`` iterations. Statistics come from the last linearisation. ``alpha``/``power``
     set δ0 of the MDB and the level of the unit-variance test against σ0² = ``s02``. ``damping``
@@ -275,9 +279,10 @@ def gauss_newton(
     x = np.array(x0, dtype=float)
     used_b = np.array(used, dtype=bool)
     run = _Run(x if x.ndim == 1 else x.reshape(-1),
-               used_b if used_b.ndim == 1 else used_b.reshape(-1))
+               used_b if used_b.ndim == 1 else used_b.reshape(-1),
+               getattr(linearise, "arrays", None))
     u = run.x.size
-    sq = _damping_roots(damping, run.idx, run.used.size)
+    sq = None if damping is None else _damping_roots(damping, run.idx, run.used.size)
     try:
         if run.idx.size < u:
             raise _Stop(NOT_ENOUGH)
@@ -304,9 +309,11 @@ class _Run:
     """Internal progress of :func:`gauss_newton`: the current x, the used slots, the iteration
     count, the step lengths [m] and whether it converged."""
 
-    __slots__ = ("x", "used", "idx", "block", "it", "steps", "converged")
+    __slots__ = ("x", "used", "idx", "block", "it", "steps", "converged", "arrays")
 
-    def __init__(self, x: np.ndarray, used: np.ndarray) -> None:
+    def __init__(self, x: np.ndarray, used: np.ndarray,
+                 arrays: Callable[[np.ndarray], tuple[np.ndarray, ...]] | None = None) -> None:
+        self.arrays = arrays
         self.x = x
         self.used = used
         self.idx = used.nonzero()[0]
@@ -414,13 +421,18 @@ def _evaluate(
     linearise: Callable[[np.ndarray], Linearisation], run: _Run, sq: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A, b, C_l at the current x restricted to the used slots (C_l damped by T^-½ if given)."""
+    arrays = run.arrays
     try:
-        lin = linearise(run.x)
+        if arrays is not None:  # the model's float64 arrays as a tuple (see gauss_newton)
+            A, b, Cl = arrays(run.x)
+        else:
+            lin = linearise(run.x)
     except _MODEL_ERRORS as exc:
         raise _Stop(f"model evaluation failed: {exc}") from None
-    A = np.asarray(lin.A, dtype=float)
-    b = np.asarray(lin.b, dtype=float)
-    Cl = np.asarray(lin.Cl, dtype=float)
+    if arrays is None:
+        A = np.asarray(lin.A, dtype=float)
+        b = np.asarray(lin.b, dtype=float)
+        Cl = np.asarray(lin.Cl, dtype=float)
     n, u = run.used.size, run.x.size
     if A.shape != (n, u) or b.shape != (n,) or Cl.shape != (n, n):
         raise ValueError(

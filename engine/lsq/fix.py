@@ -15,8 +15,8 @@ This module only assembles: each system yields its rows and page data behind one
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, fields
 from functools import lru_cache
 from typing import Any
 
@@ -24,6 +24,7 @@ import numpy as np
 
 from engine.geodesy.ellipsoidal import GeodesicSolver
 from engine.geodesy.tmgrid import TMGrid
+from engine.lsq import _kernel
 from engine.lsq.adjustment import Adjustment, Linearisation
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import TestedAdjustment, adjust_with_testing
@@ -179,13 +180,14 @@ class RawLops:
 class _Problem:
     """The observation sets of one fix by system name (registry order), which slots are used,
     whether the filter's prediction stands in for GPS, the operator texts so far and the
-    registry's slot layout (``registry.layout()``)."""
+    registry's slot layout (``registry.layout()``) and its number of slots."""
 
     sets: dict[str, ObservationSet]
     used: list[bool]
     uses_prior: bool
     messages: list[str]
     layout: Mapping[str, range]
+    n_slots: int
 
 
 class _Model:
@@ -194,16 +196,22 @@ class _Model:
 
     def __init__(self, grid: TMGrid, geodesic: GeodesicSolver,
                  sets: Mapping[str, ObservationSet],
-                 layout: Mapping[str, range] | None = None) -> None:
+                 layout: Mapping[str, range] | None = None, n_slots: int | None = None) -> None:
         self.grid = grid
         self.geodesic = geodesic
         slots = registry.layout() if layout is None else layout
         self.parts = [(slots[name].start, obs) for name, obs in sets.items()]
-        self.n_slots = sum(len(r) for r in slots.values())
+        self.n_slots = sum(len(r) for r in slots.values()) if n_slots is None else n_slots
         self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
 
     def __call__(self, x: np.ndarray) -> Linearisation:
-        """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N).
+        """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N)."""
+        A, b, Cl = self.arrays(x)
+        return frozen_instance(Linearisation, {"A": A, "b": b, "Cl": Cl})
+
+    def arrays(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`__call__`'s A (n, 2), b (n,) and C_l (n, n) as a tuple (the adjustment core
+        takes them so, :func:`engine.lsq.adjustment.gauss_newton`).
 
         Rows and misclosures are assembled as Python floats and converted once; C_l starts
         as the identity (unused slots: variance 1, Pg 821) with the system blocks written in.
@@ -216,8 +224,7 @@ class _Model:
         p = Point(self.grid, self.geodesic, x0, y0)
         for slot0, obs in self.parts:
             obs.linearise(p, slot0, A, b, Cl)
-        return frozen_instance(Linearisation, {"A": np.array(A).reshape(n, 2),
-                                               "b": np.array(b), "Cl": Cl})
+        return np.array(A).reshape(n, 2), np.array(b), Cl
 
 
 @lru_cache(maxsize=8)
@@ -239,7 +246,8 @@ def _gather(
     (table 5.1 category I, THEORY §4.6). Raises ObservationError (with the texts so far)."""
     layout = registry.layout()
     sets: dict[str, ObservationSet] = {}
-    used = [False] * sum(len(r) for r in layout.values())
+    n_slots = sum(len(r) for r in layout.values())
+    used = [False] * n_slots
     messages: list[str] = []
     for system in registry.SYSTEMS:
         try:
@@ -262,7 +270,7 @@ def _gather(
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
         sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
-    return _Problem(sets, used, uses_prior, messages, layout)
+    return _Problem(sets, used, uses_prior, messages, layout, n_slots)
 
 
 def compute_fix(
@@ -309,7 +317,7 @@ def compute_fix(
     if n_avail < 2:
         return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
                        messages=messages)
-    model = _Model(grid, geodesic, problem.sets, problem.layout)
+    model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots)
     x_start = np.array(x0, dtype=float)
     uses_prior = problem.uses_prior
     tested = adjust_with_testing(
@@ -385,7 +393,7 @@ def _at_estimate(
         "decca_observed": (decca.raw if isinstance(decca, DeccaObservations)
                            else (None, None, None)),
         "decca_geometry": geom,
-        "rejected_slots": tuple(s for s, _w in tested.rejected),
+        "rejected_slots": tuple([s for s, _w in tested.rejected]) if tested.rejected else (),
         "candidate_slot": tested.candidate,
         "uses_prior": problem.uses_prior,
         "messages": tuple(messages),
@@ -478,16 +486,43 @@ def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,
         layout = registry.layout()
     v = adj.v.tolist()
     k = w_critical(alpha)
+    make = _row_maker()
     rows: list[LopRow] = []
     for name, obs in sets.items():
         first = layout[name].start
         for r in obs.readings(p_hat):
             slot = first + r.index
             w = w_all[slot]
-            rows.append(LopRow(slot, r.system, r.pattern, r.read, r.correction, r.calc, v[slot],
-                               r.az_deg, used[slot], sigma_d[slot], w, tau[slot], vf[slot],
-                               _verdict(w, k)))
+            if w != w:  # _verdict inline: NaN, not computed
+                verdict = ""
+            else:
+                aw = abs(w)
+                verdict = ("reject" if aw > REJECT_BOUND
+                           else ("monitor" if aw > k else "accept"))
+            rows.append(make(slot, r.system, r.pattern, r.read, r.correction, r.calc, v[slot],
+                             r.az_deg, used[slot], sigma_d[slot], w, tau[slot], vf[slot],
+                             verdict))
     return rows
+
+
+_LOPROW_FIELDS = tuple(f.name for f in fields(LopRow))
+_ROW_MAKER: list[Any] = [None, LopRow]
+"""[the lsq kernel module the maker was taken from (None: none yet), the maker]."""
+
+
+def _row_maker() -> Callable[..., LopRow]:
+    """``LopRow`` itself, or the compiled lsq kernel's ``row`` (the same instance made without
+    the generated ``__init__``'s ``object.__setattr__`` per field, several rows per fix) while
+    that kernel is in use (not with ``UVNAV_PURE=1``); bound on first use."""
+    k = _kernel.kernel()
+    if k is _ROW_MAKER[0]:
+        return _ROW_MAKER[1]  # type: ignore[no-any-return]
+    maker: Callable[..., LopRow] = LopRow
+    if k is not None and not hasattr(LopRow, "__post_init__"):  # row() sets the fields only
+        k._bind_row(LopRow, _LOPROW_FIELDS)
+        maker = k.row
+    _ROW_MAKER[:] = [k, maker]
+    return maker
 
 
 def _verdict(w: float, k: float, bound: float = REJECT_BOUND) -> str:

@@ -282,12 +282,21 @@ def unit_variance_test(
     dof = int(r) - 1 if thesis_dof else int(r)
     if dof < 1 or not math.isfinite(s2):
         return None
-    lo, hi = chi2_bounds(float(alpha), dof)
-    lower = s02 * lo / dof
-    upper = s02 * hi / dof
+    try:
+        lower, upper = _variance_bounds(dof, alpha, s02)
+    except TypeError:  # an unhashable argument: the same numbers, not remembered
+        lower, upper = _variance_bounds.__wrapped__(dof, alpha, s02)
     return frozen_instance(UnitVarianceTest, {
         "statistic": dof * s2 / s02, "lower": lower, "upper": upper,
         "accepted": bool(lower < s2 < upper), "dof": dof})
+
+
+@lru_cache(maxsize=256, typed=True)
+def _variance_bounds(dof: int, alpha: float, s02: float) -> tuple[float, float]:
+    """The acceptance bounds (lower, upper) on S² of :func:`unit_variance_test` (remembered:
+    every fix of a run has the same few)."""
+    lo, hi = chi2_bounds(float(alpha), dof)
+    return s02 * lo / dof, s02 * hi / dof
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,9 @@
  *   finish(sol, used, scale_vcv, d0) the residuals, S^2, RMS, drms and the per-slot statistics of
  *                                   adjustment._adjustment / statistics.used_statistics;
  *   ellipse(C2)                     confidence.error_ellipse (closed form);
- *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band.
+ *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band;
+ *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
+ *                                   same frozen slotted instance; bound by _bind_row).
  * Each returns None where the Python would take a rare branch (u != 2, a singular or
  * ill-conditioned matrix, non-finite values, an untestable slot, ...): the caller then runs
  * the Python, which gives the same result or the same failure reason.
@@ -24,6 +26,7 @@
 
 #include <math.h>
 #include <string.h>
+#include <structmember.h> /* T_OBJECT_EX, PyMemberDef */
 
 #define MAXM 32 /* most observation slots a fix may have on this path (else Python) */
 
@@ -756,7 +759,76 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
     Py_RETURN_NONE;
 }
 
+/* ---------------------------------------------------------------------------------------- */
+/* row: a frozen slotted dataclass instance (fix.LopRow) without its generated __init__ */
+
+#define MAXROW 32
+static PyTypeObject *row_type = NULL;
+static Py_ssize_t row_off[MAXROW];
+static Py_ssize_t row_n = 0;
+
+PyDoc_STRVAR(bind_row_doc,
+"_bind_row(cls, names)\n"
+"\n"
+"Bind the class row() builds: a frozen dataclass with __slots__ = names (its fields, in\n"
+"order), no __dict__, no weakref slot and nothing done by __init__ but setting the fields.");
+
+static PyObject *lsq_bind_row(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2 || !PyType_Check(args[0]) || !PyTuple_Check(args[1])) {
+        PyErr_SetString(PyExc_TypeError, "_bind_row(cls, names)");
+        return NULL;
+    }
+    PyTypeObject *tp = (PyTypeObject *)args[0];
+    Py_ssize_t n = PyTuple_GET_SIZE(args[1]);
+    if (n < 1 || n > MAXROW || tp->tp_itemsize != 0 || tp->tp_dictoffset != 0 ||
+        tp->tp_weaklistoffset != 0 || tp->tp_base != &PyBaseObject_Type ||
+        tp->tp_basicsize != (Py_ssize_t)(sizeof(PyObject) + n * sizeof(PyObject *))) {
+        PyErr_SetString(PyExc_TypeError, "_bind_row: a plain slotted class with these fields");
+        return NULL;
+    }
+    Py_ssize_t off[MAXROW];
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *d = PyObject_GetAttr(args[0], PyTuple_GET_ITEM(args[1], i));
+        if (d == NULL)
+            return NULL;
+        int ok = Py_IS_TYPE(d, &PyMemberDescr_Type) &&
+                 ((PyDescrObject *)d)->d_type == tp &&
+                 ((PyMemberDescrObject *)d)->d_member->type == T_OBJECT_EX;
+        if (ok)
+            off[i] = ((PyMemberDescrObject *)d)->d_member->offset;
+        Py_DECREF(d);
+        if (!ok) {
+            PyErr_SetString(PyExc_TypeError, "_bind_row: a field is not an object slot");
+            return NULL;
+        }
+    }
+    memcpy(row_off, off, sizeof(Py_ssize_t) * n);
+    row_n = n;
+    Py_XSETREF(row_type, (PyTypeObject *)Py_NewRef(args[0]));
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(row_doc,
+"row(*values) -> an instance of the class bound by _bind_row, fields = values (all given)");
+
+static PyObject *lsq_row(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (row_type == NULL || nargs != row_n) {
+        PyErr_SetString(PyExc_TypeError, "row: not bound, or not one value per field");
+        return NULL;
+    }
+    PyObject *obj = row_type->tp_alloc(row_type, 0);
+    if (obj == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < nargs; i++)
+        *(PyObject **)((char *)obj + row_off[i]) = Py_NewRef(args[i]);
+    return obj;
+}
+
 static PyMethodDef methods[] = {
+    {"_bind_row", (PyCFunction)(void (*)(void))lsq_bind_row, METH_FASTCALL, bind_row_doc},
+    {"row", (PyCFunction)(void (*)(void))lsq_row, METH_FASTCALL, row_doc},
     {"_bind", (PyCFunction)(void (*)(void))lsq_bind, METH_FASTCALL, bind_doc},
     {"step", (PyCFunction)(void (*)(void))lsq_step, METH_FASTCALL, step_doc},
     {"finish", (PyCFunction)(void (*)(void))lsq_finish, METH_FASTCALL, finish_doc},

@@ -1,0 +1,230 @@
+"""The fix's glue shortcuts give the same objects and bits as the code they stand for.
+
+* ``engine.native.lsq.row`` (the LOP table rows of :func:`engine.lsq.fix._lop_rows`) makes the
+  same frozen slotted ``LopRow`` as its generated ``__init__``: on the rows of a short demo
+  replay (kernel on and off) and on hypothesis-generated field values; only a plain slotted
+  class can be bound; the pure path (``UVNAV_PURE=1``) uses ``LopRow`` itself.
+* ``_Model.arrays`` (what :func:`engine.lsq.adjustment.gauss_newton` calls when the model
+  offers it) gives the arrays of ``_Model.__call__``, and a whole adjustment with and without
+  it is the same to the bit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import gc
+import math
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import engine.lsq.fix as fix
+from engine import native
+from engine.lsq import _kernel
+from engine.lsq.adjustment import gauss_newton
+from engine.lsq.fix import LopRow
+
+K = _kernel.kernel()
+needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
+ROOT = Path(__file__).resolve().parents[2]
+FIELDS = tuple(f.name for f in dataclasses.fields(LopRow))
+
+
+def same(a: Any, b: Any) -> bool:
+    """Equal to the bit: arrays by bytes, shape and dtype; floats by ``float.hex``; objects of
+    the same type by their fields (dataclasses) or ``==``."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return (a.shape == b.shape and a.dtype == b.dtype
+                and np.ascontiguousarray(a).tobytes() == np.ascontiguousarray(b).tobytes())
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, float):
+        return a.hex() == b.hex()
+    if isinstance(a, tuple | list):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
+    if dataclasses.is_dataclass(a):
+        return all(same(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
+    return bool(a == b)
+
+
+def same_row(got: Any, want: LopRow, same_values: bool = True) -> bool:
+    """``got`` is the LopRow ``want``: type, every field (bits) and repr; eq and hash too when
+    both hold the same value objects (``same_values``; a NaN equals only itself)."""
+    return (type(got) is LopRow and same(got, want) and repr(got) == repr(want)
+            and (not same_values or (got == want and hash(got) == hash(want))))
+
+
+# ------------------------------------------------------------------------------------------
+# (a) what a replay really produces
+
+
+@pytest.fixture(scope="module")
+def replay() -> dict[str, list[Any]]:
+    """The compute_fix calls of the first 200 demo epochs and the model of each fix."""
+    import engine.run.cycle as cyc
+    from engine.run.config import load_config
+    from engine.run.session import Session
+
+    rec: dict[str, list[Any]] = {"calls": [], "models": []}
+    mp = pytest.MonkeyPatch()
+    compute, model_cls = cyc.compute_fix, fix._Model
+
+    def record(*a: Any, **k: Any) -> Any:
+        rec["calls"].append((a, k))
+        return compute(*a, **k)
+
+    class Model(model_cls):  # type: ignore[misc, valid-type]
+        def __init__(self, *a: Any, **k: Any) -> None:
+            super().__init__(*a, **k)
+            rec["models"].append(self)
+
+    mp.setattr(cyc, "compute_fix", record)
+    mp.setattr(fix, "_Model", Model)
+    try:
+        s = Session(load_config(ROOT / "data" / "DEMO.toml"),
+                    out_path=Path(tempfile.mkdtemp()) / "T.OUT", force=True, history=1)
+        try:
+            s.run(max_cycles=200)
+        finally:
+            s.close()
+    finally:
+        mp.undo()
+    return rec
+
+
+def _fixes(calls: list[Any], pure: bool, mp: pytest.MonkeyPatch) -> list[fix.FixResult]:
+    """compute_fix of each recorded call with the lsq kernel (and its row maker) on or off."""
+    if pure:
+        mp.setattr(_kernel, "kernel", lambda: None)
+    try:
+        return [fix.compute_fix(*a, **k) for a, k in calls]
+    finally:
+        mp.undo()
+
+
+@needs_kernel
+def test_replay_rows_are_the_dataclass_rows(replay: dict[str, list[Any]]) -> None:
+    mp = pytest.MonkeyPatch()
+    native_fixes = _fixes(replay["calls"], False, mp)
+    pure_fixes = _fixes(replay["calls"], True, mp)
+    n = 0
+    for got, want in zip(native_fixes, pure_fixes, strict=True):
+        assert len(got.lops) == len(want.lops)
+        for g, w in zip(got.lops, want.lops, strict=True):
+            assert same_row(g, w, same_values=False)
+            assert same_row(K.row(*(getattr(w, f) for f in FIELDS)), w)
+            n += 1
+    assert n > 500
+
+
+def test_replay_model_arrays_are_the_linearisation(replay: dict[str, list[Any]]) -> None:
+    models = replay["models"]
+    assert len(models) > 100
+    for (a, _k), model in zip(replay["calls"], models, strict=False):
+        x = np.array(a[2], dtype=float)
+        lin = model(x)
+        A, b, Cl = model.arrays(x)
+        assert same(A, lin.A) and same(b, lin.b) and same(Cl, lin.Cl)
+
+
+def test_replay_adjustments_with_and_without_arrays(replay: dict[str, list[Any]]) -> None:
+    """gauss_newton on the model (arrays taken) and on a plain function calling it (the
+    Linearisation path) gives the same Adjustment, with and without the kernel."""
+    for pure in (False, True):
+        mp = pytest.MonkeyPatch()
+        if pure:
+            mp.setattr(_kernel, "kernel", lambda: None)
+        try:
+            for (a, _k), model in list(zip(replay["calls"], replay["models"], strict=False))[:60]:
+                x0 = np.array(a[2], dtype=float)
+                used = np.array([True] * 5 + [False] * (model.n_slots - 5))
+                got = gauss_newton(model, x0, used)
+                want = gauss_newton(lambda x, _m=model: _m(x), x0, used)
+                for f in dataclasses.fields(want):
+                    if f.name != "variance_test":
+                        assert same(getattr(got, f.name), getattr(want, f.name)), f.name
+                assert got.variance_test == want.variance_test
+        finally:
+            mp.undo()
+
+
+# ------------------------------------------------------------------------------------------
+# (b) generated values
+
+_float = st.floats(allow_nan=True, allow_infinity=True)
+
+
+@needs_kernel
+@settings(max_examples=200, deadline=None)
+@given(st.integers(-5, 40), st.sampled_from(["GPS", "Decca", "KF", "periscope"]),
+       st.text(max_size=8), st.lists(_float, min_size=10, max_size=10), st.booleans(),
+       st.sampled_from(["", "accept", "monitor", "reject"]))
+def test_generated_rows(slot: int, system: str, pattern: str, vals: list[float], used: bool,
+                        verdict: str) -> None:
+    args = (slot, system, pattern, *vals[:5], used, *vals[5:9], verdict)
+    assert len(args) == len(FIELDS)
+    fix._row_maker()  # bound
+    assert same_row(K.row(*args), LopRow(*args))
+
+
+@needs_kernel
+def test_rows_are_frozen_and_keep_their_references() -> None:
+    fix._row_maker()
+    value = object.__new__(type("Marker", (), {}))
+    before = sys.getrefcount(value)
+    rows = [K.row(1, "s", "p", 0.0, 0.0, 0.0, 0.0, 0.0, True, 1.0, 2.0, 3.0, 4.0, value)
+            for _ in range(100)]
+    assert sys.getrefcount(value) == before + 100
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        rows[0].slot = 2  # type: ignore[misc]
+    import pickle
+
+    row = K.row(*(rows[0].slot, *(getattr(rows[0], f) for f in FIELDS[1:-1]), "accept"))
+    assert pickle.loads(pickle.dumps(row)) == row
+    assert dataclasses.replace(rows[0], slot=3).slot == 3
+    del rows
+    gc.collect()
+    assert sys.getrefcount(value) == before
+
+
+@needs_kernel
+def test_row_binding_refuses_other_classes() -> None:
+    @dataclasses.dataclass(frozen=True)
+    class WithDict:
+        a: float
+
+    @dataclasses.dataclass(frozen=True, slots=True)
+    class Slotted:
+        a: float
+        b: float
+
+    with pytest.raises(TypeError):
+        K._bind_row(WithDict, ("a",))
+    with pytest.raises(TypeError):
+        K._bind_row(Slotted, ("a",))  # not every slot named
+    with pytest.raises(AttributeError):
+        K._bind_row(Slotted, ("a", "c"))
+    fix._ROW_MAKER[:] = [None, LopRow]  # rebound to LopRow on the next use
+    assert fix._row_maker() is K.row
+    with pytest.raises(TypeError):
+        K.row(1, 2)
+
+
+# ------------------------------------------------------------------------------------------
+# the pure path
+
+
+def test_pure_env_makes_plain_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    monkeypatch.setattr(_kernel, "_K", _kernel._UNSET)  # resolved again here, restored after
+    monkeypatch.setattr(fix, "_ROW_MAKER", [None, LopRow])
+    assert _kernel.kernel() is None
+    assert fix._row_maker() is LopRow
+    assert not math.isnan(LopRow(0, "s", "p", 0.0, 0.0, 0.0, 0.0, 0.0, True).read)
