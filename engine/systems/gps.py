@@ -159,6 +159,32 @@ def gps_variance_m2(config: Any) -> float:
     return (GPS_VAR_P_M2 if config.gps.receiver == "P" else GPS_VAR_CA_M2) * config.lsq.gps_se_sf
 
 
+class _PerConfig:
+    """What :class:`GpsSystem` needs every cycle and that only the (frozen) run configuration
+    decides, computed once per configuration object: the fixed variance (m²) and the fixed
+    :class:`GpsWeight` of a record without HDOP, quality or satellites (a 1993 record)."""
+
+    __slots__ = ("config", "variance_m2", "fixed_weight")
+
+    def __init__(self, config: Any) -> None:
+        self.config = config
+        self.variance_m2 = gps_variance_m2(config)
+        self.fixed_weight = GpsWeight("fixed", math.sqrt(self.variance_m2), None, None, None,
+                                      se_sf=config.lsq.gps_se_sf, receiver=config.gps.receiver)
+
+
+_per_config: _PerConfig | None = None
+
+
+def _of_config(config: Any) -> _PerConfig:
+    """The :class:`_PerConfig` of ``config`` (one entry: a run has one configuration)."""
+    global _per_config
+    pc = _per_config
+    if pc is None or pc.config is not config:
+        pc = _per_config = _PerConfig(config)
+    return pc
+
+
 def gps_weight(config: Any, record: RunRecord) -> GpsWeight:
     """The a priori σ per horizontal coordinate (m) of the record's GPS fix and its origin.
 
@@ -171,6 +197,8 @@ def gps_weight(config: Any, record: RunRecord) -> GpsWeight:
     g = config.gps
     hdop = record.gps_hdop
     sats, quality = record.gps_sats, record.gps_quality
+    if hdop is None and sats is None and quality is None:  # a 1993 record: per configuration
+        return _of_config(config).fixed_weight
     if g.weights == "receiver" and hdop is not None and math.isfinite(hdop) and hdop > 0.0:
         uere = g.uere_m(quality)
         sigma = hdop * uere / math.sqrt(2.0)
@@ -277,7 +305,7 @@ class GpsSystem:
         c = inputs.config.corrections
         w = gps.weight if gps.weight is not None else gps_weight(inputs.config, inputs.record)
         # The fixed figure keeps its variance exactly as before (σ² of √var is not bit-exact).
-        var = gps_variance_m2(inputs.config) if not w.receiver_weighted else w.sigma_m**2
+        var = _of_config(inputs.config).variance_m2 if not w.receiver_weighted else w.sigma_m**2
         fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
                      c.gps_east_m, w)
         return SystemReading(value=fix, detail=gps, observes=True)
