@@ -41,10 +41,12 @@ import math
 import os
 import re
 import stat
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, fields, replace
 from datetime import UTC, datetime
+from typing import Any
 
+from engine import native
 from engine.errors import InputError, read_error
 from engine.io.deccafile import format_dms, parse_dms
 
@@ -304,7 +306,7 @@ _DATES: dict[str, tuple[int, int, int]] = {}
 _DATES_MAX = 1024
 
 
-def _fast_record(line: str, line_no: int) -> RunRecord | None:
+def _fast_record_py(line: str, line_no: int) -> RunRecord | None:
     """The record of a well-formed line in the usual shape (both GPS coordinates present, 6–9
     numeric columns, no ``key=value``), else None: then :func:`parse_run_line`'s checks decide.
 
@@ -446,6 +448,15 @@ def _new_record(line_no: int, time: datetime, lat: float, lon: float,
 
 _PAD: dict[int, list[None]] = {k: [None] * (9 - k) for k in range(6, 10)}
 """The None columns that pad ``k`` numeric columns to nine."""
+
+_K: Any = native.kernel("runparse")
+"""The compiled twin of :func:`_fast_record_py` (``engine/native/runparse.c``), or None."""
+if _K is not None:
+    _K.bind(RunRecord, tuple(RunRecord.__dict__[f.name] for f in fields(RunRecord)), UTC)
+_fast_record: Callable[[str, int], RunRecord | None] = (
+    _fast_record_py if _K is None else _K.record)
+"""The hot path in use: the kernel's ``record`` where it is built, else :func:`_fast_record_py`
+(the same records: ``tests/native/test_runparse.py``)."""
 
 
 def parse_run_line(line: str, line_no: int = 0, filename: str = "<string>") -> RunRecord | None:
