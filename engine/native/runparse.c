@@ -293,7 +293,42 @@ fail:
     return NULL;
 }
 
+PyDoc_STRVAR(make_doc,
+"make(cls, slots, *values) -> cls instance\n\n"
+"A frozen slots dataclass instance made as its __init__ makes it when given every field\n"
+"positionally (object.__new__, then each slot descriptor's set in field order), without the\n"
+"per-field object.__setattr__ calls. slots: the member descriptors, in field order.");
+
+static PyObject *
+rp_make(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_Check(args[1])
+        || PyTuple_GET_SIZE(args[1]) != nargs - 2) {
+        PyErr_SetString(PyExc_TypeError, "make(cls, slots, *values): one value per slot");
+        return NULL;
+    }
+    PyTypeObject *tp = (PyTypeObject *)args[0];
+    PyObject *obj = tp->tp_alloc(tp, 0);
+    if (obj == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < nargs - 2; i++) {
+        PyObject *d = PyTuple_GET_ITEM(args[1], i);
+        descrsetfunc set = Py_TYPE(d)->tp_descr_set;
+        if (set == NULL) {
+            PyErr_SetString(PyExc_TypeError, "make: a slot is not a data descriptor");
+            Py_DECREF(obj);
+            return NULL;
+        }
+        if (set(d, obj, args[2 + i]) < 0) {
+            Py_DECREF(obj);
+            return NULL;
+        }
+    }
+    return obj;
+}
+
 static PyMethodDef rp_methods[] = {
+    {"make", (PyCFunction)(void (*)(void))rp_make, METH_FASTCALL, make_doc},
     {"bind", (PyCFunction)(void (*)(void))rp_bind, METH_FASTCALL,
      "bind(cls, setters, tzinfo): the RunRecord class, its 17 slot descriptors, UTC."},
     {"record", (PyCFunction)(void (*)(void))rp_record, METH_FASTCALL, record_doc},

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from datetime import datetime
+from functools import partial
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -989,11 +990,12 @@ class DeccaSystem:
         x_start, prior = inputs.x_start, inputs.prior
         gps_reading = inputs.earlier.get("gps")
         g = None if gps_reading is None else gps_reading.value
+        new_source = _new_source
         lanes = decca_totals(
             placed, ctx.geodesic, ctx.zone_lane, inputs.nav.decca_track, rec.decca, rec.time,
             x_start,
-            None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
-            None if g is None else LaneSource("GPS", g.x_m + g.corr_east_m,
+            None if prior is None else new_source("the DR position", *x_start, prior.cov),
+            None if g is None else new_source("GPS", g.x_m + g.corr_east_m,
                                               g.y_m + g.corr_north_m, self._gps_cov(g.var_m2)))
         per = self._per_config
         if per is None or per[0] is not cfg:
@@ -1003,7 +1005,7 @@ class DeccaSystem:
                 cfg, (PATTERNS[0] in select, PATTERNS[1] in select, PATTERNS[2] in select),
                 (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes))
         totals = lanes.totals
-        reading = DeccaReading(placed, rec.decca, ctx.zone_lane, per[1], per[2],
+        reading = _new_reading(placed, rec.decca, ctx.zone_lane, per[1], per[2],
                                cfg.lsq.decca_cf, totals)
         return SystemReading(reading, lanes.notes, lanes, totals != (None, None, None))
 
@@ -1061,5 +1063,19 @@ class DeccaSystem:
         """``Decca Red``/``Grn``/``Prp``."""
         return f"Decca {DECCA_PATTERN_NAMES[index]}"
 
+
+def _slots_maker(cls: type) -> Any:
+    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
+    ``engine.native.runparse.make`` bound to it (the same instance, without the dataclass
+    ``__init__``'s per-field ``object.__setattr__``), or ``cls`` itself (the pure path)."""
+    kernel = native.kernel("runparse")
+    if kernel is None:
+        return cls
+    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
+
+
+_new_source = _slots_maker(LaneSource)
+_new_reading = _slots_maker(DeccaReading)
+""":class:`LaneSource` and :class:`DeccaReading` from every field, positionally."""
 
 DECCA = DeccaSystem()

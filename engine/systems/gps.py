@@ -12,12 +12,14 @@ rows (:class:`PriorObservations`, THEORY §4.6).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, fields
+from functools import partial
 from typing import Any
 
 import numpy as np
 
+from engine import native
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import geodetic_to_ecef
@@ -123,6 +125,20 @@ class GpsInput:
     """The σ of its coordinates and where it came from (None only for a hand-built input)."""
 
 
+def slots_maker(cls: type) -> Callable[..., Any]:
+    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
+    ``engine.native.runparse.make`` bound to it (the same instance, without the dataclass
+    ``__init__``'s per-field ``object.__setattr__``), or ``cls`` itself (the pure path)."""
+    kernel = native.kernel("runparse")
+    if kernel is None:
+        return cls
+    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
+
+
+_new_input = slots_maker(GpsInput)
+_new_fix = slots_maker(GpsFix)
+
+
 GRID_MAX_DLON_DEG = 6.0
 """Farthest a GPS position may lie from the cycle's central meridian (degrees of longitude) to
 be taken into the fix. The grid follows the MPP to the whole degree (THEORY §2.3), so a real
@@ -149,8 +165,8 @@ def gps_input(inputs: CycleInputs) -> GpsInput | None:
         w_lat, w_lon, hg = ctx.gps_to_wgs84.transform(lat_in, lon_in, 0.0)
     ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
     x, y = inputs.grid.forward(lat, lon)
-    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y,
-                    gps_weight(inputs.config, rec))
+    return _new_input(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y,
+                      gps_weight(inputs.config, rec))
 
 
 def gps_variance_m2(config: Any) -> float:
@@ -306,8 +322,8 @@ class GpsSystem:
         w = gps.weight if gps.weight is not None else gps_weight(inputs.config, inputs.record)
         # The fixed figure keeps its variance exactly as before (σ² of √var is not bit-exact).
         var = _of_config(inputs.config).variance_m2 if not w.receiver_weighted else w.sigma_m**2
-        fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
-                     c.gps_east_m, w)
+        fix = _new_fix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
+                       c.gps_east_m, w)
         return SystemReading(value=fix, detail=gps, observes=True)
 
     def observations(self, value: GpsFix | None, p0: Point) -> _GpsObservations | None:

@@ -142,3 +142,46 @@ def test_pure_env_leaves_the_kernel_unloaded() -> None:
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=120, env={**os.environ, native.PURE_ENV: "1"})
     assert done.returncode == 0, done.stderr
+
+
+@needs_kernel
+def test_make_builds_the_dataclass_instance() -> None:
+    """runparse.make (the GPS and Decca readings' constructors) gives what __init__ gives."""
+    import numpy as np
+
+    from engine.systems import decca as decca_mod
+    from engine.systems import gps as gps_mod
+
+    assert KERNEL is not None
+    cov = np.eye(2)
+    cases = [
+        (gps_mod.GpsInput, gps_mod._new_input,
+         (52.1, 4.2, 52.2, 4.3, -40.5, (1.0, 2.0, 3.0), 52.0, 4.0, 1e5, 5.8e6, None)),
+        (gps_mod.GpsFix, gps_mod._new_fix, (52.1, 4.2, 1e5, 5.8e6, 2500.0, -0.0, 1.5, None)),
+        (decca_mod.LaneSource, decca_mod._new_source, ("GPS", 1.0, 2.0, cov)),
+        (decca_mod.DeccaReading, decca_mod._new_reading,
+         (None, (0.5, None, 0.25), (None, (1, 2), None), (True, False, True), (0.0, 0.1, 0.0),
+          64.0, (44.5, None, 1.25))),
+    ]
+    for cls, new, values in cases:
+        assert new.func is KERNEL.make  # type: ignore[attr-defined]
+        got, want = new(*values), cls(*values)
+        assert type(got) is cls and got == want and repr(got) == repr(want)
+        for f in fields(cls):
+            assert getattr(got, f.name) is getattr(want, f.name)
+        with pytest.raises(AttributeError):
+            setattr(got, fields(cls)[0].name, 0)
+        with pytest.raises(TypeError):
+            new(*values[:-1])
+    with pytest.raises(TypeError):
+        KERNEL.make(gps_mod.GpsFix, [])  # the slots must be a tuple
+    assert gps_mod.slots_maker(gps_mod.GpsFix).func is KERNEL.make  # type: ignore[attr-defined]
+
+
+def test_slots_maker_is_the_class_without_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    from engine.systems import decca as decca_mod
+    from engine.systems import gps as gps_mod
+
+    monkeypatch.setattr(native, "kernel", lambda name: None)
+    assert gps_mod.slots_maker(gps_mod.GpsFix) is gps_mod.GpsFix
+    assert decca_mod._slots_maker(decca_mod.LaneSource) is decca_mod.LaneSource
