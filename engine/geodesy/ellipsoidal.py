@@ -149,21 +149,33 @@ class DatumShift:
     should not be shared between threads).
     """
 
-    __slots__ = ("src", "dst", "pipeline", "_tr")
+    __slots__ = ("src", "dst", "pipeline", "_tr", "_point", "_forward")
 
     def __init__(self, src: Datum, dst: Datum) -> None:
         self.src = src
         self.dst = dst
         self.pipeline = helmert_pipeline(src, dst)
         from pyproj import Transformer
+        from pyproj.enums import TransformDirection
 
         self._tr = Transformer.from_pipeline(self.pipeline)
+        # Transformer.transform hands a scalar point to its _transformer._transform_point (one
+        # proj_trans call); calling that directly skips the wrapper's argument handling: the
+        # same PROJ call, the same bits. None where a pyproj lacks it (the public call then).
+        self._point = getattr(getattr(self._tr, "_transformer", None), "_transform_point", None)
+        self._forward = TransformDirection.FORWARD
 
     def transform(
         self, lat_deg: float, lon_deg: float, h_m: float = 0.0
     ) -> tuple[float, float, float]:
         """Geodetic on ``src`` → geodetic on ``dst`` (degrees, degrees, metres)."""
-        lat, lon, h = self._tr.transform(lat_deg, lon_deg, h_m)
+        point = self._point
+        if point is not None and type(lat_deg) is float and type(lon_deg) is float \
+                and type(h_m) is float:
+            lat, lon, h = point(inx=lat_deg, iny=lon_deg, inz=h_m, intime=None,
+                                direction=self._forward, radians=False, errcheck=False)
+        else:
+            lat, lon, h = self._tr.transform(lat_deg, lon_deg, h_m)
         return float(lat), float(lon), float(h)
 
     def transform_array(self, lat_deg: Any, lon_deg: Any, h_m: Any = 0.0) -> tuple[Any, Any]:

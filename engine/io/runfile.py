@@ -41,10 +41,12 @@ import math
 import os
 import re
 import stat
-from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, fields, replace
 from datetime import UTC, datetime
+from typing import Any
 
+from engine import native
 from engine.errors import InputError, read_error
 from engine.io.deccafile import format_dms, parse_dms
 
@@ -298,6 +300,165 @@ def _check_separators(line: str) -> None:
         )
 
 
+_DATES: dict[str, tuple[int, int, int]] = {}
+"""``YYMMDD`` → (year, month, day) of the dates :func:`_fast_record` has seen in a valid record
+(a day's file has one or two; bounded by :data:`_DATES_MAX`)."""
+_DATES_MAX = 1024
+
+
+def _fast_record_py(line: str, line_no: int) -> RunRecord | None:
+    """The record of a well-formed line in the usual shape (both GPS coordinates present, 6–9
+    numeric columns, no ``key=value``), else None: then :func:`parse_run_line`'s checks decide.
+
+    Accepts only what those checks accept and builds the same record with the same float
+    operations (:func:`_parse_time`, :func:`~engine.io.deccafile.parse_dms`'s fast path,
+    :func:`_parse_numbers`, :func:`_check_separators`), in one call with no exceptions raised,
+    so a replay's hot path is cheap; every located error message stays the slow path's.
+    """
+    toks = line.split()
+    n = len(toks)
+    if n < 16 or n > 19 or "=" in line:
+        return None
+    d, t, la_d, la_m, la_s, la_h, lo_d, lo_m, lo_s, lo_h = toks[:10]
+    if len(t) != 6 or not (t.isascii() and t.isdigit()):
+        return None
+    ymd = _DATES.get(d)
+    if ymd is None:
+        if len(d) != 6 or not (d.isascii() and d.isdigit()):
+            return None
+        yy, mmdd = divmod(int(d), 10000)
+        month, day = divmod(mmdd, 100)
+        ymd = (yy + (1900 if yy >= 70 else 2000), month, day)
+    hh, mmss = divmod(int(t), 10000)
+    minute, second = divmod(mmss, 100)
+    try:  # hh > 23, minute > 59, second > 59 or a wrong date: ValueError
+        time = datetime(ymd[0], ymd[1], ymd[2], hh, minute, second, tzinfo=UTC)
+    except ValueError:
+        return None
+    # parse_dms's fast path, latitude then longitude.
+    if not (
+        la_d.isascii() and la_d.isdigit() and la_m.isascii() and la_m.isdigit()
+        and la_s.isascii() and la_s.replace(".", "", 1).isdigit()
+        and lo_d.isascii() and lo_d.isdigit() and lo_m.isascii() and lo_m.isdigit()
+        and lo_s.isascii() and lo_s.replace(".", "", 1).isdigit()
+    ):
+        return None
+    memo = _FLOATS
+    mv = memo[la_m] if la_m in memo else _memo_float(la_m)
+    sv = memo[la_s] if la_s in memo else _memo_float(la_s)
+    if not (mv < 60.0 and sv < 60.0):
+        return None
+    lat = (memo[la_d] if la_d in memo else _memo_float(la_d)) + mv / 60.0 + sv / 3600.0
+    if not lat <= 90.0:
+        return None
+    if la_h == "S":
+        lat = -lat
+    elif la_h != "N":
+        return None
+    mv = memo[lo_m] if lo_m in memo else _memo_float(lo_m)
+    sv = memo[lo_s] if lo_s in memo else _memo_float(lo_s)
+    if not (mv < 60.0 and sv < 60.0):
+        return None
+    lon = (memo[lo_d] if lo_d in memo else _memo_float(lo_d)) + mv / 60.0 + sv / 3600.0
+    if not lon <= 180.0:
+        return None
+    if lo_h == "W":
+        lon = -lon
+    elif lo_h != "E":
+        return None
+    # _parse_numbers: the character check, float, the range checks.
+    cols = toks[10:]
+    if " ".join(cols).translate(_NOT_NUMBER_CHARS):
+        return None
+    try:
+        v = [None if tok == "-" else memo[tok] if tok in memo else _memo_float(tok)
+             for tok in cols]
+    except ValueError:
+        return None
+    v += _PAD[n - 10]
+    fr_r, fr_g, fr_p, hdg, spd, rud, incl, pfreq, echo = v
+    if not (
+        (fr_r is None or 0.0 <= fr_r < 1.0)
+        and (fr_g is None or 0.0 <= fr_g < 1.0)
+        and (fr_p is None or 0.0 <= fr_p < 1.0)
+        and (hdg is None or 0.0 <= hdg < 360.0)
+        and (spd is None or 0.0 <= spd <= MAX_SPEED_KN)
+        and (rud is None or -90.0 <= rud <= 90.0)
+        and (incl is None or -90.0 <= incl <= 90.0)
+        and (pfreq is None or (pfreq > 0.0 and math.isfinite(pfreq)))
+        and (echo is None or (echo >= 0.0 and math.isfinite(echo)))
+    ):
+        return None
+    raw = line.rstrip("\r\n")
+    if not (raw.isascii() and (raw.isprintable() or raw.replace("\t", " ").isprintable())):
+        return None
+    if d not in _DATES and len(_DATES) < _DATES_MAX:
+        _DATES[d] = ymd
+    return _new_record(line_no, time, lat, lon, (fr_r, fr_g, fr_p), hdg, spd, rud, incl, pfreq,
+                       echo, raw)
+
+
+_FLOATS: dict[str, float] = {}
+"""Token → ``float(token)`` of the numeric tokens :func:`_fast_record` has converted (a day's
+fractions, headings, speeds … repeat; a dictionary look-up is far cheaper than ``float``);
+bounded by :data:`_FLOATS_MAX`, the same float objects (bits) as ``float`` gives."""
+_FLOATS_MAX = 1 << 16
+
+
+def _memo_float(tok: str) -> float:
+    """``float(tok)``, remembered in :data:`_FLOATS` while it has room (ValueError as float)."""
+    value = float(tok)
+    if len(_FLOATS) < _FLOATS_MAX:
+        _FLOATS[tok] = value
+    return value
+
+
+_SETTERS = tuple(RunRecord.__dict__[f.name].__set__ for f in fields(RunRecord))
+"""The slot setters of :class:`RunRecord`'s fields, in field order."""
+
+
+def _new_record(line_no: int, time: datetime, lat: float, lon: float,
+                decca: tuple[float | None, float | None, float | None], hdg: float | None,
+                spd: float | None, rud: float | None, incl: float | None,
+                pfreq: float | None, echo: float | None, raw: str) -> RunRecord:
+    """``RunRecord(line_no, …, raw)`` (GNSS fields None) without the frozen dataclass's
+    ``__init__`` (one ``object.__setattr__`` call per field): the same slots through their
+    setters, a little over half the cost."""
+    (s0, s1, s2, s3, s4, s5, s6, s7, s8, s9, s10, s11, s12, s13, s14, s15, s16) = _SETTERS
+    r = object.__new__(RunRecord)
+    s0(r, line_no)
+    s1(r, time)
+    s2(r, lat)
+    s3(r, lon)
+    s4(r, decca)
+    s5(r, hdg)
+    s6(r, spd)
+    s7(r, rud)
+    s8(r, incl)
+    s9(r, pfreq)
+    s10(r, echo)
+    s11(r, raw)
+    s12(r, None)
+    s13(r, None)
+    s14(r, None)
+    s15(r, None)
+    s16(r, None)
+    return r
+
+
+_PAD: dict[int, list[None]] = {k: [None] * (9 - k) for k in range(6, 10)}
+"""The None columns that pad ``k`` numeric columns to nine."""
+
+_K: Any = native.kernel("runparse")
+"""The compiled twin of :func:`_fast_record_py` (``engine/native/runparse.c``), or None."""
+if _K is not None:
+    _K.bind(RunRecord, tuple(RunRecord.__dict__[f.name] for f in fields(RunRecord)), UTC)
+_fast_record: Callable[[str, int], RunRecord | None] = (
+    _fast_record_py if _K is None else _K.record)
+"""The hot path in use: the kernel's ``record`` where it is built, else :func:`_fast_record_py`
+(the same records: ``tests/native/test_runparse.py``)."""
+
+
 def parse_run_line(line: str, line_no: int = 0, filename: str = "<string>") -> RunRecord | None:
     """Parse one ``.RUN`` line (grammar in the module docstring).
 
@@ -306,6 +467,9 @@ def parse_run_line(line: str, line_no: int = 0, filename: str = "<string>") -> R
     ``time``, ``GPS latitude``, ``GPS longitude``, ``Decca red|green|purple``, ``heading``,
     ``speed``, ``rudder``, ``inclinometer``, ``pressure frequency``, ``echo sounder``).
     """
+    rec = _fast_record(line, line_no)
+    if rec is not None:
+        return rec
     toks = line.split()
     n = len(toks)
     if n == 0:
@@ -381,9 +545,17 @@ def check_input_file(path: str | os.PathLike[str]) -> str:
 def _stream(name: str) -> Iterator[RunRecord | BadRecord]:
     with open(name, encoding="utf-8-sig", errors="replace") as fh:
         line_no = 0
-        while line := fh.readline(MAX_LINE_CHARS + 1):
+        readline = fh.readline
+        limit = MAX_LINE_CHARS + 1
+        fast = _fast_record
+        while line := readline(limit):
             line_no += 1
-            if len(line) > MAX_LINE_CHARS and not line.endswith("\n"):
+            if len(line) < limit:  # a whole line (or the last one): the usual record first
+                rec = fast(line, line_no)
+                if rec is not None:
+                    yield rec
+                    continue
+            elif not line.endswith("\n"):
                 raw = line[:RAW_KEPT_CHARS] + "…"
                 while line and not line.endswith("\n"):  # skip the rest, a chunk at a time
                     line = fh.readline(1 << 16)

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from datetime import datetime
+from functools import partial
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -989,23 +990,40 @@ class DeccaSystem:
         x_start, prior = inputs.x_start, inputs.prior
         gps_reading = inputs.earlier.get("gps")
         g = None if gps_reading is None else gps_reading.value
+        new_source = _new_source
         lanes = decca_totals(
             placed, ctx.geodesic, ctx.zone_lane, inputs.nav.decca_track, rec.decca, rec.time,
             x_start,
-            None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
-            None if g is None else LaneSource("GPS", g.x_m + g.corr_east_m,
-                                              g.y_m + g.corr_north_m, _EYE2 * g.var_m2))
-        select = cfg.decca.select
-        c = cfg.corrections
+            None if prior is None else new_source("the DR position", *x_start, prior.cov),
+            None if g is None else new_source("GPS", g.x_m + g.corr_east_m,
+                                              g.y_m + g.corr_north_m, self._gps_cov(g.var_m2)))
+        per = self._per_config
+        if per is None or per[0] is not cfg:
+            select = cfg.decca.select
+            c = cfg.corrections
+            per = self._per_config = (
+                cfg, (PATTERNS[0] in select, PATTERNS[1] in select, PATTERNS[2] in select),
+                (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes))
         totals = lanes.totals
-        reading = DeccaReading(
-            placed, rec.decca, ctx.zone_lane, (PATTERNS[0] in select, PATTERNS[1] in select,
-                                               PATTERNS[2] in select),
-            (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes), cfg.lsq.decca_cf,
-            totals=totals,
-        )
-        return SystemReading(value=reading, messages=lanes.notes, detail=lanes,
-                             observes=totals != (None, None, None))
+        reading = _new_reading(placed, rec.decca, ctx.zone_lane, per[1], per[2],
+                               cfg.lsq.decca_cf, totals)
+        return SystemReading(reading, lanes.notes, lanes, totals != (None, None, None))
+
+    _per_config: tuple[Any, tuple[bool, bool, bool], tuple[float, float, float]] | None = None
+    """(configuration, selected patterns, corrections "C-O" in lanes) of the last configuration
+    read (frozen, so computed once per configuration object)."""
+    _cov: tuple[float, np.ndarray] | None = None
+
+    def _gps_cov(self, var_m2: float) -> np.ndarray:
+        """``_EYE2 * var_m2``, the GPS fix's 2×2 VCV (m²): one read-only array while the
+        variance stays the same (a nonzero float equal to the last has its bits)."""
+        cov = self._cov
+        if cov is not None and cov[0] == var_m2 and var_m2 != 0.0:
+            return cov[1]
+        arr = _EYE2 * var_m2
+        arr.setflags(write=False)
+        self._cov = (var_m2, arr)
+        return arr
 
     def observations(self, value: DeccaReading | None, p0: Point) -> DeccaObservations | None:
         """Corrected total lane counts of ``value``: its ``totals``, else resolved from the
@@ -1045,5 +1063,19 @@ class DeccaSystem:
         """``Decca Red``/``Grn``/``Prp``."""
         return f"Decca {DECCA_PATTERN_NAMES[index]}"
 
+
+def _slots_maker(cls: type) -> Any:
+    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
+    ``engine.native.runparse.make`` bound to it (the same instance, without the dataclass
+    ``__init__``'s per-field ``object.__setattr__``), or ``cls`` itself (the pure path)."""
+    kernel = native.kernel("runparse")
+    if kernel is None:
+        return cls
+    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
+
+
+_new_source = _slots_maker(LaneSource)
+_new_reading = _slots_maker(DeccaReading)
+""":class:`LaneSource` and :class:`DeccaReading` from every field, positionally."""
 
 DECCA = DeccaSystem()

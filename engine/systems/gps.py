@@ -12,12 +12,14 @@ rows (:class:`PriorObservations`, THEORY §4.6).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, fields
+from functools import partial
 from typing import Any
 
 import numpy as np
 
+from engine import native
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import geodetic_to_ecef
@@ -123,6 +125,20 @@ class GpsInput:
     """The σ of its coordinates and where it came from (None only for a hand-built input)."""
 
 
+def slots_maker(cls: type) -> Callable[..., Any]:
+    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
+    ``engine.native.runparse.make`` bound to it (the same instance, without the dataclass
+    ``__init__``'s per-field ``object.__setattr__``), or ``cls`` itself (the pure path)."""
+    kernel = native.kernel("runparse")
+    if kernel is None:
+        return cls
+    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
+
+
+_new_input = slots_maker(GpsInput)
+_new_fix = slots_maker(GpsFix)
+
+
 GRID_MAX_DLON_DEG = 6.0
 """Farthest a GPS position may lie from the cycle's central meridian (degrees of longitude) to
 be taken into the fix. The grid follows the MPP to the whole degree (THEORY §2.3), so a real
@@ -149,14 +165,40 @@ def gps_input(inputs: CycleInputs) -> GpsInput | None:
         w_lat, w_lon, hg = ctx.gps_to_wgs84.transform(lat_in, lon_in, 0.0)
     ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
     x, y = inputs.grid.forward(lat, lon)
-    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y,
-                    gps_weight(inputs.config, rec))
+    return _new_input(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y,
+                      gps_weight(inputs.config, rec))
 
 
 def gps_variance_m2(config: Any) -> float:
     """A priori variance of one GPS coordinate (m²) of a run configuration: the receiver's
     (C/A or P code) times ``lsq.gps_se_sf``."""
     return (GPS_VAR_P_M2 if config.gps.receiver == "P" else GPS_VAR_CA_M2) * config.lsq.gps_se_sf
+
+
+class _PerConfig:
+    """What :class:`GpsSystem` needs every cycle and that only the (frozen) run configuration
+    decides, computed once per configuration object: the fixed variance (m²) and the fixed
+    :class:`GpsWeight` of a record without HDOP, quality or satellites (a 1993 record)."""
+
+    __slots__ = ("config", "variance_m2", "fixed_weight")
+
+    def __init__(self, config: Any) -> None:
+        self.config = config
+        self.variance_m2 = gps_variance_m2(config)
+        self.fixed_weight = GpsWeight("fixed", math.sqrt(self.variance_m2), None, None, None,
+                                      se_sf=config.lsq.gps_se_sf, receiver=config.gps.receiver)
+
+
+_per_config: _PerConfig | None = None
+
+
+def _of_config(config: Any) -> _PerConfig:
+    """The :class:`_PerConfig` of ``config`` (one entry: a run has one configuration)."""
+    global _per_config
+    pc = _per_config
+    if pc is None or pc.config is not config:
+        pc = _per_config = _PerConfig(config)
+    return pc
 
 
 def gps_weight(config: Any, record: RunRecord) -> GpsWeight:
@@ -171,6 +213,8 @@ def gps_weight(config: Any, record: RunRecord) -> GpsWeight:
     g = config.gps
     hdop = record.gps_hdop
     sats, quality = record.gps_sats, record.gps_quality
+    if hdop is None and sats is None and quality is None:  # a 1993 record: per configuration
+        return _of_config(config).fixed_weight
     if g.weights == "receiver" and hdop is not None and math.isfinite(hdop) and hdop > 0.0:
         uere = g.uere_m(quality)
         sigma = hdop * uere / math.sqrt(2.0)
@@ -277,9 +321,9 @@ class GpsSystem:
         c = inputs.config.corrections
         w = gps.weight if gps.weight is not None else gps_weight(inputs.config, inputs.record)
         # The fixed figure keeps its variance exactly as before (σ² of √var is not bit-exact).
-        var = gps_variance_m2(inputs.config) if not w.receiver_weighted else w.sigma_m**2
-        fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
-                     c.gps_east_m, w)
+        var = _of_config(inputs.config).variance_m2 if not w.receiver_weighted else w.sigma_m**2
+        fix = _new_fix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
+                       c.gps_east_m, w)
         return SystemReading(value=fix, detail=gps, observes=True)
 
     def observations(self, value: GpsFix | None, p0: Point) -> _GpsObservations | None:

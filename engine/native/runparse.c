@@ -1,0 +1,359 @@
+/* Compiled twin of engine.io.runfile._fast_record_py: one usual .RUN record (both GPS
+ * coordinates, 6-9 numeric columns, no key=value) to a RunRecord, or None where the Python
+ * checks decide (then engine.io.runfile.parse_run_line's checked parser gives the same record
+ * or the same located error).
+ *
+ * Same acceptance as the Python hot path: printable ASCII or tab only, split on blanks/tabs,
+ * YYMMDD HHMMSS (datetime checks the values), D M S.sss H with parse_dms's fast-path rules,
+ * numeric columns of [0-9.-] converted by PyOS_string_to_double (what float(str) calls, so the
+ * same bits) and range-checked with the same comparisons; lat = d + m / 60.0 + s / 3600.0 in
+ * that order (built with -ffp-contract=off). The record is made like object.__new__ plus the
+ * slot setters (engine.io.runfile._new_record), bound once by bind(). */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <datetime.h>
+#include <math.h>
+#include <string.h>
+
+#define N_SLOTS 17
+#define MAX_TOKS 19
+#define MAX_TOK_CHARS 63
+
+static PyTypeObject *g_cls = NULL;
+static PyObject *g_setters = NULL; /* tuple of the 17 slot descriptors, field order */
+static PyObject *g_tz = NULL;
+
+static PyObject *
+rp_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3 || !PyType_Check(args[0]) || !PyTuple_Check(args[1])
+        || PyTuple_GET_SIZE(args[1]) != N_SLOTS) {
+        PyErr_SetString(PyExc_TypeError, "bind(cls, setters[17], tzinfo)");
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < N_SLOTS; i++) {
+        if (Py_TYPE(PyTuple_GET_ITEM(args[1], i))->tp_descr_set == NULL) {
+            PyErr_SetString(PyExc_TypeError, "bind: a setter is not a data descriptor");
+            return NULL;
+        }
+    }
+    Py_XSETREF(g_cls, (PyTypeObject *)Py_NewRef(args[0]));
+    Py_XSETREF(g_setters, Py_NewRef(args[1]));
+    Py_XSETREF(g_tz, Py_NewRef(args[2]));
+    Py_RETURN_NONE;
+}
+
+static int
+all_digits(const char *p, Py_ssize_t n)
+{
+    if (n < 1)
+        return 0;
+    for (Py_ssize_t i = 0; i < n; i++)
+        if (p[i] < '0' || p[i] > '9')
+            return 0;
+    return 1;
+}
+
+/* s.replace(".", "", 1).isdigit(): digits with at most one '.', at least one digit. */
+static int
+decimal_digits(const char *p, Py_ssize_t n)
+{
+    int dots = 0, digits = 0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        if (p[i] == '.') {
+            if (++dots > 1)
+                return 0;
+        }
+        else if (p[i] >= '0' && p[i] <= '9')
+            digits++;
+        else
+            return 0;
+    }
+    return digits > 0;
+}
+
+/* float(token): 1 and *out on success, 0 where float() would raise, -1 on another error. */
+static int
+to_double(const char *p, Py_ssize_t n, double *out)
+{
+    char small[MAX_TOK_CHARS + 1];
+    char *end;
+    if (n < 1)
+        return 0;
+    char *buf = small;
+    if (n > MAX_TOK_CHARS) {
+        buf = PyMem_Malloc((size_t)n + 1);
+        if (buf == NULL) {
+            PyErr_NoMemory();
+            return -1;
+        }
+    }
+    memcpy(buf, p, (size_t)n);
+    buf[n] = '\0';
+    int rc = 1;
+    double v = PyOS_string_to_double(buf, &end, NULL);
+    if (v == -1.0 && PyErr_Occurred()) {
+        if (PyErr_ExceptionMatches(PyExc_ValueError)) {
+            PyErr_Clear();
+            rc = 0;
+        }
+        else
+            rc = -1;
+    }
+    else if (end != buf + n)
+        rc = 0;
+    else
+        *out = v;
+    if (buf != small)
+        PyMem_Free(buf);
+    return rc;
+}
+
+static int
+set_slot(PyObject *obj, Py_ssize_t i, PyObject *value)
+{
+    /* steals value */
+    if (value == NULL)
+        return -1;
+    PyObject *d = PyTuple_GET_ITEM(g_setters, i);
+    int rc = Py_TYPE(d)->tp_descr_set(d, obj, value);
+    Py_DECREF(value);
+    return rc;
+}
+
+static PyObject *
+float_or_none(int present, double v)
+{
+    if (!present)
+        Py_RETURN_NONE;
+    return PyFloat_FromDouble(v);
+}
+
+PyDoc_STRVAR(record_doc,
+"record(line, line_no) -> RunRecord | None\n\n"
+"engine.io.runfile._fast_record_py in one call (bind() first; None before that).");
+
+static PyObject *
+rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "record(line, line_no)");
+        return NULL;
+    }
+    PyObject *line = args[0];
+    if (g_cls == NULL || !PyUnicode_Check(line) || !PyUnicode_IS_ASCII(line))
+        Py_RETURN_NONE;
+    const char *s = (const char *)PyUnicode_1BYTE_DATA(line);
+    Py_ssize_t len = PyUnicode_GET_LENGTH(line);
+    Py_ssize_t end = len;
+    while (end > 0 && (s[end - 1] == '\r' || s[end - 1] == '\n'))
+        end--;
+    /* printable ASCII or tab (the separators check), no '=' (key=value records) */
+    for (Py_ssize_t i = 0; i < end; i++) {
+        char c = s[i];
+        if (c == '=' || (c != '\t' && (c < 0x20 || c > 0x7e)))
+            Py_RETURN_NONE;
+    }
+    const char *tp[MAX_TOKS];
+    Py_ssize_t tn[MAX_TOKS];
+    int n = 0;
+    Py_ssize_t i = 0;
+    while (i < end) {
+        while (i < end && (s[i] == ' ' || s[i] == '\t'))
+            i++;
+        if (i >= end)
+            break;
+        Py_ssize_t j = i;
+        while (j < end && s[j] != ' ' && s[j] != '\t')
+            j++;
+        if (n == MAX_TOKS)
+            Py_RETURN_NONE;
+        tp[n] = s + i;
+        tn[n] = j - i;
+        n++;
+        i = j;
+    }
+    if (n < 16)
+        Py_RETURN_NONE;
+    /* date and time */
+    if (tn[0] != 6 || tn[1] != 6 || !all_digits(tp[0], 6) || !all_digits(tp[1], 6))
+        Py_RETURN_NONE;
+    const char *d = tp[0], *t = tp[1];
+    int yy = (d[0] - '0') * 10 + (d[1] - '0');
+    int month = (d[2] - '0') * 10 + (d[3] - '0');
+    int day = (d[4] - '0') * 10 + (d[5] - '0');
+    int hh = (t[0] - '0') * 10 + (t[1] - '0');
+    int minute = (t[2] - '0') * 10 + (t[3] - '0');
+    int second = (t[4] - '0') * 10 + (t[5] - '0');
+    /* GPS latitude and longitude: parse_dms's fast path */
+    double ll[2];
+    for (int k = 0; k < 2; k++) {
+        int b = 2 + 4 * k;
+        if (!all_digits(tp[b], tn[b]) || !all_digits(tp[b + 1], tn[b + 1])
+            || !decimal_digits(tp[b + 2], tn[b + 2]))
+            Py_RETURN_NONE;
+        double dv, mv, sv;
+        int r1 = to_double(tp[b + 1], tn[b + 1], &mv);
+        int r2 = r1 == 1 ? to_double(tp[b + 2], tn[b + 2], &sv) : r1;
+        int r3 = r2 == 1 ? to_double(tp[b], tn[b], &dv) : r2;
+        if (r3 < 0)
+            return NULL;
+        if (r3 == 0)
+            Py_RETURN_NONE;
+        if (!(mv < 60.0 && sv < 60.0))
+            Py_RETURN_NONE;
+        double value = dv + mv / 60.0 + sv / 3600.0;
+        if (!(value <= (k == 0 ? 90.0 : 180.0)))
+            Py_RETURN_NONE;
+        if (tn[b + 3] != 1)
+            Py_RETURN_NONE;
+        char h = tp[b + 3][0];
+        if (h == (k == 0 ? 'S' : 'W'))
+            value = -value;
+        else if (h != (k == 0 ? 'N' : 'E'))
+            Py_RETURN_NONE;
+        ll[k] = value;
+    }
+    /* the numeric columns */
+    double v[9];
+    int present[9];
+    for (int k = 0; k < 9; k++) {
+        v[k] = 0.0;
+        present[k] = 0;
+    }
+    for (int k = 10; k < n; k++) {
+        for (Py_ssize_t c = 0; c < tn[k]; c++) {
+            char ch = tp[k][c];
+            if (!((ch >= '0' && ch <= '9') || ch == '.' || ch == '-'))
+                Py_RETURN_NONE;
+        }
+    }
+    for (int k = 10; k < n; k++) {
+        if (tn[k] == 1 && tp[k][0] == '-')
+            continue;
+        int r = to_double(tp[k], tn[k], &v[k - 10]);
+        if (r < 0)
+            return NULL;
+        if (r == 0)
+            Py_RETURN_NONE;
+        present[k - 10] = 1;
+    }
+    if ((present[0] && !(0.0 <= v[0] && v[0] < 1.0))
+        || (present[1] && !(0.0 <= v[1] && v[1] < 1.0))
+        || (present[2] && !(0.0 <= v[2] && v[2] < 1.0))
+        || (present[3] && !(0.0 <= v[3] && v[3] < 360.0))
+        || (present[4] && !(0.0 <= v[4] && v[4] <= 60.0))
+        || (present[5] && !(-90.0 <= v[5] && v[5] <= 90.0))
+        || (present[6] && !(-90.0 <= v[6] && v[6] <= 90.0))
+        || (present[7] && !(v[7] > 0.0 && isfinite(v[7])))
+        || (present[8] && !(v[8] >= 0.0 && isfinite(v[8]))))
+        Py_RETURN_NONE;
+    PyObject *time = PyDateTimeAPI->DateTime_FromDateAndTime(
+        yy + (yy >= 70 ? 1900 : 2000), month, day, hh, minute, second, 0, g_tz,
+        PyDateTimeAPI->DateTimeType);
+    if (time == NULL) {
+        if (!PyErr_ExceptionMatches(PyExc_ValueError))
+            return NULL;
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    PyObject *rec = g_cls->tp_alloc(g_cls, 0);
+    if (rec == NULL) {
+        Py_DECREF(time);
+        return NULL;
+    }
+    PyObject *decca = PyTuple_New(3);
+    if (decca == NULL)
+        goto fail_time;
+    for (int k = 0; k < 3; k++) {
+        PyObject *f = float_or_none(present[k], v[k]);
+        if (f == NULL) {
+            Py_DECREF(decca);
+            goto fail_time;
+        }
+        PyTuple_SET_ITEM(decca, k, f);
+    }
+    if (set_slot(rec, 0, Py_NewRef(args[1])) < 0 || set_slot(rec, 1, time) < 0
+        || set_slot(rec, 2, PyFloat_FromDouble(ll[0])) < 0
+        || set_slot(rec, 3, PyFloat_FromDouble(ll[1])) < 0 || set_slot(rec, 4, decca) < 0)
+        goto fail;
+    for (int k = 3; k < 9; k++)
+        if (set_slot(rec, 2 + k, float_or_none(present[k], v[k])) < 0)
+            goto fail;
+    if (set_slot(rec, 11, PyUnicode_Substring(line, 0, end)) < 0)
+        goto fail;
+    for (int k = 12; k < N_SLOTS; k++)
+        if (set_slot(rec, k, Py_NewRef(Py_None)) < 0)
+            goto fail;
+    return rec;
+fail_time:
+    Py_DECREF(time);
+fail:
+    Py_DECREF(rec);
+    return NULL;
+}
+
+PyDoc_STRVAR(make_doc,
+"make(cls, slots, *values) -> cls instance\n\n"
+"A frozen slots dataclass instance made as its __init__ makes it when given every field\n"
+"positionally (object.__new__, then each slot descriptor's set in field order), without the\n"
+"per-field object.__setattr__ calls. slots: the member descriptors, in field order.");
+
+static PyObject *
+rp_make(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_Check(args[1])
+        || PyTuple_GET_SIZE(args[1]) != nargs - 2) {
+        PyErr_SetString(PyExc_TypeError, "make(cls, slots, *values): one value per slot");
+        return NULL;
+    }
+    PyTypeObject *tp = (PyTypeObject *)args[0];
+    PyObject *obj = tp->tp_alloc(tp, 0);
+    if (obj == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < nargs - 2; i++) {
+        PyObject *d = PyTuple_GET_ITEM(args[1], i);
+        descrsetfunc set = Py_TYPE(d)->tp_descr_set;
+        if (set == NULL) {
+            PyErr_SetString(PyExc_TypeError, "make: a slot is not a data descriptor");
+            Py_DECREF(obj);
+            return NULL;
+        }
+        if (set(d, obj, args[2 + i]) < 0) {
+            Py_DECREF(obj);
+            return NULL;
+        }
+    }
+    return obj;
+}
+
+static PyMethodDef rp_methods[] = {
+    {"make", (PyCFunction)(void (*)(void))rp_make, METH_FASTCALL, make_doc},
+    {"bind", (PyCFunction)(void (*)(void))rp_bind, METH_FASTCALL,
+     "bind(cls, setters, tzinfo): the RunRecord class, its 17 slot descriptors, UTC."},
+    {"record", (PyCFunction)(void (*)(void))rp_record, METH_FASTCALL, record_doc},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef rp_module = {
+    PyModuleDef_HEAD_INIT, "runparse",
+    "Compiled twin of engine.io.runfile._fast_record_py (the .RUN hot path): the same\n"
+    "acceptance, the same float conversions and arithmetic, so the same records.",
+    -1, rp_methods,
+};
+
+PyMODINIT_FUNC
+PyInit_runparse(void)
+{
+    PyDateTime_IMPORT;
+    if (PyDateTimeAPI == NULL)
+        return NULL;
+    PyObject *m = PyModule_Create(&rp_module);
+    if (m == NULL)
+        return NULL;
+    if (PyModule_AddStringConstant(m, "SOURCE_DIGEST", UVN_SOURCE_DIGEST) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -1,0 +1,189 @@
+"""The ``.RUN`` hot path (:func:`engine.io.runfile._fast_record`) against the checked parser, and
+the per-configuration / per-epoch shortcuts of the GPS and Decca readings: same values, same
+bits, same errors (issue 14, wave 2)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from engine.errors import InputError
+from engine.geodesy.ellipsoid import WGS84
+from engine.geodesy.ellipsoidal import DatumShift
+from engine.io import runfile
+from engine.io.datumfile import read_datum_file
+from engine.io.runfile import RunRecord, _fast_record_py, _new_record, _parse_tokens
+from engine.systems import decca as decca_mod
+from engine.systems import gps as gps_mod
+from tests.paths import DATA
+
+LINES = [
+    *(DATA / "DEMO.RUN").read_text(encoding="utf-8").splitlines(keepends=True)[:400],
+    *(DATA / "920917_1.RUN").read_text(encoding="utf-8").splitlines(keepends=True),
+]
+SAMPLE = "920917 100002 52 49 56.313 N 004 29 55.439 E .876 .162 .032 232.6 10.0 .0 1.24 " \
+         "39937.542 70.82\n"
+
+
+def _bits(rec: RunRecord) -> tuple[object, ...]:
+    """Every field of a record, floats as their hex (so -0.0 and 0.0 differ)."""
+    def one(v: object) -> object:
+        if isinstance(v, float):
+            return v.hex()
+        if isinstance(v, tuple):
+            return tuple(one(x) for x in v)
+        return (type(v).__name__, v)
+    return tuple(one(getattr(rec, f.name)) for f in fields(RunRecord))
+
+
+def _slow(line: str, line_no: int = 7) -> RunRecord | InputError | None:
+    """The checked parser alone (what parse_run_line did before the hot path)."""
+    toks = line.split()
+    if not toks or toks[0][0] == "*" or toks[0].lower() == "date":
+        return None
+    try:
+        return _parse_tokens(toks, len(toks), line, line_no)
+    except InputError as exc:
+        return exc
+
+
+def _agrees(line: str) -> None:
+    slow = _slow(line)
+    for fast in (_fast_record_py(line, 7), runfile._fast_record(line, 7)):  # twin, in use
+        if fast is not None:
+            assert isinstance(slow, RunRecord), (line, slow)
+            assert _bits(fast) == _bits(slow)
+            assert fast == slow
+    if isinstance(slow, InputError):
+        # the public parser still raises the located error of the checked path
+        with pytest.raises(InputError) as info:
+            runfile.parse_run_line(line, 7, "X.RUN")
+        assert str(info.value) == str(slow.located(file="X.RUN", line=7))
+
+
+def test_fast_path_equals_checked_parser_on_the_bundled_files() -> None:
+    taken = 0
+    for line in LINES:
+        _agrees(line)
+        taken += _fast_record_py(line, 7) is not None
+    assert taken >= 400  # the demo's records all take the hot path
+
+
+@pytest.mark.parametrize("line", [
+    SAMPLE.replace(" N ", " S ").replace(" E ", " W "),
+    SAMPLE.replace(" N ", " n "),
+    SAMPLE.replace("232.6", "-232.6"), SAMPLE.replace("232.6", "360.0"),
+    SAMPLE.replace(".0 1.24", "-0 1.24"), SAMPLE.replace(".876", "1.000"),
+    SAMPLE.replace("10.0", "1e1"), SAMPLE.replace("10.0", "1-0"), SAMPLE.replace("10.0", "."),
+    SAMPLE.replace("10.0", "-"), SAMPLE.replace(" 70.82", ""), SAMPLE.replace(" 70.82", " - -"),
+    SAMPLE.replace("100002", "250002"), SAMPLE.replace("920917", "920931"),
+    SAMPLE.replace("920917", "a20917"), SAMPLE.replace("100002", "10000"),
+    SAMPLE.replace(" 56.313", " 60.000"), SAMPLE.replace(" 49 ", " 60 "),
+    SAMPLE.replace("52 49", "90 49"), SAMPLE.replace("004 29", "180 29"),
+    SAMPLE.replace("52", "+52", 1), SAMPLE.replace(" ", "\t"), SAMPLE.replace(" ", "\x0c", 1),
+    SAMPLE.replace(" ", "\u00a0", 1), SAMPLE.replace("\n", " hdop=1.2\n"),
+    SAMPLE.replace(" 52 49 56.313 N", " -"), SAMPLE.replace(" 004 29 55.439 E", " -"),
+    "*" + SAMPLE, "Date Time GPS lat\n", "\n", SAMPLE.replace("10.0", "１0.0"),
+    SAMPLE.replace("39937.542", "0"), SAMPLE.replace("70.82", "-1"),
+    SAMPLE.replace("70.82", "7.0.82"), SAMPLE.replace("\n", "\r\n"),
+    SAMPLE.replace("\n", ""), SAMPLE.replace("56.313", "56..313"),
+])
+def test_fast_path_equals_checked_parser_on_edge_lines(line: str) -> None:
+    _agrees(line)
+
+
+_TOKS = SAMPLE.split()
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, len(_TOKS) - 1),
+                          st.sampled_from(["-", "0", ".5", "-.5", "59.999", "60", "999", "1.",
+                                           "-0", "00", "", "N", "S", "E", "W", "x", "1e3",
+                                           "nan", "0.9999", "90", "180.000", "235959"])),
+                min_size=1, max_size=3),
+       st.sampled_from([" ", "\t", "  "]))
+def test_fast_path_equals_checked_parser_on_perturbed_lines(
+        edits: list[tuple[int, str]], sep: str) -> None:
+    toks = list(_TOKS)
+    for k, tok in edits:
+        toks[k] = tok
+    line = sep.join(t for t in toks if t) + "\n"
+    _agrees(line)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(0.0, 0.999), st.floats(0.0, 359.9), st.floats(0.0, 60.0), st.integers(0, 3))
+def test_fast_path_equals_checked_parser_on_random_values(fr: float, hdg: float, spd: float,
+                                                          drop: int) -> None:
+    toks = list(_TOKS)
+    toks[10] = f"{fr:.3f}".lstrip("0") or ".0"
+    toks[13] = f"{hdg:.1f}"
+    toks[14] = f"{spd:.2f}"
+    line = " ".join(toks[:len(toks) - drop]) + "\n"
+    _agrees(line)
+
+
+def test_memoised_floats_are_the_float_bits() -> None:
+    for line in LINES:
+        _fast_record_py(line, 1)
+    assert runfile._FLOATS
+    for tok, value in runfile._FLOATS.items():
+        assert value.hex() == float(tok).hex()
+    assert len(runfile._FLOATS) <= runfile._FLOATS_MAX
+
+
+def test_new_record_is_the_dataclass_record() -> None:
+    args = (3, None, 1.5, -2.25, (0.5, None, 0.25), 1.0, None, -0.0, None, 2.0, 3.0, "raw")
+    a, b = _new_record(*args), RunRecord(*args)  # type: ignore[arg-type]
+    assert a == b and _bits(a) == _bits(b) and repr(a) == repr(b)
+    with pytest.raises(AttributeError):
+        a.line_no = 4  # type: ignore[misc]
+
+
+def test_datum_shift_point_call_is_the_public_transform() -> None:
+    datums = read_datum_file(DATA / "TO_WGS84.DAT")
+    ed50 = datums.datum("ED50")
+    for shift in (DatumShift(WGS84, ed50), DatumShift(ed50, WGS84)):
+        assert shift._point is not None
+        for lat, lon, h in ((52.8, 4.5, 0.0), (-33.25, 151.1, 12.5), (89.9, -179.9, -40.0),
+                            (0.0, 0.0, 0.0), (52.833493333, 4.498822222, 0.0)):
+            got = shift.transform(lat, lon, h)
+            want = tuple(float(v) for v in shift._tr.transform(lat, lon, h))
+            assert [v.hex() for v in got] == [v.hex() for v in want]
+        # non-float input takes the public call
+        assert shift.transform(52, 4, 0) == shift._tr.transform(52, 4, 0)
+    shift._point = None  # a pyproj without the point call
+    assert shift.transform(52.8, 4.5, 0.0) == tuple(shift._tr.transform(52.8, 4.5, 0.0))
+
+
+def test_fixed_gps_weight_is_computed_once_per_configuration() -> None:
+    from engine.run.config import load_config
+
+    cfg = load_config(DATA / "DEMO.toml")
+    rec = _fast_record_py(SAMPLE, 1)
+    assert rec is not None
+    w = gps_mod.gps_weight(cfg, rec)
+    assert w is gps_mod.gps_weight(cfg, rec)
+    expected = gps_mod.GpsWeight("fixed", math.sqrt(gps_mod.gps_variance_m2(cfg)), None, None,
+                                 None, se_sf=cfg.lsq.gps_se_sf, receiver=cfg.gps.receiver)
+    assert w == expected
+    assert gps_mod._of_config(cfg).variance_m2 == gps_mod.gps_variance_m2(cfg)
+    with_hdop = RunRecord(*[getattr(rec, f.name) for f in fields(RunRecord)][:12],
+                          gps_hdop=1.5)  # type: ignore[arg-type]
+    assert gps_mod.gps_weight(cfg, with_hdop).hdop == 1.5
+
+
+def test_decca_gps_cov_is_eye_times_variance() -> None:
+    system = decca_mod.DeccaSystem()
+    for var in (2500.0, 2500.0, 79.21, 0.0, -0.0, math.nan, 2500.0):
+        cov = system._gps_cov(var)
+        want = decca_mod._EYE2 * var
+        assert cov.tobytes() == want.tobytes()
+        assert not cov.flags.writeable
+    assert system._gps_cov(2500.0) is system._gps_cov(2500.0)
+    assert np.array_equal(system._gps_cov(1.0), np.eye(2))
