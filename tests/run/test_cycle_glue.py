@@ -54,3 +54,26 @@ def test_lom_limits_are_the_cached_bounds() -> None:
             lower, upper = upd._lom_limits(p, alpha)
             assert (lom.lower, lom.upper) == (lower, upper)
             assert lom.t == 7.25 / p and lom.dof == p
+
+
+def test_sensor_variances_follow_the_parameters() -> None:
+    """The sensor rows' per-parameter variances (remembered per parameter set) are those the
+    first code computes, for parameter sets that differ only in those σ, used in turn."""
+    import numpy as np
+
+    from engine.filter import measurements as ms
+    from engine.filter.params import FilterParams
+    from engine.filter.state import FilterState
+
+    state = FilterState(0.0, np.zeros(11), np.eye(11))
+    sets = [FilterParams(), FilterParams(sigma_press_m=0.37, sigma_gyro_deg=1.3,
+                                         sigma_incl_deg=0.11), FilterParams(sigma_gyro_deg=0.2)]
+    for _ in range(2):
+        for params in sets:
+            for gyro_sigma in (None, 2.5):
+                kw = dict(depth_m=12.5, log_ms=3.0, gyro_grid_rad=1.25, incl_rad=0.01,
+                          params=params, gyro_sigma_deg=gyro_sigma)
+                a = ms.sensor_measurement(state, **kw)
+                b = ms._sensor_measurement_py(state, **kw)
+                assert np.array_equal(a.R, b.R) and np.array_equal(a.z, b.z)
+                assert a.labels == b.labels and a.angle_rows == b.angle_rows
