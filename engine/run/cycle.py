@@ -968,8 +968,11 @@ def _with_gnss(base: tuple[object, ...], gnss: tuple[object, ...] | None,
                previous: tuple[object, ...] | None) -> tuple[object, ...]:
     """:func:`cycle_fix_source` with the configuration's part ``base`` already known."""
     if gnss is None:
-        gnss = _gnss_part(previous) if previous is not None and \
-            previous[:len(previous) - len(_gnss_part(previous))] == base else ()
+        gnss = ()
+        if previous is not None:
+            part = _gnss_part(previous)
+            if previous[:len(previous) - len(part)] == base:
+                gnss = part
     return base + gnss
 
 
