@@ -159,9 +159,12 @@ def sensor_measurement(
     zs: list[float] = []
     var: list[float] = []
     which = 0
+    c = _VARIANCES.get(id(params))
+    if c is None or c[0] is not params:
+        c = _sensor_variances(params)
     if depth_m is not None:
         zs.append(depth_m)
-        var.append(params.sigma_press_m**2)
+        var.append(c[1])  # params.sigma_press_m**2
         which = 1
     if log_ms is not None:
         if log_sigma_ms is None:
@@ -172,13 +175,13 @@ def sensor_measurement(
         var.append(s2)
         which |= 2
     if gyro_grid_rad is not None:
-        sd = params.sigma_gyro_deg if gyro_sigma_deg is None else gyro_sigma_deg
         zs.append(gyro_grid_rad)
-        var.append((sd * DEG) ** 2)
+        # (sd * DEG) ** 2 with sd = params.sigma_gyro_deg unless this cycle's σ is given
+        var.append(c[2] if gyro_sigma_deg is None else (gyro_sigma_deg * DEG) ** 2)
         which |= 4
     if incl_rad is not None:
         zs.append(incl_rad)
-        var.append((params.sigma_incl_deg * DEG) ** 2)
+        var.append(c[3])  # (params.sigma_incl_deg * DEG) ** 2
         which |= 8
     layout = _LAYOUTS.get(which)
     if layout is None:
@@ -193,6 +196,22 @@ def sensor_measurement(
             R[i, i] = s2
         return _measurement(np.array(zs, dtype=float), H, R, labels, angle, cols=cols_t)
     return _measurement(zr[0], H, zr[1], labels, angle, cols=cols_t)
+
+
+_VARIANCES: dict[int, tuple[FilterParams, float, float, float]] = {}
+"""id(params) → (params, σ_p², (σ_gyro·DEG)², (σ_incl·DEG)²): the sensor rows' variances that
+depend only on the (frozen) parameters, computed once per parameter set by the same operations
+(:func:`_sensor_variances`; the entry holds ``params``, so its id is not reused meanwhile)."""
+
+
+def _sensor_variances(params: FilterParams) -> tuple[FilterParams, float, float, float]:
+    """The :data:`_VARIANCES` entry of ``params`` (m², rad², rad²), made and remembered."""
+    if len(_VARIANCES) >= 16:
+        _VARIANCES.clear()
+    c = _VARIANCES[id(params)] = (params, params.sigma_press_m**2,
+                                  (params.sigma_gyro_deg * DEG) ** 2,
+                                  (params.sigma_incl_deg * DEG) ** 2)
+    return c
 
 
 _SensorLayout = tuple[tuple[str, ...], tuple[tuple[int, ...], ...], np.ndarray, tuple[int, ...]]

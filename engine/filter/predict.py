@@ -47,6 +47,13 @@ def predict_step(
 
     Fix-error states decay as e^{−Δt/τ} with exact noise C_ij (1 − e^{−Δt(1/τ_i + 1/τ_j)}).
     """
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    if k is not None and dt > 0.0:  # _predict(state, dt, params, True) inline (every cycle)
+        c = step_constants(params, dt)
+        fd = c.fix_decay(state.fix_tau_s) if state.fix_states else None
+        r = k.predict(state.x, state.P, c, fd, state.fix_cov, True)
+        if r is not None:
+            return state._with(state.t + dt, r[0], r[1]), r[2]
     return _predict(state, dt, params, True)
 
 

@@ -102,7 +102,7 @@ class FilterState:
             fc[idx, :] = 0.0
             fc[:, idx] = 0.0
             fc[np.ix_(idx, idx)] = C
-        fc.flags.writeable = False
+        fc.setflags(write=False)
         new = object.__new__(FilterState)  # x and P are shared, and read-only already
         d = new.__dict__
         d.update(self.__dict__)

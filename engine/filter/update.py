@@ -163,12 +163,21 @@ def _lom_limits(p: int, alpha: float) -> tuple[float, float]:
 
 
 def _lom_from_nis(nis: float, p: int, alpha: float) -> LomTest:
-    lower, upper = _lom_limits(p, alpha)
+    lim = _LIMITS.get((p, alpha))
+    if lim is None:
+        if len(_LIMITS) >= 64:
+            _LIMITS.clear()
+        lim = _LIMITS[(p, alpha)] = _lom_limits(p, alpha)
+    lower, upper = lim
     t = nis / p
     verdict = "reject" if t > upper else ("too small" if t < lower else "accept")
     lom = _new(LomTest)
     lom.__dict__.update(t=t, lower=lower, upper=upper, dof=p, verdict=verdict)
     return lom
+
+
+_LIMITS: dict[tuple[int, float], tuple[float, float]] = {}
+"""(p, α) → :func:`_lom_limits` (a dict lookup, cheaper than the lru_cache's call per update)."""
 
 
 _new = object.__new__
@@ -288,17 +297,21 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     p = z.shape[0]
     if p == 0:
         return _empty_update(state)
-    new, H = _full_width(state, rows, params)
+    if rows.bias_keys:
+        new, H = _with_bias_columns(state, rows, params)
+    else:  # _full_width inline (the sensor rows of every cycle)
+        new, H = state, rows.H
+        if H.shape[1] < state.x.shape[0]:
+            new, H = _full_width(state, rows, params)
     x = new.x
     n = x.shape[0]
-    empty = np.empty
-    Yc = empty((n + 1 + p, p))  # Yc.T: L⁻¹[HP | v̂ | I], Fortran-ordered as trsm leaves it
-    v = empty(p)
-    S = empty((p, p))
-    K = empty((n, p))
-    xn = empty(n)
-    Pn = empty((n, n))
-    t = empty(p)
+    Yc = _EMPTY((n + 1 + p, p))  # Yc.T: L⁻¹[HP | v̂ | I], Fortran-ordered as trsm leaves it
+    v = _EMPTY(p)
+    S = _EMPTY((p, p))
+    K = _EMPTY((n, p))
+    xn = _EMPTY(n)
+    Pn = _EMPTY((n, n))
+    t = _EMPTY(p)
     out = k.update(x, new.P, H, z, rows.R, Yc, v, S, K, xn, Pn, t, rows.angle_rows,
                    params.joseph, IPSI)
     if out is None:
@@ -308,14 +321,19 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     lom = _lom_from_nis(nis, p, params.alpha)
     Y = Yc.T
     ls = _new(LsTest)
-    ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject")
     if t_ok:  # LsTest.t, computed by the kernel (same bits); else on access as usual
         t.setflags(write=False)
-        ls.__dict__["t"] = t
+        ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject",
+                           t=t)
+    else:
+        ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject")
     result = _new(UpdateResult)
     result.__dict__.update(state=new, innovation=v, S=S, K=K, labels=rows.labels, lom=lom,
                            ls=ls)
     return result
+
+
+_EMPTY = np.empty
 
 
 def _update_py(state: FilterState, rows: Measurement, params: FilterParams) -> UpdateResult:

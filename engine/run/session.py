@@ -359,13 +359,16 @@ class Session:
             self._collect_smoother(nav, result)
         self.nav = nav
         self.history.append(result)
-        if result.fix is not None and result.fix.lse_ok:
-            self.fixes += 1
-        if result.fix is not None:
-            self.rejected_lops += len(result.fix.rejected_slots)
+        fix = result.fix
+        if fix is not None:
+            if fix.lse_ok:
+                self.fixes += 1
+            self.rejected_lops += len(fix.rejected_slots)
         self.failed_fixes += result.fix_fails_tests
+        counts = self._counts
         for i, c in enumerate(cycle_counts(result)):
-            self._counts[i] += c
+            if c:
+                counts[i] += c
         if self._out is not None:
             head, lines = cycle_block(result)
             self._out.write_cycle(head, lines)
