@@ -14,7 +14,6 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from datetime import datetime
-from typing import TypeVar
 
 import numpy as np
 
@@ -81,8 +80,6 @@ from engine.systems.sensors import (
     standin_sigmas,
     surface_reference_hz,
 )
-
-_T = TypeVar("_T")
 
 CM_HYSTERESIS_DEG = 0.05
 """Extra margin beyond 0.5° before the CM switches, so a ship on a half-degree meridian does not
@@ -592,8 +589,7 @@ def step(
         cumulative = cumulative.update(fix.s2, fix.n_used - 2)
     lanes = readings[DECCA.name].detail
     n = nav.n + 1
-    # _frozen_new(CycleResult, ...) and _frozen_new(NavState, ...) inline: the instance dicts
-    # filled at once (no **values repacking of 28 and 16 fields).
+    # CycleResult and NavState built by _NEW with their instance dicts filled at once.
     result = _NEW(CycleResult)
     result.__dict__.update(
         n=n, record=rec.line_no, time=rec.time, raw=rec.raw, dt_s=dt,
@@ -621,18 +617,10 @@ def step(
 
 
 _NEW = object.__new__
-"""A bare instance of a class (its instance dict filled by the caller, see :func:`_frozen_new`)."""
-
-
-def _frozen_new(cls: type[_T], **values: object) -> _T:
-    """An instance of the frozen dataclass ``cls`` (a plain one, without slots or
-    ``__post_init__``) with ``values``, which must name every field: its ``__dict__`` filled at
-    once instead of by the generated ``__init__``'s one ``object.__setattr__`` per field (a
-    CycleResult has 28: ~3 µs a cycle). As ``FilterState._with`` does; the instances are the
-    same values (tests/run/test_cycle.py checks every field is set)."""
-    obj = object.__new__(cls)
-    obj.__dict__.update(values)
-    return obj
+"""A bare instance of a class, for a frozen dataclass without slots or ``__post_init__`` whose
+``__dict__`` the caller fills at once with every field, instead of the generated ``__init__``'s
+one ``object.__setattr__`` per field (a CycleResult has 28: ~3 µs a cycle); as
+``FilterState._with`` does. tests/run/test_cycle.py checks every field is set."""
 
 
 def _interval(ctx: RunContext, nav: NavState, rec: RunRecord) -> float:
