@@ -71,6 +71,7 @@ def startup_once(config: Path, timeout_s: float = 30.0, pycache: Path | None = N
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", rows, cols, 0, 0))
     env = dict(os.environ, TERM="xterm-256color", COLUMNS=str(cols), LINES=str(rows))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # else the "warm" cache is never written
     if pycache is not None:
         env["PYTHONPYCACHEPREFIX"] = str(pycache)
     t0 = time.perf_counter()

@@ -11,8 +11,9 @@ at 50 m without fixes, resurfacing) with its 2 h of legs repeated 12 times, simu
 scenario text and the seed, so a later bench reuses it. The first 1 h, 6 h and 24 h of records
 are written as their own ``.RUN`` files (cached alike) and each is replayed once by
 ``uvnav replay RUN --config CFG --out OUT --force`` (the ``.OUT`` written, exactly what a user
-runs) in a fresh process; ``os.wait4`` gives that child's own CPU time (user + system) and
-peak RSS (``ru_maxrss``); the wall time is the parent's ``perf_counter`` around it. The times
+runs) in a fresh process; ``os.wait4`` gives that child's own CPU time (user + system), its
+peak RSS is its ``VmHWM`` read from ``/proc`` until it exits (every 20 ms); the wall time is
+the parent's ``perf_counter`` around it. The times
 include the process start-up (imports, about 1 s). The verdict on the 10 s target is on the CPU
 time: on a shared machine the wall time also counts the waits for a core (on a free core the
 two agree within the start-up's I/O). One run each (not a median: the point is
@@ -109,13 +110,34 @@ def replay(part: Path) -> tuple[float, float, int]:
            "--out", str(out), "--force"]
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _pid, status, ru = os.wait4(proc.pid, 0)
+    hwm_kib = 0
+    while True:  # the child's own high-water mark, read until it exits (see _vm_hwm_kib)
+        hwm_kib = max(hwm_kib, _vm_hwm_kib(proc.pid))
+        pid, status, ru = os.wait4(proc.pid, os.WNOHANG)
+        if pid:
+            break
+        time.sleep(0.02)
     wall = time.perf_counter() - t0
     proc.returncode = os.waitstatus_to_exitcode(status)
     err = proc.stderr.read().decode() if proc.stderr else ""
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}): {err[-400:]}")
-    return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss
+    return wall, ru.ru_utime + ru.ru_stime, hwm_kib or ru.ru_maxrss
+
+
+def _vm_hwm_kib(pid: int) -> int:
+    """``VmHWM`` of ``/proc/<pid>/status`` (KiB), 0 if unreadable. Not ``ru_maxrss``: Linux
+    carries the parent's high-water mark over fork and exec into the child's, so a child of a
+    large bench process (``make bench`` runs every bench in one) reported the parent's RSS
+    (280 MiB on 2026-12-03 against 56 MiB for the same replay run from a small parent)."""
+    try:
+        with open(f"/proc/{pid}/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1])
+    except (OSError, ValueError):
+        pass
+    return 0
 
 
 def main() -> None:

@@ -11,8 +11,6 @@ with pyproj's own on points all over the ellipsoid.
 from __future__ import annotations
 
 import math
-import tempfile
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,9 +24,8 @@ from engine.geodesy.ellipsoidal import GeodesicSolver
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.datumfile import read_datum_file
 from engine.io.deccafile import read_chain_file
-from engine.run.config import load_config
-from engine.run.session import Session
 from engine.systems.base import Point
+from tests.native.replay import replay
 from tests.paths import DATA
 
 K = native.kernel("decca")
@@ -110,13 +107,7 @@ def replay_values() -> dict[str, list[Any]]:
     decca._LaneAt._lanes = lanes  # type: ignore[method-assign]
     decca.decca_totals = totals
     try:
-        with tempfile.TemporaryDirectory() as tmp:
-            s = Session(load_config(DATA / "DEMO.toml"), out_path=Path(tmp) / "D.OUT",
-                        force=True, history=1)
-            try:
-                s.run(max_cycles=120)
-            finally:
-                s.close()
+        replay(120)
     finally:
         decca.DeccaObservations.linearise = orig_lin  # type: ignore[method-assign]
         decca._LaneAt._lanes = orig_lanes  # type: ignore[method-assign]

@@ -18,8 +18,7 @@ from engine import native
 from engine.filter.measurements import Measurement
 from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState
-from engine.run.config import load_config
-from engine.run.session import Session
+from tests.native.replay import replay
 from tests.paths import DATA
 
 KERNEL = pr._kernel()
@@ -40,8 +39,7 @@ def _same(a: tuple[FilterState, np.ndarray], b: tuple[FilterState, np.ndarray]) 
 
 
 @pytest.fixture(scope="module")
-def replay_steps(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[FilterState, float,
-                                                                          FilterParams]]:
+def replay_steps() -> list[tuple[FilterState, float, FilterParams]]:
     """(state, Δt, params) of every prediction of 200 demo epochs and the thesis sample."""
     steps: list[tuple[FilterState, float, FilterParams]] = []
     real = cycle_mod.predict_step
@@ -51,17 +49,11 @@ def replay_steps(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[FilterS
         steps.append((state, dt, params))
         return real(state, dt, params)
 
-    out = tmp_path_factory.mktemp("kp")
     mp = pytest.MonkeyPatch()
     mp.setattr(cycle_mod, "predict_step", recording)
     try:
         for name, n in (("DEMO.toml", 200), ("920917_1.toml", None)):
-            s = Session(load_config(DATA / name), out_path=out / f"{name}.OUT", force=True,
-                        history=1)
-            try:
-                s.run(max_cycles=n)
-            finally:
-                s.close()
+            replay(n, DATA / name)
     finally:
         mp.undo()
     return steps
@@ -193,7 +185,7 @@ def _same_meas(a: Measurement, b: Measurement) -> None:
 
 
 @pytest.fixture(scope="module")
-def replay_rows(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[str, tuple, dict]]:
+def replay_rows() -> list[tuple[str, tuple, dict]]:
     """(function name, args, kwargs) of the measurement builders over 200 demo epochs."""
     calls: list[tuple[str, tuple, dict]] = []
     mp = pytest.MonkeyPatch()
@@ -206,12 +198,7 @@ def replay_rows(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[str, tup
 
         mp.setattr(cycle_mod, name, recording)
     try:
-        s = Session(load_config(DATA / "DEMO.toml"),
-                    out_path=tmp_path_factory.mktemp("kpm") / "D.OUT", force=True, history=1)
-        try:
-            s.run(max_cycles=200)
-        finally:
-            s.close()
+        replay(200)
     finally:
         mp.undo()
     return calls

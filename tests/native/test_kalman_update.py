@@ -13,7 +13,6 @@ the same state, and ``UVNAV_PURE=1`` runs the Python.
 from __future__ import annotations
 
 import math
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +27,7 @@ from engine.filter import kalman as kf
 from engine.filter.measurements import Measurement, _measurement
 from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState, add_fix_states
+from tests.native.replay import replay
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -90,8 +90,6 @@ def assert_same_update(state: FilterState, rows: Measurement, params: FilterPara
 @pytest.fixture(scope="module")
 def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
     """The (state, rows, params) of every update of the first 200 demo epochs."""
-    from engine.run.config import load_config
-    from engine.run.session import Session
 
     seen: list[tuple[FilterState, Measurement, FilterParams]] = []
     orig = cycle_mod.update
@@ -102,13 +100,7 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
 
     cycle_mod.update = record  # type: ignore[assignment]
     try:
-        cfg = load_config(ROOT / "data" / "DEMO.toml")
-        with tempfile.TemporaryDirectory() as tmp:
-            s = Session(cfg, out_path=Path(tmp) / "T.OUT", force=True, history=1)
-            try:
-                s.run(max_cycles=200)
-            finally:
-                s.close()
+        replay(200)
     finally:
         cycle_mod.update = orig  # type: ignore[assignment]
     assert len(seen) > 300

@@ -11,7 +11,6 @@ and without the kernel. The pure path is the one taken with ``UVNAV_PURE=1``.
 from __future__ import annotations
 
 import math
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -28,6 +27,7 @@ from engine import native
 from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
 from engine.lsq.statistics import delta0
+from tests.native.replay import replay
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -120,8 +120,6 @@ def check_ellipse(c2: np.ndarray) -> bool:
 def recorded() -> dict[str, list[Any]]:
     """The inputs of every step / finish / ellipse of the first 200 demo epochs (kernel off
     while recording, so each is recorded as the Python saw it)."""
-    from engine.run.config import load_config
-    from engine.run.session import Session
 
     rec: dict[str, list[Any]] = {"step": [], "finish": [], "ellipse": []}
     mp = pytest.MonkeyPatch()
@@ -145,12 +143,7 @@ def recorded() -> dict[str, list[Any]]:
     mp.setattr(adj, "_adjustment_py", fin)
     mp.setattr(conf, "_error_ellipse_py", ell)
     try:
-        s = Session(load_config(ROOT / "data" / "DEMO.toml"),
-                    out_path=Path(tempfile.mkdtemp()) / "T.OUT", force=True, history=1)
-        try:
-            s.run(max_cycles=200)
-        finally:
-            s.close()
+        replay(200)
     finally:
         mp.undo()
     return rec

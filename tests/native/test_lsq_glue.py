@@ -15,7 +15,6 @@ import dataclasses
 import gc
 import math
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +28,7 @@ from engine import native
 from engine.lsq import _kernel
 from engine.lsq.adjustment import gauss_newton
 from engine.lsq.fix import LopRow
+from tests.native.replay import replay as replay_demo
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -69,8 +69,6 @@ def same_row(got: Any, want: LopRow, same_values: bool = True) -> bool:
 def replay() -> dict[str, list[Any]]:
     """The compute_fix calls of the first 200 demo epochs and the model of each fix."""
     import engine.run.cycle as cyc
-    from engine.run.config import load_config
-    from engine.run.session import Session
 
     rec: dict[str, list[Any]] = {"calls": [], "models": []}
     mp = pytest.MonkeyPatch()
@@ -88,12 +86,7 @@ def replay() -> dict[str, list[Any]]:
     mp.setattr(cyc, "compute_fix", record)
     mp.setattr(fix, "_Model", Model)
     try:
-        s = Session(load_config(ROOT / "data" / "DEMO.toml"),
-                    out_path=Path(tempfile.mkdtemp()) / "T.OUT", force=True, history=1)
-        try:
-            s.run(max_cycles=200)
-        finally:
-            s.close()
+        replay_demo(200)
     finally:
         mp.undo()
     return rec

@@ -25,6 +25,7 @@ from hypothesis import strategies as st
 from engine import native
 from engine.io import outlog
 from engine.io.outlog import _N, KeyedLines, _render_rows_py
+from tests.native.replay import replay
 
 K = native._load("outfmt")[0]
 """The built kernel (whatever ``UVNAV_PURE`` says), or None: the kernel tests are skipped."""
@@ -47,21 +48,14 @@ def block_rows(head: dict, lines: KeyedLines) -> list[Row]:
 
 
 @pytest.fixture(scope="module")
-def replay_blocks(tmp_path_factory: pytest.TempPathFactory) -> list[list[Row]]:
+def replay_blocks() -> list[list[Row]]:
     """The block rows of 200 demo epochs and of the thesis sample, as a replay writes them."""
-    from engine.run.config import load_config
     from engine.run.records import cycle_block
-    from engine.run.session import Session
     from tests.paths import DATA
 
     out = []
     for cfg, n in ((DATA / "DEMO.toml", 200), (DATA / "920917_1.toml", 60)):
-        s = Session(load_config(cfg), out_path=tmp_path_factory.mktemp("o") / "R.OUT",
-                    force=True, history=1000)
-        try:
-            s.run(max_cycles=n)
-        finally:
-            s.close()
+        s = replay(n, cfg, history=1000)
         out.extend(block_rows(*cycle_block(r)) for r in s.history)
     assert len(out) > 200
     return out

@@ -14,9 +14,7 @@ import math
 import os
 import subprocess
 import sys
-import tempfile
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -28,7 +26,8 @@ import engine.geodesy.tmgrid as tmgrid
 from engine import native
 from engine.geodesy.ellipsoid import WGS84_ELLIPSOID, Ellipsoid
 from engine.geodesy.tmgrid import TMGrid
-from tests.paths import DATA, ROOT
+from tests.native.replay import replay
+from tests.paths import ROOT
 
 KERNEL = tmgrid._K
 needs_kernel = pytest.mark.skipif(KERNEL is None, reason="engine.native.tmgrid not built")
@@ -71,8 +70,6 @@ def _check_inverse(grid: TMGrid, x: Any, y: Any) -> None:
 @pytest.fixture(scope="module")
 def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
     """The grid calls of the first 200 demo epochs (grid, argument, argument), recorded."""
-    from engine.run.config import load_config
-    from engine.run.session import Session
 
     calls: dict[str, list[tuple[TMGrid, Any, Any]]] = {"forward": [], "_forward_full": [],
                                                         "inverse": []}
@@ -88,13 +85,7 @@ def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
     for name in calls:
         mp.setattr(TMGrid, name, recorder(name))
     try:
-        with tempfile.TemporaryDirectory() as tmp:
-            s = Session(load_config(DATA / "DEMO.toml"), out_path=Path(tmp) / "D.OUT",
-                        force=True, history=1)
-            try:
-                s.run(max_cycles=200)
-            finally:
-                s.close()
+        replay(200)
     finally:
         mp.undo()
     return calls

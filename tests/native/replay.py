@@ -1,0 +1,24 @@
+"""One short replay for the kernel tests: the values a real run hands to a kernel."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from engine.run.config import load_config
+from engine.run.session import Session
+from tests.paths import DATA
+
+
+def replay(max_cycles: int | None = 200, config: Path = DATA / "DEMO.toml",
+           history: int = 1) -> Session:
+    """Replay the first ``max_cycles`` records of ``config`` (all with None), the ``.OUT`` in a
+    temporary folder; returns the closed session (its ``history`` keeps the last results)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        session = Session(load_config(config), out_path=Path(tmp) / "R.OUT", force=True,
+                          history=history)
+        try:
+            session.run(max_cycles=max_cycles)
+        finally:
+            session.close()
+    return session
