@@ -27,16 +27,7 @@ def _kernel() -> ModuleType | None:
     """:data:`_K`, resolving and binding it on first use."""
     global _K
     if _K is _UNRESOLVED:
-        k = native.kernel("kalman_predict")
-        if k is not None:
-            from engine.native import blas
-
-            addresses = blas.all_addresses()
-            if addresses is None:
-                k = None
-            else:
-                k._bind(addresses)
-        _K = k
+        _K = native.bound_kernel("kalman_predict")
     return _K
 
 

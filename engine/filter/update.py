@@ -40,16 +40,7 @@ def _kernel() -> ModuleType | None:
     """Resolve :data:`_K` (once per process; :func:`_reset_kernel` forgets it, for tests)."""
     global _K
     if _K is _UNRESOLVED:
-        k = native.kernel("kalman_update")
-        if k is not None:
-            from engine.native import blas as routines
-
-            addresses = routines.all_addresses()
-            if addresses is None:
-                k = None
-            else:
-                k._bind(addresses)
-        _K = k
+        _K = native.bound_kernel("kalman_update")
     return _K  # type: ignore[return-value]
 
 

@@ -66,6 +66,30 @@ def kernel(name: str) -> ModuleType | None:
     return _load(name)[0]
 
 
+@cache
+def _bound(name: str) -> ModuleType | None:
+    """Kernel ``name`` after its ``_bind(addresses)`` with numpy's and SciPy's routines
+    (:func:`engine.native.blas.all_addresses`), or None if not built or no bundled OpenBLAS."""
+    module = _load(name)[0]
+    if module is None:
+        return None
+    from engine.native import blas
+
+    addresses = blas.all_addresses()
+    if addresses is None:
+        return None
+    module._bind(addresses)
+    return module
+
+
+def bound_kernel(name: str) -> ModuleType | None:
+    """:func:`kernel`, bound to the BLAS/LAPACK routines it calls (once per process). Call it
+    on first use, not at import: finding the routines loads both OpenBLAS libraries."""
+    if pure_requested():
+        return None
+    return _bound(name)
+
+
 def status(name: str) -> str:
     """One line on kernel ``name``: "compiled", "pure (UVNAV_PURE=1)", "not built (…)" or
     "stale build (…)" — for the bench and ``uvnav --version``."""
