@@ -154,6 +154,7 @@ class UVNAVApp(App[None]):
         nmea_sender: NmeaSender | None = None,
     ) -> None:
         super().__init__()
+        self._collector_held = False
         self.nmea_sender = nmea_sender
         """Where every cycle's MPP goes as NMEA 0183 (``uvnav --nmea-out``), or None."""
         self.base_config = config
@@ -199,7 +200,24 @@ class UVNAVApp(App[None]):
         dialog, so that Return starts the run as soon as before. :mod:`engine.api` imports it
         on first use: the first paint needs only the configuration and the data files
         (issue 14, start-up time)."""
+        self.release_collector()
         self.run_worker(load_engine, thread=True, group="preload", exit_on_error=False)
+
+    def hold_collector_until_painted(self) -> None:
+        """Pause the cyclic garbage collector until the first frame is on screen
+        (:meth:`release_collector`): building the console makes tens of thousands of objects,
+        and the collector scanned them several times over before the first paint (a full
+        collection alone took 20–30 ms; issue 14, start-up time). ``uvnav`` calls it; objects
+        are collected as before once the frame is painted. Call it only if the collector is on
+        (or was, until the caller paused it for the import of this module)."""
+        gc.disable()
+        self._collector_held = True
+
+    def release_collector(self) -> None:
+        """Switch the collector back on if :meth:`hold_collector_until_painted` paused it."""
+        if self._collector_held:
+            self._collector_held = False
+            gc.enable()
 
     @property
     def datum_names(self) -> list[str]:

@@ -13,6 +13,7 @@ Bad input is reported with file, line and field and exit status 2, never a trace
 from __future__ import annotations
 
 import argparse
+import gc
 import sys
 from pathlib import Path
 
@@ -92,15 +93,25 @@ def run_console(argv: list[str]) -> int:
     except (InputError, OSError) as exc:
         print(f"uvnav: {exc}", file=sys.stderr)
         return 2
-    from uvnav_tui.app import UVNAVApp
+    collector_on = gc.isenabled()
+    gc.disable()  # the import and the construction too (UVNAVApp.hold_collector_until_painted)
+    try:
+        from uvnav_tui.app import UVNAVApp
 
-    app = UVNAVApp(cfg, dev_mode=args.dev, hardcopy_dir=Path(args.hardcopy_dir), data=data,
-                   nmea_sender=sender)
+        app = UVNAVApp(cfg, dev_mode=args.dev, hardcopy_dir=Path(args.hardcopy_dir),
+                       data=data, nmea_sender=sender)
+    except BaseException:
+        if collector_on:
+            gc.enable()
+        raise
+    if collector_on:
+        app.hold_collector_until_painted()
     try:
         app.run()
     finally:
         if sender is not None:
             sender.close()
+        app.release_collector()
     return 0
 
 
