@@ -907,23 +907,32 @@ static PyObject *py_lane_check(PyObject *m, PyObject *const *args, Py_ssize_t na
     return Py_BuildValue("(dN)", expected, slip);
 }
 
+/* Two non-null routine addresses from args "OO" (fmt names the function for errors);
+ * 0, or -1 with an exception set. */
+static int two_addresses(PyObject *args, const char *fmt, void **pa, void **pb)
+{
+    PyObject *a, *b;
+    if (!PyArg_ParseTuple(args, fmt, &a, &b))
+        return -1;
+    *pa = PyLong_AsVoidPtr(a);
+    if (*pa == NULL && PyErr_Occurred())
+        return -1;
+    *pb = PyLong_AsVoidPtr(b);
+    if (*pb == NULL && PyErr_Occurred())
+        return -1;
+    if (*pa == NULL || *pb == NULL) {
+        PyErr_SetString(PyExc_ValueError, "null routine address");
+        return -1;
+    }
+    return 0;
+}
+
 /* _bind_blas(cblas_dgemv address, cblas_ddot address): numpy's (ILP64) routines. */
 static PyObject *py_bind_blas(PyObject *m, PyObject *args)
 {
-    PyObject *a, *b;
     void *pa, *pb;
-    if (!PyArg_ParseTuple(args, "OO:_bind_blas", &a, &b))
+    if (two_addresses(args, "OO:_bind_blas", &pa, &pb) < 0)
         return NULL;
-    pa = PyLong_AsVoidPtr(a);
-    if (pa == NULL && PyErr_Occurred())
-        return NULL;
-    pb = PyLong_AsVoidPtr(b);
-    if (pb == NULL && PyErr_Occurred())
-        return NULL;
-    if (pa == NULL || pb == NULL) {
-        PyErr_SetString(PyExc_ValueError, "null routine address");
-        return NULL;
-    }
     p_dgemv = (uvn_dgemv_t)pa;
     p_ddot = (uvn_ddot_t)pb;
     Py_RETURN_NONE;
@@ -932,20 +941,9 @@ static PyObject *py_bind_blas(PyObject *m, PyObject *args)
 /* _bind_geod(geod_init address, geod_inverse address) */
 static PyObject *py_bind_geod(PyObject *m, PyObject *args)
 {
-    PyObject *a, *b;
     void *pa, *pb;
-    if (!PyArg_ParseTuple(args, "OO:_bind_geod", &a, &b))
+    if (two_addresses(args, "OO:_bind_geod", &pa, &pb) < 0)
         return NULL;
-    pa = PyLong_AsVoidPtr(a);
-    if (pa == NULL && PyErr_Occurred())
-        return NULL;
-    pb = PyLong_AsVoidPtr(b);
-    if (pb == NULL && PyErr_Occurred())
-        return NULL;
-    if (pa == NULL || pb == NULL) {
-        PyErr_SetString(PyExc_ValueError, "null routine address");
-        return NULL;
-    }
     p_geod_init = (geod_init_t)pa;
     p_geod_inverse = (geod_inverse_t)pb;
     Py_RETURN_NONE;
