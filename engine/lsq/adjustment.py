@@ -255,7 +255,9 @@ def gauss_newton(
 
     A ``linearise`` object may also offer ``linearise.arrays(x) -> (A, b, C_l)``: the same
     numbers as float64 ndarrays in a tuple, without the Linearisation (the fix's model does);
-    it is then called instead.
+    it is then called instead. With ``arrays`` it may offer ``linearise.rows(x)``: A as a
+    row-major list of n·u floats, b as a list of n floats, C_l as ``arrays`` gives it, the
+    same numbers; the compiled kernel then takes the used rows from the lists.
 
     Stops when every |δx̂_j| < ``epsilon`` (thesis ε, default 1 m, in the parameters' units), at
     most ``max_iter`` iterations. Statistics come from the last linearisation. ``alpha``/``power``
@@ -278,9 +280,10 @@ def gauss_newton(
     _settings_ok(epsilon, max_iter, s02, cond_max, max_axis_ratio, alpha, power)
     x = np.array(x0, dtype=float)
     used_b = np.array(used, dtype=bool)
+    arrays = getattr(linearise, "arrays", None)
     run = _Run(x if x.ndim == 1 else x.reshape(-1),
                used_b if used_b.ndim == 1 else used_b.reshape(-1),
-               getattr(linearise, "arrays", None))
+               arrays, None if arrays is None else getattr(linearise, "rows", None))
     u = run.x.size
     sq = None if damping is None else _damping_roots(damping, run.idx, run.used.size)
     try:
@@ -309,11 +312,14 @@ class _Run:
     """Internal progress of :func:`gauss_newton`: the current x, the used slots, the iteration
     count, the step lengths [m] and whether it converged."""
 
-    __slots__ = ("x", "used", "idx", "block", "it", "steps", "converged", "arrays")
+    __slots__ = ("x", "used", "idx", "block", "it", "steps", "converged", "arrays", "rows")
 
     def __init__(self, x: np.ndarray, used: np.ndarray,
-                 arrays: Callable[[np.ndarray], tuple[np.ndarray, ...]] | None = None) -> None:
+                 arrays: Callable[[np.ndarray], tuple[np.ndarray, ...]] | None = None,
+                 rows: Callable[[np.ndarray], tuple[list[float], list[float], np.ndarray]]
+                 | None = None) -> None:
         self.arrays = arrays
+        self.rows = rows  # the model's lists (gauss_newton), used with the compiled kernel
         self.x = x
         self.used = used
         self.idx = used.nonzero()[0]
@@ -368,10 +374,30 @@ def _iterate(
     if k is None:
         return _iterate_py(linearise, run, sq, epsilon, max_iter, cond_max)
     step = k.step
+    rows = run.rows if sq is None else None
+    if rows is not None:
+        step_rows = k.step_rows
+        idx = run.idx.tolist()
     while True:
         run.it += 1
-        Au, bu, Clu = _evaluate(linearise, run, sq)
-        res = step(Au, bu, Clu, cond_max, run.x)
+        if rows is None:
+            Au, bu, Clu = _evaluate(linearise, run, sq)
+            res = step(Au, bu, Clu, cond_max, run.x)
+        else:  # the used rows gathered from the model's lists in the kernel (no slicing)
+            try:
+                A, b, Cl = rows(run.x)
+            except _MODEL_ERRORS as exc:
+                raise _Stop(f"model evaluation failed: {exc}") from None
+            got = step_rows(A, b, Cl, idx, cond_max, run.x)
+            if got is None:  # lists it does not take: the arrays as ``arrays`` converts them
+                try:
+                    arr = np.array(A).reshape(len(b), run.x.size), np.array(b), Cl
+                except _MODEL_ERRORS as exc:
+                    raise _Stop(f"model evaluation failed: {exc}") from None
+                Au, bu, Clu = _used_rows(run, *arr, None)
+                res = step(Au, bu, Clu, cond_max, run.x)
+            else:
+                Au, bu, Clu, res = got
         if res is None:
             sol = _solve(Au, bu, Clu, cond_max)
             big = _step_py(run, sol)
@@ -433,6 +459,12 @@ def _evaluate(
         A = np.asarray(lin.A, dtype=float)
         b = np.asarray(lin.b, dtype=float)
         Cl = np.asarray(lin.Cl, dtype=float)
+    return _used_rows(run, A, b, Cl, sq)
+
+
+def _used_rows(run: _Run, A: np.ndarray, b: np.ndarray, Cl: np.ndarray,
+               sq: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_evaluate`'s used rows of a linearisation's arrays, after the shape check."""
     n, u = run.used.size, run.x.size
     if A.shape != (n, u) or b.shape != (n,) or Cl.shape != (n, n):
         raise ValueError(

@@ -211,10 +211,18 @@ class _Model:
 
     def arrays(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`__call__`'s A (n, 2), b (n,) and C_l (n, n) as a tuple (the adjustment core
-        takes them so, :func:`engine.lsq.adjustment.gauss_newton`).
+        takes them so, :func:`engine.lsq.adjustment.gauss_newton`): :meth:`rows` converted
+        once."""
+        A, b, Cl = self.rows(x)
+        return np.array(A).reshape(self.n_slots, 2), np.array(b), Cl
 
-        Rows and misclosures are assembled as Python floats and converted once; C_l starts
-        as the identity (unused slots: variance 1, Pg 821) with the system blocks written in.
+    def rows(self, x: np.ndarray) -> tuple[list[float], list[float], np.ndarray]:
+        """:meth:`arrays` before the conversion: A as a row-major list of 2n floats (∂/∂x,
+        ∂/∂y of each slot), b (m) as a list of n floats and C_l (m²) as an (n, n) array (the
+        compiled adjustment takes the used rows from the lists, ``gauss_newton``).
+
+        C_l starts as the identity (unused slots: variance 1, Pg 821) with the system blocks
+        written in.
         """
         n = self.n_slots
         A = [0.0] * (2 * n)  # row-major (n, 2): ∂/∂x, ∂/∂y of each slot
@@ -224,7 +232,7 @@ class _Model:
         p = Point(self.grid, self.geodesic, x0, y0)
         for slot0, obs in self.parts:
             obs.linearise(p, slot0, A, b, Cl)
-        return np.array(A).reshape(n, 2), np.array(b), Cl
+        return A, b, Cl
 
 
 @lru_cache(maxsize=8)

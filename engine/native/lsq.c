@@ -1,9 +1,11 @@
 /* Compiled twin of the least-squares fix's numeric core (engine/lsq), bit for bit.
  *
- * Three entry points, each the happy path of Python code kept beside it (the `_..._py` twins):
+ * The entry points, each the happy path of Python code kept beside it (the `_..._py` twins):
  *   step(Au, bu, Clu, cond_max, x)  one Gauss-Newton iteration (adjustment._solve + the step of
  *                                   adjustment._iterate): W = C_l^-1, A^T W, (A^T W A)^-1 with
  *                                   its conditioning guard, G = C_x A^T W, dx = G b, x + dx;
+ *   step_rows(A, b, Cl, idx, ...)   the used rows of the model's lists (adjustment._evaluate)
+ *                                   gathered into new arrays, then step() on them;
  *   finish(sol, used, scale_vcv, d0) the residuals, S^2, RMS, drms and the per-slot statistics of
  *                                   adjustment._adjustment / statistics.used_statistics;
  *   ellipse(C2)                     confidence.error_ellipse (closed form);
@@ -99,10 +101,29 @@ static int buf_c_contiguous(const buf_t *b)
                        (j) * (b).view.strides[1]))
 #define AT1(b, i) (*(const double *)((const char *)(b).view.buf + (i) * (b).view.strides[0]))
 
+/* The shape tuples of the small arrays made per fix, built once: (rows,) at [rows][0],
+ * (rows, cols) at [rows][cols + 1] (rows, cols < SHAPES). */
+#define SHAPES (MAXM + 1)
+static PyObject *shape_cache[SHAPES][SHAPES + 1];
+
+/* The shape tuple (rows,) (cols < 0) or (rows, cols): a new reference or NULL (error). */
+static PyObject *shape_of(Py_ssize_t rows, Py_ssize_t cols)
+{
+    if (rows < 0 || rows >= SHAPES || cols >= SHAPES)
+        return cols < 0 ? Py_BuildValue("(n)", rows) : Py_BuildValue("(nn)", rows, cols);
+    PyObject **slot = &shape_cache[rows][cols < 0 ? 0 : cols + 1];
+    if (*slot == NULL) {
+        *slot = cols < 0 ? Py_BuildValue("(n)", rows) : Py_BuildValue("(nn)", rows, cols);
+        if (*slot == NULL)
+            return NULL;
+    }
+    return Py_NewRef(*slot);
+}
+
 /* numpy.empty(shape) (cols < 0: 1-D) and its data pointer. New reference or NULL (error). */
 static PyObject *new_array(Py_ssize_t rows, Py_ssize_t cols, double **data)
 {
-    PyObject *shape = cols < 0 ? Py_BuildValue("(n)", rows) : Py_BuildValue("(nn)", rows, cols);
+    PyObject *shape = shape_of(rows, cols);
     if (shape == NULL)
         return NULL;
     PyObject *arr = PyObject_CallOneArg(np_empty, shape);
@@ -177,30 +198,16 @@ PyDoc_STRVAR(step_doc,
 "None where the Python must run (other shapes, a singular C_l, a normal matrix failing the\n"
 "guard, non-finite misclosures or step).");
 
-static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* step's work on raw inputs: Au (m, 2) C-contiguous, bu (m,) contiguous, C_l's element (i, j)
+ * at cl[i * cs0 + j * cs1] (strides in doubles), x = (x0, x1); ao, bo, clo: the arrays the
+ * solution holds as Au, bu, Clu. The result of step() (None: declined), or NULL (error). */
+static PyObject *step_core(PyObject *ao, PyObject *bo, PyObject *clo, const double *Au,
+                           const double *bu, const double *cl, Py_ssize_t cs0, Py_ssize_t cs1,
+                           Py_ssize_t m, double cond_max, double x0, double x1)
 {
-    if (nargs != 5) {
-        PyErr_SetString(PyExc_TypeError, "step(Au, bu, Clu, cond_max, x)");
-        return NULL;
-    }
-    if (need_bound() < 0)
-        return NULL;
-    double cond_max = PyFloat_AsDouble(args[3]);
-    if (cond_max == -1.0 && PyErr_Occurred())
-        return NULL;
-    buf_t a = {0}, bb = {0}, cl = {0}, xb = {0};
     PyObject *res = NULL;
     PyObject *Wo = NULL, *atwo = NULL, *cxo = NULL, *gaino = NULL, *dxo = NULL, *xo = NULL;
     PyObject *cx2 = NULL, *stepo = NULL;
-    if (buf_get(args[0], &a, 2) < 0 || buf_get(args[1], &bb, 1) < 0 ||
-        buf_get(args[2], &cl, 2) < 0 || buf_get(args[4], &xb, 1) < 0)
-        goto none;
-    Py_ssize_t m = a.view.shape[0];
-    if (a.view.shape[1] != 2 || m < 2 || m > MAXM || bb.view.shape[0] != m ||
-        cl.view.shape[0] != m || cl.view.shape[1] != m || xb.view.shape[0] != 2 ||
-        !buf_c_contiguous(&a) || !buf_c_contiguous(&bb))
-        goto none;
-    const double *Au = (const double *)a.view.buf, *bu = (const double *)bb.view.buf;
 
     /* W = inv(C_l): numpy copies to Fortran order, solves with an identity right-hand side */
     double fa[MAXM * MAXM];
@@ -212,7 +219,7 @@ static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t narg
     double wf[MAXM * MAXM];
     for (Py_ssize_t j = 0; j < m; j++)
         for (Py_ssize_t i = 0; i < m; i++) {
-            fa[i + j * m] = AT2(cl, i, j);
+            fa[i + j * m] = cl[i * cs0 + j * cs1];
             wf[i + j * m] = (i == j) ? 1.0 : 0.0;
         }
     int64_t n64 = m, info = 0;
@@ -273,8 +280,8 @@ static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t narg
     xo = new_array(2, -1, &xn);
     if (xo == NULL)
         goto error;
-    xn[0] = AT1(xb, 0) + dx[0];
-    xn[1] = AT1(xb, 1) + dx[1];
+    xn[0] = x0 + dx[0];
+    xn[1] = x1 + dx[1];
     stepo = call_py_hypot(dx[0], dx[1]);
     if (stepo == NULL)
         goto error;
@@ -284,7 +291,7 @@ static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t narg
     PyObject *sol = sol_type->tp_alloc(sol_type, 9);
     if (sol == NULL)
         goto error;
-    PyObject *items[9] = {args[0], args[1], args[2], Wo, atwo, cxo, gaino, dxo, cx2};
+    PyObject *items[9] = {ao, bo, clo, Wo, atwo, cxo, gaino, dxo, cx2};
     for (int k = 0; k < 9; k++) {
         Py_INCREF(items[k]);
         PyTuple_SET_ITEM(sol, k, items[k]);
@@ -295,8 +302,7 @@ static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t narg
     res = Py_BuildValue("(NOOd)", sol, xo, stepo, big);
     goto done;
 none:
-    res = Py_None;
-    Py_INCREF(res);
+    res = Py_NewRef(Py_None);
     goto done;
 error:
     res = NULL;
@@ -309,8 +315,135 @@ done:
     Py_XDECREF(xo);
     Py_XDECREF(cx2);
     Py_XDECREF(stepo);
+    return res;
+}
+
+static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "step(Au, bu, Clu, cond_max, x)");
+        return NULL;
+    }
+    if (need_bound() < 0)
+        return NULL;
+    double cond_max = PyFloat_AsDouble(args[3]);
+    if (cond_max == -1.0 && PyErr_Occurred())
+        return NULL;
+    buf_t a = {0}, bb = {0}, cl = {0}, xb = {0};
+    PyObject *res;
+    if (buf_get(args[0], &a, 2) < 0 || buf_get(args[1], &bb, 1) < 0 ||
+        buf_get(args[2], &cl, 2) < 0 || buf_get(args[4], &xb, 1) < 0)
+        goto none;
+    Py_ssize_t m = a.view.shape[0];
+    if (a.view.shape[1] != 2 || m < 2 || m > MAXM || bb.view.shape[0] != m ||
+        cl.view.shape[0] != m || cl.view.shape[1] != m || xb.view.shape[0] != 2 ||
+        !buf_c_contiguous(&a) || !buf_c_contiguous(&bb))
+        goto none;
+    res = step_core(args[0], args[1], args[2], (const double *)a.view.buf,
+                    (const double *)bb.view.buf, (const double *)cl.view.buf,
+                    cl.view.strides[0] / 8, cl.view.strides[1] / 8, m, cond_max, AT1(xb, 0),
+                    AT1(xb, 1));
+    goto done;
+none:
+    res = Py_NewRef(Py_None);
+done:
     buf_release(&a);
     buf_release(&bb);
+    buf_release(&cl);
+    buf_release(&xb);
+    return res;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* step_rows */
+
+PyDoc_STRVAR(step_rows_doc,
+"step_rows(A, b, Cl, idx, cond_max, x) -> (Au, bu, Clu, step's result or None) or None\n"
+"\n"
+"The used rows of one linearisation and step() on them: A a list of 2n floats (row-major\n"
+"(n, 2)), b a list of n floats, Cl (n, n) float64 (any strides), idx the used slots (a list\n"
+"of ints), x (2,). Au (m, 2), bu (m,), Clu (m, m) are new arrays holding the numbers of\n"
+"numpy.array(A).reshape(n, 2)[idx], numpy.array(b)[idx] and Cl[ix_(idx, idx)]. None where\n"
+"the lists are not exactly that (other lengths, an item not a float, a slot out of range,\n"
+"m < 2 or > 32): the Python builds the arrays then.");
+
+static PyObject *lsq_step_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "step_rows(A, b, Cl, idx, cond_max, x)");
+        return NULL;
+    }
+    if (need_bound() < 0)
+        return NULL;
+    double cond_max = PyFloat_AsDouble(args[4]);
+    if (cond_max == -1.0 && PyErr_Occurred())
+        return NULL;
+    PyObject *al = args[0], *bl = args[1], *il = args[3];
+    if (!PyList_CheckExact(al) || !PyList_CheckExact(bl) || !PyList_CheckExact(il))
+        return Py_NewRef(Py_None);
+    Py_ssize_t n = PyList_GET_SIZE(bl), m = PyList_GET_SIZE(il);
+    if (PyList_GET_SIZE(al) != 2 * n || m < 2 || m > MAXM)
+        return Py_NewRef(Py_None);
+    Py_ssize_t slot[MAXM];
+    for (Py_ssize_t j = 0; j < m; j++) {
+        PyObject *o = PyList_GET_ITEM(il, j);
+        if (!PyLong_CheckExact(o))
+            return Py_NewRef(Py_None);
+        Py_ssize_t s = PyLong_AsSsize_t(o);
+        if (s == -1 && PyErr_Occurred()) {
+            PyErr_Clear();
+            return Py_NewRef(Py_None);
+        }
+        if (s < 0 || s >= n)
+            return Py_NewRef(Py_None);
+        slot[j] = s;
+    }
+    for (Py_ssize_t j = 0; j < m; j++) {
+        Py_ssize_t s = slot[j];
+        if (!PyFloat_CheckExact(PyList_GET_ITEM(al, 2 * s)) ||
+            !PyFloat_CheckExact(PyList_GET_ITEM(al, 2 * s + 1)) ||
+            !PyFloat_CheckExact(PyList_GET_ITEM(bl, s)))
+            return Py_NewRef(Py_None);
+    }
+    buf_t cl = {0}, xb = {0};
+    PyObject *res = NULL, *ao = NULL, *bo = NULL, *clo = NULL, *st = NULL;
+    if (buf_get(args[2], &cl, 2) < 0 || buf_get(args[5], &xb, 1) < 0)
+        goto none;
+    if (cl.view.shape[0] != n || cl.view.shape[1] != n || xb.view.shape[0] != 2)
+        goto none;
+    double *Au, *bu, *Clu;
+    ao = new_array(m, 2, &Au);
+    if (ao == NULL)
+        goto error;
+    bo = new_array(m, -1, &bu);
+    if (bo == NULL)
+        goto error;
+    clo = new_array(m, m, &Clu);
+    if (clo == NULL)
+        goto error;
+    for (Py_ssize_t j = 0; j < m; j++) {
+        Py_ssize_t s = slot[j];
+        Au[2 * j] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(al, 2 * s));
+        Au[2 * j + 1] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(al, 2 * s + 1));
+        bu[j] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(bl, s));
+        for (Py_ssize_t k = 0; k < m; k++)
+            Clu[j * m + k] = AT2(cl, s, slot[k]);
+    }
+    st = step_core(ao, bo, clo, Au, bu, Clu, m, 1, m, cond_max, AT1(xb, 0), AT1(xb, 1));
+    if (st == NULL)
+        goto error;
+    res = PyTuple_Pack(4, ao, bo, clo, st);
+    goto done;
+none:
+    res = Py_NewRef(Py_None);
+    goto done;
+error:
+    res = NULL;
+done:
+    Py_XDECREF(ao);
+    Py_XDECREF(bo);
+    Py_XDECREF(clo);
+    Py_XDECREF(st);
     buf_release(&cl);
     buf_release(&xb);
     return res;
@@ -831,6 +964,7 @@ static PyMethodDef methods[] = {
     {"row", (PyCFunction)(void (*)(void))lsq_row, METH_FASTCALL, row_doc},
     {"_bind", (PyCFunction)(void (*)(void))lsq_bind, METH_FASTCALL, bind_doc},
     {"step", (PyCFunction)(void (*)(void))lsq_step, METH_FASTCALL, step_doc},
+    {"step_rows", (PyCFunction)(void (*)(void))lsq_step_rows, METH_FASTCALL, step_rows_doc},
     {"finish", (PyCFunction)(void (*)(void))lsq_finish, METH_FASTCALL, finish_doc},
     {"ellipse", (PyCFunction)(void (*)(void))lsq_ellipse, METH_FASTCALL, ellipse_doc},
     {"worst", (PyCFunction)(void (*)(void))lsq_worst, METH_FASTCALL, worst_doc},

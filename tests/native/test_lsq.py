@@ -249,6 +249,69 @@ def test_ellipse_edge_cases() -> None:
     assert K.ellipse(np.eye(3)) is None and K.ellipse(np.eye(2, dtype=np.float32)) is None
 
 
+def check_step_rows(A: np.ndarray, b: np.ndarray, Cl: np.ndarray, idx: list[int],
+                    x: np.ndarray, cond_max: float = COND_MAX) -> bool:
+    """``step_rows`` on the model's lists equals ``step`` on the used rows as
+    ``adjustment._evaluate`` slices them (new arrays with the same numbers); True when its
+    step took the case."""
+    got = K.step_rows(A.ravel().tolist(), b.tolist(), Cl, list(idx), cond_max, x)
+    assert got is not None  # lists of floats, slots in range: always gathered
+    Au, bu, Clu, res = got
+    ix = np.array(idx)
+    want = A[ix], b[ix], Cl[np.ix_(ix, ix)]
+    for a, w in zip((Au, bu, Clu), want, strict=True):
+        assert same(a, w) and a.flags.c_contiguous and a.flags.writeable
+    ref = K.step(*want, cond_max, x)
+    if ref is None or res is None:
+        assert ref is None and res is None
+        return False
+    for name, a, w in zip(adj._Solution._fields, res[0], ref[0], strict=True):
+        assert same(a, w), name
+    assert res[0][0] is Au and res[0][1] is bu and res[0][2] is Clu
+    assert all(same(a, w) for a, w in zip(res[1:], ref[1:], strict=True))
+    return check_step(*want, x, cond_max)
+
+
+@needs_kernel
+def test_replay_step_rows_are_bit_identical(recorded: dict[str, list[Any]]) -> None:
+    for Au, bu, Clu, x in recorded["step"]:  # the used rows laid out behind two unused slots
+        m = bu.size
+        A, b, Cl = np.zeros((m + 2, 2)), np.zeros(m + 2), np.eye(m + 2)
+        A[2:], b[2:], Cl[2:, 2:] = Au, bu, Clu
+        assert check_step_rows(A, b, Cl, list(range(2, m + 2)), x)
+
+
+@needs_kernel
+@settings(max_examples=300, deadline=None)
+@given(problems(), st.integers(0, 2**32 - 1))
+def test_generated_step_rows_are_bit_identical(p: tuple[np.ndarray, ...], seed: int) -> None:
+    A, b, Cl, x = p
+    rng = np.random.default_rng(seed)
+    m = b.size
+    n = m + int(rng.integers(0, 4))
+    idx = np.sort(rng.choice(n, m, replace=False))  # any layout of the used slots
+    Af, bf = rng.normal(0.0, 1.0, (n, 2)), rng.normal(0.0, 1.0, n)
+    Clf = np.eye(n)
+    Af[idx], bf[idx], Clf[np.ix_(idx, idx)] = A, b, Cl
+    check_step_rows(Af, bf, Clf, idx.tolist(), x)
+    check_step_rows(Af, bf, np.asfortranarray(Clf), idx.tolist(), x)  # any strides of C_l
+
+
+@needs_kernel
+def test_step_rows_declines_what_it_does_not_gather() -> None:
+    A, b, Cl, x = [1.0, 0.0, 0.0, 1.0, 1.0, 1.0], [1.0, 2.0, 3.0], np.eye(3), np.zeros(2)
+    assert K.step_rows(A, b, Cl, [0, 1, 2], COND_MAX, x) is not None
+    for args in ((A[:-1], b, Cl, [0, 1, 2]),  # 2n floats
+                 ([1, 0.0, 0.0, 1.0, 1.0, 1.0], b, Cl, [0, 1, 2]),  # an int, not a float
+                 (A, [1.0, np.float64(2.0), 3.0], b and Cl, [0, 1, 2]),  # a numpy float
+                 (A, b, Cl, [0, 1, 3]), (A, b, Cl, [-1, 0, 1]), (A, b, Cl, [0]),  # slots
+                 (A, b, Cl, (0, 1, 2)), (tuple(A), b, Cl, [0, 1, 2]),  # not lists
+                 (A, b, np.eye(4), [0, 1, 2]), (A, b, np.eye(3, dtype=np.float32), [0, 1, 2])):
+        assert K.step_rows(*args, COND_MAX, x) is None
+    got = K.step_rows(A, b, np.zeros((3, 3)), [0, 1, 2], COND_MAX, x)
+    assert got is not None and got[3] is None  # gathered, then step declines (singular C_l)
+
+
 @needs_kernel
 def test_declined_cases_go_to_python() -> None:
     A = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])

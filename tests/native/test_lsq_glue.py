@@ -125,11 +125,25 @@ def test_replay_model_arrays_are_the_linearisation(replay: dict[str, list[Any]])
         lin = model(x)
         A, b, Cl = model.arrays(x)
         assert same(A, lin.A) and same(b, lin.b) and same(Cl, lin.Cl)
+        Al, bl, Cl2 = model.rows(x)  # the lists the compiled adjustment gathers from
+        assert type(Al) is list and type(bl) is list
+        assert all(type(v) is float for v in Al + bl)
+        assert same(np.array(Al).reshape(-1, 2), lin.A) and same(np.array(bl), lin.b)
+        assert same(Cl2, lin.Cl)
 
 
 def test_replay_adjustments_with_and_without_arrays(replay: dict[str, list[Any]]) -> None:
-    """gauss_newton on the model (arrays taken) and on a plain function calling it (the
-    Linearisation path) gives the same Adjustment, with and without the kernel."""
+    """gauss_newton on the model (rows or arrays taken), on the model without its rows (arrays
+    taken) and on a plain function calling it (the Linearisation path) gives the same
+    Adjustment, with and without the kernel, for consecutive and scattered used slots."""
+
+    class ArraysOnly:
+        def __init__(self, model: Any) -> None:
+            self.model, self.arrays = model, model.arrays
+
+        def __call__(self, x: np.ndarray) -> Any:
+            return self.model(x)
+
     for pure in (False, True):
         mp = pytest.MonkeyPatch()
         if pure:
@@ -137,13 +151,16 @@ def test_replay_adjustments_with_and_without_arrays(replay: dict[str, list[Any]]
         try:
             for (a, _k), model in list(zip(replay["calls"], replay["models"], strict=False))[:60]:
                 x0 = np.array(a[2], dtype=float)
-                used = np.array([True] * 5 + [False] * (model.n_slots - 5))
-                got = gauss_newton(model, x0, used)
-                want = gauss_newton(lambda x, _m=model: _m(x), x0, used)
-                for f in dataclasses.fields(want):
-                    if f.name != "variance_test":
-                        assert same(getattr(got, f.name), getattr(want, f.name)), f.name
-                assert got.variance_test == want.variance_test
+                n = model.n_slots
+                for used in (np.array([True] * 5 + [False] * (n - 5)),
+                             np.array([True, False, True, True, True] + [False] * (n - 5))):
+                    want = gauss_newton(lambda x, _m=model: _m(x), x0, used)
+                    for got in (gauss_newton(model, x0, used),
+                                gauss_newton(ArraysOnly(model), x0, used)):
+                        for f in dataclasses.fields(want):
+                            if f.name != "variance_test":
+                                assert same(getattr(got, f.name), getattr(want, f.name)), f.name
+                        assert got.variance_test == want.variance_test
         finally:
             mp.undo()
 
