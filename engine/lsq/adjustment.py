@@ -312,7 +312,8 @@ class _Run:
     """Internal progress of :func:`gauss_newton`: the current x, the used slots, the iteration
     count, the step lengths [m] and whether it converged."""
 
-    __slots__ = ("x", "used", "idx", "block", "it", "steps", "converged", "arrays", "rows")
+    __slots__ = ("x", "used", "idx", "slots", "block", "it", "steps", "converged", "arrays",
+                 "rows")
 
     def __init__(self, x: np.ndarray, used: np.ndarray,
                  arrays: Callable[[np.ndarray], tuple[np.ndarray, ...]] | None = None,
@@ -323,10 +324,11 @@ class _Run:
         self.x = x
         self.used = used
         self.idx = used.nonzero()[0]
-        m = self.idx.size
-        first = int(self.idx[0]) if m else 0
+        slots = self.slots = self.idx.tolist()  # the same slots as Python ints
+        m = len(slots)
+        first = slots[0] if m else 0
         # the used slots as one slice when they are consecutive (GPS and Decca), else None
-        self.block = slice(first, first + m) if m and int(self.idx[-1]) - first == m - 1 else None
+        self.block = slice(first, first + m) if m and slots[-1] - first == m - 1 else None
         self.it = 0
         self.steps: list[float] = []
         self.converged = False
@@ -377,7 +379,7 @@ def _iterate(
     rows = run.rows if sq is None else None
     if rows is not None:
         step_rows = k.step_rows
-        idx = run.idx.tolist()
+        idx = run.slots
     while True:
         run.it += 1
         if rows is None:

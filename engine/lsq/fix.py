@@ -243,6 +243,10 @@ def _eye(n: int) -> np.ndarray:
     return eye
 
 
+_N_SLOTS: list[Any] = [None, 0]
+"""[the registry layout last seen by :func:`_gather` (None: none yet), its number of slots]."""
+
+
 def _gather(
     p0: Point,
     values: Mapping[str, Any],
@@ -254,7 +258,12 @@ def _gather(
     (table 5.1 category I, THEORY §4.6). Raises ObservationError (with the texts so far)."""
     layout = registry.layout()
     sets: dict[str, ObservationSet] = {}
-    n_slots = sum(len(r) for r in layout.values())
+    memo = _N_SLOTS
+    if memo[0] is layout:
+        n_slots = memo[1]
+    else:
+        n_slots = sum(len(r) for r in layout.values())
+        memo[:] = [layout, n_slots]
     used = [False] * n_slots
     messages: list[str] = []
     for system in registry.SYSTEMS:

@@ -35,11 +35,15 @@ _T = TypeVar("_T")
 def frozen_instance(cls: type[_T], values: dict[str, Any]) -> _T:
     """The instance ``cls(**values)`` of a frozen dataclass without ``__slots__`` or
     ``__post_init__``, made without the generated ``__init__``'s ``object.__setattr__`` per
-    field (a fix makes several such results per epoch). ``values`` names every field, in order.
+    field (a fix makes several such results per epoch). ``values`` names every field, in order,
+    and becomes the instance's ``__dict__`` (a new dict the caller does not keep).
     """
     obj = object.__new__(cls)
-    obj.__dict__.update(values)
+    _set_dict(obj, "__dict__", values)  # ``values`` becomes the instance dict (no copy)
     return obj
+
+
+_set_dict = object.__setattr__
 
 
 # --------------------------------------------------------------------------------------------
