@@ -380,6 +380,7 @@ def _iterate(
     if rows is not None:
         step_rows = k.step_rows
         idx = run.slots
+        light = epsilon if type(epsilon) is float else math.inf  # the kernel's C comparison
     while True:
         run.it += 1
         if rows is None:
@@ -390,7 +391,9 @@ def _iterate(
                 A, b, Cl = rows(run.x)
             except _MODEL_ERRORS as exc:
                 raise _Stop(f"model evaluation failed: {exc}") from None
-            got = step_rows(A, b, Cl, idx, cond_max, run.x)
+            # a step not below ε before the last iteration is not kept: no arrays for it
+            got = step_rows(A, b, Cl, idx, cond_max, run.x,
+                            light if run.it < max_iter else math.inf)
             if got is None:  # lists it does not take: the arrays as ``arrays`` converts them
                 try:
                     arr = np.array(A).reshape(len(b), run.x.size), np.array(b), Cl

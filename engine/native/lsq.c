@@ -5,7 +5,8 @@
  *                                   adjustment._iterate): W = C_l^-1, A^T W, (A^T W A)^-1 with
  *                                   its conditioning guard, G = C_x A^T W, dx = G b, x + dx;
  *   step_rows(A, b, Cl, idx, ...)   the used rows of the model's lists (adjustment._evaluate)
- *                                   gathered into new arrays, then step() on them;
+ *                                   gathered, then step() on them; arrays made only for the
+ *                                   step the caller keeps (the last);
  *   finish(sol, used, scale_vcv, d0) the residuals, S^2, RMS, drms and the per-slot statistics of
  *                                   adjustment._adjustment / statistics.used_statistics;
  *   ellipse(C2)                     confidence.error_ellipse (closed form);
@@ -198,24 +199,29 @@ PyDoc_STRVAR(step_doc,
 "None where the Python must run (other shapes, a singular C_l, a normal matrix failing the\n"
 "guard, non-finite misclosures or step).");
 
-/* step's work on raw inputs: Au (m, 2) C-contiguous, bu (m,) contiguous, C_l's element (i, j)
- * at cl[i * cs0 + j * cs1] (strides in doubles), x = (x0, x1); ao, bo, clo: the arrays the
- * solution holds as Au, bu, Clu. The result of step() (None: declined), or NULL (error). */
-static PyObject *step_core(PyObject *ao, PyObject *bo, PyObject *clo, const double *Au,
-                           const double *bu, const double *cl, Py_ssize_t cs0, Py_ssize_t cs1,
-                           Py_ssize_t m, double cond_max, double x0, double x1)
-{
-    PyObject *res = NULL;
-    PyObject *Wo = NULL, *atwo = NULL, *cxo = NULL, *gaino = NULL, *dxo = NULL, *xo = NULL;
-    PyObject *cx2 = NULL, *stepo = NULL;
+/* One step's numbers in C buffers (step_calc), wrapped into arrays only where the caller
+ * needs them (step_solution). 64-byte alignment, as numpy's own data at least. */
+typedef struct {
+    Py_ssize_t m;
+    _Alignas(64) double W[MAXM * MAXM];
+    _Alignas(64) double atw[2 * MAXM];
+    _Alignas(64) double cx[4];
+    _Alignas(64) double gain[2 * MAXM];
+    _Alignas(64) double dx[2];
+    double xn[2], i00, i01, i11, big;
+} step_t;
 
+/* step's arithmetic on raw inputs: Au (m, 2) C-contiguous, bu (m,) contiguous, C_l's element
+ * (i, j) at cl[i * cs0 + j * cs1] (strides in doubles), x = (x0, x1). 1: done, 0: declined
+ * (the Python's rare branch); never an exception. */
+static int step_calc(step_t *s, const double *Au, const double *bu, const double *cl,
+                     Py_ssize_t cs0, Py_ssize_t cs1, Py_ssize_t m, double cond_max, double x0,
+                     double x1)
+{
+    s->m = m;
     /* W = inv(C_l): numpy copies to Fortran order, solves with an identity right-hand side */
     double fa[MAXM * MAXM];
     int64_t ipiv[MAXM];
-    double *W;
-    Wo = new_array(m, m, &W);
-    if (Wo == NULL)
-        goto error;
     double wf[MAXM * MAXM];
     for (Py_ssize_t j = 0; j < m; j++)
         for (Py_ssize_t i = 0; i < m; i++) {
@@ -225,16 +231,14 @@ static PyObject *step_core(PyObject *ao, PyObject *bo, PyObject *clo, const doub
     int64_t n64 = m, info = 0;
     B.npl_dgesv(&n64, &n64, fa, &n64, ipiv, wf, &n64, &info);
     if (info != 0)
-        goto none;
+        return 0;
+    double *W = s->W;
     for (Py_ssize_t i = 0; i < m; i++)
         for (Py_ssize_t j = 0; j < m; j++)
             W[i * m + j] = wf[i + j * m];
 
     /* atw = Au.T.dot(W): Au.T is F-contiguous (Trans, lda 2) */
-    double *atw;
-    atwo = new_array(2, m, &atw);
-    if (atwo == NULL)
-        goto error;
+    double *atw = s->atw;
     memset(atw, 0, sizeof(double) * 2 * m);
     B.dgemm(UvnRowMajor, UvnTrans, UvnNoTrans, 2, m, m, 1.0, Au, 2, W, m, 0.0, atw, m);
     /* N = atw.dot(Au) */
@@ -245,67 +249,84 @@ static PyObject *step_core(PyObject *ao, PyObject *bo, PyObject *clo, const doub
     double na = nm[0], nc = nm[1], nd = nm[3];
     double det = na * nd - nc * nc;
     if (!(na > 0.0 && nd > 0.0 && det > 0.0))
-        goto none;
+        return 0;
     double ad = na * nd;
     double rho = fabs(nc) / sqrt(ad);
     double i00 = nd / det, i01 = -nc / det, i11 = na / det;
     double cond = vpow(1.0 + rho, 2.0) * ad / det;
     if (!(cond <= cond_max))
-        goto none;
+        return 0;
     if (!isfinite(np_sum(bu, m)))
-        goto none;
-    double *cx;
-    cxo = new_array(2, 2, &cx);
-    if (cxo == NULL)
-        goto error;
+        return 0;
+    double *cx = s->cx;
     cx[0] = i00;
     cx[1] = i01;
     cx[2] = i01;
     cx[3] = i11;
     /* gain = cx.dot(atw); dx = gain.dot(bu) (gemv) */
-    double *gain, *dx;
-    gaino = new_array(2, m, &gain);
-    if (gaino == NULL)
-        goto error;
+    double *gain = s->gain, *dx = s->dx;
     memset(gain, 0, sizeof(double) * 2 * m);
     B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, 2, m, 2, 1.0, cx, 2, atw, m, 0.0, gain, m);
-    dxo = new_array(2, -1, &dx);
-    if (dxo == NULL)
-        goto error;
     dx[0] = dx[1] = 0.0;
     B.dgemv(UvnRowMajor, UvnNoTrans, 2, m, 1.0, gain, m, bu, 1, 0.0, dx, 1);
     if (!(isfinite(dx[0]) && isfinite(dx[1])))
-        goto none;
-    double *xn;
-    xo = new_array(2, -1, &xn);
-    if (xo == NULL)
-        goto error;
-    xn[0] = x0 + dx[0];
-    xn[1] = x1 + dx[1];
-    stepo = call_py_hypot(dx[0], dx[1]);
-    if (stepo == NULL)
-        goto error;
-    cx2 = Py_BuildValue("(ddd)", i00, i01, i11);
-    if (cx2 == NULL)
-        goto error;
-    PyObject *sol = sol_type->tp_alloc(sol_type, 9);
-    if (sol == NULL)
-        goto error;
-    PyObject *items[9] = {ao, bo, clo, Wo, atwo, cxo, gaino, dxo, cx2};
-    for (int k = 0; k < 9; k++) {
-        Py_INCREF(items[k]);
-        PyTuple_SET_ITEM(sol, k, items[k]);
-    }
+        return 0;
+    s->xn[0] = x0 + dx[0];
+    s->xn[1] = x1 + dx[1];
+    s->i00 = i00;
+    s->i01 = i01;
+    s->i11 = i11;
     double big = fabs(dx[0]);
     if (fabs(dx[1]) > big)
         big = fabs(dx[1]);
-    res = Py_BuildValue("(NOOd)", sol, xo, stepo, big);
-    goto done;
-none:
-    res = Py_NewRef(Py_None);
-    goto done;
-error:
-    res = NULL;
+    s->big = big;
+    return 1;
+}
+
+/* A new array (cols < 0: 1-D) holding a copy of src; new reference or NULL (error). */
+static PyObject *array_of(Py_ssize_t rows, Py_ssize_t cols, const double *src)
+{
+    double *d;
+    PyObject *o = new_array(rows, cols, &d);
+    if (o != NULL)
+        memcpy(d, src, sizeof(double) * rows * (cols < 0 ? 1 : cols));
+    return o;
+}
+
+/* step()'s result for a step_calc that was done: (solution, x + dx, |dx|, max |dx_j|), the
+ * solution None when full is 0 (the caller does not keep it); ao, bo, clo: its Au, bu, Clu.
+ * New reference or NULL (error). */
+static PyObject *step_result(const step_t *s, PyObject *ao, PyObject *bo, PyObject *clo,
+                             int full)
+{
+    Py_ssize_t m = s->m;
+    PyObject *res = NULL, *sol = NULL;
+    PyObject *Wo = NULL, *atwo = NULL, *cxo = NULL, *gaino = NULL, *dxo = NULL, *xo = NULL;
+    PyObject *cx2 = NULL, *stepo = NULL;
+    if (full) {
+        if ((Wo = array_of(m, m, s->W)) == NULL || (atwo = array_of(2, m, s->atw)) == NULL ||
+            (cxo = array_of(2, 2, s->cx)) == NULL || (gaino = array_of(2, m, s->gain)) == NULL ||
+            (dxo = array_of(2, -1, s->dx)) == NULL)
+            goto done;
+    }
+    if ((xo = array_of(2, -1, s->xn)) == NULL)
+        goto done;
+    if ((stepo = call_py_hypot(s->dx[0], s->dx[1])) == NULL)
+        goto done;
+    if (full) {
+        if ((cx2 = Py_BuildValue("(ddd)", s->i00, s->i01, s->i11)) == NULL)
+            goto done;
+        if ((sol = sol_type->tp_alloc(sol_type, 9)) == NULL)
+            goto done;
+        PyObject *items[9] = {ao, bo, clo, Wo, atwo, cxo, gaino, dxo, cx2};
+        for (int k = 0; k < 9; k++) {
+            Py_INCREF(items[k]);
+            PyTuple_SET_ITEM(sol, k, items[k]);
+        }
+    }
+    else
+        sol = Py_NewRef(Py_None);
+    res = Py_BuildValue("(NOOd)", sol, xo, stepo, s->big);
 done:
     Py_XDECREF(Wo);
     Py_XDECREF(atwo);
@@ -339,10 +360,12 @@ static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t narg
         cl.view.shape[0] != m || cl.view.shape[1] != m || xb.view.shape[0] != 2 ||
         !buf_c_contiguous(&a) || !buf_c_contiguous(&bb))
         goto none;
-    res = step_core(args[0], args[1], args[2], (const double *)a.view.buf,
-                    (const double *)bb.view.buf, (const double *)cl.view.buf,
-                    cl.view.strides[0] / 8, cl.view.strides[1] / 8, m, cond_max, AT1(xb, 0),
-                    AT1(xb, 1));
+    step_t st;
+    if (!step_calc(&st, (const double *)a.view.buf, (const double *)bb.view.buf,
+                   (const double *)cl.view.buf, cl.view.strides[0] / 8, cl.view.strides[1] / 8,
+                   m, cond_max, AT1(xb, 0), AT1(xb, 1)))
+        goto none;
+    res = step_result(&st, args[0], args[1], args[2], 1);
     goto done;
 none:
     res = Py_NewRef(Py_None);
@@ -358,25 +381,30 @@ done:
 /* step_rows */
 
 PyDoc_STRVAR(step_rows_doc,
-"step_rows(A, b, Cl, idx, cond_max, x) -> (Au, bu, Clu, step's result or None) or None\n"
+"step_rows(A, b, Cl, idx, cond_max, x, eps) -> (Au, bu, Clu, step's result or None) or None\n"
 "\n"
 "The used rows of one linearisation and step() on them: A a list of 2n floats (row-major\n"
 "(n, 2)), b a list of n floats, Cl (n, n) float64 (any strides), idx the used slots (a list\n"
 "of ints), x (2,). Au (m, 2), bu (m,), Clu (m, m) are new arrays holding the numbers of\n"
-"numpy.array(A).reshape(n, 2)[idx], numpy.array(b)[idx] and Cl[ix_(idx, idx)]. None where\n"
-"the lists are not exactly that (other lengths, an item not a float, a slot out of range,\n"
-"m < 2 or > 32): the Python builds the arrays then.");
+"numpy.array(A).reshape(n, 2)[idx], numpy.array(b)[idx] and Cl[ix_(idx, idx)]. A step whose\n"
+"max |dx_j| is not below eps is not the last one the caller keeps: then Au, bu, Clu and the\n"
+"solution are None (x + dx, |dx| and max |dx_j| as always; eps = inf: never). None where the\n"
+"lists are not exactly that (other lengths, an item not a float, a slot out of range, m < 2\n"
+"or > 32): the Python builds the arrays then.");
 
 static PyObject *lsq_step_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 6) {
-        PyErr_SetString(PyExc_TypeError, "step_rows(A, b, Cl, idx, cond_max, x)");
+    if (nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "step_rows(A, b, Cl, idx, cond_max, x, eps)");
         return NULL;
     }
     if (need_bound() < 0)
         return NULL;
     double cond_max = PyFloat_AsDouble(args[4]);
     if (cond_max == -1.0 && PyErr_Occurred())
+        return NULL;
+    double eps = PyFloat_AsDouble(args[6]);
+    if (eps == -1.0 && PyErr_Occurred())
         return NULL;
     PyObject *al = args[0], *bl = args[1], *il = args[3];
     if (!PyList_CheckExact(al) || !PyList_CheckExact(bl) || !PyList_CheckExact(il))
@@ -411,16 +439,9 @@ static PyObject *lsq_step_rows(PyObject *self, PyObject *const *args, Py_ssize_t
         goto none;
     if (cl.view.shape[0] != n || cl.view.shape[1] != n || xb.view.shape[0] != 2)
         goto none;
-    double *Au, *bu, *Clu;
-    ao = new_array(m, 2, &Au);
-    if (ao == NULL)
-        goto error;
-    bo = new_array(m, -1, &bu);
-    if (bo == NULL)
-        goto error;
-    clo = new_array(m, m, &Clu);
-    if (clo == NULL)
-        goto error;
+    _Alignas(64) double Au[2 * MAXM];
+    _Alignas(64) double bu[MAXM];
+    _Alignas(64) double Clu[MAXM * MAXM];
     for (Py_ssize_t j = 0; j < m; j++) {
         Py_ssize_t s = slot[j];
         Au[2 * j] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(al, 2 * s));
@@ -429,9 +450,23 @@ static PyObject *lsq_step_rows(PyObject *self, PyObject *const *args, Py_ssize_t
         for (Py_ssize_t k = 0; k < m; k++)
             Clu[j * m + k] = AT2(cl, s, slot[k]);
     }
-    st = step_core(ao, bo, clo, Au, bu, Clu, m, 1, m, cond_max, AT1(xb, 0), AT1(xb, 1));
-    if (st == NULL)
+    step_t sc;
+    int done = step_calc(&sc, Au, bu, Clu, m, 1, m, cond_max, AT1(xb, 0), AT1(xb, 1));
+    if (done && !(sc.big < eps)) { /* not the last step: only x + dx and the step lengths */
+        if ((st = step_result(&sc, NULL, NULL, NULL, 0)) == NULL)
+            goto error;
+        res = PyTuple_Pack(4, Py_None, Py_None, Py_None, st);
+        goto done;
+    }
+    if ((ao = array_of(m, 2, Au)) == NULL || (bo = array_of(m, -1, bu)) == NULL ||
+        (clo = array_of(m, m, Clu)) == NULL)
         goto error;
+    if (done) {
+        if ((st = step_result(&sc, ao, bo, clo, 1)) == NULL)
+            goto error;
+    }
+    else
+        st = Py_NewRef(Py_None); /* declined: the Python solves these arrays */
     res = PyTuple_Pack(4, ao, bo, clo, st);
     goto done;
 none:

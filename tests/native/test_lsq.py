@@ -254,7 +254,8 @@ def check_step_rows(A: np.ndarray, b: np.ndarray, Cl: np.ndarray, idx: list[int]
     """``step_rows`` on the model's lists equals ``step`` on the used rows as
     ``adjustment._evaluate`` slices them (new arrays with the same numbers); True when its
     step took the case."""
-    got = K.step_rows(A.ravel().tolist(), b.tolist(), Cl, list(idx), cond_max, x)
+    lists = A.ravel().tolist(), b.tolist(), Cl, list(idx), cond_max, x
+    got = K.step_rows(*lists, math.inf)
     assert got is not None  # lists of floats, slots in range: always gathered
     Au, bu, Clu, res = got
     ix = np.array(idx)
@@ -264,7 +265,17 @@ def check_step_rows(A: np.ndarray, b: np.ndarray, Cl: np.ndarray, idx: list[int]
     ref = K.step(*want, cond_max, x)
     if ref is None or res is None:
         assert ref is None and res is None
+        assert K.step_rows(*lists, -math.inf)[3] is None  # declined: arrays for the Python
         return False
+    # a step not below eps is not kept: only x + dx and the step lengths, the same numbers
+    for eps in (-math.inf, 0.0, ref[3], np.nextafter(ref[3], math.inf), 1e300):
+        light = K.step_rows(*lists, float(eps))
+        if ref[3] < eps:
+            assert all(same(a, w) for a, w in zip(light[:3], want, strict=True))
+            assert all(same(a, w) for a, w in zip(light[3][0], ref[0], strict=True))
+        else:
+            assert light[:3] == (None, None, None) and light[3][0] is None
+        assert all(same(a, w) for a, w in zip(light[3][1:], ref[1:], strict=True))
     for name, a, w in zip(adj._Solution._fields, res[0], ref[0], strict=True):
         assert same(a, w), name
     assert res[0][0] is Au and res[0][1] is bu and res[0][2] is Clu
@@ -300,16 +311,17 @@ def test_generated_step_rows_are_bit_identical(p: tuple[np.ndarray, ...], seed: 
 @needs_kernel
 def test_step_rows_declines_what_it_does_not_gather() -> None:
     A, b, Cl, x = [1.0, 0.0, 0.0, 1.0, 1.0, 1.0], [1.0, 2.0, 3.0], np.eye(3), np.zeros(2)
-    assert K.step_rows(A, b, Cl, [0, 1, 2], COND_MAX, x) is not None
+    assert K.step_rows(A, b, Cl, [0, 1, 2], COND_MAX, x, math.inf) is not None
     for args in ((A[:-1], b, Cl, [0, 1, 2]),  # 2n floats
                  ([1, 0.0, 0.0, 1.0, 1.0, 1.0], b, Cl, [0, 1, 2]),  # an int, not a float
-                 (A, [1.0, np.float64(2.0), 3.0], b and Cl, [0, 1, 2]),  # a numpy float
+                 (A, [1.0, np.float64(2.0), 3.0], Cl, [0, 1, 2]),  # a numpy float
                  (A, b, Cl, [0, 1, 3]), (A, b, Cl, [-1, 0, 1]), (A, b, Cl, [0]),  # slots
                  (A, b, Cl, (0, 1, 2)), (tuple(A), b, Cl, [0, 1, 2]),  # not lists
                  (A, b, np.eye(4), [0, 1, 2]), (A, b, np.eye(3, dtype=np.float32), [0, 1, 2])):
-        assert K.step_rows(*args, COND_MAX, x) is None
-    got = K.step_rows(A, b, np.zeros((3, 3)), [0, 1, 2], COND_MAX, x)
-    assert got is not None and got[3] is None  # gathered, then step declines (singular C_l)
+        assert K.step_rows(*args, COND_MAX, x, math.inf) is None
+    for eps in (math.inf, -math.inf):  # gathered, then step declines (singular C_l)
+        got = K.step_rows(A, b, np.zeros((3, 3)), [0, 1, 2], COND_MAX, x, eps)
+        assert got is not None and got[3] is None and same(got[2], np.zeros((3, 3)))
 
 
 @needs_kernel
