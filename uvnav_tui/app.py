@@ -14,6 +14,7 @@ are :class:`uvnav_tui.actions.MenuActions`, the pages are found by
 from __future__ import annotations
 
 import gc
+import importlib
 import time
 from collections.abc import Iterable
 from functools import partial
@@ -102,6 +103,8 @@ def load_engine() -> None:
     try:
         for name in PRELOADED:
             getattr(api, name)
+        for module in PRELOADED_LIBRARIES:
+            importlib.import_module(module)
     finally:
         if was_enabled:  # never switch on a collector somebody else paused
             gc.enable()
@@ -110,6 +113,11 @@ def load_engine() -> None:
 PRELOADED = ("Session", "CycleResult", "SetDatum", "lse_estimate", "quality_name", "lop_name")
 """Names of :mod:`engine.api` whose modules :func:`load_engine` imports (together they load
 all a run needs: the session imports the cycle, the filter, the fix and the NMEA reader)."""
+PRELOADED_LIBRARIES = ("pyproj",)
+"""Libraries the engine imports only when a session is opened (pyproj: the datum shift of the
+run context, ~0.1 s of CPU), imported by :func:`load_engine` too, so that Return in the
+Parameter Initialization dialog does not wait for them (issue 14). The console itself does not
+use them."""
 
 
 class Advanced(Message):
