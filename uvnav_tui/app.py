@@ -14,6 +14,7 @@ are :class:`uvnav_tui.actions.MenuActions`, the pages are found by
 from __future__ import annotations
 
 import gc
+import importlib
 import time
 from collections.abc import Iterable
 from functools import partial
@@ -47,19 +48,21 @@ REFRESH_S = 0.1
 """Shortest time between two display refreshes while cycles run (≤ 10 Hz)."""
 HEADLESS_REFRESH_S = 0.5
 """The same without a terminal (scripted hardcopies, tests): nobody watches in between."""
-DISPLAY_SHARE = 0.1
+DISPLAY_SHARE = 0.04
 """At pace fast, the display (the UI thread: repaint, compositing, terminal output) may use at
 most this share of the process's CPU time: when a refresh costs more than the cycles computed
-meanwhile allow (a 160×50 terminal costs 15–20 ms a refresh on the 2-core bench machine), the
-next one waits, so the cycles keep the rest (issue 14: the console at ≥ 2,000 cycles/s). CPU
-time, not wall time: on a loaded machine the process gets less of it, and so does its display."""
+meanwhile allow, the next one waits, so the cycles keep the rest (issue 14: the console at
+≥ 2,000 cycles/s). CPU time, not wall time: on a loaded machine the process gets less of it, and
+so does its display. A refresh of Pg 100 or Pg 642 at 160×50 costs 30–50 ms of the UI thread on
+the 2-core bench machine, so at 4 % (10 % before) the display at pace fast is refreshed about
+once a second there (:data:`MAX_REFRESH_S`), more often where a refresh is cheaper."""
 MAX_REFRESH_S = 1.0
 """Longest time between two refreshes while cycles run, whatever a refresh costs."""
-PANEL_REFRESH_S = 0.5
+PANEL_REFRESH_S = 2.0
 """At pace fast, the message panel under Pg 100 takes the new messages at most this often (the
-message line shows the newest at every refresh; every other refresh, and the end of the data,
-brings the panel up to date): a panel that scrolls costs a layout of the whole screen and a
-repaint of all its lines, 3–4 times the cost of the rest of a refresh."""
+message line shows the newest at every refresh; the end of the data, a page switch and any
+refresh when the run is not at pace fast bring the panel up to date): a panel that scrolls
+repaints all its lines, as much as the rest of a refresh at 160×50."""
 
 MONOCHROME = Theme(
     name="uvnav-mono",
@@ -102,6 +105,8 @@ def load_engine() -> None:
     try:
         for name in PRELOADED:
             getattr(api, name)
+        for module in PRELOADED_LIBRARIES:
+            importlib.import_module(module)
     finally:
         if was_enabled:  # never switch on a collector somebody else paused
             gc.enable()
@@ -110,6 +115,11 @@ def load_engine() -> None:
 PRELOADED = ("Session", "CycleResult", "SetDatum", "lse_estimate", "quality_name", "lop_name")
 """Names of :mod:`engine.api` whose modules :func:`load_engine` imports (together they load
 all a run needs: the session imports the cycle, the filter, the fix and the NMEA reader)."""
+PRELOADED_LIBRARIES = ("pyproj",)
+"""Libraries the engine imports only when a session is opened (pyproj: the datum shift of the
+run context, ~0.1 s of CPU), imported by :func:`load_engine` too, so that Return in the
+Parameter Initialization dialog does not wait for them (issue 14). The console itself does not
+use them."""
 
 
 class Advanced(Message):

@@ -240,3 +240,46 @@ def test_message_panel_sync_writes_as_one_write_per_entry(data_dir: Path) -> Non
 
     synced, written = asyncio.run(run())
     assert len(synced) > 40 and synced == written
+
+
+def test_message_panel_sync_scrolls_without_a_layout(data_dir: Path) -> None:
+    """Once its scrollbar shows, a sync of new entries updates the scrollbar and ends at the
+    newest line without a layout of the screen (which would redraw all of it; issue 14)."""
+    from uvnav_tui.widgets.message_log import MessageLog
+    from uvnav_tui.widgets.message_panel import MessageLogView
+
+    app = make_app(data_dir)
+    log = MessageLog()
+
+    async def run() -> None:
+        async with app.run_test(size=(100, 40)) as pilot:
+            await pilot.pause()
+            view = MessageLogView()
+            await app.screen.mount(view)
+            await pilot.pause()
+            for i in range(60):
+                log.add(f"message {i}", wall_s=0.0)
+            view.sync(log)
+            await pilot.pause()
+            assert view.show_vertical_scrollbar and view.scroll_y == view.max_scroll_y > 0
+            for i in range(60, 75):
+                log.add(f"message {i}", wall_s=0.0)
+            screen = app.screen
+            layouts: list[bool] = []
+            refresh_layout = screen._refresh_layout
+
+            def counted(*args: object, **kwargs: object) -> None:
+                layouts.append(True)
+                refresh_layout(*args, **kwargs)  # type: ignore[arg-type]
+
+            screen._refresh_layout = counted  # type: ignore[method-assign]
+            view.sync(log)
+            await pilot.pause()
+            assert layouts == []
+            assert view.virtual_size.height == 75
+            assert view.vertical_scrollbar.window_virtual_size == 75
+            assert view.scroll_y == view.max_scroll_y
+            last = view.scroll_y + view.scrollable_content_region.height - 1
+            assert view.lines[last].text.endswith("message 74")
+
+    asyncio.run(run())

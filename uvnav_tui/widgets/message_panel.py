@@ -52,8 +52,18 @@ class MessageLogView(RichLog):
         finally:
             layout = any(self._batch)
             self._batch = None
+        if layout and self.size:
+            # The layout asked for is for the new virtual height (RichLog.write sets it); the
+            # panel itself keeps its size, so unless a scrollbar appears or goes, updating the
+            # scrollbars (what the layout would do for a ScrollView) is all it takes: a layout
+            # redraws the whole screen (at pace fast, issue 14).
+            shown = (self.show_vertical_scrollbar, self.show_horizontal_scrollbar)
+            self._scroll_update(self.virtual_size)
+            layout = (self.show_vertical_scrollbar, self.show_horizontal_scrollbar) != shown
         super().refresh(layout=layout)
-        self.scroll_end(animate=False, immediate=False, x_axis=False)
+        # at once, not after the next frame: the panel keeps its size, so the end is known
+        # now, and the new lines and the scroll are drawn in one frame instead of two
+        self.scroll_end(animate=False, immediate=True, x_axis=False)
 
     def refresh(self, *regions: Region, repaint: bool = True, layout: bool = False,
                 recompose: bool = False) -> Self:
