@@ -122,6 +122,15 @@ class FilterState:
         d["t"], d["x"], d["P"] = t, x, P
         return new
 
+    def _with_frozen(self, t: float, x: np.ndarray, P: np.ndarray) -> FilterState:
+        """:meth:`_with` for fresh arrays the caller has already made read-only (a compiled
+        kernel's outputs): no setflags calls."""
+        new = object.__new__(FilterState)
+        d = new.__dict__
+        d.update(self.__dict__)
+        d["t"], d["x"], d["P"] = t, x, P
+        return new
+
 
 def init_state(
     t: float,

@@ -294,26 +294,19 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
         new, H = state, rows.H
         if H.shape[1] < state.x.shape[0]:
             new, H = _full_width(state, rows, params)
-    x = new.x
-    n = x.shape[0]
-    Yc = _EMPTY((n + 1 + p, p))  # Yc.T: L⁻¹[HP | v̂ | I], Fortran-ordered as trsm leaves it
-    v = _EMPTY(p)
-    S = _EMPTY((p, p))
-    K = _EMPTY((n, p))
-    xn = _EMPTY(n)
-    Pn = _EMPTY((n, n))
-    t = _EMPTY(p)
-    out = k.update(x, new.P, H, z, rows.R, Yc, v, S, K, xn, Pn, t, rows.angle_rows,
-                   params.joseph, IPSI)
+    out = k.update_new(new.x, new.P, H, z, rows.R, rows.angle_rows, params.joseph, IPSI)
     if out is None:
         return _update_py(state, rows, params)
-    nis, t_ok = out
-    new = new._with(new.t, xn, Pn)
+    # The kernel's new arrays: v (p,), S (p×p), K (n×p), x⁺ and P⁺ (read-only), the LS
+    # statistics t (p,; read-only, filled when t_ok) and Yc ((n+1+p)×p; Yc.T = L⁻¹[HP | v̂ | I],
+    # Fortran-ordered as trsm leaves it).
+    nis, t_ok, v, S, K, xn, Pn, t, Yc = out
+    n = xn.shape[0]
+    new = new._with_frozen(new.t, xn, Pn)
     lom = _lom_from_nis(nis, p, params.alpha)
     Y = Yc.T
     ls = _new(LsTest)
     if t_ok:  # LsTest.t, computed by the kernel (same bits); else on access as usual
-        t.setflags(write=False)
         ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject",
                            t=t)
     else:
