@@ -22,6 +22,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from engine import native
 from engine.filter.params import DEG, FilterParams, read_only
 from engine.geodesy.angles import wrap_2pi
 
@@ -130,6 +131,39 @@ class FilterState:
         d.update(self.__dict__)
         d["t"], d["x"], d["P"] = t, x, P
         return new
+
+
+_UNRESOLVED = object()
+_K: object = _UNRESOLVED
+"""``engine.native.kalman_predict`` (its ``estimate``, copies only: no BLAS), or None (not built,
+stale, ``UVNAV_PURE=1``): then :func:`_estimate_parts_py`. Resolved on first use."""
+
+
+def estimate_parts(fs: FilterState) -> tuple[float, float, float, np.ndarray, bool]:
+    """The horizontal position x, y (grid m), depth z (m) of a state as floats, a read-only
+    copy of its 2×2 position VCV (m²) and whether that VCV is finite: what the cycle's
+    estimate of a state needs (``engine.run.cycle.filter_estimate``), in one compiled call
+    where the kernel is built (the same floats and array as :func:`_estimate_parts_py`)."""
+    global _K
+    k = _K
+    if k is _UNRESOLVED:
+        k = _K = native.kernel("kalman_predict")
+    if k is not None:
+        r = k.estimate(fs.x, fs.P)  # type: ignore[attr-defined]
+        if r is not None:
+            return r  # type: ignore[no-any-return]
+    return _estimate_parts_py(fs)
+
+
+def _estimate_parts_py(fs: FilterState) -> tuple[float, float, float, np.ndarray, bool]:
+    """:func:`estimate_parts` in numpy: the values of :attr:`FilterState.east_north_m`,
+    :attr:`FilterState.depth_m` and :attr:`FilterState.position_cov_m2` (one tolist() instead
+    of three properties)."""
+    x, y, z = fs.x[IX:IZ + 1].tolist()
+    cov = fs.P[IX:IY + 1, IX:IY + 1].copy()
+    finite = all(map(math.isfinite, cov.ravel().tolist()))
+    cov.setflags(write=False)
+    return x, y, z, cov, finite
 
 
 def init_state(

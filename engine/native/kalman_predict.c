@@ -14,7 +14,9 @@
  * predict(x, P, c, fd, fix_cov, want_phi) -> (x, P, Φ) as new arrays, or None when the inputs
  * are of a kind this kernel does not cover (the caller then runs the Python).
  * Also the arrays of the measurement rows (engine/filter/measurements.py), copies only, no
- * BLAS: rows(zs, var), lse(x, y, C, f) and stack2(za, zb, Ra, Rb, cov, m), None likewise.
+ * BLAS: rows(zs, var), lse(x, y, C, f) and stack2(za, zb, Ra, Rb, cov, m), None likewise;
+ * and estimate(x, P), a state's position, depth and horizontal VCV (engine/run/cycle.py).
+ * predict's x and P and estimate's VCV come back read-only (FilterState arrays).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -41,7 +43,7 @@ static PyObject *s_dt, *s_phi, *s_gs, *s_gs_scale, *s_v_scale, *s_d, *s_dd, *s_o
 static double (*volatile uvn_sin)(double) = sin;
 static double (*volatile uvn_cos)(double) = cos;
 
-/* A read-only view of a float64 array of known shape (any strides). */
+/* A read-only view of a float64 array of known shape (any strides; d0 or d1 < 0: any). */
 typedef struct {
     Py_buffer v;
     int ok;
@@ -56,8 +58,8 @@ static int view_get(PyObject *obj, int ndim, Py_ssize_t d0, Py_ssize_t d1, view_
     }
     w->ok = 1;
     if (w->v.ndim != ndim || w->v.itemsize != 8 || w->v.format == NULL ||
-        strcmp(w->v.format, "d") != 0 || w->v.shape[0] != d0 ||
-        (ndim == 2 && w->v.shape[1] != d1))
+        strcmp(w->v.format, "d") != 0 || (d0 >= 0 && w->v.shape[0] != d0) ||
+        (ndim == 2 && d1 >= 0 && w->v.shape[1] != d1))
         return 0;
     for (int i = 0; i < ndim; i++)
         if (w->v.strides[i] % 8 != 0 || w->v.strides[i] < 0)
@@ -83,6 +85,73 @@ static inline double at1(const view_t *w, Py_ssize_t i)
     return *(const double *)((const char *)w->v.buf + i * w->v.strides[0]);
 }
 
+/* numpy's array object up to its flags: the leading fields of PyArrayObject_fields
+ * (numpy/ndarraytypes.h), the ABI through which every compiled numpy extension reads
+ * PyArray_DATA and PyArray_FLAGS. Used only once np_layout_ok() has confirmed it against
+ * numpy itself; otherwise the buffer protocol and ndarray.setflags are used. */
+typedef struct {
+    PyObject_HEAD
+    char *data;
+    int nd;
+    Py_ssize_t *dimensions;
+    Py_ssize_t *strides;
+    PyObject *base;
+    PyObject *descr;
+    int flags;
+} np_fields_t;
+
+#define NP_WRITEABLE 0x0400 /* NPY_ARRAY_WRITEABLE */
+
+static int np_layout = -1; /* 1: np_fields_t checked, 0: not numpy's, -1: not checked yet */
+
+/* Is np_fields_t the layout of numpy.empty((2, 3)), and is clearing NP_WRITEABLE in it what
+ * ndarray.setflags(write=False) does (and makes numpy refuse a writable buffer)? 1/0, -1 on an
+ * error (set). */
+static int np_layout_ok(void)
+{
+    int ok = 0;
+    PyObject *a = NULL, *b = NULL, *r = NULL, *shape = Py_BuildValue("(nn)", (Py_ssize_t)2,
+                                                                     (Py_ssize_t)3);
+    if (shape == NULL)
+        return -1;
+    a = PyObject_CallOneArg(np_empty, shape);
+    b = a == NULL ? NULL : PyObject_CallOneArg(np_empty, shape);
+    Py_DECREF(shape);
+    if (b == NULL)
+        goto error;
+    Py_buffer v;
+    if (PyObject_GetBuffer(a, &v, PyBUF_RECORDS) != 0) {
+        PyErr_Clear();
+        goto done;
+    }
+    np_fields_t *fa = (np_fields_t *)a, *fb = (np_fields_t *)b;
+    ok = (void *)fa->data == v.buf && fa->nd == 2 && fa->dimensions[0] == 2 &&
+         fa->dimensions[1] == 3 && fa->strides[0] == 24 && fa->strides[1] == 8 &&
+         (fa->flags & NP_WRITEABLE) && fa->flags == fb->flags && fa->flags > 0;
+    PyBuffer_Release(&v);
+    if (!ok)
+        goto done;
+    int before = fa->flags;
+    if ((r = PyObject_CallMethod(a, "setflags", "O", Py_False)) == NULL)
+        goto error;
+    ok = fa->flags == (before & ~NP_WRITEABLE);
+    fb->flags &= ~NP_WRITEABLE;
+    if (ok && PyObject_GetBuffer(b, &v, PyBUF_RECORDS) == 0) {
+        PyBuffer_Release(&v);
+        ok = 0; /* numpy still exports b as writable: not its flag */
+    }
+    PyErr_Clear();
+done:
+    Py_XDECREF(r);
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return ok;
+error:
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return -1;
+}
+
 #define NSHAPE 64
 static PyObject *shape_cache[2][NSHAPE];  /* (n,) and (n, n) for n < NSHAPE, built on use */
 
@@ -104,6 +173,10 @@ static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data
     Py_DECREF(shape);
     if (a == NULL)
         return NULL;
+    if (np_layout == 1) {
+        *data = (double *)((np_fields_t *)a)->data;
+        return a;
+    }
     Py_buffer v;
     if (PyObject_GetBuffer(a, &v, PyBUF_CONTIG) < 0) {
         Py_DECREF(a);
@@ -112,6 +185,20 @@ static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data
     *data = (double *)v.buf;
     PyBuffer_Release(&v);  /* the array keeps its data */
     return a;
+}
+
+/* a.setflags(write=False) for an array new_array() made: 0, or -1 (exception set). */
+static int freeze(PyObject *a)
+{
+    if (np_layout == 1) {
+        ((np_fields_t *)a)->flags &= ~NP_WRITEABLE;
+        return 0;
+    }
+    PyObject *r = PyObject_CallMethod(a, "setflags", "O", Py_False);
+    if (r == NULL)
+        return -1;
+    Py_DECREF(r);
+    return 0;
 }
 
 /* numpy's syrk() of cblasfuncs.c for a.dot(a.T), a r×k C-ordered: C = upper of a aᵀ, then the
@@ -334,6 +421,8 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
     for (Py_ssize_t i = 0; i < n; i++)
         for (Py_ssize_t j = 0; j < n; j++)
             Pd[i * n + j] = (Pn[i * n + j] + Pn[j * n + i]) * 0.5;
+    if (freeze(xa) < 0 || freeze(Pa) < 0)
+        goto fail;
     if (aug && want_phi) {
         view_t vfphi;
         if (!attr_view(fd, s_phi, 2, n, n, &vfphi)) {
@@ -493,6 +582,47 @@ done:
     return result;
 }
 
+/* estimate(x, P) -> (x, y, z, cov, finite): x[0], x[1], x[2] as floats, cov a new read-only
+ * C-ordered copy of P[0:2, 0:2] and whether its four numbers are finite (the position, depth
+ * and horizontal VCV of a filter state for cycle.filter_estimate), or None unless x is a
+ * float64 vector of n >= 3 and P a float64 n×n array. */
+static PyObject *kp_estimate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "estimate(x, P)");
+        return NULL;
+    }
+    view_t w[2];
+    w[1].ok = 0;
+    PyObject *result = NULL, *C = NULL;
+    if (!view_get(args[0], 1, -1, 0, &w[0]))
+        goto unsupported;
+    Py_ssize_t n = w[0].v.shape[0];
+    if (n < 3 || !view_get(args[1], 2, n, n, &w[1]))
+        goto unsupported;
+    double *Cd;
+    if ((C = new_array(2, 2, 2, &Cd)) == NULL)
+        goto done;
+    int finite = 1;
+    for (Py_ssize_t i = 0; i < 2; i++)
+        for (Py_ssize_t j = 0; j < 2; j++) {
+            Cd[i * 2 + j] = at2(&w[1], i, j);
+            finite = finite && isfinite(Cd[i * 2 + j]);
+        }
+    if (freeze(C) < 0)
+        goto done;
+    result = Py_BuildValue("(dddOO)", at1(&w[0], 0), at1(&w[0], 1), at1(&w[0], 2), C,
+                           finite ? Py_True : Py_False);
+    goto done;
+unsupported:
+    result = Py_NewRef(Py_None);
+done:
+    Py_XDECREF(C);
+    view_release(&w[0]);
+    view_release(&w[1]);
+    return result;
+}
+
 /* lse(x, y, C, f) -> (z, R, prior): z = np.array([x, y], dtype=float), R = C * (1.0 - f),
  * prior = C * f (lse_measurement, coloured); None unless x, y, f are exact floats and C a
  * C-ordered 2×2 float64 array. */
@@ -543,6 +673,9 @@ static PyMethodDef methods[] = {
      "rows(zs, var) -> (z, R) or None: the arrays of sensor_measurement's rows."},
     {"lse", (PyCFunction)(void (*)(void))kp_lse, METH_FASTCALL,
      "lse(x, y, C, f) -> (z, R, prior) or None: the arrays of a coloured LSE measurement."},
+    {"estimate", (PyCFunction)(void (*)(void))kp_estimate, METH_FASTCALL,
+     "estimate(x, P) -> (x, y, z, cov, finite) or None: a filter state's position, depth and "
+     "read-only horizontal VCV copy (cycle.filter_estimate)."},
     {"stack2", (PyCFunction)(void (*)(void))kp_stack2, METH_FASTCALL,
      "stack2(za, zb, Ra, Rb, cov, m) -> (z, R, prior) or None: two stacked blocks' arrays."},
     {NULL, NULL, 0, NULL},
@@ -562,6 +695,8 @@ PyMODINIT_FUNC PyInit_kalman_predict(void)
     np_empty = PyObject_GetAttrString(np, "empty");
     Py_DECREF(np);
     if (np_empty == NULL)
+        return NULL;
+    if ((np_layout = np_layout_ok()) < 0)
         return NULL;
     if (!(s_dt = PyUnicode_InternFromString("dt")) ||
         !(s_phi = PyUnicode_InternFromString("phi")) ||
