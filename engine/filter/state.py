@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -89,6 +90,15 @@ class FilterState:
     def with_fix_cov(self, keys: Sequence[str], cov: np.ndarray) -> FilterState:
         """The same estimate with the stationary VCV of fix-error states ``keys`` set to ``cov``
         (m², over ``keys``); their covariances with the other fix-error states become 0."""
+        if tuple(keys) == self.fix_states:  # the usual case: the LSE pair is all there is
+            k = _K if _K is not _UNRESOLVED else _kernel()
+            fc = k.sym2(cov) if k is not None else None  # a float64 2×2: read-only (C + Cᵀ)/2
+            if fc is not None:
+                new = object.__new__(FilterState)
+                d = new.__dict__
+                d.update(self.__dict__)
+                d["fix_cov"] = fc
+                return new
         C = np.asarray(cov, dtype=float)
         if C.shape == (2, 2):  # the LSE pair: (C + Cᵀ)/2 entry by entry, the same operations
             (a, b), (c, d) = C.tolist()
@@ -134,9 +144,18 @@ class FilterState:
 
 
 _UNRESOLVED = object()
-_K: object = _UNRESOLVED
-"""``engine.native.kalman_predict`` (its ``estimate``, copies only: no BLAS), or None (not built,
-stale, ``UVNAV_PURE=1``): then :func:`_estimate_parts_py`. Resolved on first use."""
+_K: Any = _UNRESOLVED
+"""``engine.native.kalman_predict`` (its ``estimate`` and ``sym2``, copies only: no BLAS), or
+None (not built, stale, ``UVNAV_PURE=1``): then the numpy code (:func:`_estimate_parts_py`,
+:meth:`FilterState.with_fix_cov`). Resolved on first use."""
+
+
+def _kernel() -> object:
+    """:data:`_K`, resolved on first use."""
+    global _K
+    if _K is _UNRESOLVED:
+        _K = native.kernel("kalman_predict")
+    return _K
 
 
 def estimate_parts(fs: FilterState) -> tuple[float, float, float, np.ndarray, bool]:
@@ -144,10 +163,7 @@ def estimate_parts(fs: FilterState) -> tuple[float, float, float, np.ndarray, bo
     copy of its 2×2 position VCV (m²) and whether that VCV is finite: what the cycle's
     estimate of a state needs (``engine.run.cycle.filter_estimate``), in one compiled call
     where the kernel is built (the same floats and array as :func:`_estimate_parts_py`)."""
-    global _K
-    k = _K
-    if k is _UNRESOLVED:
-        k = _K = native.kernel("kalman_predict")
+    k = _K if _K is not _UNRESOLVED else _kernel()
     if k is not None:
         r = k.estimate(fs.x, fs.P)  # type: ignore[attr-defined]
         if r is not None:

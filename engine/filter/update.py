@@ -20,7 +20,7 @@ import numpy as np
 
 from engine import native
 from engine.filter.lazy_scipy import blas, lapack
-from engine.filter.measurements import Measurement, distinct_keys, h_template
+from engine.filter.measurements import Measurement, distinct_key_tuple, h_template
 from engine.filter.params import FilterParams, read_only, symmetrised
 from engine.filter.state import IPSI, N_NAV, FilterState, add_fix_states
 from engine.geodesy.angles import wrap_2pi, wrap_pi
@@ -238,8 +238,9 @@ def _with_bias_columns(
     keys = rows.bias_keys
     if len(keys) != rows.z.shape[0]:
         raise ValueError("bias_keys needs one entry per measurement row")
-    dk = distinct_keys(keys)
-    missing = [i for i, k in enumerate(dk) if k not in state.fix_states]
+    dk = distinct_key_tuple(keys)
+    fs0 = state.fix_states  # all of dk already there (the usual case): nothing is missing
+    missing = [] if dk == fs0 else [i for i, k in enumerate(dk) if k not in fs0]
     if missing:
         if rows.bias_cov is None:
             raise ValueError(f"fix-error states {[dk[i] for i in missing]} are not in the state "

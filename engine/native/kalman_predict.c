@@ -15,7 +15,8 @@
  * are of a kind this kernel does not cover (the caller then runs the Python).
  * Also the arrays of the measurement rows (engine/filter/measurements.py), copies only, no
  * BLAS: rows(zs, var), lse(x, y, C, f) and stack2(za, zb, Ra, Rb, cov, m), None likewise;
- * and estimate(x, P), a state's position, depth and horizontal VCV (engine/run/cycle.py).
+ * and estimate(x, P), a state's position, depth and horizontal VCV (engine/run/cycle.py), and
+ * sym2(C), the symmetrised 2×2 fix-error VCV (engine/filter/state.py).
  * predict's x and P and estimate's VCV come back read-only (FilterState arrays).
  */
 #define PY_SSIZE_T_CLEAN
@@ -623,6 +624,37 @@ done:
     return result;
 }
 
+/* sym2(C) -> S: the read-only 2×2 S = (C + Cᵀ)/2 entry by entry as FilterState.with_fix_cov
+ * writes it, [[0.5·(a + a), 0.5·(b + c)], [0.5·(c + b), 0.5·(d + d)]] for C = [[a, b], [c, d]];
+ * None unless C is a float64 2×2 array. */
+static PyObject *kp_sym2(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 1) {
+        PyErr_SetString(PyExc_TypeError, "sym2(C)");
+        return NULL;
+    }
+    view_t w;
+    PyObject *S = NULL;
+    if (!view_get(args[0], 2, 2, 2, &w)) {
+        view_release(&w);
+        Py_RETURN_NONE;
+    }
+    double a = at2(&w, 0, 0), b = at2(&w, 0, 1), c = at2(&w, 1, 0), d = at2(&w, 1, 1);
+    view_release(&w);
+    double *Sd;
+    if ((S = new_array(2, 2, 2, &Sd)) == NULL)
+        return NULL;
+    Sd[0] = 0.5 * (a + a);
+    Sd[1] = 0.5 * (b + c);
+    Sd[2] = 0.5 * (c + b);
+    Sd[3] = 0.5 * (d + d);
+    if (freeze(S) < 0) {
+        Py_DECREF(S);
+        return NULL;
+    }
+    return S;
+}
+
 /* lse(x, y, C, f) -> (z, R, prior): z = np.array([x, y], dtype=float), R = C * (1.0 - f),
  * prior = C * f (lse_measurement, coloured); None unless x, y, f are exact floats and C a
  * C-ordered 2×2 float64 array. */
@@ -673,6 +705,8 @@ static PyMethodDef methods[] = {
      "rows(zs, var) -> (z, R) or None: the arrays of sensor_measurement's rows."},
     {"lse", (PyCFunction)(void (*)(void))kp_lse, METH_FASTCALL,
      "lse(x, y, C, f) -> (z, R, prior) or None: the arrays of a coloured LSE measurement."},
+    {"sym2", (PyCFunction)(void (*)(void))kp_sym2, METH_FASTCALL,
+     "sym2(C) -> (C + C.T)/2 of a float64 2x2, read-only, or None (FilterState.with_fix_cov)."},
     {"estimate", (PyCFunction)(void (*)(void))kp_estimate, METH_FASTCALL,
      "estimate(x, P) -> (x, y, z, cov, finite) or None: a filter state's position, depth and "
      "read-only horizontal VCV copy (cycle.filter_estimate)."},

@@ -334,3 +334,19 @@ def test_estimate_parts_decline_what_they_do_not_cover():
     assert KERNEL.estimate(np.zeros(11, dtype=np.float32), np.zeros((11, 11))) is None
     assert KERNEL.estimate(np.zeros(11), np.zeros((11, 12))) is None
     assert KERNEL.estimate([0.0] * 11, np.zeros((11, 11))) is None
+
+
+@needs_kernel
+def test_sym2_is_with_fix_cov_numpy_expression():
+    """sym2 (FilterState.with_fix_cov's usual case) gives the numpy code's array: the same
+    bits, read-only; anything but a float64 2×2 is declined."""
+    rng = np.random.default_rng(3)
+    for C in (rng.normal(size=(2, 2)) * 1e3, np.asfortranarray(rng.normal(size=(2, 2))),
+              rng.normal(size=(4, 4))[::2, ::2], np.array([[np.inf, 1.0], [np.nan, -0.0]])):
+        (a, b), (c, d) = C.tolist()
+        ref = np.array([[0.5 * (a + a), 0.5 * (b + c)], [0.5 * (c + b), 0.5 * (d + d)]])
+        got = KERNEL.sym2(C)
+        assert got.tobytes() == ref.tobytes() and got.strides == ref.strides
+        assert not got.flags.writeable
+    for bad in (np.zeros((3, 3)), np.zeros((2, 2), dtype=np.float32), [[1.0, 0.0], [0.0, 1.0]]):
+        assert KERNEL.sym2(bad) is None
