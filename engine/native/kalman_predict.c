@@ -44,6 +44,95 @@ static PyObject *s_dt, *s_phi, *s_gs, *s_gs_scale, *s_v_scale, *s_d, *s_dd, *s_o
 static double (*volatile uvn_sin)(double) = sin;
 static double (*volatile uvn_cos)(double) = cos;
 
+/* numpy's array object up to its flags: the leading fields of PyArrayObject_fields
+ * (numpy/ndarraytypes.h), the ABI through which every compiled numpy extension reads
+ * PyArray_DATA and PyArray_FLAGS. Used only once np_layout_ok() has confirmed it against
+ * numpy itself; otherwise the buffer protocol and ndarray.setflags are used. */
+typedef struct {
+    PyObject_HEAD
+    char *data;
+    int nd;
+    Py_ssize_t *dimensions;
+    Py_ssize_t *strides;
+    PyObject *base;
+    PyObject *descr;
+    int flags;
+} np_fields_t;
+
+#define NP_WRITEABLE 0x0400 /* NPY_ARRAY_WRITEABLE */
+#define NP_C_CONTIGUOUS 0x0001 /* NPY_ARRAY_C_CONTIGUOUS */
+#define NP_ALIGNED 0x0100 /* NPY_ARRAY_ALIGNED */
+
+static PyObject *np_ndarray = NULL; /* numpy.ndarray */
+static PyObject *np_f64 = NULL;     /* numpy.dtype(float): the float64 descriptor numpy shares */
+
+static int np_layout = -1; /* 1: np_fields_t checked, 0: not numpy's, -1: not checked yet */
+
+/* Is np_fields_t the layout of numpy.empty((2, 3)) (an exact ndarray of the shared float64
+ * descriptor, C-contiguous and aligned, as its buffer says), and is clearing NP_WRITEABLE what
+ * ndarray.setflags(write=False) does (and makes numpy refuse a writable buffer)? 1/0, -1 on an
+ * error (set). */
+static int np_layout_ok(void)
+{
+    int ok = 0;
+    PyObject *a = NULL, *b = NULL, *r = NULL, *shape = Py_BuildValue("(nn)", (Py_ssize_t)2,
+                                                                     (Py_ssize_t)3);
+    if (shape == NULL)
+        return -1;
+    a = PyObject_CallOneArg(np_empty, shape);
+    b = a == NULL ? NULL : PyObject_CallOneArg(np_empty, shape);
+    Py_DECREF(shape);
+    if (b == NULL)
+        goto error;
+    Py_buffer v;
+    if (PyObject_GetBuffer(a, &v, PyBUF_RECORDS) != 0) {
+        PyErr_Clear();
+        goto done;
+    }
+    np_fields_t *fa = (np_fields_t *)a, *fb = (np_fields_t *)b;
+    ok = (void *)fa->data == v.buf && fa->nd == 2 && fa->dimensions[0] == 2 &&
+         fa->dimensions[1] == 3 && fa->strides[0] == 24 && fa->strides[1] == 8 &&
+         (fa->flags & NP_WRITEABLE) && (fa->flags & NP_C_CONTIGUOUS) &&
+         (fa->flags & NP_ALIGNED) && fa->flags == fb->flags && fa->flags > 0 &&
+         (PyObject *)Py_TYPE(a) == np_ndarray && fa->descr == np_f64 && v.itemsize == 8 &&
+         v.format != NULL && strcmp(v.format, "d") == 0;
+    PyBuffer_Release(&v);
+    if (!ok)
+        goto done;
+    int before = fa->flags;
+    if ((r = PyObject_CallMethod(a, "setflags", "O", Py_False)) == NULL)
+        goto error;
+    ok = fa->flags == (before & ~NP_WRITEABLE);
+    fb->flags &= ~NP_WRITEABLE;
+    if (ok && PyObject_GetBuffer(b, &v, PyBUF_RECORDS) == 0) {
+        PyBuffer_Release(&v);
+        ok = 0; /* numpy still exports b as writable: not its flag */
+    }
+    PyErr_Clear();
+done:
+    Py_XDECREF(r);
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return ok;
+error:
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return -1;
+}
+
+/* The array object `obj` as np_fields_t when it is an exact numpy.ndarray of float64 (the
+ * shared descriptor), aligned, with `nd` dimensions: then its data, shape and strides are read
+ * from it directly, without the buffer protocol (what numpy's buffer would give); else NULL. */
+static np_fields_t *np_direct(PyObject *obj, int nd)
+{
+    if (np_layout != 1 || (PyObject *)Py_TYPE(obj) != np_ndarray)
+        return NULL;
+    np_fields_t *f = (np_fields_t *)obj;
+    if (f->descr != np_f64 || f->nd != nd || !(f->flags & NP_ALIGNED))
+        return NULL;
+    return f;
+}
+
 /* A read-only view of a float64 array of known shape (any strides; d0 or d1 < 0: any). */
 typedef struct {
     Py_buffer v;
@@ -53,11 +142,23 @@ typedef struct {
 static int view_get(PyObject *obj, int ndim, Py_ssize_t d0, Py_ssize_t d1, view_t *w)
 {
     w->ok = 0;
-    if (PyObject_GetBuffer(obj, &w->v, PyBUF_RECORDS_RO) < 0) {
+    np_fields_t *f = np_direct(obj, ndim);
+    if (f != NULL) {
+        /* numpy's own float64 array: its fields, as its buffer would give them (no release) */
+        w->v.obj = NULL;
+        w->v.buf = f->data;
+        w->v.ndim = ndim;
+        w->v.shape = f->dimensions;
+        w->v.strides = f->strides;
+        w->v.itemsize = 8;
+        w->v.format = (char *)"d";
+        w->ok = 1;
+    } else if (PyObject_GetBuffer(obj, &w->v, PyBUF_RECORDS_RO) < 0) {
         PyErr_Clear();
         return 0;
+    } else {
+        w->ok = 1;
     }
-    w->ok = 1;
     if (w->v.ndim != ndim || w->v.itemsize != 8 || w->v.format == NULL ||
         strcmp(w->v.format, "d") != 0 || (d0 >= 0 && w->v.shape[0] != d0) ||
         (ndim == 2 && d1 >= 0 && w->v.shape[1] != d1))
@@ -84,73 +185,6 @@ static inline double at2(const view_t *w, Py_ssize_t i, Py_ssize_t j)
 static inline double at1(const view_t *w, Py_ssize_t i)
 {
     return *(const double *)((const char *)w->v.buf + i * w->v.strides[0]);
-}
-
-/* numpy's array object up to its flags: the leading fields of PyArrayObject_fields
- * (numpy/ndarraytypes.h), the ABI through which every compiled numpy extension reads
- * PyArray_DATA and PyArray_FLAGS. Used only once np_layout_ok() has confirmed it against
- * numpy itself; otherwise the buffer protocol and ndarray.setflags are used. */
-typedef struct {
-    PyObject_HEAD
-    char *data;
-    int nd;
-    Py_ssize_t *dimensions;
-    Py_ssize_t *strides;
-    PyObject *base;
-    PyObject *descr;
-    int flags;
-} np_fields_t;
-
-#define NP_WRITEABLE 0x0400 /* NPY_ARRAY_WRITEABLE */
-
-static int np_layout = -1; /* 1: np_fields_t checked, 0: not numpy's, -1: not checked yet */
-
-/* Is np_fields_t the layout of numpy.empty((2, 3)), and is clearing NP_WRITEABLE in it what
- * ndarray.setflags(write=False) does (and makes numpy refuse a writable buffer)? 1/0, -1 on an
- * error (set). */
-static int np_layout_ok(void)
-{
-    int ok = 0;
-    PyObject *a = NULL, *b = NULL, *r = NULL, *shape = Py_BuildValue("(nn)", (Py_ssize_t)2,
-                                                                     (Py_ssize_t)3);
-    if (shape == NULL)
-        return -1;
-    a = PyObject_CallOneArg(np_empty, shape);
-    b = a == NULL ? NULL : PyObject_CallOneArg(np_empty, shape);
-    Py_DECREF(shape);
-    if (b == NULL)
-        goto error;
-    Py_buffer v;
-    if (PyObject_GetBuffer(a, &v, PyBUF_RECORDS) != 0) {
-        PyErr_Clear();
-        goto done;
-    }
-    np_fields_t *fa = (np_fields_t *)a, *fb = (np_fields_t *)b;
-    ok = (void *)fa->data == v.buf && fa->nd == 2 && fa->dimensions[0] == 2 &&
-         fa->dimensions[1] == 3 && fa->strides[0] == 24 && fa->strides[1] == 8 &&
-         (fa->flags & NP_WRITEABLE) && fa->flags == fb->flags && fa->flags > 0;
-    PyBuffer_Release(&v);
-    if (!ok)
-        goto done;
-    int before = fa->flags;
-    if ((r = PyObject_CallMethod(a, "setflags", "O", Py_False)) == NULL)
-        goto error;
-    ok = fa->flags == (before & ~NP_WRITEABLE);
-    fb->flags &= ~NP_WRITEABLE;
-    if (ok && PyObject_GetBuffer(b, &v, PyBUF_RECORDS) == 0) {
-        PyBuffer_Release(&v);
-        ok = 0; /* numpy still exports b as writable: not its flag */
-    }
-    PyErr_Clear();
-done:
-    Py_XDECREF(r);
-    Py_XDECREF(a);
-    Py_XDECREF(b);
-    return ok;
-error:
-    Py_XDECREF(a);
-    Py_XDECREF(b);
-    return -1;
 }
 
 #define NSHAPE 64
@@ -727,8 +761,10 @@ PyMODINIT_FUNC PyInit_kalman_predict(void)
     if (np == NULL)
         return NULL;
     np_empty = PyObject_GetAttrString(np, "empty");
+    np_ndarray = np_empty == NULL ? NULL : PyObject_GetAttrString(np, "ndarray");
+    np_f64 = np_ndarray == NULL ? NULL : PyObject_CallMethod(np, "dtype", "s", "float64");
     Py_DECREF(np);
-    if (np_empty == NULL)
+    if (np_f64 == NULL)
         return NULL;
     if ((np_layout = np_layout_ok()) < 0)
         return NULL;

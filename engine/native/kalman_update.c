@@ -57,10 +57,37 @@ typedef struct {
 } np_fields_t;
 
 #define NP_WRITEABLE 0x0400 /* NPY_ARRAY_WRITEABLE */
+#define NP_C_CONTIGUOUS 0x0001 /* NPY_ARRAY_C_CONTIGUOUS */
+#define NP_ALIGNED 0x0100 /* NPY_ARRAY_ALIGNED */
+
+static PyObject *np_ndarray = NULL; /* numpy.ndarray */
+static PyObject *np_f64 = NULL;     /* numpy.dtype(float): the float64 descriptor numpy shares */
+
+/* numpy.empty, numpy.ndarray and the float64 descriptor: 0, or -1 (exception set). */
+static int np_import(void)
+{
+    PyObject *np = PyImport_ImportModule("numpy");
+    if (np == NULL)
+        return -1;
+    PyObject *e = PyObject_GetAttrString(np, "empty");
+    PyObject *t = e == NULL ? NULL : PyObject_GetAttrString(np, "ndarray");
+    PyObject *d = t == NULL ? NULL : PyObject_CallMethod(np, "dtype", "s", "float64");
+    Py_DECREF(np);
+    if (d == NULL) {
+        Py_XDECREF(e);
+        Py_XDECREF(t);
+        return -1;
+    }
+    np_ndarray = t;
+    np_f64 = d;
+    np_empty = e;
+    return 0;
+}
 
 static int np_layout = -1; /* 1: np_fields_t checked, 0: not numpy's, -1: not checked yet */
 
-/* Is np_fields_t the layout of numpy.empty((2, 3)), and is clearing NP_WRITEABLE in it what
+/* Is np_fields_t the layout of numpy.empty((2, 3)) (an exact ndarray of the shared float64
+ * descriptor, C-contiguous and aligned, as its buffer says), and is clearing NP_WRITEABLE what
  * ndarray.setflags(write=False) does (and makes numpy refuse a writable buffer)? 1/0, -1 on an
  * error (set). */
 static int np_layout_ok(void)
@@ -83,7 +110,10 @@ static int np_layout_ok(void)
     np_fields_t *fa = (np_fields_t *)a, *fb = (np_fields_t *)b;
     ok = (void *)fa->data == v.buf && fa->nd == 2 && fa->dimensions[0] == 2 &&
          fa->dimensions[1] == 3 && fa->strides[0] == 24 && fa->strides[1] == 8 &&
-         (fa->flags & NP_WRITEABLE) && fa->flags == fb->flags && fa->flags > 0;
+         (fa->flags & NP_WRITEABLE) && (fa->flags & NP_C_CONTIGUOUS) &&
+         (fa->flags & NP_ALIGNED) && fa->flags == fb->flags && fa->flags > 0 &&
+         (PyObject *)Py_TYPE(a) == np_ndarray && fa->descr == np_f64 && v.itemsize == 8 &&
+         v.format != NULL && strcmp(v.format, "d") == 0;
     PyBuffer_Release(&v);
     if (!ok)
         goto done;
@@ -106,6 +136,19 @@ error:
     Py_XDECREF(a);
     Py_XDECREF(b);
     return -1;
+}
+
+/* The array object `obj` as np_fields_t when it is an exact numpy.ndarray of float64 (the
+ * shared descriptor), aligned, with `nd` dimensions: then its data, shape and strides are read
+ * from it directly, without the buffer protocol (what numpy's buffer would give); else NULL. */
+static np_fields_t *np_direct(PyObject *obj, int nd)
+{
+    if (np_layout != 1 || (PyObject *)Py_TYPE(obj) != np_ndarray)
+        return NULL;
+    np_fields_t *f = (np_fields_t *)obj;
+    if (f->descr != np_f64 || f->nd != nd || !(f->flags & NP_ALIGNED))
+        return NULL;
+    return f;
 }
 
 #define NSHAPE 64
@@ -417,10 +460,27 @@ static void release(bufs_t *bs)
 }
 
 /* A C-contiguous float64 buffer of `obj` with ndim `nd` and shape (d0[, d1]) (d < 0: any),
- * or NULL (no exception left set). */
+ * or NULL (no exception left set). A numpy float64 array to read is read directly
+ * (np_direct), as its buffer would give it. */
 static double *get(bufs_t *bs, PyObject *obj, int nd, int64_t d0, int64_t d1, int writable)
 {
     Py_buffer *v = &bs->v[bs->n];
+    np_fields_t *f;
+    if (!writable && (f = np_direct(obj, nd)) != NULL) {
+        /* numpy's own array: its fields, as its buffer would give them (nothing to release) */
+        if (!(f->flags & NP_C_CONTIGUOUS))
+            return NULL; /* numpy would refuse the C-contiguous buffer */
+        v->obj = NULL;
+        v->buf = f->data;
+        v->ndim = nd;
+        v->shape = f->dimensions;
+        v->strides = f->strides;
+        v->itemsize = 8;
+        bs->n++;
+        if ((d0 >= 0 && v->shape[0] != d0) || (nd == 2 && d1 >= 0 && v->shape[1] != d1))
+            return NULL;
+        return (double *)v->buf;
+    }
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
     if (PyObject_GetBuffer(obj, v, flags) != 0) {
         PyErr_Clear();
@@ -696,15 +756,8 @@ static PyObject *py_update_new(PyObject *self, PyObject *const *args, Py_ssize_t
         PyErr_SetString(PyExc_TypeError, "update_new takes 8 arguments");
         return NULL;
     }
-    if (np_empty == NULL) {
-        PyObject *np = PyImport_ImportModule("numpy");
-        if (np == NULL)
-            return NULL;
-        np_empty = PyObject_GetAttrString(np, "empty");
-        Py_DECREF(np);
-        if (np_empty == NULL)
-            return NULL;
-    }
+    if (np_empty == NULL && np_import() < 0)
+        return NULL;
     if (np_layout < 0 && (np_layout = np_layout_ok()) < 0)
         return NULL;
     const double *H, *x, *P, *z, *R;
