@@ -68,6 +68,30 @@ static PyObject *np_f64 = NULL;     /* numpy.dtype(float): the float64 descripto
 
 static int np_layout = -1; /* 1: np_fields_t checked, 0: not numpy's, -1: not checked yet */
 
+/* numpy's C API table (the capsule numpy._core._multiarray_umath._ARRAY_API that numpy's
+ * import_array() reads; its slots are numpy's ABI): slot 0 PyArray_GetNDArrayCVersion, 2 the
+ * ndarray type, 94 PyArray_NewFromDescr. Used to make arrays (what numpy.empty does, without
+ * its argument parsing) only once np_api_bind() found slot 2 to be numpy.ndarray and the ABI
+ * version that of numpy ≥ 1.x; else numpy.empty is called. */
+typedef PyObject *(*np_new_from_descr_t)(PyTypeObject *, PyObject *, int, const Py_ssize_t *,
+                                         const Py_ssize_t *, void *, int, PyObject *);
+static np_new_from_descr_t np_new_from_descr = NULL;
+
+static void np_api_bind(void)
+{
+    PyObject *m = PyImport_ImportModule("numpy._core._multiarray_umath");
+    PyObject *c = m == NULL ? NULL : PyObject_GetAttrString(m, "_ARRAY_API");
+    Py_XDECREF(m);
+    if (c != NULL && PyCapsule_CheckExact(c)) {
+        void **table = PyCapsule_GetPointer(c, PyCapsule_GetName(c));
+        if (table != NULL && table[2] == (void *)np_ndarray && table[0] != NULL &&
+            ((unsigned (*)(void))table[0])() >= 0x01000009u && table[94] != NULL)
+            np_new_from_descr = (np_new_from_descr_t)table[94];
+    }
+    Py_XDECREF(c);
+    PyErr_Clear();
+}
+
 /* Is np_fields_t the layout of numpy.empty((2, 3)) (an exact ndarray of the shared float64
  * descriptor, C-contiguous and aligned, as its buffer says), and is clearing NP_WRITEABLE what
  * ndarray.setflags(write=False) does (and makes numpy refuse a writable buffer)? 1/0, -1 on an
@@ -193,6 +217,16 @@ static PyObject *shape_cache[2][NSHAPE];  /* (n,) and (n, n) for n < NSHAPE, bui
 /* A new C-ordered float64 numpy array (numpy.empty) and a pointer to its data. */
 static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data)
 {
+    if (np_new_from_descr != NULL && np_layout == 1) {
+        Py_ssize_t dims[2] = {d0, d1};
+        Py_INCREF(np_f64); /* stolen */
+        PyObject *a = np_new_from_descr((PyTypeObject *)np_ndarray, np_f64, ndim, dims, NULL,
+                                        NULL, 0, NULL);
+        if (a == NULL)
+            return NULL;
+        *data = (double *)((np_fields_t *)a)->data;
+        return a;
+    }
     PyObject *shape;
     int cached = d0 >= 0 && d0 < NSHAPE && (ndim == 1 || d1 == d0);
     if (cached && shape_cache[ndim - 1][d0] != NULL) {
@@ -768,6 +802,7 @@ PyMODINIT_FUNC PyInit_kalman_predict(void)
         return NULL;
     if ((np_layout = np_layout_ok()) < 0)
         return NULL;
+    np_api_bind();
     if (!(s_dt = PyUnicode_InternFromString("dt")) ||
         !(s_phi = PyUnicode_InternFromString("phi")) ||
         !(s_gs = PyUnicode_InternFromString("gs")) ||
