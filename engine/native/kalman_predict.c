@@ -680,8 +680,19 @@ static PyObject *kp_estimate(PyObject *self, PyObject *const *args, Py_ssize_t n
         }
     if (freeze(C) < 0)
         goto done;
-    result = Py_BuildValue("(dddOO)", at1(&w[0], 0), at1(&w[0], 1), at1(&w[0], 2), C,
-                           finite ? Py_True : Py_False);
+    if ((result = PyTuple_New(5)) == NULL)
+        goto done;
+    for (int i = 0; i < 3; i++) {
+        PyObject *v = PyFloat_FromDouble(at1(&w[0], i));
+        if (v == NULL) {
+            Py_CLEAR(result);
+            goto done;
+        }
+        PyTuple_SET_ITEM(result, i, v);
+    }
+    PyTuple_SET_ITEM(result, 3, C); /* the tuple takes C's reference */
+    C = NULL;
+    PyTuple_SET_ITEM(result, 4, Py_NewRef(finite ? Py_True : Py_False));
     goto done;
 unsupported:
     result = Py_NewRef(Py_None);

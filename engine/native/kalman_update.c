@@ -821,8 +821,20 @@ static PyObject *py_update_new(PyObject *self, PyObject *const *args, Py_ssize_t
         goto fallback;
     if (freeze(o[4]) < 0 || freeze(o[5]) < 0 || (t_ok && freeze(o[6]) < 0))
         goto done;
-    result = Py_BuildValue("(dOOOOOOOO)", nis, t_ok ? Py_True : Py_False, o[1], o[2], o[3], o[4],
-                           o[5], o[6], o[0]);
+    /* (nis, t_ok, v, S, K, xn, Pn, t, Y): the tuple takes the arrays' references */
+    PyObject *fnis = PyFloat_FromDouble(nis);
+    if (fnis == NULL || (result = PyTuple_New(9)) == NULL) {
+        Py_XDECREF(fnis);
+        goto done;
+    }
+    PyTuple_SET_ITEM(result, 0, fnis);
+    PyTuple_SET_ITEM(result, 1, Py_NewRef(t_ok ? Py_True : Py_False));
+    for (int i = 1; i < 7; i++) {
+        PyTuple_SET_ITEM(result, i + 1, o[i]);
+        o[i] = NULL;
+    }
+    PyTuple_SET_ITEM(result, 8, o[0]);
+    o[0] = NULL;
     goto done;
 
 fallback:
