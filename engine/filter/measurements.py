@@ -402,6 +402,23 @@ def distinct_keys(keys: Sequence[str | None]) -> list[str]:
     return out
 
 
+_DISTINCT: dict[tuple[str | None, ...], tuple[str, ...]] = {}
+"""Rows' fix-error keys → :func:`distinct_keys` of them as a tuple (a handful of layouts)."""
+
+
+def distinct_key_tuple(keys: Sequence[str | None]) -> tuple[str, ...]:
+    """:func:`distinct_keys` as a tuple, remembered per ``keys`` tuple (hot path: every update
+    with fix-error rows asks for the same few)."""
+    if type(keys) is not tuple:
+        return tuple(distinct_keys(keys))
+    dk = _DISTINCT.get(keys)
+    if dk is None:
+        if len(_DISTINCT) >= 64:
+            _DISTINCT.clear()
+        dk = _DISTINCT[keys] = tuple(distinct_keys(keys))
+    return dk
+
+
 def stack_measurements(*parts: Measurement) -> Measurement:
     """Concatenate measurement blocks (R block-diagonal), e.g. LSE rows then sensor rows.
 
@@ -435,7 +452,7 @@ def _stack_two(a: Measurement, b: Measurement) -> Measurement | None:
         angle += tuple(ka + i for i in b.angle_rows)
     labels = tuple(a.labels) + tuple(b.labels)
     bk = b.bias_keys
-    dk = distinct_keys(bk) if bk else []
+    dk = distinct_key_tuple(bk) if bk else ()
     first = None if not dk or b.bias_cov is None else np.asarray(b.bias_cov)
     m_dk = len(dk)
     if first is not None and (first.ndim != 2 or min(first.shape) < m_dk):

@@ -43,8 +43,8 @@ def predict_step(
         c = step_constants(params, dt)
         fd = c.fix_decay(state.fix_tau_s) if state.fix_states else None
         r = k.predict(state.x, state.P, c, fd, state.fix_cov, True)
-        if r is not None:
-            return state._with(state.t + dt, r[0], r[1]), r[2]
+        if r is not None:  # the kernel's x and P are new and read-only already
+            return state._with_frozen(state.t + dt, r[0], r[1]), r[2]
     return _predict(state, dt, params, True)
 
 
@@ -72,8 +72,8 @@ def _predict(
         c = step_constants(params, dt)
         fd = c.fix_decay(state.fix_tau_s) if state.fix_states else None
         r = k.predict(state.x, state.P, c, fd, state.fix_cov, want_phi)
-        if r is not None:
-            return state._with(state.t + dt, r[0], r[1]), r[2]
+        if r is not None:  # the kernel's x and P are new and read-only already
+            return state._with_frozen(state.t + dt, r[0], r[1]), r[2]
     return _predict_py(state, dt, params, want_phi)
 
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from engine import native
 from engine.filter.lazy_scipy import blas, lapack
-from engine.filter.measurements import Measurement, distinct_keys, h_template
+from engine.filter.measurements import Measurement, distinct_key_tuple, h_template
 from engine.filter.params import FilterParams, read_only, symmetrised
 from engine.filter.state import IPSI, N_NAV, FilterState, add_fix_states
 from engine.geodesy.angles import wrap_2pi, wrap_pi
@@ -238,8 +238,9 @@ def _with_bias_columns(
     keys = rows.bias_keys
     if len(keys) != rows.z.shape[0]:
         raise ValueError("bias_keys needs one entry per measurement row")
-    dk = distinct_keys(keys)
-    missing = [i for i, k in enumerate(dk) if k not in state.fix_states]
+    dk = distinct_key_tuple(keys)
+    fs0 = state.fix_states  # all of dk already there (the usual case): nothing is missing
+    missing = [] if dk == fs0 else [i for i, k in enumerate(dk) if k not in fs0]
     if missing:
         if rows.bias_cov is None:
             raise ValueError(f"fix-error states {[dk[i] for i in missing]} are not in the state "
@@ -294,26 +295,19 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
         new, H = state, rows.H
         if H.shape[1] < state.x.shape[0]:
             new, H = _full_width(state, rows, params)
-    x = new.x
-    n = x.shape[0]
-    Yc = _EMPTY((n + 1 + p, p))  # Yc.T: L⁻¹[HP | v̂ | I], Fortran-ordered as trsm leaves it
-    v = _EMPTY(p)
-    S = _EMPTY((p, p))
-    K = _EMPTY((n, p))
-    xn = _EMPTY(n)
-    Pn = _EMPTY((n, n))
-    t = _EMPTY(p)
-    out = k.update(x, new.P, H, z, rows.R, Yc, v, S, K, xn, Pn, t, rows.angle_rows,
-                   params.joseph, IPSI)
+    out = k.update_new(new.x, new.P, H, z, rows.R, rows.angle_rows, params.joseph, IPSI)
     if out is None:
         return _update_py(state, rows, params)
-    nis, t_ok = out
-    new = new._with(new.t, xn, Pn)
+    # The kernel's new arrays: v (p,), S (p×p), K (n×p), x⁺ and P⁺ (read-only), the LS
+    # statistics t (p,; read-only, filled when t_ok) and Yc ((n+1+p)×p; Yc.T = L⁻¹[HP | v̂ | I],
+    # Fortran-ordered as trsm leaves it).
+    nis, t_ok, v, S, K, xn, Pn, t, Yc = out
+    n = xn.shape[0]
+    new = new._with_frozen(new.t, xn, Pn)
     lom = _lom_from_nis(nis, p, params.alpha)
     Y = Yc.T
     ls = _new(LsTest)
     if t_ok:  # LsTest.t, computed by the kernel (same bits); else on access as usual
-        t.setflags(write=False)
         ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject",
                            t=t)
     else:

@@ -14,7 +14,10 @@
  * predict(x, P, c, fd, fix_cov, want_phi) -> (x, P, Φ) as new arrays, or None when the inputs
  * are of a kind this kernel does not cover (the caller then runs the Python).
  * Also the arrays of the measurement rows (engine/filter/measurements.py), copies only, no
- * BLAS: rows(zs, var), lse(x, y, C, f) and stack2(za, zb, Ra, Rb, cov, m), None likewise.
+ * BLAS: rows(zs, var), lse(x, y, C, f) and stack2(za, zb, Ra, Rb, cov, m), None likewise;
+ * and estimate(x, P), a state's position, depth and horizontal VCV (engine/run/cycle.py), and
+ * sym2(C), the symmetrised 2×2 fix-error VCV (engine/filter/state.py).
+ * predict's x and P and estimate's VCV come back read-only (FilterState arrays).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -41,7 +44,120 @@ static PyObject *s_dt, *s_phi, *s_gs, *s_gs_scale, *s_v_scale, *s_d, *s_dd, *s_o
 static double (*volatile uvn_sin)(double) = sin;
 static double (*volatile uvn_cos)(double) = cos;
 
-/* A read-only view of a float64 array of known shape (any strides). */
+/* numpy's array object up to its flags: the leading fields of PyArrayObject_fields
+ * (numpy/ndarraytypes.h), the ABI through which every compiled numpy extension reads
+ * PyArray_DATA and PyArray_FLAGS. Used only once np_layout_ok() has confirmed it against
+ * numpy itself; otherwise the buffer protocol and ndarray.setflags are used. */
+typedef struct {
+    PyObject_HEAD
+    char *data;
+    int nd;
+    Py_ssize_t *dimensions;
+    Py_ssize_t *strides;
+    PyObject *base;
+    PyObject *descr;
+    int flags;
+} np_fields_t;
+
+#define NP_WRITEABLE 0x0400 /* NPY_ARRAY_WRITEABLE */
+#define NP_C_CONTIGUOUS 0x0001 /* NPY_ARRAY_C_CONTIGUOUS */
+#define NP_ALIGNED 0x0100 /* NPY_ARRAY_ALIGNED */
+
+static PyObject *np_ndarray = NULL; /* numpy.ndarray */
+static PyObject *np_f64 = NULL;     /* numpy.dtype(float): the float64 descriptor numpy shares */
+
+static int np_layout = -1; /* 1: np_fields_t checked, 0: not numpy's, -1: not checked yet */
+
+/* numpy's C API table (the capsule numpy._core._multiarray_umath._ARRAY_API that numpy's
+ * import_array() reads; its slots are numpy's ABI): slot 0 PyArray_GetNDArrayCVersion, 2 the
+ * ndarray type, 94 PyArray_NewFromDescr. Used to make arrays (what numpy.empty does, without
+ * its argument parsing) only once np_api_bind() found slot 2 to be numpy.ndarray and the ABI
+ * version that of numpy ≥ 1.x; else numpy.empty is called. */
+typedef PyObject *(*np_new_from_descr_t)(PyTypeObject *, PyObject *, int, const Py_ssize_t *,
+                                         const Py_ssize_t *, void *, int, PyObject *);
+static np_new_from_descr_t np_new_from_descr = NULL;
+
+static void np_api_bind(void)
+{
+    PyObject *m = PyImport_ImportModule("numpy._core._multiarray_umath");
+    PyObject *c = m == NULL ? NULL : PyObject_GetAttrString(m, "_ARRAY_API");
+    Py_XDECREF(m);
+    if (c != NULL && PyCapsule_CheckExact(c)) {
+        void **table = PyCapsule_GetPointer(c, PyCapsule_GetName(c));
+        if (table != NULL && table[2] == (void *)np_ndarray && table[0] != NULL &&
+            ((unsigned (*)(void))table[0])() >= 0x01000009u && table[94] != NULL)
+            np_new_from_descr = (np_new_from_descr_t)table[94];
+    }
+    Py_XDECREF(c);
+    PyErr_Clear();
+}
+
+/* Is np_fields_t the layout of numpy.empty((2, 3)) (an exact ndarray of the shared float64
+ * descriptor, C-contiguous and aligned, as its buffer says), and is clearing NP_WRITEABLE what
+ * ndarray.setflags(write=False) does (and makes numpy refuse a writable buffer)? 1/0, -1 on an
+ * error (set). */
+static int np_layout_ok(void)
+{
+    int ok = 0;
+    PyObject *a = NULL, *b = NULL, *r = NULL, *shape = Py_BuildValue("(nn)", (Py_ssize_t)2,
+                                                                     (Py_ssize_t)3);
+    if (shape == NULL)
+        return -1;
+    a = PyObject_CallOneArg(np_empty, shape);
+    b = a == NULL ? NULL : PyObject_CallOneArg(np_empty, shape);
+    Py_DECREF(shape);
+    if (b == NULL)
+        goto error;
+    Py_buffer v;
+    if (PyObject_GetBuffer(a, &v, PyBUF_RECORDS) != 0) {
+        PyErr_Clear();
+        goto done;
+    }
+    np_fields_t *fa = (np_fields_t *)a, *fb = (np_fields_t *)b;
+    ok = (void *)fa->data == v.buf && fa->nd == 2 && fa->dimensions[0] == 2 &&
+         fa->dimensions[1] == 3 && fa->strides[0] == 24 && fa->strides[1] == 8 &&
+         (fa->flags & NP_WRITEABLE) && (fa->flags & NP_C_CONTIGUOUS) &&
+         (fa->flags & NP_ALIGNED) && fa->flags == fb->flags && fa->flags > 0 &&
+         (PyObject *)Py_TYPE(a) == np_ndarray && fa->descr == np_f64 && v.itemsize == 8 &&
+         v.format != NULL && strcmp(v.format, "d") == 0;
+    PyBuffer_Release(&v);
+    if (!ok)
+        goto done;
+    int before = fa->flags;
+    if ((r = PyObject_CallMethod(a, "setflags", "O", Py_False)) == NULL)
+        goto error;
+    ok = fa->flags == (before & ~NP_WRITEABLE);
+    fb->flags &= ~NP_WRITEABLE;
+    if (ok && PyObject_GetBuffer(b, &v, PyBUF_RECORDS) == 0) {
+        PyBuffer_Release(&v);
+        ok = 0; /* numpy still exports b as writable: not its flag */
+    }
+    PyErr_Clear();
+done:
+    Py_XDECREF(r);
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return ok;
+error:
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return -1;
+}
+
+/* The array object `obj` as np_fields_t when it is an exact numpy.ndarray of float64 (the
+ * shared descriptor), aligned, with `nd` dimensions: then its data, shape and strides are read
+ * from it directly, without the buffer protocol (what numpy's buffer would give); else NULL. */
+static np_fields_t *np_direct(PyObject *obj, int nd)
+{
+    if (np_layout != 1 || (PyObject *)Py_TYPE(obj) != np_ndarray)
+        return NULL;
+    np_fields_t *f = (np_fields_t *)obj;
+    if (f->descr != np_f64 || f->nd != nd || !(f->flags & NP_ALIGNED))
+        return NULL;
+    return f;
+}
+
+/* A read-only view of a float64 array of known shape (any strides; d0 or d1 < 0: any). */
 typedef struct {
     Py_buffer v;
     int ok;
@@ -50,14 +166,26 @@ typedef struct {
 static int view_get(PyObject *obj, int ndim, Py_ssize_t d0, Py_ssize_t d1, view_t *w)
 {
     w->ok = 0;
-    if (PyObject_GetBuffer(obj, &w->v, PyBUF_RECORDS_RO) < 0) {
+    np_fields_t *f = np_direct(obj, ndim);
+    if (f != NULL) {
+        /* numpy's own float64 array: its fields, as its buffer would give them (no release) */
+        w->v.obj = NULL;
+        w->v.buf = f->data;
+        w->v.ndim = ndim;
+        w->v.shape = f->dimensions;
+        w->v.strides = f->strides;
+        w->v.itemsize = 8;
+        w->v.format = (char *)"d";
+        w->ok = 1;
+    } else if (PyObject_GetBuffer(obj, &w->v, PyBUF_RECORDS_RO) < 0) {
         PyErr_Clear();
         return 0;
+    } else {
+        w->ok = 1;
     }
-    w->ok = 1;
     if (w->v.ndim != ndim || w->v.itemsize != 8 || w->v.format == NULL ||
-        strcmp(w->v.format, "d") != 0 || w->v.shape[0] != d0 ||
-        (ndim == 2 && w->v.shape[1] != d1))
+        strcmp(w->v.format, "d") != 0 || (d0 >= 0 && w->v.shape[0] != d0) ||
+        (ndim == 2 && d1 >= 0 && w->v.shape[1] != d1))
         return 0;
     for (int i = 0; i < ndim; i++)
         if (w->v.strides[i] % 8 != 0 || w->v.strides[i] < 0)
@@ -89,6 +217,16 @@ static PyObject *shape_cache[2][NSHAPE];  /* (n,) and (n, n) for n < NSHAPE, bui
 /* A new C-ordered float64 numpy array (numpy.empty) and a pointer to its data. */
 static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data)
 {
+    if (np_new_from_descr != NULL && np_layout == 1) {
+        Py_ssize_t dims[2] = {d0, d1};
+        Py_INCREF(np_f64); /* stolen */
+        PyObject *a = np_new_from_descr((PyTypeObject *)np_ndarray, np_f64, ndim, dims, NULL,
+                                        NULL, 0, NULL);
+        if (a == NULL)
+            return NULL;
+        *data = (double *)((np_fields_t *)a)->data;
+        return a;
+    }
     PyObject *shape;
     int cached = d0 >= 0 && d0 < NSHAPE && (ndim == 1 || d1 == d0);
     if (cached && shape_cache[ndim - 1][d0] != NULL) {
@@ -104,6 +242,10 @@ static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data
     Py_DECREF(shape);
     if (a == NULL)
         return NULL;
+    if (np_layout == 1) {
+        *data = (double *)((np_fields_t *)a)->data;
+        return a;
+    }
     Py_buffer v;
     if (PyObject_GetBuffer(a, &v, PyBUF_CONTIG) < 0) {
         Py_DECREF(a);
@@ -112,6 +254,20 @@ static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data
     *data = (double *)v.buf;
     PyBuffer_Release(&v);  /* the array keeps its data */
     return a;
+}
+
+/* a.setflags(write=False) for an array new_array() made: 0, or -1 (exception set). */
+static int freeze(PyObject *a)
+{
+    if (np_layout == 1) {
+        ((np_fields_t *)a)->flags &= ~NP_WRITEABLE;
+        return 0;
+    }
+    PyObject *r = PyObject_CallMethod(a, "setflags", "O", Py_False);
+    if (r == NULL)
+        return -1;
+    Py_DECREF(r);
+    return 0;
 }
 
 /* numpy's syrk() of cblasfuncs.c for a.dot(a.T), a r×k C-ordered: C = upper of a aᵀ, then the
@@ -334,6 +490,8 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
     for (Py_ssize_t i = 0; i < n; i++)
         for (Py_ssize_t j = 0; j < n; j++)
             Pd[i * n + j] = (Pn[i * n + j] + Pn[j * n + i]) * 0.5;
+    if (freeze(xa) < 0 || freeze(Pa) < 0)
+        goto fail;
     if (aug && want_phi) {
         view_t vfphi;
         if (!attr_view(fd, s_phi, 2, n, n, &vfphi)) {
@@ -493,6 +651,89 @@ done:
     return result;
 }
 
+/* estimate(x, P) -> (x, y, z, cov, finite): x[0], x[1], x[2] as floats, cov a new read-only
+ * C-ordered copy of P[0:2, 0:2] and whether its four numbers are finite (the position, depth
+ * and horizontal VCV of a filter state for cycle.filter_estimate), or None unless x is a
+ * float64 vector of n >= 3 and P a float64 n×n array. */
+static PyObject *kp_estimate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "estimate(x, P)");
+        return NULL;
+    }
+    view_t w[2];
+    w[1].ok = 0;
+    PyObject *result = NULL, *C = NULL;
+    if (!view_get(args[0], 1, -1, 0, &w[0]))
+        goto unsupported;
+    Py_ssize_t n = w[0].v.shape[0];
+    if (n < 3 || !view_get(args[1], 2, n, n, &w[1]))
+        goto unsupported;
+    double *Cd;
+    if ((C = new_array(2, 2, 2, &Cd)) == NULL)
+        goto done;
+    int finite = 1;
+    for (Py_ssize_t i = 0; i < 2; i++)
+        for (Py_ssize_t j = 0; j < 2; j++) {
+            Cd[i * 2 + j] = at2(&w[1], i, j);
+            finite = finite && isfinite(Cd[i * 2 + j]);
+        }
+    if (freeze(C) < 0)
+        goto done;
+    if ((result = PyTuple_New(5)) == NULL)
+        goto done;
+    for (int i = 0; i < 3; i++) {
+        PyObject *v = PyFloat_FromDouble(at1(&w[0], i));
+        if (v == NULL) {
+            Py_CLEAR(result);
+            goto done;
+        }
+        PyTuple_SET_ITEM(result, i, v);
+    }
+    PyTuple_SET_ITEM(result, 3, C); /* the tuple takes C's reference */
+    C = NULL;
+    PyTuple_SET_ITEM(result, 4, Py_NewRef(finite ? Py_True : Py_False));
+    goto done;
+unsupported:
+    result = Py_NewRef(Py_None);
+done:
+    Py_XDECREF(C);
+    view_release(&w[0]);
+    view_release(&w[1]);
+    return result;
+}
+
+/* sym2(C) -> S: the read-only 2×2 S = (C + Cᵀ)/2 entry by entry as FilterState.with_fix_cov
+ * writes it, [[0.5·(a + a), 0.5·(b + c)], [0.5·(c + b), 0.5·(d + d)]] for C = [[a, b], [c, d]];
+ * None unless C is a float64 2×2 array. */
+static PyObject *kp_sym2(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 1) {
+        PyErr_SetString(PyExc_TypeError, "sym2(C)");
+        return NULL;
+    }
+    view_t w;
+    PyObject *S = NULL;
+    if (!view_get(args[0], 2, 2, 2, &w)) {
+        view_release(&w);
+        Py_RETURN_NONE;
+    }
+    double a = at2(&w, 0, 0), b = at2(&w, 0, 1), c = at2(&w, 1, 0), d = at2(&w, 1, 1);
+    view_release(&w);
+    double *Sd;
+    if ((S = new_array(2, 2, 2, &Sd)) == NULL)
+        return NULL;
+    Sd[0] = 0.5 * (a + a);
+    Sd[1] = 0.5 * (b + c);
+    Sd[2] = 0.5 * (c + b);
+    Sd[3] = 0.5 * (d + d);
+    if (freeze(S) < 0) {
+        Py_DECREF(S);
+        return NULL;
+    }
+    return S;
+}
+
 /* lse(x, y, C, f) -> (z, R, prior): z = np.array([x, y], dtype=float), R = C * (1.0 - f),
  * prior = C * f (lse_measurement, coloured); None unless x, y, f are exact floats and C a
  * C-ordered 2×2 float64 array. */
@@ -543,6 +784,11 @@ static PyMethodDef methods[] = {
      "rows(zs, var) -> (z, R) or None: the arrays of sensor_measurement's rows."},
     {"lse", (PyCFunction)(void (*)(void))kp_lse, METH_FASTCALL,
      "lse(x, y, C, f) -> (z, R, prior) or None: the arrays of a coloured LSE measurement."},
+    {"sym2", (PyCFunction)(void (*)(void))kp_sym2, METH_FASTCALL,
+     "sym2(C) -> (C + C.T)/2 of a float64 2x2, read-only, or None (FilterState.with_fix_cov)."},
+    {"estimate", (PyCFunction)(void (*)(void))kp_estimate, METH_FASTCALL,
+     "estimate(x, P) -> (x, y, z, cov, finite) or None: a filter state's position, depth and "
+     "read-only horizontal VCV copy (cycle.filter_estimate)."},
     {"stack2", (PyCFunction)(void (*)(void))kp_stack2, METH_FASTCALL,
      "stack2(za, zb, Ra, Rb, cov, m) -> (z, R, prior) or None: two stacked blocks' arrays."},
     {NULL, NULL, 0, NULL},
@@ -560,9 +806,14 @@ PyMODINIT_FUNC PyInit_kalman_predict(void)
     if (np == NULL)
         return NULL;
     np_empty = PyObject_GetAttrString(np, "empty");
+    np_ndarray = np_empty == NULL ? NULL : PyObject_GetAttrString(np, "ndarray");
+    np_f64 = np_ndarray == NULL ? NULL : PyObject_CallMethod(np, "dtype", "s", "float64");
     Py_DECREF(np);
-    if (np_empty == NULL)
+    if (np_f64 == NULL)
         return NULL;
+    if ((np_layout = np_layout_ok()) < 0)
+        return NULL;
+    np_api_bind();
     if (!(s_dt = PyUnicode_InternFromString("dt")) ||
         !(s_phi = PyUnicode_InternFromString("phi")) ||
         !(s_gs = PyUnicode_InternFromString("gs")) ||

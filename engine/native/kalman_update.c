@@ -18,7 +18,9 @@
  * the Fortran-ordered p×(n+1+p) the Python's trsm overwrites) and wraps them; any input that is
  * not a C-contiguous float64 array of the expected shape, a non-finite angle innovation, S not
  * positive definite or a non-positive variance gives None: the caller then runs the Python,
- * which raises what it raises.
+ * which raises what it raises. update_new() is update() with the outputs made here (numpy.empty)
+ * and returned, x⁺ and P⁺ (and t when filled) already read-only: one call instead of seven
+ * numpy.empty and three setflags calls in the Python per update.
  */
 #include "uvn_blas.h"
 
@@ -34,6 +36,205 @@ static int bound = 0;
 
 static const double TWO_PI = 2.0 * 3.14159265358979311599796346854;  /* 2.0 * math.pi */
 static const double PI = 3.14159265358979311599796346854;            /* math.pi */
+
+/* ------------------------------------------------------------------ numpy arrays made here */
+
+static PyObject *np_empty = NULL; /* numpy.empty, looked up on the first update_new() */
+
+/* numpy's array object up to its flags: the leading fields of PyArrayObject_fields
+ * (numpy/ndarraytypes.h), the ABI through which every compiled numpy extension reads
+ * PyArray_DATA and PyArray_FLAGS. Used only once np_layout_ok() has confirmed it against
+ * numpy itself; otherwise the buffer protocol and ndarray.setflags are used. */
+typedef struct {
+    PyObject_HEAD
+    char *data;
+    int nd;
+    Py_ssize_t *dimensions;
+    Py_ssize_t *strides;
+    PyObject *base;
+    PyObject *descr;
+    int flags;
+} np_fields_t;
+
+#define NP_WRITEABLE 0x0400 /* NPY_ARRAY_WRITEABLE */
+#define NP_C_CONTIGUOUS 0x0001 /* NPY_ARRAY_C_CONTIGUOUS */
+#define NP_ALIGNED 0x0100 /* NPY_ARRAY_ALIGNED */
+
+static PyObject *np_ndarray = NULL; /* numpy.ndarray */
+static PyObject *np_f64 = NULL;     /* numpy.dtype(float): the float64 descriptor numpy shares */
+
+/* numpy.empty, numpy.ndarray and the float64 descriptor: 0, or -1 (exception set). */
+static int np_import(void)
+{
+    PyObject *np = PyImport_ImportModule("numpy");
+    if (np == NULL)
+        return -1;
+    PyObject *e = PyObject_GetAttrString(np, "empty");
+    PyObject *t = e == NULL ? NULL : PyObject_GetAttrString(np, "ndarray");
+    PyObject *d = t == NULL ? NULL : PyObject_CallMethod(np, "dtype", "s", "float64");
+    Py_DECREF(np);
+    if (d == NULL) {
+        Py_XDECREF(e);
+        Py_XDECREF(t);
+        return -1;
+    }
+    np_ndarray = t;
+    np_f64 = d;
+    np_empty = e;
+    return 0;
+}
+
+static int np_layout = -1; /* 1: np_fields_t checked, 0: not numpy's, -1: not checked yet */
+
+/* numpy's C API table (the capsule numpy._core._multiarray_umath._ARRAY_API that numpy's
+ * import_array() reads; its slots are numpy's ABI): slot 0 PyArray_GetNDArrayCVersion, 2 the
+ * ndarray type, 94 PyArray_NewFromDescr. Used to make arrays (what numpy.empty does, without
+ * its argument parsing) only once np_api_bind() found slot 2 to be numpy.ndarray and the ABI
+ * version that of numpy ≥ 1.x; else numpy.empty is called. */
+typedef PyObject *(*np_new_from_descr_t)(PyTypeObject *, PyObject *, int, const Py_ssize_t *,
+                                         const Py_ssize_t *, void *, int, PyObject *);
+static np_new_from_descr_t np_new_from_descr = NULL;
+
+static void np_api_bind(void)
+{
+    PyObject *m = PyImport_ImportModule("numpy._core._multiarray_umath");
+    PyObject *c = m == NULL ? NULL : PyObject_GetAttrString(m, "_ARRAY_API");
+    Py_XDECREF(m);
+    if (c != NULL && PyCapsule_CheckExact(c)) {
+        void **table = PyCapsule_GetPointer(c, PyCapsule_GetName(c));
+        if (table != NULL && table[2] == (void *)np_ndarray && table[0] != NULL &&
+            ((unsigned (*)(void))table[0])() >= 0x01000009u && table[94] != NULL)
+            np_new_from_descr = (np_new_from_descr_t)table[94];
+    }
+    Py_XDECREF(c);
+    PyErr_Clear();
+}
+
+/* Is np_fields_t the layout of numpy.empty((2, 3)) (an exact ndarray of the shared float64
+ * descriptor, C-contiguous and aligned, as its buffer says), and is clearing NP_WRITEABLE what
+ * ndarray.setflags(write=False) does (and makes numpy refuse a writable buffer)? 1/0, -1 on an
+ * error (set). */
+static int np_layout_ok(void)
+{
+    int ok = 0;
+    PyObject *a = NULL, *b = NULL, *r = NULL, *shape = Py_BuildValue("(nn)", (Py_ssize_t)2,
+                                                                     (Py_ssize_t)3);
+    if (shape == NULL)
+        return -1;
+    a = PyObject_CallOneArg(np_empty, shape);
+    b = a == NULL ? NULL : PyObject_CallOneArg(np_empty, shape);
+    Py_DECREF(shape);
+    if (b == NULL)
+        goto error;
+    Py_buffer v;
+    if (PyObject_GetBuffer(a, &v, PyBUF_RECORDS) != 0) {
+        PyErr_Clear();
+        goto done;
+    }
+    np_fields_t *fa = (np_fields_t *)a, *fb = (np_fields_t *)b;
+    ok = (void *)fa->data == v.buf && fa->nd == 2 && fa->dimensions[0] == 2 &&
+         fa->dimensions[1] == 3 && fa->strides[0] == 24 && fa->strides[1] == 8 &&
+         (fa->flags & NP_WRITEABLE) && (fa->flags & NP_C_CONTIGUOUS) &&
+         (fa->flags & NP_ALIGNED) && fa->flags == fb->flags && fa->flags > 0 &&
+         (PyObject *)Py_TYPE(a) == np_ndarray && fa->descr == np_f64 && v.itemsize == 8 &&
+         v.format != NULL && strcmp(v.format, "d") == 0;
+    PyBuffer_Release(&v);
+    if (!ok)
+        goto done;
+    int before = fa->flags;
+    if ((r = PyObject_CallMethod(a, "setflags", "O", Py_False)) == NULL)
+        goto error;
+    ok = fa->flags == (before & ~NP_WRITEABLE);
+    fb->flags &= ~NP_WRITEABLE;
+    if (ok && PyObject_GetBuffer(b, &v, PyBUF_RECORDS) == 0) {
+        PyBuffer_Release(&v);
+        ok = 0; /* numpy still exports b as writable: not its flag */
+    }
+    PyErr_Clear();
+done:
+    Py_XDECREF(r);
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return ok;
+error:
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return -1;
+}
+
+/* The array object `obj` as np_fields_t when it is an exact numpy.ndarray of float64 (the
+ * shared descriptor), aligned, with `nd` dimensions: then its data, shape and strides are read
+ * from it directly, without the buffer protocol (what numpy's buffer would give); else NULL. */
+static np_fields_t *np_direct(PyObject *obj, int nd)
+{
+    if (np_layout != 1 || (PyObject *)Py_TYPE(obj) != np_ndarray)
+        return NULL;
+    np_fields_t *f = (np_fields_t *)obj;
+    if (f->descr != np_f64 || f->nd != nd || !(f->flags & NP_ALIGNED))
+        return NULL;
+    return f;
+}
+
+#define NSHAPE 64
+static PyObject *shape_cache[3][NSHAPE]; /* (d0,), (d0, d0), (d0, 2) for d0 < NSHAPE */
+
+/* A new C-ordered float64 numpy array (numpy.empty((d0,) or (d0, d1))) and its data, or NULL
+ * (exception set). */
+static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data)
+{
+    if (np_new_from_descr != NULL && np_layout == 1) {
+        Py_ssize_t dims[2] = {d0, d1};
+        Py_INCREF(np_f64); /* stolen */
+        PyObject *a = np_new_from_descr((PyTypeObject *)np_ndarray, np_f64, ndim, dims, NULL,
+                                        NULL, 0, NULL);
+        if (a == NULL)
+            return NULL;
+        *data = (double *)((np_fields_t *)a)->data;
+        return a;
+    }
+    PyObject *shape;
+    int kind = ndim == 1 ? 0 : d1 == d0 ? 1 : d1 == 2 ? 2 : -1;
+    int cached = kind >= 0 && d0 >= 0 && d0 < NSHAPE;
+    if (cached && shape_cache[kind][d0] != NULL) {
+        shape = Py_NewRef(shape_cache[kind][d0]);
+    } else {
+        shape = ndim == 1 ? Py_BuildValue("(n)", d0) : Py_BuildValue("(nn)", d0, d1);
+        if (shape == NULL)
+            return NULL;
+        if (cached)
+            shape_cache[kind][d0] = Py_NewRef(shape);
+    }
+    PyObject *a = PyObject_CallOneArg(np_empty, shape);
+    Py_DECREF(shape);
+    if (a == NULL)
+        return NULL;
+    if (np_layout == 1) {
+        *data = (double *)((np_fields_t *)a)->data;
+        return a;
+    }
+    Py_buffer v;
+    if (PyObject_GetBuffer(a, &v, PyBUF_CONTIG) < 0) {
+        Py_DECREF(a);
+        return NULL;
+    }
+    *data = (double *)v.buf;
+    PyBuffer_Release(&v); /* the array keeps its data */
+    return a;
+}
+
+/* a.setflags(write=False) for an array new_array() made: 0, or -1 (exception set). */
+static int freeze(PyObject *a)
+{
+    if (np_layout == 1) {
+        ((np_fields_t *)a)->flags &= ~NP_WRITEABLE;
+        return 0;
+    }
+    PyObject *r = PyObject_CallMethod(a, "setflags", "O", Py_False);
+    if (r == NULL)
+        return -1;
+    Py_DECREF(r);
+    return 0;
+}
 
 /* ------------------------------------------------------------------ numpy's dot, float64 */
 
@@ -293,10 +494,27 @@ static void release(bufs_t *bs)
 }
 
 /* A C-contiguous float64 buffer of `obj` with ndim `nd` and shape (d0[, d1]) (d < 0: any),
- * or NULL (no exception left set). */
+ * or NULL (no exception left set). A numpy float64 array to read is read directly
+ * (np_direct), as its buffer would give it. */
 static double *get(bufs_t *bs, PyObject *obj, int nd, int64_t d0, int64_t d1, int writable)
 {
     Py_buffer *v = &bs->v[bs->n];
+    np_fields_t *f;
+    if (!writable && (f = np_direct(obj, nd)) != NULL) {
+        /* numpy's own array: its fields, as its buffer would give them (nothing to release) */
+        if (!(f->flags & NP_C_CONTIGUOUS))
+            return NULL; /* numpy would refuse the C-contiguous buffer */
+        v->obj = NULL;
+        v->buf = f->data;
+        v->ndim = nd;
+        v->shape = f->dimensions;
+        v->strides = f->strides;
+        v->itemsize = 8;
+        bs->n++;
+        if ((d0 >= 0 && v->shape[0] != d0) || (nd == 2 && d1 >= 0 && v->shape[1] != d1))
+            return NULL;
+        return (double *)v->buf;
+    }
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
     if (PyObject_GetBuffer(obj, v, flags) != 0) {
         PyErr_Clear();
@@ -341,58 +559,21 @@ static int ls_t(const double *li, const double *w, int64_t p, double *t)
     return 1;
 }
 
-PyDoc_STRVAR(update_doc,
-"update(x, P, H, z, R, Y, v, S, K, xn, Pn, t, angle_rows, joseph, ipsi) -> (nis, t_ok) | None\n\n"
-"The numeric core of engine.filter.update._update_py into the given C-contiguous arrays:\n"
-"v (p,), S (p,p), Y ((n+1+p)×p: Y.T is L⁻¹[HP | v | I]), K (n,p), xn (n,), Pn (n,n) and the\n"
-"LS statistics t (p,). Returns the NIS wᵀw and whether t was filled (not for p ≥ 8 or a\n"
-"non-finite step), or None (the caller then runs the Python).");
-
-static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* The update of update() / update_new() on checked inputs (H p×n, x n, P n×n, z p, R p×p)
+ * into the outputs Y, v, S, K, xn, Pn, t_ls: 1 with *nis and *t_ok set, 0 for the Python to run
+ * instead (no exception), -1 on an error (exception set). */
+static int update_core(const double *x, const double *P, const double *H, const double *z,
+                       const double *R, int64_t p, int64_t n, PyObject *angle_rows, int joseph,
+                       Py_ssize_t ipsi, double *Y, double *v, double *S, double *K, double *xn,
+                       double *Pn, double *t_ls, double *nis_out, int *t_ok_out)
 {
-    bufs_t bs = {.n = 0};
-    PyObject *result = NULL;
-    double *work = NULL;
-    if (nargs != 15) {
-        PyErr_SetString(PyExc_TypeError, "update takes 15 arguments");
-        return NULL;
-    }
-    if (!bound) {
-        PyErr_SetString(PyExc_RuntimeError, "kalman_update: _bind(addresses) first");
-        return NULL;
-    }
-    int joseph = PyObject_IsTrue(args[13]);
-    if (joseph < 0)
-        return NULL;
-    Py_ssize_t ipsi = PyNumber_AsSsize_t(args[14], PyExc_OverflowError);
-    if (ipsi == -1 && PyErr_Occurred())
-        return NULL;
-
-    const double *H, *x, *P, *z, *R;
-    double *Y, *v, *S, *K, *xn, *Pn, *t_ls;
-    int64_t p, n;
-    {
-        Py_buffer *hv = &bs.v[0];
-        if (!(H = get(&bs, args[2], 2, -1, -1, 0)))
-            goto fallback;
-        p = hv->shape[0];
-        n = hv->shape[1];
-    }
-    if (p < 1 || n < 2 || p > 1000000 || ipsi < 0 || ipsi >= n)
-        goto fallback;
-    if (!(x = get(&bs, args[0], 1, n, 0, 0)) || !(P = get(&bs, args[1], 2, n, n, 0)) ||
-        !(z = get(&bs, args[3], 1, p, 0, 0)) || !(R = get(&bs, args[4], 2, p, p, 0)) ||
-        !(Y = get(&bs, args[5], 2, n + 1 + p, p, 1)) || !(v = get(&bs, args[6], 1, p, 0, 1)) ||
-        !(S = get(&bs, args[7], 2, p, p, 1)) || !(K = get(&bs, args[8], 2, n, p, 1)) ||
-        !(xn = get(&bs, args[9], 1, n, 0, 1)) || !(Pn = get(&bs, args[10], 2, n, n, 1)) ||
-        !(t_ls = get(&bs, args[11], 1, p, 0, 1)))
-        goto fallback;
-
+    int status = 0;
     /* scratch: Hx p, HP p·n, L p·p, t n, KH, A, AP, Pj, KRKt n·n each, KR n·p */
-    work = PyMem_Malloc(sizeof(double) * (size_t)(p + p * n + p * p + n + 5 * n * n + n * p));
+    double *work = PyMem_Malloc(sizeof(double) * (size_t)(p + p * n + p * p + n + 5 * n * n +
+                                                          n * p));
     if (work == NULL) {
         PyErr_NoMemory();
-        goto done;
+        return -1;
     }
     double *Hx = work, *HP = Hx + p, *Lf = HP + p * n, *t = Lf + p * p, *KH = t + n;
     double *A = KH + n * n, *AP = A + n * n, *Pj = AP + n * n, *KRKt = Pj + n * n;
@@ -406,9 +587,11 @@ static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nar
     for (int64_t i = 0; i < p; i++)
         v[i] = z[i] - Hx[i];
     {
-        PyObject *seq = PySequence_Fast(args[12], "angle_rows must be a sequence");
-        if (seq == NULL)
+        PyObject *seq = PySequence_Fast(angle_rows, "angle_rows must be a sequence");
+        if (seq == NULL) {
+            status = -1;
             goto done;
+        }
         Py_ssize_t na = PySequence_Fast_GET_SIZE(seq);
         PyObject **items = PySequence_Fast_ITEMS(seq);
         int bad = 0;
@@ -504,14 +687,161 @@ static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nar
             goto fallback;
     if (!isfinite(nis))
         goto fallback;
-    int t_ok = ls_t(Y + (n + 1) * p, Y + n * p, p, t_ls);
+    *nis_out = nis;
+    *t_ok_out = ls_t(Y + (n + 1) * p, Y + n * p, p, t_ls);
+    status = 1;
+    goto done;
+
+fallback:
+    status = 0;
+done:
+    PyMem_Free(work);
+    return status;
+}
+
+/* The flags and the (checked) inputs x, P, H, z, R of update() / update_new() (args[0..4];
+ * args[ia], args[ia+1], args[ia+2] are angle_rows, joseph, ipsi): 1, 0 (the Python runs) or
+ * -1 (exception set). */
+static int update_inputs(bufs_t *bs, PyObject *const *args, int ia, const double **x,
+                         const double **P, const double **H, const double **z, const double **R,
+                         int64_t *p, int64_t *n, int *joseph, Py_ssize_t *ipsi)
+{
+    if (!bound) {
+        PyErr_SetString(PyExc_RuntimeError, "kalman_update: _bind(addresses) first");
+        return -1;
+    }
+    if ((*joseph = PyObject_IsTrue(args[ia + 1])) < 0)
+        return -1;
+    *ipsi = PyNumber_AsSsize_t(args[ia + 2], PyExc_OverflowError);
+    if (*ipsi == -1 && PyErr_Occurred())
+        return -1;
+    Py_buffer *hv = &bs->v[0];
+    if (!(*H = get(bs, args[2], 2, -1, -1, 0)))
+        return 0;
+    *p = hv->shape[0];
+    *n = hv->shape[1];
+    if (*p < 1 || *n < 2 || *p > 1000000 || *ipsi < 0 || *ipsi >= *n)
+        return 0;
+    if (!(*x = get(bs, args[0], 1, *n, 0, 0)) || !(*P = get(bs, args[1], 2, *n, *n, 0)) ||
+        !(*z = get(bs, args[3], 1, *p, 0, 0)) || !(*R = get(bs, args[4], 2, *p, *p, 0)))
+        return 0;
+    return 1;
+}
+
+PyDoc_STRVAR(update_doc,
+"update(x, P, H, z, R, Y, v, S, K, xn, Pn, t, angle_rows, joseph, ipsi) -> (nis, t_ok) | None\n\n"
+"The numeric core of engine.filter.update._update_py into the given C-contiguous arrays:\n"
+"v (p,), S (p,p), Y ((n+1+p)×p: Y.T is L⁻¹[HP | v | I]), K (n,p), xn (n,), Pn (n,n) and the\n"
+"LS statistics t (p,). Returns the NIS wᵀw and whether t was filled (not for p ≥ 8 or a\n"
+"non-finite step), or None (the caller then runs the Python).");
+
+static PyObject *py_update(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    bufs_t bs = {.n = 0};
+    PyObject *result = NULL;
+    if (nargs != 15) {
+        PyErr_SetString(PyExc_TypeError, "update takes 15 arguments");
+        return NULL;
+    }
+    const double *H, *x, *P, *z, *R;
+    double *Y, *v, *S, *K, *xn, *Pn, *t_ls;
+    int64_t p, n;
+    int joseph, st;
+    Py_ssize_t ipsi;
+    if ((st = update_inputs(&bs, args, 12, &x, &P, &H, &z, &R, &p, &n, &joseph, &ipsi)) < 0)
+        goto done;
+    if (st == 0)
+        goto fallback;
+    if (!(Y = get(&bs, args[5], 2, n + 1 + p, p, 1)) || !(v = get(&bs, args[6], 1, p, 0, 1)) ||
+        !(S = get(&bs, args[7], 2, p, p, 1)) || !(K = get(&bs, args[8], 2, n, p, 1)) ||
+        !(xn = get(&bs, args[9], 1, n, 0, 1)) || !(Pn = get(&bs, args[10], 2, n, n, 1)) ||
+        !(t_ls = get(&bs, args[11], 1, p, 0, 1)))
+        goto fallback;
+    double nis;
+    int t_ok;
+    st = update_core(x, P, H, z, R, p, n, args[12], joseph, ipsi, Y, v, S, K, xn, Pn, t_ls, &nis,
+                     &t_ok);
+    if (st < 0)
+        goto done;
+    if (st == 0)
+        goto fallback;
     result = Py_BuildValue("(dO)", nis, t_ok ? Py_True : Py_False);
     goto done;
 
 fallback:
     result = Py_NewRef(Py_None);
 done:
-    PyMem_Free(work);
+    release(&bs);
+    return result;
+}
+
+PyDoc_STRVAR(update_new_doc,
+"update_new(x, P, H, z, R, angle_rows, joseph, ipsi)\n"
+"    -> (nis, t_ok, v, S, K, xn, Pn, t, Y) | None\n\n"
+"update() with its outputs made here (new C-ordered numpy arrays, the shapes update() takes)\n"
+"and returned; xn and Pn read-only, t too when t_ok (else t is unfilled). None: the caller\n"
+"runs the Python.");
+
+static PyObject *py_update_new(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    bufs_t bs = {.n = 0};
+    PyObject *result = NULL, *o[7] = {NULL};
+    if (nargs != 8) {
+        PyErr_SetString(PyExc_TypeError, "update_new takes 8 arguments");
+        return NULL;
+    }
+    if (np_empty == NULL && np_import() < 0)
+        return NULL;
+    if (np_layout < 0) {
+        if ((np_layout = np_layout_ok()) < 0)
+            return NULL;
+        np_api_bind();
+    }
+    const double *H, *x, *P, *z, *R;
+    double *d[7]; /* Y, v, S, K, xn, Pn, t */
+    int64_t p, n;
+    int joseph, st;
+    Py_ssize_t ipsi;
+    if ((st = update_inputs(&bs, args, 5, &x, &P, &H, &z, &R, &p, &n, &joseph, &ipsi)) < 0)
+        goto done;
+    if (st == 0)
+        goto fallback;
+    if (!(o[0] = new_array(n + 1 + p, p, 2, &d[0])) || !(o[1] = new_array(p, 0, 1, &d[1])) ||
+        !(o[2] = new_array(p, p, 2, &d[2])) || !(o[3] = new_array(n, p, 2, &d[3])) ||
+        !(o[4] = new_array(n, 0, 1, &d[4])) || !(o[5] = new_array(n, n, 2, &d[5])) ||
+        !(o[6] = new_array(p, 0, 1, &d[6])))
+        goto done;
+    double nis;
+    int t_ok;
+    st = update_core(x, P, H, z, R, p, n, args[5], joseph, ipsi, d[0], d[1], d[2], d[3], d[4],
+                     d[5], d[6], &nis, &t_ok);
+    if (st < 0)
+        goto done;
+    if (st == 0)
+        goto fallback;
+    if (freeze(o[4]) < 0 || freeze(o[5]) < 0 || (t_ok && freeze(o[6]) < 0))
+        goto done;
+    /* (nis, t_ok, v, S, K, xn, Pn, t, Y): the tuple takes the arrays' references */
+    PyObject *fnis = PyFloat_FromDouble(nis);
+    if (fnis == NULL || (result = PyTuple_New(9)) == NULL) {
+        Py_XDECREF(fnis);
+        goto done;
+    }
+    PyTuple_SET_ITEM(result, 0, fnis);
+    PyTuple_SET_ITEM(result, 1, Py_NewRef(t_ok ? Py_True : Py_False));
+    for (int i = 1; i < 7; i++) {
+        PyTuple_SET_ITEM(result, i + 1, o[i]);
+        o[i] = NULL;
+    }
+    PyTuple_SET_ITEM(result, 8, o[0]);
+    o[0] = NULL;
+    goto done;
+
+fallback:
+    result = Py_NewRef(Py_None);
+done:
+    for (int i = 0; i < 7; i++)
+        Py_XDECREF(o[i]);
     release(&bs);
     return result;
 }
@@ -592,6 +922,7 @@ static PyObject *py_bind(PyObject *self, PyObject *addresses)
 
 static PyMethodDef methods[] = {
     {"update", (PyCFunction)(void (*)(void))py_update, METH_FASTCALL, update_doc},
+    {"update_new", (PyCFunction)(void (*)(void))py_update_new, METH_FASTCALL, update_new_doc},
     {"distance", (PyCFunction)(void (*)(void))py_distance, METH_FASTCALL, distance_doc},
     {"_bind", py_bind, METH_O,
      "_bind(addresses): the BLAS/LAPACK routines (engine.native.blas.all_addresses())."},

@@ -36,7 +36,7 @@ from engine.filter.kalman import (
     stack_measurements,
     update,
 )
-from engine.filter.state import IX, IY, IZ, move_to_grid, replace_position
+from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -453,19 +453,14 @@ def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
 def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstimate:
     """The horizontal position of a filter state as an estimate (grid ``grid``)."""
     # The state's position, depth and horizontal VCV as FilterState.east_north_m, depth_m and
-    # position_cov_m2 give them (the same floats; one tolist() instead of three properties).
-    x, y, z = fs.x[IX:IZ + 1].tolist()
-    cov = fs.P[IX:IY + 1, IX:IY + 1].copy()
+    # position_cov_m2 give them (the same floats; the VCV a read-only copy), in one call.
+    x, y, z, cov, finite = estimate_parts(fs)
     # _estimate(source, grid, x, y, z, cov) inline (twice per cycle)
     lat, lon = grid.inverse(x, y)
-    ell = error_ellipse(cov) if all(map(_ISFINITE, cov.ravel().tolist())) else None
-    cov.setflags(write=False)
+    ell = error_ellipse(cov) if finite else None
     if ell is not None:
         ell.eigenvectors.setflags(write=False)
     return PositionEstimate(source, lat, lon, x, y, z, cov, ell)
-
-
-_ISFINITE = math.isfinite
 
 
 def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,

@@ -287,3 +287,66 @@ def test_lse_rows_are_the_same(x, y, c2, frac, coloured, layout):
     xs = (np.float64(x), np.float64(y)) if layout == "np" else (x, y)
     _same_meas(ms.lse_measurement(*xs, C2, params), ms._lse_py(*xs, C2, params))
     _same_meas(ms.lse_measurement(*xs, C2), ms._lse_py(*xs, C2))
+
+
+# --------------------------------------------------------------------------- estimate parts
+
+def _same_parts(a: tuple, b: tuple) -> None:
+    """estimate_parts results equal bit for bit: floats, the 2×2 copy (C order, read-only)."""
+    assert len(a) == len(b) == 5
+    for u, v in zip(a[:3], b[:3], strict=True):
+        assert type(u) is type(v) is float and u.hex() == v.hex()
+    ca, cb = a[3], b[3]
+    assert ca.shape == cb.shape == (2, 2) and ca.dtype == cb.dtype == np.float64
+    assert ca.strides == cb.strides and ca.tobytes() == cb.tobytes()
+    assert not ca.flags.writeable and not cb.flags.writeable
+    assert ca.flags.owndata and cb.flags.owndata
+    assert a[4] is b[4]
+
+
+@needs_kernel
+def test_estimate_parts_are_the_same(replay_steps):
+    """A state's position, depth and VCV copy (cycle.filter_estimate) from the kernel and from
+    numpy: the replay's states, a Fortran-ordered and a strided P, non-finite variances."""
+    import engine.filter.state as fs
+
+    fs._K = fs._UNRESOLVED
+    assert fs.estimate_parts(replay_steps[0][0]) is not None and fs._K is not None
+    states = [s for s, _, _ in replay_steps[:60]]
+    s0 = states[-1]
+    big = np.arange(4.0 * s0.n * s0.n).reshape(2 * s0.n, 2 * s0.n)
+    for P in (np.asfortranarray(s0.P), big[::2, ::2], np.where(np.eye(s0.n) > 0, np.inf, s0.P),
+              np.full((s0.n, s0.n), np.nan)):
+        states.append(FilterState(s0.t, s0.x, P))
+    odd = FilterState(s0.t, s0.x, s0.P)
+    object.__setattr__(odd, "P", big[::2, ::2])  # a strided view, as a state never holds
+    states.append(odd)
+    for s in states:
+        r = KERNEL.estimate(s.x, s.P)
+        assert r is not None
+        _same_parts(r, fs._estimate_parts_py(s))
+        _same_parts(fs.estimate_parts(s), fs._estimate_parts_py(s))
+
+
+@needs_kernel
+def test_estimate_parts_decline_what_they_do_not_cover():
+    assert KERNEL.estimate(np.zeros(2), np.zeros((2, 2))) is None
+    assert KERNEL.estimate(np.zeros(11, dtype=np.float32), np.zeros((11, 11))) is None
+    assert KERNEL.estimate(np.zeros(11), np.zeros((11, 12))) is None
+    assert KERNEL.estimate([0.0] * 11, np.zeros((11, 11))) is None
+
+
+@needs_kernel
+def test_sym2_is_with_fix_cov_numpy_expression():
+    """sym2 (FilterState.with_fix_cov's usual case) gives the numpy code's array: the same
+    bits, read-only; anything but a float64 2×2 is declined."""
+    rng = np.random.default_rng(3)
+    for C in (rng.normal(size=(2, 2)) * 1e3, np.asfortranarray(rng.normal(size=(2, 2))),
+              rng.normal(size=(4, 4))[::2, ::2], np.array([[np.inf, 1.0], [np.nan, -0.0]])):
+        (a, b), (c, d) = C.tolist()
+        ref = np.array([[0.5 * (a + a), 0.5 * (b + c)], [0.5 * (c + b), 0.5 * (d + d)]])
+        got = KERNEL.sym2(C)
+        assert got.tobytes() == ref.tobytes() and got.strides == ref.strides
+        assert not got.flags.writeable
+    for bad in (np.zeros((3, 3)), np.zeros((2, 2), dtype=np.float32), [[1.0, 0.0], [0.0, 1.0]]):
+        assert KERNEL.sym2(bad) is None

@@ -116,14 +116,14 @@ def test_the_kernel_really_runs_on_the_replay(replay_updates, monkeypatch) -> No
     """No silent fallback: the kernel answers for every update of the replay."""
     k = U._kernel()
     answered = []
-    real = k.update
+    real = k.update_new
 
     class Spy:
         def __getattr__(self, name: str) -> object:
             return getattr(k, name)
 
         @staticmethod
-        def update(*args: object) -> object:
+        def update_new(*args: object) -> object:
             out = real(*args)
             answered.append(out is not None)
             return out
@@ -132,6 +132,32 @@ def test_the_kernel_really_runs_on_the_replay(replay_updates, monkeypatch) -> No
     for state, rows, params in replay_updates[:50]:
         U.update(state, rows, params)
     assert answered and all(answered)
+
+
+def test_update_new_is_update_into_new_arrays(replay_updates) -> None:
+    """update_new() makes the arrays update() fills, with the same bits and layout; x⁺, P⁺ and
+    the filled LS statistics come back read-only, the rest writable."""
+    k = U._kernel()
+    for state, rows, params in replay_updates[:40]:
+        new, H = U._full_width(state, rows, params) if not rows.bias_keys else \
+            U._with_bias_columns(state, rows, params)
+        n, p = new.x.shape[0], rows.z.shape[0]
+        outs = [np.empty(s) for s in ((n + 1 + p, p), p, (p, p), (n, p), n, (n, n), p)]
+        ref = k.update(new.x, new.P, H, rows.z, rows.R, *outs, rows.angle_rows, params.joseph,
+                       U.IPSI)
+        got = k.update_new(new.x, new.P, H, rows.z, rows.R, rows.angle_rows, params.joseph,
+                           U.IPSI)
+        assert ref is not None and got is not None
+        nis, t_ok, v, S, K, xn, Pn, t, Yc = got
+        assert same(nis, ref[0]) and t_ok == ref[1]
+        Y0, v0, S0, K0, xn0, Pn0, t0 = outs
+        for a, b in ((v, v0), (S, S0), (K, K0), (xn, xn0), (Pn, Pn0), (Yc, Y0)):
+            assert same(a, b)
+        assert not xn.flags.writeable and not Pn.flags.writeable
+        assert v.flags.writeable and S.flags.writeable and K.flags.writeable
+        assert Yc.flags.writeable
+        if t_ok:
+            assert same(t, t0) and not t.flags.writeable
 
 
 @pytest.mark.parametrize("joseph", [True, False])
