@@ -649,7 +649,9 @@ class _LaneAt:
         self.cache: dict[str, tuple[list[float], np.ndarray] | None] = {}
 
     def _lanes(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
-        """:meth:`_lanes_py`, the lane model in one compiled call where the kernel is."""
+        """:meth:`_lanes_py`, the lane model in one compiled call where the kernel is (which
+        skips the LEF's four geodesics where the grid geometry shows the LEF cannot raise:
+        ``_lef_certain`` in ``engine/native/decca.c``; the numbers returned are the same)."""
         kg = _geodesic_kernel(self.geodesic)
         if kg is None:
             return self._lanes_py(src)
