@@ -34,6 +34,7 @@ from engine.systems.base import (
     ObservationError,
     Point,
     SystemReading,
+    new_reading,
 )
 
 _K: Any = native.kernel("decca")
@@ -814,14 +815,28 @@ def decca_totals(
     notes: list[str] = []
     resolver: ZoneLaneResolver | None = None  # built on first use (a pattern's first reading)
     at = _LaneAt(placed, geodesic)
+    floor = math.floor
+    # The patterns' tracks usually share one time: its interval is taken once (a pure function
+    # of the two datetimes).
+    last_time: datetime | None = None
+    last_s = 0.0
+    gps_lanes: Any = _UNSET
     for i in range(3):
         frac = fractions[i]
         if frac is None:
             continue
         prev = new_track[i]
         checked = False
-        if prev is not None and (time - prev[1]).total_seconds() <= DECCA_TRACK_GAP_S:
-            total: float | None = track_lane(prev[0], frac)
+        if prev is not None:
+            t_prev = prev[1]
+            if t_prev is not last_time:
+                last_s = (time - t_prev).total_seconds()
+                last_time = t_prev
+        if prev is not None and last_s <= DECCA_TRACK_GAP_S:
+            # track_lane(prev[0], frac), written out (the same operations)
+            p0 = prev[0]
+            d = frac - (p0 - floor(p0))
+            total: float | None = p0 + (d - floor(d + 0.5))
         elif prev is not None:
             total, checked = _identify_after_gap(at, i, frac, (gps, position), gps, notes)
             if total is None:
@@ -837,11 +852,40 @@ def decca_totals(
             if lanes.warning is not None:  # more than half a zone from N_calc (THEORY D7)
                 notes.append(lanes.warning)
         if gps is not None and not checked:
-            total, slipped = _gps_lane_check(at, i, frac, total, gps, notes)
-            slips += slipped
+            # _gps_lane_check(at, i, frac, total, gps, notes), its kernel path written out
+            # with GPS's lanes looked up once (_LaneAt caches them per source anyway).
+            if _K is not None and _SIGMA is not None:
+                if gps_lanes is _UNSET:
+                    gps_lanes = at.lanes_at(gps)
+                if gps_lanes is None:
+                    r = None
+                else:
+                    r = _K.lane_check(gps_lanes[0][i], gps_lanes[1][i], gps.cov, frac, total,
+                                      LANE_SIGMA_MAX)
+                    if r is not NotImplemented and r[1] != 0:
+                        expected, slip = r
+                        notes.append(_slip_note(i, slip, total, expected))
+                        total = expected
+                        slips += 1
+                if r is NotImplemented:
+                    total, slipped = _gps_lane_check_py(at, i, frac, total, gps, notes)
+                    slips += slipped
+            else:
+                total, slipped = _gps_lane_check_py(at, i, frac, total, gps, notes)
+                slips += slipped
         totals[i] = total
         new_track[i] = (total, time)
-    return LaneTotals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes), slips)
+    # LaneTotals(...) with its instance dict filled at once (a plain frozen dataclass: the same
+    # instance, without the generated __init__'s object.__setattr__ per field).
+    out = _NEW(LaneTotals)
+    out.__dict__.update(totals=(totals[0], totals[1], totals[2]), track=tuple(new_track),
+                        notes=tuple(notes), slips=slips)
+    return out
+
+
+_NEW = object.__new__
+"""A bare instance of a class, for a frozen dataclass without slots or ``__post_init__`` whose
+``__dict__`` the caller fills at once with every field (as ``engine.run.cycle`` does)."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -1009,7 +1053,7 @@ class DeccaSystem:
         totals = lanes.totals
         reading = _new_reading(placed, rec.decca, ctx.zone_lane, per[1], per[2],
                                cfg.lsq.decca_cf, totals)
-        return SystemReading(reading, lanes.notes, lanes, totals != (None, None, None))
+        return new_reading(reading, lanes.notes, lanes, totals != (None, None, None))
 
     _per_config: tuple[Any, tuple[bool, bool, bool], tuple[float, float, float]] | None = None
     """(configuration, selected patterns, corrections "C-O" in lanes) of the last configuration
