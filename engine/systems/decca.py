@@ -653,7 +653,9 @@ class _LaneAt:
         """:meth:`_lanes_py`, the lane model in one compiled call where the kernel is (which
         skips the LEF's four geodesics where the grid geometry shows the LEF cannot raise:
         ``_lef_certain`` in ``engine/native/decca.c``; the numbers returned are the same)."""
-        kg = _geodesic_kernel(self.geodesic)
+        kg = getattr(self.geodesic, "_native", None)
+        if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
+            kg = _geodesic_kernel(self.geodesic)
         if kg is None:
             return self._lanes_py(src)
         placed = self.placed

@@ -335,7 +335,8 @@ class GpsSystem:
         c = inputs.config.corrections
         w = gps.weight if gps.weight is not None else gps_weight(inputs.config, inputs.record)
         # The fixed figure keeps its variance exactly as before (σ² of √var is not bit-exact).
-        var = _of_config(inputs.config).variance_m2 if not w.receiver_weighted else w.sigma_m**2
+        # (w.origin != "receiver" is ``not w.receiver_weighted``, without the property's call.)
+        var = _of_config(inputs.config).variance_m2 if w.origin != "receiver" else w.sigma_m**2
         fix = _new_fix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
                        c.gps_east_m, w)
         return new_reading(fix, (), gps, True)
