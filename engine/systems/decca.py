@@ -316,25 +316,20 @@ def decca_geometry(
 ) -> DeccaGeometry:
     """:func:`_decca_geometry_py` (lane counts, partials, LEF and LOP azimuths at grid point
     (x, y), eq. 4.9, A5.9–12), its numbers computed in one compiled call where the kernel is."""
-    kg = _geodesic_kernel(geodesic)
+    kg = getattr(geodesic, "_native", None)
+    if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
+        kg = _geodesic_kernel(geodesic)
     if kg is not None:
         lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
         r = _K.geometry(placed._scalars, kg, x_m, y_m, lat0, lon0)
         if r is not NotImplemented:
             d_master, az_master, values = r
             block = np.array(values)
-            return DeccaGeometry(
-                d_master_m=d_master,
-                az_master_rad=az_master,
-                d_slave_m=block[0:3],
-                az_slave_rad=block[3:6],
-                baseline_m=placed.baseline_m,
-                lef=block[6:9],
-                metres_per_lane=block[9:12],
-                lop_azimuth_rad=block[12:15],
-                n_calc=block[15:18],
-                row=block[18:24].reshape(3, 2),
-            )
+            # DeccaGeometry(d_master_m, az_master_rad, d_slave_m, az_slave_rad, baseline_m,
+            # lef, metres_per_lane, lop_azimuth_rad, n_calc, row), positionally.
+            return _new_geometry(d_master, az_master, block[0:3], block[3:6], placed.baseline_m,
+                                 block[6:9], block[9:12], block[12:15], block[15:18],
+                                 block[18:24].reshape(3, 2))
     return _decca_geometry_py(placed, x_m, y_m, geodesic, latlon_deg)
 
 
@@ -939,7 +934,9 @@ class DeccaObservations:
                   Cl: np.ndarray) -> None:
         """:meth:`_linearise_py` in one compiled call where the kernel is (and the model's own
         :func:`decca_vcv_m2` is in place)."""
-        kg = _geodesic_kernel(p.geodesic)
+        kg = getattr(p.geodesic, "_native", None)
+        if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
+            kg = _geodesic_kernel(p.geodesic)
         if kg is not None and decca_vcv_m2 is _DECCA_VCV_M2:
             placed = self.reading.placed
             grid = placed.grid
@@ -1124,6 +1121,8 @@ def _slots_maker(cls: type) -> Any:
 
 _new_source = _slots_maker(LaneSource)
 _new_reading = _slots_maker(DeccaReading)
-""":class:`LaneSource` and :class:`DeccaReading` from every field, positionally."""
+_new_geometry = _slots_maker(DeccaGeometry)
+""":class:`LaneSource`, :class:`DeccaReading` and :class:`DeccaGeometry` from every field,
+positionally."""
 
 DECCA = DeccaSystem()
