@@ -991,8 +991,9 @@ class DeccaObservations:
         n_calc = geom.n_calc.tolist()
         lop_az = geom.lop_azimuth_rad.tolist()
         corrections = self.reading.corrections_lanes
-        return [LopReading(i, "Decca", DECCA_PATTERN_NAMES[i], raw, corrections[i], n_calc[i],
-                           math.degrees(lop_az[i]))
+        new_lop = _new_lop  # LopReading(...) positionally
+        return [new_lop(i, "Decca", DECCA_PATTERN_NAMES[i], raw, corrections[i], n_calc[i],
+                        math.degrees(lop_az[i]))
                 for i, raw in enumerate(self.raw) if raw is not None]
 
     def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
@@ -1122,7 +1123,8 @@ def _slots_maker(cls: type) -> Any:
 _new_source = _slots_maker(LaneSource)
 _new_reading = _slots_maker(DeccaReading)
 _new_geometry = _slots_maker(DeccaGeometry)
-""":class:`LaneSource`, :class:`DeccaReading` and :class:`DeccaGeometry` from every field,
-positionally."""
+_new_lop = _slots_maker(LopReading)
+""":class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry` and
+:class:`engine.systems.base.LopReading` from every field, positionally."""
 
 DECCA = DeccaSystem()

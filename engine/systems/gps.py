@@ -137,6 +137,7 @@ def slots_maker(cls: type) -> Callable[..., Any]:
 
 _new_input = slots_maker(GpsInput)
 _new_fix = slots_maker(GpsFix)
+_new_lop = slots_maker(LopReading)
 
 
 GRID_MAX_DLON_DEG = 6.0
@@ -303,8 +304,8 @@ def _position_rows(system: str, lat: float, lon: float, corr_n: float, corr_e: f
                    p: Point) -> list[LopReading]:
     """The "Lat"/"Lon" page rows: read and computed in degrees, corrections in metres."""
     lat_hat, lon_hat = p.latlon
-    return [LopReading(ROW_LAT, system, "Lat", lat, corr_n, lat_hat, 90.0),
-            LopReading(ROW_LON, system, "Lon", lon, corr_e, lon_hat, 180.0)]
+    return [_new_lop(ROW_LAT, system, "Lat", lat, corr_n, lat_hat, 90.0),
+            _new_lop(ROW_LON, system, "Lon", lon, corr_e, lon_hat, 180.0)]
 
 
 class GpsSystem:
