@@ -172,8 +172,8 @@ class DatumShift:
         point = self._point
         if point is not None and type(lat_deg) is float and type(lon_deg) is float \
                 and type(h_m) is float:
-            lat, lon, h = point(inx=lat_deg, iny=lon_deg, inz=h_m, intime=None,
-                                direction=self._forward, radians=False, errcheck=False)
+            # positionally: (inx, iny, inz, intime, direction, radians, errcheck)
+            lat, lon, h = point(lat_deg, lon_deg, h_m, None, self._forward, False, False)
         else:
             lat, lon, h = self._tr.transform(lat_deg, lon_deg, h_m)
         return float(lat), float(lon), float(h)

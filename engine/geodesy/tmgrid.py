@@ -370,8 +370,14 @@ class TMGrid:
         """Grid convergence γ (degrees) at a geodetic point (degrees), Karney eq. (26)–(28).
 
         ψ_grid = ψ_true − γ; γ ≈ (λ − CM)·sin φ, positive east of the CM in the north.
+        :meth:`_forward_full`'s γ, its kernel called here directly (once a cycle).
         """
-        return self._forward_full(lat_deg, lon_deg)[2]
+        k = _K
+        if k is not None:
+            out = k.forward_full(self._packed, lat_deg, lon_deg)
+            if out is not None:
+                return out[2]  # type: ignore[no-any-return]
+        return self._forward_full_py(lat_deg, lon_deg)[2]
 
     def point_scale(self, lat_deg: float, lon_deg: float) -> float:
         """Point scale factor k (grid length / ellipsoid length) at a geodetic point (degrees)."""

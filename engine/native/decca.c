@@ -615,9 +615,58 @@ static PyObject *py_geometry(PyObject *m, PyObject *const *args, Py_ssize_t narg
     return Py_BuildValue("(ddN)", o.dist[0], py_mod(az[0], TWO_PI), list_of(block, 24));
 }
 
+/* Where the LEF of _LaneAt._lanes cannot raise, so its four geodesics need not be computed.
+ * The LEF 1/sin(gamma/2) raises only for gamma == 0 (ship -> master and ship -> slave azimuths
+ * equal to the bit; NaN azimuths give a NaN LEF, no error). On the TM grid the geodetic azimuth
+ * of a station is its chord bearing from the ship plus the convergence at the ship (the same
+ * for every station) plus the arc-to-chord term (t - T), at most |dy| |2 x1 + x2| / (6 rho nu)
+ * to first order. With the ship and every station within LEF_SAFE_X_M of the central meridian,
+ * every station within LEF_SAFE_DY_M of the ship in northing and rho nu >= a^2 (1 - e^2) (its
+ * equatorial minimum) >= LEF_SAFE_RHO_NU, that term is below 1.2e12 / 2.34e14 = 0.0052 rad;
+ * master and slave chord bearings LEF_SAFE_RAD (0.03 rad, more than twice two such terms)
+ * apart then have azimuths apart too. 1: certain (skip), 0: compute the azimuths as before. */
+#define LEF_SAFE_X_M 4.0e5
+#define LEF_SAFE_DY_M 1.0e6
+#define LEF_SAFE_RHO_NU 3.9e13
+#define LEF_SAFE_RAD 0.03
+static int lef_certain(const chain_t *c, const GeodesicObject *g, double x, double y,
+                       double lat0, double lon0)
+{
+    double bm;
+    if (!(isfinite(lat0) && isfinite(lon0) && fabs(x) <= LEF_SAFE_X_M && isfinite(y)
+          && c->num >= LEF_SAFE_RHO_NU && g->a >= 6.3e6 && g->f >= 0.0 && g->f <= 0.01
+          && g->a * g->a * (1.0 - g->f * (2.0 - g->f)) >= LEF_SAFE_RHO_NU))
+        return 0;
+    for (int i = 0; i < 4; i++)
+        if (!(fabs(c->st[i][0]) <= LEF_SAFE_X_M && fabs(c->st[i][1] - y) <= LEF_SAFE_DY_M))
+            return 0;
+    bm = atan2(c->st[0][0] - x, c->st[0][1] - y);
+    for (int s = 1; s < 4; s++) {
+        double d = fabs(atan2(c->st[s][0] - x, c->st[s][1] - y) - bm);
+        if (d > Py_MATH_PI)
+            d = TWO_PI - d;
+        if (!(d >= LEF_SAFE_RAD))
+            return 0;
+    }
+    return 1;
+}
+
+/* _lef_certain(sc, geodesic, x, y, lat0, lon0) -> bool: lef_certain, for the tests. */
+static PyObject *py_lef_certain(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    double x, y, lat0, lon0;
+    if (nargs != 6 || read_chain(args[0], &c) || check_geodesic(args[1])
+        || arg_float(args[2], &x) || arg_float(args[3], &y) || arg_float(args[4], &lat0)
+        || arg_float(args[5], &lon0))
+        Py_RETURN_NOTIMPLEMENTED;
+    return PyBool_FromLong(lef_certain(&c, (GeodesicObject *)args[1], x, y, lat0, lon0));
+}
+
 /* lanes(sc, geodesic, x, y, lat0, lon0) -> (n_calc, [[rx0, ry0], [rx1, ry1], [rx2, ry2]]):
- * _LaneAt._lanes' numbers (the LEF formed, for its errors, and dropped); raises as the Python
- * does, the caller turns ValueError/ArithmeticError and a non-finite N_calc into None. */
+ * _LaneAt._lanes' numbers (the LEF formed, for its errors, and dropped, unless lef_certain
+ * shows it cannot raise); raises as the Python does, the caller turns ValueError/
+ * ArithmeticError and a non-finite N_calc into None. */
 static PyObject *py_lanes(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
 {
     chain_t c;
@@ -629,9 +678,11 @@ static PyObject *py_lanes(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
         Py_RETURN_NOTIMPLEMENTED;
     if (lane_model(&c, x, y, lat0, &o) < 0)
         return NULL;
-    azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
-    if (lef_of(az, lef) < 0)
-        return NULL;
+    if (!lef_certain(&c, (GeodesicObject *)args[1], x, y, lat0, lon0)) {
+        azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
+        if (lef_of(az, lef) < 0)
+            return NULL;
+    }
     return Py_BuildValue("(N[[dd][dd][dd]])", list_of(o.n_calc, 3), o.row_x[0], o.row_y[0],
                          o.row_x[1], o.row_y[1], o.row_x[2], o.row_y[2]);
 }
@@ -967,6 +1018,8 @@ static PyMethodDef methods[] = {
      "decca_geometry's numbers: (d_master, az_master, block of 24)."},
     {"lanes", (PyCFunction)(void (*)(void))py_lanes, METH_FASTCALL,
      "_LaneAt._lanes' numbers: (n_calc, 3x2 rows)."},
+    {"_lef_certain", (PyCFunction)(void (*)(void))py_lef_certain, METH_FASTCALL,
+     "Whether lanes() may skip the LEF's geodesics (it cannot raise there; tests)."},
     {"linearise", (PyCFunction)(void (*)(void))py_linearise, METH_FASTCALL,
      "DeccaObservations.linearise's rows and VCV block."},
     {"vcv_m2", (PyCFunction)py_vcv_m2, METH_VARARGS, "_vcv_m2(_vcv_core(...), k)."},

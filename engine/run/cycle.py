@@ -756,7 +756,8 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
         d.update(common)
         d["earlier"] = dict(readings)
         reading = system.read(inputs)
-        extend(reading.messages)
+        if reading.messages:
+            extend(reading.messages)
         readings[system.name] = reading
     return readings
 

@@ -161,6 +161,19 @@ class SystemReading:
     """Whether ``value`` holds an observation: the cycle computes a fix when any system's does."""
 
 
+_NEW = object.__new__
+
+
+def new_reading(value: Any, messages: tuple[str, ...], detail: Any,
+                observes: bool) -> SystemReading:
+    """``SystemReading(value, messages, detail, observes)`` with its instance dict filled at
+    once (a plain frozen dataclass: the same instance, without the generated ``__init__``'s
+    ``object.__setattr__`` per field; a system's reading is made every cycle)."""
+    r = _NEW(SystemReading)
+    r.__dict__.update(value=value, messages=messages, detail=detail, observes=observes)
+    return r
+
+
 class NavSystem(Protocol):
     """One navigation system behind the seam (see the module docstring)."""
 

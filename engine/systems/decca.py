@@ -34,6 +34,7 @@ from engine.systems.base import (
     ObservationError,
     Point,
     SystemReading,
+    new_reading,
 )
 
 _K: Any = native.kernel("decca")
@@ -315,25 +316,20 @@ def decca_geometry(
 ) -> DeccaGeometry:
     """:func:`_decca_geometry_py` (lane counts, partials, LEF and LOP azimuths at grid point
     (x, y), eq. 4.9, A5.9–12), its numbers computed in one compiled call where the kernel is."""
-    kg = _geodesic_kernel(geodesic)
+    kg = getattr(geodesic, "_native", None)
+    if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
+        kg = _geodesic_kernel(geodesic)
     if kg is not None:
         lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
         r = _K.geometry(placed._scalars, kg, x_m, y_m, lat0, lon0)
         if r is not NotImplemented:
             d_master, az_master, values = r
             block = np.array(values)
-            return DeccaGeometry(
-                d_master_m=d_master,
-                az_master_rad=az_master,
-                d_slave_m=block[0:3],
-                az_slave_rad=block[3:6],
-                baseline_m=placed.baseline_m,
-                lef=block[6:9],
-                metres_per_lane=block[9:12],
-                lop_azimuth_rad=block[12:15],
-                n_calc=block[15:18],
-                row=block[18:24].reshape(3, 2),
-            )
+            # DeccaGeometry(d_master_m, az_master_rad, d_slave_m, az_slave_rad, baseline_m,
+            # lef, metres_per_lane, lop_azimuth_rad, n_calc, row), positionally.
+            return _new_geometry(d_master, az_master, block[0:3], block[3:6], placed.baseline_m,
+                                 block[6:9], block[9:12], block[12:15], block[15:18],
+                                 block[18:24].reshape(3, 2))
     return _decca_geometry_py(placed, x_m, y_m, geodesic, latlon_deg)
 
 
@@ -649,8 +645,12 @@ class _LaneAt:
         self.cache: dict[str, tuple[list[float], np.ndarray] | None] = {}
 
     def _lanes(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
-        """:meth:`_lanes_py`, the lane model in one compiled call where the kernel is."""
-        kg = _geodesic_kernel(self.geodesic)
+        """:meth:`_lanes_py`, the lane model in one compiled call where the kernel is (which
+        skips the LEF's four geodesics where the grid geometry shows the LEF cannot raise:
+        ``_lef_certain`` in ``engine/native/decca.c``; the numbers returned are the same)."""
+        kg = getattr(self.geodesic, "_native", None)
+        if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
+            kg = _geodesic_kernel(self.geodesic)
         if kg is None:
             return self._lanes_py(src)
         placed = self.placed
@@ -812,14 +812,28 @@ def decca_totals(
     notes: list[str] = []
     resolver: ZoneLaneResolver | None = None  # built on first use (a pattern's first reading)
     at = _LaneAt(placed, geodesic)
+    floor = math.floor
+    # The patterns' tracks usually share one time: its interval is taken once (a pure function
+    # of the two datetimes).
+    last_time: datetime | None = None
+    last_s = 0.0
+    gps_lanes: Any = _UNSET
     for i in range(3):
         frac = fractions[i]
         if frac is None:
             continue
         prev = new_track[i]
         checked = False
-        if prev is not None and (time - prev[1]).total_seconds() <= DECCA_TRACK_GAP_S:
-            total: float | None = track_lane(prev[0], frac)
+        if prev is not None:
+            t_prev = prev[1]
+            if t_prev is not last_time:
+                last_s = (time - t_prev).total_seconds()
+                last_time = t_prev
+        if prev is not None and last_s <= DECCA_TRACK_GAP_S:
+            # track_lane(prev[0], frac), written out (the same operations)
+            p0 = prev[0]
+            d = frac - (p0 - floor(p0))
+            total: float | None = p0 + (d - floor(d + 0.5))
         elif prev is not None:
             total, checked = _identify_after_gap(at, i, frac, (gps, position), gps, notes)
             if total is None:
@@ -835,11 +849,40 @@ def decca_totals(
             if lanes.warning is not None:  # more than half a zone from N_calc (THEORY D7)
                 notes.append(lanes.warning)
         if gps is not None and not checked:
-            total, slipped = _gps_lane_check(at, i, frac, total, gps, notes)
-            slips += slipped
+            # _gps_lane_check(at, i, frac, total, gps, notes), its kernel path written out
+            # with GPS's lanes looked up once (_LaneAt caches them per source anyway).
+            if _K is not None and _SIGMA is not None:
+                if gps_lanes is _UNSET:
+                    gps_lanes = at.lanes_at(gps)
+                if gps_lanes is None:
+                    r = None
+                else:
+                    r = _K.lane_check(gps_lanes[0][i], gps_lanes[1][i], gps.cov, frac, total,
+                                      LANE_SIGMA_MAX)
+                    if r is not NotImplemented and r[1] != 0:
+                        expected, slip = r
+                        notes.append(_slip_note(i, slip, total, expected))
+                        total = expected
+                        slips += 1
+                if r is NotImplemented:
+                    total, slipped = _gps_lane_check_py(at, i, frac, total, gps, notes)
+                    slips += slipped
+            else:
+                total, slipped = _gps_lane_check_py(at, i, frac, total, gps, notes)
+                slips += slipped
         totals[i] = total
         new_track[i] = (total, time)
-    return LaneTotals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes), slips)
+    # LaneTotals(...) with its instance dict filled at once (a plain frozen dataclass: the same
+    # instance, without the generated __init__'s object.__setattr__ per field).
+    out = _NEW(LaneTotals)
+    out.__dict__.update(totals=(totals[0], totals[1], totals[2]), track=tuple(new_track),
+                        notes=tuple(notes), slips=slips)
+    return out
+
+
+_NEW = object.__new__
+"""A bare instance of a class, for a frozen dataclass without slots or ``__post_init__`` whose
+``__dict__`` the caller fills at once with every field (as ``engine.run.cycle`` does)."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -891,7 +934,9 @@ class DeccaObservations:
                   Cl: np.ndarray) -> None:
         """:meth:`_linearise_py` in one compiled call where the kernel is (and the model's own
         :func:`decca_vcv_m2` is in place)."""
-        kg = _geodesic_kernel(p.geodesic)
+        kg = getattr(p.geodesic, "_native", None)
+        if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
+            kg = _geodesic_kernel(p.geodesic)
         if kg is not None and decca_vcv_m2 is _DECCA_VCV_M2:
             placed = self.reading.placed
             grid = placed.grid
@@ -946,8 +991,9 @@ class DeccaObservations:
         n_calc = geom.n_calc.tolist()
         lop_az = geom.lop_azimuth_rad.tolist()
         corrections = self.reading.corrections_lanes
-        return [LopReading(i, "Decca", DECCA_PATTERN_NAMES[i], raw, corrections[i], n_calc[i],
-                           math.degrees(lop_az[i]))
+        new_lop = _new_lop  # LopReading(...) positionally
+        return [new_lop(i, "Decca", DECCA_PATTERN_NAMES[i], raw, corrections[i], n_calc[i],
+                        math.degrees(lop_az[i]))
                 for i, raw in enumerate(self.raw) if raw is not None]
 
     def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
@@ -1007,7 +1053,7 @@ class DeccaSystem:
         totals = lanes.totals
         reading = _new_reading(placed, rec.decca, ctx.zone_lane, per[1], per[2],
                                cfg.lsq.decca_cf, totals)
-        return SystemReading(reading, lanes.notes, lanes, totals != (None, None, None))
+        return new_reading(reading, lanes.notes, lanes, totals != (None, None, None))
 
     _per_config: tuple[Any, tuple[bool, bool, bool], tuple[float, float, float]] | None = None
     """(configuration, selected patterns, corrections "C-O" in lanes) of the last configuration
@@ -1076,6 +1122,9 @@ def _slots_maker(cls: type) -> Any:
 
 _new_source = _slots_maker(LaneSource)
 _new_reading = _slots_maker(DeccaReading)
-""":class:`LaneSource` and :class:`DeccaReading` from every field, positionally."""
+_new_geometry = _slots_maker(DeccaGeometry)
+_new_lop = _slots_maker(LopReading)
+""":class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry` and
+:class:`engine.systems.base.LopReading` from every field, positionally."""
 
 DECCA = DeccaSystem()

@@ -22,7 +22,6 @@ import numpy as np
 from engine import native
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84
-from engine.geodesy.ellipsoidal import geodetic_to_ecef
 from engine.io.runfile import RunRecord
 from engine.systems.base import (
     CycleInputs,
@@ -30,6 +29,7 @@ from engine.systems.base import (
     Point,
     PositionPrior,
     SystemReading,
+    new_reading,
     set_row,
 )
 
@@ -137,6 +137,7 @@ def slots_maker(cls: type) -> Callable[..., Any]:
 
 _new_input = slots_maker(GpsInput)
 _new_fix = slots_maker(GpsFix)
+_new_lop = slots_maker(LopReading)
 
 
 GRID_MAX_DLON_DEG = 6.0
@@ -145,6 +146,12 @@ be taken into the fix. The grid follows the MPP to the whole degree (THEORY §2.
 fix lies within 1–2° of it; 6° away the TM scale factor already reaches 1.0055 at the equator,
 beyond what the fix's line-scale correction (thesis A5.10) is meant for, and much farther the
 grid's series diverge. Such a fix means a wrong DR position or a wrong record."""
+
+
+_WGS84_A = WGS84.ellipsoid.a_m
+_WGS84_E2 = WGS84.ellipsoid.e2
+"""WGS84's a (m) and e² as :func:`engine.geodesy.ellipsoidal.geodetic_to_ecef` reads them."""
+radians, sin, cos, sqrt = math.radians, math.sin, math.cos, math.sqrt
 
 
 def gps_input(inputs: CycleInputs) -> GpsInput | None:
@@ -163,7 +170,15 @@ def gps_input(inputs: CycleInputs) -> GpsInput | None:
         w_lat, w_lon, hg = lat_in, lon_in, -h_datum
     else:
         w_lat, w_lon, hg = ctx.gps_to_wgs84.transform(lat_in, lon_in, 0.0)
-    ecef = geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid)
+    # geodetic_to_ecef(w_lat, w_lon, hg, WGS84.ellipsoid) written out with WGS84's a and e²
+    # taken once (the same operations in the same order, the same floats).
+    phi = radians(w_lat)
+    lam = radians(w_lon)
+    sphi = sin(phi)
+    cphi = cos(phi)
+    nu = _WGS84_A / sqrt(1.0 - _WGS84_E2 * sphi * sphi)
+    r = (nu + hg) * cphi
+    ecef = (r * cos(lam), r * sin(lam), (nu * (1.0 - _WGS84_E2) + hg) * sphi)
     x, y = inputs.grid.forward(lat, lon)
     return _new_input(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y,
                       gps_weight(inputs.config, rec))
@@ -289,8 +304,8 @@ def _position_rows(system: str, lat: float, lon: float, corr_n: float, corr_e: f
                    p: Point) -> list[LopReading]:
     """The "Lat"/"Lon" page rows: read and computed in degrees, corrections in metres."""
     lat_hat, lon_hat = p.latlon
-    return [LopReading(ROW_LAT, system, "Lat", lat, corr_n, lat_hat, 90.0),
-            LopReading(ROW_LON, system, "Lon", lon, corr_e, lon_hat, 180.0)]
+    return [_new_lop(ROW_LAT, system, "Lat", lat, corr_n, lat_hat, 90.0),
+            _new_lop(ROW_LON, system, "Lon", lon, corr_e, lon_hat, 180.0)]
 
 
 class GpsSystem:
@@ -321,10 +336,11 @@ class GpsSystem:
         c = inputs.config.corrections
         w = gps.weight if gps.weight is not None else gps_weight(inputs.config, inputs.record)
         # The fixed figure keeps its variance exactly as before (σ² of √var is not bit-exact).
-        var = _of_config(inputs.config).variance_m2 if not w.receiver_weighted else w.sigma_m**2
+        # (w.origin != "receiver" is ``not w.receiver_weighted``, without the property's call.)
+        var = _of_config(inputs.config).variance_m2 if w.origin != "receiver" else w.sigma_m**2
         fix = _new_fix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
                        c.gps_east_m, w)
-        return SystemReading(value=fix, detail=gps, observes=True)
+        return new_reading(fix, (), gps, True)
 
     def observations(self, value: GpsFix | None, p0: Point) -> _GpsObservations | None:
         return None if value is None else _GpsObservations(value)

@@ -26,6 +26,7 @@ from engine.systems.base import (
     Point,
     SystemReading,
     lop_azimuth_deg,
+    new_reading,
     set_row,
 )
 
@@ -137,7 +138,7 @@ class ManualSystem:
     def read(self, inputs: CycleInputs) -> SystemReading:
         """The observations queued for this cycle (``NavState.pending_obs``)."""
         obs = tuple(inputs.nav.pending_obs)
-        return SystemReading(value=obs, observes=bool(obs))
+        return new_reading(obs, (), None, bool(obs))
 
     def observations(self, value: Sequence[ManualObservation] | None,
                      p0: Point) -> _ManualObservations | None:

@@ -262,6 +262,48 @@ def test_at_a_station_both_raise_alike(station: int) -> None:
     assert decca._LaneAt(PLACED, FAST)._lanes(src) is None
 
 
+def _lef_skip_holds(x: float, y: float) -> bool:
+    """Where the kernel's lanes() skips the LEF's geodesics (``_lef_certain``), PROJ's azimuths
+    of master and every slave are more than 0.015 rad apart (half its margin: the LEF cannot
+    raise); lanes() gives the Python's outcome either way. Returns whether it skipped."""
+    lat, lon = GRID.inverse(x, y)
+    certain = K._lef_certain(SC, FAST.native(), x, y, lat, lon)
+    if certain:
+        az = FAST.forward_azimuths_rad(lat, lon, SC.latlon)
+        for s in (1, 2, 3):
+            gamma = abs(az[s] - az[0]) % (2 * math.pi)
+            assert min(gamma, 2 * math.pi - gamma) > 0.015
+    src = decca.LaneSource("GPS", x, y, np.eye(2))
+    fast = outcome(decca._LaneAt(PLACED, FAST)._lanes, src)
+    with _Pure():
+        pure = outcome(decca._LaneAt(PLACED, PURE)._lanes_py, src)
+    assert fast == pure
+    return bool(certain)
+
+
+@settings(max_examples=300, deadline=None)
+@given(dx=st.floats(-6e5, 6e5), dy=st.floats(-1.2e6, 1.2e6))
+def test_lanes_skip_the_lef_only_where_it_cannot_raise(dx: float, dy: float) -> None:
+    _lef_skip_holds(MX + dx, MY + dy)
+
+
+def test_lanes_near_the_baseline_extensions() -> None:
+    """On and beside the extensions of every baseline (γ → 0, where the LEF would raise) the
+    geodesics are computed; elsewhere they are skipped."""
+    skipped = computed = 0
+    for s in (1, 2, 3):
+        (mx, my), (sx, sy) = SC.xy[0], SC.xy[s]
+        for t in (-3.0, -1.5, -1.0, -0.5, -0.1, -0.01, 1.01, 1.1, 1.5, 2.0, 3.0, 0.5):
+            for off in (0.0, 1.0, 100.0, 1e3, 5e3, 2e4):
+                x = mx + t * (sx - mx) - off * (sy - my) / 1e5
+                y = my + t * (sy - my) + off * (sx - mx) / 1e5
+                if _lef_skip_holds(x, y):
+                    skipped += 1
+                else:
+                    computed += 1
+    assert skipped > 20 and computed > 20
+
+
 @settings(max_examples=200, deadline=None)
 @given(az=st.lists(st.floats(-10.0, 10.0) | st.sampled_from([0.0, -0.0, math.pi, 2 * math.pi,
                                                              math.inf, math.nan]),

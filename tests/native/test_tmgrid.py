@@ -72,7 +72,7 @@ def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
     """The grid calls of the first 200 demo epochs (grid, argument, argument), recorded."""
 
     calls: dict[str, list[tuple[TMGrid, Any, Any]]] = {"forward": [], "_forward_full": [],
-                                                        "inverse": []}
+                                                        "convergence_deg": [], "inverse": []}
     originals = {name: getattr(TMGrid, name) for name in calls}
 
     def recorder(name: str) -> Callable[..., Any]:
@@ -93,15 +93,21 @@ def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
 
 @needs_kernel
 def test_replayed_calls_give_the_pure_bits(replayed: dict[str, list[tuple]]) -> None:
-    """Every forward, forward_full and inverse of 200 demo epochs: kernel == Python, and the
-    kernel never declined (so the replay really runs compiled)."""
-    assert all(len(v) >= 150 for v in replayed.values()), {k: len(v) for k, v in replayed.items()}
+    """Every forward, forward_full (the cycle's convergence_deg calls the kernel's forward_full
+    itself) and inverse of 200 demo epochs: kernel == Python, and the kernel never declined (so
+    the replay really runs compiled)."""
+    n = {k: len(v) for k, v in replayed.items()}
+    assert n["forward"] >= 150 and n["inverse"] >= 150, n
+    assert n["_forward_full"] + n["convergence_deg"] >= 150, n
     for grid, lat, lon in replayed["forward"]:
         assert KERNEL.forward(grid._packed, lat, lon) is not None
         assert _bits(grid.forward(lat, lon)) == _bits(grid._forward_py(lat, lon))
     for grid, lat, lon in replayed["_forward_full"]:
         assert KERNEL.forward_full(grid._packed, lat, lon) is not None
         assert _bits(grid._forward_full(lat, lon)) == _bits(grid._forward_full_py(lat, lon))
+    for grid, lat, lon in replayed["convergence_deg"]:
+        assert KERNEL.forward_full(grid._packed, lat, lon) is not None
+        assert _bits(grid.convergence_deg(lat, lon)) == _bits(grid._forward_full_py(lat, lon)[2])
     fresh: dict[float, TMGrid] = {}
     for grid, x, y in replayed["inverse"]:
         assert KERNEL.inverse(grid._packed, x, y, False) is not None
