@@ -574,12 +574,19 @@ class OutLogWriter:
         return writer
 
     def _write(self, text: str, sync: bool = False) -> None:
-        self._fh.write(text)
-        self._fh.flush()
+        """Write and flush ``text``; every ``fsync_every`` writes (or with ``sync``) force the
+        file to the disk."""
+        self._fh.write_flushed(text)
         self._since_sync += 1
         if sync or self._since_sync >= self._fsync_every:
             self._fh.fsync()
             self._since_sync = 0
+
+    def write_block(self, text: str) -> None:
+        """Write one complete cycle block's text (``CYCLE`` … ``END n=…`` and its newline, as
+        :meth:`write_cycle` renders it: :func:`engine.run.records.cycle_text`) in a single
+        flushed write."""
+        self._write(text)
 
     def write_cycle(
         self, fields: Mapping[str, Value], lines: Sequence[tuple[str, Mapping[str, Value]]]

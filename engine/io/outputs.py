@@ -200,6 +200,16 @@ class OutputFile:
         except OSError as exc:
             raise self._error(exc) from exc
 
+    def write_flushed(self, text: str) -> None:
+        """Write ``text`` and hand the buffer to the operating system (:meth:`write` then
+        :meth:`flush` in one call: the ``.OUT`` writes every cycle so)."""
+        fh = self._fh
+        try:
+            fh.write(text)
+            fh.flush()
+        except OSError as exc:
+            raise self._error(exc) from exc
+
     def flush(self) -> None:
         """Hand the buffer to the operating system."""
         try:

@@ -20,10 +20,17 @@
  * None is returned (nothing written, no error) for rows the Python path must handle itself:
  * not (str, tuple, tuple) rows, keys that are not exact str, keys and values of different
  * lengths, text that is not valid UTF-8 (lone surrogates), a formatter giving a non-str.
- * No floating-point arithmetic is done here: only texts are copied.
+ * No floating-point arithmetic is done here: only texts are copied (but see cycle_rows below:
+ * the three products, square roots and '.3f' texts cycle_block itself computes).
+ *
+ * cycle_rows(r, consts) / cycle_text(r, consts, dumps, format_text, format_value) build the
+ * rows of a whole cycle block from the CycleResult (engine.run.records.cycle_block's twin) and
+ * render them as render_rows does: the session's .OUT block in one call (section below).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <datetime.h>
+#include <math.h>
 #include <string.h>
 
 #ifndef UVN_SOURCE_DIGEST
@@ -395,17 +402,11 @@ static int write_rows(buf_t *b, PyObject *rows, PyObject *dumped, const span_t *
     return 0;
 }
 
-static PyObject *render_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* The text of `rows` (a list), or None (a new reference to it) where the Python must write
+ * them; NULL with an error set on an error. */
+static PyObject *render_list(PyObject *rows, PyObject *dumps, PyObject *format_text,
+                             PyObject *format_value)
 {
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError,
-                        "render_rows(rows, dumps, format_text, format_value) takes 4 arguments");
-        return NULL;
-    }
-    PyObject *rows = args[0], *dumps = args[1], *format_text = args[2],
-             *format_value = args[3];
-    if (!PyList_CheckExact(rows))
-        Py_RETURN_NONE;
     Py_ssize_t nf = 0;
     if (check_rows(rows, &nf) == FALLBACK)
         Py_RETURN_NONE;
@@ -447,6 +448,831 @@ done:
     if (b.heap)
         PyMem_Free(b.p);
     return result;
+}
+
+static PyObject *render_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError,
+                        "render_rows(rows, dumps, format_text, format_value) takes 4 arguments");
+        return NULL;
+    }
+    if (!PyList_CheckExact(args[0]))
+        Py_RETURN_NONE;
+    return render_list(args[0], args[1], args[2], args[3]);
+}
+
+/* ------------------------------------------------------------------------- cycle_rows */
+
+/* cycle_rows(r, consts) is the compiled twin of engine.run.records.cycle_block followed by the
+ * rows OutLogWriter.write_cycle hands to render_rows: the same (prefix, keys, values) rows, the
+ * values the very objects cycle_block puts there (attribute reads of the CycleResult), the
+ * few it computes computed by the same operations: the 95 % semi-axes by `_K95 * a` (the float
+ * multiplication of PyNumber_Multiply), the KF standard deviations by sqrt (what math.sqrt
+ * calls) with the same rule for 0, negatives and NaN, the TEST line's `"{:.3f}".format` of the
+ * LS statistics by PyOS_double_to_string(x, 'f', 3, 0) (float.__format__'s own call) and the
+ * time stamp by the integer formatting of records._utc_text (other years: its Python).
+ * cycle_text(r, consts, dumps, format_text, format_value) is render_rows of those rows.
+ * Both give None (no error) for anything cycle_block would do otherwise or raise on (a type
+ * it does not expect, a VCV that is not a 2x2 list of floats, an attribute missing): then
+ * the Python builds the block, so every error and message is the Python's. */
+
+/* The layout of consts (engine.run.records._CYCLE_CONSTS). */
+enum {
+    C_HEAD_KEYS, C_SENS_KEYS, C_GPS_KEYS, C_GPS_WEIGHT_KEYS, C_OBS_KEYS, C_LOP_KEYS,
+    C_POS_KEYS, C_LSE_KEYS, C_MPP_KEYS, C_KF_KEYS, C_TEST_KEYS, C_N_KEYS, C_IN_KEYS,
+    C_SYS_KEYS, C_MSG_KEYS, C_NOFIX_KEYS, C_K95, C_N_NAV, C_UTC_TEXT, C_COUNT
+};
+
+enum {
+    A_N, A_TIME, A_RECORD, A_FILTER_STATUS, A_MPP, A_SOURCE, A_DATUM, A_CM_DEG, A_DT_S,
+    A_SENSORS, A_RAW, A_SYSTEMS, A_STATUS, A_REFERENCE, A_STANDIN, A_HEADING_SIGMA_DEG,
+    A_SPEED_SIGMA_MS, A_GPS, A_WEIGHT, A_RECEIVER_WEIGHTED, A_HDOP, A_QUALITY, A_SATS,
+    A_UERE_M, A_SIGMA_M, A_MANUAL, A_FIX, A_LOPS, A_OK, A_LAT_DEG, A_LON_DEG, A_X_M, A_Y_M,
+    A_DEPTH_M, A_COV, A_ELLIPSE, A_A_M, A_B_M, A_AZ_DEG, A_USES_PRIOR, A_N_USED, A_CATEGORY,
+    A_S2, A_RMS_M, A_REJECTED_SLOTS, A_FIX_FAILS_TESTS, A_FIX_COV_SCALE, A_REASON, A_KF_PRED,
+    A_FILTER_STATE, A_X, A_P, A_FILTER_UPDATE, A_SENSOR_UPDATE, A_LOM, A_T, A_LOWER, A_UPPER,
+    A_DOF, A_VERDICT, A_LS, A_LABELS, A_MESSAGES, A_TOLIST, A_DIAGONAL, A_COUNT
+};
+
+static const char *const ATTR_NAMES[A_COUNT] = {
+    "n", "time", "record", "filter_status", "mpp", "source", "datum", "cm_deg", "dt_s",
+    "sensors", "raw", "systems", "status", "reference", "standin", "heading_sigma_deg",
+    "speed_sigma_ms", "gps", "weight", "receiver_weighted", "hdop", "quality", "sats",
+    "uere_m", "sigma_m", "manual", "fix", "lops", "ok", "lat_deg", "lon_deg", "x_m", "y_m",
+    "depth_m", "cov", "ellipse", "a_m", "b_m", "az_deg", "uses_prior", "n_used", "category",
+    "s2", "rms_m", "rejected_slots", "fix_fails_tests", "fix_cov_scale", "reason", "kf_pred",
+    "filter_state", "x", "P", "filter_update", "sensor_update", "lom", "t", "lower", "upper",
+    "dof", "verdict", "ls", "labels", "messages", "tolist", "diagonal",
+};
+static PyObject *ATTR[A_COUNT];
+
+/* The attributes of the SENS, GPS, OBS and LOP lines in key order (records._SENS_GET, ...). */
+static const char *const SENS_NAMES[] = {"heading_true_deg", "speed_kn", "rudder_deg",
+                                         "incl_deg", "depth_m", "echo_m", "convergence_deg"};
+static const char *const GPS_NAMES[] = {"lat_in_deg", "lon_in_deg", "lat_deg", "lon_deg",
+                                        "x_m", "y_m", "hg_m"};
+static const char *const OBS_NAMES[] = {"kind", "station", "lat_deg", "lon_deg", "value",
+                                        "sigma", "sensor"};
+static const char *const LOP_NAMES[] = {"system", "pattern", "read", "correction", "calc",
+                                        "v_m", "w", "sigma_d", "tau", "az_deg", "used",
+                                        "verdict"};
+#define N_SENS 7
+#define N_GPS 7
+#define N_OBS 7
+#define N_LOP 12
+static PyObject *SENS_ATTR[N_SENS], *GPS_ATTR[N_GPS], *OBS_ATTR[N_OBS], *LOP_ATTR[N_LOP];
+
+/* Prefixes and the str constants of cycle_block. */
+enum {
+    S_CYCLE, S_IN, S_SYS, S_SENS, S_GPS, S_OBS, S_LOP, S_LSE, S_NOFIX, S_KFP, S_KF, S_TEST,
+    S_MPP, S_MSG, S_END, S_NL, S_WATER, S_HYBRID, S_LSE_KIND, S_FAIL, S_EPOCH, S_SENSORS,
+    S_EMPTY, S_COMMA, S_FMT3, S_COUNT
+};
+static const char *const STR_TEXTS[S_COUNT] = {
+    "CYCLE", "\n  IN", "\n  SYS", "\n  SENS", "\n  GPS", "\n  OBS", "\n  LOP", "\n  LSE",
+    "\n  NOFIX", "\n  KFP", "\n  KF", "\n  TEST", "\n  MPP", "\n  MSG", "\nEND", "\n",
+    "water", "hybrid", "lse", "fail", "epoch", "sensors", "", ",", ".3f",
+};
+static PyObject *STR[S_COUNT];
+static PyObject *EMPTY_TUPLE;
+
+static int init_cycle_names(void)
+{
+    for (int i = 0; i < A_COUNT; i++)
+        if ((ATTR[i] = PyUnicode_InternFromString(ATTR_NAMES[i])) == NULL)
+            return -1;
+    for (int i = 0; i < N_SENS; i++)
+        if ((SENS_ATTR[i] = PyUnicode_InternFromString(SENS_NAMES[i])) == NULL)
+            return -1;
+    for (int i = 0; i < N_GPS; i++)
+        if ((GPS_ATTR[i] = PyUnicode_InternFromString(GPS_NAMES[i])) == NULL)
+            return -1;
+    for (int i = 0; i < N_OBS; i++)
+        if ((OBS_ATTR[i] = PyUnicode_InternFromString(OBS_NAMES[i])) == NULL)
+            return -1;
+    for (int i = 0; i < N_LOP; i++)
+        if ((LOP_ATTR[i] = PyUnicode_InternFromString(LOP_NAMES[i])) == NULL)
+            return -1;
+    for (int i = 0; i < S_COUNT; i++)
+        if ((STR[i] = PyUnicode_InternFromString(STR_TEXTS[i])) == NULL)
+            return -1;
+    if ((EMPTY_TUPLE = PyTuple_New(0)) == NULL)
+        return -1;
+    return 0;
+}
+
+/* Leave the cycle to the Python (cycle_rows' callers turn this into None). */
+static void *decline(void)
+{
+    PyErr_SetString(PyExc_LookupError, "outfmt.cycle_rows: left to the Python");
+    return NULL;
+}
+
+#define GET(o, a) PyObject_GetAttr((o), ATTR[a])
+
+/* Append the row (prefix, keys, values) to rows; steals `values`. 0 or -1. */
+static int add_row(PyObject *rows, PyObject *prefix, PyObject *keys, PyObject *values)
+{
+    if (values == NULL)
+        return -1;
+    PyObject *row = PyTuple_Pack(3, prefix, keys, values);
+    Py_DECREF(values);
+    if (row == NULL)
+        return -1;
+    int rc = PyList_Append(rows, row);
+    Py_DECREF(row);
+    return rc;
+}
+
+/* A tuple of n + extra items: the attributes `names` of `o`, then `extra` empty slots. */
+static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, Py_ssize_t n,
+                             Py_ssize_t extra)
+{
+    PyObject *t = PyTuple_New(n + extra);
+    if (t == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *v = PyObject_GetAttr(o, names[i]);
+        if (v == NULL) {
+            Py_DECREF(t);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(t, i, v);
+    }
+    return t;
+}
+
+/* A tuple of the first n items of `items` (new references) and `extra` empty slots. */
+static PyObject *tuple_of(PyObject *const *items, Py_ssize_t n, Py_ssize_t extra)
+{
+    PyObject *t = PyTuple_New(n + extra);
+    if (t == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < n; i++)
+        PyTuple_SET_ITEM(t, i, Py_NewRef(items[i]));
+    return t;
+}
+
+/* records._position_row: its values into v[0..] (new references; *n of them, 5 to 11) and
+ * the index of its key variant (ellipse present + 2 * VCV finite). 0 or -1. */
+typedef struct {
+    PyObject *v[11];
+    int n, variant;
+} pos_t;
+
+static void pos_clear(pos_t *p)
+{
+    for (int i = 0; i < p->n; i++)
+        Py_CLEAR(p->v[i]);
+    p->n = 0;
+}
+
+static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
+{
+    /* obj's lat_deg, lon_deg, x_m, y_m, then depth (NULL: obj.depth_m), cov, ellipse */
+    static const int names[4] = {A_LAT_DEG, A_LON_DEG, A_X_M, A_Y_M};
+    p->n = 0;
+    p->variant = 0;
+    for (int i = 0; i < 4; i++) {
+        if ((p->v[p->n] = GET(obj, names[i])) == NULL)
+            goto fail;
+        p->n++;
+    }
+    if ((p->v[p->n] = depth != NULL ? Py_NewRef(depth) : GET(obj, A_DEPTH_M)) == NULL)
+        goto fail;
+    p->n++;
+    PyObject *cov = GET(obj, A_COV), *ell = NULL;
+    if (cov == NULL)
+        goto fail;
+    if ((ell = GET(obj, A_ELLIPSE)) == NULL) {
+        Py_DECREF(cov);
+        goto fail;
+    }
+    if (ell != Py_None) {
+        PyObject *a = GET(ell, A_A_M);
+        if (a == NULL)
+            goto fail_both;
+        p->v[p->n] = PyNumber_Multiply(k95, a);
+        Py_DECREF(a);
+        if (p->v[p->n] == NULL)
+            goto fail_both;
+        p->n++;
+        PyObject *b = GET(ell, A_B_M);
+        if (b == NULL)
+            goto fail_both;
+        p->v[p->n] = PyNumber_Multiply(k95, b);
+        Py_DECREF(b);
+        if (p->v[p->n] == NULL)
+            goto fail_both;
+        p->n++;
+        if ((p->v[p->n] = GET(ell, A_AZ_DEG)) == NULL)
+            goto fail_both;
+        p->n++;
+        p->variant |= 1;
+    }
+    if (cov != Py_None) {
+        PyObject *l = PyObject_CallMethodNoArgs(cov, ATTR[A_TOLIST]);
+        if (l == NULL)
+            goto fail_both;
+        PyObject *c[4];
+        int good = PyList_CheckExact(l) && PyList_GET_SIZE(l) == 2;
+        for (int r = 0; good && r < 2; r++) {
+            PyObject *row = PyList_GET_ITEM(l, r);
+            good = PyList_CheckExact(row) && PyList_GET_SIZE(row) == 2;
+            for (int k = 0; good && k < 2; k++) {
+                c[2 * r + k] = PyList_GET_ITEM(row, k);
+                good = PyFloat_CheckExact(c[2 * r + k]);
+            }
+        }
+        if (!good) {
+            Py_DECREF(l);
+            decline();
+            goto fail_both;
+        }
+        if (isfinite(PyFloat_AS_DOUBLE(c[0])) && isfinite(PyFloat_AS_DOUBLE(c[1])) &&
+            isfinite(PyFloat_AS_DOUBLE(c[2])) && isfinite(PyFloat_AS_DOUBLE(c[3]))) {
+            p->v[p->n++] = Py_NewRef(c[0]);
+            p->v[p->n++] = Py_NewRef(c[1]);
+            p->v[p->n++] = Py_NewRef(c[3]);
+            p->variant |= 2;
+        }
+        Py_DECREF(l);
+    }
+    Py_DECREF(cov);
+    Py_DECREF(ell);
+    return 0;
+fail_both:
+    Py_DECREF(cov);
+    Py_DECREF(ell);
+fail:
+    pos_clear(p);
+    return -1;
+}
+
+/* sep.join(str(x) for x in items) (the items of a tuple or list). */
+static PyObject *join_str(PyObject *sep, PyObject *items)
+{
+    PyObject *seq = PySequence_Fast(items, "not a sequence");
+    if (seq == NULL)
+        return NULL;
+    Py_ssize_t n = PySequence_Fast_GET_SIZE(seq);
+    PyObject *parts = PyList_New(n);
+    if (parts == NULL) {
+        Py_DECREF(seq);
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *s = PyObject_Str(PySequence_Fast_GET_ITEM(seq, i));
+        if (s == NULL) {
+            Py_DECREF(parts);
+            Py_DECREF(seq);
+            return NULL;
+        }
+        PyList_SET_ITEM(parts, i, s);
+    }
+    Py_DECREF(seq);
+    PyObject *r = PyUnicode_Join(sep, parts);
+    Py_DECREF(parts);
+    return r;
+}
+
+/* records._utc_text(t): integer formatting for an exact datetime of year 1000-9999, else
+ * the Python function. */
+static PyObject *utc_text(PyObject *t, PyObject *py_utc_text)
+{
+    if (PyDateTimeAPI != NULL && PyDateTime_CheckExact(t)) {
+        int y = PyDateTime_GET_YEAR(t);
+        if (y >= 1000 && y <= 9999) {
+            char s[32];
+            int n = snprintf(s, sizeof s, "%04d-%02d-%02dT%02d:%02d:%02dZ", y,
+                             PyDateTime_GET_MONTH(t), PyDateTime_GET_DAY(t),
+                             PyDateTime_DATE_GET_HOUR(t), PyDateTime_DATE_GET_MINUTE(t),
+                             PyDateTime_DATE_GET_SECOND(t));
+            return PyUnicode_FromStringAndSize(s, n);
+        }
+    }
+    return PyObject_CallOneArg(py_utc_text, t);
+}
+
+/* ",".join(map("{:.3f}".format, values.tolist())) of the TEST line. */
+static PyObject *ls_text(PyObject *ls_t)
+{
+    PyObject *l = PyObject_CallMethodNoArgs(ls_t, ATTR[A_TOLIST]);
+    if (l == NULL)
+        return NULL;
+    if (!PyList_CheckExact(l)) {
+        Py_DECREF(l);
+        return decline();
+    }
+    Py_ssize_t n = PyList_GET_SIZE(l);
+    PyObject *parts = PyList_New(n);
+    if (parts == NULL) {
+        Py_DECREF(l);
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *v = PyList_GET_ITEM(l, i), *s;
+        if (PyFloat_CheckExact(v)) {
+            char *c = PyOS_double_to_string(PyFloat_AS_DOUBLE(v), 'f', 3, 0, NULL);
+            if (c == NULL) {
+                s = NULL;
+            } else {
+                s = PyUnicode_FromString(c);
+                PyMem_Free(c);
+            }
+        } else {
+            s = PyObject_Format(v, STR[S_FMT3]);
+        }
+        if (s == NULL) {
+            Py_DECREF(parts);
+            Py_DECREF(l);
+            return NULL;
+        }
+        PyList_SET_ITEM(parts, i, s);
+    }
+    Py_DECREF(l);
+    PyObject *r = PyUnicode_Join(STR[S_COMMA], parts);
+    Py_DECREF(parts);
+    return r;
+}
+
+/* `x[:n].tolist()` as a list (exact), or NULL. */
+static PyObject *head_list(PyObject *x, PyObject *n_nav)
+{
+    PyObject *sl = PySlice_New(NULL, n_nav, NULL);
+    if (sl == NULL)
+        return NULL;
+    PyObject *part = PyObject_GetItem(x, sl);
+    Py_DECREF(sl);
+    if (part == NULL)
+        return NULL;
+    PyObject *l = PyObject_CallMethodNoArgs(part, ATTR[A_TOLIST]);
+    Py_DECREF(part);
+    if (l != NULL && !PyList_CheckExact(l)) {
+        Py_DECREF(l);
+        return decline();
+    }
+    return l;
+}
+
+/* The KF line's values: the states, then the standard deviations of P's diagonal. */
+static PyObject *kf_values(PyObject *fs, PyObject *n_nav)
+{
+    PyObject *x = NULL, *xl = NULL, *P = NULL, *d = NULL, *dl = NULL, *t = NULL;
+    if ((x = GET(fs, A_X)) == NULL || (xl = head_list(x, n_nav)) == NULL)
+        goto done;
+    if ((P = GET(fs, A_P)) == NULL ||
+        (d = PyObject_CallMethodNoArgs(P, ATTR[A_DIAGONAL])) == NULL ||
+        (dl = head_list(d, n_nav)) == NULL)
+        goto done;
+    Py_ssize_t nx = PyList_GET_SIZE(xl), nd = PyList_GET_SIZE(dl);
+    if ((t = PyTuple_New(nx + nd)) == NULL)
+        goto done;
+    for (Py_ssize_t i = 0; i < nx; i++)
+        PyTuple_SET_ITEM(t, i, Py_NewRef(PyList_GET_ITEM(xl, i)));
+    for (Py_ssize_t i = 0; i < nd; i++) {
+        PyObject *v = PyList_GET_ITEM(dl, i), *s;
+        if (!PyFloat_CheckExact(v)) {
+            Py_CLEAR(t);
+            decline();
+            goto done;
+        }
+        double var = PyFloat_AS_DOUBLE(v);
+        /* records: sqrt(v) if v > 0.0 else (v if v != v else 0.0) */
+        if (var > 0.0)
+            s = PyFloat_FromDouble(sqrt(var));
+        else
+            s = var != var ? Py_NewRef(v) : PyFloat_FromDouble(0.0);
+        if (s == NULL) {
+            Py_CLEAR(t);
+            goto done;
+        }
+        PyTuple_SET_ITEM(t, nx + i, s);
+    }
+done:
+    Py_XDECREF(x);
+    Py_XDECREF(xl);
+    Py_XDECREF(P);
+    Py_XDECREF(d);
+    Py_XDECREF(dl);
+    return t;
+}
+
+/* The TEST line of one update. */
+static int add_test(PyObject *rows, PyObject *keys, PyObject *u, PyObject *kind)
+{
+    static const int lom_names[5] = {A_T, A_LOWER, A_UPPER, A_DOF, A_VERDICT};
+    PyObject *t = PyTuple_New(8), *lom = NULL, *ls = NULL, *ls_t = NULL, *labels = NULL;
+    if (t == NULL)
+        return -1;
+    if ((lom = GET(u, A_LOM)) == NULL)
+        goto fail;
+    for (int i = 0; i < 5; i++) {
+        PyObject *v = GET(lom, lom_names[i]);
+        if (v == NULL)
+            goto fail;
+        PyTuple_SET_ITEM(t, i, v);
+    }
+    if ((ls = GET(u, A_LS)) == NULL || (ls_t = GET(ls, A_T)) == NULL)
+        goto fail;
+    PyObject *text = ls_text(ls_t);
+    if (text == NULL)
+        goto fail;
+    PyTuple_SET_ITEM(t, 5, text);
+    PyTuple_SET_ITEM(t, 6, Py_NewRef(kind));
+    if ((labels = GET(u, A_LABELS)) == NULL)
+        goto fail;
+    PyObject *lt = PyUnicode_Join(STR[S_COMMA], labels);
+    if (lt == NULL)
+        goto fail;
+    PyTuple_SET_ITEM(t, 7, lt);
+    Py_DECREF(lom);
+    Py_DECREF(ls);
+    Py_DECREF(ls_t);
+    Py_DECREF(labels);
+    return add_row(rows, STR[S_TEST], keys, t);
+fail:
+    Py_DECREF(t);
+    Py_XDECREF(lom);
+    Py_XDECREF(ls);
+    Py_XDECREF(ls_t);
+    Py_XDECREF(labels);
+    return -1;
+}
+
+/* Append a row per item of the iterable `items`: (prefix, keys, attrs of the item), or with
+ * names == NULL (prefix, keys, (item,)). */
+static int add_each(PyObject *rows, PyObject *items, PyObject *prefix, PyObject *keys,
+                    PyObject *const *names, Py_ssize_t n)
+{
+    PyObject *it = PyObject_GetIter(items), *o;
+    if (it == NULL)
+        return -1;
+    while ((o = PyIter_Next(it)) != NULL) {
+        PyObject *v = names != NULL ? attrs_tuple(o, names, n, 0) : PyTuple_Pack(1, o);
+        Py_DECREF(o);
+        if (add_row(rows, prefix, keys, v) < 0) {
+            Py_DECREF(it);
+            return -1;
+        }
+    }
+    Py_DECREF(it);
+    return PyErr_Occurred() ? -1 : 0;
+}
+
+/* Is obj.<attr> true? 1, 0 or -1. */
+static int attr_true(PyObject *obj, int attr)
+{
+    PyObject *v = GET(obj, attr);
+    if (v == NULL)
+        return -1;
+    int r = PyObject_IsTrue(v);
+    Py_DECREF(v);
+    return r;
+}
+
+static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
+{
+    if (!PyTuple_CheckExact(consts) || PyTuple_GET_SIZE(consts) != C_COUNT)
+        return decline();
+    PyObject *const *c = &PyTuple_GET_ITEM(consts, 0);
+    PyObject *rows = PyList_New(0), *mpp = NULL, *s = NULL, *o = NULL, *v = NULL,
+             *n_obj = NULL;
+    pos_t pos = {{NULL}, 0, 0};
+    int rc;
+    if (rows == NULL)
+        return NULL;
+    if ((mpp = GET(r, A_MPP)) == NULL)
+        goto fail;
+
+    /* CYCLE n t record filter source datum cm dt */
+    if ((v = PyTuple_New(8)) == NULL)
+        goto fail;
+    {
+        static const int head[8] = {A_N, A_TIME, A_RECORD, A_FILTER_STATUS, -1, A_DATUM,
+                                    A_CM_DEG, A_DT_S};
+        for (int i = 0; i < 8; i++) {
+            PyObject *x = head[i] < 0 ? GET(mpp, A_SOURCE) : GET(r, head[i]);
+            if (x == NULL)
+                goto fail;
+            if (i == 1) {
+                PyObject *t = utc_text(x, c[C_UTC_TEXT]);
+                Py_DECREF(x);
+                if ((x = t) == NULL)
+                    goto fail;
+            }
+            PyTuple_SET_ITEM(v, i, x);
+        }
+    }
+    n_obj = Py_NewRef(PyTuple_GET_ITEM(v, 0));
+    rc = add_row(rows, STR[S_CYCLE], c[C_HEAD_KEYS], v);
+    v = NULL;
+    if (rc < 0)
+        goto fail;
+
+    /* IN, SYS, SENS */
+    if ((s = GET(r, A_SENSORS)) == NULL)
+        goto fail;
+    {
+        PyObject *ref = GET(s, A_REFERENCE), *sens;
+        if (ref == NULL)
+            goto fail;
+        int other = PyObject_RichCompareBool(ref, STR[S_WATER], Py_NE), standin = 0;
+        if (other > 0 && (standin = attr_true(s, A_STANDIN)) < 0)
+            other = -1;
+        if (other < 0) {
+            Py_DECREF(ref);
+            goto fail;
+        }
+        sens = attrs_tuple(s, SENS_ATTR, N_SENS, other ? (standin ? 3 : 1) : 0);
+        if (sens != NULL && other) {
+            PyTuple_SET_ITEM(sens, N_SENS, Py_NewRef(ref));
+            if (standin) {
+                PyObject *hs = GET(s, A_HEADING_SIGMA_DEG), *ss = hs ? GET(s, A_SPEED_SIGMA_MS)
+                                                                     : NULL;
+                if (ss == NULL) {
+                    Py_XDECREF(hs);
+                    Py_CLEAR(sens);
+                } else {
+                    PyTuple_SET_ITEM(sens, N_SENS + 1, hs);
+                    PyTuple_SET_ITEM(sens, N_SENS + 2, ss);
+                }
+            }
+        }
+        Py_DECREF(ref);
+        if (sens == NULL)
+            goto fail;
+        PyObject *raw = GET(r, A_RAW);
+        if (add_row(rows, STR[S_IN], c[C_IN_KEYS], raw ? PyTuple_Pack(1, raw) : NULL) < 0) {
+            Py_XDECREF(raw);
+            Py_DECREF(sens);
+            goto fail;
+        }
+        Py_DECREF(raw);
+        PyObject *systems = GET(r, A_SYSTEMS), *status = NULL, *st = NULL;
+        if (systems != NULL && (status = GET(s, A_STATUS)) != NULL)
+            st = join_str(STR[S_EMPTY], status);
+        rc = st == NULL ? -1 : add_row(rows, STR[S_SYS], c[C_SYS_KEYS],
+                                       PyTuple_Pack(2, systems, st));
+        Py_XDECREF(systems);
+        Py_XDECREF(status);
+        Py_XDECREF(st);
+        if (rc < 0) {
+            Py_DECREF(sens);
+            goto fail;
+        }
+        PyObject *keys = PyTuple_GET_ITEM(c[C_SENS_KEYS], other ? (standin ? 2 : 1) : 0);
+        if (add_row(rows, STR[S_SENS], keys, sens) < 0)
+            goto fail;
+    }
+
+    /* GPS */
+    if ((o = GET(r, A_GPS)) == NULL)
+        goto fail;
+    if (o != Py_None) {
+        PyObject *w = GET(o, A_WEIGHT);
+        if (w == NULL)
+            goto fail;
+        int weighted = w != Py_None ? attr_true(w, A_RECEIVER_WEIGHTED) : 0;
+        if (weighted < 0) {
+            Py_DECREF(w);
+            goto fail;
+        }
+        PyObject *g = attrs_tuple(o, GPS_ATTR, N_GPS, weighted ? 5 : 0);
+        if (g != NULL && weighted) {
+            static const int wn[5] = {A_HDOP, A_QUALITY, A_SATS, A_UERE_M, A_SIGMA_M};
+            for (int i = 0; i < 5; i++) {
+                PyObject *x = GET(w, wn[i]);
+                if (x == NULL) {
+                    Py_CLEAR(g);
+                    break;
+                }
+                PyTuple_SET_ITEM(g, N_GPS + i, x);
+            }
+        }
+        Py_DECREF(w);
+        if (add_row(rows, STR[S_GPS], c[weighted ? C_GPS_WEIGHT_KEYS : C_GPS_KEYS], g) < 0)
+            goto fail;
+    }
+    Py_CLEAR(o);
+
+    /* OBS */
+    if ((o = GET(r, A_MANUAL)) == NULL ||
+        add_each(rows, o, STR[S_OBS], c[C_OBS_KEYS], OBS_ATTR, N_OBS) < 0)
+        goto fail;
+    Py_CLEAR(o);
+
+    /* LOP, LSE / NOFIX */
+    if ((o = GET(r, A_FIX)) == NULL)
+        goto fail;
+    if (o != Py_None) {
+        PyObject *lops = GET(o, A_LOPS);
+        if (lops == NULL)
+            goto fail;
+        rc = add_each(rows, lops, STR[S_LOP], c[C_LOP_KEYS], LOP_ATTR, N_LOP);
+        Py_DECREF(lops);
+        if (rc < 0)
+            goto fail;
+        int ok = attr_true(o, A_OK);
+        if (ok < 0)
+            goto fail;
+        if (ok) {
+            PyObject *zero = PyFloat_FromDouble(0.0);
+            if (zero == NULL)
+                goto fail;
+            rc = position_row(&pos, o, zero, c[C_K95]);
+            Py_DECREF(zero);
+            if (rc < 0)
+                goto fail;
+            PyObject *head[5] = {NULL, NULL, NULL, NULL, NULL}, *rej = NULL, *rej_text = NULL,
+                     *scale = NULL;
+            int prior = attr_true(o, A_USES_PRIOR), variant = pos.variant, fails = 0;
+            static const int hn[4] = {A_N_USED, A_CATEGORY, A_S2, A_RMS_M};
+            rc = prior < 0 ? -1 : 0;
+            if (rc == 0)
+                head[0] = Py_NewRef(STR[prior ? S_HYBRID : S_LSE_KIND]);
+            for (int i = 0; rc == 0 && i < 4; i++)
+                if ((head[i + 1] = GET(o, hn[i])) == NULL)
+                    rc = -1;
+            if (rc == 0 && (rej = GET(o, A_REJECTED_SLOTS)) == NULL)
+                rc = -1;
+            int has_rej = rc == 0 ? PyObject_IsTrue(rej) : 0;
+            if (has_rej < 0)
+                rc = -1;
+            if (rc == 0 && has_rej && (rej_text = join_str(STR[S_COMMA], rej)) == NULL)
+                rc = -1;
+            if (rc == 0 && (fails = attr_true(r, A_FIX_FAILS_TESTS)) < 0)
+                rc = -1;
+            if (rc == 0 && fails && (scale = GET(r, A_FIX_COV_SCALE)) == NULL)
+                rc = -1;
+            if (rc == 0) {
+                Py_ssize_t n = 5 + pos.n + (has_rej ? 1 : 0) + (fails ? 2 : 0), k = 5;
+                v = PyTuple_New(n);
+                if (v == NULL) {
+                    rc = -1;
+                } else {
+                    for (int i = 0; i < 5; i++) {
+                        PyTuple_SET_ITEM(v, i, head[i]);
+                        head[i] = NULL;
+                    }
+                    for (int i = 0; i < pos.n; i++) {
+                        PyTuple_SET_ITEM(v, k++, pos.v[i]);
+                        pos.v[i] = NULL;
+                    }
+                    pos.n = 0;
+                    if (has_rej) {
+                        PyTuple_SET_ITEM(v, k++, rej_text);
+                        rej_text = NULL;
+                    }
+                    if (fails) {
+                        PyTuple_SET_ITEM(v, k++, Py_NewRef(STR[S_FAIL]));
+                        PyTuple_SET_ITEM(v, k++, scale);
+                        scale = NULL;
+                    }
+                    int idx = variant | (has_rej ? 4 : 0) | (fails ? 8 : 0);
+                    rc = add_row(rows, STR[S_LSE], PyTuple_GET_ITEM(c[C_LSE_KEYS], idx), v);
+                    v = NULL;
+                }
+            }
+            for (int i = 0; i < 5; i++)
+                Py_XDECREF(head[i]);
+            Py_XDECREF(rej);
+            Py_XDECREF(rej_text);
+            Py_XDECREF(scale);
+            pos_clear(&pos);
+            if (rc < 0)
+                goto fail;
+        } else {
+            PyObject *reason = GET(o, A_REASON);
+            if (add_row(rows, STR[S_NOFIX], c[C_NOFIX_KEYS],
+                        reason ? PyTuple_Pack(1, reason) : NULL) < 0) {
+                Py_XDECREF(reason);
+                goto fail;
+            }
+            Py_DECREF(reason);
+        }
+    }
+    Py_CLEAR(o);
+
+    /* KFP */
+    if ((o = GET(r, A_KF_PRED)) == NULL)
+        goto fail;
+    if (o != Py_None) {
+        if (position_row(&pos, o, NULL, c[C_K95]) < 0)
+            goto fail;
+        v = tuple_of(pos.v, pos.n, 0);
+        rc = add_row(rows, STR[S_KFP], PyTuple_GET_ITEM(c[C_POS_KEYS], pos.variant), v);
+        v = NULL;
+        pos_clear(&pos);
+        if (rc < 0)
+            goto fail;
+    }
+    Py_CLEAR(o);
+
+    /* KF */
+    if ((o = GET(r, A_FILTER_STATE)) == NULL)
+        goto fail;
+    if (o != Py_None && add_row(rows, STR[S_KF], c[C_KF_KEYS], kf_values(o, c[C_N_NAV])) < 0)
+        goto fail;
+    Py_CLEAR(o);
+
+    /* TEST: the epoch's update, then the sensors' (records.updates) */
+    if ((o = GET(r, A_FILTER_UPDATE)) == NULL)
+        goto fail;
+    if (o != Py_None && add_test(rows, c[C_TEST_KEYS], o, STR[S_EPOCH]) < 0)
+        goto fail;
+    Py_CLEAR(o);
+    if ((o = GET(r, A_SENSOR_UPDATE)) == NULL)
+        goto fail;
+    if (o != Py_None && add_test(rows, c[C_TEST_KEYS], o, STR[S_SENSORS]) < 0)
+        goto fail;
+    Py_CLEAR(o);
+
+    /* MPP */
+    if (position_row(&pos, mpp, NULL, c[C_K95]) < 0)
+        goto fail;
+    {
+        PyObject *src = GET(mpp, A_SOURCE);
+        if (src == NULL)
+            goto fail;
+        v = tuple_of(pos.v, pos.n, 1);
+        if (v == NULL) {
+            Py_DECREF(src);
+            goto fail;
+        }
+        /* (mpp.source,) + pos */
+        for (Py_ssize_t i = pos.n; i > 0; i--)
+            PyTuple_SET_ITEM(v, i, PyTuple_GET_ITEM(v, i - 1));
+        PyTuple_SET_ITEM(v, 0, src);
+        rc = add_row(rows, STR[S_MPP], PyTuple_GET_ITEM(c[C_MPP_KEYS], pos.variant), v);
+        v = NULL;
+        pos_clear(&pos);
+        if (rc < 0)
+            goto fail;
+    }
+
+    /* MSG */
+    if ((o = GET(r, A_MESSAGES)) == NULL ||
+        add_each(rows, o, STR[S_MSG], c[C_MSG_KEYS], NULL, 0) < 0)
+        goto fail;
+    Py_CLEAR(o);
+
+    /* END n, and the final newline (OutLogWriter.write_cycle) */
+    if (add_row(rows, STR[S_END], c[C_N_KEYS], PyTuple_Pack(1, n_obj)) < 0 ||
+        add_row(rows, STR[S_NL], EMPTY_TUPLE, Py_NewRef(EMPTY_TUPLE)) < 0)
+        goto fail;
+    Py_DECREF(n_obj);
+    Py_DECREF(mpp);
+    Py_DECREF(s);
+    return rows;
+
+fail:
+    Py_XDECREF(n_obj);
+    pos_clear(&pos);
+    Py_XDECREF(v);
+    Py_XDECREF(o);
+    Py_XDECREF(s);
+    Py_XDECREF(mpp);
+    Py_DECREF(rows);
+    return NULL;
+}
+
+/* NULL with an Exception set -> None (the Python builds the block and meets the error
+ * itself); anything else (KeyboardInterrupt, ...) propagates. */
+static PyObject *declined(void)
+{
+    if (PyErr_ExceptionMatches(PyExc_Exception)) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    return NULL;
+}
+
+static PyObject *cycle_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "cycle_rows(r, consts) takes 2 arguments");
+        return NULL;
+    }
+    PyObject *rows = build_cycle_rows(args[0], args[1]);
+    return rows != NULL ? rows : declined();
+}
+
+static PyObject *cycle_text(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError,
+                        "cycle_text(r, consts, dumps, format_text, format_value) takes 5 "
+                        "arguments");
+        return NULL;
+    }
+    PyObject *rows = build_cycle_rows(args[0], args[1]);
+    if (rows == NULL)
+        return declined();
+    PyObject *text = render_list(rows, args[2], args[3], args[4]);
+    Py_DECREF(rows);
+    return text;
 }
 
 /* ------------------------------------------------------------------------- test hooks */
@@ -495,6 +1321,14 @@ static PyMethodDef methods[] = {
      "render_rows(rows, dumps, format_text, format_value) -> str | None\n\n"
      "The text of (prefix, keys, values) rows as engine.io.outlog._render_rows_py writes it;\n"
      "None where the Python must render them. dumps: orjson.dumps (probed) or None (repr)."},
+    {"cycle_rows", (PyCFunction)(void (*)(void))cycle_rows, METH_FASTCALL,
+     "cycle_rows(r, consts) -> list | None\n\n"
+     "The rows OutLogWriter.write_cycle renders for engine.run.records.cycle_block(r); None\n"
+     "where the Python must build them. consts: engine.run.records._CYCLE_CONSTS."},
+    {"cycle_text", (PyCFunction)(void (*)(void))cycle_text, METH_FASTCALL,
+     "cycle_text(r, consts, dumps, format_text, format_value) -> str | None\n\n"
+     "render_rows(cycle_rows(r, consts), ...): the whole .OUT block of a CycleResult in one\n"
+     "call; None where the Python must build or write it."},
     {"float_repr", float_repr, METH_O,
      "float_repr(x) -> repr(float(x)) by PyOS_double_to_string('r', Py_DTSF_ADD_DOT_0)."},
     {"text_form", text_form, METH_O,
@@ -512,6 +1346,11 @@ static struct PyModuleDef module = {
 PyMODINIT_FUNC PyInit_outfmt(void)
 {
     init_classes();
+    if (init_cycle_names() < 0)
+        return NULL;
+    PyDateTime_IMPORT; /* NULL (error cleared): the time stamp by the Python function */
+    if (PyDateTimeAPI == NULL)
+        PyErr_Clear();
     PyObject *m = PyModule_Create(&module);
     if (m == NULL)
         return NULL;

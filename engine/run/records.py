@@ -15,8 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from engine import native
 from engine.filter.kalman import STATE_LABELS, UpdateResult
-from engine.io.outlog import KeyedLines, Value
+from engine.io.outlog import KeyedLines, Value, _float_writer, _format_text, format_value
 from engine.lsq.confidence import Ellipse, k_factor
 from engine.run.cycle import CycleResult, PositionEstimate
 
@@ -313,3 +314,34 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
     for m in r.messages:
         add((*_MSG, (m,)))
     return head, block
+
+
+_K = native.kernel("outfmt")
+"""The compiled ``.OUT`` writer (engine/native/outfmt.c) or None (not built, stale,
+``UVNAV_PURE=1``): then every block is built by :func:`cycle_block`."""
+
+_CYCLE_CONSTS = (
+    _HEAD_KEYS,
+    (_SENSOR_KEYS, _SENSOR_REF_KEYS, _SENSOR_STANDIN_KEYS),
+    _GPS_KEYS, _GPS_WEIGHT_KEYS, _OBS_KEYS, _LOP_KEYS,
+    tuple(_POS_VARIANTS[bool(i & 1), bool(i & 2)] for i in range(4)),
+    tuple(_LSE_KEYS + _POS_VARIANTS[bool(i & 1), bool(i & 2)]
+          + (_REJECTED if i & 4 else ()) + (_FAILED if i & 8 else ()) for i in range(16)),
+    tuple(("source",) + _POS_VARIANTS[bool(i & 1), bool(i & 2)] for i in range(4)),
+    _KF_KEYS, _TEST_KEYS, ("n",), _IN[1], _SYS[1], _MSG[1], _NOFIX[1], _K95, _N_NAV,
+    _utc_text,
+)
+"""What the kernel's ``cycle_rows`` takes from this module (its ``enum`` of ``C_*``): the key
+tuples of every line shape (the position variants indexed by ellipse + 2 × VCV finite, the LSE
+ones + 4 × rejected + 8 × failed), the 95 % factor, the number of navigation states and the
+time-stamp function for the years it leaves to Python."""
+
+
+def cycle_text(r: CycleResult) -> str | None:
+    """The whole ``.OUT`` block of ``r`` (``CYCLE`` … ``END n=…`` and its newline), exactly the
+    text :meth:`~engine.io.outlog.OutLogWriter.write_cycle` writes for :func:`cycle_block`,
+    built and rendered by one compiled call (``outfmt.cycle_text``: no Python per line); None
+    without the kernel or for a cycle it leaves to the Python (then write ``cycle_block``)."""
+    if _K is None:
+        return None
+    return _K.cycle_text(r, _CYCLE_CONSTS, _float_writer(), _format_text, format_value)

@@ -64,7 +64,7 @@ from engine.run.cycle import (
     reproject_state,
     step,
 )
-from engine.run.records import cycle_block, cycle_json
+from engine.run.records import cycle_block, cycle_json, cycle_text
 from engine.run.setup import (
     CHAIN_FILE,
     DATUM_FILE,
@@ -369,9 +369,14 @@ class Session:
         for i, c in enumerate(cycle_counts(result)):
             if c:
                 counts[i] += c
-        if self._out is not None:
-            head, lines = cycle_block(result)
-            self._out.write_cycle(head, lines)
+        out = self._out
+        if out is not None:  # the block in one compiled call where it can, else by the Python
+            text = cycle_text(result)
+            if text is not None:
+                out.write_block(text)
+            else:
+                head, lines = cycle_block(result)
+                out.write_cycle(head, lines)
         if self._jsonl is not None:
             self._jsonl.write(json.dumps(cycle_json(result), separators=(",", ":")) + "\n")
             self._jsonl.flush()

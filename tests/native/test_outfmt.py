@@ -277,3 +277,151 @@ def test_the_writer_writes_the_kernel_text(tmp_path: Path,
         w.write_cycle(head, lines)
         text = (tmp_path / "W.OUT").read_text(encoding="utf-8")  # flushed before close
     assert text.endswith("# config-end\n" + kernel_text(rows))
+
+
+# ---------------------------------------------------------------- the whole block of a cycle
+
+def _python_rows(r: object) -> list[Row]:
+    """The rows the Python path writes for ``r``: :func:`records.cycle_block` as
+    :meth:`OutLogWriter.write_cycle` hands them to :func:`outlog.render_rows`."""
+    from engine.run.records import cycle_block
+
+    return block_rows(*cycle_block(r))  # type: ignore[arg-type]
+
+
+def _typed(rows: list[Row]) -> list[tuple[str, tuple[str, ...], tuple[object, ...],
+                                          tuple[type, ...]]]:
+    """Rows with the types of their values (``==`` alone would take 1 for 1.0 or True)."""
+    return [(p, ks, vs, tuple(map(type, vs))) for p, ks, vs in rows]
+
+
+def _check_cycle(r: object) -> None:
+    """The kernel's rows and text of ``r`` are the Python's, value by value and type by type."""
+    from engine.run import records
+
+    assert K is not None
+    want = _python_rows(r)
+    got = K.cycle_rows(r, records._CYCLE_CONSTS)
+    assert got is not None
+    assert _typed(got) == _typed(want)
+    for compiled in (True, False):
+        text = K.cycle_text(r, records._CYCLE_CONSTS,
+                            outlog._float_writer() if compiled else None, outlog._format_text,
+                            outlog.format_value)
+        assert text == _render_rows_py(want, compiled)
+
+
+@pytest.fixture(scope="module")
+def replay_results() -> list[object]:
+    """The cycle results of the demo, the thesis sample and the Markermeer NMEA log (receiver
+    weights, COG/SOG stand-ins)."""
+    from tests.paths import DATA
+
+    out: list[object] = []
+    for cfg, n in ((DATA / "DEMO.toml", 200), (DATA / "920917_1.toml", 60),
+                   (DATA / "nmea" / "avnav-markermeer-20160815.toml", 150)):
+        out.extend(replay(n, cfg, history=1000).history)
+    return out
+
+
+@needs_kernel
+def test_cycle_rows_are_cycle_block(replay_results: list[object]) -> None:
+    """``outfmt.cycle_rows`` / ``cycle_text`` give the Python's rows and text on every cycle of
+    three real replays (and the replays went through them: records.cycle_text is used)."""
+    from engine.run import records
+
+    assert len(replay_results) > 250
+    for r in replay_results:
+        _check_cycle(r)
+        assert records.cycle_text(r) == (None if records._K is None else
+                                         _render_rows_py(_python_rows(r)))
+
+
+@needs_kernel
+def test_cycle_rows_of_every_line_shape(replay_results: list[object]) -> None:
+    """Line shapes a replay may not show: DR references, COG/SOG stand-ins, receiver-weighted
+    GPS, Obs-menu observations, rejected LOPs, a fix failing its tests, no fix, no filter, no
+    updates, no ellipse, a VCV with NaN, messages, odd value types and time stamps."""
+    from dataclasses import replace
+    from datetime import UTC, datetime, timedelta
+
+    from engine.systems.gps import GpsWeight
+    from engine.systems.manual import ManualObservation
+
+    base = next(r for r in replay_results if r.fix is not None and r.fix.ok  # type: ignore
+                and r.gps is not None and r.kf_pred is not None)  # type: ignore[attr-defined]
+    nofix = next((r for r in replay_results if r.fix is not None  # type: ignore[attr-defined]
+                  and not r.fix.ok), None)  # type: ignore[attr-defined]
+    s, f, g, p = base.sensors, base.fix, base.gps, base.kf_pred  # type: ignore[attr-defined]
+    nan_cov = np.array([[1.0, math.nan], [math.nan, 2.0]])
+    weight = GpsWeight("receiver", 3.5, 1.2, 2, 9, 5.0)
+    obs = (ManualObservation("bearing", "Light A", 52.1, 4.2, 123.5, 1.0, "compass"),
+           ManualObservation("distance", "St B", 52.0, 4.0, 1500.0, 30.0))
+    variants = [
+        replace(base, sensors=replace(s, reference="none")),
+        replace(base, sensors=replace(s, reference="ground", heading_sigma_deg=2.5,
+                                      speed_sigma_ms=None)),
+        replace(base, gps=replace(g, weight=weight)),
+        replace(base, gps=replace(g, weight=replace(weight, origin="fixed"))),
+        replace(base, gps=None, manual=obs),
+        replace(base, fix=replace(f, rejected_slots=(3, 5), uses_prior=True),
+                fix_fails_tests=True, fix_cov_scale=2.25),
+        replace(base, fix=replace(f, ellipse=None, cov=nan_cov), kf_pred=None),
+        replace(base, fix=None, filter_state=None, filter_update=None, sensor_update=None),
+        replace(base, kf_pred=replace(p, ellipse=None, cov=None)),
+        replace(base, mpp=replace(base.mpp, cov=nan_cov, source="a b")),  # type: ignore
+        replace(base, messages=("one", "two = 2", ""), raw="  spaced  "),
+        replace(base, cm_deg=3, dt_s=np.float64(1.5), record=np.int64(7), datum=None),
+        replace(base, time=datetime(999, 1, 2, 3, 4, 5)),
+        replace(base, time=datetime(2001, 2, 3, 4, 5, 6, 789, tzinfo=UTC)),
+        replace(base, time=datetime(9999, 12, 31, 23, 59, 59) - timedelta(seconds=1)),
+    ]
+    if nofix is not None:
+        variants.append(nofix)
+    for r in variants:
+        _check_cycle(r)
+
+
+@needs_kernel
+def test_cycle_rows_leave_the_unexpected_to_the_python(replay_results: list[object]) -> None:
+    """A VCV that is not 2×2, a missing attribute, a P diagonal of ints: None (the Python
+    builds the block and raises or writes as it always did)."""
+    from dataclasses import replace
+
+    from engine.run import records
+
+    base = next(r for r in replay_results if r.kf_pred is not None)  # type: ignore
+    int_p = replace(base.filter_state)  # type: ignore[attr-defined]
+    object.__setattr__(int_p, "P", np.eye(len(int_p.x), dtype=int))  # past __post_init__
+    bad = [
+        replace(base, kf_pred=replace(base.kf_pred, cov=np.eye(3))),  # type: ignore
+        replace(base, mpp=object()),
+        replace(base, sensors=None),
+        replace(base, filter_state=int_p),
+    ]
+    for r in bad:
+        assert K.cycle_rows(r, records._CYCLE_CONSTS) is None  # type: ignore[union-attr]
+        assert records.cycle_text(r) is None
+    assert K.cycle_rows(base, ()) is None  # type: ignore[union-attr]
+
+
+def test_session_writes_the_python_block_without_the_kernel(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """With the kernel (or where it declines) and without it, a replay's ``.OUT`` is the same."""
+    from engine.run import records
+    from tests.paths import DATA
+
+    def run(name: str) -> str:
+        from engine.run.config import load_config
+        from engine.run.session import Session
+
+        out = tmp_path / f"{name}.OUT"
+        with Session(load_config(DATA / "DEMO.toml"), out_path=out, force=True,
+                     history=1) as s:
+            s.run(max_cycles=40)
+        return out.read_text(encoding="utf-8").split("# config-end\n", 1)[1]
+
+    fast = run("fast")
+    monkeypatch.setattr(records, "_K", None)
+    assert records.cycle_text(object()) is None  # type: ignore[arg-type]
+    assert run("pure") == fast
