@@ -70,3 +70,14 @@ def test_long_cache_is_keyed_on_scenario_and_seed():
     assert bl.cache_dir(text) == bl.cache_dir(text)
     assert bl.cache_dir(text) != bl.cache_dir(text + "\n")
     assert bl.cache_dir(text, 1) != bl.cache_dir(text, 2)
+
+
+def test_engine_bench_times_every_stage(tmp_path, monkeypatch):
+    """Every row of bench_engine's stage split has a timer that fires on a short replay (a
+    stage function renamed in the engine once left the .OUT row at 0.0 µs)."""
+    from bench import bench_engine as be
+
+    monkeypatch.setattr(be, "REPEATS", 1)
+    spent = be._stage_split(load_config(be.CONFIG), tmp_path / "B.OUT", 30)
+    for stage in (*be.STAGES, be.CYCLE, be.LOG_STAGE):
+        assert spent[stage] > 0.0, stage
