@@ -48,21 +48,22 @@ REFRESH_S = 0.1
 """Shortest time between two display refreshes while cycles run (≤ 10 Hz)."""
 HEADLESS_REFRESH_S = 0.5
 """The same without a terminal (scripted hardcopies, tests): nobody watches in between."""
-DISPLAY_SHARE = 0.04
+DISPLAY_SHARE = 0.1
 """At pace fast, the display (the UI thread: repaint, compositing, terminal output) may use at
 most this share of the process's CPU time: when a refresh costs more than the cycles computed
 meanwhile allow, the next one waits, so the cycles keep the rest (issue 14: the console at
 ≥ 2,000 cycles/s). CPU time, not wall time: on a loaded machine the process gets less of it, and
 so does its display. A refresh of Pg 100 or Pg 642 at 160×50 costs 30–50 ms of the UI thread on
-the 2-core bench machine, so at 4 % (10 % before) the display at pace fast is refreshed about
-once a second there (:data:`MAX_REFRESH_S`), more often where a refresh is cheaper."""
+the 2-core bench machine, so the display at pace fast is refreshed 2–3 times a second there.
+(4 % was tried on 2026-12-03: about one refresh a second, and no gain in cycles/s that paired
+runs on the shared machine could resolve, so the smoother display was kept.)"""
 MAX_REFRESH_S = 1.0
 """Longest time between two refreshes while cycles run, whatever a refresh costs."""
-PANEL_REFRESH_S = 2.0
+PANEL_REFRESH_S = 0.5
 """At pace fast, the message panel under Pg 100 takes the new messages at most this often (the
 message line shows the newest at every refresh; the end of the data, a page switch and any
-refresh when the run is not at pace fast bring the panel up to date): a panel that scrolls
-repaints all its lines, as much as the rest of a refresh at 160×50."""
+refresh when the run is not at pace fast bring the panel up to date): new lines in the panel
+repaint all its rows, about as much as the rest of a refresh at 160×50."""
 
 MONOCHROME = Theme(
     name="uvnav-mono",
