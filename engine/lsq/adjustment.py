@@ -281,9 +281,23 @@ def gauss_newton(
     x = np.array(x0, dtype=float)
     used_b = np.array(used, dtype=bool)
     arrays = getattr(linearise, "arrays", None)
+    rows = None if arrays is None else getattr(linearise, "rows", None)
+    state = None
+    if rows is not None and damping is None:
+        k = _kernel.kernel()
+        if k is not None and _fast_settings(epsilon, max_iter, cond_max, max_axis_ratio):
+            # the whole adjustment in one compiled call (same bits), or where to go on
+            state = k.adjust(rows, x, used_b, epsilon, max_iter, cond_max, max_axis_ratio,
+                             scale_vcv, delta0(alpha, power))
+            if type(state) is dict:
+                s2, r = state["s2"], state["redundancy"]
+                if s2 is not None:
+                    state["variance_test"] = unit_variance_test(s2, r, alpha, s02)
+                return frozen_instance(Adjustment, state)
     run = _Run(x if x.ndim == 1 else x.reshape(-1),
-               used_b if used_b.ndim == 1 else used_b.reshape(-1),
-               arrays, None if arrays is None else getattr(linearise, "rows", None))
+               used_b if used_b.ndim == 1 else used_b.reshape(-1), arrays, rows)
+    if state is not None:  # the kernel's iterations up to a rare branch: go on from there
+        run.it, run.x, run.steps = state
     u = run.x.size
     sq = None if damping is None else _damping_roots(damping, run.idx, run.used.size)
     try:
@@ -298,6 +312,14 @@ def gauss_newton(
         return _failed(stop.reason, run.x, run.used, run.used.size, u, run.it, run.steps,
                        damping)
     return _adjustment(run, sol, s02, scale_vcv, alpha, power, damping)
+
+
+def _fast_settings(epsilon: float, max_iter: int, cond_max: float,
+                   max_axis_ratio: float | None) -> bool:
+    """Settings the compiled ``adjust`` compares as Python does: floats (its C doubles) and
+    an int ``max_iter``; the axis-ratio guard on."""
+    return (type(epsilon) is float and type(max_iter) is int and type(cond_max) is float
+            and type(max_axis_ratio) is float)
 
 
 class _Stop(Exception):

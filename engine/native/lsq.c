@@ -9,6 +9,9 @@
  *                                   step the caller keeps (the last);
  *   finish(sol, used, scale_vcv, d0) the residuals, S^2, RMS, drms and the per-slot statistics of
  *                                   adjustment._adjustment / statistics.used_statistics;
+ *   adjust(rows, x, used, ...)      adjustment.gauss_newton for a model with rows(): the loop
+ *                                   of step_rows, the axis-ratio guard and finish in one call,
+ *                                   the Adjustment's fields as a dict (or where to go on);
  *   ellipse(C2)                     confidence.error_ellipse (closed form);
  *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band;
  *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
@@ -496,6 +499,128 @@ PyDoc_STRVAR(finish_doc,
 "and the (9, n) statistics block of statistics.used_statistics (NaN unused, or all NaN when\n"
 "r < 1). None where the Python must run (an untestable slot, other shapes).");
 
+/* finish's results (finish_calc): new references to v (n,), the displayed C_x (cxo itself
+ * unless scaled), the (9, n) statistics and S^2 (a float or None). */
+typedef struct {
+    PyObject *vo, *covo, *stato, *s2o;
+    double s2, rms, drms;
+    Py_ssize_t r;
+    int scaled;
+} fin_t;
+
+/* finish()'s arithmetic on raw inputs: Au (m, 2), bu (m,), W, atw (2, m), cx (2, 2) (its
+ * array cxo), gain (2, m), dx (2,) C-contiguous, C_l's element (i, j) at cl[i * cs0 + j * cs1]
+ * (strides in doubles), slot[j] the used slots among n. 1: done (f filled), 0: declined (an
+ * untestable slot), -1: error (exception set). */
+static int finish_calc(fin_t *f, const double *Au, const double *bu, const double *cl,
+                       Py_ssize_t cs0, Py_ssize_t cs1, const double *W, const double *atw,
+                       const double *cx, PyObject *cxo, const double *gain, const double *dx,
+                       const Py_ssize_t *slot, Py_ssize_t m, Py_ssize_t n, int scale_vcv,
+                       double d0)
+{
+    PyObject *vo = NULL, *covo = NULL, *stato = NULL, *s2o = NULL;
+    int ret = -1;
+    /* vu = Au.dot(dx) - bu (gemv); wv = W.dot(vu) (gemv) */
+    double vu[MAXM], wv[MAXM];
+    memset(vu, 0, sizeof(double) * m);
+    memset(wv, 0, sizeof(double) * m);
+    B.dgemv(UvnRowMajor, UvnNoTrans, m, 2, 1.0, Au, 2, dx, 1, 0.0, vu, 1);
+    for (Py_ssize_t i = 0; i < m; i++)
+        vu[i] = vu[i] - bu[i];
+    B.dgemv(UvnRowMajor, UvnNoTrans, m, m, 1.0, W, m, vu, 1, 0.0, wv, 1);
+    Py_ssize_t r = m - 2;
+    double s2 = 0.0;
+    if (r >= 1)
+        s2 = (0.0 + B.ddot(m, vu, 1, wv, 1)) / (double)r; /* (5.13) */
+    double rms = sqrt((0.0 + B.ddot(m, vu, 1, vu, 1)) / (double)m);
+    int scaled = scale_vcv && r >= 1;
+    double trace;
+    if (scaled) {
+        double *cov;
+        covo = new_array(2, 2, &cov);
+        if (covo == NULL)
+            goto out;
+        for (int i = 0; i < 4; i++)
+            cov[i] = cx[i] * s2;
+        trace = (0.0 + cov[0]) + cov[3];
+    }
+    else {
+        covo = Py_NewRef(cxo);
+        trace = (0.0 + cx[0]) + cx[3]; /* sum((cx2[0], cx2[2])) */
+    }
+    if (0.0 > trace) /* max(trace, 0.0) */
+        trace = 0.0;
+    double drms = sqrt(trace);
+
+    double *st;
+    stato = new_array(9, n, &st);
+    if (stato == NULL)
+        goto out;
+    for (Py_ssize_t i = 0; i < 9 * n; i++)
+        st[i] = NAN;
+    if (r >= 1) {
+        /* used_statistics (u = 2) */
+        double q[MAXM], ac[2 * MAXM];
+        for (Py_ssize_t j = 0; j < m; j++) {
+            double wjj = W[j * m + j];
+            q[j] = wjj - ((0.0 + atw[j] * gain[j]) + atw[m + j] * gain[m + j]);
+            if (!(q[j] / wjj > 1e-10)) { /* an untestable slot: the Python marks it */
+                ret = 0;
+                goto out;
+            }
+        }
+        memset(ac, 0, sizeof(double) * 2 * m);
+        B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, m, 2, 2, 1.0, Au, 2, cx, 2, 0.0, ac, 2);
+        for (Py_ssize_t j = 0; j < m; j++) {
+            Py_ssize_t c = slot[j];
+            double var_l = cl[j * cs0 + j * cs1];
+            double sd = vpow(q[j], -0.5);
+            double mdb = sd * d0;
+            double e0 = gain[j] * mdb, e1 = gain[m + j] * mdb;
+            st[0 * n + c] = sd;
+            st[1 * n + c] = -(wv[j] * sd);
+            st[2 * n + c] = sd / sqrt(var_l);
+            st[3 * n + c] = ((0.0 + Au[2 * j] * ac[2 * j]) + Au[2 * j + 1] * ac[2 * j + 1]) / var_l;
+            st[4 * n + c] = 1.0 - ((0.0 + Au[2 * j] * gain[j]) + Au[2 * j + 1] * gain[m + j]);
+            st[5 * n + c] = mdb;
+            st[6 * n + c] = vhypot(e0, e1);
+            st[7 * n + c] = e0;
+            st[8 * n + c] = e1;
+        }
+    }
+    double *v;
+    vo = new_array(n, -1, &v);
+    if (vo == NULL)
+        goto out;
+    for (Py_ssize_t i = 0; i < n; i++)
+        v[i] = NAN;
+    for (Py_ssize_t j = 0; j < m; j++)
+        v[slot[j]] = vu[j];
+    if (r >= 1) {
+        s2o = PyFloat_FromDouble(s2);
+        if (s2o == NULL)
+            goto out;
+    }
+    else
+        s2o = Py_NewRef(Py_None);
+    f->vo = vo;
+    f->covo = covo;
+    f->stato = stato;
+    f->s2o = s2o;
+    f->s2 = s2;
+    f->rms = rms;
+    f->drms = drms;
+    f->r = r;
+    f->scaled = scaled;
+    return 1;
+out:
+    Py_XDECREF(vo);
+    Py_XDECREF(covo);
+    Py_XDECREF(stato);
+    Py_XDECREF(s2o);
+    return ret;
+}
+
 static PyObject *lsq_finish(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 4) {
@@ -553,88 +678,19 @@ static PyObject *lsq_finish(PyObject *self, PyObject *const *args, Py_ssize_t na
     const double *Au = a.view.buf, *bu = bb.view.buf, *W = w.view.buf, *atw = at.view.buf;
     const double *cx = cxb.view.buf, *gain = g.view.buf, *dx = dxb.view.buf;
 
-    /* vu = Au.dot(dx) - bu (gemv); wv = W.dot(vu) (gemv) */
-    double vu[MAXM], wv[MAXM];
-    memset(vu, 0, sizeof(double) * m);
-    memset(wv, 0, sizeof(double) * m);
-    B.dgemv(UvnRowMajor, UvnNoTrans, m, 2, 1.0, Au, 2, dx, 1, 0.0, vu, 1);
-    for (Py_ssize_t i = 0; i < m; i++)
-        vu[i] = vu[i] - bu[i];
-    B.dgemv(UvnRowMajor, UvnNoTrans, m, m, 1.0, W, m, vu, 1, 0.0, wv, 1);
-    Py_ssize_t r = m - 2;
-    double s2 = 0.0;
-    if (r >= 1)
-        s2 = (0.0 + B.ddot(m, vu, 1, wv, 1)) / (double)r; /* (5.13) */
-    double rms = sqrt((0.0 + B.ddot(m, vu, 1, vu, 1)) / (double)m);
-    int scaled = scale_vcv && r >= 1;
-    double trace;
-    if (scaled) {
-        double *cov;
-        covo = new_array(2, 2, &cov);
-        if (covo == NULL)
-            goto error;
-        for (int i = 0; i < 4; i++)
-            cov[i] = cx[i] * s2;
-        trace = (0.0 + cov[0]) + cov[3];
-    }
-    else {
-        covo = Py_NewRef(PyTuple_GET_ITEM(sol, 5));
-        trace = (0.0 + cx[0]) + cx[3]; /* sum((cx2[0], cx2[2])) */
-    }
-    if (0.0 > trace) /* max(trace, 0.0) */
-        trace = 0.0;
-    double drms = sqrt(trace);
-
-    double *st;
-    stato = new_array(9, n, &st);
-    if (stato == NULL)
+    fin_t f;
+    int got = finish_calc(&f, Au, bu, (const double *)cl.view.buf, cl.view.strides[0] / 8,
+                          cl.view.strides[1] / 8, W, atw, cx, PyTuple_GET_ITEM(sol, 5), gain, dx,
+                          slot, m, n, scale_vcv, d0);
+    if (got < 0)
         goto error;
-    for (Py_ssize_t i = 0; i < 9 * n; i++)
-        st[i] = NAN;
-    if (r >= 1) {
-        /* used_statistics (u = 2) */
-        double q[MAXM], ac[2 * MAXM];
-        for (Py_ssize_t j = 0; j < m; j++) {
-            double wjj = W[j * m + j];
-            q[j] = wjj - ((0.0 + atw[j] * gain[j]) + atw[m + j] * gain[m + j]);
-            if (!(q[j] / wjj > 1e-10))
-                goto none; /* an untestable slot: the Python marks it */
-        }
-        memset(ac, 0, sizeof(double) * 2 * m);
-        B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, m, 2, 2, 1.0, Au, 2, cx, 2, 0.0, ac, 2);
-        for (Py_ssize_t j = 0; j < m; j++) {
-            Py_ssize_t c = slot[j];
-            double var_l = AT2(cl, j, j);
-            double sd = vpow(q[j], -0.5);
-            double mdb = sd * d0;
-            double e0 = gain[j] * mdb, e1 = gain[m + j] * mdb;
-            st[0 * n + c] = sd;
-            st[1 * n + c] = -(wv[j] * sd);
-            st[2 * n + c] = sd / sqrt(var_l);
-            st[3 * n + c] = ((0.0 + Au[2 * j] * ac[2 * j]) + Au[2 * j + 1] * ac[2 * j + 1]) / var_l;
-            st[4 * n + c] = 1.0 - ((0.0 + Au[2 * j] * gain[j]) + Au[2 * j + 1] * gain[m + j]);
-            st[5 * n + c] = mdb;
-            st[6 * n + c] = vhypot(e0, e1);
-            st[7 * n + c] = e0;
-            st[8 * n + c] = e1;
-        }
-    }
-    double *v;
-    vo = new_array(n, -1, &v);
-    if (vo == NULL)
-        goto error;
-    for (Py_ssize_t i = 0; i < n; i++)
-        v[i] = NAN;
-    for (Py_ssize_t j = 0; j < m; j++)
-        v[slot[j]] = vu[j];
-    if (r >= 1) {
-        s2o = PyFloat_FromDouble(s2);
-        if (s2o == NULL)
-            goto error;
-    }
-    else
-        s2o = Py_NewRef(Py_None);
-    res = Py_BuildValue("(OOddOOO)", vo, s2o, rms, drms, covo, scaled ? Py_True : Py_False,
+    if (got == 0)
+        goto none;
+    vo = f.vo;
+    covo = f.covo;
+    stato = f.stato;
+    s2o = f.s2o;
+    res = Py_BuildValue("(OOddOOO)", vo, s2o, f.rms, f.drms, covo, f.scaled ? Py_True : Py_False,
                         stato);
     goto done;
 none:
@@ -657,6 +713,289 @@ done:
     buf_release(&cxb);
     buf_release(&g);
     buf_release(&dxb);
+    return res;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* adjust: gauss_newton's whole loop, axis-ratio guard and finish in one call */
+
+PyDoc_STRVAR(adjust_doc,
+"adjust(rows, x, used, eps, max_iter, cond_max, max_axis_ratio, scale_vcv, d0)\n"
+"-> dict, (iterations, x, steps) or None\n"
+"\n"
+"engine.lsq.adjustment.gauss_newton for a model with rows() (u = 2, no damping): rows(x)\n"
+"called as _iterate calls it, each step as step_rows, then _check_axis_ratio and finish.\n"
+"x (2,) float64, used (n,) bool (the arrays gauss_newton made). Returns the Adjustment's\n"
+"fields in order as a new dict (variance_test None: the caller's) when every part took the\n"
+"case; None when nothing was done (m < 2 or > 32, x not finite, other shapes); else the state\n"
+"(iterations done, x, the list of step lengths) after the last iteration the Python need not\n"
+"run again: it goes on from there (a failure, a rare branch, an exception of rows()).");
+
+#define N_ADJ_KEYS 26
+static PyObject *adj_keys[N_ADJ_KEYS];
+static PyObject *cat_names[4];
+static PyObject *no_convergence = NULL;
+
+static int adjust_ready(void)
+{
+    static const char *names[N_ADJ_KEYS] = {
+        "ok", "reason", "x", "cov_x", "cov_x_apriori", "used", "n_used", "u", "redundancy",
+        "category", "iterations", "converged", "steps", "dx", "v", "s2", "rms_m", "drms_m",
+        "stats_block", "A_used", "b_used", "Cl_used", "W_used", "variance_test", "scaled",
+        "damping"};
+    static const char *cats[4] = {"I", "II", "III", "IV"};
+    if (no_convergence != NULL)
+        return 0;
+    for (int i = 0; i < N_ADJ_KEYS; i++)
+        if ((adj_keys[i] = PyUnicode_InternFromString(names[i])) == NULL)
+            return -1;
+    for (int i = 0; i < 4; i++)
+        if ((cat_names[i] = PyUnicode_InternFromString(cats[i])) == NULL)
+            return -1;
+    no_convergence = PyUnicode_InternFromString("no convergence");
+    return no_convergence == NULL ? -1 : 0;
+}
+
+/* The used rows of rows()'s result (A list of 2n floats, b list of n floats, Cl (n, n)) into
+ * Au, bu, Clu (as step_rows gathers them): 1 done, 0 not this shape or type. */
+static int gather(PyObject *got, Py_ssize_t n, const Py_ssize_t *slot, Py_ssize_t m,
+                  double *Au, double *bu, double *Clu)
+{
+    if (!PyTuple_CheckExact(got) || PyTuple_GET_SIZE(got) != 3)
+        return 0;
+    PyObject *al = PyTuple_GET_ITEM(got, 0), *bl = PyTuple_GET_ITEM(got, 1);
+    if (!PyList_CheckExact(al) || !PyList_CheckExact(bl) || PyList_GET_SIZE(bl) != n ||
+        PyList_GET_SIZE(al) != 2 * n)
+        return 0;
+    for (Py_ssize_t j = 0; j < m; j++) {
+        Py_ssize_t s = slot[j];
+        PyObject *a0 = PyList_GET_ITEM(al, 2 * s), *a1 = PyList_GET_ITEM(al, 2 * s + 1);
+        PyObject *b0 = PyList_GET_ITEM(bl, s);
+        if (!PyFloat_CheckExact(a0) || !PyFloat_CheckExact(a1) || !PyFloat_CheckExact(b0))
+            return 0;
+        Au[2 * j] = PyFloat_AS_DOUBLE(a0);
+        Au[2 * j + 1] = PyFloat_AS_DOUBLE(a1);
+        bu[j] = PyFloat_AS_DOUBLE(b0);
+    }
+    buf_t cl = {0};
+    if (buf_get(PyTuple_GET_ITEM(got, 2), &cl, 2) < 0)
+        return 0;
+    if (cl.view.shape[0] != n || cl.view.shape[1] != n) {
+        buf_release(&cl);
+        return 0;
+    }
+    for (Py_ssize_t j = 0; j < m; j++)
+        for (Py_ssize_t k = 0; k < m; k++)
+            Clu[j * m + k] = AT2(cl, slot[j], slot[k]);
+    buf_release(&cl);
+    return 1;
+}
+
+static PyObject *lsq_adjust(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9) {
+        PyErr_SetString(PyExc_TypeError,
+                        "adjust(rows, x, used, eps, max_iter, cond_max, max_axis_ratio, "
+                        "scale_vcv, d0)");
+        return NULL;
+    }
+    if (need_bound() < 0 || adjust_ready() < 0)
+        return NULL;
+    PyObject *rows = args[0], *x0o = args[1], *usedo = args[2];
+    double eps = PyFloat_AsDouble(args[3]);
+    if (eps == -1.0 && PyErr_Occurred())
+        return NULL;
+    long max_iter = PyLong_AsLong(args[4]);
+    if (max_iter == -1 && PyErr_Occurred())
+        return NULL;
+    double cond_max = PyFloat_AsDouble(args[5]);
+    if (cond_max == -1.0 && PyErr_Occurred())
+        return NULL;
+    double max_ratio = PyFloat_AsDouble(args[6]);
+    if (max_ratio == -1.0 && PyErr_Occurred())
+        return NULL;
+    int scale_vcv = PyObject_IsTrue(args[7]);
+    if (scale_vcv < 0)
+        return NULL;
+    double d0 = PyFloat_AsDouble(args[8]);
+    if (d0 == -1.0 && PyErr_Occurred())
+        return NULL;
+
+    /* the start: x (2,) finite, the used slots */
+    buf_t xb = {0};
+    if (buf_get(x0o, &xb, 1) < 0)
+        return Py_NewRef(Py_None);
+    int xok = xb.view.shape[0] == 2 && isfinite(AT1(xb, 0)) && isfinite(AT1(xb, 1));
+    buf_release(&xb);
+    if (!xok)
+        return Py_NewRef(Py_None);
+    Py_buffer ub;
+    if (PyObject_GetBuffer(usedo, &ub, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+        PyErr_Clear();
+        return Py_NewRef(Py_None);
+    }
+    Py_ssize_t n = ub.len, m = 0;
+    Py_ssize_t slot[MAXM];
+    int uok = ub.ndim == 1 && ub.itemsize == 1 && ub.format != NULL &&
+              strcmp(ub.format, "?") == 0;
+    if (uok) {
+        const unsigned char *u8 = (const unsigned char *)ub.buf;
+        for (Py_ssize_t i = 0; i < n && uok; i++)
+            if (u8[i]) {
+                if (m == MAXM)
+                    uok = 0;
+                else
+                    slot[m++] = i;
+            }
+    }
+    PyBuffer_Release(&ub);
+    if (!uok || m < 2)
+        return Py_NewRef(Py_None);
+
+    /* the loop of _iterate: each iteration's numbers in C, x as a new array per step */
+    _Alignas(64) double Au[2 * MAXM];
+    _Alignas(64) double bu[MAXM];
+    _Alignas(64) double Clu[MAXM * MAXM];
+    step_t sc;
+    PyObject *steps = PyList_New(0);
+    if (steps == NULL)
+        return NULL;
+    PyObject *x = Py_NewRef(x0o), *xprev = NULL;
+    long it = 0;
+    int converged = 0;
+    PyObject *res = NULL;
+    for (;;) {
+        it++;
+        PyObject *got = PyObject_CallOneArg(rows, x);
+        if (got == NULL) {
+            if (!PyErr_ExceptionMatches(PyExc_Exception))
+                goto error;
+            PyErr_Clear(); /* the Python calls it again and says why */
+            goto back;
+        }
+        double xc[2];
+        buf_get(x, &xb, 1); /* x is a (2,) float64 array: the start (checked) or ours */
+        xc[0] = AT1(xb, 0);
+        xc[1] = AT1(xb, 1);
+        buf_release(&xb);
+        int ok = gather(got, n, slot, m, Au, bu, Clu);
+        Py_DECREF(got);
+        if (!ok || !step_calc(&sc, Au, bu, Clu, m, 1, m, cond_max, xc[0], xc[1]))
+            goto back;
+        PyObject *len = call_py_hypot(sc.dx[0], sc.dx[1]);
+        if (len == NULL)
+            goto error;
+        int e = PyList_Append(steps, len);
+        Py_DECREF(len);
+        if (e < 0)
+            goto error;
+        PyObject *xn = array_of(2, -1, sc.xn);
+        if (xn == NULL)
+            goto error;
+        Py_XSETREF(xprev, x);
+        x = xn;
+        if (sc.big < eps) {
+            converged = 1;
+            break;
+        }
+        if (it >= max_iter)
+            break;
+    }
+    /* the last iteration stands: _check_axis_ratio (_axis_ratio2), then finish; a decline
+     * from here on goes back to before the last iteration */
+    {
+        double a = sc.i00, c = sc.i01, d = sc.i11;
+        PyObject *ho = call_py_hypot(0.5 * (a - d), c);
+        if (ho == NULL)
+            goto error;
+        double lmax = 0.5 * (a + d) + PyFloat_AS_DOUBLE(ho);
+        Py_DECREF(ho);
+        double det = a * d - c * c;
+        if (!(lmax > 0.0 && det > 0.0))
+            goto back_last;
+        double ratio = lmax / sqrt(det);
+        if (!(ratio <= max_ratio))
+            goto back_last;
+    }
+    PyObject *ao = NULL, *bo = NULL, *clo = NULL, *wo = NULL, *cxo = NULL, *dxo = NULL;
+    PyObject *stepst = NULL, *d = NULL;
+    fin_t f = {0};
+    int fin = 0;
+    if ((cxo = array_of(2, 2, sc.cx)) == NULL)
+        goto fail;
+    fin = finish_calc(&f, Au, bu, Clu, m, 1, sc.W, sc.atw, sc.cx, cxo, sc.gain, sc.dx, slot, m,
+                      n, scale_vcv, d0);
+    if (fin < 0)
+        goto fail;
+    if (fin == 0) {
+        Py_DECREF(cxo);
+        goto back_last;
+    }
+    if ((ao = array_of(m, 2, Au)) == NULL || (bo = array_of(m, -1, bu)) == NULL ||
+        (clo = array_of(m, m, Clu)) == NULL || (wo = array_of(m, m, sc.W)) == NULL ||
+        (dxo = array_of(2, -1, sc.dx)) == NULL || (stepst = PyList_AsTuple(steps)) == NULL)
+        goto fail;
+    Py_ssize_t r = m - 2;
+    PyObject *vals[N_ADJ_KEYS] = {
+        converged ? Py_True : Py_False, converged ? Py_None : no_convergence, x, f.covo, cxo,
+        usedo, NULL, NULL, NULL, cat_names[r == 0 ? 1 : (r == 1 ? 2 : 3)], NULL,
+        converged ? Py_True : Py_False, stepst, dxo, f.vo, f.s2o, NULL, NULL, f.stato, ao, bo,
+        clo, wo, Py_None, f.scaled ? Py_True : Py_False, Py_None};
+    PyObject *made[5] = {PyLong_FromSsize_t(m), PyLong_FromLong(2), PyLong_FromSsize_t(r),
+                         PyLong_FromLong(it), NULL};
+    PyObject *fl[2] = {PyFloat_FromDouble(f.rms), PyFloat_FromDouble(f.drms)};
+    vals[6] = made[0];
+    vals[7] = made[1];
+    vals[8] = made[2];
+    vals[10] = made[3];
+    vals[16] = fl[0];
+    vals[17] = fl[1];
+    int bad = 0;
+    for (int i = 0; i < N_ADJ_KEYS; i++)
+        if (vals[i] == NULL)
+            bad = 1;
+    if (!bad && (d = _PyDict_NewPresized(N_ADJ_KEYS)) != NULL) {
+        for (int i = 0; i < N_ADJ_KEYS && d != NULL; i++)
+            if (PyDict_SetItem(d, adj_keys[i], vals[i]) < 0)
+                Py_CLEAR(d);
+    }
+    for (int i = 0; i < 4; i++)
+        Py_XDECREF(made[i]);
+    Py_XDECREF(fl[0]);
+    Py_XDECREF(fl[1]);
+    res = d;
+fail:
+    Py_XDECREF(ao);
+    Py_XDECREF(bo);
+    Py_XDECREF(clo);
+    Py_XDECREF(wo);
+    Py_XDECREF(cxo);
+    Py_XDECREF(dxo);
+    Py_XDECREF(stepst);
+    if (fin == 1) {
+        Py_XDECREF(f.vo);
+        Py_XDECREF(f.covo);
+        Py_XDECREF(f.stato);
+        Py_XDECREF(f.s2o);
+    }
+    goto done;
+back_last: /* the Python runs the last iteration again (its failure or its rare branch) */
+    if (PyList_SetSlice(steps, PyList_GET_SIZE(steps) - 1, PyList_GET_SIZE(steps), NULL) < 0)
+        goto error;
+    Py_SETREF(x, xprev);
+    xprev = NULL;
+back: /* iterations 1 .. it - 1 done: the Python goes on from there */
+    if (it <= 1)
+        res = Py_NewRef(Py_None);
+    else
+        res = Py_BuildValue("(lOO)", it - 1, x, steps);
+    goto done;
+error:
+    res = NULL;
+done:
+    Py_XDECREF(x);
+    Py_XDECREF(xprev);
+    Py_DECREF(steps);
     return res;
 }
 
@@ -1001,6 +1340,7 @@ static PyMethodDef methods[] = {
     {"step", (PyCFunction)(void (*)(void))lsq_step, METH_FASTCALL, step_doc},
     {"step_rows", (PyCFunction)(void (*)(void))lsq_step_rows, METH_FASTCALL, step_rows_doc},
     {"finish", (PyCFunction)(void (*)(void))lsq_finish, METH_FASTCALL, finish_doc},
+    {"adjust", (PyCFunction)(void (*)(void))lsq_adjust, METH_FASTCALL, adjust_doc},
     {"ellipse", (PyCFunction)(void (*)(void))lsq_ellipse, METH_FASTCALL, ellipse_doc},
     {"worst", (PyCFunction)(void (*)(void))lsq_worst, METH_FASTCALL, worst_doc},
     {"monitor", (PyCFunction)(void (*)(void))lsq_monitor, METH_FASTCALL, monitor_doc},

@@ -491,3 +491,111 @@ def test_binding_is_lazy() -> None:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT, timeout=60)
     assert done.stdout.strip() == "ok", done.stderr
+
+
+# ------------------------------------------------------------------------------------------
+# adjust: the whole gauss_newton of a model with rows() in one call
+
+
+class _RowsModel:
+    """A linearisation offering ``arrays`` and ``rows`` (as engine.lsq.fix._Model does), so
+    gauss_newton hands the whole adjustment to the kernel's ``adjust``; ``fail_at`` makes the
+    k-th call raise ValueError (a model failing mid-loop)."""
+
+    def __init__(self, lin: Any, fail_at: int | None = None) -> None:
+        self.lin, self.fail_at, self.calls = lin, fail_at, 0
+
+    def __call__(self, x: np.ndarray) -> Linearisation:
+        A, b, Cl = self.arrays(x)
+        return Linearisation(A, b, Cl)
+
+    def arrays(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        A, b, Cl = self.rows(x)
+        return np.array(A).reshape(len(b), 2), np.array(b), Cl
+
+    def rows(self, x: np.ndarray) -> tuple[list[float], list[float], np.ndarray]:
+        self.calls += 1
+        if self.fail_at is not None and self.calls >= self.fail_at:
+            raise ValueError("model fails here")
+        lin = self.lin(np.asarray(x, dtype=float))
+        return (np.asarray(lin.A, dtype=float).ravel().tolist(), lin.b.tolist(),
+                np.asarray(lin.Cl, dtype=float))
+
+
+def _both_rows(make: Any, *args: Any, **kw: Any) -> Iterator[Any]:
+    """gauss_newton of a fresh model from ``make()`` with the kernel, then without."""
+    mp = pytest.MonkeyPatch()
+    yield gauss_newton(make(), *args, **kw)
+    mp.setattr(_kernel, "kernel", lambda: None)
+    try:
+        yield gauss_newton(make(), *args, **kw)
+    finally:
+        mp.undo()
+
+
+@needs_kernel
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(2, 8), st.booleans(), st.booleans(),
+       st.integers(1, 10), st.sampled_from([None, 1, 2, 3]), st.sampled_from([1.0, 1e-9]))
+def test_adjust_is_gauss_newton(seed: int, n: int, scale: bool, gap: bool, max_iter: int,
+                                fail_at: int | None, eps: float) -> None:
+    """The one-call adjustment against the Python loop: converged, not converged (max_iter,
+    a tiny ε), a model raising in some iteration, r = 0, a slot left out."""
+    rng = np.random.default_rng(seed)
+    stations = rng.uniform(-3e4, 3e4, (n, 2))
+    truth = rng.uniform(-5e3, 5e3, 2)
+    sig = rng.uniform(5.0, 50.0, n)
+    obs = np.hypot(*(truth - stations).T) + rng.normal(0, 1, n) * sig
+    used = np.ones(n, bool)
+    if gap and n > 2:
+        used[rng.integers(n)] = False
+    lin = _bearings(stations, obs, sig, rng.uniform(-0.5, 0.5))
+    x0 = truth + rng.normal(0, 3000, 2)
+    got, want = _both_rows(lambda: _RowsModel(lin, fail_at), x0, used, scale_vcv=scale,
+                           max_iter=max_iter, epsilon=eps)
+    for name in ADJ_FIELDS + ("ok", "reason", "used", "u", "damping"):
+        assert same(getattr(want, name), getattr(got, name)), name
+    assert (got.cov_x is got.cov_x_apriori) == (want.cov_x is want.cov_x_apriori)
+    assert list(vars(got)) == list(vars(want))  # every field, in order
+
+
+@needs_kernel
+def test_adjust_declines_to_the_python() -> None:
+    """Nearly parallel LOPs (the axis-ratio guard), an untestable slot and a singular C_l: the
+    kernel hands back and the Python gives its reason and numbers."""
+    par = _bearings(np.array([[0.0, 1e4], [1e-3, 2e4], [2e-3, 3e4]]),
+                    np.array([1e4, 2e4, 3e4]), np.array([10.0, 10.0, 10.0]), 0.0)
+    A = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 1.0], [0.0, 1.0]])
+    unt = Linearisation(A, np.array([1.0, 2.0, 2.5, 1.5]), np.diag([4.0, 9.0, 9.0, 16.0]))
+    sing = Linearisation(A, np.array([1.0, 2.0, 2.5, 1.5]), np.zeros((4, 4)))
+    for lin, x0, n in ((par, np.array([5.0, 1.0]), 3), (lambda x: unt, np.zeros(2), 4),
+                       (lambda x: sing, np.zeros(2), 4)):
+        got, want = _both_rows(lambda lin=lin: _RowsModel(lin), x0, np.ones(n, bool))
+        assert not got.ok
+        for name in ADJ_FIELDS + ("ok", "reason"):
+            assert same(getattr(want, name), getattr(got, name)), name
+    state = K.adjust(_RowsModel(lambda x: unt).rows, np.zeros(2), np.ones(4, bool), 1.0, 10,
+                     COND_MAX, 1e4, False, 2.8)
+    assert state is None or type(state) is tuple  # the untestable slot: never a result
+
+
+@needs_kernel
+def test_adjust_is_one_call(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A model with rows() (compute_fix's) goes through ``adjust``, one call per adjustment."""
+    calls: list[int] = []
+    real = K.adjust
+
+    class Spy:
+        def __getattr__(self, name: str) -> Any:
+            return getattr(K, name)
+
+        @staticmethod
+        def adjust(*a: Any) -> Any:
+            calls.append(1)
+            return real(*a)
+
+    monkeypatch.setattr(_kernel, "kernel", lambda: Spy())
+    lin = _bearings(np.array([[0.0, 1e4], [1e4, 0.0], [-1e4, 0.0]]),
+                    np.array([1e4, 1e4, 1e4]), np.array([10.0, 10.0, 10.0]), 0.0)
+    res = gauss_newton(_RowsModel(lin), np.array([100.0, 100.0]), np.ones(3, bool))
+    assert res.ok and calls == [1]
