@@ -495,19 +495,35 @@ def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,
               alpha: float, used: list[bool] | None = None,
               layout: Mapping[str, range] | None = None) -> list[LopRow]:
     """The Pg 631/633 table rows: each system's page data with the final adjustment's tests
-    (``used``/``layout`` as in :func:`_beyond_linear_range`)."""
+    (``used``/``layout`` as in :func:`_beyond_linear_range`); the table made in one call by
+    the compiled kernel (``lop_rows``, the same rows) when there is one, else
+    :func:`_lop_rows_py`."""
+    if layout is None:
+        layout = registry.layout()
+    groups = [(layout[name].start, obs.readings(p_hat)) for name, obs in sets.items()]
+    make = _row_maker()
+    k = _kernel.kernel()
+    if k is not None and make is not LopRow:
+        rows = k.lop_rows(groups, adj.stats_block, adj.v, adj.used, w_critical(alpha),
+                          REJECT_BOUND)
+        if rows is not None:
+            return rows  # type: ignore[no-any-return]
+    return _lop_rows_py(adj, groups, alpha, used, make)
+
+
+def _lop_rows_py(adj: Adjustment, groups: list[tuple[int, Sequence[LopReading]]],
+                 alpha: float, used: list[bool] | None,
+                 make: Callable[..., LopRow]) -> list[LopRow]:
+    """:func:`_lop_rows` in pure Python: ``groups`` holds each system's first slot and its
+    readings at the estimate, in registry order."""
     sigma_d, w_all, tau, vf = adj.stats_block[:4].tolist()
     if used is None:
         used = adj.used.tolist()
-    if layout is None:
-        layout = registry.layout()
     v = adj.v.tolist()
     k = w_critical(alpha)
-    make = _row_maker()
     rows: list[LopRow] = []
-    for name, obs in sets.items():
-        first = layout[name].start
-        for r in obs.readings(p_hat):
+    for first, readings in groups:
+        for r in readings:
             slot = first + r.index
             w = w_all[slot]
             if w != w:  # _verdict inline: NaN, not computed

@@ -15,7 +15,8 @@
  *   ellipse(C2)                     confidence.error_ellipse (closed form);
  *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band;
  *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
- *                                   same frozen slotted instance; bound by _bind_row).
+ *                                   same frozen slotted instance; bound by _bind_row);
+ *   lop_rows(groups, stats, ...)    fix._lop_rows' table: every row() with its tests.
  * Each returns None where the Python would take a rare branch (u != 2, a singular or
  * ill-conditioned matrix, non-finite values, an untestable slot, ...): the caller then runs
  * the Python, which gives the same result or the same failure reason.
@@ -1333,9 +1334,161 @@ static PyObject *lsq_row(PyObject *self, PyObject *const *args, Py_ssize_t nargs
     return obj;
 }
 
+/* ---------------------------------------------------------------------------------------- */
+/* lop_rows: the LOP table of fix._lop_rows in one call */
+
+PyDoc_STRVAR(lop_rows_doc,
+"lop_rows(groups, stats, v, used, k, bound) -> list of rows or None\n"
+"\n"
+"engine.lsq.fix._lop_rows_py: groups a list of (first slot, the system's LopReadings), stats\n"
+"the (>= 4, n) statistics block, v (n,) float64, used (n,) bool; one row() per reading with\n"
+"its tests and verdict (k < |w| <= bound: monitor). None where the Python must run (row()\n"
+"not bound, other types, a slot outside 0..n-1).");
+
+#define N_READING 7
+static PyObject *reading_names[N_READING]; /* index, system, pattern, read, correction, ... */
+static PyObject *verdicts[4];              /* "", "reject", "monitor", "accept" */
+
+static int lop_rows_ready(void)
+{
+    static const char *names[N_READING] = {"index", "system", "pattern", "read", "correction",
+                                           "calc", "az_deg"};
+    static const char *words[4] = {"", "reject", "monitor", "accept"};
+    if (verdicts[3] != NULL)
+        return 0;
+    for (int i = 0; i < N_READING; i++)
+        if ((reading_names[i] = PyUnicode_InternFromString(names[i])) == NULL)
+            return -1;
+    for (int i = 0; i < 4; i++)
+        if ((verdicts[i] = PyUnicode_InternFromString(words[i])) == NULL)
+            return -1;
+    return 0;
+}
+
+static PyObject *lsq_lop_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "lop_rows(groups, stats, v, used, k, bound)");
+        return NULL;
+    }
+    if (lop_rows_ready() < 0)
+        return NULL;
+    double kc = PyFloat_AsDouble(args[4]);
+    if (kc == -1.0 && PyErr_Occurred())
+        return NULL;
+    double bound_w = PyFloat_AsDouble(args[5]);
+    if (bound_w == -1.0 && PyErr_Occurred())
+        return NULL;
+    PyObject *groups = args[0];
+    if (row_type == NULL || row_n != 14 || !PyList_CheckExact(groups))
+        return Py_NewRef(Py_None);
+    buf_t st = {0}, vb = {0};
+    Py_buffer ub;
+    int ub_held = 0;
+    PyObject *res = NULL, *out = NULL;
+    if (buf_get(args[1], &st, 2) < 0 || buf_get(args[2], &vb, 1) < 0)
+        goto none;
+    if (PyObject_GetBuffer(args[3], &ub, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+        PyErr_Clear();
+        goto none;
+    }
+    ub_held = 1;
+    Py_ssize_t n = ub.len;
+    if (ub.ndim != 1 || ub.itemsize != 1 || ub.format == NULL || strcmp(ub.format, "?") != 0 ||
+        st.view.shape[0] < 4 || st.view.shape[1] != n || vb.view.shape[0] != n)
+        goto none;
+    const unsigned char *used = (const unsigned char *)ub.buf;
+    Py_ssize_t ng = PyList_GET_SIZE(groups);
+    for (Py_ssize_t g = 0; g < ng; g++) { /* the types first: nothing made for a decline */
+        PyObject *gr = PyList_GET_ITEM(groups, g);
+        if (!PyTuple_CheckExact(gr) || PyTuple_GET_SIZE(gr) != 2 ||
+            !PyLong_CheckExact(PyTuple_GET_ITEM(gr, 0)) ||
+            !PyList_CheckExact(PyTuple_GET_ITEM(gr, 1)))
+            goto none;
+    }
+    if ((out = PyList_New(0)) == NULL)
+        goto error;
+    for (Py_ssize_t g = 0; g < ng; g++) {
+        PyObject *gr = PyList_GET_ITEM(groups, g), *rl = PyTuple_GET_ITEM(gr, 1);
+        Py_ssize_t first = PyLong_AsSsize_t(PyTuple_GET_ITEM(gr, 0));
+        if (first == -1 && PyErr_Occurred()) {
+            PyErr_Clear();
+            goto none;
+        }
+        for (Py_ssize_t i = 0; i < PyList_GET_SIZE(rl); i++) {
+            PyObject *rd = PyList_GET_ITEM(rl, i);
+            PyObject *f[N_READING] = {NULL};
+            int ok = 1;
+            for (int j = 0; j < N_READING && ok; j++)
+                if ((f[j] = PyObject_GetAttr(rd, reading_names[j])) == NULL)
+                    ok = 0;
+            Py_ssize_t slot = -1;
+            if (ok && PyLong_CheckExact(f[0])) {
+                Py_ssize_t idx = PyLong_AsSsize_t(f[0]);
+                if (!(idx == -1 && PyErr_Occurred()) && idx >= 0 && idx < n - first)
+                    slot = first + idx;
+            }
+            PyErr_Clear();
+            PyObject *row = NULL;
+            if (ok && slot >= 0) {
+                double w = AT2(st, 1, slot), aw = fabs(w);
+                PyObject *verdict = w != w ? verdicts[0]
+                                    : (aw > bound_w ? verdicts[1]
+                                                    : (aw > kc ? verdicts[2] : verdicts[3]));
+                PyObject *vals[14] = {PyLong_FromSsize_t(slot), f[1], f[2], f[3], f[4], f[5],
+                                      PyFloat_FromDouble(AT1(vb, slot)), f[6],
+                                      used[slot] ? Py_True : Py_False,
+                                      PyFloat_FromDouble(AT2(st, 0, slot)),
+                                      PyFloat_FromDouble(w), PyFloat_FromDouble(AT2(st, 2, slot)),
+                                      PyFloat_FromDouble(AT2(st, 3, slot)), verdict};
+                static const int made[6] = {0, 6, 9, 10, 11, 12};
+                int good = 1;
+                for (int j = 0; j < 6; j++)
+                    if (vals[made[j]] == NULL)
+                        good = 0;
+                if (good && (row = row_type->tp_alloc(row_type, 0)) != NULL)
+                    for (Py_ssize_t j = 0; j < 14; j++)
+                        *(PyObject **)((char *)row + row_off[j]) = Py_NewRef(vals[j]);
+                for (int j = 0; j < 6; j++)
+                    Py_XDECREF(vals[made[j]]);
+                if (row == NULL && !PyErr_Occurred())
+                    PyErr_NoMemory();
+            }
+            for (int j = 0; j < N_READING; j++)
+                Py_XDECREF(f[j]);
+            if (!ok || slot < 0) {
+                PyErr_Clear();
+                goto none; /* the Python raises or indexes as it does */
+            }
+            if (row == NULL)
+                goto error;
+            int e = PyList_Append(out, row);
+            Py_DECREF(row);
+            if (e < 0)
+                goto error;
+        }
+    }
+    res = out;
+    out = NULL;
+    goto done;
+none:
+    res = Py_NewRef(Py_None);
+    goto done;
+error:
+    res = NULL;
+done:
+    Py_XDECREF(out);
+    if (ub_held)
+        PyBuffer_Release(&ub);
+    buf_release(&st);
+    buf_release(&vb);
+    return res;
+}
+
 static PyMethodDef methods[] = {
     {"_bind_row", (PyCFunction)(void (*)(void))lsq_bind_row, METH_FASTCALL, bind_row_doc},
     {"row", (PyCFunction)(void (*)(void))lsq_row, METH_FASTCALL, row_doc},
+    {"lop_rows", (PyCFunction)(void (*)(void))lsq_lop_rows, METH_FASTCALL, lop_rows_doc},
     {"_bind", (PyCFunction)(void (*)(void))lsq_bind, METH_FASTCALL, bind_doc},
     {"step", (PyCFunction)(void (*)(void))lsq_step, METH_FASTCALL, step_doc},
     {"step_rows", (PyCFunction)(void (*)(void))lsq_step_rows, METH_FASTCALL, step_rows_doc},

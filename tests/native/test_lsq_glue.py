@@ -238,3 +238,61 @@ def test_pure_env_makes_plain_rows(monkeypatch: pytest.MonkeyPatch) -> None:
     assert _kernel.kernel() is None
     assert fix._row_maker() is LopRow
     assert not math.isnan(LopRow(0, "s", "p", 0.0, 0.0, 0.0, 0.0, 0.0, True).read)
+
+
+# ------------------------------------------------------------------------------------------
+# lop_rows: the whole table in one call
+
+
+def _adj_like(w: list[float], seed: int) -> Any:
+    """What the table reads of an Adjustment: stats_block (9, n), v (n,), used (n,)."""
+    import types
+
+    rng = np.random.default_rng(seed)
+    n = len(w)
+    block = rng.uniform(0.0, 50.0, (9, n))
+    block[1] = w
+    used = rng.random(n) < 0.7
+    v = rng.normal(0.0, 20.0, n)
+    v[~used] = np.nan
+    return types.SimpleNamespace(stats_block=block, v=v, used=used)
+
+
+def _groups(n: int, seed: int) -> list[tuple[int, list[Any]]]:
+    from engine.systems.base import LopReading
+
+    rng = np.random.default_rng(seed)
+    cut = int(rng.integers(0, n + 1))
+    mk = lambda i: LopReading(i, "Decca", f"P{i}", float(rng.normal()), 0.25 * i,  # noqa: E731
+                              float(rng.normal()), float(rng.uniform(0, 360)))
+    return [(0, [mk(i) for i in range(cut)]), (cut, [mk(i) for i in range(n - cut)])]
+
+
+@needs_kernel
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.one_of(st.floats(-6.0, 6.0), st.just(math.nan), st.just(1.96),
+                          st.just(2.576), st.just(-2.576)), min_size=1, max_size=10),
+       st.integers(0, 2**32 - 1), st.sampled_from([0.05, 0.01, 0.1]))
+def test_lop_rows_are_the_pythons(w: list[float], seed: int, alpha: float) -> None:
+    adj = _adj_like(w, seed)
+    groups = _groups(len(w), seed)
+    make = fix._row_maker()
+    assert make is K.row
+    got = K.lop_rows(groups, adj.stats_block, adj.v, adj.used,
+                     fix.w_critical(alpha), fix.REJECT_BOUND)
+    want = fix._lop_rows_py(adj, groups, alpha, None, LopRow)
+    assert len(got) == len(want)
+    for g, r in zip(got, want, strict=True):
+        assert same_row(g, r, same_values=False)
+
+
+@needs_kernel
+def test_lop_rows_declines_what_the_python_must_do() -> None:
+    adj = _adj_like([0.5, 1.0, 3.0], 1)
+    fix._row_maker()
+    args = (adj.stats_block, adj.v, adj.used, 1.96, 2.576)
+    assert K.lop_rows([(2, _groups(3, 1)[1][1])], *args) is None  # a slot beyond n
+    assert K.lop_rows([(-1, _groups(3, 1)[1][1])], *args) is None  # a negative slot
+    assert K.lop_rows([(0, (1, 2))], *args) is None  # not a list of readings
+    assert K.lop_rows([(0, [object()])], *args) is None  # not a reading
+    assert K.lop_rows([], *args) == []
