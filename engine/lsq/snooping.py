@@ -123,13 +123,49 @@ def adjust_with_testing(
     kw = dict(epsilon=epsilon, max_iter=max_iter, s02=s02, scale_vcv=scale_vcv, alpha=alpha)
     cur = np.array(used, dtype=bool)
     if estimator == "lsq":
-        prog = _Progress(gauss_newton(linearise, x0, cur, **kw), [])  # type: ignore[arg-type]
+        adj = gauss_newton(linearise, x0, cur, **kw)  # type: ignore[arg-type]
+        if adj.ok and adj.redundancy >= 1 and not thesis_dof:
+            k = _kernel.kernel()
+            monitor = (None if k is None
+                       else k.quiet(adj.stats_block, w_critical(alpha), reject_bound))
+            if monitor is not None:  # nothing to reject: _snoop does nothing, _finish is this
+                return _quiet(adj, monitor, policy, estimator)
+        prog = _Progress(adj, [])
     else:
         prog = _robust_start(linearise, x0, cur, estimator, kw, lop_name)
         if prog.robust is not None and prog.robust.ok:
             return _finish(prog, policy, estimator, alpha, reject_bound, s02, thesis_dof)
     _snoop(linearise, prog, cur, policy, reject_bound, kw, lop_name)
     return _finish(prog, policy, estimator, alpha, reject_bound, s02, thesis_dof)
+
+
+def _quiet(adj: Adjustment, monitor: tuple[int, ...], policy: str,
+           estimator: str) -> TestedAdjustment:
+    """:func:`_finish` of a plain LSQ fix whose largest |w| is within the bound (nothing
+    rejected, flagged or asked; ``monitor`` the band as the kernel's ``quiet`` found it)."""
+    messages: list[str] = []
+    vt = adj.variance_test
+    if vt is not None and not vt.accepted:
+        messages.append(
+            f"unit variance rejected: S² = {adj.s2:.3f} outside "
+            f"({vt.lower:.4f}, {vt.upper:.3f})"
+        )
+        if adj.category == "IV":
+            messages.append("advice: scale the a priori VCV by S²")
+    return frozen_instance(TestedAdjustment, {
+        "adjustment": adj,
+        "rejected": (),
+        "candidate": None,
+        "candidate_w": None,
+        "flagged": (),
+        "monitor": monitor,
+        "not_identifiable": False,
+        "variance_test": vt,
+        "messages": tuple(messages),
+        "policy": policy,
+        "estimator": estimator,
+        "robust": None,
+    })
 
 
 @dataclass(eq=False)

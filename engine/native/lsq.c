@@ -14,6 +14,7 @@
  *                                   the Adjustment's fields as a dict (or where to go on);
  *   ellipse(C2)                     confidence.error_ellipse (closed form);
  *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band;
+ *   quiet(stats, k, bound)          both at once when nothing is to be rejected;
  *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
  *                                   same frozen slotted instance; bound by _bind_row);
  *   lop_rows(groups, stats, ...)    fix._lop_rows' table: every row() with its tests.
@@ -1205,6 +1206,68 @@ static PyObject *lsq_monitor(PyObject *self, PyObject *const *args, Py_ssize_t n
     return t;
 }
 
+PyDoc_STRVAR(quiet_doc,
+"quiet(stats, k, bound) -> tuple of the monitor band's slots, or None\n"
+"\n"
+"snooping's test of a final adjustment when nothing is to be rejected: the largest |w| of\n"
+"row 1 of the statistics block (as worst()) is within bound; then the slots with\n"
+"k < |w| <= bound (as monitor()). None when the snooping loop has something to do (or all\n"
+"w are NaN, or another array): the Python runs.");
+
+static PyObject *lsq_quiet(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "quiet(stats, k, bound)");
+        return NULL;
+    }
+    double kc = PyFloat_AsDouble(args[1]);
+    if (kc == -1.0 && PyErr_Occurred())
+        return NULL;
+    double bound_w = PyFloat_AsDouble(args[2]);
+    if (bound_w == -1.0 && PyErr_Occurred())
+        return NULL;
+    buf_t st = {0};
+    if (buf_get(args[0], &st, 2) < 0)
+        return Py_NewRef(Py_None);
+    Py_ssize_t n = st.view.shape[1], k = 0, cnt = 0;
+    Py_ssize_t hit[MAXM];
+    double best = -1.0;
+    int ok = st.view.shape[0] >= 2 && n >= 1;
+    for (Py_ssize_t i = 0; ok && i < n; i++) { /* worst() */
+        double a = fabs(AT2(st, 1, i));
+        if (a > best) {
+            k = i;
+            best = a;
+        }
+    }
+    if (ok && !(fabs(AT2(st, 1, k)) <= bound_w))
+        ok = 0; /* _snoop's loop goes on: the Python */
+    for (Py_ssize_t i = 0; ok && i < n; i++) { /* monitor() */
+        double a = fabs(AT2(st, 1, i));
+        if (kc < a && a <= bound_w) {
+            if (cnt == MAXM)
+                ok = 0;
+            else
+                hit[cnt++] = i;
+        }
+    }
+    buf_release(&st);
+    if (!ok)
+        return Py_NewRef(Py_None);
+    PyObject *t = PyTuple_New(cnt);
+    if (t == NULL)
+        return NULL;
+    for (Py_ssize_t j = 0; j < cnt; j++) {
+        PyObject *v = PyLong_FromSsize_t(hit[j]);
+        if (v == NULL) {
+            Py_DECREF(t);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(t, j, v);
+    }
+    return t;
+}
+
 /* ---------------------------------------------------------------------------------------- */
 
 PyDoc_STRVAR(bind_doc,
@@ -1497,6 +1560,7 @@ static PyMethodDef methods[] = {
     {"ellipse", (PyCFunction)(void (*)(void))lsq_ellipse, METH_FASTCALL, ellipse_doc},
     {"worst", (PyCFunction)(void (*)(void))lsq_worst, METH_FASTCALL, worst_doc},
     {"monitor", (PyCFunction)(void (*)(void))lsq_monitor, METH_FASTCALL, monitor_doc},
+    {"quiet", (PyCFunction)(void (*)(void))lsq_quiet, METH_FASTCALL, quiet_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -358,6 +358,14 @@ def test_worst_and_monitor_are_the_pythons(w: list[float], row: bool) -> None:
     k = 1.959963984540054
     assert K.monitor(arr, k, 2.576) == snoop._monitor_py(arr, k, 2.576)
     assert K.worst(np.zeros(0)) is None
+    # quiet: the band when the largest |w| is within the bound (_snoop stops at once), else None
+    block = np.zeros((9, arr.size))
+    block[1] = arr
+    quiet = K.quiet(block, k, 2.576)
+    if abs(want[1]) <= 2.576:
+        assert quiet == snoop._monitor_py(arr, k, 2.576)
+    else:
+        assert quiet is None
 
 
 # ------------------------------------------------------------------------------------------
@@ -432,6 +440,33 @@ def test_data_snooping_with_and_without_the_kernel(seed: int, estimator: str,
     for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
                  "not_identifiable", "variance_test", "messages"):
         assert same(getattr(want, name), getattr(got, name)), name
+    for name in ADJ_FIELDS:
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+
+
+@needs_kernel
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["Y", "N", "A"]),
+       st.sampled_from([0.2, 1.0, 4.0]), st.booleans())
+def test_quiet_fixes_with_and_without_the_kernel(seed: int, policy: str, noise: float,
+                                                 rows: bool) -> None:
+    """Fixes without an outlier (the kernel's ``quiet`` path), their noise too small, right or
+    too large for C_l (the unit-variance messages), with and without rows()."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 9))
+    stations = rng.uniform(-3e4, 3e4, (n, 2))
+    truth = rng.uniform(-5e3, 5e3, 2)
+    sig = rng.uniform(5.0, 50.0, n)
+    obs = np.hypot(*(truth - stations).T) + rng.normal(0, noise, n) * sig
+    lin = _bearings(stations, obs, sig, rng.uniform(-0.3, 0.3))
+    model = _RowsModel(lin) if rows else lin
+    x0 = truth + rng.normal(0, 300, 2)
+    got, want = _both_snoop(model, x0, np.ones(n, bool), policy=policy)
+    for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
+                 "not_identifiable", "variance_test", "messages", "policy", "estimator",
+                 "robust"):
+        assert same(getattr(want, name), getattr(got, name)), name
+    assert list(vars(got)) == list(vars(want))
     for name in ADJ_FIELDS:
         assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
 
