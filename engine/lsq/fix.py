@@ -378,7 +378,10 @@ def _at_estimate(
         p_hat = Point(grid, geodesic, xe, yn, (lat, lon))
         decca = problem.sets.get(DECCA.name)
         geom = decca.geometry_at(p_hat) if isinstance(decca, DeccaObservations) else None
-        ellipse = error_ellipse(adj.cov_x)
+        k = _kernel.kernel()  # error_ellipse's kernel call, made here (one call fewer)
+        ellipse = None if k is None else k.ellipse(adj.cov_x)
+        if ellipse is None:
+            ellipse = error_ellipse(adj.cov_x)
         used = adj.used.tolist()
         if not problem.uses_prior:
             # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²

@@ -31,6 +31,7 @@
  * math.hypot (its own algorithm) is called through the function object.
  */
 #include "uvn_blas.h"
+#include "uvn_numpy.h" /* arrays made and read without numpy.empty and the buffer protocol */
 
 #include <math.h>
 #include <string.h>
@@ -40,7 +41,6 @@
 
 static uvn_blas_t B;
 static int bound = 0;
-static PyObject *np_empty = NULL;     /* numpy.empty */
 static PyObject *py_hypot = NULL;     /* math.hypot (CPython's vector_norm, not libm) */
 static PyTypeObject *sol_type = NULL; /* adjustment._Solution (a NamedTuple) */
 static PyObject *ellipse_type = NULL; /* confidence.Ellipse */
@@ -72,6 +72,19 @@ static void buf_release(buf_t *b)
 static int buf_get(PyObject *obj, buf_t *b, int ndim)
 {
     b->held = 0;
+    np_fields_t *nf = np_direct(obj, ndim); /* an exact float64 ndarray: its own fields */
+    if (nf != NULL) {
+        for (int i = 0; i < ndim; i++)
+            if (nf->strides[i] % 8 != 0)
+                return -1;
+        b->view.buf = nf->data;
+        b->view.ndim = ndim;
+        b->view.shape = nf->dimensions;
+        b->view.strides = nf->strides;
+        b->view.itemsize = 8;
+        b->view.format = NULL;
+        return 0;
+    }
     if (PyObject_GetBuffer(obj, &b->view, PyBUF_STRIDES | PyBUF_FORMAT) < 0) {
         PyErr_Clear();
         return -1;
@@ -107,43 +120,12 @@ static int buf_c_contiguous(const buf_t *b)
                        (j) * (b).view.strides[1]))
 #define AT1(b, i) (*(const double *)((const char *)(b).view.buf + (i) * (b).view.strides[0]))
 
-/* The shape tuples of the small arrays made per fix, built once: (rows,) at [rows][0],
- * (rows, cols) at [rows][cols + 1] (rows, cols < SHAPES). */
-#define SHAPES (MAXM + 1)
-static PyObject *shape_cache[SHAPES][SHAPES + 1];
-
-/* The shape tuple (rows,) (cols < 0) or (rows, cols): a new reference or NULL (error). */
-static PyObject *shape_of(Py_ssize_t rows, Py_ssize_t cols)
+/* numpy.empty((rows,)) (cols < 0) or numpy.empty((rows, cols)) and its data pointer, by
+ * uvn_numpy.h's new_array (numpy's PyArray_NewFromDescr where np_ready() checked it, else
+ * numpy.empty). New reference or NULL (error). */
+static PyObject *lsq_new(Py_ssize_t rows, Py_ssize_t cols, double **data)
 {
-    if (rows < 0 || rows >= SHAPES || cols >= SHAPES)
-        return cols < 0 ? Py_BuildValue("(n)", rows) : Py_BuildValue("(nn)", rows, cols);
-    PyObject **slot = &shape_cache[rows][cols < 0 ? 0 : cols + 1];
-    if (*slot == NULL) {
-        *slot = cols < 0 ? Py_BuildValue("(n)", rows) : Py_BuildValue("(nn)", rows, cols);
-        if (*slot == NULL)
-            return NULL;
-    }
-    return Py_NewRef(*slot);
-}
-
-/* numpy.empty(shape) (cols < 0: 1-D) and its data pointer. New reference or NULL (error). */
-static PyObject *new_array(Py_ssize_t rows, Py_ssize_t cols, double **data)
-{
-    PyObject *shape = shape_of(rows, cols);
-    if (shape == NULL)
-        return NULL;
-    PyObject *arr = PyObject_CallOneArg(np_empty, shape);
-    Py_DECREF(shape);
-    if (arr == NULL)
-        return NULL;
-    Py_buffer v;
-    if (PyObject_GetBuffer(arr, &v, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0) {
-        Py_DECREF(arr);
-        return NULL;
-    }
-    *data = (double *)v.buf;
-    PyBuffer_Release(&v); /* the array owns its data */
-    return arr;
+    return cols < 0 ? new_array(rows, 0, 1, data) : new_array(rows, cols, 2, data);
 }
 
 static int need_bound(void)
@@ -292,7 +274,7 @@ static int step_calc(step_t *s, const double *Au, const double *bu, const double
 static PyObject *array_of(Py_ssize_t rows, Py_ssize_t cols, const double *src)
 {
     double *d;
-    PyObject *o = new_array(rows, cols, &d);
+    PyObject *o = lsq_new(rows, cols, &d);
     if (o != NULL)
         memcpy(d, src, sizeof(double) * rows * (cols < 0 ? 1 : cols));
     return o;
@@ -539,7 +521,7 @@ static int finish_calc(fin_t *f, const double *Au, const double *bu, const doubl
     double trace;
     if (scaled) {
         double *cov;
-        covo = new_array(2, 2, &cov);
+        covo = lsq_new(2, 2, &cov);
         if (covo == NULL)
             goto out;
         for (int i = 0; i < 4; i++)
@@ -555,7 +537,7 @@ static int finish_calc(fin_t *f, const double *Au, const double *bu, const doubl
     double drms = sqrt(trace);
 
     double *st;
-    stato = new_array(9, n, &st);
+    stato = lsq_new(9, n, &st);
     if (stato == NULL)
         goto out;
     for (Py_ssize_t i = 0; i < 9 * n; i++)
@@ -591,7 +573,7 @@ static int finish_calc(fin_t *f, const double *Au, const double *bu, const doubl
         }
     }
     double *v;
-    vo = new_array(n, -1, &v);
+    vo = lsq_new(n, -1, &v);
     if (vo == NULL)
         goto out;
     for (Py_ssize_t i = 0; i < n; i++)
@@ -1081,7 +1063,7 @@ static PyObject *lsq_ellipse(PyObject *self, PyObject *const *args, Py_ssize_t n
     double az = py_mod(vatan2(ee, en) * RAD_TO_DEG, 180.0);
     double phi = vatan2(en, ee) * RAD_TO_DEG;
     double *vec;
-    PyObject *veco = new_array(2, 2, &vec);
+    PyObject *veco = lsq_new(2, 2, &vec);
     if (veco == NULL)
         return NULL;
     vec[0] = ee;
@@ -1322,7 +1304,8 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
                 return NULL;
         }
     B = b;
-    Py_XSETREF(np_empty, Py_NewRef(args[1]));
+    if (np_ready() < 0) /* numpy.empty itself (args[1]) is what uvn_numpy.h falls back to */
+        return NULL;
     Py_XSETREF(py_hypot, Py_NewRef(args[2]));
     Py_XSETREF(sol_type, (PyTypeObject *)Py_NewRef(args[3]));
     Py_XSETREF(ellipse_type, Py_NewRef(args[4]));
