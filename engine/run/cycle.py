@@ -767,11 +767,16 @@ def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, flo
          excluded_slots: Sequence[int], messages: list[str]) -> FixResult | None:
     """The least-squares fix of the systems' readings (None when no system observed anything),
     with the operator messages of its tests."""
-    if not any(r.observes for r in readings.values()):
+    values: dict[str, object] = {}
+    observes = False
+    for name, r in readings.items():  # one loop (no generator and comprehension frames)
+        values[name] = r.value
+        if r.observes:
+            observes = True
+    if not observes:
         return None
     fix = compute_fix(grid, ctx.geodesic, x_start, prior=prior, settings=ctx.lsq,
-                      excluded_slots=excluded_slots,
-                      readings={name: r.value for name, r in readings.items()})
+                      excluded_slots=excluded_slots, readings=values)
     if fix.candidate_slot is not None:
         name = lop_name(fix.candidate_slot, system="KF" if fix.uses_prior else "GPS",
                         manual=nav.pending_obs)
