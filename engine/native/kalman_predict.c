@@ -16,7 +16,8 @@
  * Also the arrays of the measurement rows (engine/filter/measurements.py), copies only, no
  * BLAS: rows(zs, var), lse(x, y, C, f) and stack2(za, zb, Ra, Rb, cov, m), None likewise;
  * and estimate(x, P), a state's position, depth and horizontal VCV (engine/run/cycle.py), and
- * sym2(C), the symmetrised 2×2 fix-error VCV (engine/filter/state.py).
+ * sym2(C), the symmetrised 2×2 fix-error VCV (engine/filter/state.py), and position(), the
+ * whole estimate of a state (cycle.filter_estimate) through the TM and ellipse kernels.
  * predict's x and P and estimate's VCV come back read-only (FilterState arrays).
  */
 #define PY_SSIZE_T_CLEAN
@@ -533,6 +534,118 @@ done:
     return result;
 }
 
+/* position(source, packed, x, P) -> PositionEstimate | None: cycle.filter_estimate in one call
+ * once bind_position(inverse, ellipse, cls) has given it the compiled TM inverse
+ * (engine.native.tmgrid.inverse, what TMGrid.inverse calls with the grid's _packed), the
+ * compiled error ellipse (engine.native.lsq.ellipse, what error_ellipse calls) and the class.
+ * The steps of the Python, in its order: estimate()'s floats and read-only VCV copy, the
+ * inverse of (x, y), the ellipse of the VCV when it is finite with its eigenvectors made
+ * read-only, and the instance with its eight slots set as the dataclass __init__ sets them
+ * (object.__setattr__). None (nothing else done) when not bound, the inputs are not float64
+ * arrays of the shapes estimate() takes, or either compiled call declines: the Python runs. */
+static PyObject *pos_inverse = NULL, *pos_ellipse = NULL, *pos_cls = NULL;
+static PyObject *pos_names[8], *s_eigenvectors = NULL, *s_setflags = NULL;
+
+static PyObject *kp_bind_position(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    static const char *names[8] = {"source", "lat_deg", "lon_deg", "x_m", "y_m", "depth_m",
+                                   "cov", "ellipse"};
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "bind_position(inverse, ellipse, cls)");
+        return NULL;
+    }
+    if (!PyType_Check(args[2])) {
+        PyErr_SetString(PyExc_TypeError, "bind_position: cls must be a class");
+        return NULL;
+    }
+    for (int i = 0; i < 8; i++)
+        if (pos_names[i] == NULL && (pos_names[i] = PyUnicode_InternFromString(names[i])) == NULL)
+            return NULL;
+    if ((s_eigenvectors == NULL &&
+         (s_eigenvectors = PyUnicode_InternFromString("eigenvectors")) == NULL) ||
+        (s_setflags == NULL && (s_setflags = PyUnicode_InternFromString("setflags")) == NULL))
+        return NULL;
+    Py_XSETREF(pos_inverse, Py_NewRef(args[0]));
+    Py_XSETREF(pos_ellipse, Py_NewRef(args[1]));
+    Py_XSETREF(pos_cls, Py_NewRef(args[2]));
+    Py_RETURN_NONE;
+}
+
+/* ndarray.setflags(write=False) of an array another kernel made. 0, or -1 (exception set). */
+static int freeze_any(PyObject *a)
+{
+    np_fields_t *f = np_direct(a, 2);
+    if (f != NULL) {
+        f->flags &= ~NP_WRITEABLE;
+        return 0;
+    }
+    PyObject *r = PyObject_CallMethodOneArg(a, s_setflags, Py_False);
+    if (r == NULL)
+        return -1;
+    Py_DECREF(r);
+    return 0;
+}
+
+static PyObject *kp_position(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "position(source, packed, x, P)");
+        return NULL;
+    }
+    if (pos_cls == NULL || args[1] == Py_None)
+        Py_RETURN_NONE;
+    PyObject *parts = kp_estimate(self, args + 2, 2);
+    if (parts == NULL || parts == Py_None)
+        return parts;
+    PyObject *result = NULL, *ll = NULL, *ell = NULL, *obj = NULL, *empty = NULL;
+    PyObject *xy[3] = {args[1], PyTuple_GET_ITEM(parts, 0), PyTuple_GET_ITEM(parts, 1)};
+    ll = PyObject_Vectorcall(pos_inverse, xy, 3, NULL);
+    if (ll == NULL)
+        goto done;
+    if (!PyTuple_CheckExact(ll) || PyTuple_GET_SIZE(ll) != 2)
+        goto unsupported;
+    PyObject *cov = PyTuple_GET_ITEM(parts, 3);
+    if (PyTuple_GET_ITEM(parts, 4) == Py_True) {
+        ell = PyObject_Vectorcall(pos_ellipse, &cov, 1, NULL);
+        if (ell == NULL)
+            goto done;
+        if (ell == Py_None)
+            goto unsupported;
+        PyObject *vecs = PyObject_GetAttr(ell, s_eigenvectors);
+        if (vecs == NULL)
+            goto done;
+        int r = freeze_any(vecs);
+        Py_DECREF(vecs);
+        if (r < 0)
+            goto done;
+    } else {
+        ell = Py_NewRef(Py_None);
+    }
+    if ((empty = PyTuple_New(0)) == NULL)
+        goto done;
+    obj = PyBaseObject_Type.tp_new((PyTypeObject *)pos_cls, empty, NULL);
+    if (obj == NULL)
+        goto done;
+    PyObject *vals[8] = {args[0], PyTuple_GET_ITEM(ll, 0), PyTuple_GET_ITEM(ll, 1),
+                         PyTuple_GET_ITEM(parts, 0), PyTuple_GET_ITEM(parts, 1),
+                         PyTuple_GET_ITEM(parts, 2), cov, ell};
+    for (int i = 0; i < 8; i++)
+        if (PyObject_GenericSetAttr(obj, pos_names[i], vals[i]) < 0)
+            goto done;
+    result = obj;
+    obj = NULL;
+    goto done;
+unsupported:
+    result = Py_NewRef(Py_None);
+done:
+    Py_XDECREF(obj);
+    Py_XDECREF(empty);
+    Py_XDECREF(ell);
+    Py_XDECREF(ll);
+    Py_DECREF(parts);
+    return result;
+}
+
 /* sym2(C) -> S: the read-only 2×2 S = (C + Cᵀ)/2 entry by entry as FilterState.with_fix_cov
  * writes it, [[0.5·(a + a), 0.5·(b + c)], [0.5·(c + b), 0.5·(d + d)]] for C = [[a, b], [c, d]];
  * None unless C is a float64 2×2 array. */
@@ -619,6 +732,11 @@ static PyMethodDef methods[] = {
     {"estimate", (PyCFunction)(void (*)(void))kp_estimate, METH_FASTCALL,
      "estimate(x, P) -> (x, y, z, cov, finite) or None: a filter state's position, depth and "
      "read-only horizontal VCV copy (cycle.filter_estimate)."},
+    {"bind_position", (PyCFunction)(void (*)(void))kp_bind_position, METH_FASTCALL,
+     "bind_position(inverse, ellipse, cls): what position() calls and builds."},
+    {"position", (PyCFunction)(void (*)(void))kp_position, METH_FASTCALL,
+     "position(source, packed, x, P) -> PositionEstimate or None: cycle.filter_estimate of a "
+     "state on the grid whose _packed is given, in one call."},
     {"stack2", (PyCFunction)(void (*)(void))kp_stack2, METH_FASTCALL,
      "stack2(za, zb, Ra, Rb, cov, m) -> (z, R, prior) or None: two stacked blocks' arrays."},
     {NULL, NULL, 0, NULL},

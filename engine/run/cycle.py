@@ -452,6 +452,11 @@ def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
 
 def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstimate:
     """The horizontal position of a filter state as an estimate (grid ``grid``)."""
+    k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
+    if k is not None:  # the whole estimate in one compiled call (the same floats and arrays)
+        est = k.position(source, grid._packed, fs.x, fs.P)  # type: ignore[attr-defined]
+        if est is not None:
+            return est  # type: ignore[no-any-return]
     # The state's position, depth and horizontal VCV as FilterState.east_north_m, depth_m and
     # position_cov_m2 give them (the same floats; the VCV a read-only copy), in one call.
     x, y, z, cov, finite = estimate_parts(fs)
@@ -1057,6 +1062,20 @@ def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
         return None
     return lop_measurement(raw.A, raw.omc_m, raw.x_ref, raw.Cl,
                            labels=tuple(f"lop{s}" for s in raw.slots))
+
+
+_UNSET = object()
+_POSITION_K: object = _UNSET
+"""The compiled estimate of :func:`filter_estimate` (``position_kernel``), once resolved."""
+
+
+def _position_kernel() -> object:
+    """:data:`_POSITION_K`, resolved on first use (None: the Python makes the estimate)."""
+    from engine.filter.state import position_kernel
+
+    global _POSITION_K
+    _POSITION_K = position_kernel(PositionEstimate)
+    return _POSITION_K
 
 
 def reproject_state(

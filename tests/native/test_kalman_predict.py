@@ -350,3 +350,51 @@ def test_sym2_is_with_fix_cov_numpy_expression():
         assert not got.flags.writeable
     for bad in (np.zeros((3, 3)), np.zeros((2, 2), dtype=np.float32), [[1.0, 0.0], [0.0, 1.0]]):
         assert KERNEL.sym2(bad) is None
+
+
+def _same_estimate(a: object, b: object) -> None:
+    """Two PositionEstimates with the same floats and the same (read-only) arrays."""
+    assert type(a) is type(b)
+    for f in ("source", "lat_deg", "lon_deg", "x_m", "y_m", "depth_m"):
+        assert getattr(a, f) == getattr(b, f) or (getattr(a, f) != getattr(a, f) and
+                                                   getattr(b, f) != getattr(b, f))
+    ca, cb = a.cov, b.cov  # type: ignore[attr-defined]
+    assert ca.tobytes() == cb.tobytes() and ca.strides == cb.strides
+    assert not ca.flags.writeable and not cb.flags.writeable
+    ea, eb = a.ellipse, b.ellipse  # type: ignore[attr-defined]
+    assert (ea is None) == (eb is None)
+    if ea is not None:
+        assert list(ea.__dict__) == list(eb.__dict__)
+        for k, va in ea.__dict__.items():
+            vb = eb.__dict__[k]
+            if isinstance(va, np.ndarray):
+                assert va.tobytes() == vb.tobytes() and not va.flags.writeable
+                assert not vb.flags.writeable
+            else:
+                assert va == vb
+
+
+@needs_kernel
+def test_position_is_filter_estimate_in_python(replay_steps, monkeypatch: pytest.MonkeyPatch):
+    """cycle.filter_estimate in one compiled call (kalman_predict.position through the TM and
+    ellipse kernels) gives the Python's estimate: the replay's states and non-finite VCVs."""
+    from engine.geodesy.tmgrid import TMGrid
+
+    grid = TMGrid(cycle_mod.WGS84.ellipsoid, 3.0)
+    monkeypatch.setattr(cycle_mod, "_POSITION_K", cycle_mod._UNSET)
+    k = cycle_mod._position_kernel()
+    assert k is not None
+    states = [s for s, _, _ in replay_steps[:80]]
+    s0 = states[-1]
+    for P in (np.where(np.eye(s0.n) > 0, np.inf, s0.P), np.full((s0.n, s0.n), np.nan)):
+        states.append(FilterState(s0.t, s0.x, P))
+    for s in states:
+        for source in ("KF", "DR"):
+            got = k.position(source, grid._packed, s.x, s.P)
+            assert got is not None
+            _same_estimate(got, cycle_mod.filter_estimate(source, grid, s))
+            with monkeypatch.context() as m:
+                m.setattr(cycle_mod, "_POSITION_K", None)  # the Python
+                _same_estimate(got, cycle_mod.filter_estimate(source, grid, s))
+    assert k.position("KF", None, s0.x, s0.P) is None
+    assert k.position("KF", grid._packed, np.zeros(2), np.zeros((2, 2))) is None
