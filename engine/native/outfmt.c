@@ -26,11 +26,19 @@
  * cycle_rows(r, consts) / cycle_text(r, consts, dumps, format_text, format_value) build the
  * rows of a whole cycle block from the CycleResult (engine.run.records.cycle_block's twin) and
  * render them as render_rows does: the session's .OUT block in one call (section below).
+ * cycle_text does not call `dumps`: where it is given (the fast writer allowed), each float is
+ * written by short_repr, the kernel's own shortest digits (exact-integer Ryu, section "short
+ * float text"), which writes repr's text where it writes one (checked by probes at first use;
+ * else, and for the exponent forms, repr's own routine); NumPy arrays of float64 (VCVs, the KF
+ * state and P's diagonal, the LS statistics) are read from their data (uvn_numpy.h np_direct)
+ * instead of through tolist().
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
+#include "uvn_numpy.h"
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #ifndef UVN_SOURCE_DIGEST
@@ -126,6 +134,259 @@ static int buf_put_repr(buf_t *b, double x)
     int rc = buf_put(b, s, (Py_ssize_t)strlen(s));
     PyMem_Free(s);
     return rc;
+}
+
+/* ------------------------------------------------------------------------- short float text */
+
+/* repr(x) of the floats that repr writes positionally (1e-4 <= |x| < 1e16, normal), by the
+ * digit search of Ryu (Ulf Adams, PLDI 2018, "Ryu: fast float-to-string conversion", step 4)
+ * on exact integers: x = mv * 2^e2 (mv = 4 m2) and its rounding interval (mm, mp) * 2^e2,
+ * scaled by 10^-e10 = 5^i * 2^(-e2-q): mv * 5^i / 2^q, which for these x is below 2^113 and
+ * is held whole in 128 bits. Ryu's shifted table products become exact floors here, and
+ * "are the cut digits all zero" is an exact remainder test, so the search is the shortest
+ * digits in the interval (bounds inside when m2 is even, as round-half-even reads back),
+ * nearest to x, ties to an even digit: what repr's dtoa (mode 0) writes. 0 for every other
+ * x (subnormals, the exponent forms): the caller uses repr's own routine. Zeros, nan and inf
+ * are written as repr writes them ("0.0", "-0.0", "nan" whatever its sign, "inf", "-inf").
+ * tests/native/test_outfmt.py compares it with repr on random bits, ties and boundaries, and
+ * short_ok() checks probes at first use (on a difference, repr's routine writes every float). */
+static uint64_t POW5[28];
+
+static void init_pow5(void)
+{
+    POW5[0] = 1;
+    for (int i = 1; i < 28; i++)
+        POW5[i] = POW5[i - 1] * 5;
+}
+
+static const uint64_t POW10[20] = {
+    UINT64_C(1), UINT64_C(10), UINT64_C(100), UINT64_C(1000), UINT64_C(10000),
+    UINT64_C(100000), UINT64_C(1000000), UINT64_C(10000000), UINT64_C(100000000),
+    UINT64_C(1000000000), UINT64_C(10000000000), UINT64_C(100000000000),
+    UINT64_C(1000000000000), UINT64_C(10000000000000), UINT64_C(100000000000000),
+    UINT64_C(1000000000000000), UINT64_C(10000000000000000), UINT64_C(100000000000000000),
+    UINT64_C(1000000000000000000), UINT64_C(10000000000000000000)};
+
+/* The number of decimal digits of v (1 for 0). */
+static inline int dec_len(uint64_t v)
+{
+    int t = ((64 - __builtin_clzll(v | 1)) * 1233) >> 12;
+    return t + (t < 20 && v >= POW10[t]);
+}
+
+static const char DIGITS2[201] =
+    "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+    "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+    "8081828384858687888990919293949596979899";
+
+/* The text of x into o (at least 48 bytes: the copies below are of fixed sizes, the text at
+ * most 23 bytes); its length, or 0 (not handled here). */
+static int short_repr(double x, char *o)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    const uint64_t mant = bits & ((UINT64_C(1) << 52) - 1);
+    const int ex = (int)((bits >> 52) & 0x7ff);
+    if (ex == 0x7ff) { /* as repr: "nan" whatever its sign, "inf", "-inf" */
+        if (mant != 0) {
+            memcpy(o, "nan", 3);
+            return 3;
+        }
+        memcpy(o, "-inf" + !(bits >> 63), 4 - !(bits >> 63));
+        return 4 - !(bits >> 63);
+    }
+    if (ex == 0) {
+        if (mant != 0)
+            return 0; /* subnormal: written with an exponent */
+        memcpy(o, "-0.0" + !(bits >> 63), 4 - !(bits >> 63));
+        return 4 - !(bits >> 63);
+    }
+    const int e2 = ex - 1075 - 2;
+    if (e2 >= 0 || e2 < -75)
+        return 0;
+    const uint64_t m2 = (UINT64_C(1) << 52) | mant;
+    const int accept = (m2 & 1) == 0;
+    const uint64_t mv = 4 * m2, mp = mv + 2, mm = mv - 1 - (mant != 0 || ex <= 1);
+    const int q = (int)(((uint32_t)(-e2) * 732923u) >> 20) - (-e2 > 1);
+    const int i = -e2 - q, e10 = q + e2;
+    /* -e2 <= 75: q <= 51, i <= 24 (5^i < 2^56), the products < 2^111 */
+    const uint64_t p5 = POW5[i], mask = (UINT64_C(1) << q) - 1;
+    const unsigned __int128 pr = (unsigned __int128)mv * p5, pp = (unsigned __int128)mp * p5,
+                            pm = (unsigned __int128)mm * p5;
+    if ((pp >> q) >> 64)
+        return 0;
+    uint64_t vr = (uint64_t)(pr >> q), vp = (uint64_t)(pp >> q), vm = (uint64_t)(pm >> q);
+    int vr_tz = ((uint64_t)pr & mask) == 0, vm_tz = accept && ((uint64_t)pm & mask) == 0;
+    if (!accept && ((uint64_t)pp & mask) == 0)
+        vp--; /* the upper bound itself does not read back as x */
+    int removed = 0;
+    unsigned last = 0;
+    uint64_t out;
+    if (vm_tz || vr_tz) {
+        for (;;) {
+            uint64_t vp10 = vp / 10, vm10 = vm / 10;
+            if (vp10 <= vm10)
+                break;
+            unsigned vm_mod = (unsigned)(vm - 10 * vm10);
+            uint64_t vr10 = vr / 10;
+            unsigned vr_mod = (unsigned)(vr - 10 * vr10);
+            vm_tz &= vm_mod == 0;
+            vr_tz &= last == 0;
+            last = vr_mod;
+            vr = vr10;
+            vp = vp10;
+            vm = vm10;
+            removed++;
+        }
+        if (vm_tz) {
+            for (;;) {
+                uint64_t vm10 = vm / 10;
+                unsigned vm_mod = (unsigned)(vm - 10 * vm10);
+                if (vm_mod != 0)
+                    break;
+                uint64_t vr10 = vr / 10;
+                unsigned vr_mod = (unsigned)(vr - 10 * vr10);
+                vr_tz &= last == 0;
+                last = vr_mod;
+                vr = vr10;
+                vp /= 10;
+                vm = vm10;
+                removed++;
+            }
+        }
+        if (vr_tz && last == 5 && vr % 2 == 0)
+            last = 4; /* exactly half way: to the even digit */
+        out = vr + ((vr == vm && (!accept || !vm_tz)) || last >= 5);
+    } else {
+        int up = 0;
+        uint64_t vp100 = vp / 100, vm100 = vm / 100;
+        if (vp100 > vm100) {
+            uint64_t vr100 = vr / 100;
+            up = vr - 100 * vr100 >= 50;
+            vr = vr100;
+            vp = vp100;
+            vm = vm100;
+            removed += 2;
+        }
+        for (;;) {
+            uint64_t vp10 = vp / 10, vm10 = vm / 10;
+            if (vp10 <= vm10)
+                break;
+            uint64_t vr10 = vr / 10;
+            up = vr - 10 * vr10 >= 5;
+            vr = vr10;
+            vp = vp10;
+            vm = vm10;
+            removed++;
+        }
+        out = vr + (vr == vm || up);
+    }
+    const int n = dec_len(out), decpt = n + e10 + removed;
+    if (decpt < -3 || decpt > 16)
+        return 0;
+    /* the n digits into d[0..n), 8 at a time in 32 bits (n <= 20), then d is copied whole
+     * (fixed sizes, within the caller's 48 bytes) */
+    char d[48], *e = d + n;
+    while (out >= 100000000) {
+        uint32_t lo = (uint32_t)(out % 100000000), a = lo / 10000, b = lo % 10000;
+        out /= 100000000;
+        memcpy(e - 8, DIGITS2 + 2 * (a / 100), 2);
+        memcpy(e - 6, DIGITS2 + 2 * (a % 100), 2);
+        memcpy(e - 4, DIGITS2 + 2 * (b / 100), 2);
+        memcpy(e - 2, DIGITS2 + 2 * (b % 100), 2);
+        e -= 8;
+    }
+    uint32_t w = (uint32_t)out;
+    while (w >= 100) {
+        e -= 2;
+        memcpy(e, DIGITS2 + 2 * (w % 100), 2);
+        w /= 100;
+    }
+    if (w >= 10) {
+        e -= 2;
+        memcpy(e, DIGITS2 + 2 * w, 2);
+    } else {
+        *--e = (char)('0' + w);
+    }
+    char *p = o;
+    *p = '-';
+    p += bits >> 63;
+    if (decpt <= 0) { /* "0." + -decpt zeros (<= 3) + the digits */
+        memcpy(p, "0.000", 5);
+        p += 2 - decpt;
+        memcpy(p, d, 20);
+        p += n;
+    } else if (decpt < n) { /* the digits with the point after decpt of them */
+        memcpy(p, d, 20);
+        p[decpt] = '.';
+        memcpy(p + decpt + 1, d + decpt, 20);
+        p += n + 1;
+    } else { /* the digits, decpt - n zeros (decpt <= 16), ".0" */
+        memcpy(p, d, 20);
+        memcpy(p + n, "0000000000000000", 16);
+        p += decpt;
+        memcpy(p, ".0", 2);
+        p += 2;
+    }
+    return (int)(p - o);
+}
+
+/* 1: short_repr wrote every probe as repr does, 0: it did not (repr's routine for every
+ * float), -1: not checked yet. */
+static int short_state = -1;
+
+/* Does short_repr write what PyOS_double_to_string (repr) writes, on boundaries, ties and 128
+ * pseudo-random floats of the positional range? Checked once, at the first cycle_text. */
+static int short_ok(void)
+{
+    if (short_state >= 0)
+        return short_state;
+    static const double edges[] = {
+        0.0, -0.0, 1.0, -1.0, 0.1, 0.2, 0.3, 2.5, 100.0, 1e-4, -1e-4, 0.00010000000000000002,
+        9999999999999998.0, 1e15, 123.0, 52.84232512345678, 4.531599494383838, -31615.4,
+        5857300.165, 101065508335255.125, 101065508335255.375, -101065508335255.625,
+        123456789012345.875, 4503599627370496.5, 9007199254740991.0, 0.5, 0.25, 0.125,
+        1.0 / 3.0, 2.0 / 3.0, 123456789.123, 1e-3, 1e16, 1e-5, 5e-324, NAN, INFINITY, -INFINITY};
+    int ok = 1;
+    uint64_t s = UINT64_C(0x9E3779B97F4A7C15);
+    for (int k = 0; ok && k < (int)(sizeof edges / sizeof edges[0]) + 128; k++) {
+        double x;
+        if (k < (int)(sizeof edges / sizeof edges[0])) {
+            x = edges[k];
+        } else { /* xorshift64: sign, exponent of 1e-4 .. 1e16, random mantissa */
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            uint64_t bits = (s & ((UINT64_C(1) << 52) - 1)) |
+                            ((uint64_t)(1010 + (s >> 52) % 67) << 52) | (s & (UINT64_C(1) << 63));
+            memcpy(&x, &bits, sizeof x);
+        }
+        char t[48];
+        int n = short_repr(x, t);
+        if (n == 0)
+            continue;
+        char *r = PyOS_double_to_string(x, 'r', 0, Py_DTSF_ADD_DOT_0, NULL);
+        if (r == NULL) {
+            PyErr_Clear();
+            ok = 0;
+            break;
+        }
+        ok = (size_t)n == strlen(r) && memcmp(t, r, (size_t)n) == 0;
+        PyMem_Free(r);
+    }
+    return short_state = ok;
+}
+
+/* repr(x): short_repr where it writes x, else repr's own routine. */
+static int buf_put_float(buf_t *b, double x)
+{
+    if (buf_reserve(b, 48) < 0)
+        return -1;
+    int n = short_state == 1 ? short_repr(x, b->p + b->n) : 0;
+    if (n == 0)
+        return buf_put_repr(b, x);
+    b->n += n;
+    return 0;
 }
 
 /* Classes of a byte in a number of dumps' text: 0 a digit or '-', 1 the point, 2 anything
@@ -368,7 +629,7 @@ static PyObject *dump_floats(PyObject *rows, Py_ssize_t nf, PyObject *dumps, spa
 /* Write every row; the k-th exact float from span k of `dumped` where that is a plain
  * positional number, else by repr. 0, -1 (error) or FALLBACK. */
 static int write_rows(buf_t *b, PyObject *rows, PyObject *dumped, const span_t *spans,
-                      PyObject *format_text, PyObject *format_value)
+                      PyObject *format_text, PyObject *format_value, int own_floats)
 {
     const char *t = dumped != NULL ? PyBytes_AS_STRING(dumped) : NULL;
     Py_ssize_t k = 0;
@@ -389,6 +650,8 @@ static int write_rows(buf_t *b, PyObject *rows, PyObject *dumped, const span_t *
             if (PyFloat_CheckExact(v)) {
                 if (t != NULL && plain_float_text(t + spans[k].at, spans[k].len))
                     rc = buf_put(b, t + spans[k].at, spans[k].len);
+                else if (own_floats)
+                    rc = buf_put_float(b, PyFloat_AS_DOUBLE(v));
                 else
                     rc = buf_put_repr(b, PyFloat_AS_DOUBLE(v));
                 k++;
@@ -405,7 +668,7 @@ static int write_rows(buf_t *b, PyObject *rows, PyObject *dumped, const span_t *
 /* The text of `rows` (a list), or None (a new reference to it) where the Python must write
  * them; NULL with an error set on an error. */
 static PyObject *render_list(PyObject *rows, PyObject *dumps, PyObject *format_text,
-                             PyObject *format_value)
+                             PyObject *format_value, int own_floats)
 {
     Py_ssize_t nf = 0;
     if (check_rows(rows, &nf) == FALLBACK)
@@ -417,7 +680,7 @@ static PyObject *render_list(PyObject *rows, PyObject *dumps, PyObject *format_t
     buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
     int rc = 0;
 
-    if (dumps != Py_None && nf > 0) {
+    if (dumps != Py_None && nf > 0 && !own_floats) {
         if (nf > STACK_FLOATS) {
             spans = PyMem_Malloc((size_t)nf * sizeof(span_t));
             if (spans == NULL)
@@ -427,7 +690,8 @@ static PyObject *render_list(PyObject *rows, PyObject *dumps, PyObject *format_t
         if (dumped == NULL && PyErr_Occurred())
             goto done;
     }
-    rc = write_rows(&b, rows, dumped, spans, format_text, format_value);
+    rc = write_rows(&b, rows, dumped, spans, format_text, format_value,
+                    own_floats && dumps != Py_None && short_ok());
     if (rc == -1)
         goto done;
     if (rc == FALLBACK) {
@@ -459,7 +723,7 @@ static PyObject *render_rows(PyObject *self, PyObject *const *args, Py_ssize_t n
     }
     if (!PyList_CheckExact(args[0]))
         Py_RETURN_NONE;
-    return render_list(args[0], args[1], args[2], args[3]);
+    return render_list(args[0], args[1], args[2], args[3], 0);
 }
 
 /* ------------------------------------------------------------------------- cycle_rows */
@@ -671,7 +935,23 @@ static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
         p->n++;
         p->variant |= 1;
     }
-    if (cov != Py_None) {
+    np_fields_t *fc = cov != Py_None ? np_direct(cov, 2) : NULL;
+    if (fc != NULL && fc->dimensions[0] == 2 && fc->dimensions[1] == 2) {
+        /* (cxx, cxy), (cyx, cyy) = cov.tolist(), read from the array */
+        double c[4];
+        for (int k = 0; k < 4; k++)
+            c[k] = *(const double *)(fc->data + (k >> 1) * fc->strides[0] +
+                                     (k & 1) * fc->strides[1]);
+        if (isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2]) && isfinite(c[3])) {
+            static const int use[3] = {0, 1, 3};
+            for (int k = 0; k < 3; k++) {
+                if ((p->v[p->n] = PyFloat_FromDouble(c[use[k]])) == NULL)
+                    goto fail_both;
+                p->n++;
+            }
+            p->variant |= 2;
+        }
+    } else if (cov != Py_None) {
         PyObject *l = PyObject_CallMethodNoArgs(cov, ATTR[A_TOLIST]);
         if (l == NULL)
             goto fail_both;
@@ -713,6 +993,21 @@ fail:
 /* sep.join(str(x) for x in items) (the items of a tuple or list). */
 static PyObject *join_str(PyObject *sep, PyObject *items)
 {
+    if (PyTuple_CheckExact(items) && PyUnicode_GET_LENGTH(sep) == 0 &&
+        PyTuple_GET_SIZE(items) <= 64) { /* the sensors' status codes: str(i) of 0..9 */
+        Py_ssize_t n = PyTuple_GET_SIZE(items);
+        char s[64];
+        int ok = 1;
+        for (Py_ssize_t i = 0; ok && i < n; i++) {
+            PyObject *v = PyTuple_GET_ITEM(items, i);
+            long d = PyLong_CheckExact(v) ? PyLong_AsLong(v) : -1;
+            ok = d >= 0 && d <= 9;
+            s[i] = (char)('0' + d);
+        }
+        PyErr_Clear();
+        if (ok)
+            return PyUnicode_FromStringAndSize(s, n);
+    }
     PyObject *seq = PySequence_Fast(items, "not a sequence");
     if (seq == NULL)
         return NULL;
@@ -743,20 +1038,59 @@ static PyObject *utc_text(PyObject *t, PyObject *py_utc_text)
 {
     if (PyDateTimeAPI != NULL && PyDateTime_CheckExact(t)) {
         int y = PyDateTime_GET_YEAR(t);
-        if (y >= 1000 && y <= 9999) {
-            char s[32];
-            int n = snprintf(s, sizeof s, "%04d-%02d-%02dT%02d:%02d:%02dZ", y,
-                             PyDateTime_GET_MONTH(t), PyDateTime_GET_DAY(t),
-                             PyDateTime_DATE_GET_HOUR(t), PyDateTime_DATE_GET_MINUTE(t),
-                             PyDateTime_DATE_GET_SECOND(t));
-            return PyUnicode_FromStringAndSize(s, n);
+        if (y >= 1000 && y <= 9999) { /* "%04d-%02d-%02dT%02d:%02d:%02dZ", written out */
+            const int f[5] = {PyDateTime_GET_MONTH(t), PyDateTime_GET_DAY(t),
+                              PyDateTime_DATE_GET_HOUR(t), PyDateTime_DATE_GET_MINUTE(t),
+                              PyDateTime_DATE_GET_SECOND(t)};
+            static const char sep[5] = {'-', '-', 'T', ':', ':'};
+            PyObject *u = PyUnicode_New(20, 127);
+            if (u == NULL)
+                return NULL;
+            char *s = (char *)PyUnicode_DATA(u);
+            memcpy(s, DIGITS2 + 2 * (y / 100), 2);
+            memcpy(s + 2, DIGITS2 + 2 * (y % 100), 2);
+            for (int k = 0; k < 5; k++) { /* each 0..99 (a datetime's own ranges) */
+                s[4 + 3 * k] = sep[k];
+                memcpy(s + 5 + 3 * k, DIGITS2 + 2 * f[k], 2);
+            }
+            s[19] = 'Z';
+            return u;
         }
     }
     return PyObject_CallOneArg(py_utc_text, t);
 }
 
 /* ",".join(map("{:.3f}".format, values.tolist())) of the TEST line. */
+static PyObject *ls_text_slow(PyObject *ls_t);
+
 static PyObject *ls_text(PyObject *ls_t)
+{
+    np_fields_t *f = np_direct(ls_t, 1);
+    if (f == NULL)
+        return ls_text_slow(ls_t);
+    Py_ssize_t n = f->dimensions[0], st = f->strides[0];
+    char stack_buf[512];
+    buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
+    PyObject *r = NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        char *c = PyOS_double_to_string(*(const double *)(f->data + i * st), 'f', 3, 0, NULL);
+        if (c == NULL)
+            goto done;
+        int rc = (i > 0 ? buf_putc(&b, ',') : 0) < 0 ? -1 : buf_put(&b, c, (Py_ssize_t)strlen(c));
+        PyMem_Free(c);
+        if (rc < 0)
+            goto done;
+    }
+    if ((r = PyUnicode_New(b.n, 127)) != NULL)
+        memcpy(PyUnicode_DATA(r), b.p, (size_t)b.n);
+done:
+    if (b.heap)
+        PyMem_Free(b.p);
+    return r;
+}
+
+/* ls_text by the array's tolist (an array np_direct does not read). */
+static PyObject *ls_text_slow(PyObject *ls_t)
 {
     PyObject *l = PyObject_CallMethodNoArgs(ls_t, ATTR[A_TOLIST]);
     if (l == NULL)
@@ -820,7 +1154,41 @@ static PyObject *head_list(PyObject *x, PyObject *n_nav)
 static PyObject *kf_values(PyObject *fs, PyObject *n_nav)
 {
     PyObject *x = NULL, *xl = NULL, *P = NULL, *d = NULL, *dl = NULL, *t = NULL;
-    if ((x = GET(fs, A_X)) == NULL || (xl = head_list(x, n_nav)) == NULL)
+    if ((x = GET(fs, A_X)) == NULL)
+        goto done;
+    Py_ssize_t nn = PyLong_CheckExact(n_nav) ? PyLong_AsSsize_t(n_nav) : -1;
+    if (nn == -1 && PyErr_Occurred())
+        goto done;
+    np_fields_t *fx = nn >= 0 ? np_direct(x, 1) : NULL, *fp = NULL;
+    if (fx != NULL) {
+        if ((P = GET(fs, A_P)) == NULL)
+            goto done;
+        fp = np_direct(P, 2);
+    }
+    if (fp != NULL) { /* x[:n].tolist() and P.diagonal()[:n].tolist() read from the arrays */
+        Py_ssize_t nx = fx->dimensions[0] < nn ? fx->dimensions[0] : nn;
+        Py_ssize_t nd = fp->dimensions[0] < fp->dimensions[1] ? fp->dimensions[0]
+                                                               : fp->dimensions[1];
+        nd = nd < nn ? nd : nn;
+        Py_ssize_t sx = fx->strides[0], sd = fp->strides[0] + fp->strides[1];
+        if ((t = PyTuple_New(nx + nd)) == NULL)
+            goto done;
+        for (Py_ssize_t i = 0; i < nx + nd; i++) {
+            double v = i < nx ? *(const double *)(fx->data + i * sx)
+                              : *(const double *)(fp->data + (i - nx) * sd);
+            if (i >= nx) /* records: sqrt(v) if v > 0.0 else (v if v != v else 0.0) */
+                v = v > 0.0 ? sqrt(v) : (v != v ? v : 0.0);
+            PyObject *o = PyFloat_FromDouble(v);
+            if (o == NULL) {
+                Py_CLEAR(t);
+                goto done;
+            }
+            PyTuple_SET_ITEM(t, i, o);
+        }
+        goto done;
+    }
+    Py_CLEAR(P);
+    if ((xl = head_list(x, n_nav)) == NULL)
         goto done;
     if ((P = GET(fs, A_P)) == NULL ||
         (d = PyObject_CallMethodNoArgs(P, ATTR[A_DIAGONAL])) == NULL ||
@@ -936,6 +1304,8 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
 {
     if (!PyTuple_CheckExact(consts) || PyTuple_GET_SIZE(consts) != C_COUNT)
         return decline();
+    if (np_layout < 0 && np_ready() < 0) /* numpy's arrays read directly once checked */
+        return NULL;
     PyObject *const *c = &PyTuple_GET_ITEM(consts, 0);
     PyObject *rows = PyList_New(0), *mpp = NULL, *s = NULL, *o = NULL, *v = NULL,
              *n_obj = NULL;
@@ -1270,7 +1640,7 @@ static PyObject *cycle_text(PyObject *self, PyObject *const *args, Py_ssize_t na
     PyObject *rows = build_cycle_rows(args[0], args[1]);
     if (rows == NULL)
         return declined();
-    PyObject *text = render_list(rows, args[2], args[3], args[4]);
+    PyObject *text = render_list(rows, args[2], args[3], args[4], 1);
     Py_DECREF(rows);
     return text;
 }
@@ -1288,6 +1658,23 @@ static PyObject *float_repr(PyObject *self, PyObject *arg)
     PyObject *r = PyUnicode_FromString(s);
     PyMem_Free(s);
     return r;
+}
+
+static PyObject *short_checked(PyObject *self, PyObject *unused)
+{
+    return PyBool_FromLong(short_ok());
+}
+
+static PyObject *short_float(PyObject *self, PyObject *arg)
+{
+    double x = PyFloat_AsDouble(arg);
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    char s[48];
+    int n = short_repr(x, s);
+    if (n == 0)
+        Py_RETURN_NONE;
+    return PyUnicode_FromStringAndSize(s, n);
 }
 
 static PyObject *text_form(PyObject *self, PyObject *arg)
@@ -1331,6 +1718,11 @@ static PyMethodDef methods[] = {
      "call; None where the Python must build or write it."},
     {"float_repr", float_repr, METH_O,
      "float_repr(x) -> repr(float(x)) by PyOS_double_to_string('r', Py_DTSF_ADD_DOT_0)."},
+    {"short_checked", short_checked, METH_NOARGS,
+     "short_checked() -> bool: short_float wrote its probes as repr (then cycle_text uses it)."},
+    {"short_float", short_float, METH_O,
+     "short_float(x) -> repr(float(x)) by the kernel's own shortest digits, or None where it\n"
+     "leaves x to repr's routine (subnormals, the exponent forms)."},
     {"text_form", text_form, METH_O,
      "text_form(word) -> outlog._format_text(word) where decided in C, else None."},
     {NULL, NULL, 0, NULL},
@@ -1346,6 +1738,7 @@ static struct PyModuleDef module = {
 PyMODINIT_FUNC PyInit_outfmt(void)
 {
     init_classes();
+    init_pow5();
     if (init_cycle_names() < 0)
         return NULL;
     PyDateTime_IMPORT; /* NULL (error cleared): the time stamp by the Python function */
