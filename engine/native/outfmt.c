@@ -36,6 +36,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
+#include <structmember.h>
 #include "uvn_numpy.h"
 #include <math.h>
 #include <stdint.h>
@@ -629,7 +630,7 @@ static PyObject *dump_floats(PyObject *rows, Py_ssize_t nf, PyObject *dumps, spa
 /* Write every row; the k-th exact float from span k of `dumped` where that is a plain
  * positional number, else by repr. 0, -1 (error) or FALLBACK. */
 static int write_rows(buf_t *b, PyObject *rows, PyObject *dumped, const span_t *spans,
-                      PyObject *format_text, PyObject *format_value, int own_floats)
+                      PyObject *format_text, PyObject *format_value)
 {
     const char *t = dumped != NULL ? PyBytes_AS_STRING(dumped) : NULL;
     Py_ssize_t k = 0;
@@ -650,8 +651,6 @@ static int write_rows(buf_t *b, PyObject *rows, PyObject *dumped, const span_t *
             if (PyFloat_CheckExact(v)) {
                 if (t != NULL && plain_float_text(t + spans[k].at, spans[k].len))
                     rc = buf_put(b, t + spans[k].at, spans[k].len);
-                else if (own_floats)
-                    rc = buf_put_float(b, PyFloat_AS_DOUBLE(v));
                 else
                     rc = buf_put_repr(b, PyFloat_AS_DOUBLE(v));
                 k++;
@@ -668,7 +667,7 @@ static int write_rows(buf_t *b, PyObject *rows, PyObject *dumped, const span_t *
 /* The text of `rows` (a list), or None (a new reference to it) where the Python must write
  * them; NULL with an error set on an error. */
 static PyObject *render_list(PyObject *rows, PyObject *dumps, PyObject *format_text,
-                             PyObject *format_value, int own_floats)
+                             PyObject *format_value)
 {
     Py_ssize_t nf = 0;
     if (check_rows(rows, &nf) == FALLBACK)
@@ -680,7 +679,7 @@ static PyObject *render_list(PyObject *rows, PyObject *dumps, PyObject *format_t
     buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
     int rc = 0;
 
-    if (dumps != Py_None && nf > 0 && !own_floats) {
+    if (dumps != Py_None && nf > 0) {
         if (nf > STACK_FLOATS) {
             spans = PyMem_Malloc((size_t)nf * sizeof(span_t));
             if (spans == NULL)
@@ -690,8 +689,7 @@ static PyObject *render_list(PyObject *rows, PyObject *dumps, PyObject *format_t
         if (dumped == NULL && PyErr_Occurred())
             goto done;
     }
-    rc = write_rows(&b, rows, dumped, spans, format_text, format_value,
-                    own_floats && dumps != Py_None && short_ok());
+    rc = write_rows(&b, rows, dumped, spans, format_text, format_value);
     if (rc == -1)
         goto done;
     if (rc == FALLBACK) {
@@ -723,7 +721,7 @@ static PyObject *render_rows(PyObject *self, PyObject *const *args, Py_ssize_t n
     }
     if (!PyList_CheckExact(args[0]))
         Py_RETURN_NONE;
-    return render_list(args[0], args[1], args[2], args[3], 0);
+    return render_list(args[0], args[1], args[2], args[3]);
 }
 
 /* ------------------------------------------------------------------------- cycle_rows */
@@ -833,31 +831,217 @@ static void *decline(void)
     return NULL;
 }
 
-#define GET(o, a) PyObject_GetAttr((o), ATTR[a])
+/* Attribute reads of __slots__ members without the generic lookup: per attribute name, the
+ * last two (type, version tag) pairs it was read from, with the member's offset when the
+ * name is a plain object slot there (a dataclass with slots=True: PositionEstimate, LopRow,
+ * SensorValues, GpsInput, GpsWeight), else -1 (read by PyObject_GetAttr). The version tag
+ * changes with any change of the type or its bases, so a hit means PyObject_GetAttr would
+ * find the same member descriptor (a data descriptor, ahead of any instance dict) and
+ * read that slot: the same object. An empty slot (AttributeError) goes to PyObject_GetAttr. */
+typedef struct {
+    PyTypeObject *type;
+    unsigned int version;
+    Py_ssize_t offset;
+} slot_t;
 
-/* Append the row (prefix, keys, values) to rows; steals `values`. 0 or -1. */
-static int add_row(PyObject *rows, PyObject *prefix, PyObject *keys, PyObject *values)
+static slot_t ATTR_SLOT[A_COUNT][2], SENS_SLOT[N_SENS][2], GPS_SLOT[N_GPS][2],
+    OBS_SLOT[N_OBS][2], LOP_SLOT[N_LOP][2];
+
+static int version_valid(PyTypeObject *t)
+{
+#ifdef Py_TPFLAGS_VALID_VERSION_TAG
+    if (!(t->tp_flags & Py_TPFLAGS_VALID_VERSION_TAG))
+        return 0;
+#endif
+    return t->tp_version_tag != 0;
+}
+
+/* Remember how `name` reads on type t (after a successful PyObject_GetAttr). */
+static void slot_learn(PyTypeObject *t, PyObject *name, slot_t *c)
+{
+    if (!version_valid(t))
+        return;
+    Py_ssize_t offset = -1;
+    if (t->tp_getattro == PyObject_GenericGetAttr) {
+        PyObject *d = _PyType_Lookup(t, name); /* borrowed; no error set */
+        if (d != NULL && Py_IS_TYPE(d, &PyMemberDescr_Type)) {
+            PyMemberDef *m = ((PyMemberDescrObject *)d)->d_member;
+            if (m->type == T_OBJECT_EX && !(m->flags & READ_RESTRICTED))
+                offset = m->offset;
+        }
+    }
+    c[1] = c[0];
+    c[0].type = t;
+    c[0].version = t->tp_version_tag;
+    c[0].offset = offset;
+}
+
+static inline PyObject *get_attr(PyObject *o, PyObject *name, slot_t *c)
+{
+    PyTypeObject *t = Py_TYPE(o);
+    for (int k = 0; k < 2; k++) {
+        if (c[k].type == t && c[k].version == t->tp_version_tag && version_valid(t)) {
+            if (c[k].offset >= 0) {
+                PyObject *v = *(PyObject **)((char *)o + c[k].offset);
+                if (v != NULL)
+                    return Py_NewRef(v);
+            }
+            return PyObject_GetAttr(o, name);
+        }
+    }
+    PyObject *v = PyObject_GetAttr(o, name);
+    if (v != NULL)
+        slot_learn(t, name, c);
+    return v;
+}
+
+#define GET(o, a) get_attr((o), ATTR[a], ATTR_SLOT[a])
+
+/* Where build_cycle_rows puts its rows: appended to `list` (cycle_rows), or written at once
+ * into `b` as render_rows would write them (cycle_text: no row objects, no second pass). */
+typedef struct {
+    PyObject *list;
+    buf_t *b;
+    PyObject *format_text, *format_value;
+    int short_floats; /* floats by short_repr (else repr's routine) */
+} sink_t;
+
+/* " key=" of each key of a key tuple, built once per tuple (the key tuples of records'
+ * _CYCLE_CONSTS, held here for the module's life, so a tuple's address stays its own). */
+typedef struct {
+    PyObject *keys;
+    Py_ssize_t n;
+    char *text;
+    Py_ssize_t *end; /* key i is text[end[i - 1] (0 for i = 0) .. end[i]) */
+    int ascii;
+} keytext_t;
+
+#define N_KEYTEXT 128
+static keytext_t KEYTEXT[N_KEYTEXT];
+
+/* The cached key texts of `keys` (an exact tuple), or NULL: a key is not an exact str or not
+ * UTF-8 (the row is then written key by key, and declined where render_rows would), or the
+ * table is full. */
+static keytext_t *key_text(PyObject *keys)
+{
+    size_t h = ((uintptr_t)keys >> 4) % N_KEYTEXT;
+    for (int probe = 0; probe < N_KEYTEXT; probe++, h = (h + 1) % N_KEYTEXT) {
+        keytext_t *e = &KEYTEXT[h];
+        if (e->keys == keys)
+            return e;
+        if (e->keys != NULL)
+            continue;
+        Py_ssize_t n = PyTuple_GET_SIZE(keys), len = 0;
+        for (Py_ssize_t i = 0; i < n; i++) {
+            PyObject *k = PyTuple_GET_ITEM(keys, i);
+            if (!PyUnicode_CheckExact(k) || PyUnicode_AsUTF8AndSize(k, NULL) == NULL) {
+                PyErr_Clear();
+                return NULL;
+            }
+            len += PyUnicode_GET_LENGTH(k) * 4 + 2;
+        }
+        char *text = PyMem_Malloc((size_t)len + 1);
+        Py_ssize_t *end = PyMem_Malloc(sizeof(Py_ssize_t) * (size_t)(n + 1));
+        if (text == NULL || end == NULL) {
+            PyMem_Free(text);
+            PyMem_Free(end);
+            return NULL;
+        }
+        Py_ssize_t at = 0;
+        int ascii = 1;
+        for (Py_ssize_t i = 0; i < n; i++) {
+            PyObject *k = PyTuple_GET_ITEM(keys, i);
+            Py_ssize_t m;
+            const char *u = PyUnicode_AsUTF8AndSize(k, &m);
+            ascii &= PyUnicode_IS_ASCII(k) != 0;
+            text[at++] = ' ';
+            memcpy(text + at, u, (size_t)m);
+            at += m;
+            text[at++] = '=';
+            end[i] = at;
+        }
+        e->keys = Py_NewRef(keys);
+        e->n = n;
+        e->text = text;
+        e->end = end;
+        e->ascii = ascii;
+        return e;
+    }
+    return NULL;
+}
+
+/* Write the row (prefix, keys, values) as write_rows does. 0, -1 (error) or FALLBACK. */
+static int write_row(sink_t *s, PyObject *prefix, PyObject *keys, PyObject *values)
+{
+    buf_t *b = s->b;
+    if (!PyUnicode_CheckExact(prefix) || !PyTuple_CheckExact(keys) ||
+        !PyTuple_CheckExact(values) || PyTuple_GET_SIZE(keys) != PyTuple_GET_SIZE(values))
+        return FALLBACK;
+    keytext_t *kt = key_text(keys);
+    int rc = buf_put_str(b, prefix);
+    if (rc)
+        return rc;
+    if (kt != NULL && !kt->ascii)
+        b->ascii = 0;
+    for (Py_ssize_t i = 0, n = PyTuple_GET_SIZE(keys); i < n; i++) {
+        PyObject *v = PyTuple_GET_ITEM(values, i);
+        if (kt != NULL) {
+            Py_ssize_t at = i > 0 ? kt->end[i - 1] : 0;
+            rc = buf_put(b, kt->text + at, kt->end[i] - at);
+        } else {
+            PyObject *k = PyTuple_GET_ITEM(keys, i);
+            if (!PyUnicode_CheckExact(k))
+                return FALLBACK;
+            rc = buf_putc(b, ' ');
+            if (rc == 0)
+                rc = buf_put_str(b, k);
+            if (rc == 0)
+                rc = buf_putc(b, '=');
+        }
+        if (rc)
+            return rc;
+        if (PyFloat_CheckExact(v))
+            rc = s->short_floats ? buf_put_float(b, PyFloat_AS_DOUBLE(v))
+                                 : buf_put_repr(b, PyFloat_AS_DOUBLE(v));
+        else
+            rc = buf_put_value(b, v, s->format_text, s->format_value);
+        if (rc)
+            return rc;
+    }
+    return 0;
+}
+
+/* Append the row (prefix, keys, values) to the sink; steals `values`. 0 or -1 (an error set;
+ * a row render_rows would leave to the Python: declined). */
+static int add_row(sink_t *rows, PyObject *prefix, PyObject *keys, PyObject *values)
 {
     if (values == NULL)
         return -1;
+    if (rows->list == NULL) {
+        int rc = write_row(rows, prefix, keys, values);
+        Py_DECREF(values);
+        if (rc == FALLBACK)
+            decline();
+        return rc == 0 ? 0 : -1;
+    }
     PyObject *row = PyTuple_Pack(3, prefix, keys, values);
     Py_DECREF(values);
     if (row == NULL)
         return -1;
-    int rc = PyList_Append(rows, row);
+    int rc = PyList_Append(rows->list, row);
     Py_DECREF(row);
     return rc;
 }
 
 /* A tuple of n + extra items: the attributes `names` of `o`, then `extra` empty slots. */
-static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, Py_ssize_t n,
-                             Py_ssize_t extra)
+static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, slot_t (*slots)[2],
+                             Py_ssize_t n, Py_ssize_t extra)
 {
     PyObject *t = PyTuple_New(n + extra);
     if (t == NULL)
         return NULL;
     for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *v = PyObject_GetAttr(o, names[i]);
+        PyObject *v = get_attr(o, names[i], slots[i]);
         if (v == NULL) {
             Py_DECREF(t);
             return NULL;
@@ -1228,7 +1412,7 @@ done:
 }
 
 /* The TEST line of one update. */
-static int add_test(PyObject *rows, PyObject *keys, PyObject *u, PyObject *kind)
+static int add_test(sink_t *rows, PyObject *keys, PyObject *u, PyObject *kind)
 {
     static const int lom_names[5] = {A_T, A_LOWER, A_UPPER, A_DOF, A_VERDICT};
     PyObject *t = PyTuple_New(8), *lom = NULL, *ls = NULL, *ls_t = NULL, *labels = NULL;
@@ -1271,14 +1455,14 @@ fail:
 
 /* Append a row per item of the iterable `items`: (prefix, keys, attrs of the item), or with
  * names == NULL (prefix, keys, (item,)). */
-static int add_each(PyObject *rows, PyObject *items, PyObject *prefix, PyObject *keys,
-                    PyObject *const *names, Py_ssize_t n)
+static int add_each(sink_t *rows, PyObject *items, PyObject *prefix, PyObject *keys,
+                    PyObject *const *names, slot_t (*slots)[2], Py_ssize_t n)
 {
     PyObject *it = PyObject_GetIter(items), *o;
     if (it == NULL)
         return -1;
     while ((o = PyIter_Next(it)) != NULL) {
-        PyObject *v = names != NULL ? attrs_tuple(o, names, n, 0) : PyTuple_Pack(1, o);
+        PyObject *v = names != NULL ? attrs_tuple(o, names, slots, n, 0) : PyTuple_Pack(1, o);
         Py_DECREF(o);
         if (add_row(rows, prefix, keys, v) < 0) {
             Py_DECREF(it);
@@ -1300,19 +1484,19 @@ static int attr_true(PyObject *obj, int attr)
     return r;
 }
 
-static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
+static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
 {
-    if (!PyTuple_CheckExact(consts) || PyTuple_GET_SIZE(consts) != C_COUNT)
-        return decline();
+    if (!PyTuple_CheckExact(consts) || PyTuple_GET_SIZE(consts) != C_COUNT) {
+        decline();
+        return -1;
+    }
     if (np_layout < 0 && np_ready() < 0) /* numpy's arrays read directly once checked */
-        return NULL;
+        return -1;
     PyObject *const *c = &PyTuple_GET_ITEM(consts, 0);
-    PyObject *rows = PyList_New(0), *mpp = NULL, *s = NULL, *o = NULL, *v = NULL,
+    PyObject *mpp = NULL, *s = NULL, *o = NULL, *v = NULL,
              *n_obj = NULL;
     pos_t pos = {{NULL}, 0, 0};
     int rc;
-    if (rows == NULL)
-        return NULL;
     if ((mpp = GET(r, A_MPP)) == NULL)
         goto fail;
 
@@ -1355,7 +1539,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
             Py_DECREF(ref);
             goto fail;
         }
-        sens = attrs_tuple(s, SENS_ATTR, N_SENS, other ? (standin ? 3 : 1) : 0);
+        sens = attrs_tuple(s, SENS_ATTR, SENS_SLOT, N_SENS, other ? (standin ? 3 : 1) : 0);
         if (sens != NULL && other) {
             PyTuple_SET_ITEM(sens, N_SENS, Py_NewRef(ref));
             if (standin) {
@@ -1409,7 +1593,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
             Py_DECREF(w);
             goto fail;
         }
-        PyObject *g = attrs_tuple(o, GPS_ATTR, N_GPS, weighted ? 5 : 0);
+        PyObject *g = attrs_tuple(o, GPS_ATTR, GPS_SLOT, N_GPS, weighted ? 5 : 0);
         if (g != NULL && weighted) {
             static const int wn[5] = {A_HDOP, A_QUALITY, A_SATS, A_UERE_M, A_SIGMA_M};
             for (int i = 0; i < 5; i++) {
@@ -1429,7 +1613,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
 
     /* OBS */
     if ((o = GET(r, A_MANUAL)) == NULL ||
-        add_each(rows, o, STR[S_OBS], c[C_OBS_KEYS], OBS_ATTR, N_OBS) < 0)
+        add_each(rows, o, STR[S_OBS], c[C_OBS_KEYS], OBS_ATTR, OBS_SLOT, N_OBS) < 0)
         goto fail;
     Py_CLEAR(o);
 
@@ -1440,7 +1624,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
         PyObject *lops = GET(o, A_LOPS);
         if (lops == NULL)
             goto fail;
-        rc = add_each(rows, lops, STR[S_LOP], c[C_LOP_KEYS], LOP_ATTR, N_LOP);
+        rc = add_each(rows, lops, STR[S_LOP], c[C_LOP_KEYS], LOP_ATTR, LOP_SLOT, N_LOP);
         Py_DECREF(lops);
         if (rc < 0)
             goto fail;
@@ -1584,7 +1768,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
 
     /* MSG */
     if ((o = GET(r, A_MESSAGES)) == NULL ||
-        add_each(rows, o, STR[S_MSG], c[C_MSG_KEYS], NULL, 0) < 0)
+        add_each(rows, o, STR[S_MSG], c[C_MSG_KEYS], NULL, NULL, 0) < 0)
         goto fail;
     Py_CLEAR(o);
 
@@ -1595,7 +1779,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
     Py_DECREF(n_obj);
     Py_DECREF(mpp);
     Py_DECREF(s);
-    return rows;
+    return 0;
 
 fail:
     Py_XDECREF(n_obj);
@@ -1604,8 +1788,7 @@ fail:
     Py_XDECREF(o);
     Py_XDECREF(s);
     Py_XDECREF(mpp);
-    Py_DECREF(rows);
-    return NULL;
+    return -1;
 }
 
 /* NULL with an Exception set -> None (the Python builds the block and meets the error
@@ -1625,8 +1808,14 @@ static PyObject *cycle_rows(PyObject *self, PyObject *const *args, Py_ssize_t na
         PyErr_SetString(PyExc_TypeError, "cycle_rows(r, consts) takes 2 arguments");
         return NULL;
     }
-    PyObject *rows = build_cycle_rows(args[0], args[1]);
-    return rows != NULL ? rows : declined();
+    sink_t sink = {PyList_New(0), NULL, NULL, NULL, 0};
+    if (sink.list == NULL)
+        return NULL;
+    if (build_cycle_rows(&sink, args[0], args[1]) < 0) {
+        Py_DECREF(sink.list);
+        return declined();
+    }
+    return sink.list;
 }
 
 static PyObject *cycle_text(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -1637,11 +1826,18 @@ static PyObject *cycle_text(PyObject *self, PyObject *const *args, Py_ssize_t na
                         "arguments");
         return NULL;
     }
-    PyObject *rows = build_cycle_rows(args[0], args[1]);
-    if (rows == NULL)
-        return declined();
-    PyObject *text = render_list(rows, args[2], args[3], args[4], 1);
-    Py_DECREF(rows);
+    char stack_buf[8192];
+    buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
+    sink_t sink = {NULL, &b, args[3], args[4], args[2] != Py_None && short_ok()};
+    PyObject *text = NULL;
+    if (build_cycle_rows(&sink, args[0], args[1]) < 0)
+        text = declined();
+    else if (b.ascii && (text = PyUnicode_New(b.n, 127)) != NULL)
+        memcpy(PyUnicode_DATA(text), b.p, (size_t)b.n);
+    else if (!b.ascii)
+        text = PyUnicode_DecodeUTF8(b.p, b.n, "strict");
+    if (b.heap)
+        PyMem_Free(b.p);
     return text;
 }
 
