@@ -332,12 +332,60 @@ static int short_repr(double x, char *o)
     return (int)(p - o);
 }
 
+/* format(x, ".3f") (PyOS_double_to_string(x, 'f', 3, 0): dtoa's correctly rounded digits,
+ * ties to even) for finite |x| < 2^53, on exact integers: x = m 2^e, r = m 1000 2^e rounded
+ * half to even (m 1000 < 2^63), written as r / 1000 "." r % 1000 with x's sign ("-0.000"
+ * too). 0 for nan, inf and |x| >= 2^53 (repr's routine writes those). o: 32 bytes. */
+static int fixed3(double x, char *o)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    const uint64_t mant = bits & ((UINT64_C(1) << 52) - 1);
+    const int ex = (int)((bits >> 52) & 0x7ff);
+    if (ex == 0x7ff)
+        return 0;
+    const uint64_t m = ex == 0 ? mant : mant | (UINT64_C(1) << 52);
+    const int e = ex == 0 ? -1074 : ex - 1075;
+    if (e > 0)
+        return 0;
+    const uint64_t p = m * 1000;
+    uint64_t r;
+    if (e == 0) {
+        r = p;
+    } else if (-e >= 64) {
+        r = 0; /* p < 2^63 <= half of 2^-e: below one half */
+    } else {
+        const int k = -e;
+        const uint64_t rem = p & ((UINT64_C(1) << k) - 1), half = UINT64_C(1) << (k - 1);
+        r = p >> k;
+        r += rem > half || (rem == half && (r & 1));
+    }
+    char d[24], *q = d + sizeof d;
+    unsigned frac = (unsigned)(r % 1000);
+    uint64_t ip = r / 1000;
+    q -= 3;
+    q[0] = (char)('0' + frac / 100);
+    q[1] = (char)('0' + frac / 10 % 10);
+    q[2] = (char)('0' + frac % 10);
+    *--q = '.';
+    do {
+        *--q = (char)('0' + ip % 10);
+        ip /= 10;
+    } while (ip);
+    if (bits >> 63)
+        *--q = '-';
+    int n = (int)(d + sizeof d - q);
+    memcpy(o, q, (size_t)n);
+    return n;
+}
+
 /* 1: short_repr wrote every probe as repr does, 0: it did not (repr's routine for every
  * float), -1: not checked yet. */
 static int short_state = -1;
 
-/* Does short_repr write what PyOS_double_to_string (repr) writes, on boundaries, ties and 128
- * pseudo-random floats of the positional range? Checked once, at the first cycle_text. */
+/* Do short_repr and fixed3 write what PyOS_double_to_string writes (repr, format(x, ".3f")),
+ * on boundaries, ties and 128 pseudo-random floats of the positional range? Checked once, at
+ * the first cycle_text (else every float goes through PyOS_double_to_string). */
 static int short_ok(void)
 {
     if (short_state >= 0)
@@ -363,17 +411,20 @@ static int short_ok(void)
             memcpy(&x, &bits, sizeof x);
         }
         char t[48];
-        int n = short_repr(x, t);
-        if (n == 0)
-            continue;
-        char *r = PyOS_double_to_string(x, 'r', 0, Py_DTSF_ADD_DOT_0, NULL);
-        if (r == NULL) {
-            PyErr_Clear();
-            ok = 0;
-            break;
+        for (int mode = 0; ok && mode < 2; mode++) { /* repr, then format(x, ".3f") */
+            int n = mode == 0 ? short_repr(x, t) : fixed3(x, t);
+            if (n == 0)
+                continue;
+            char *r = mode == 0 ? PyOS_double_to_string(x, 'r', 0, Py_DTSF_ADD_DOT_0, NULL)
+                                : PyOS_double_to_string(x, 'f', 3, 0, NULL);
+            if (r == NULL) {
+                PyErr_Clear();
+                ok = 0;
+                break;
+            }
+            ok = (size_t)n == strlen(r) && memcmp(t, r, (size_t)n) == 0;
+            PyMem_Free(r);
         }
-        ok = (size_t)n == strlen(r) && memcmp(t, r, (size_t)n) == 0;
-        PyMem_Free(r);
     }
     return short_state = ok;
 }
@@ -1257,10 +1308,20 @@ static PyObject *ls_text(PyObject *ls_t)
     buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
     PyObject *r = NULL;
     for (Py_ssize_t i = 0; i < n; i++) {
-        char *c = PyOS_double_to_string(*(const double *)(f->data + i * st), 'f', 3, 0, NULL);
+        double x = *(const double *)(f->data + i * st);
+        if (buf_reserve(&b, 33) < 0)
+            goto done;
+        if (i > 0)
+            b.p[b.n++] = ',';
+        int k = short_state == 1 ? fixed3(x, b.p + b.n) : 0;
+        if (k > 0) {
+            b.n += k;
+            continue;
+        }
+        char *c = PyOS_double_to_string(x, 'f', 3, 0, NULL);
         if (c == NULL)
             goto done;
-        int rc = (i > 0 ? buf_putc(&b, ',') : 0) < 0 ? -1 : buf_put(&b, c, (Py_ssize_t)strlen(c));
+        int rc = buf_put(&b, c, (Py_ssize_t)strlen(c));
         PyMem_Free(c);
         if (rc < 0)
             goto done;
@@ -1861,6 +1922,18 @@ static PyObject *short_checked(PyObject *self, PyObject *unused)
     return PyBool_FromLong(short_ok());
 }
 
+static PyObject *fixed3_float(PyObject *self, PyObject *arg)
+{
+    double x = PyFloat_AsDouble(arg);
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    char s[48];
+    int n = fixed3(x, s);
+    if (n == 0)
+        Py_RETURN_NONE;
+    return PyUnicode_FromStringAndSize(s, n);
+}
+
 static PyObject *short_float(PyObject *self, PyObject *arg)
 {
     double x = PyFloat_AsDouble(arg);
@@ -1916,6 +1989,9 @@ static PyMethodDef methods[] = {
      "float_repr(x) -> repr(float(x)) by PyOS_double_to_string('r', Py_DTSF_ADD_DOT_0)."},
     {"short_checked", short_checked, METH_NOARGS,
      "short_checked() -> bool: short_float wrote its probes as repr (then cycle_text uses it)."},
+    {"fixed3_float", fixed3_float, METH_O,
+     "fixed3_float(x) -> format(float(x), '.3f') by the kernel's exact rounding, or None where\n"
+     "it leaves x to PyOS_double_to_string (nan, inf, |x| >= 2**53)."},
     {"short_float", short_float, METH_O,
      "short_float(x) -> repr(float(x)) by the kernel's own shortest digits, or None where it\n"
      "leaves x to repr's routine (subnormals, the exponent forms)."},

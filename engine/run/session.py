@@ -291,7 +291,7 @@ class Session:
             return None
         # DeltaT: process every DeltaT-th record (THEORY D43), counted from the last
         # processed one, so a new DeltaT takes effect from the next cycle.
-        delta = self.config.demo.delta_t_s
+        delta = self.context.config.demo.delta_t_s  # self.config, without the property call
         since = delta if self._since_processed is None else self._since_processed + 1
         if since < delta:
             self._since_processed = since

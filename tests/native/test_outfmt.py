@@ -175,6 +175,30 @@ def test_short_float_is_repr(x: float) -> None:
     _short_is_repr(x)
 
 
+@needs_kernel
+def test_fixed3_is_format_3f() -> None:
+    """The TEST line's LS statistics (``"{:.3f}".format``) by the kernel's exact rounding
+    (``outfmt.fixed3_float``): ties of the third decimal (exact binary halves) to even, the
+    sign of a value that rounds to 0, subnormals, the 2**53 limit."""
+    assert K is not None
+    rng = random.Random(3)
+    values: list[float] = list(EDGES + TIES)
+    values += [rng.uniform(-1.0, 1.0) * 10.0 ** rng.uniform(-6.0, 16.0) for _ in range(100_000)]
+    values += [struct.unpack("<d", struct.pack("<Q", rng.getrandbits(64)))[0]
+               for _ in range(30_000)]
+    values += [k / 2000 for k in range(-5000, 5000)]  # every x.xxx5 tie near 0
+    values += [(2 * k + 1) / 2 ** 12 for k in range(-3000, 3000)]
+    values += [n + k / 16 for n in (0, 1, 12345, 2**40) for k in range(-32, 32)]
+    values += _around(2.0 ** 53, 3) + _around(-(2.0 ** 53), 3) + _around(0.0005, 5)
+    values += [-1e-9, -0.0004, -0.0005, -0.0006, 5e-324, -5e-324]
+    for x in values:
+        got = K.fixed3_float(x)
+        if got is None:
+            assert not math.isfinite(x) or abs(x) >= 2.0 ** 53, x
+        else:
+            assert got == f"{x:.3f}", x
+
+
 ODD_WORDS = ["", "-", "1", "0", "007", "1e5", "-0.0", "nan", "NaN", "inf", "-Infinity", "1_000",
              " 1 ", "a b", 'say "hi"', "k=v", "back\\slash", "tab\there", "new\nline",
              "\x00", "\x1c", "\x7f", "\u00a0nbsp", "\u0661\u0662", "σ ≤ 3 m", "lse", "accept",
