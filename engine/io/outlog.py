@@ -585,8 +585,12 @@ class OutLogWriter:
     def write_block(self, text: str) -> None:
         """Write one complete cycle block's text (``CYCLE`` … ``END n=…`` and its newline, as
         :meth:`write_cycle` renders it: :func:`engine.run.records.cycle_text`) in a single
-        flushed write."""
-        self._write(text)
+        flushed write (:meth:`_write`, written out: once per cycle)."""
+        self._fh.write_flushed(text)
+        self._since_sync += 1
+        if self._since_sync >= self._fsync_every:
+            self._fh.fsync()
+            self._since_sync = 0
 
     def write_cycle(
         self, fields: Mapping[str, Value], lines: Sequence[tuple[str, Mapping[str, Value]]]

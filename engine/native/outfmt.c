@@ -26,11 +26,20 @@
  * cycle_rows(r, consts) / cycle_text(r, consts, dumps, format_text, format_value) build the
  * rows of a whole cycle block from the CycleResult (engine.run.records.cycle_block's twin) and
  * render them as render_rows does: the session's .OUT block in one call (section below).
+ * cycle_text does not call `dumps`: where it is given (the fast writer allowed), each float is
+ * written by short_repr, the kernel's own shortest digits (exact-integer Ryu, section "short
+ * float text"), which writes repr's text where it writes one (checked by probes at first use;
+ * else, and for the exponent forms, repr's own routine); NumPy arrays of float64 (VCVs, the KF
+ * state and P's diagonal, the LS statistics) are read from their data (uvn_numpy.h np_direct)
+ * instead of through tolist().
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
+#include <structmember.h>
+#include "uvn_numpy.h"
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #ifndef UVN_SOURCE_DIGEST
@@ -126,6 +135,310 @@ static int buf_put_repr(buf_t *b, double x)
     int rc = buf_put(b, s, (Py_ssize_t)strlen(s));
     PyMem_Free(s);
     return rc;
+}
+
+/* ------------------------------------------------------------------------- short float text */
+
+/* repr(x) of the floats that repr writes positionally (1e-4 <= |x| < 1e16, normal), by the
+ * digit search of Ryu (Ulf Adams, PLDI 2018, "Ryu: fast float-to-string conversion", step 4)
+ * on exact integers: x = mv * 2^e2 (mv = 4 m2) and its rounding interval (mm, mp) * 2^e2,
+ * scaled by 10^-e10 = 5^i * 2^(-e2-q): mv * 5^i / 2^q, which for these x is below 2^113 and
+ * is held whole in 128 bits. Ryu's shifted table products become exact floors here, and
+ * "are the cut digits all zero" is an exact remainder test, so the search is the shortest
+ * digits in the interval (bounds inside when m2 is even, as round-half-even reads back),
+ * nearest to x, ties to an even digit: what repr's dtoa (mode 0) writes. 0 for every other
+ * x (subnormals, the exponent forms): the caller uses repr's own routine. Zeros, nan and inf
+ * are written as repr writes them ("0.0", "-0.0", "nan" whatever its sign, "inf", "-inf").
+ * tests/native/test_outfmt.py compares it with repr on random bits, ties and boundaries, and
+ * short_ok() checks probes at first use (on a difference, repr's routine writes every float). */
+static uint64_t POW5[28];
+
+static void init_pow5(void)
+{
+    POW5[0] = 1;
+    for (int i = 1; i < 28; i++)
+        POW5[i] = POW5[i - 1] * 5;
+}
+
+static const uint64_t POW10[20] = {
+    UINT64_C(1), UINT64_C(10), UINT64_C(100), UINT64_C(1000), UINT64_C(10000),
+    UINT64_C(100000), UINT64_C(1000000), UINT64_C(10000000), UINT64_C(100000000),
+    UINT64_C(1000000000), UINT64_C(10000000000), UINT64_C(100000000000),
+    UINT64_C(1000000000000), UINT64_C(10000000000000), UINT64_C(100000000000000),
+    UINT64_C(1000000000000000), UINT64_C(10000000000000000), UINT64_C(100000000000000000),
+    UINT64_C(1000000000000000000), UINT64_C(10000000000000000000)};
+
+/* The number of decimal digits of v (1 for 0). */
+static inline int dec_len(uint64_t v)
+{
+    int t = ((64 - __builtin_clzll(v | 1)) * 1233) >> 12;
+    return t + (t < 20 && v >= POW10[t]);
+}
+
+static const char DIGITS2[201] =
+    "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+    "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+    "8081828384858687888990919293949596979899";
+
+/* The text of x into o (at least 48 bytes: the copies below are of fixed sizes, the text at
+ * most 23 bytes); its length, or 0 (not handled here). */
+static int short_repr(double x, char *o)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    const uint64_t mant = bits & ((UINT64_C(1) << 52) - 1);
+    const int ex = (int)((bits >> 52) & 0x7ff);
+    if (ex == 0x7ff) { /* as repr: "nan" whatever its sign, "inf", "-inf" */
+        if (mant != 0) {
+            memcpy(o, "nan", 3);
+            return 3;
+        }
+        memcpy(o, "-inf" + !(bits >> 63), 4 - !(bits >> 63));
+        return 4 - !(bits >> 63);
+    }
+    if (ex == 0) {
+        if (mant != 0)
+            return 0; /* subnormal: written with an exponent */
+        memcpy(o, "-0.0" + !(bits >> 63), 4 - !(bits >> 63));
+        return 4 - !(bits >> 63);
+    }
+    const int e2 = ex - 1075 - 2;
+    if (e2 >= 0 || e2 < -75)
+        return 0;
+    const uint64_t m2 = (UINT64_C(1) << 52) | mant;
+    const int accept = (m2 & 1) == 0;
+    const uint64_t mv = 4 * m2, mp = mv + 2, mm = mv - 1 - (mant != 0 || ex <= 1);
+    const int q = (int)(((uint32_t)(-e2) * 732923u) >> 20) - (-e2 > 1);
+    const int i = -e2 - q, e10 = q + e2;
+    /* -e2 <= 75: q <= 51, i <= 24 (5^i < 2^56), the products < 2^111 */
+    const uint64_t p5 = POW5[i], mask = (UINT64_C(1) << q) - 1;
+    const unsigned __int128 pr = (unsigned __int128)mv * p5, pp = (unsigned __int128)mp * p5,
+                            pm = (unsigned __int128)mm * p5;
+    if ((pp >> q) >> 64)
+        return 0;
+    uint64_t vr = (uint64_t)(pr >> q), vp = (uint64_t)(pp >> q), vm = (uint64_t)(pm >> q);
+    int vr_tz = ((uint64_t)pr & mask) == 0, vm_tz = accept && ((uint64_t)pm & mask) == 0;
+    if (!accept && ((uint64_t)pp & mask) == 0)
+        vp--; /* the upper bound itself does not read back as x */
+    int removed = 0;
+    unsigned last = 0;
+    uint64_t out;
+    if (vm_tz || vr_tz) {
+        for (;;) {
+            uint64_t vp10 = vp / 10, vm10 = vm / 10;
+            if (vp10 <= vm10)
+                break;
+            unsigned vm_mod = (unsigned)(vm - 10 * vm10);
+            uint64_t vr10 = vr / 10;
+            unsigned vr_mod = (unsigned)(vr - 10 * vr10);
+            vm_tz &= vm_mod == 0;
+            vr_tz &= last == 0;
+            last = vr_mod;
+            vr = vr10;
+            vp = vp10;
+            vm = vm10;
+            removed++;
+        }
+        if (vm_tz) {
+            for (;;) {
+                uint64_t vm10 = vm / 10;
+                unsigned vm_mod = (unsigned)(vm - 10 * vm10);
+                if (vm_mod != 0)
+                    break;
+                uint64_t vr10 = vr / 10;
+                unsigned vr_mod = (unsigned)(vr - 10 * vr10);
+                vr_tz &= last == 0;
+                last = vr_mod;
+                vr = vr10;
+                vp /= 10;
+                vm = vm10;
+                removed++;
+            }
+        }
+        if (vr_tz && last == 5 && vr % 2 == 0)
+            last = 4; /* exactly half way: to the even digit */
+        out = vr + ((vr == vm && (!accept || !vm_tz)) || last >= 5);
+    } else {
+        int up = 0;
+        uint64_t vp100 = vp / 100, vm100 = vm / 100;
+        if (vp100 > vm100) {
+            uint64_t vr100 = vr / 100;
+            up = vr - 100 * vr100 >= 50;
+            vr = vr100;
+            vp = vp100;
+            vm = vm100;
+            removed += 2;
+        }
+        for (;;) {
+            uint64_t vp10 = vp / 10, vm10 = vm / 10;
+            if (vp10 <= vm10)
+                break;
+            uint64_t vr10 = vr / 10;
+            up = vr - 10 * vr10 >= 5;
+            vr = vr10;
+            vp = vp10;
+            vm = vm10;
+            removed++;
+        }
+        out = vr + (vr == vm || up);
+    }
+    const int n = dec_len(out), decpt = n + e10 + removed;
+    if (decpt < -3 || decpt > 16)
+        return 0;
+    /* the n digits into d[0..n), 8 at a time in 32 bits (n <= 20), then d is copied whole
+     * (fixed sizes, within the caller's 48 bytes) */
+    char d[48], *e = d + n;
+    while (out >= 100000000) {
+        uint32_t lo = (uint32_t)(out % 100000000), a = lo / 10000, b = lo % 10000;
+        out /= 100000000;
+        memcpy(e - 8, DIGITS2 + 2 * (a / 100), 2);
+        memcpy(e - 6, DIGITS2 + 2 * (a % 100), 2);
+        memcpy(e - 4, DIGITS2 + 2 * (b / 100), 2);
+        memcpy(e - 2, DIGITS2 + 2 * (b % 100), 2);
+        e -= 8;
+    }
+    uint32_t w = (uint32_t)out;
+    while (w >= 100) {
+        e -= 2;
+        memcpy(e, DIGITS2 + 2 * (w % 100), 2);
+        w /= 100;
+    }
+    if (w >= 10) {
+        e -= 2;
+        memcpy(e, DIGITS2 + 2 * w, 2);
+    } else {
+        *--e = (char)('0' + w);
+    }
+    char *p = o;
+    *p = '-';
+    p += bits >> 63;
+    if (decpt <= 0) { /* "0." + -decpt zeros (<= 3) + the digits */
+        memcpy(p, "0.000", 5);
+        p += 2 - decpt;
+        memcpy(p, d, 20);
+        p += n;
+    } else if (decpt < n) { /* the digits with the point after decpt of them */
+        memcpy(p, d, 20);
+        p[decpt] = '.';
+        memcpy(p + decpt + 1, d + decpt, 20);
+        p += n + 1;
+    } else { /* the digits, decpt - n zeros (decpt <= 16), ".0" */
+        memcpy(p, d, 20);
+        memcpy(p + n, "0000000000000000", 16);
+        p += decpt;
+        memcpy(p, ".0", 2);
+        p += 2;
+    }
+    return (int)(p - o);
+}
+
+/* format(x, ".3f") (PyOS_double_to_string(x, 'f', 3, 0): dtoa's correctly rounded digits,
+ * ties to even) for finite |x| < 2^53, on exact integers: x = m 2^e, r = m 1000 2^e rounded
+ * half to even (m 1000 < 2^63), written as r / 1000 "." r % 1000 with x's sign ("-0.000"
+ * too). 0 for nan, inf and |x| >= 2^53 (repr's routine writes those). o: 32 bytes. */
+static int fixed3(double x, char *o)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    const uint64_t mant = bits & ((UINT64_C(1) << 52) - 1);
+    const int ex = (int)((bits >> 52) & 0x7ff);
+    if (ex == 0x7ff)
+        return 0;
+    const uint64_t m = ex == 0 ? mant : mant | (UINT64_C(1) << 52);
+    const int e = ex == 0 ? -1074 : ex - 1075;
+    if (e > 0)
+        return 0;
+    const uint64_t p = m * 1000;
+    uint64_t r;
+    if (e == 0) {
+        r = p;
+    } else if (-e >= 64) {
+        r = 0; /* p < 2^63 <= half of 2^-e: below one half */
+    } else {
+        const int k = -e;
+        const uint64_t rem = p & ((UINT64_C(1) << k) - 1), half = UINT64_C(1) << (k - 1);
+        r = p >> k;
+        r += rem > half || (rem == half && (r & 1));
+    }
+    char d[24], *q = d + sizeof d;
+    unsigned frac = (unsigned)(r % 1000);
+    uint64_t ip = r / 1000;
+    q -= 3;
+    q[0] = (char)('0' + frac / 100);
+    q[1] = (char)('0' + frac / 10 % 10);
+    q[2] = (char)('0' + frac % 10);
+    *--q = '.';
+    do {
+        *--q = (char)('0' + ip % 10);
+        ip /= 10;
+    } while (ip);
+    if (bits >> 63)
+        *--q = '-';
+    int n = (int)(d + sizeof d - q);
+    memcpy(o, q, (size_t)n);
+    return n;
+}
+
+/* 1: short_repr wrote every probe as repr does, 0: it did not (repr's routine for every
+ * float), -1: not checked yet. */
+static int short_state = -1;
+
+/* Do short_repr and fixed3 write what PyOS_double_to_string writes (repr, format(x, ".3f")),
+ * on boundaries, ties and 128 pseudo-random floats of the positional range? Checked once, at
+ * the first cycle_text (else every float goes through PyOS_double_to_string). */
+static int short_ok(void)
+{
+    if (short_state >= 0)
+        return short_state;
+    static const double edges[] = {
+        0.0, -0.0, 1.0, -1.0, 0.1, 0.2, 0.3, 2.5, 100.0, 1e-4, -1e-4, 0.00010000000000000002,
+        9999999999999998.0, 1e15, 123.0, 52.84232512345678, 4.531599494383838, -31615.4,
+        5857300.165, 101065508335255.125, 101065508335255.375, -101065508335255.625,
+        123456789012345.875, 4503599627370496.5, 9007199254740991.0, 0.5, 0.25, 0.125,
+        1.0 / 3.0, 2.0 / 3.0, 123456789.123, 1e-3, 1e16, 1e-5, 5e-324, NAN, INFINITY, -INFINITY};
+    int ok = 1;
+    uint64_t s = UINT64_C(0x9E3779B97F4A7C15);
+    for (int k = 0; ok && k < (int)(sizeof edges / sizeof edges[0]) + 128; k++) {
+        double x;
+        if (k < (int)(sizeof edges / sizeof edges[0])) {
+            x = edges[k];
+        } else { /* xorshift64: sign, exponent of 1e-4 .. 1e16, random mantissa */
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            uint64_t bits = (s & ((UINT64_C(1) << 52) - 1)) |
+                            ((uint64_t)(1010 + (s >> 52) % 67) << 52) | (s & (UINT64_C(1) << 63));
+            memcpy(&x, &bits, sizeof x);
+        }
+        char t[48];
+        for (int mode = 0; ok && mode < 2; mode++) { /* repr, then format(x, ".3f") */
+            int n = mode == 0 ? short_repr(x, t) : fixed3(x, t);
+            if (n == 0)
+                continue;
+            char *r = mode == 0 ? PyOS_double_to_string(x, 'r', 0, Py_DTSF_ADD_DOT_0, NULL)
+                                : PyOS_double_to_string(x, 'f', 3, 0, NULL);
+            if (r == NULL) {
+                PyErr_Clear();
+                ok = 0;
+                break;
+            }
+            ok = (size_t)n == strlen(r) && memcmp(t, r, (size_t)n) == 0;
+            PyMem_Free(r);
+        }
+    }
+    return short_state = ok;
+}
+
+/* repr(x): short_repr where it writes x, else repr's own routine. */
+static int buf_put_float(buf_t *b, double x)
+{
+    if (buf_reserve(b, 48) < 0)
+        return -1;
+    int n = short_state == 1 ? short_repr(x, b->p + b->n) : 0;
+    if (n == 0)
+        return buf_put_repr(b, x);
+    b->n += n;
+    return 0;
 }
 
 /* Classes of a byte in a number of dumps' text: 0 a digit or '-', 1 the point, 2 anything
@@ -569,31 +882,217 @@ static void *decline(void)
     return NULL;
 }
 
-#define GET(o, a) PyObject_GetAttr((o), ATTR[a])
+/* Attribute reads of __slots__ members without the generic lookup: per attribute name, the
+ * last two (type, version tag) pairs it was read from, with the member's offset when the
+ * name is a plain object slot there (a dataclass with slots=True: PositionEstimate, LopRow,
+ * SensorValues, GpsInput, GpsWeight), else -1 (read by PyObject_GetAttr). The version tag
+ * changes with any change of the type or its bases, so a hit means PyObject_GetAttr would
+ * find the same member descriptor (a data descriptor, ahead of any instance dict) and
+ * read that slot: the same object. An empty slot (AttributeError) goes to PyObject_GetAttr. */
+typedef struct {
+    PyTypeObject *type;
+    unsigned int version;
+    Py_ssize_t offset;
+} slot_t;
 
-/* Append the row (prefix, keys, values) to rows; steals `values`. 0 or -1. */
-static int add_row(PyObject *rows, PyObject *prefix, PyObject *keys, PyObject *values)
+static slot_t ATTR_SLOT[A_COUNT][2], SENS_SLOT[N_SENS][2], GPS_SLOT[N_GPS][2],
+    OBS_SLOT[N_OBS][2], LOP_SLOT[N_LOP][2];
+
+static int version_valid(PyTypeObject *t)
+{
+#ifdef Py_TPFLAGS_VALID_VERSION_TAG
+    if (!(t->tp_flags & Py_TPFLAGS_VALID_VERSION_TAG))
+        return 0;
+#endif
+    return t->tp_version_tag != 0;
+}
+
+/* Remember how `name` reads on type t (after a successful PyObject_GetAttr). */
+static void slot_learn(PyTypeObject *t, PyObject *name, slot_t *c)
+{
+    if (!version_valid(t))
+        return;
+    Py_ssize_t offset = -1;
+    if (t->tp_getattro == PyObject_GenericGetAttr) {
+        PyObject *d = _PyType_Lookup(t, name); /* borrowed; no error set */
+        if (d != NULL && Py_IS_TYPE(d, &PyMemberDescr_Type)) {
+            PyMemberDef *m = ((PyMemberDescrObject *)d)->d_member;
+            if (m->type == T_OBJECT_EX && !(m->flags & READ_RESTRICTED))
+                offset = m->offset;
+        }
+    }
+    c[1] = c[0];
+    c[0].type = t;
+    c[0].version = t->tp_version_tag;
+    c[0].offset = offset;
+}
+
+static inline PyObject *get_attr(PyObject *o, PyObject *name, slot_t *c)
+{
+    PyTypeObject *t = Py_TYPE(o);
+    for (int k = 0; k < 2; k++) {
+        if (c[k].type == t && c[k].version == t->tp_version_tag && version_valid(t)) {
+            if (c[k].offset >= 0) {
+                PyObject *v = *(PyObject **)((char *)o + c[k].offset);
+                if (v != NULL)
+                    return Py_NewRef(v);
+            }
+            return PyObject_GetAttr(o, name);
+        }
+    }
+    PyObject *v = PyObject_GetAttr(o, name);
+    if (v != NULL)
+        slot_learn(t, name, c);
+    return v;
+}
+
+#define GET(o, a) get_attr((o), ATTR[a], ATTR_SLOT[a])
+
+/* Where build_cycle_rows puts its rows: appended to `list` (cycle_rows), or written at once
+ * into `b` as render_rows would write them (cycle_text: no row objects, no second pass). */
+typedef struct {
+    PyObject *list;
+    buf_t *b;
+    PyObject *format_text, *format_value;
+    int short_floats; /* floats by short_repr (else repr's routine) */
+} sink_t;
+
+/* " key=" of each key of a key tuple, built once per tuple (the key tuples of records'
+ * _CYCLE_CONSTS, held here for the module's life, so a tuple's address stays its own). */
+typedef struct {
+    PyObject *keys;
+    Py_ssize_t n;
+    char *text;
+    Py_ssize_t *end; /* key i is text[end[i - 1] (0 for i = 0) .. end[i]) */
+    int ascii;
+} keytext_t;
+
+#define N_KEYTEXT 128
+static keytext_t KEYTEXT[N_KEYTEXT];
+
+/* The cached key texts of `keys` (an exact tuple), or NULL: a key is not an exact str or not
+ * UTF-8 (the row is then written key by key, and declined where render_rows would), or the
+ * table is full. */
+static keytext_t *key_text(PyObject *keys)
+{
+    size_t h = ((uintptr_t)keys >> 4) % N_KEYTEXT;
+    for (int probe = 0; probe < N_KEYTEXT; probe++, h = (h + 1) % N_KEYTEXT) {
+        keytext_t *e = &KEYTEXT[h];
+        if (e->keys == keys)
+            return e;
+        if (e->keys != NULL)
+            continue;
+        Py_ssize_t n = PyTuple_GET_SIZE(keys), len = 0;
+        for (Py_ssize_t i = 0; i < n; i++) {
+            PyObject *k = PyTuple_GET_ITEM(keys, i);
+            if (!PyUnicode_CheckExact(k) || PyUnicode_AsUTF8AndSize(k, NULL) == NULL) {
+                PyErr_Clear();
+                return NULL;
+            }
+            len += PyUnicode_GET_LENGTH(k) * 4 + 2;
+        }
+        char *text = PyMem_Malloc((size_t)len + 1);
+        Py_ssize_t *end = PyMem_Malloc(sizeof(Py_ssize_t) * (size_t)(n + 1));
+        if (text == NULL || end == NULL) {
+            PyMem_Free(text);
+            PyMem_Free(end);
+            return NULL;
+        }
+        Py_ssize_t at = 0;
+        int ascii = 1;
+        for (Py_ssize_t i = 0; i < n; i++) {
+            PyObject *k = PyTuple_GET_ITEM(keys, i);
+            Py_ssize_t m;
+            const char *u = PyUnicode_AsUTF8AndSize(k, &m);
+            ascii &= PyUnicode_IS_ASCII(k) != 0;
+            text[at++] = ' ';
+            memcpy(text + at, u, (size_t)m);
+            at += m;
+            text[at++] = '=';
+            end[i] = at;
+        }
+        e->keys = Py_NewRef(keys);
+        e->n = n;
+        e->text = text;
+        e->end = end;
+        e->ascii = ascii;
+        return e;
+    }
+    return NULL;
+}
+
+/* Write the row (prefix, keys, values) as write_rows does. 0, -1 (error) or FALLBACK. */
+static int write_row(sink_t *s, PyObject *prefix, PyObject *keys, PyObject *values)
+{
+    buf_t *b = s->b;
+    if (!PyUnicode_CheckExact(prefix) || !PyTuple_CheckExact(keys) ||
+        !PyTuple_CheckExact(values) || PyTuple_GET_SIZE(keys) != PyTuple_GET_SIZE(values))
+        return FALLBACK;
+    keytext_t *kt = key_text(keys);
+    int rc = buf_put_str(b, prefix);
+    if (rc)
+        return rc;
+    if (kt != NULL && !kt->ascii)
+        b->ascii = 0;
+    for (Py_ssize_t i = 0, n = PyTuple_GET_SIZE(keys); i < n; i++) {
+        PyObject *v = PyTuple_GET_ITEM(values, i);
+        if (kt != NULL) {
+            Py_ssize_t at = i > 0 ? kt->end[i - 1] : 0;
+            rc = buf_put(b, kt->text + at, kt->end[i] - at);
+        } else {
+            PyObject *k = PyTuple_GET_ITEM(keys, i);
+            if (!PyUnicode_CheckExact(k))
+                return FALLBACK;
+            rc = buf_putc(b, ' ');
+            if (rc == 0)
+                rc = buf_put_str(b, k);
+            if (rc == 0)
+                rc = buf_putc(b, '=');
+        }
+        if (rc)
+            return rc;
+        if (PyFloat_CheckExact(v))
+            rc = s->short_floats ? buf_put_float(b, PyFloat_AS_DOUBLE(v))
+                                 : buf_put_repr(b, PyFloat_AS_DOUBLE(v));
+        else
+            rc = buf_put_value(b, v, s->format_text, s->format_value);
+        if (rc)
+            return rc;
+    }
+    return 0;
+}
+
+/* Append the row (prefix, keys, values) to the sink; steals `values`. 0 or -1 (an error set;
+ * a row render_rows would leave to the Python: declined). */
+static int add_row(sink_t *rows, PyObject *prefix, PyObject *keys, PyObject *values)
 {
     if (values == NULL)
         return -1;
+    if (rows->list == NULL) {
+        int rc = write_row(rows, prefix, keys, values);
+        Py_DECREF(values);
+        if (rc == FALLBACK)
+            decline();
+        return rc == 0 ? 0 : -1;
+    }
     PyObject *row = PyTuple_Pack(3, prefix, keys, values);
     Py_DECREF(values);
     if (row == NULL)
         return -1;
-    int rc = PyList_Append(rows, row);
+    int rc = PyList_Append(rows->list, row);
     Py_DECREF(row);
     return rc;
 }
 
 /* A tuple of n + extra items: the attributes `names` of `o`, then `extra` empty slots. */
-static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, Py_ssize_t n,
-                             Py_ssize_t extra)
+static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, slot_t (*slots)[2],
+                             Py_ssize_t n, Py_ssize_t extra)
 {
     PyObject *t = PyTuple_New(n + extra);
     if (t == NULL)
         return NULL;
     for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *v = PyObject_GetAttr(o, names[i]);
+        PyObject *v = get_attr(o, names[i], slots[i]);
         if (v == NULL) {
             Py_DECREF(t);
             return NULL;
@@ -671,7 +1170,23 @@ static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
         p->n++;
         p->variant |= 1;
     }
-    if (cov != Py_None) {
+    np_fields_t *fc = cov != Py_None ? np_direct(cov, 2) : NULL;
+    if (fc != NULL && fc->dimensions[0] == 2 && fc->dimensions[1] == 2) {
+        /* (cxx, cxy), (cyx, cyy) = cov.tolist(), read from the array */
+        double c[4];
+        for (int k = 0; k < 4; k++)
+            c[k] = *(const double *)(fc->data + (k >> 1) * fc->strides[0] +
+                                     (k & 1) * fc->strides[1]);
+        if (isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2]) && isfinite(c[3])) {
+            static const int use[3] = {0, 1, 3};
+            for (int k = 0; k < 3; k++) {
+                if ((p->v[p->n] = PyFloat_FromDouble(c[use[k]])) == NULL)
+                    goto fail_both;
+                p->n++;
+            }
+            p->variant |= 2;
+        }
+    } else if (cov != Py_None) {
         PyObject *l = PyObject_CallMethodNoArgs(cov, ATTR[A_TOLIST]);
         if (l == NULL)
             goto fail_both;
@@ -713,6 +1228,21 @@ fail:
 /* sep.join(str(x) for x in items) (the items of a tuple or list). */
 static PyObject *join_str(PyObject *sep, PyObject *items)
 {
+    if (PyTuple_CheckExact(items) && PyUnicode_GET_LENGTH(sep) == 0 &&
+        PyTuple_GET_SIZE(items) <= 64) { /* the sensors' status codes: str(i) of 0..9 */
+        Py_ssize_t n = PyTuple_GET_SIZE(items);
+        char s[64];
+        int ok = 1;
+        for (Py_ssize_t i = 0; ok && i < n; i++) {
+            PyObject *v = PyTuple_GET_ITEM(items, i);
+            long d = PyLong_CheckExact(v) ? PyLong_AsLong(v) : -1;
+            ok = d >= 0 && d <= 9;
+            s[i] = (char)('0' + d);
+        }
+        PyErr_Clear();
+        if (ok)
+            return PyUnicode_FromStringAndSize(s, n);
+    }
     PyObject *seq = PySequence_Fast(items, "not a sequence");
     if (seq == NULL)
         return NULL;
@@ -743,20 +1273,69 @@ static PyObject *utc_text(PyObject *t, PyObject *py_utc_text)
 {
     if (PyDateTimeAPI != NULL && PyDateTime_CheckExact(t)) {
         int y = PyDateTime_GET_YEAR(t);
-        if (y >= 1000 && y <= 9999) {
-            char s[32];
-            int n = snprintf(s, sizeof s, "%04d-%02d-%02dT%02d:%02d:%02dZ", y,
-                             PyDateTime_GET_MONTH(t), PyDateTime_GET_DAY(t),
-                             PyDateTime_DATE_GET_HOUR(t), PyDateTime_DATE_GET_MINUTE(t),
-                             PyDateTime_DATE_GET_SECOND(t));
-            return PyUnicode_FromStringAndSize(s, n);
+        if (y >= 1000 && y <= 9999) { /* "%04d-%02d-%02dT%02d:%02d:%02dZ", written out */
+            const int f[5] = {PyDateTime_GET_MONTH(t), PyDateTime_GET_DAY(t),
+                              PyDateTime_DATE_GET_HOUR(t), PyDateTime_DATE_GET_MINUTE(t),
+                              PyDateTime_DATE_GET_SECOND(t)};
+            static const char sep[5] = {'-', '-', 'T', ':', ':'};
+            PyObject *u = PyUnicode_New(20, 127);
+            if (u == NULL)
+                return NULL;
+            char *s = (char *)PyUnicode_DATA(u);
+            memcpy(s, DIGITS2 + 2 * (y / 100), 2);
+            memcpy(s + 2, DIGITS2 + 2 * (y % 100), 2);
+            for (int k = 0; k < 5; k++) { /* each 0..99 (a datetime's own ranges) */
+                s[4 + 3 * k] = sep[k];
+                memcpy(s + 5 + 3 * k, DIGITS2 + 2 * f[k], 2);
+            }
+            s[19] = 'Z';
+            return u;
         }
     }
     return PyObject_CallOneArg(py_utc_text, t);
 }
 
 /* ",".join(map("{:.3f}".format, values.tolist())) of the TEST line. */
+static PyObject *ls_text_slow(PyObject *ls_t);
+
 static PyObject *ls_text(PyObject *ls_t)
+{
+    np_fields_t *f = np_direct(ls_t, 1);
+    if (f == NULL)
+        return ls_text_slow(ls_t);
+    Py_ssize_t n = f->dimensions[0], st = f->strides[0];
+    char stack_buf[512];
+    buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
+    PyObject *r = NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double x = *(const double *)(f->data + i * st);
+        if (buf_reserve(&b, 33) < 0)
+            goto done;
+        if (i > 0)
+            b.p[b.n++] = ',';
+        int k = short_state == 1 ? fixed3(x, b.p + b.n) : 0;
+        if (k > 0) {
+            b.n += k;
+            continue;
+        }
+        char *c = PyOS_double_to_string(x, 'f', 3, 0, NULL);
+        if (c == NULL)
+            goto done;
+        int rc = buf_put(&b, c, (Py_ssize_t)strlen(c));
+        PyMem_Free(c);
+        if (rc < 0)
+            goto done;
+    }
+    if ((r = PyUnicode_New(b.n, 127)) != NULL)
+        memcpy(PyUnicode_DATA(r), b.p, (size_t)b.n);
+done:
+    if (b.heap)
+        PyMem_Free(b.p);
+    return r;
+}
+
+/* ls_text by the array's tolist (an array np_direct does not read). */
+static PyObject *ls_text_slow(PyObject *ls_t)
 {
     PyObject *l = PyObject_CallMethodNoArgs(ls_t, ATTR[A_TOLIST]);
     if (l == NULL)
@@ -820,7 +1399,41 @@ static PyObject *head_list(PyObject *x, PyObject *n_nav)
 static PyObject *kf_values(PyObject *fs, PyObject *n_nav)
 {
     PyObject *x = NULL, *xl = NULL, *P = NULL, *d = NULL, *dl = NULL, *t = NULL;
-    if ((x = GET(fs, A_X)) == NULL || (xl = head_list(x, n_nav)) == NULL)
+    if ((x = GET(fs, A_X)) == NULL)
+        goto done;
+    Py_ssize_t nn = PyLong_CheckExact(n_nav) ? PyLong_AsSsize_t(n_nav) : -1;
+    if (nn == -1 && PyErr_Occurred())
+        goto done;
+    np_fields_t *fx = nn >= 0 ? np_direct(x, 1) : NULL, *fp = NULL;
+    if (fx != NULL) {
+        if ((P = GET(fs, A_P)) == NULL)
+            goto done;
+        fp = np_direct(P, 2);
+    }
+    if (fp != NULL) { /* x[:n].tolist() and P.diagonal()[:n].tolist() read from the arrays */
+        Py_ssize_t nx = fx->dimensions[0] < nn ? fx->dimensions[0] : nn;
+        Py_ssize_t nd = fp->dimensions[0] < fp->dimensions[1] ? fp->dimensions[0]
+                                                               : fp->dimensions[1];
+        nd = nd < nn ? nd : nn;
+        Py_ssize_t sx = fx->strides[0], sd = fp->strides[0] + fp->strides[1];
+        if ((t = PyTuple_New(nx + nd)) == NULL)
+            goto done;
+        for (Py_ssize_t i = 0; i < nx + nd; i++) {
+            double v = i < nx ? *(const double *)(fx->data + i * sx)
+                              : *(const double *)(fp->data + (i - nx) * sd);
+            if (i >= nx) /* records: sqrt(v) if v > 0.0 else (v if v != v else 0.0) */
+                v = v > 0.0 ? sqrt(v) : (v != v ? v : 0.0);
+            PyObject *o = PyFloat_FromDouble(v);
+            if (o == NULL) {
+                Py_CLEAR(t);
+                goto done;
+            }
+            PyTuple_SET_ITEM(t, i, o);
+        }
+        goto done;
+    }
+    Py_CLEAR(P);
+    if ((xl = head_list(x, n_nav)) == NULL)
         goto done;
     if ((P = GET(fs, A_P)) == NULL ||
         (d = PyObject_CallMethodNoArgs(P, ATTR[A_DIAGONAL])) == NULL ||
@@ -860,7 +1473,7 @@ done:
 }
 
 /* The TEST line of one update. */
-static int add_test(PyObject *rows, PyObject *keys, PyObject *u, PyObject *kind)
+static int add_test(sink_t *rows, PyObject *keys, PyObject *u, PyObject *kind)
 {
     static const int lom_names[5] = {A_T, A_LOWER, A_UPPER, A_DOF, A_VERDICT};
     PyObject *t = PyTuple_New(8), *lom = NULL, *ls = NULL, *ls_t = NULL, *labels = NULL;
@@ -903,14 +1516,14 @@ fail:
 
 /* Append a row per item of the iterable `items`: (prefix, keys, attrs of the item), or with
  * names == NULL (prefix, keys, (item,)). */
-static int add_each(PyObject *rows, PyObject *items, PyObject *prefix, PyObject *keys,
-                    PyObject *const *names, Py_ssize_t n)
+static int add_each(sink_t *rows, PyObject *items, PyObject *prefix, PyObject *keys,
+                    PyObject *const *names, slot_t (*slots)[2], Py_ssize_t n)
 {
     PyObject *it = PyObject_GetIter(items), *o;
     if (it == NULL)
         return -1;
     while ((o = PyIter_Next(it)) != NULL) {
-        PyObject *v = names != NULL ? attrs_tuple(o, names, n, 0) : PyTuple_Pack(1, o);
+        PyObject *v = names != NULL ? attrs_tuple(o, names, slots, n, 0) : PyTuple_Pack(1, o);
         Py_DECREF(o);
         if (add_row(rows, prefix, keys, v) < 0) {
             Py_DECREF(it);
@@ -932,17 +1545,19 @@ static int attr_true(PyObject *obj, int attr)
     return r;
 }
 
-static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
+static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
 {
-    if (!PyTuple_CheckExact(consts) || PyTuple_GET_SIZE(consts) != C_COUNT)
-        return decline();
+    if (!PyTuple_CheckExact(consts) || PyTuple_GET_SIZE(consts) != C_COUNT) {
+        decline();
+        return -1;
+    }
+    if (np_layout < 0 && np_ready() < 0) /* numpy's arrays read directly once checked */
+        return -1;
     PyObject *const *c = &PyTuple_GET_ITEM(consts, 0);
-    PyObject *rows = PyList_New(0), *mpp = NULL, *s = NULL, *o = NULL, *v = NULL,
+    PyObject *mpp = NULL, *s = NULL, *o = NULL, *v = NULL,
              *n_obj = NULL;
     pos_t pos = {{NULL}, 0, 0};
     int rc;
-    if (rows == NULL)
-        return NULL;
     if ((mpp = GET(r, A_MPP)) == NULL)
         goto fail;
 
@@ -985,7 +1600,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
             Py_DECREF(ref);
             goto fail;
         }
-        sens = attrs_tuple(s, SENS_ATTR, N_SENS, other ? (standin ? 3 : 1) : 0);
+        sens = attrs_tuple(s, SENS_ATTR, SENS_SLOT, N_SENS, other ? (standin ? 3 : 1) : 0);
         if (sens != NULL && other) {
             PyTuple_SET_ITEM(sens, N_SENS, Py_NewRef(ref));
             if (standin) {
@@ -1039,7 +1654,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
             Py_DECREF(w);
             goto fail;
         }
-        PyObject *g = attrs_tuple(o, GPS_ATTR, N_GPS, weighted ? 5 : 0);
+        PyObject *g = attrs_tuple(o, GPS_ATTR, GPS_SLOT, N_GPS, weighted ? 5 : 0);
         if (g != NULL && weighted) {
             static const int wn[5] = {A_HDOP, A_QUALITY, A_SATS, A_UERE_M, A_SIGMA_M};
             for (int i = 0; i < 5; i++) {
@@ -1059,7 +1674,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
 
     /* OBS */
     if ((o = GET(r, A_MANUAL)) == NULL ||
-        add_each(rows, o, STR[S_OBS], c[C_OBS_KEYS], OBS_ATTR, N_OBS) < 0)
+        add_each(rows, o, STR[S_OBS], c[C_OBS_KEYS], OBS_ATTR, OBS_SLOT, N_OBS) < 0)
         goto fail;
     Py_CLEAR(o);
 
@@ -1070,7 +1685,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
         PyObject *lops = GET(o, A_LOPS);
         if (lops == NULL)
             goto fail;
-        rc = add_each(rows, lops, STR[S_LOP], c[C_LOP_KEYS], LOP_ATTR, N_LOP);
+        rc = add_each(rows, lops, STR[S_LOP], c[C_LOP_KEYS], LOP_ATTR, LOP_SLOT, N_LOP);
         Py_DECREF(lops);
         if (rc < 0)
             goto fail;
@@ -1214,7 +1829,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
 
     /* MSG */
     if ((o = GET(r, A_MESSAGES)) == NULL ||
-        add_each(rows, o, STR[S_MSG], c[C_MSG_KEYS], NULL, 0) < 0)
+        add_each(rows, o, STR[S_MSG], c[C_MSG_KEYS], NULL, NULL, 0) < 0)
         goto fail;
     Py_CLEAR(o);
 
@@ -1225,7 +1840,7 @@ static PyObject *build_cycle_rows(PyObject *r, PyObject *consts)
     Py_DECREF(n_obj);
     Py_DECREF(mpp);
     Py_DECREF(s);
-    return rows;
+    return 0;
 
 fail:
     Py_XDECREF(n_obj);
@@ -1234,8 +1849,7 @@ fail:
     Py_XDECREF(o);
     Py_XDECREF(s);
     Py_XDECREF(mpp);
-    Py_DECREF(rows);
-    return NULL;
+    return -1;
 }
 
 /* NULL with an Exception set -> None (the Python builds the block and meets the error
@@ -1255,8 +1869,14 @@ static PyObject *cycle_rows(PyObject *self, PyObject *const *args, Py_ssize_t na
         PyErr_SetString(PyExc_TypeError, "cycle_rows(r, consts) takes 2 arguments");
         return NULL;
     }
-    PyObject *rows = build_cycle_rows(args[0], args[1]);
-    return rows != NULL ? rows : declined();
+    sink_t sink = {PyList_New(0), NULL, NULL, NULL, 0};
+    if (sink.list == NULL)
+        return NULL;
+    if (build_cycle_rows(&sink, args[0], args[1]) < 0) {
+        Py_DECREF(sink.list);
+        return declined();
+    }
+    return sink.list;
 }
 
 static PyObject *cycle_text(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -1267,11 +1887,18 @@ static PyObject *cycle_text(PyObject *self, PyObject *const *args, Py_ssize_t na
                         "arguments");
         return NULL;
     }
-    PyObject *rows = build_cycle_rows(args[0], args[1]);
-    if (rows == NULL)
-        return declined();
-    PyObject *text = render_list(rows, args[2], args[3], args[4]);
-    Py_DECREF(rows);
+    char stack_buf[8192];
+    buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
+    sink_t sink = {NULL, &b, args[3], args[4], args[2] != Py_None && short_ok()};
+    PyObject *text = NULL;
+    if (build_cycle_rows(&sink, args[0], args[1]) < 0)
+        text = declined();
+    else if (b.ascii && (text = PyUnicode_New(b.n, 127)) != NULL)
+        memcpy(PyUnicode_DATA(text), b.p, (size_t)b.n);
+    else if (!b.ascii)
+        text = PyUnicode_DecodeUTF8(b.p, b.n, "strict");
+    if (b.heap)
+        PyMem_Free(b.p);
     return text;
 }
 
@@ -1288,6 +1915,35 @@ static PyObject *float_repr(PyObject *self, PyObject *arg)
     PyObject *r = PyUnicode_FromString(s);
     PyMem_Free(s);
     return r;
+}
+
+static PyObject *short_checked(PyObject *self, PyObject *unused)
+{
+    return PyBool_FromLong(short_ok());
+}
+
+static PyObject *fixed3_float(PyObject *self, PyObject *arg)
+{
+    double x = PyFloat_AsDouble(arg);
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    char s[48];
+    int n = fixed3(x, s);
+    if (n == 0)
+        Py_RETURN_NONE;
+    return PyUnicode_FromStringAndSize(s, n);
+}
+
+static PyObject *short_float(PyObject *self, PyObject *arg)
+{
+    double x = PyFloat_AsDouble(arg);
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    char s[48];
+    int n = short_repr(x, s);
+    if (n == 0)
+        Py_RETURN_NONE;
+    return PyUnicode_FromStringAndSize(s, n);
 }
 
 static PyObject *text_form(PyObject *self, PyObject *arg)
@@ -1331,6 +1987,14 @@ static PyMethodDef methods[] = {
      "call; None where the Python must build or write it."},
     {"float_repr", float_repr, METH_O,
      "float_repr(x) -> repr(float(x)) by PyOS_double_to_string('r', Py_DTSF_ADD_DOT_0)."},
+    {"short_checked", short_checked, METH_NOARGS,
+     "short_checked() -> bool: short_float wrote its probes as repr (then cycle_text uses it)."},
+    {"fixed3_float", fixed3_float, METH_O,
+     "fixed3_float(x) -> format(float(x), '.3f') by the kernel's exact rounding, or None where\n"
+     "it leaves x to PyOS_double_to_string (nan, inf, |x| >= 2**53)."},
+    {"short_float", short_float, METH_O,
+     "short_float(x) -> repr(float(x)) by the kernel's own shortest digits, or None where it\n"
+     "leaves x to repr's routine (subnormals, the exponent forms)."},
     {"text_form", text_form, METH_O,
      "text_form(word) -> outlog._format_text(word) where decided in C, else None."},
     {NULL, NULL, 0, NULL},
@@ -1346,6 +2010,7 @@ static struct PyModuleDef module = {
 PyMODINIT_FUNC PyInit_outfmt(void)
 {
     init_classes();
+    init_pow5();
     if (init_cycle_names() < 0)
         return NULL;
     PyDateTime_IMPORT; /* NULL (error cleared): the time stamp by the Python function */

@@ -291,7 +291,7 @@ class Session:
             return None
         # DeltaT: process every DeltaT-th record (THEORY D43), counted from the last
         # processed one, so a new DeltaT takes effect from the next cycle.
-        delta = self.config.demo.delta_t_s
+        delta = self.context.config.demo.delta_t_s  # self.config, without the property call
         since = delta if self._since_processed is None else self._since_processed + 1
         if since < delta:
             self._since_processed = since
@@ -359,16 +359,29 @@ class Session:
             self._collect_smoother(nav, result)
         self.nav = nav
         self.history.append(result)
+        # The counts, with cycle_counts(result) summed into self._counts written out (each
+        # added only where it is not 0, as the loop over cycle_counts did).
+        counts = self._counts
         fix = result.fix
         if fix is not None:
             if fix.lse_ok:
                 self.fixes += 1
-            self.rejected_lops += len(fix.rejected_slots)
-        self.failed_fixes += result.fix_fails_tests
-        counts = self._counts
-        for i, c in enumerate(cycle_counts(result)):
-            if c:
-                counts[i] += c
+            if fix.rejected_slots:
+                self.rejected_lops += len(fix.rejected_slots)
+            if fix.tested is not None:
+                flagged = len(fix.tested.flagged) + (fix.candidate_slot is not None)
+                if flagged:
+                    counts[0] += flagged
+        if result.fix_fails_tests:
+            self.failed_fixes += result.fix_fails_tests
+        gate = result.fix_gate
+        if gate:
+            if gate == "gross":
+                counts[1] += 1
+            elif gate == "innovation":
+                counts[2] += 1
+        if result.lane_slips:
+            counts[3] += result.lane_slips
         out = self._out
         if out is not None:  # the block in one compiled call where it can, else by the Python
             text = cycle_text(result)

@@ -114,6 +114,91 @@ def test_random_bits_ties_and_edges_are_repr() -> None:
             assert kernel_text(rows, compiled) == _render_rows_py(rows, compiled)
 
 
+def _short_is_repr(x: float) -> None:
+    """The kernel's own shortest digits (``outfmt.short_float``) are ``repr``'s, and it writes
+    every float ``repr`` writes without an exponent (normal, 1e-4 <= |x| < 1e16), the zeros,
+    nan and inf; it leaves only the exponent forms and subnormals to ``repr``'s routine."""
+    assert K is not None
+    got = K.short_float(x)
+    want = repr(x)
+    if got is None:
+        assert "e" in want, want
+    else:
+        assert got == want
+
+
+def _around(x: float, n: int) -> list[float]:
+    """x and its n neighbours on each side."""
+    out, up, down = [x], x, x
+    for _ in range(n):
+        up, down = math.nextafter(up, math.inf), math.nextafter(down, -math.inf)
+        out += [up, down]
+    return out
+
+
+@needs_kernel
+def test_short_float_is_repr_on_random_bits_ties_and_boundaries() -> None:
+    """cycle_text writes each float by ``short_float`` (exact-integer Ryu digit search) where
+    it passed its probes: checked here on random bit patterns, random values of every decade
+    of the positional range, short decimals (where the shortest digits are few), every power
+    of two and its neighbours (the narrower lower gap), the powers of ten and 1e-4 / 1e16
+    switches with 40 neighbours each, and ties of the last digit."""
+    assert K is not None
+    assert K.short_checked() is True
+    rng = random.Random(1403)
+    values: list[float] = list(EDGES + TIES)
+    values += [struct.unpack("<d", struct.pack("<Q", rng.getrandbits(64)))[0]
+               for _ in range(60_000)]
+    values += [rng.uniform(-1.0, 1.0) * 10.0 ** rng.uniform(-4.5, 16.5) for _ in range(150_000)]
+    values += [float(f"{rng.randint(1, 10 ** rng.randint(1, 17))}e{rng.randint(-21, 16)}")
+               for _ in range(60_000)]
+    for e in range(-1074, 1024):
+        values += _around(2.0 ** e, 1)
+    for e in range(-6, 18):
+        values += _around(10.0 ** e, 40)
+    for n in (101065508335255, 123456789012345, 99999999999999, 10**14 + 7, 2**52, 2**53 - 1,
+              4503599627370495, 1, 0, 7):
+        for f in (0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875):
+            values += [n + f, -(n + f)]
+    values += [math.ldexp(m, e) for m in (1, 3, 5, 2**53 - 1, 2**52 + 1) for e in range(-80, 60)]
+    for x in values:
+        _short_is_repr(x)
+    some = [x for x in values if 1e-4 <= abs(x) < 1e16]
+    assert len(some) > 100_000
+
+
+@needs_kernel
+@settings(max_examples=2000)
+@given(st.one_of(floats, st.floats(min_value=1e-4, max_value=1e16),
+                 st.floats(min_value=-1e16, max_value=-1e-4)))
+def test_short_float_is_repr(x: float) -> None:
+    _short_is_repr(x)
+
+
+@needs_kernel
+def test_fixed3_is_format_3f() -> None:
+    """The TEST line's LS statistics (``"{:.3f}".format``) by the kernel's exact rounding
+    (``outfmt.fixed3_float``): ties of the third decimal (exact binary halves) to even, the
+    sign of a value that rounds to 0, subnormals, the 2**53 limit."""
+    assert K is not None
+    rng = random.Random(3)
+    values: list[float] = list(EDGES + TIES)
+    values += [rng.uniform(-1.0, 1.0) * 10.0 ** rng.uniform(-6.0, 16.0) for _ in range(100_000)]
+    values += [struct.unpack("<d", struct.pack("<Q", rng.getrandbits(64)))[0]
+               for _ in range(30_000)]
+    values += [k / 2000 for k in range(-5000, 5000)]  # every x.xxx5 tie near 0
+    values += [(2 * k + 1) / 2 ** 12 for k in range(-3000, 3000)]
+    values += [n + k / 16 for n in (0, 1, 12345, 2**40) for k in range(-32, 32)]
+    values += _around(2.0 ** 53, 3) + _around(-(2.0 ** 53), 3) + _around(0.0005, 5)
+    values += [-1e-9, -0.0004, -0.0005, -0.0006, 5e-324, -5e-324]
+    for x in values:
+        got = K.fixed3_float(x)
+        if got is None:
+            assert not math.isfinite(x) or abs(x) >= 2.0 ** 53, x
+        else:
+            assert got == f"{x:.3f}", x
+
+
 ODD_WORDS = ["", "-", "1", "0", "007", "1e5", "-0.0", "nan", "NaN", "inf", "-Infinity", "1_000",
              " 1 ", "a b", 'say "hi"', "k=v", "back\\slash", "tab\there", "new\nline",
              "\x00", "\x1c", "\x7f", "\u00a0nbsp", "\u0661\u0662", "σ ≤ 3 m", "lse", "accept",
