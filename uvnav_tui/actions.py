@@ -19,24 +19,17 @@ from textual.screen import Screen
 from engine import api
 from engine.api import InputError, RunConfig, format_dms_input
 from uvnav_tui.dialogs.confirm_dialog import ConfirmDialog
-from uvnav_tui.dialogs.current_dialog import CurrentDialog
-from uvnav_tui.dialogs.datum_dialog import DatumDialog
-from uvnav_tui.dialogs.decca_dialog import DeccaDialog
-from uvnav_tui.dialogs.filtering_dialog import FilteringDialog
-from uvnav_tui.dialogs.gps_dialog import GpsDialog
 from uvnav_tui.dialogs.init_dialog import InitDialog
-from uvnav_tui.dialogs.obs_dialog import ObsDialog
-from uvnav_tui.dialogs.parameters_dialog import ParametersDialog
-from uvnav_tui.dialogs.position_dialog import PositionDialog
-from uvnav_tui.dialogs.predict_dialog import PredictDialog
-from uvnav_tui.dialogs.sensors_dialog import SensorsDialog
 from uvnav_tui.hardcopy import write_hardcopy
 from uvnav_tui.host import ConsoleHost
 from uvnav_tui.menus import ACTIONS
 from uvnav_tui.pages.registry import DEV_PAGES_FROM
 from uvnav_tui.run_control import RunController
-from uvnav_tui.screens.message_screen import MessageScreen
 from uvnav_tui.screens.table_screen import TableScreen, predict_table, smoothing_table
+
+# The other dialogs and the message screen are imported by the action that shows them: the
+# console's first paint needs only Parameter Initialization (and Quit's confirmation at once),
+# and the other twelve modules cost ~15 ms of start-up (issue 14).
 
 if TYPE_CHECKING:
     from engine.api import (
@@ -157,12 +150,16 @@ class MenuActions:
     # ------------------------------------------------------------------ Setup
     def datum(self) -> None:
         """Setup ▸ Params ▸ Datum."""
+        from uvnav_tui.dialogs.datum_dialog import DatumDialog
+
         host = self.host
         host.push_screen(DatumDialog(host.datum_names, host.config.datum),
                          callback=lambda name: name is not None and self.apply(api.SetDatum(name)))
 
     def dr_pos(self) -> None:
         """Setup ▸ Params ▸ DR Pos."""
+        from uvnav_tui.dialogs.position_dialog import PositionDialog
+
         nav = self._run.session.nav
         current = format_dms_input(nav.mpp_lat_deg, nav.mpp_lon_deg)
         self.host.push_screen(PositionDialog(current), callback=lambda pos: pos is not None
@@ -170,6 +167,8 @@ class MenuActions:
 
     def current(self) -> None:
         """Setup ▸ Params ▸ Current."""
+        from uvnav_tui.dialogs.current_dialog import CurrentDialog
+
         cfg = self.host.config
         self.host.push_screen(CurrentDialog(cfg.current_set_deg, cfg.current_speed_kn),
                               callback=lambda v: v is not None and self.apply(api.SetCurrent(*v)))
@@ -184,10 +183,14 @@ class MenuActions:
 
     def gps(self) -> None:
         """Setup ▸ Systems ▸ GPS."""
+        from uvnav_tui.dialogs.gps_dialog import GpsDialog
+
         self._push(GpsDialog(self.host.config.gps))
 
     def decca(self) -> None:
         """Setup ▸ Systems ▸ Decca."""
+        from uvnav_tui.dialogs.decca_dialog import DeccaDialog
+
         self._push(DeccaDialog(self.host.config.decca, list(self.host.data[1])))
 
     def sins(self) -> None:
@@ -204,6 +207,8 @@ class MenuActions:
 
     def sensors(self) -> None:
         """Setup ▸ Sensors: the changed sensors, one command each."""
+        from uvnav_tui.dialogs.sensors_dialog import SensorsDialog
+
         def done(cmds: tuple[SetSensor, ...] | None) -> None:
             if cmds:
                 self.apply(*cmds)
@@ -225,6 +230,8 @@ class MenuActions:
 
     def _obs(self, kind: str) -> None:
         """A manual observation for the next cycle; says how many are pending."""
+        from uvnav_tui.dialogs.obs_dialog import ObsDialog
+
         def pending() -> str:
             run = self.host.control
             n = len(run.session.nav.pending_obs) if run is not None else 0
@@ -239,11 +246,15 @@ class MenuActions:
     # ------------------------------------------------------------------ Kalman
     def filtering(self) -> None:
         """Kalman ▸ Filtering."""
+        from uvnav_tui.dialogs.filtering_dialog import FilteringDialog
+
         self.host.push_screen(FilteringDialog(self.host.config.filter.on), callback=lambda on:
                               on is not None and self.apply(api.SetFiltering(on)))
 
     def predict(self) -> None:
         """Kalman ▸ Predict.: the interval and step, then the table."""
+        from uvnav_tui.dialogs.predict_dialog import PredictDialog
+
         self.host.push_screen(PredictDialog(), callback=self._predicted)
 
     def _predicted(self, value: tuple[float, float] | None) -> None:
@@ -284,6 +295,8 @@ class MenuActions:
     # ------------------------------------------------------------------ Statistics, Demo
     def messages(self) -> None:
         """Statistics ▸ Messages, F2: the message log."""
+        from uvnav_tui.screens.message_screen import MessageScreen
+
         self.host.push_screen(MessageScreen(self.host.message_log))
 
     def demo_params(self) -> None:
@@ -303,6 +316,8 @@ class MenuActions:
         self._params("filter")
 
     def _params(self, table: str) -> None:
+        from uvnav_tui.dialogs.parameters_dialog import ParametersDialog
+
         def done(cmd: SetParameters | None) -> None:
             if cmd is not None and cmd.values:
                 self.apply(cmd)

@@ -38,6 +38,7 @@ from uvnav_tui.run_control import RunController, open_session
 from uvnav_tui.screens.console_screen import ConsoleScreen
 from uvnav_tui.screens.help_screen import HelpScreen
 from uvnav_tui.screens.table_screen import TableScreen
+from uvnav_tui.widgets.menu_bar import MenuBar
 from uvnav_tui.widgets.message_log import MessageLog
 from uvnav_tui.widgets.pulldown import PulldownScreen
 
@@ -96,6 +97,11 @@ CSS_FILES = [
     "widgets/message_panel.tcss",
 ]
 """The console screen's style sheets (the other screens name their own)."""
+INIT_DIALOG_CSS = (Path(__file__).parent / "dialogs" / "dialog.tcss").resolve()
+"""The style sheet of the Parameter Initialization dialog (:attr:`Dialog.CSS_PATH`), read with
+the console's when the dialog is shown at start: read when the dialog is pushed, it made the
+app parse every style sheet again and restyle every widget before the first paint (issue 14,
+start-up time). Same rules in the same order: the dialog is the first screen pushed."""
 
 def load_engine() -> None:
     """Import the engine's run-time modules (the session, the cycle, the commands): what
@@ -165,7 +171,12 @@ class UVNAVApp(App[None]):
         nmea_sender: NmeaSender | None = None,
     ) -> None:
         super().__init__()
+        self._use_theme(MONOCHROME)
+        if show_init:  # the first screen pushed: its style sheet is parsed with the others
+            self.css_path.append(INIT_DIALOG_CSS)
         self._collector_held = False
+        self._preloading = False
+        """True once the first paint has started the engine's preload."""
         self.nmea_sender = nmea_sender
         """Where every cycle's MPP goes as NMEA 0183 (``uvnav --nmea-out``), or None."""
         self.base_config = config
@@ -196,14 +207,40 @@ class UVNAVApp(App[None]):
         """The console screen (menu bar, state line, pages)."""
         return ConsoleScreen()
 
+    def _use_theme(self, theme: Theme) -> None:
+        """Start with ``theme``: what setting :attr:`theme` does (Textual 8.2's ``_watch_theme``:
+        the app's classes, the ANSI colour filter, the style sheet's variables), done before the
+        style sheet is first parsed, so without the new parse of every style sheet and the new
+        styling of every widget that setting it in :meth:`on_mount` cost before the first paint
+        (issue 14, start-up time; with the dialog's style sheet read at its push, the two took
+        30–60 ms of CPU on the loaded 2-core machine)."""
+        self.register_theme(theme)
+        self.set_reactive(UVNAVApp.theme, theme.name)
+        self.set_class(theme.dark, "-dark-mode", update=False)
+        self.set_class(not theme.dark, "-light-mode", update=False)
+        self.set_class(True, f"-theme-{theme.name}", update=False)
+        self._refresh_truecolor_filter(self.ansi_theme)
+        self.stylesheet.set_variables(self.get_css_variables())
+
     def on_mount(self) -> None:
-        """Monochrome theme; the Parameter Initialization dialog over the main page."""
-        self.register_theme(MONOCHROME)
-        self.theme = MONOCHROME.name
+        """The Parameter Initialization dialog over the main page."""
         self.refresh_display()
         if self.show_init:
             self.actions.parameter_initialization()
-        self.call_after_refresh(self._preload_engine)
+
+    @on(MenuBar.Painted)
+    def _painted(self, event: MenuBar.Painted) -> None:
+        """The console's menu bar has been drawn, in the frame just written (the first that
+        shows the console: the Parameter Initialization dialog is drawn over a blank screen a
+        frame earlier): collector on, engine preloaded (:meth:`_preload_engine`). Started after
+        the app's first refresh instead, the preload began 40–70 ms of the UI thread's CPU
+        before that frame, and its thread took the interpreter from the UI thread while it
+        drew it (issue 14, start-up time)."""
+        event.stop()
+        if not self._preloading:
+            self._preloading = True
+            self.release_collector()
+            self._preload_engine()
 
     def _preload_engine(self) -> None:
         """Once the first frame is on screen, load the numeric engine (NumPy, the filter, the
@@ -211,7 +248,6 @@ class UVNAVApp(App[None]):
         dialog, so that Return starts the run as soon as before. :mod:`engine.api` imports it
         on first use: the first paint needs only the configuration and the data files
         (issue 14, start-up time)."""
-        self.release_collector()
         self.run_worker(load_engine, thread=True, group="preload", exit_on_error=False)
 
     def hold_collector_until_painted(self) -> None:

@@ -44,11 +44,16 @@ class MenuBar(Widget):
             super().__init__()
             self.index = index
 
+    class Painted(Message):
+        """The bar was drawn for the first time: the frame being written shows it (the
+        console's first paint, issue 14). Posted once per bar, handled once that frame is out."""
+
     def __init__(self, *, dev_mode: bool = False, active: int | None = None,
                  id: str | None = None) -> None:
         super().__init__(id=id)
         self.set_reactive(MenuBar.dev_mode, dev_mode)
         self.set_reactive(MenuBar.active, active)
+        self._painted = False
 
     @property
     def items(self) -> tuple[MenuItem, ...]:
@@ -57,6 +62,9 @@ class MenuBar(Widget):
 
     def render(self) -> Text:
         """One line of titles, hot-keys underlined, the active one reversed."""
+        if not self._painted:
+            self._painted = True
+            self.post_message(self.Painted())
         hot = self.get_component_rich_style("menu-bar--hotkey", partial=True)
         act = self.get_component_rich_style("menu-bar--active", partial=True)
         text = Text(no_wrap=True, overflow="crop")
