@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from engine import native
+from engine.geodesy import tmgrid as _tmgrid
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84
 from engine.io.runfile import RunRecord
@@ -156,7 +157,30 @@ radians, sin, cos, sqrt = math.radians, math.sin, math.cos, math.sqrt
 
 def gps_input(inputs: CycleInputs) -> GpsInput | None:
     """The record's GPS position on WGS84, the working datum and the grid (None: GPS off or no
-    position in the record)."""
+    position in the record): :func:`_gps_input_py`, its datum shifts, ECEF, grid position and
+    record made in one compiled call where the grid's kernel is (``gps_input`` in
+    ``engine/native/tmgrid.c``; the same operations, so the same floats)."""
+    ctx, rec = inputs.context, inputs.record
+    if not inputs.config.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
+        return None
+    k = _tmgrid._K
+    if k is not None:
+        shift, to_wgs = ctx.gps_shift, ctx.gps_to_wgs84
+        # DatumShift.transform's point call (None: it takes the public call, so does the Python)
+        s_point = None if shift is None else getattr(shift, "_point", None)
+        w_point = None if to_wgs is None else getattr(to_wgs, "_point", None)
+        if (shift is None or s_point is not None) and (to_wgs is None or w_point is not None):
+            direction = getattr(shift if shift is not None else to_wgs, "_forward", None)
+            out = k.gps_input(getattr(inputs.grid, "_packed", None), s_point, w_point,
+                              direction, rec.gps_lat_deg, rec.gps_lon_deg, _WGS84_A, _WGS84_E2,
+                              _new_input, gps_weight(inputs.config, rec))
+            if out is not None:
+                return out  # type: ignore[no-any-return]
+    return _gps_input_py(inputs)
+
+
+def _gps_input_py(inputs: CycleInputs) -> GpsInput | None:
+    """:func:`gps_input` in Python (the pure path, and where the kernel declines)."""
     ctx, rec = inputs.context, inputs.record
     if not inputs.config.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
         return None
