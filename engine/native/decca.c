@@ -21,6 +21,7 @@
  * tuples/lists of the expected lengths) return NotImplemented: the caller then runs its Python.
  */
 #include "uvn_blas.h" /* the BLAS typedefs (PY_SSIZE_T_CLEAN, Python.h) */
+#include "uvn_numpy.h" /* numpy arrays' fields without numpy's headers (write_block) */
 #include <math.h>
 #include <errno.h>
 #include <string.h>
@@ -382,9 +383,31 @@ static int floats_of(PyObject *t, Py_ssize_t n, double *out)
     return 0;
 }
 
+static int read_chain_items(PyObject *sc, chain_t *c);
+
+/* The last chain read (a strong reference, so its address is not reused while it is kept) and
+ * its numbers: a tuple of tuples of floats cannot change, so the same object has the same
+ * numbers (a run reads one placed chain several times a cycle). */
+static PyObject *chain_key = NULL;
+static chain_t chain_last;
+
 /* _ChainScalars (xy, latlon, wavelength, baseline, min_lanes, stations, e2, rm2_numerator,
  * baseline_sky) -> chain_t; 1 where it is not of that form. */
 static int read_chain(PyObject *sc, chain_t *c)
+{
+    if (sc == chain_key) {
+        *c = chain_last;
+        return 0;
+    }
+    if (read_chain_items(sc, c))
+        return 1;
+    Py_INCREF(sc);
+    Py_XSETREF(chain_key, sc);
+    chain_last = *c;
+    return 0;
+}
+
+static int read_chain_items(PyObject *sc, chain_t *c)
 {
     PyObject *lst, *o;
     if (!PyTuple_Check(sc) || PyTuple_GET_SIZE(sc) != 9)
@@ -737,21 +760,33 @@ static int vcv_m2(double d_master, const double d_slave[3], const double sky[3],
     return 0;
 }
 
-static int set_float(PyObject *seq, Py_ssize_t i, double v)
+/* list[i] = v for an exact list (IndexError beyond its end, as the assignment raises). */
+static int set_float(PyObject *list, Py_ssize_t i, double v)
 {
     PyObject *f = PyFloat_FromDouble(v);
-    int r;
     if (f == NULL)
         return -1;
-    r = PySequence_SetItem(seq, i, f);
-    Py_DECREF(f);
-    return r;
+    return PyList_SetItem(list, i, f); /* steals f */
 }
 
-/* Write out[3][3] into Cl[s0:s0+3, s0:s0+3] through the buffer protocol: 1 where Cl is not a
- * writable 2-D float64 buffer holding that block (the caller assigns the returned list). */
+/* Write out[3][3] into Cl[s0:s0+3, s0:s0+3]: straight into a writable float64 numpy array
+ * (its data and strides read from the array, uvn_numpy.h: what its buffer would give), else
+ * through the buffer protocol: 1 where Cl is not a writable 2-D float64 buffer holding that
+ * block (the caller assigns the returned list). */
 static int write_block(PyObject *cl, Py_ssize_t s0, double out[3][3])
 {
+    np_fields_t *f;
+    if (np_layout < 0 && np_ready() < 0)
+        PyErr_Clear();
+    f = np_direct(cl, 2);
+    if (f != NULL && (f->flags & NP_WRITEABLE) && s0 >= 0 && s0 + 3 <= f->dimensions[0]
+        && s0 + 3 <= f->dimensions[1]) {
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                *(double *)(f->data + (s0 + i) * f->strides[0] + (s0 + j) * f->strides[1]) =
+                    out[i][j];
+        return 0;
+    }
     Py_buffer v;
     if (PyObject_GetBuffer(cl, &v, PyBUF_RECORDS) < 0) {
         PyErr_Clear();
