@@ -21,6 +21,7 @@
  * tuples/lists of the expected lengths) return NotImplemented: the caller then runs its Python.
  */
 #include "uvn_blas.h" /* the BLAS typedefs (PY_SSIZE_T_CLEAN, Python.h) */
+#include "uvn_numpy.h" /* numpy arrays' fields without numpy's headers (write_block) */
 #include <math.h>
 #include <errno.h>
 #include <string.h>
@@ -382,9 +383,31 @@ static int floats_of(PyObject *t, Py_ssize_t n, double *out)
     return 0;
 }
 
+static int read_chain_items(PyObject *sc, chain_t *c);
+
+/* The last chain read (a strong reference, so its address is not reused while it is kept) and
+ * its numbers: a tuple of tuples of floats cannot change, so the same object has the same
+ * numbers (a run reads one placed chain several times a cycle). */
+static PyObject *chain_key = NULL;
+static chain_t chain_last;
+
 /* _ChainScalars (xy, latlon, wavelength, baseline, min_lanes, stations, e2, rm2_numerator,
  * baseline_sky) -> chain_t; 1 where it is not of that form. */
 static int read_chain(PyObject *sc, chain_t *c)
+{
+    if (sc == chain_key) {
+        *c = chain_last;
+        return 0;
+    }
+    if (read_chain_items(sc, c))
+        return 1;
+    Py_INCREF(sc);
+    Py_XSETREF(chain_key, sc);
+    chain_last = *c;
+    return 0;
+}
+
+static int read_chain_items(PyObject *sc, chain_t *c)
 {
     PyObject *lst, *o;
     if (!PyTuple_Check(sc) || PyTuple_GET_SIZE(sc) != 9)
@@ -737,21 +760,33 @@ static int vcv_m2(double d_master, const double d_slave[3], const double sky[3],
     return 0;
 }
 
-static int set_float(PyObject *seq, Py_ssize_t i, double v)
+/* list[i] = v for an exact list (IndexError beyond its end, as the assignment raises). */
+static int set_float(PyObject *list, Py_ssize_t i, double v)
 {
     PyObject *f = PyFloat_FromDouble(v);
-    int r;
     if (f == NULL)
         return -1;
-    r = PySequence_SetItem(seq, i, f);
-    Py_DECREF(f);
-    return r;
+    return PyList_SetItem(list, i, f); /* steals f */
 }
 
-/* Write out[3][3] into Cl[s0:s0+3, s0:s0+3] through the buffer protocol: 1 where Cl is not a
- * writable 2-D float64 buffer holding that block (the caller assigns the returned list). */
+/* Write out[3][3] into Cl[s0:s0+3, s0:s0+3]: straight into a writable float64 numpy array
+ * (its data and strides read from the array, uvn_numpy.h: what its buffer would give), else
+ * through the buffer protocol: 1 where Cl is not a writable 2-D float64 buffer holding that
+ * block (the caller assigns the returned list). */
 static int write_block(PyObject *cl, Py_ssize_t s0, double out[3][3])
 {
+    np_fields_t *f;
+    if (np_layout < 0 && np_ready() < 0)
+        PyErr_Clear();
+    f = np_direct(cl, 2);
+    if (f != NULL && (f->flags & NP_WRITEABLE) && s0 >= 0 && s0 + 3 <= f->dimensions[0]
+        && s0 + 3 <= f->dimensions[1]) {
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                *(double *)(f->data + (s0 + i) * f->strides[0] + (s0 + j) * f->strides[1]) =
+                    out[i][j];
+        return 0;
+    }
     Py_buffer v;
     if (PyObject_GetBuffer(cl, &v, PyBUF_RECORDS) < 0) {
         PyErr_Clear();
@@ -958,6 +993,226 @@ static PyObject *py_lane_check(PyObject *m, PyObject *const *args, Py_ssize_t na
     return Py_BuildValue("(dN)", expected, slip);
 }
 
+/* ------------------------------------------------------------------ decca_totals, tracked */
+static PyObject *s_total_seconds, *s_totals, *s_track, *s_notes, *s_slips;
+
+/* _LaneAt.lanes_at(gps)'s numbers at grid (gx, gy): the grid inverted by the tmgrid kernel's
+ * inverse (inv(packed, gx, gy), its memo as TMGrid.inverse uses it), the lane model and the
+ * LEF's check. 1: lanes in *o (N_calc finite), 0: None (N_calc not finite), -1: anything else
+ * (no inverse from the kernel, an error: nothing set, the caller declines). */
+static int gps_lanes(const chain_t *c, const GeodesicObject *g, PyObject *inv, PyObject *packed,
+                     double gx, double gy, lanes_t *o)
+{
+    PyObject *a[3], *r;
+    double lat0, lon0, az[4], lef[3];
+    a[0] = packed;
+    a[1] = PyFloat_FromDouble(gx);
+    a[2] = PyFloat_FromDouble(gy);
+    if (a[1] == NULL || a[2] == NULL) {
+        Py_XDECREF(a[1]);
+        Py_XDECREF(a[2]);
+        return -1;
+    }
+    r = PyObject_Vectorcall(inv, a, 3, NULL);
+    Py_DECREF(a[1]);
+    Py_DECREF(a[2]);
+    if (r == NULL)
+        return -1;
+    if (!PyTuple_CheckExact(r) || PyTuple_GET_SIZE(r) != 2 || item_float(r, 0, &lat0)
+        || item_float(r, 1, &lon0)) {
+        Py_DECREF(r);
+        return -1;
+    }
+    Py_DECREF(r);
+    if (lane_model(c, gx, gy, lat0, o) < 0)
+        return -1;
+    if (!lef_certain(c, g, gx, gy, lat0, lon0)) {
+        azimuths(g, c, lat0, lon0, az);
+        if (lef_of(az, lef) < 0)
+            return -1;
+    }
+    for (int j = 0; j < 3; j++)
+        if (!isfinite(o->n_calc[j]))
+            return 0;
+    return 1;
+}
+
+/* (time - t_prev).total_seconds() into *out: 0, -1 (an error: the caller declines). */
+static int seconds_between(PyObject *time, PyObject *t_prev, double *out)
+{
+    PyObject *dt = PyNumber_Subtract(time, t_prev), *s;
+    if (dt == NULL)
+        return -1;
+    s = PyObject_CallMethodNoArgs(dt, s_total_seconds);
+    Py_DECREF(dt);
+    if (s == NULL)
+        return -1;
+    if (!PyFloat_CheckExact(s)) {
+        Py_DECREF(s);
+        return -1;
+    }
+    *out = PyFloat_AS_DOUBLE(s);
+    Py_DECREF(s);
+    return 0;
+}
+
+/* track_lane(p0, frac) (= identify_lane) into *out: 0, 1 where math.floor would raise. */
+static int track_of(double p0, double frac, double *out)
+{
+    double d;
+    if (!isfinite(p0))
+        return 1;
+    d = frac - (p0 - floor(p0)); /* math.floor's int converts back to the same double */
+    if (!isfinite(d + 0.5))
+        return 1;
+    *out = p0 + (d - floor(d + 0.5));
+    return 0;
+}
+
+/* tracked(sc, geodesic, inverse, packed, track, fractions, time, gps_x, gps_y, gps_var, gap_s,
+ *         sigma_max, cls) -> cls instance (LaneTotals) or NotImplemented.
+ * decca.decca_totals where every pattern read is tracked (its last total within gap_s seconds)
+ * and GPS (the source at grid (gps_x, gps_y) with the VCV _EYE2 * gps_var; gps_x None: no GPS)
+ * finds no lane slip: the totals, the new track, no notes, no slips. NotImplemented for
+ * everything else (a first reading, a gap, a slip, arguments or values of another kind, an
+ * error on the way): then the Python runs, and gives the same or its notes and errors. */
+static PyObject *py_tracked(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    const GeodesicObject *g;
+    PyObject *track, *fractions, *time, *last_time = NULL, *obj, *tot = NULL, *trk = NULL;
+    double gx = 0.0, gy = 0.0, gvar = 0.0, gap, smax, last_s = 0.0, totals[3];
+    double cov[4] __attribute__((aligned(16)));
+    int has_gps, gps_state = -2, has[3];
+    lanes_t gl;
+    PyTypeObject *cls;
+    if (nargs != 13 || read_chain(args[0], &c) || check_geodesic(args[1])
+        || arg_float(args[10], &gap) || arg_float(args[11], &smax) || !PyType_Check(args[12]))
+        Py_RETURN_NOTIMPLEMENTED;
+    g = (const GeodesicObject *)args[1];
+    track = args[4];
+    fractions = args[5];
+    time = args[6];
+    cls = (PyTypeObject *)args[12];
+    if (!PyTuple_CheckExact(track) || PyTuple_GET_SIZE(track) != 3
+        || !PyTuple_CheckExact(fractions) || PyTuple_GET_SIZE(fractions) != 3)
+        Py_RETURN_NOTIMPLEMENTED;
+    has_gps = args[7] != Py_None;
+    if (has_gps) {
+        if (arg_float(args[7], &gx) || arg_float(args[8], &gy) || arg_float(args[9], &gvar)
+            || p_dgemv == NULL || p_ddot == NULL)
+            Py_RETURN_NOTIMPLEMENTED;
+        /* _EYE2 * var, numpy's elementwise products */
+        cov[0] = 1.0 * gvar;
+        cov[1] = 0.0 * gvar;
+        cov[2] = 0.0 * gvar;
+        cov[3] = 1.0 * gvar;
+    }
+    for (int i = 0; i < 3; i++) {
+        PyObject *fo = PyTuple_GET_ITEM(fractions, i), *prev, *t_prev;
+        double frac, p0, total;
+        has[i] = 0;
+        if (fo == Py_None)
+            continue;
+        prev = PyTuple_GET_ITEM(track, i);
+        if (!PyFloat_CheckExact(fo) || !PyTuple_CheckExact(prev) || PyTuple_GET_SIZE(prev) != 2
+            || !PyFloat_CheckExact(PyTuple_GET_ITEM(prev, 0)))
+            Py_RETURN_NOTIMPLEMENTED; /* a first reading (None) or another kind */
+        frac = PyFloat_AS_DOUBLE(fo);
+        p0 = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(prev, 0));
+        t_prev = PyTuple_GET_ITEM(prev, 1);
+        if (t_prev != last_time) {
+            if (seconds_between(time, t_prev, &last_s) < 0)
+                goto decline;
+            last_time = t_prev;
+        }
+        if (!(last_s <= gap) || track_of(p0, frac, &total))
+            Py_RETURN_NOTIMPLEMENTED; /* a gap: the lane identified again (Python) */
+        if (has_gps) {
+            if (gps_state == -2)
+                gps_state = gps_lanes(&c, g, args[2], args[3], gx, gy, &gl);
+            if (gps_state < 0)
+                goto decline;
+            if (gps_state == 1) {
+                /* _K.lane_check(n_calc, row, cov, frac, total, sigma_max) */
+                double row[2] __attribute__((aligned(16))), y[2], sum, sigma, expected, x, rd;
+                row[0] = gl.row_x[i];
+                row[1] = gl.row_y[i];
+                y[0] = y[1] = 0.0;
+                p_dgemv(UvnRowMajor, UvnTrans, 2, 2, 1.0, cov, 2, row, 1, 0.0, y, 1);
+                sum = 0.;
+                sum += p_ddot(2, y, 1, row, 1);
+                sigma = sqrt((0.0 > sum) ? 0.0 : sum);
+                if (sigma <= smax) {
+                    if (track_of(gl.n_calc[i], frac, &expected))
+                        Py_RETURN_NOTIMPLEMENTED;
+                    x = total - expected;
+                    if (!isfinite(x))
+                        Py_RETURN_NOTIMPLEMENTED;
+                    rd = round(x); /* float.__round__: half to even */
+                    if (fabs(x - rd) == 0.5)
+                        rd = 2.0 * round(x / 2.0);
+                    if (rd != 0.0)
+                        Py_RETURN_NOTIMPLEMENTED; /* a lane slip: the Python writes its note */
+                }
+            }
+        }
+        totals[i] = total;
+        has[i] = 1;
+    }
+    tot = PyTuple_New(3);
+    trk = PyTuple_New(3);
+    if (tot == NULL || trk == NULL)
+        goto fail;
+    for (int i = 0; i < 3; i++) {
+        PyObject *t, *f;
+        if (!has[i]) {
+            Py_INCREF(Py_None);
+            PyTuple_SET_ITEM(tot, i, Py_None);
+            t = PyTuple_GET_ITEM(track, i);
+            Py_INCREF(t);
+            PyTuple_SET_ITEM(trk, i, t);
+            continue;
+        }
+        f = PyFloat_FromDouble(totals[i]);
+        if (f == NULL)
+            goto fail;
+        PyTuple_SET_ITEM(tot, i, f);
+        Py_INCREF(f);
+        t = PyTuple_Pack(2, f, time);
+        Py_DECREF(f);
+        if (t == NULL)
+            goto fail;
+        PyTuple_SET_ITEM(trk, i, t);
+    }
+    obj = cls->tp_alloc(cls, 0);
+    if (obj == NULL)
+        goto fail;
+    {
+        PyObject *notes = PyTuple_New(0), *zero = PyLong_FromLong(0);
+        int bad = notes == NULL || zero == NULL || PyObject_GenericSetAttr(obj, s_totals, tot) < 0
+                  || PyObject_GenericSetAttr(obj, s_track, trk) < 0
+                  || PyObject_GenericSetAttr(obj, s_notes, notes) < 0
+                  || PyObject_GenericSetAttr(obj, s_slips, zero) < 0;
+        Py_XDECREF(notes);
+        Py_XDECREF(zero);
+        Py_DECREF(tot);
+        Py_DECREF(trk);
+        if (bad) {
+            Py_DECREF(obj);
+            return NULL;
+        }
+    }
+    return obj;
+fail:
+    Py_XDECREF(tot);
+    Py_XDECREF(trk);
+    return NULL;
+decline:
+    PyErr_Clear();
+    Py_RETURN_NOTIMPLEMENTED;
+}
+
 /* Two non-null routine addresses from args "OO" (fmt names the function for errors);
  * 0, or -1 with an exception set. */
 static int two_addresses(PyObject *args, const char *fmt, void **pa, void **pb)
@@ -1027,6 +1282,8 @@ static PyMethodDef methods[] = {
      "decca.lane_sigma through numpy's dgemv and ddot."},
     {"lane_check", (PyCFunction)(void (*)(void))py_lane_check, METH_FASTCALL,
      "decca._gps_lane_check's numbers: (value, slip)."},
+    {"tracked", (PyCFunction)(void (*)(void))py_tracked, METH_FASTCALL,
+     "decca_totals where every pattern is tracked and GPS finds no slip: LaneTotals."},
     {"_bind_blas", (PyCFunction)py_bind_blas, METH_VARARGS,
      "Bind numpy's cblas_dgemv and cblas_ddot (addresses)."},
     {"_bind_geod", (PyCFunction)py_bind_geod, METH_VARARGS,
@@ -1056,6 +1313,14 @@ PyMODINIT_FUNC PyInit_decca(void)
     math_atan2 = PyObject_GetAttrString(math, "atan2");
     Py_DECREF(math);
     if (math_hypot == NULL || math_atan2 == NULL)
+        return NULL;
+    s_total_seconds = PyUnicode_InternFromString("total_seconds");
+    s_totals = PyUnicode_InternFromString("totals");
+    s_track = PyUnicode_InternFromString("track");
+    s_notes = PyUnicode_InternFromString("notes");
+    s_slips = PyUnicode_InternFromString("slips");
+    if (s_total_seconds == NULL || s_totals == NULL || s_track == NULL || s_notes == NULL
+        || s_slips == NULL)
         return NULL;
     if (PyType_Ready(&GeodesicType) < 0)
         return NULL;

@@ -335,17 +335,11 @@ PyDoc_STRVAR(forward_doc,
 "TMGrid._forward_py: geodetic degrees to grid easting, northing (metres). None: the caller\n"
 "runs the pure Python (non-float argument, non-finite value, math error).");
 
-static PyObject *
-tm_forward(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* TMGrid._forward_py's numbers for finite lat, lon (degrees). 0 on success, -1: fall back. */
+static int
+forward_of(const tm_consts *k, double lat, double lon, double *x_out, double *y_out)
 {
-    if (nargs != 3) {
-        PyErr_SetString(PyExc_TypeError, "forward(packed, lat_deg, lon_deg)");
-        return NULL;
-    }
-    tm_consts kk_, *k = &kk_;
-    double lat, lon, lam, xip, etap;
-    if (consts_of(args[0], k) < 0 || finite_arg(args[1], &lat) < 0 || finite_arg(args[2], &lon) < 0)
-        BAIL();
+    double lam, xip, etap;
     if (wrap_radians(k, lon - k->cm, &lam) < 0)
         BAIL();
     const double phi = lat * k->deg2rad;
@@ -375,7 +369,27 @@ tm_forward(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         BAIL();
     clenshaw(k->alpha, c2, &y1, NULL, NULL);
     const Py_complex z = c_sum(zp, _Py_c_prod(s2, y1));
-    return pair(k->big_a * z.imag, k->big_a * z.real);
+    *x_out = k->big_a * z.imag;
+    *y_out = k->big_a * z.real;
+    return 0;
+bail:
+    return -1;
+}
+
+static PyObject *
+tm_forward(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "forward(packed, lat_deg, lon_deg)");
+        return NULL;
+    }
+    tm_consts kk_, *k = &kk_;
+    double lat, lon, x, y;
+    if (consts_of(args[0], k) < 0 || finite_arg(args[1], &lat) < 0 || finite_arg(args[2], &lon) < 0)
+        BAIL();
+    if (forward_of(k, lat, lon, &x, &y) < 0)
+        BAIL();
+    return pair(x, y);
 bail:
     return bail_none();
 }
@@ -588,6 +602,145 @@ tm_inverse(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     return pair(lat, lon);
 }
 
+/* ----------------------------------------------------------------------------- gps_input */
+PyDoc_STRVAR(gps_input_doc,
+"gps_input(packed, shift, to_wgs84, direction, lat_in, lon_in, a, e2, make, weight)\n"
+"    -> make(...)'s GpsInput or None\n\n"
+"engine.systems.gps._gps_input_py after its checks: the record's GPS (lat_in, lon_in, floats)\n"
+"through the datum shifts (shift, to_wgs84: each None or the pyproj point function\n"
+"DatumShift.transform calls, with ``direction``), its WGS84 ECEF on the ellipsoid (a, e2) and\n"
+"the grid of ``packed``; make(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y, weight).\n"
+"None: the caller runs the pure Python (another kind of value, a math error, any error).");
+
+static PyObject *g_zero; /* the float 0.0, DatumShift.transform's h_m */
+
+/* DatumShift.transform(lat, lon, 0.0)'s point call: out[3], 0; -1 (an error, or not three
+ * floats: the caller falls back). */
+static int
+shift_point(PyObject *point, PyObject *direction, PyObject *lat, PyObject *lon,
+            PyObject *out[3])
+{
+    PyObject *a[7] = {lat, lon, g_zero, Py_None, direction, Py_False, Py_False};
+    PyObject *r = PyObject_Vectorcall(point, a, 7, NULL);
+    if (r == NULL)
+        return -1;
+    if (!PyTuple_CheckExact(r) || PyTuple_GET_SIZE(r) != 3) {
+        Py_DECREF(r);
+        return -1;
+    }
+    for (int i = 0; i < 3; i++) {
+        out[i] = PyTuple_GET_ITEM(r, i);
+        if (!PyFloat_CheckExact(out[i])) { /* float() would convert it: the Python does */
+            Py_DECREF(r);
+            return -1;
+        }
+    }
+    for (int i = 0; i < 3; i++)
+        Py_INCREF(out[i]);
+    Py_DECREF(r);
+    return 0;
+}
+
+static PyObject *
+tm_gps_input(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    tm_consts k;
+    PyObject *shifted[3] = {NULL, NULL, NULL}, *wgs[3] = {NULL, NULL, NULL};
+    PyObject *lat_o, *lon_o, *w_lat_o, *w_lon_o, *hg_o = NULL, *ecef = NULL, *res = NULL;
+    PyObject *x_o = NULL, *y_o = NULL;
+    double a_m, e2, w_lat, w_lon, hg, lat, lon, x, y;
+    if (nargs != 10) {
+        PyErr_SetString(PyExc_TypeError, "gps_input(packed, shift, to_wgs84, direction, "
+                        "lat_in, lon_in, a, e2, make, weight)");
+        return NULL;
+    }
+    if (consts_of(args[0], &k) < 0 || !PyFloat_CheckExact(args[4])
+        || !PyFloat_CheckExact(args[5]) || !PyFloat_CheckExact(args[6])
+        || !PyFloat_CheckExact(args[7]))
+        return bail_none();
+    a_m = PyFloat_AS_DOUBLE(args[6]);
+    e2 = PyFloat_AS_DOUBLE(args[7]);
+    if (args[1] == Py_None) {
+        lat_o = args[4];
+        lon_o = args[5];
+        hg = -0.0; /* -h_datum, h_datum = 0.0 */
+    }
+    else {
+        if (shift_point(args[1], args[3], args[4], args[5], shifted) < 0)
+            goto bail;
+        lat_o = shifted[0];
+        lon_o = shifted[1];
+        hg = -PyFloat_AS_DOUBLE(shifted[2]);
+    }
+    if (args[2] == Py_None) {
+        w_lat_o = args[4];
+        w_lon_o = args[5];
+    }
+    else {
+        if (shift_point(args[2], args[3], args[4], args[5], wgs) < 0)
+            goto bail;
+        w_lat_o = wgs[0];
+        w_lon_o = wgs[1];
+        hg = PyFloat_AS_DOUBLE(wgs[2]);
+    }
+    w_lat = PyFloat_AS_DOUBLE(w_lat_o);
+    w_lon = PyFloat_AS_DOUBLE(w_lon_o);
+    lat = PyFloat_AS_DOUBLE(lat_o);
+    lon = PyFloat_AS_DOUBLE(lon_o);
+    {
+        /* geodetic_to_ecef(w_lat, w_lon, hg, WGS84) as gps_input writes it out */
+        const double phi = w_lat * k.deg2rad;
+        const double lam = w_lon * k.deg2rad;
+        const double sphi = v_sin(phi);
+        if (M1_BAD(sphi, phi))
+            goto bail;
+        const double cphi = v_cos(phi);
+        if (M1_BAD(cphi, phi))
+            goto bail;
+        const double q = 1.0 - e2 * sphi * sphi;
+        if (!(q >= 0.0) && !isnan(q)) /* math.sqrt of a negative: ValueError */
+            goto bail;
+        const double sq = sqrt(q);
+        if (sq == 0.0)
+            goto bail;
+        const double nu = a_m / sq;
+        const double r = (nu + hg) * cphi;
+        const double clam = v_cos(lam);
+        if (M1_BAD(clam, lam))
+            goto bail;
+        const double slam = v_sin(lam);
+        if (M1_BAD(slam, lam))
+            goto bail;
+        ecef = Py_BuildValue("(ddd)", r * clam, r * slam, (nu * (1.0 - e2) + hg) * sphi);
+        if (ecef == NULL)
+            goto bail;
+    }
+    if (!isfinite(lat) || !isfinite(lon) || forward_of(&k, lat, lon, &x, &y) < 0)
+        goto bail;
+    hg_o = args[2] == Py_None ? PyFloat_FromDouble(hg) : (Py_INCREF(wgs[2]), wgs[2]);
+    x_o = PyFloat_FromDouble(x);
+    y_o = PyFloat_FromDouble(y);
+    if (hg_o == NULL || x_o == NULL || y_o == NULL)
+        goto bail;
+    {
+        PyObject *margs[11] = {args[4], args[5], w_lat_o, w_lon_o, hg_o, ecef, lat_o, lon_o,
+                               x_o, y_o, args[9]};
+        res = PyObject_Vectorcall(args[8], margs, 11, NULL);
+    }
+bail:
+    for (int i = 0; i < 3; i++) {
+        Py_XDECREF(shifted[i]);
+        Py_XDECREF(wgs[i]);
+    }
+    Py_XDECREF(hg_o);
+    Py_XDECREF(ecef);
+    Py_XDECREF(x_o);
+    Py_XDECREF(y_o);
+    if (res == NULL)
+        return bail_none();
+    return res;
+}
+
 /* ---------------------------------------------------------------------------------- pack */
 PyDoc_STRVAR(pack_doc,
 "pack(consts) -> bytearray\n\n"
@@ -638,6 +791,7 @@ static PyMethodDef tm_methods[] = {
      forward_full_doc},
     {"inverse", (PyCFunction)(void (*)(void))tm_inverse, METH_FASTCALL, inverse_doc},
     {"pack", tm_pack, METH_O, pack_doc},
+    {"gps_input", (PyCFunction)(void (*)(void))tm_gps_input, METH_FASTCALL, gps_input_doc},
     {NULL, NULL, 0, NULL},
 };
 
@@ -668,8 +822,10 @@ PyInit_tmgrid(void)
         g_ccos = attr_of("cmath", "cos");
         g_cphase = attr_of("cmath", "phase");
         g_one = PyFloat_FromDouble(1.0);
+        g_zero = PyFloat_FromDouble(0.0);
         if (g_hypot == NULL || g_csin == NULL || g_ccos == NULL || g_cphase == NULL
-            || g_one == NULL) {
+            || g_one == NULL || g_zero == NULL) {
+            Py_CLEAR(g_zero);
             Py_CLEAR(g_hypot);
             Py_CLEAR(g_csin);
             Py_CLEAR(g_ccos);

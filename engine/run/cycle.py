@@ -11,7 +11,7 @@ geodetic positions on the working datum; headings true outside the filter, grid 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from datetime import datetime
 
@@ -401,7 +401,7 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
             heading = (rec.cog_deg if rec.cog_deg is not None
                        and rec.sog_kn >= cfg.sensors.cog_min_sog_kn else None)
             h_sigma, s_sigma = standin_sigmas(rec.sog_kn)
-    values = SensorValues(  # positional: the order of the fields
+    values = _new_sensor_values(  # SensorValues(...) positionally: the order of the fields
         status,
         heading,
         speed,
@@ -765,6 +765,18 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
             extend(reading.messages)
         readings[system.name] = reading
     return readings
+
+
+def _sensor_values_maker() -> Callable[..., SensorValues]:
+    """``SensorValues`` from every field positionally: ``engine.native.runparse.make`` bound to
+    it (the same instance, without the dataclass ``__init__``'s ``object.__setattr__`` per
+    field), or the class itself (the pure path)."""
+    from engine.systems.gps import slots_maker
+
+    return slots_maker(SensorValues)
+
+
+_new_sensor_values = _sensor_values_maker()
 
 
 def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, float],

@@ -19,6 +19,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from engine import native
+from engine.geodesy import tmgrid as _tmgrid
 from engine.geodesy.ellipsoidal import (
     DatumShift,
     GeodesicSolver,
@@ -885,6 +886,38 @@ _NEW = object.__new__
 ``__dict__`` the caller fills at once with every field (as ``engine.run.cycle`` does)."""
 
 
+def _tracked_totals(placed: ChainOnGrid, geodesic: GeodesicSolver,
+                    track: Sequence[tuple[float, datetime] | None],
+                    fractions: Sequence[float | None], time: datetime,
+                    gps: Any) -> LaneTotals | None:
+    """:func:`decca_totals` in one compiled call (``tracked`` in ``engine/native/decca.c``)
+    for the usual record: every pattern read is tracked (its last total within
+    :data:`DECCA_TRACK_GAP_S`) and GPS (the :class:`engine.systems.gps.GpsFix` ``gps``, its
+    corrections added, VCV ``_EYE2 * var_m2``; None: no GPS) finds no lane slip. None for
+    anything else (a first reading, a gap, a slip, no kernel): then the caller runs
+    :func:`decca_totals`, which gives the same :class:`LaneTotals` here (the tests compare)."""
+    kg = getattr(geodesic, "_native", None)
+    if type(kg) is not _KGeodesic:
+        kg = _geodesic_kernel(geodesic)
+        if kg is None:
+            return None
+    tm = _tmgrid._K
+    packed = placed.grid._packed
+    sigma = _SIGMA
+    if sigma is _UNSET:
+        sigma = _sigma_kernel()
+    if tm is None or packed is None or sigma is None or _K is None:
+        return None
+    if gps is None:
+        r = _K.tracked(placed._scalars, kg, tm.inverse, packed, track, fractions, time, None,
+                       None, None, DECCA_TRACK_GAP_S, LANE_SIGMA_MAX, LaneTotals)
+    else:
+        r = _K.tracked(placed._scalars, kg, tm.inverse, packed, track, fractions, time,
+                       gps.x_m + gps.corr_east_m, gps.y_m + gps.corr_north_m, gps.var_m2,
+                       DECCA_TRACK_GAP_S, LANE_SIGMA_MAX, LaneTotals)
+    return None if r is NotImplemented else r  # type: ignore[no-any-return]
+
+
 # --------------------------------------------------------------------------------------------
 # Decca behind the systems seam (engine.systems.base)
 
@@ -1036,13 +1069,18 @@ class DeccaSystem:
         x_start, prior = inputs.x_start, inputs.prior
         gps_reading = inputs.earlier.get("gps")
         g = None if gps_reading is None else gps_reading.value
-        new_source = _new_source
-        lanes = decca_totals(
-            placed, ctx.geodesic, ctx.zone_lane, inputs.nav.decca_track, rec.decca, rec.time,
-            x_start,
-            None if prior is None else new_source("the DR position", *x_start, prior.cov),
-            None if g is None else new_source("GPS", g.x_m + g.corr_east_m,
-                                              g.y_m + g.corr_north_m, self._gps_cov(g.var_m2)))
+        lanes = None if _K is None else _tracked_totals(placed, ctx.geodesic,
+                                                         inputs.nav.decca_track, rec.decca,
+                                                         rec.time, g)
+        if lanes is None:
+            new_source = _new_source
+            lanes = decca_totals(
+                placed, ctx.geodesic, ctx.zone_lane, inputs.nav.decca_track, rec.decca,
+                rec.time, x_start,
+                None if prior is None else new_source("the DR position", *x_start, prior.cov),
+                None if g is None else new_source("GPS", g.x_m + g.corr_east_m,
+                                                  g.y_m + g.corr_north_m,
+                                                  self._gps_cov(g.var_m2)))
         per = self._per_config
         if per is None or per[0] is not cfg:
             select = cfg.decca.select

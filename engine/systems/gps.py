@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from engine import native
-from engine.geodesy.angles import wrap_180_deg
+from engine.geodesy import tmgrid as _tmgrid
 from engine.geodesy.ellipsoid import WGS84
 from engine.io.runfile import RunRecord
 from engine.systems.base import (
@@ -152,11 +152,60 @@ _WGS84_A = WGS84.ellipsoid.a_m
 _WGS84_E2 = WGS84.ellipsoid.e2
 """WGS84's a (m) and e² as :func:`engine.geodesy.ellipsoidal.geodetic_to_ecef` reads them."""
 radians, sin, cos, sqrt = math.radians, math.sin, math.cos, math.sqrt
+remainder = math.remainder
 
 
 def gps_input(inputs: CycleInputs) -> GpsInput | None:
     """The record's GPS position on WGS84, the working datum and the grid (None: GPS off or no
-    position in the record)."""
+    position in the record): :func:`_gps_input_py`, its datum shifts, ECEF, grid position and
+    record made in one compiled call where the grid's kernel is (``gps_input`` in
+    ``engine/native/tmgrid.c``; the same operations, so the same floats)."""
+    ctx, rec = inputs.context, inputs.record
+    if not inputs.config.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
+        return None
+    k = _tmgrid._K
+    if k is not None:
+        shift, to_wgs = ctx.gps_shift, ctx.gps_to_wgs84
+        sa = _shift_args
+        if sa is None or sa[0] is not shift or sa[1] is not to_wgs:
+            sa = _kernel_shifts(shift, to_wgs)
+        if sa[2]:
+            # gps_weight(config, rec), its 1993 record's weight looked up here
+            config = inputs.config
+            pc = _per_config
+            if (pc is not None and pc.config is config and rec.gps_hdop is None
+                    and rec.gps_sats is None and rec.gps_quality is None):
+                weight = pc.fixed_weight
+            else:
+                weight = gps_weight(config, rec)
+            out = k.gps_input(getattr(inputs.grid, "_packed", None), sa[3], sa[4], sa[5],
+                              rec.gps_lat_deg, rec.gps_lon_deg, _WGS84_A, _WGS84_E2,
+                              _new_input, weight)
+            if out is not None:
+                return out  # type: ignore[no-any-return]
+    return _gps_input_py(inputs)
+
+
+_shift_args: tuple[Any, Any, bool, Any, Any, Any] | None = None
+"""(datum shift, shift to WGS84, the kernel may run, their point calls, the direction) of the
+last shifts seen (:func:`_kernel_shifts`; a run has one pair)."""
+
+
+def _kernel_shifts(shift: Any, to_wgs: Any) -> tuple[Any, Any, bool, Any, Any, Any]:
+    """What the kernel's gps_input needs of the run's datum shifts (``None``: no shift): each
+    one's point call (:meth:`DatumShift.transform` calls it; without it that takes the public
+    call, and so does the Python here) and its direction, remembered in :data:`_shift_args`."""
+    global _shift_args
+    s_point = None if shift is None else getattr(shift, "_point", None)
+    w_point = None if to_wgs is None else getattr(to_wgs, "_point", None)
+    ok = (shift is None or s_point is not None) and (to_wgs is None or w_point is not None)
+    direction = getattr(shift if shift is not None else to_wgs, "_forward", None)
+    sa = _shift_args = (shift, to_wgs, ok, s_point, w_point, direction)
+    return sa
+
+
+def _gps_input_py(inputs: CycleInputs) -> GpsInput | None:
+    """:func:`gps_input` in Python (the pure path, and where the kernel declines)."""
     ctx, rec = inputs.context, inputs.record
     if not inputs.config.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
         return None
@@ -328,7 +377,8 @@ class GpsSystem:
         gps = gps_input(inputs)
         if gps is None:
             return SystemReading()
-        off_deg = abs(wrap_180_deg(gps.lon_deg - inputs.cm_deg))
+        wr = remainder(gps.lon_deg - inputs.cm_deg, 360.0)  # wrap_180_deg, written out
+        off_deg = abs(180.0 if wr == -180.0 else wr + 0.0)
         if off_deg > GRID_MAX_DLON_DEG:
             return SystemReading(messages=(
                 f"GPS position {off_deg:.1f}° of longitude from the grid's central meridian: "
@@ -337,7 +387,12 @@ class GpsSystem:
         w = gps.weight if gps.weight is not None else gps_weight(inputs.config, inputs.record)
         # The fixed figure keeps its variance exactly as before (σ² of √var is not bit-exact).
         # (w.origin != "receiver" is ``not w.receiver_weighted``, without the property's call.)
-        var = _of_config(inputs.config).variance_m2 if w.origin != "receiver" else w.sigma_m**2
+        if w.origin != "receiver":
+            pc = _per_config
+            var = (pc if pc is not None and pc.config is inputs.config
+                   else _of_config(inputs.config)).variance_m2
+        else:
+            var = w.sigma_m**2
         fix = _new_fix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
                        c.gps_east_m, w)
         return new_reading(fix, (), gps, True)

@@ -75,9 +75,12 @@ def surface_reference_hz(ref_freq_hz: float = 0.0) -> float:
 
 def pressure_depth_m(freq_hz: float, ref_freq_hz: float, s_weight: float = 1.026) -> float:
     """Depth (m, positive down) from the crystal frequency: d = (β/γ)(P − P_ref) (eq. 3.3), with
-    γ = ``s_weight`` (specific weight of sea water) and P_ref from the surface frequency."""
-    p = crystal_pressure_pa(freq_hz)
-    p_ref = crystal_pressure_pa(ref_freq_hz)
+    γ = ``s_weight`` (specific weight of sea water) and P_ref from the surface frequency
+    (:func:`crystal_pressure_pa` of both written out: the same operations, once a cycle)."""
+    u = 1.0 - freq_hz / CRYSTAL_F0_HZ
+    p = PSI_PA * (CRYSTAL_A_PSI * u - CRYSTAL_B_PSI * u * u)
+    u = 1.0 - ref_freq_hz / CRYSTAL_F0_HZ
+    p_ref = PSI_PA * (CRYSTAL_A_PSI * u - CRYSTAL_B_PSI * u * u)
     return BETA_M_PA / s_weight * (p - p_ref)
 
 

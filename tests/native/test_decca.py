@@ -11,11 +11,13 @@ with pyproj's own on points all over the ellipsoid.
 from __future__ import annotations
 
 import math
+from datetime import timedelta
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
 import engine.systems.decca as decca
@@ -103,15 +105,18 @@ def replay_values() -> dict[str, list[Any]]:
         got["lanes"].append((self.placed, src))
         return orig_lanes(self, src)
 
+    orig_tracked = decca._tracked_totals
     decca.DeccaObservations.linearise = lin  # type: ignore[method-assign]
     decca._LaneAt._lanes = lanes  # type: ignore[method-assign]
     decca.decca_totals = totals
+    decca._tracked_totals = lambda *a: None  # every record through decca_totals, recorded
     try:
         replay(120)
     finally:
         decca.DeccaObservations.linearise = orig_lin  # type: ignore[method-assign]
         decca._LaneAt._lanes = orig_lanes  # type: ignore[method-assign]
         decca.decca_totals = orig_totals
+        decca._tracked_totals = orig_tracked
     assert len(got["lin"]) > 100 and len(got["lanes"]) > 100
     return got
 
@@ -177,6 +182,77 @@ def test_lane_totals_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
             want = decca.decca_totals(placed, PURE, *rest)
         assert hexes(got.totals) == hexes(want.totals)
         assert (got.track, got.notes, got.slips) == (want.track, want.notes, want.slips)
+
+
+def _tracked_is_python(placed: Any, zone_lane: Any, track: Any, fractions: Any, time: Any,
+                       x_start: Any, position: Any, gps: Any) -> bool:
+    """decca._tracked_totals (the kernel's ``tracked``) against the pure decca_totals of the
+    same record: the same LaneTotals to the bit, or None. Returns whether the kernel took it."""
+    fix = None
+    if gps is not None:
+        var = float(gps.cov[0, 0])
+        assert hexes(gps.cov) == hexes(np.eye(2) * var)  # the VCV the kernel forms
+        fix = SimpleNamespace(x_m=gps.x_m, y_m=gps.y_m, corr_east_m=0.0, corr_north_m=0.0,
+                              var_m2=var)
+    got = decca._tracked_totals(placed, FAST, track, fractions, time, fix)
+    with _Pure():
+        try:
+            want = decca.decca_totals(placed, PURE, zone_lane, track, fractions, time, x_start,
+                                      position, gps)
+        except (ValueError, ArithmeticError):  # a NaN or infinite track: math.floor raises
+            assert got is None
+            return False
+    if got is None:
+        return False
+    assert type(got) is decca.LaneTotals and got.__dict__.keys() == want.__dict__.keys()
+    assert hexes(got.totals) == hexes(want.totals)
+    assert [None if t is None else (hexes(t[0]), t[1]) for t in got.track] == [
+        None if t is None else (hexes(t[0]), t[1]) for t in want.track]
+    assert (got.notes, got.slips, type(got.slips)) == (want.notes, want.slips, int)
+    return True
+
+
+def test_tracked_totals_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
+    """The compiled tracking takes the usual record (tracked patterns, GPS agreeing) and gives
+    decca_totals' LaneTotals; the first records (zone/lane) stay with the Python."""
+    taken = 0
+    for placed, _geodesic, *rest in replay_values["totals"]:
+        taken += _tracked_is_python(placed, *rest)
+    assert taken > 100
+
+
+@settings(max_examples=300, deadline=None)
+@given(k=st.integers(0, 10_000), slip=st.tuples(*[st.sampled_from(
+           [0.0, 0.0, 1.0, -1.0, 0.4, 0.5, -0.5, 0.6, 2.0, 1e-9, math.nan, math.inf])] * 3),
+       gap=st.sampled_from([0.0, 0.0, 1.0, 29.0, 30.0, 30.5, 300.0, -5.0]),
+       drop=st.tuples(st.booleans(), st.booleans(), st.booleans()),
+       first=st.tuples(st.booleans(), st.booleans(), st.booleans()),
+       var=st.sampled_from([None, 1.0, 1225.0, 1e4, 1e8, 0.0, -1.0, math.inf, math.nan]),
+       off=st.tuples(st.floats(-3e3, 3e3), st.floats(-3e3, 3e3)))
+def test_tracked_totals_anywhere(replay_values: dict[str, list[Any]], k: int,
+                                 slip: tuple[float, ...], gap: float,
+                                 drop: tuple[bool, ...], first: tuple[bool, ...],
+                                 var: float | None, off: tuple[float, float]) -> None:
+    """Around the replay's records: tracks off by lanes (slips, NaN, inf), gaps, patterns
+    without a reading or without a track, other GPS variances and positions, no GPS: the
+    kernel gives decca_totals' LaneTotals or declines; it declines every slip, gap and first
+    reading."""
+    calls = replay_values["totals"]
+    placed, _g, zone_lane, track, fractions, time, x_start, position, gps = calls[k % len(calls)]
+    if track[0] is None:
+        return
+    track = tuple(None if t is None or f else (t[0] + s, t[1] - timedelta(seconds=gap))
+                  for t, s, f in zip(track, slip, first, strict=True))
+    fractions = tuple(None if d else f for f, d in zip(fractions, drop, strict=True))
+    if var is None:
+        gps = None
+    elif gps is not None:
+        gps = decca.LaneSource("GPS", gps.x_m + off[0], gps.y_m + off[1], np.eye(2) * var)
+    took = _tracked_is_python(placed, zone_lane, track, fractions, time, x_start, position, gps)
+    event(f"kernel took it: {took}")
+    read = [f is not None for f in fractions]
+    if took:
+        assert not any(r and (t is None or gap > 30.0) for r, t in zip(read, track, strict=True))
 
 
 class _At:

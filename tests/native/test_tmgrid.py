@@ -15,6 +15,8 @@ import os
 import subprocess
 import sys
 from collections.abc import Callable
+from dataclasses import replace
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -23,11 +25,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import engine.geodesy.tmgrid as tmgrid
+import engine.systems.gps as gps
 from engine import native
+from engine.geodesy.ellipsoid import WGS84 as WGS84_DATUM
 from engine.geodesy.ellipsoid import WGS84_ELLIPSOID, Ellipsoid
+from engine.geodesy.ellipsoidal import datum_shift
 from engine.geodesy.tmgrid import TMGrid
+from engine.io.datumfile import read_datum_file
 from tests.native.replay import replay
-from tests.paths import ROOT
+from tests.paths import DATA, ROOT
 
 KERNEL = tmgrid._K
 needs_kernel = pytest.mark.skipif(KERNEL is None, reason="engine.native.tmgrid not built")
@@ -84,6 +90,9 @@ def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
     mp = pytest.MonkeyPatch()
     for name in calls:
         mp.setattr(TMGrid, name, recorder(name))
+    # The GPS input through its Python, whose grid.forward is recorded here (the kernel's
+    # gps_input does the forward itself: test_gps_input_* below).
+    mp.setattr(gps, "gps_input", gps._gps_input_py)
     try:
         replay(200)
     finally:
@@ -207,6 +216,82 @@ def test_memo_keeps_zero_signs_and_evicts() -> None:
         assert _bits(grid.inverse(-1000.0, second)) == _bits(grid._inverse_py(-1000.0, second))
     assert grid._inverted == {}  # the kernel keeps its own memo
     assert grid == TMGrid(INTL, 5.0)
+
+
+# --------------------------------------------------------------------------- the GPS input
+def _gps_bits(g: Any) -> Any:
+    """Every field of a GpsInput (None stays None), floats as their bits."""
+    if g is None:
+        return None
+    assert type(g) is gps.GpsInput
+    return tuple(_bits(getattr(g, f)) for f in gps.GpsInput.__slots__)
+
+
+def _gps_outcome(fn: Callable[..., Any], inputs: Any) -> Any:
+    try:
+        return _gps_bits(fn(inputs))
+    except Exception as exc:  # noqa: BLE001 - the exception is the outcome compared
+        return type(exc), str(exc)
+
+
+@pytest.fixture(scope="module")
+def gps_inputs() -> list[Any]:
+    """The CycleInputs of GPS's reading in the first 150 demo epochs."""
+    seen: list[Any] = []
+    real = gps.gps_input
+
+    def record(inputs: Any) -> Any:
+        seen.append(inputs)
+        return real(inputs)
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(gps, "gps_input", record)
+    try:
+        replay(150)
+    finally:
+        mp.undo()
+    return seen
+
+
+@needs_kernel
+def test_gps_input_on_the_replay(gps_inputs: list[Any]) -> None:
+    """The kernel's gps_input (datum shift, ECEF, grid, record) == _gps_input_py, and it takes
+    every record of the replay."""
+    assert len(gps_inputs) >= 140
+    for inputs in gps_inputs:
+        rec = inputs.record
+        ctx = inputs.context
+        assert KERNEL.gps_input(inputs.grid._packed, ctx.gps_shift._point, None,
+                                ctx.gps_shift._forward, rec.gps_lat_deg, rec.gps_lon_deg,
+                                gps._WGS84_A, gps._WGS84_E2, gps._new_input,
+                                gps.gps_weight(inputs.config, rec)) is not None
+        assert _gps_bits(gps.gps_input(inputs)) == _gps_bits(gps._gps_input_py(inputs))
+
+
+_DATUMS = read_datum_file(DATA / "TO_WGS84.DAT")
+_SHIFTS = {pair: None if pair[0] == pair[1] else datum_shift(
+    WGS84_DATUM if pair[0] == "WGS84" else _DATUMS.datum(pair[0]),
+    WGS84_DATUM if pair[1] == "WGS84" else _DATUMS.datum(pair[1]))
+    for pair in (("WGS84", "ED50"), ("ED50", "WGS84"), ("ED50", "ED50"), ("WGS84", "WGS84"))}
+
+
+@needs_kernel
+@settings(deadline=None, max_examples=300)
+@given(k=st.integers(0, 10_000), gps_datum=st.sampled_from(["WGS84", "ED50"]),
+       working=st.sampled_from(["WGS84", "ED50"]), cm=st.sampled_from(CMS),
+       lat=st.floats(-90.0, 90.0) | st.sampled_from([math.nan, math.inf, 90.0, -90.0, 0.0]),
+       lon=st.floats(-180.0, 180.0) | st.sampled_from([math.nan, -math.inf, 180.0, -0.0]))
+def test_gps_input_anywhere(gps_inputs: list[Any], k: int, gps_datum: str, working: str,
+                            cm: float, lat: float, lon: float) -> None:
+    """Other positions (poles, NaN, infinities), datum pairs (no shift, a shift to the working
+    datum, one to WGS84 for the ECEF, both) and grids: the kernel's record or the Python's
+    outcome (its exception where it raises)."""
+    base = gps_inputs[k % len(gps_inputs)]
+    ctx = SimpleNamespace(gps_shift=_SHIFTS[(gps_datum, working)],
+                          gps_to_wgs84=_SHIFTS[(gps_datum, "WGS84")])
+    rec = replace(base.record, gps_lat_deg=lat, gps_lon_deg=lon)
+    inputs = replace(base, context=ctx, record=rec, grid=GRIDS[("INTERNATIONAL", cm)])
+    assert _gps_outcome(gps.gps_input, inputs) == _gps_outcome(gps._gps_input_py, inputs)
 
 
 # --------------------------------------------------------------------------- the pure path
