@@ -1,5 +1,5 @@
-/* numpy arrays read and made from C without numpy's headers, shared by the filter kernels
- * (kalman_predict.c, kalman_update.c). Every route here is checked against numpy itself at
+/* numpy arrays read and made from C without numpy's headers, shared by the kernels that
+ * include it (kalman_predict.c, kalman_update.c, lsq.c, decca.c, outfmt.c). Every route here is checked against numpy itself at
  * first use (np_ready): the array object's leading fields, that clearing NP_WRITEABLE is what
  * ndarray.setflags(write=False) does, and that the _ARRAY_API capsule's slot 2 is
  * numpy.ndarray; where a check fails, the buffer protocol, numpy.empty and setflags are used.

@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 import engine.lsq.adjustment as adj
 import engine.lsq.confidence as conf
 import engine.lsq.snooping as snoop
+import engine.run.cycle as cycle
 from engine import native
 from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
@@ -139,6 +140,8 @@ def recorded() -> dict[str, list[Any]]:
         return ellipse(c2)
 
     mp.setattr(_kernel, "kernel", lambda: None)
+    # The filter estimate's ellipse too (its compiled PositionEstimate calls the ellipse in C).
+    mp.setattr(cycle, "_POSITION_K", None)
     mp.setattr(adj, "_evaluate", ev)
     mp.setattr(adj, "_adjustment_py", fin)
     mp.setattr(conf, "_error_ellipse_py", ell)
