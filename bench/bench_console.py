@@ -157,6 +157,20 @@ def _tmux(*args: str) -> str:
                           text=True).stdout
 
 
+def _new_session(session: str, cols: int, rows: int, cmd: str, tries: int = 3) -> None:
+    """A detached tmux session running ``cmd``. Retried after a short pause: when the previous
+    run's session was the server's last, the server may still be exiting and refuse the new
+    session (seen in make bench on 2026-12-03: the Pg 642 run after the Pg 100 runs failed)."""
+    for k in range(tries):
+        try:
+            _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
+            return
+        except subprocess.CalledProcessError as exc:
+            if k == tries - 1:
+                raise RuntimeError(f"tmux new-session failed {tries} times: {exc.stderr}") from exc
+            time.sleep(0.5)
+
+
 def _wait_screen(session: str, needle: str, timeout_s: float) -> bool:
     """True once ``needle`` is on the tmux screen; False after ``timeout_s`` or if the
     session has ended."""
@@ -195,7 +209,7 @@ def tmux_run(config: Path, page: int, timeout_s: float = 600.0) -> tuple[float, 
     session = f"uvnav-bench-{os.getpid()}"
     cmd = (f"cd {config.parent} && PYTHONPATH={ROOT} exec {sys.executable} -m uvnav_tui.cli.main "
            f"--config {config} --hardcopy-dir {config.parent / 'hardcopy'}")
-    _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
+    _new_session(session, cols, rows, cmd)
     nan = float("nan")
     try:
         pid = int(_tmux("display", "-p", "-t", session, "#{pane_pid}").strip())
@@ -238,7 +252,7 @@ def tmux_keys(config: Path, tries: int = 10) -> tuple[int, int]:
     session = f"uvnav-keys-{os.getpid()}"
     cmd = (f"cd {config.parent} && PYTHONPATH={ROOT} exec {sys.executable} -m uvnav_tui.cli.main "
            f"--config {config} --hardcopy-dir {config.parent / 'hardcopy'}")
-    _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
+    _new_session(session, cols, rows, cmd)
     hits = made = 0
     try:
         if not _wait_screen(session, "Parameter Initialization", 60.0):
