@@ -128,7 +128,7 @@ if TYPE_CHECKING:
     from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
     from engine.lsq.fix import MAX_BRR, FixResult, LopRow, ManualObservation, lop_name
     from engine.lsq.statistics import REJECT_BOUND, w_critical
-    from engine.native import PURE_ENV, kernel_report
+    from engine.native import PURE_ENV
     from engine.run.commands import (
         AddObservation,
         Command,
@@ -142,6 +142,7 @@ if TYPE_CHECKING:
         SetSensor,
     )
     from engine.run.cycle import CycleResult, PositionEstimate, RunContext
+    from engine.run.kernels import kernel_report
     from engine.run.live import LEARN_S, LiveCycle, LiveRun, LiveStep, open_live_run
     from engine.run.nmea_config import derive_nmea_config, derived_config_lines
     from engine.run.nmea_out import NmeaOutOptions, NmeaPositionOut
@@ -178,7 +179,8 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     "engine.assess.denied": ("CHECKPOINTS_S", "DeniedReport", "denied_experiment",
                              "run_records", "truth_reference"),
     "engine.sim.scenario": ("load_scenario",),
-    "engine.native": ("PURE_ENV", "kernel_report"),
+    "engine.native": ("PURE_ENV",),
+    "engine.run.kernels": ("kernel_report",),
     "engine.sim.simulate": ("read_data_files", "write_simulation"),
     "engine.io.nmea_send": ("NmeaSender", "open_nmea_sender", "parse_nmea_destination"),
     "engine.run.nmea_out": ("NmeaOutOptions", "NmeaPositionOut"),

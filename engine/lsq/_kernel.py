@@ -89,3 +89,18 @@ def _numpy_uses_svml() -> bool:
     except AttributeError:
         return True  # another numpy layout: do not guess
     return bool(features.get("AVX512_SKX") or features.get("AVX512F"))
+
+
+def unused_reason() -> str | None:
+    """Why the built lsq kernel is not used on this machine, or None (used, or not built:
+    :func:`engine.native.status` says why then). The same conditions as :func:`_bind`, checked
+    without binding, for ``uvnav --version``."""
+    if native.kernel("lsq") is None:
+        return None
+    if _numpy_uses_svml():
+        return "numpy may run its AVX-512 (SVML) power/hypot loops here, not libm's"
+    from engine.native import blas
+
+    if blas.numpy_cblas() is None or blas.numpy_lapack() is None:
+        return "numpy's bundled OpenBLAS routines not found"
+    return None
