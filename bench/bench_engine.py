@@ -53,7 +53,8 @@ REPEATS = 5
 TARGET_EPOCHS_S = 10_000
 STAGES = {
     "geodesy (GPS datum shift, grid)": ("engine.systems.gps:gps_input",),
-    "Decca lane tracking": ("engine.systems.decca:decca_totals",),
+    "Decca lane tracking": ("engine.systems.decca:decca_totals",
+                            "engine.systems.decca:_tracked_totals"),
     "LSQ fix + tests": ("compute_fix",),
     "filter (predict, updates)": (
         "predict_step", "update", "sensor_measurement", "lse_measurement", "stack_measurements",
