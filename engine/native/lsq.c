@@ -1140,6 +1140,40 @@ static PyObject *lsq_worst(PyObject *self, PyObject *const *args, Py_ssize_t nar
     return Py_BuildValue("(nd)", k, wk);
 }
 
+/* The slots i < n with k < |x_i| <= bound (x_i at p + i * stride, bytes), in hit; their
+ * count, or -1 for more than MAXM (the caller leaves it to the Python). */
+static Py_ssize_t band_slots(const char *p, Py_ssize_t stride, Py_ssize_t n, double k,
+                             double bound, Py_ssize_t *hit)
+{
+    Py_ssize_t cnt = 0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double a = fabs(*(const double *)(p + i * stride));
+        if (k < a && a <= bound) {
+            if (cnt == MAXM)
+                return -1;
+            hit[cnt++] = i;
+        }
+    }
+    return cnt;
+}
+
+/* The tuple of the cnt slots in hit, as Python ints (monitor's and quiet's result). */
+static PyObject *slot_tuple(const Py_ssize_t *hit, Py_ssize_t cnt)
+{
+    PyObject *t = PyTuple_New(cnt);
+    if (t == NULL)
+        return NULL;
+    for (Py_ssize_t j = 0; j < cnt; j++) {
+        PyObject *v = PyLong_FromSsize_t(hit[j]);
+        if (v == NULL) {
+            Py_DECREF(t);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(t, j, v);
+    }
+    return t;
+}
+
 PyDoc_STRVAR(monitor_doc,
 "monitor(w, k, bound) -> tuple of the slots with k < |w| <= bound, or None\n"
 "\n"
@@ -1161,31 +1195,13 @@ static PyObject *lsq_monitor(PyObject *self, PyObject *const *args, Py_ssize_t n
     buf_t w = {0};
     if (buf_get(args[0], &w, 1) < 0)
         return Py_NewRef(Py_None);
-    Py_ssize_t n = w.view.shape[0], cnt = 0;
     Py_ssize_t hit[MAXM];
-    for (Py_ssize_t i = 0; i < n; i++) {
-        double a = fabs(AT1(w, i));
-        if (kc < a && a <= bound) {
-            if (cnt == MAXM) {
-                buf_release(&w);
-                return Py_NewRef(Py_None);
-            }
-            hit[cnt++] = i;
-        }
-    }
+    Py_ssize_t cnt = band_slots((const char *)w.view.buf, w.view.strides[0], w.view.shape[0],
+                                kc, bound, hit);
     buf_release(&w);
-    PyObject *t = PyTuple_New(cnt);
-    if (t == NULL)
-        return NULL;
-    for (Py_ssize_t j = 0; j < cnt; j++) {
-        PyObject *v = PyLong_FromSsize_t(hit[j]);
-        if (v == NULL) {
-            Py_DECREF(t);
-            return NULL;
-        }
-        PyTuple_SET_ITEM(t, j, v);
-    }
-    return t;
+    if (cnt < 0)
+        return Py_NewRef(Py_None);
+    return slot_tuple(hit, cnt);
 }
 
 PyDoc_STRVAR(quiet_doc,
@@ -1224,30 +1240,15 @@ static PyObject *lsq_quiet(PyObject *self, PyObject *const *args, Py_ssize_t nar
     }
     if (ok && !(fabs(AT2(st, 1, k)) <= bound_w))
         ok = 0; /* _snoop's loop goes on: the Python */
-    for (Py_ssize_t i = 0; ok && i < n; i++) { /* monitor() */
-        double a = fabs(AT2(st, 1, i));
-        if (kc < a && a <= bound_w) {
-            if (cnt == MAXM)
-                ok = 0;
-            else
-                hit[cnt++] = i;
-        }
+    if (ok) { /* monitor() */
+        cnt = band_slots((const char *)st.view.buf + st.view.strides[0], st.view.strides[1], n,
+                         kc, bound_w, hit);
+        ok = cnt >= 0;
     }
     buf_release(&st);
     if (!ok)
         return Py_NewRef(Py_None);
-    PyObject *t = PyTuple_New(cnt);
-    if (t == NULL)
-        return NULL;
-    for (Py_ssize_t j = 0; j < cnt; j++) {
-        PyObject *v = PyLong_FromSsize_t(hit[j]);
-        if (v == NULL) {
-            Py_DECREF(t);
-            return NULL;
-        }
-        PyTuple_SET_ITEM(t, j, v);
-    }
-    return t;
+    return slot_tuple(hit, cnt);
 }
 
 /* ---------------------------------------------------------------------------------------- */
