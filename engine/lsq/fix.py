@@ -25,10 +25,23 @@ import numpy as np
 from engine.geodesy.ellipsoidal import GeodesicSolver
 from engine.geodesy.tmgrid import TMGrid
 from engine.lsq import _kernel
-from engine.lsq.adjustment import Adjustment, Linearisation
+from engine.lsq.adjustment import (
+    COND_MAX,
+    MAX_AXIS_RATIO,
+    Adjustment,
+    Linearisation,
+    _fast_settings,
+    _settings_ok,
+)
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
-from engine.lsq.snooping import TestedAdjustment, adjust_with_testing
-from engine.lsq.statistics import REJECT_BOUND, frozen_instance, w_critical
+from engine.lsq.snooping import TestedAdjustment, _quiet, adjust_with_testing
+from engine.lsq.statistics import (
+    REJECT_BOUND,
+    delta0,
+    frozen_instance,
+    unit_variance_test,
+    w_critical,
+)
 from engine.systems import registry
 from engine.systems.base import (
     EVAL_ERRORS,
@@ -52,6 +65,8 @@ from engine.systems.registry import N_SLOTS, owner_of, slots_of
 SLOT_GPS_LAT, SLOT_GPS_LON = slots_of(GPS.name)
 SLOT_DECCA = tuple(slots_of(DECCA.name))
 SLOT_BRR0 = slots_of(MANUAL.name).start
+_POWER = 0.80
+"""The power of the MDB's δ0 (``gauss_newton``'s default, which adjust_with_testing keeps)."""
 
 
 def lop_name(slot: int, *, system: str = "GPS",
@@ -337,25 +352,76 @@ def compute_fix(
     model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots)
     x_start = np.array(x0, dtype=float)
     uses_prior = problem.uses_prior
-    tested = adjust_with_testing(
-        model,
-        x_start,
-        problem.used,
-        policy="N" if uses_prior else settings.lop_reject,
-        alpha=settings.reliab_interval / 100.0,
-        epsilon=settings.epsilon_m,
-        max_iter=settings.max_iter,
-        s02=settings.s02,
-        scale_vcv=settings.scale_vcv,
-        estimator="lsq" if uses_prior else settings.estimator,
-        lop_name=lambda slot: lop_name(slot, system="KF" if uses_prior else "GPS",
-                                       manual=manual),
-    )
+    policy = "N" if uses_prior else settings.lop_reject
+    estimator = "lsq" if uses_prior else settings.estimator
+    first = tested = None
+    k = _kernel.kernel()
+    quick = None if k is None or estimator != "lsq" else _quick_settings(settings)
+    if quick is not None and policy in ("Y", "N", "A"):
+        # adjust_with_testing's plain LSQ path in one compiled call (gauss_newton's ``adjust``)
+        # and, with nothing to reject, its result (``quiet``, _quiet) without its layers
+        alpha, eps, max_iter, s02, scale_vcv, d0, k_alpha = quick
+        used_b = np.array(problem.used, dtype=bool)
+        state = k.adjust(model.rows, x_start, used_b, eps, max_iter, COND_MAX, MAX_AXIS_RATIO,
+                         scale_vcv, d0)
+        if type(state) is dict:
+            s2 = state["s2"]
+            if s2 is not None:
+                state["variance_test"] = unit_variance_test(s2, state["redundancy"], alpha,
+                                                            s02)
+            first = frozen_instance(Adjustment, state)
+            if first.ok and first.redundancy >= 1:
+                monitor = k.quiet(first.stats_block, k_alpha, REJECT_BOUND)
+                if monitor is not None:
+                    tested = _quiet(first, monitor, policy, estimator)
+    if tested is None:  # everything else (and the pure path): the layers as they are
+        tested = adjust_with_testing(
+            model,
+            x_start,
+            problem.used,
+            policy=policy,
+            alpha=settings.reliab_interval / 100.0,
+            epsilon=settings.epsilon_m,
+            max_iter=settings.max_iter,
+            s02=settings.s02,
+            scale_vcv=settings.scale_vcv,
+            estimator=estimator,
+            lop_name=lambda slot: lop_name(slot, system="KF" if uses_prior else "GPS",
+                                           manual=manual),
+            first=first,
+        )
     messages.extend(tested.messages)
     adj = tested.adjustment
     if not adj.ok:
         return _no_fix(grid, x0, adj.reason or "no fix", adj.n_used, tested, messages)
     return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings)
+
+
+_QUICK: list[Any] = [None, None]
+"""[the LsqSettings :func:`_quick_settings` saw last (None: none yet), its values]; the
+settings are frozen, so checked once per settings object."""
+
+
+def _quick_settings(settings: LsqSettings) -> tuple[float, float, int, float, bool, float,
+                                                    float] | None:
+    """(α, ε, max_iter, σ0², ScaleVCV, δ0, k_α) of ``settings`` for compute_fix's one-call
+    path: settings ``gauss_newton`` accepts (:func:`engine.lsq.adjustment._settings_ok`, the
+    default COND_MAX, MAX_AXIS_RATIO and power) and hands to the compiled ``adjust``
+    (``_fast_settings``); None otherwise (the layers then say what is wrong)."""
+    memo = _QUICK
+    if memo[0] is settings:
+        return memo[1]  # type: ignore[no-any-return]
+    alpha = settings.reliab_interval / 100.0
+    eps, max_iter, s02 = settings.epsilon_m, settings.max_iter, settings.s02
+    try:
+        _settings_ok(eps, max_iter, s02, COND_MAX, MAX_AXIS_RATIO, alpha, _POWER)
+        ok = _fast_settings(eps, max_iter, COND_MAX, MAX_AXIS_RATIO)
+        quick = ((alpha, eps, max_iter, s02, settings.scale_vcv, delta0(alpha, _POWER),
+                  w_critical(alpha)) if ok else None)
+    except Exception:  # noqa: BLE001 - the layers raise it again, with their message
+        quick = None
+    memo[:] = [settings, quick]
+    return quick
 
 
 def _at_estimate(

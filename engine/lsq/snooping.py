@@ -99,6 +99,7 @@ def adjust_with_testing(
     estimator: str = "lsq",
     thesis_dof: bool = False,
     lop_name: Callable[[int], str] = str,
+    first: Adjustment | None = None,
 ) -> TestedAdjustment:
     """Adjust, then run the thesis' data-snooping loop (THEORY §6.1, LOPReject).
 
@@ -115,6 +116,10 @@ def adjust_with_testing(
     LSQ fix goes through the rejection loop above (``robust`` then holds the failed attempt).
     Never raises for bad geometry: failures are in ``adjustment.ok``/``reason``. ValueError for
     an unknown policy or estimator and for invalid settings (programming errors).
+
+    ``first``: the plain LSQ adjustment of ``x0`` and ``used`` with these settings when the
+    caller has already made it (``gauss_newton``'s result; the fix's one-call path,
+    :func:`engine.lsq.fix.compute_fix`): it is not made again (estimator "lsq" only).
     """
     if policy not in ("Y", "N", "A"):
         raise ValueError(f"policy must be 'Y', 'N' or 'A', got {policy!r}")
@@ -123,7 +128,8 @@ def adjust_with_testing(
     kw = dict(epsilon=epsilon, max_iter=max_iter, s02=s02, scale_vcv=scale_vcv, alpha=alpha)
     cur = np.array(used, dtype=bool)
     if estimator == "lsq":
-        adj = gauss_newton(linearise, x0, cur, **kw)  # type: ignore[arg-type]
+        adj = (gauss_newton(linearise, x0, cur, **kw)  # type: ignore[arg-type]
+               if first is None else first)
         if adj.ok and adj.redundancy >= 1 and not thesis_dof:
             k = _kernel.kernel()
             monitor = (None if k is None

@@ -165,6 +165,48 @@ def test_replay_adjustments_with_and_without_arrays(replay: dict[str, list[Any]]
             mp.undo()
 
 
+def _variants(calls: list[Any]) -> list[tuple[tuple[Any, ...], dict[str, Any]]]:
+    """The recorded calls, and some of them with a GPS blunder (the snooping loop after the
+    one-call adjustment), under each rejection policy, without GPS (Decca alone: category
+    III) and with a robust estimator (the layers only)."""
+    out = list(calls)
+    for i, (a, k) in enumerate(calls[:90:3]):
+        vals = dict(k.get("readings") or {})
+        g = vals.get("gps")
+        if g is not None:
+            vals["gps"] = dataclasses.replace(g, x_m=g.x_m + 40.0 * (i % 5), y_m=g.y_m - 25.0)
+        st_ = k["settings"]
+        est = ("lsq", "lsq", "huber", "lsq")[i % 4]
+        k2 = dict(k, readings=vals,
+                  settings=dataclasses.replace(st_, lop_reject="YNA"[i % 3], estimator=est,
+                                               scale_vcv=bool(i % 2)))
+        out.append((a, k2))
+        if g is not None and i % 4 == 0:
+            out.append((a, dict(k2, readings=dict(vals, gps=None))))
+    return out
+
+
+@needs_kernel
+def test_replay_one_call_fix_is_the_layers(replay: dict[str, list[Any]]) -> None:
+    """compute_fix's one-call path (``adjust`` and ``quiet`` called by compute_fix itself, the
+    layers only when there is more to do) gives the FixResult of adjust_with_testing's layers
+    and of the pure Python, field by field to the bit (the adjustment, its tests, the table,
+    messages), on the replay's fixes and on blundered, re-weighted and GPS-less variants."""
+    calls = _variants(replay["calls"])
+    mp = pytest.MonkeyPatch()
+    got = _fixes(calls, False, mp)
+    mp.setattr(fix, "_quick_settings", lambda s: None)
+    layers = _fixes(calls, False, mp)
+    pure = _fixes(calls, True, mp)
+    kinds = set()
+    for g, w, p in zip(got, layers, pure, strict=True):
+        assert same(g, w) and same(g, p)
+        if g.tested is not None:
+            kinds.add((g.tested.rejected != (), g.tested.candidate is not None,
+                       g.tested.not_identifiable, g.tested.estimator))
+    assert len(kinds) >= 5, kinds
+
+
 # ------------------------------------------------------------------------------------------
 # (b) generated values
 
