@@ -258,8 +258,9 @@ def _eye(n: int) -> np.ndarray:
     return eye
 
 
-_N_SLOTS: list[Any] = [None, 0]
-"""[the registry layout last seen by :func:`_gather` (None: none yet), its number of slots]."""
+_N_SLOTS: list[Any] = [None, 0, ()]
+"""[the registry layout last seen by :func:`_gather` (None: none yet), its number of slots,
+(system, name, first slot) of each system in registry order]."""
 
 
 def _gather(
@@ -274,24 +275,24 @@ def _gather(
     layout = registry.layout()
     sets: dict[str, ObservationSet] = {}
     memo = _N_SLOTS
-    if memo[0] is layout:
-        n_slots = memo[1]
+    if memo[0] is layout:  # the layout is the registry's (cached per SYSTEMS)
+        n_slots, order = memo[1], memo[2]
     else:
         n_slots = sum(len(r) for r in layout.values())
-        memo[:] = [layout, n_slots]
+        order = tuple((s, s.name, layout[s.name].start) for s in registry.SYSTEMS)
+        memo[:] = [layout, n_slots, order]
     used = [False] * n_slots
     messages: list[str] = []
-    for system in registry.SYSTEMS:
+    for system, name, first in order:
         try:
-            obs = system.observations(values.get(system.name), p0)
+            obs = system.observations(values.get(name), p0)
         except ObservationError as exc:
             raise ObservationError(exc.reason, messages + list(exc.messages)) from exc
         if obs is None:
             continue
-        sets[system.name] = obs
+        sets[name] = obs
         messages.extend(obs.messages)
         available = obs.available()
-        first = layout[system.name].start
         used[first:first + len(available)] = available
     for slot in excluded_slots:
         used[slot] = False
@@ -394,7 +395,8 @@ def compute_fix(
     adj = tested.adjustment
     if not adj.ok:
         return _no_fix(grid, x0, adj.reason or "no fix", adj.n_used, tested, messages)
-    return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings)
+    return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings,
+                        problem.used if adj is first else None)  # its used slots as a list
 
 
 _QUICK: list[Any] = [None, None]
@@ -433,42 +435,71 @@ def _at_estimate(
     model: _Model,
     tested: TestedAdjustment,
     settings: LsqSettings,
+    used: list[bool] | None = None,
 ) -> FixResult:
     """The fix at the adjusted point: geodetic position, ellipse, linear-range check, the raw
-    LOPs of a hybrid fix and the LOP table; a failed fix where the models cannot be evaluated."""
+    LOPs of a hybrid fix and the LOP table; a failed fix where the models cannot be evaluated.
+    ``used``: the final adjustment's used slots as a list when the caller has it.
+
+    The nearest-station check of :func:`_beyond_linear_range` and the kernel's table of
+    :func:`_lop_rows` are written out here (the same calls in the same order, two frames
+    fewer); the result is made without the generated ``__init__`` (as ``frozen_instance``)."""
     adj = tested.adjustment
     messages = problem.messages
+    sets = problem.sets
+    layout = problem.layout
     try:
         xe, yn = adj.x.tolist()
         lat, lon = grid.inverse(xe, yn)
         p_hat = Point(grid, geodesic, xe, yn, (lat, lon))
-        decca = problem.sets.get(DECCA.name)
-        geom = decca.geometry_at(p_hat) if isinstance(decca, DeccaObservations) else None
+        decca = sets.get(DECCA.name)
+        is_decca = isinstance(decca, DeccaObservations)
+        geom = decca.geometry_at(p_hat) if is_decca else None
         k = _kernel.kernel()  # error_ellipse's kernel call, made here (one call fewer)
-        ellipse = None if k is None else k.ellipse(adj.cov_x)
+        cov = adj.cov_x
+        ellipse = None if k is None else k.ellipse(cov)
         if ellipse is None:
-            ellipse = error_ellipse(adj.cov_x)
-        used = adj.used.tolist()
-        if not problem.uses_prior:
-            # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
-            l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None
-            reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
-            if reason is not None:
-                return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
+            ellipse = error_ellipse(cov)
+        if used is None:
+            used = adj.used.tolist()
+        if not problem.uses_prior:  # _beyond_linear_range
+            near = math.inf
+            for name, obs in sets.items():
+                slots = layout[name]
+                d = obs.nearest_station_m(p_hat, used[slots.start:slots.stop])
+                if d < near:  # min(near, d)
+                    near = d
+            if near != math.inf:
+                # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled
+                reason = _linear_range_reason(
+                    adj, near, ellipse.eigenvalues[0] if cov is adj.cov_x_apriori else None)
+                if reason is not None:
+                    return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
         raw = _raw_lops(model, adj, x_start) if problem.uses_prior else None
-        lops = _lop_rows(adj, problem.sets, p_hat, settings.reliab_interval / 100.0, used,
-                         problem.layout)
+        alpha = settings.reliab_interval / 100.0
+        maker = _ROW_MAKER
+        if k is not None and maker[0] is k and maker[1] is not LopRow:  # _lop_rows' kernel call
+            groups = []
+            for name, obs in sets.items():
+                groups.append((layout[name].start, obs.readings(p_hat)))
+            lops = k.lop_rows(groups, adj.stats_block, adj.v, adj.used, w_critical(alpha),
+                              REJECT_BOUND)
+            if lops is None:
+                lops = _lop_rows_py(adj, groups, alpha, used, maker[1])
+        else:
+            lops = _lop_rows(adj, sets, p_hat, alpha, used, layout)
     except EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
                        tested, messages)
-    return frozen_instance(FixResult, {
+    res = _NEW(FixResult)
+    _SET(res, "__dict__", {  # frozen_instance written out
         "ok": True,
         "reason": None,
         "x_m": xe,
         "y_m": yn,
         "lat_deg": lat,
         "lon_deg": lon,
-        "cov": adj.cov_x,
+        "cov": cov,
         "ellipse": ellipse,
         "category": adj.category,
         "n_used": adj.n_used,
@@ -476,8 +507,7 @@ def _at_estimate(
         "s2": adj.s2,
         "lops": tuple(lops),
         "tested": tested,
-        "decca_observed": (decca.raw if isinstance(decca, DeccaObservations)
-                           else (None, None, None)),
+        "decca_observed": decca.raw if is_decca else (None, None, None),
         "decca_geometry": geom,
         "rejected_slots": tuple([s for s, _w in tested.rejected]) if tested.rejected else (),
         "candidate_slot": tested.candidate,
@@ -485,6 +515,12 @@ def _at_estimate(
         "messages": tuple(messages),
         "raw_lops": raw,
     })
+    return res
+
+
+_NEW = object.__new__
+_SET = object.__setattr__
+"""``frozen_instance`` written out where a result is made every fix (no frame)."""
 
 
 def _raw_lops(model: _Model, adj: Adjustment, x_start: np.ndarray) -> RawLops:
@@ -516,6 +552,12 @@ def _beyond_linear_range(
         near = min(near, obs.nearest_station_m(p_hat, used[slots.start:slots.stop]))
     if near == math.inf:
         return None
+    return _linear_range_reason(adj, near, l1)
+
+
+def _linear_range_reason(adj: Adjustment, near: float, l1: float | None) -> str | None:
+    """:func:`_beyond_linear_range` once the nearest station of a used LOP is known: ``near``
+    (m, finite or NaN), ``l1`` as there."""
     if l1 is None:
         (sxx, sxy), (_, syy) = adj.cov_x_apriori[:2, :2].tolist()
         l1 = eigenvalues_2x2(sxx, sxy, syy)[0]
