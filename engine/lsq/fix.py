@@ -215,9 +215,13 @@ class _Model:
         self.grid = grid
         self.geodesic = geodesic
         slots = registry.layout() if layout is None else layout
-        self.parts = [(slots[name].start, obs) for name, obs in sets.items()]
+        parts = self.parts = tuple([(slots[name].start, obs) for name, obs in sets.items()])
         self.n_slots = sum(len(r) for r in slots.values()) if n_slots is None else n_slots
-        self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
+        eye = self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
+        self.spec = (parts, Point, grid, geodesic, eye)
+        """What :meth:`rows` uses, for the compiled ``adjust``, which does what :meth:`rows`
+        does with it (the lists, the copy of the identity, the Point, each system's
+        ``linearise`` in order) without the frame."""
 
     def __call__(self, x: np.ndarray) -> Linearisation:
         """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N)."""
@@ -363,7 +367,7 @@ def compute_fix(
         # and, with nothing to reject, its result (``quiet``, _quiet) without its layers
         alpha, eps, max_iter, s02, scale_vcv, d0, k_alpha = quick
         used_b = np.array(problem.used, dtype=bool)
-        state = k.adjust(model.rows, x_start, used_b, eps, max_iter, COND_MAX, MAX_AXIS_RATIO,
+        state = k.adjust(model.spec, x_start, used_b, eps, max_iter, COND_MAX, MAX_AXIS_RATIO,
                          scale_vcv, d0)
         if type(state) is dict:
             s2 = state["s2"]

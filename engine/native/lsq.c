@@ -709,7 +709,10 @@ PyDoc_STRVAR(adjust_doc,
 "\n"
 "engine.lsq.adjustment.gauss_newton for a model with rows() (u = 2, no damping): rows(x)\n"
 "called as _iterate calls it, each step as step_rows, then _check_axis_ratio and finish.\n"
-"x (2,) float64, used (n,) bool (the arrays gauss_newton made). Returns the Adjustment's\n"
+"x (2,) float64, used (n,) bool (the arrays gauss_newton made). rows may instead be the\n"
+"model's spec (fix._Model.spec: parts, Point, grid, geodesic, eye), for which adjust does what\n"
+"_Model.rows does (the lists, the copy of eye, the Point, each part's linearise) itself.\n"
+"Returns the Adjustment's\n"
 "fields in order as a new dict (variance_test None: the caller's) when every part took the\n"
 "case; None when nothing was done (m < 2 or > 32, x not finite, other shapes); else the state\n"
 "(iterations done, x, the list of step lengths) after the last iteration the Python need not\n"
@@ -775,6 +778,82 @@ static int gather(PyObject *got, Py_ssize_t n, const Py_ssize_t *slot, Py_ssize_
     return 1;
 }
 
+/* rows given as a model spec (fix._Model.spec: parts, Point, grid, geodesic, eye): what
+ * _Model.rows(x) does, without its frame: A = [0.0] * 2n, b = [0.0] * n, Cl = eye.copy(),
+ * p = Point(grid, geodesic, x0, y0), obs.linearise(p, slot0, A, b, Cl) for each (slot0, obs) of
+ * parts, in order. The (A, b, Cl) tuple as a new reference, or NULL with the exception raised
+ * (by Point or a linearise, as rows() would raise it). */
+static PyObject *zero_float = NULL;
+static PyObject *linearise_name = NULL;
+
+static int spec_ok(PyObject *spec, Py_ssize_t n)
+{
+    if (!PyTuple_CheckExact(spec) || PyTuple_GET_SIZE(spec) != 5)
+        return 0;
+    PyObject *parts = PyTuple_GET_ITEM(spec, 0);
+    if (!PyTuple_CheckExact(parts))
+        return 0;
+    for (Py_ssize_t i = 0; i < PyTuple_GET_SIZE(parts); i++) {
+        PyObject *t = PyTuple_GET_ITEM(parts, i);
+        if (!PyTuple_CheckExact(t) || PyTuple_GET_SIZE(t) != 2 ||
+            !PyLong_CheckExact(PyTuple_GET_ITEM(t, 0)))
+            return 0;
+    }
+    np_fields_t *e = np_direct(PyTuple_GET_ITEM(spec, 4), 2);
+    if (e == NULL || e->dimensions[0] != n || e->dimensions[1] != n ||
+        e->strides[1] != 8 || e->strides[0] != 8 * n)
+        return 0;
+    if (zero_float == NULL && (zero_float = PyFloat_FromDouble(0.0)) == NULL)
+        return -1;
+    if (linearise_name == NULL &&
+        (linearise_name = PyUnicode_InternFromString("linearise")) == NULL)
+        return -1;
+    return 1;
+}
+
+static PyObject *spec_rows(PyObject *spec, double x0, double y0, Py_ssize_t n)
+{
+    PyObject *A = PyList_New(2 * n), *b = PyList_New(n), *cl = NULL, *p = NULL, *res = NULL;
+    if (A == NULL || b == NULL)
+        goto done;
+    for (Py_ssize_t i = 0; i < 2 * n; i++)
+        PyList_SET_ITEM(A, i, Py_NewRef(zero_float));
+    for (Py_ssize_t i = 0; i < n; i++)
+        PyList_SET_ITEM(b, i, Py_NewRef(zero_float));
+    double *cd;
+    if ((cl = lsq_new(n, n, &cd)) == NULL)
+        goto done;
+    memcpy(cd, ((np_fields_t *)PyTuple_GET_ITEM(spec, 4))->data, sizeof(double) * n * n);
+    {
+        PyObject *xo = PyFloat_FromDouble(x0), *yo = PyFloat_FromDouble(y0);
+        if (xo != NULL && yo != NULL) {
+            PyObject *pa[4] = {PyTuple_GET_ITEM(spec, 2), PyTuple_GET_ITEM(spec, 3), xo, yo};
+            p = PyObject_Vectorcall(PyTuple_GET_ITEM(spec, 1), pa, 4, NULL);
+        }
+        Py_XDECREF(xo);
+        Py_XDECREF(yo);
+        if (p == NULL)
+            goto done;
+    }
+    PyObject *parts = PyTuple_GET_ITEM(spec, 0);
+    for (Py_ssize_t i = 0; i < PyTuple_GET_SIZE(parts); i++) {
+        PyObject *t = PyTuple_GET_ITEM(parts, i);
+        PyObject *ca[6] = {PyTuple_GET_ITEM(t, 1), p, PyTuple_GET_ITEM(t, 0), A, b, cl};
+        PyObject *r = PyObject_VectorcallMethod(linearise_name, ca,
+                                                6 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+        if (r == NULL)
+            goto done;
+        Py_DECREF(r);
+    }
+    res = PyTuple_Pack(3, A, b, cl);
+done:
+    Py_XDECREF(A);
+    Py_XDECREF(b);
+    Py_XDECREF(cl);
+    Py_XDECREF(p);
+    return res;
+}
+
 static PyObject *lsq_adjust(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 9) {
@@ -835,6 +914,11 @@ static PyObject *lsq_adjust(PyObject *self, PyObject *const *args, Py_ssize_t na
     PyBuffer_Release(&ub);
     if (!uok || m < 2)
         return Py_NewRef(Py_None);
+    int spec = PyCallable_Check(rows) ? 0 : spec_ok(rows, n);
+    if (spec < 0)
+        return NULL;
+    if (!spec && !PyCallable_Check(rows))
+        return Py_NewRef(Py_None);
 
     /* the loop of _iterate: each iteration's numbers in C, x as a new array per step */
     _Alignas(64) double Au[2 * MAXM];
@@ -850,7 +934,15 @@ static PyObject *lsq_adjust(PyObject *self, PyObject *const *args, Py_ssize_t na
     PyObject *res = NULL;
     for (;;) {
         it++;
-        PyObject *got = PyObject_CallOneArg(rows, x);
+        PyObject *got;
+        if (spec) {
+            buf_get(x, &xb, 1); /* x is a (2,) float64 array: the start (checked) or ours */
+            double s0 = AT1(xb, 0), s1 = AT1(xb, 1);
+            buf_release(&xb);
+            got = spec_rows(rows, s0, s1, n);
+        }
+        else
+            got = PyObject_CallOneArg(rows, x);
         if (got == NULL) {
             if (!PyErr_ExceptionMatches(PyExc_Exception))
                 goto error;

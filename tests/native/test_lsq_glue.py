@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 import engine.lsq.fix as fix
 from engine import native
 from engine.lsq import _kernel
-from engine.lsq.adjustment import gauss_newton
+from engine.lsq.adjustment import COND_MAX, MAX_AXIS_RATIO, gauss_newton
 from engine.lsq.fix import LopRow
 from tests.native.replay import replay as replay_demo
 
@@ -205,6 +205,48 @@ def test_replay_one_call_fix_is_the_layers(replay: dict[str, list[Any]]) -> None
             kinds.add((g.tested.rejected != (), g.tested.candidate is not None,
                        g.tested.not_identifiable, g.tested.estimator))
     assert len(kinds) >= 5, kinds
+
+
+def _adjust(rows: Any, x0: np.ndarray, used: np.ndarray) -> Any:
+    return K.adjust(rows, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8)
+
+
+@needs_kernel
+def test_replay_adjust_of_the_model_spec_is_adjust_of_rows(
+        replay: dict[str, list[Any]]) -> None:
+    """``adjust`` given the model's spec (it makes the lists, the copy of the identity and the
+    Point and calls each system's linearise itself) returns what it returns calling
+    ``_Model.rows``, for consecutive and scattered used slots, from the replay's start points
+    and from far off (where it hands back); a linearise that raises gives the same hand-back;
+    a spec it cannot read is declined (None)."""
+    models = replay["models"]
+    for (a, _k), model in list(zip(replay["calls"], models, strict=False))[:80]:
+        n = model.n_slots
+        for x0 in (np.array(a[2], dtype=float), np.array(a[2], dtype=float) + 3e5):
+            for used in (np.array([True] * 5 + [False] * (n - 5)),
+                         np.array([True, False, True, True, True] + [False] * (n - 5))):
+                want, got = _adjust(model.rows, x0, used), _adjust(model.spec, x0, used)
+                assert type(got) is type(want)
+                if type(want) is dict:
+                    assert list(got) == list(want)
+                    assert all(same(got[f], want[f]) for f in want if f != "used"), x0
+                else:
+                    assert same(got, want)
+    model = models[0]
+    x0 = np.array(replay["calls"][0][0][2], dtype=float)
+    used = np.array([True] * 5 + [False] * (model.n_slots - 5))
+
+    class Boom:
+        def linearise(self, *a: Any) -> None:
+            raise ValueError("boom")
+
+    bad = ((model.spec[0][0], (2, Boom())), *model.spec[1:])
+    assert _adjust(bad, x0, used) is None
+    assert _adjust(lambda x: model.rows(x) and Boom().linearise(), x0, used) is None
+    for spec in (model.spec[:4], (list(model.spec[0]), *model.spec[1:]),
+                 (*model.spec[:4], np.eye(model.n_slots + 1)),
+                 (*model.spec[:4], np.asfortranarray(np.eye(model.n_slots))[:, ::-1])):
+        assert _adjust(spec, x0, used) is None
 
 
 # ------------------------------------------------------------------------------------------
