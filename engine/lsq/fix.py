@@ -37,9 +37,10 @@ from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import TestedAdjustment, _quiet, adjust_with_testing
 from engine.lsq.statistics import (
     REJECT_BOUND,
+    UnitVarianceTest,
+    _variance_bounds,
     delta0,
     frozen_instance,
-    unit_variance_test,
     w_critical,
 )
 from engine.systems import registry
@@ -371,10 +372,17 @@ def compute_fix(
                          scale_vcv, d0)
         if type(state) is dict:
             s2 = state["s2"]
-            if s2 is not None:
-                state["variance_test"] = unit_variance_test(s2, state["redundancy"], alpha,
-                                                            s02)
-            first = frozen_instance(Adjustment, state)
+            if s2 is not None:  # unit_variance_test(s2, r, alpha, s02) written out
+                dof = state["redundancy"]  # an int (>= 1: s2 is None for r < 1)
+                if dof >= 1 and math.isfinite(s2):
+                    lower, upper = _variance_bounds(dof, alpha, s02)  # checked hashable
+                    vt = _NEW(UnitVarianceTest)
+                    _SET(vt, "__dict__", {
+                        "statistic": dof * s2 / s02, "lower": lower, "upper": upper,
+                        "accepted": bool(lower < s2 < upper), "dof": dof})
+                    state["variance_test"] = vt
+            first = _NEW(Adjustment)
+            _SET(first, "__dict__", state)  # frozen_instance(Adjustment, state)
             if first.ok and first.redundancy >= 1:
                 monitor = k.quiet(first.stats_block, k_alpha, REJECT_BOUND)
                 if monitor is not None:
@@ -422,6 +430,7 @@ def _quick_settings(settings: LsqSettings) -> tuple[float, float, int, float, bo
     try:
         _settings_ok(eps, max_iter, s02, COND_MAX, MAX_AXIS_RATIO, alpha, _POWER)
         ok = _fast_settings(eps, max_iter, COND_MAX, MAX_AXIS_RATIO)
+        hash((alpha, s02))  # unit_variance_test's bounds are remembered by them
         quick = ((alpha, eps, max_iter, s02, settings.scale_vcv, delta0(alpha, _POWER),
                   w_critical(alpha)) if ok else None)
     except Exception:  # noqa: BLE001 - the layers raise it again, with their message

@@ -158,7 +158,8 @@ def _quiet(adj: Adjustment, monitor: tuple[int, ...], policy: str,
         )
         if adj.category == "IV":
             messages.append("advice: scale the a priori VCV by S²")
-    return frozen_instance(TestedAdjustment, {
+    res = _NEW(TestedAdjustment)
+    _SET(res, "__dict__", {  # frozen_instance written out (every quiet fix)
         "adjustment": adj,
         "rejected": (),
         "candidate": None,
@@ -172,6 +173,11 @@ def _quiet(adj: Adjustment, monitor: tuple[int, ...], policy: str,
         "estimator": estimator,
         "robust": None,
     })
+    return res
+
+
+_NEW = object.__new__
+_SET = object.__setattr__
 
 
 @dataclass(eq=False)
