@@ -799,9 +799,10 @@ def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, flo
                         manual=nav.pending_obs)
         messages.append(f"LOP {name} fails the w-test: discard it?")
     messages.extend(fix.messages)
-    voted = gps_voted_out(fix)
-    if voted is not None:
-        messages.append(voted)
+    if fix.rejected_slots or fix.candidate_slot is not None:  # else gps_voted_out is None
+        voted = gps_voted_out(fix)
+        if voted is not None:
+            messages.append(voted)
     return fix
 
 
