@@ -36,6 +36,7 @@ __all__ = [
     "geodetic_to_ecef",
     "helmert_pipeline",
     "line_scale_factor",
+    "load_proj",
     "mean_radius_sq",
     "spheroidal_distance",
     "wgs84_fix_ecef",
@@ -207,6 +208,13 @@ def _proj_library() -> Any:
     data = Path(spec.origin).parent / "proj_dir" / "share" / "proj"
     lib.uvnav_search_paths = (ctypes.c_char_p * 1)(str(data).encode()) if data.is_dir() else None
     return lib
+
+
+def load_proj() -> bool:
+    """Load pyproj's libproj for the run's PROJ calls (:func:`_proj_library`), as the first
+    :class:`DatumShift` would: for a caller that prepares a run ahead of time (the console,
+    while the operator reads its first dialog). True if it could be loaded."""
+    return _proj_library() is not None
 
 
 class _ProjCoord:
