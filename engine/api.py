@@ -62,7 +62,6 @@ from engine.io.operator_input import (
     parse_zone_lane,
 )
 from engine.io.outputs import EXISTS_MESSAGE, OutputFile, OutputGuard, remove_created
-from engine.io.runfile import BadRecord, RunRecord, format_run_record, parse_run_line
 from engine.io.tomlsource import FILE_NOT_FOUND_MESSAGE, read_text
 from engine.run.config import (
     DECCA_CF_CONDITIONS,
@@ -111,6 +110,7 @@ if TYPE_CHECKING:
         sensor_measurement,
     )
     from engine.filter.poe import PoeSample, drms, poe_states
+    from engine.geodesy.ellipsoidal import load_proj
     from engine.io.export_geo import ELLIPSE_POINTS, Wgs84Converter, build_export
     from engine.io.export_geo import TRACKS as EXPORT_TRACKS
     from engine.io.export_read import (
@@ -124,6 +124,7 @@ if TYPE_CHECKING:
     from engine.io.nmea_epochs import NmeaOptions, NmeaStats
     from engine.io.nmea_log import CONVERTED_RUN_MARK, NmeaLog, is_nmea_file
     from engine.io.nmea_send import NmeaSender, open_nmea_sender, parse_nmea_destination
+    from engine.io.runfile import BadRecord, RunRecord, format_run_record
     from engine.lsq.adjustment import Adjustment
     from engine.lsq.confidence import Ellipse, Ellipsoid3, error_ellipsoid
     from engine.lsq.fix import MAX_BRR, FixResult, LopRow, ManualObservation, lop_name
@@ -160,6 +161,8 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     "engine.filter.poe": ("PoeSample", "drms", "poe_states"),
     "engine.io.nmea_epochs": ("NmeaOptions", "NmeaStats"),
     "engine.io.nmea_log": ("CONVERTED_RUN_MARK", "NmeaLog", "is_nmea_file"),
+    # the .RUN reader (the console's first paint does not read records)
+    "engine.io.runfile": ("BadRecord", "RunRecord", "format_run_record", "parse_run_line"),
     "engine.lsq.adjustment": ("Adjustment",),
     "engine.lsq.confidence": ("Ellipse", "Ellipsoid3", "error_ellipsoid"),
     "engine.lsq.fix": ("MAX_BRR", "FixResult", "LopRow", "ManualObservation", "lop_name"),
@@ -180,6 +183,7 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
                              "run_records", "truth_reference"),
     "engine.sim.scenario": ("load_scenario",),
     "engine.native": ("PURE_ENV",),
+    "engine.geodesy.ellipsoidal": ("load_proj",),
     "engine.run.kernels": ("kernel_report",),
     "engine.sim.simulate": ("read_data_files", "write_simulation"),
     "engine.io.nmea_send": ("NmeaSender", "open_nmea_sender", "parse_nmea_destination"),
@@ -326,6 +330,7 @@ __all__ = [
     # the compiled kernels (engine/native, docs/PERFORMANCE.md): which are in use
     "PURE_ENV",
     "kernel_report",
+    "load_proj",
     # live NMEA sources (docs/LIVE.md), imported on first use
     "LEARN_S",
     "LiveCycle",
@@ -371,6 +376,8 @@ __all__ = [
 def run_record(r: CycleResult) -> RunRecord | None:
     """The ``.RUN`` record of cycle ``r`` as the run-file reader parses it (raw sensor values
     before conversion); None if the line cannot be parsed."""
+    from engine.io.runfile import parse_run_line
+
     try:
         return parse_run_line(r.raw, r.record)
     except (InputError, ValueError, IndexError):

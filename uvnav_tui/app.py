@@ -14,7 +14,6 @@ are :class:`uvnav_tui.actions.MenuActions`, the pages are found by
 from __future__ import annotations
 
 import gc
-import importlib
 import time
 from collections.abc import Iterable
 from functools import partial
@@ -105,15 +104,15 @@ start-up time). Same rules in the same order: the dialog is the first screen pus
 
 def load_engine() -> None:
     """Import the engine's run-time modules (the session, the cycle, the commands): what
-    :mod:`engine.api` would otherwise import when the run starts. The cyclic garbage collector
+    :mod:`engine.api` would otherwise import when the run starts, and load the PROJ library
+    the run's datum shifts call (:func:`engine.api.load_proj`). The cyclic garbage collector
     is paused meanwhile, as for the imports at start-up (``uvnav_tui.cli.main``)."""
     was_enabled = gc.isenabled()
     gc.disable()
     try:
         for name in PRELOADED:
             getattr(api, name)
-        for module in PRELOADED_LIBRARIES:
-            importlib.import_module(module)
+        api.load_proj()
     finally:
         if was_enabled:  # never switch on a collector somebody else paused
             gc.enable()
@@ -121,12 +120,9 @@ def load_engine() -> None:
 
 PRELOADED = ("Session", "CycleResult", "SetDatum", "lse_estimate", "quality_name", "lop_name")
 """Names of :mod:`engine.api` whose modules :func:`load_engine` imports (together they load
-all a run needs: the session imports the cycle, the filter, the fix and the NMEA reader)."""
-PRELOADED_LIBRARIES = ("pyproj",)
-"""Libraries the engine imports only when a session is opened (pyproj: the datum shift of the
-run context, ~0.1 s of CPU), imported by :func:`load_engine` too, so that Return in the
-Parameter Initialization dialog does not wait for them (issue 14). The console itself does not
-use them."""
+all a run needs: the session imports the cycle, the filter, the fix and the NMEA reader).
+pyproj is not among them: a run reaches PROJ without it (engine/geodesy/ellipsoidal.py); it
+was preloaded here while the run context imported it (~0.1 s of CPU)."""
 
 
 class Advanced(Message):

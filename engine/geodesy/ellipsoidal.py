@@ -8,8 +8,10 @@
 * geodesic inverse (pyproj/Karney), first-order Andoyer–Lambert distance (THEORY §2.5);
 * line scale factor and spheroidal distance from grid coordinates (A5.10, A5.13, THEORY §2.4).
 
-Angles are degrees unless a name says otherwise; lengths are metres. pyproj is imported when
-the first :class:`DatumShift` or :class:`GeodesicSolver` is built, not with this module (start-up).
+Angles are degrees unless a name says otherwise; lengths are metres. The per-point calls of a
+run (:meth:`DatumShift.transform`, the compiled geodesic of :class:`GeodesicSolver`) go to
+pyproj's libproj without importing pyproj (start-up time); pyproj itself is imported by the calls
+that need it (arrays, inverses, the pure path), on first use.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ __all__ = [
     "geodetic_to_ecef",
     "helmert_pipeline",
     "line_scale_factor",
+    "load_proj",
     "mean_radius_sq",
     "spheroidal_distance",
     "wgs84_fix_ecef",
@@ -141,29 +144,222 @@ def helmert_pipeline(src: Datum, dst: Datum) -> str:
     return " ".join(steps)
 
 
+PJ_FWD = 1
+"""PROJ's ``PJ_FWD``: the direction :attr:`DatumShift._point` takes (the kernels pass it on)."""
+
+
+@cache
+def _proj_library() -> Any:
+    """pyproj's bundled libproj (``ctypes.CDLL``, the library pyproj's own calls go to) with
+    the prototypes :class:`_ProjPoint` uses, loaded without importing pyproj (about 0.1 s of
+    start-up: pyproj's import brings its CRS, network and metadata modules, none of which a
+    run uses); None where pyproj is not a wheel with its own libproj, or it cannot be loaded.
+    The libraries bundled beside it are loaded first: libproj finds its dependencies by their
+    names once they are loaded (pyproj's extension modules find them by their RPATH)."""
+    import ctypes
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.find_spec("pyproj")
+    if spec is None or spec.origin is None:
+        return None
+    folder = Path(spec.origin).parent.parent / "pyproj.libs"
+    libs = sorted(folder.glob("libproj*.so*"))
+    if len(libs) != 1:
+        return None
+    pending = sorted(p for p in folder.glob("*.so*") if p != libs[0]) + libs
+    lib = None
+    while pending:  # in dependency order: a library whose dependency is not loaded yet waits
+        waiting = []
+        for path in pending:
+            try:
+                loaded = ctypes.CDLL(str(path))
+            except OSError:
+                waiting.append(path)
+                continue
+            if path == libs[0]:
+                lib = loaded
+        if len(waiting) == len(pending):
+            return None
+        pending = waiting
+    if lib is None:
+        return None
+    try:
+        vp, c_int = ctypes.c_void_p, ctypes.c_int
+        lib.proj_context_create.restype = vp
+        lib.proj_context_create.argtypes = []
+        lib.proj_context_set_search_paths.restype = None
+        lib.proj_context_set_search_paths.argtypes = [vp, c_int,
+                                                      ctypes.POINTER(ctypes.c_char_p)]
+        lib.proj_context_destroy.restype = vp
+        lib.proj_context_destroy.argtypes = [vp]
+        lib.proj_create.restype = vp
+        lib.proj_create.argtypes = [vp, ctypes.c_char_p]
+        lib.proj_destroy.restype = vp
+        lib.proj_destroy.argtypes = [vp]
+        lib.proj_angular_input.restype = c_int
+        lib.proj_angular_input.argtypes = [vp, c_int]
+        lib.proj_angular_output.restype = c_int
+        lib.proj_angular_output.argtypes = [vp, c_int]
+        lib.proj_trans_array.restype = c_int
+        lib.proj_trans_array.argtypes = [vp, c_int, ctypes.c_size_t,
+                                         ctypes.POINTER(_ProjCoord.ctype())]
+    except AttributeError:
+        return None
+    data = Path(spec.origin).parent / "proj_dir" / "share" / "proj"
+    lib.uvnav_search_paths = (ctypes.c_char_p * 1)(str(data).encode()) if data.is_dir() else None
+    return lib
+
+
+def load_proj() -> bool:
+    """Load pyproj's libproj for the run's PROJ calls (:func:`_proj_library`), as the first
+    :class:`DatumShift` would: for a caller that prepares a run ahead of time (the console,
+    while the operator reads its first dialog). True if it could be loaded."""
+    return _proj_library() is not None
+
+
+class _ProjCoord:
+    """PROJ's ``PJ_COORD`` (a union of four doubles: x, y, z, t) as a ctypes structure."""
+
+    @staticmethod
+    @cache
+    def ctype() -> Any:
+        """The ctypes structure (made on first use: ctypes is imported only then)."""
+        import ctypes
+
+        class PJCoord(ctypes.Structure):
+            _fields_ = [("x", ctypes.c_double), ("y", ctypes.c_double),
+                        ("z", ctypes.c_double), ("t", ctypes.c_double)]
+
+        return PJCoord
+
+
+class _ProjPoint:
+    """One PROJ transformation made by ``proj_create`` from a pipeline string in its own PROJ
+    context (as pyproj's ``Transformer.from_pipeline`` makes it), called through ctypes:
+    :meth:`point` is pyproj's ``_Transformer._transform_point`` for what the engine passes it
+    (floats, no time, degrees, no error check): the same ``proj_trans`` call on the same
+    numbers, so the same bits (``tests/geodesy/test_geodesy.py`` compares the two). The point
+    goes through ``proj_trans_array`` on one ``PJ_COORD`` kept here (it resets PROJ's error
+    state and calls ``proj_trans``, as pyproj does; cheaper through ctypes than ``proj_trans``
+    with its coordinate passed and returned by value: ~12.4k instead of ~13.7k instructions a
+    call, pyproj's ~7.0k)."""
+
+    __slots__ = ("_lib", "_ctx", "_pj", "_deg_in", "_deg_out", "_coord", "point")
+
+    def __init__(self, lib: Any, pipeline: str) -> None:
+        self._lib = lib
+        self._pj = None
+        self._ctx = lib.proj_context_create()
+        if not self._ctx:
+            raise OSError("proj_context_create failed")
+        if lib.uvnav_search_paths is not None:
+            lib.proj_context_set_search_paths(self._ctx, 1, lib.uvnav_search_paths)
+        self._pj = lib.proj_create(self._ctx, pipeline.encode())
+        if not self._pj:
+            raise ValueError(f"PROJ cannot make the pipeline {pipeline!r}")
+        # pyproj multiplies by its _DG2RAD / _RAD2DG where PROJ wants radians (not for a
+        # pipeline that converts its own units, as the engine's do)
+        self._deg_in = bool(lib.proj_angular_input(self._pj, PJ_FWD))
+        self._deg_out = bool(lib.proj_angular_output(self._pj, PJ_FWD))
+        self.point = self._make_point()
+
+    def _make_point(self) -> Any:
+        """The point call: pyproj's ``_transform_point`` signature (x, y, z, t, direction,
+        radians, errcheck) for t None, radians and errcheck False, x, y, z floats."""
+        trans, pj = self._lib.proj_trans_array, self._pj
+        c = self._coord = _ProjCoord.ctype()()
+        inf = math.inf
+        if self._deg_in or self._deg_out:
+            dg2rad, rad2dg = math.radians(1.0), math.degrees(1.0)
+            deg_in, deg_out = self._deg_in, self._deg_out
+
+            def point_scaled(x: float, y: float, z: float, t: None, direction: int,
+                             radians: bool, errcheck: bool) -> tuple[float, float, float]:
+                if deg_in:
+                    x *= dg2rad
+                    y *= dg2rad
+                c.x = x
+                c.y = y
+                c.z = z
+                c.t = inf
+                trans(pj, direction, 1, c)
+                if deg_out:
+                    return c.x * rad2dg, c.y * rad2dg, c.z
+                return c.x, c.y, c.z
+
+            return point_scaled
+
+        def point(x: float, y: float, z: float, t: None, direction: int, radians: bool,
+                  errcheck: bool) -> tuple[float, float, float]:
+            c.x = x
+            c.y = y
+            c.z = z
+            c.t = inf
+            trans(pj, direction, 1, c)
+            return c.x, c.y, c.z
+
+        return point
+
+    def __del__(self) -> None:
+        lib = self._lib
+        if self._pj:
+            lib.proj_destroy(self._pj)
+        if self._ctx:
+            lib.proj_context_destroy(self._ctx)
+
+
 class DatumShift:
     """Geodetic transformation ``src`` → ``dst`` through a pinned PROJ pipeline.
 
-    Build once per datum pair (holds one pyproj ``Transformer``); coordinates are latitude and
-    longitude in degrees and ellipsoidal height in metres. Not thread-safe (pyproj transformers
-    should not be shared between threads).
+    Build once per datum pair; coordinates are latitude and longitude in degrees and
+    ellipsoidal height in metres. The per-point call (:meth:`transform`, and the kernels
+    through ``_point``) goes to PROJ's ``proj_trans`` in pyproj's libproj through ctypes
+    (:class:`_ProjPoint`), without importing pyproj (start-up time); pyproj's ``Transformer``
+    of the same pipeline is made on first use by the array and inverse calls, and serves
+    every call where libproj cannot be loaded that way. Not thread-safe (PROJ objects should
+    not be shared between threads).
     """
 
-    __slots__ = ("src", "dst", "pipeline", "_tr", "_point", "_forward")
+    __slots__ = ("src", "dst", "pipeline", "_tr_obj", "_proj", "_point", "_forward")
 
     def __init__(self, src: Datum, dst: Datum) -> None:
         self.src = src
         self.dst = dst
         self.pipeline = helmert_pipeline(src, dst)
-        from pyproj import Transformer
-        from pyproj.enums import TransformDirection
+        self._tr_obj: Any = None
+        lib = _proj_library()
+        try:
+            self._proj = None if lib is None else _ProjPoint(lib, self.pipeline)
+        except (OSError, ValueError):  # pyproj's Transformer then (and its error, if any)
+            self._proj = None
+        if self._proj is not None:
+            self._point: Any = self._proj.point
+            self._forward: Any = PJ_FWD
+        else:
+            from pyproj.enums import TransformDirection
 
-        self._tr = Transformer.from_pipeline(self.pipeline)
-        # Transformer.transform hands a scalar point to its _transformer._transform_point (one
-        # proj_trans call); calling that directly skips the wrapper's argument handling: the
-        # same PROJ call, the same bits. None where a pyproj lacks it (the public call then).
-        self._point = getattr(getattr(self._tr, "_transformer", None), "_transform_point", None)
-        self._forward = TransformDirection.FORWARD
+            # Transformer.transform hands a scalar point to its _transformer._transform_point
+            # (one proj_trans call); calling that directly skips the wrapper's argument
+            # handling: the same PROJ call, the same bits. None where a pyproj lacks it.
+            self._point = getattr(getattr(self._tr, "_transformer", None),
+                                  "_transform_point", None)
+            self._forward = TransformDirection.FORWARD
+
+    @property
+    def _tr(self) -> Any:
+        """pyproj's ``Transformer`` of :attr:`pipeline` (made, and pyproj imported, on first
+        use)."""
+        tr = self._tr_obj
+        if tr is None:
+            from pyproj import Transformer
+
+            tr = self._tr_obj = Transformer.from_pipeline(self.pipeline)
+        return tr
+
+    def __reduce__(self) -> tuple[Any, tuple[Datum, Datum]]:
+        """Pickled (and copied) as its two datums: a copy makes its own PROJ objects."""
+        return DatumShift, (self.src, self.dst)
 
     def transform(
         self, lat_deg: float, lon_deg: float, h_m: float = 0.0
@@ -299,8 +495,9 @@ near and far lines, a zero-length line, near-antipodal and polar ones."""
 @cache
 def _geod_kernel() -> Any:
     """``engine.native.decca`` with PROJ's ``geod_init``/``geod_inverse`` bound (looked up
-    through ctypes in pyproj's bundled libproj, the library pyproj's Geod calls), or None: the
-    kernel is not built, ``UVNAV_PURE=1``, or pyproj is not a wheel with its own libproj."""
+    through ctypes in pyproj's bundled libproj, the library pyproj's Geod calls:
+    :func:`_proj_library`), or None: the kernel is not built, ``UVNAV_PURE=1``, or pyproj is
+    not a wheel with its own libproj."""
     from engine import native
 
     k = native.kernel("decca")
@@ -308,25 +505,49 @@ def _geod_kernel() -> Any:
         return None
     if not k.geod_bound():
         import ctypes
-        import importlib.util
-        from pathlib import Path
 
-        spec = importlib.util.find_spec("pyproj")
-        if spec is None or spec.origin is None:
-            return None
-        libs = sorted((Path(spec.origin).parent.parent / "pyproj.libs").glob("libproj*.so*"))
-        if len(libs) != 1:
+        lib = _proj_library()
+        if lib is None:
             return None
         try:
-            lib = ctypes.CDLL(str(libs[0]))
             init = ctypes.cast(lib.geod_init, ctypes.c_void_p).value
             inverse = ctypes.cast(lib.geod_inverse, ctypes.c_void_p).value
-        except (OSError, AttributeError):
+        except AttributeError:
             return None
         if not init or not inverse:
             return None
         k._bind_geod(init, inverse)
     return k
+
+
+def _geod_reference(a: float, f: float) -> Any:
+    """PROJ's ``geod_inverse`` on a ``geod_geodesic`` that ``geod_init(a, f)`` made, called
+    through ctypes as pyproj's ``Geod._inv_point`` calls it (degrees, no back azimuth, no
+    radians): ``(lon1, lat1, lon2, lat2) → (azi1, azi2, s12)``; None where libproj cannot be
+    loaded. What :meth:`GeodesicSolver.native` checks the compiled geodesic against."""
+    import ctypes
+
+    lib = _proj_library()
+    if lib is None:
+        return None
+    d, pd = ctypes.c_double, ctypes.POINTER(ctypes.c_double)
+    try:
+        lib.geod_init.restype = None
+        lib.geod_init.argtypes = [ctypes.c_void_p, d, d]
+        lib.geod_inverse.restype = None
+        lib.geod_inverse.argtypes = [ctypes.c_void_p, d, d, d, d, pd, pd, pd]
+    except AttributeError:
+        return None
+    g = (d * 64)()  # struct geod_geodesic: 51 doubles
+    lib.geod_init(g, a, f)
+
+    def inverse_point(lon1: float, lat1: float, lon2: float, lat2: float
+                      ) -> tuple[float, float, float]:
+        s12, azi1, azi2 = d(), d(), d()
+        lib.geod_inverse(g, lat1, lon1, lat2, lon2, s12, azi1, azi2)
+        return azi1.value, azi2.value, s12.value
+
+    return inverse_point
 
 
 class GeodesicSolver:
@@ -335,21 +556,39 @@ class GeodesicSolver:
     Build once per ellipsoid; :meth:`inverse` is then cheap. The per-epoch azimuths
     (:meth:`forward_azimuths_rad`) call PROJ's ``geod_inverse`` from the compiled
     ``engine.native.decca`` where it is built (:meth:`native`; the same C function on the same
-    ``geod_geodesic``, so the same bits), else pyproj's scalar inverse.
+    ``geod_geodesic``, so the same bits), else pyproj's scalar inverse. pyproj's ``Geod`` is
+    made (and pyproj imported) on first use of a call that needs it, not by the compiled path
+    (start-up time).
     """
 
-    __slots__ = ("ellipsoid", "_geod", "_inv_point", "_native")
+    __slots__ = ("ellipsoid", "_geod_obj", "_inv", "_native")
 
     def __init__(self, ell: Ellipsoid) -> None:
         self.ellipsoid = ell
-        from pyproj import Geod
-
-        self._geod = Geod(a=ell.a_m, f=ell.f)
-        # The scalar path that Geod.inv itself takes for float input (same C geod_inverse, the
-        # same bits), called without the wrapper's frame; Geod.inv where pyproj lacks it.
-        point = getattr(self._geod, "_inv_point", None)
-        self._inv_point = point if point is not None else self._inv_fallback
+        self._geod_obj: Any = None
+        self._inv: Any = None
         self._native: Any = _UNSET
+
+    @property
+    def _geod(self) -> Any:
+        """pyproj's ``Geod(a, f)`` of the ellipsoid (made on first use)."""
+        geod = self._geod_obj
+        if geod is None:
+            from pyproj import Geod
+
+            geod = self._geod_obj = Geod(a=self.ellipsoid.a_m, f=self.ellipsoid.f)
+        return geod
+
+    @property
+    def _inv_point(self) -> Any:
+        """The scalar path that ``Geod.inv`` itself takes for float input (same C
+        ``geod_inverse``, the same bits), called without the wrapper's frame;
+        :meth:`_inv_fallback` where pyproj lacks it."""
+        inv = self._inv
+        if inv is None:
+            point = getattr(self._geod, "_inv_point", None)
+            inv = self._inv = point if point is not None else self._inv_fallback
+        return inv
 
     def __reduce__(self) -> tuple[Any, tuple[Ellipsoid]]:
         """Pickled (and copied) as its ellipsoid: a copy builds its own Geod and resolves its
@@ -358,18 +597,20 @@ class GeodesicSolver:
 
     def native(self) -> Any:
         """The compiled geodesic (``engine.native.decca.Geodesic``: PROJ's ``geod_geodesic``
-        initialised by ``geod_init`` with this Geod's a and f, as pyproj does), or None where
-        the kernel is not available or fails the bit check against pyproj on
-        :data:`_PROBE_POINTS`. Resolved on first use."""
+        initialised by ``geod_init`` with the ellipsoid's a and f, as pyproj's Geod does), or
+        None where the kernel is not available or fails the bit check on
+        :data:`_PROBE_POINTS` against PROJ's ``geod_inverse`` called as pyproj calls it
+        (:func:`_geod_reference`). Resolved on first use."""
         g = self._native
         if g is _UNSET:
             g = None
             k = _geod_kernel()
-            point = getattr(self._geod, "_inv_point", None)
-            if k is not None and point is not None:
-                cand = k.Geodesic(float(self._geod.a), float(self._geod.f))
+            a, f = float(self.ellipsoid.a_m), float(self.ellipsoid.f)
+            reference = None if k is None else _geod_reference(a, f)
+            if k is not None and reference is not None:
+                cand = k.Geodesic(a, f)
                 if all(list(map(float.hex, cand.inverse_point(*q)))
-                       == list(map(float.hex, point(*q, False, False))) for q in _PROBE_POINTS):
+                       == list(map(float.hex, reference(*q))) for q in _PROBE_POINTS):
                     g = cand
             self._native = g
         return g

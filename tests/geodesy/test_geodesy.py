@@ -4,6 +4,11 @@ calculations."""
 from __future__ import annotations
 
 import math
+import os
+import pickle
+import random
+import subprocess
+import sys
 
 import pytest
 from pyproj import Geod, Transformer
@@ -28,6 +33,7 @@ from engine.geodesy.ellipsoidal import (
     wgs84_fix_to_datum,
 )
 from engine.geodesy.tmgrid import TMGrid
+from tests.paths import ROOT
 
 INTL = Ellipsoid("INTERNATIONAL", 6378388.0, 297.0)
 ED50 = Datum("ED50", INTL, -87.0, -98.0, -121.0)
@@ -174,6 +180,53 @@ def test_pipeline_gps_path_uses_shift() -> None:
     assert a == pytest.approx(b, abs=1e-9)
     with pytest.raises(ValueError):
         wgs84_fix_to_datum(GPS_LAT, GPS_LON, ED50, datum_shift(ED50, WGS84))
+
+
+@pytest.mark.parametrize(
+    ("src", "dst"),
+    [(WGS84, ED50), (ED50, WGS84), (ED50, WGS72_DMA), (WGS72_DMA, WGS84), (WGS84, WGS72_DMA)],
+)
+def test_point_call_is_pyprojs_bit_for_bit(src: Datum, dst: Datum) -> None:
+    """The shift's point call (PROJ through ctypes, without importing pyproj: start-up time)
+    gives pyproj's Transformer's bits: the same proj_trans on the same numbers."""
+    from pyproj.enums import TransformDirection
+
+    shift = datum_shift(src, dst)
+    assert shift._proj is not None  # the ctypes path (pyproj's wheel bundles its libproj)
+    pyproj_point = Transformer.from_pipeline(shift.pipeline)._transformer._transform_point
+    rng = random.Random(14)
+    for _ in range(3000):
+        lat, lon = rng.uniform(-90.0, 90.0), rng.uniform(-180.0, 180.0)
+        h = rng.choice((0.0, rng.uniform(-500.0, 5000.0)))
+        got = shift._point(lat, lon, h, None, shift._forward, False, False)
+        want = pyproj_point(lat, lon, h, None, TransformDirection.FORWARD, False, False)
+        assert [x.hex() for x in got] == [x.hex() for x in want]
+        assert shift.transform(lat, lon, h) == tuple(want)
+    twin = pickle.loads(pickle.dumps(shift))  # its own PROJ objects
+    assert twin.transform(52.0, 4.0, 0.0) == shift.transform(52.0, 4.0, 0.0)
+
+
+_NO_PYPROJ = """
+import sys
+from engine.geodesy.ellipsoid import WGS84, Datum, Ellipsoid
+from engine.geodesy.ellipsoidal import GeodesicSolver, datum_shift
+ed50 = Datum("ED50", Ellipsoid("INTERNATIONAL", 6378388.0, 297.0), -87.0, -98.0, -121.0)
+s = GeodesicSolver(ed50.ellipsoid)
+s.native()
+s.forward_azimuths_rad(52.0, 4.0, [(53.0, 5.0)])
+datum_shift(WGS84, ed50).transform(52.0, 4.0, 0.0)
+print("pyproj" in sys.modules, s.native() is not None)
+"""
+
+
+def test_a_run_does_not_import_pyproj() -> None:
+    """A run's shifts and compiled geodesic reach PROJ without importing pyproj (~0.1 s of
+    start-up); pyproj's own calls (inverse, arrays, the pure path) import it on first use."""
+    out = subprocess.run([sys.executable, "-c", _NO_PYPROJ], cwd=ROOT, capture_output=True,
+                         text=True, check=True,
+                         env={k: v for k, v in os.environ.items() if k != "UVNAV_PURE"})
+    assert out.stdout.split()[0] == "False", out.stderr
+    assert out.stderr == ""  # PROJ found its data (no "Cannot find proj.db")
 
 
 @pytest.mark.parametrize(("lat", "lon"), [(0.0, 0.0), (0.0, 100.0), (52.0, 4.5), (-60.0, -170.0)])

@@ -14,7 +14,17 @@ from __future__ import annotations
 
 import gc
 import importlib
+import os
 import sys
+
+# One OpenBLAS thread (numpy's and SciPy's bundled OpenBLAS read this when they load): every
+# matrix of the engine is at most 13×13, below the sizes at which OpenBLAS splits a routine
+# between threads, so the results are the same bits; but with a thread pool each library starts
+# helper threads that spin, waiting for work, for a while after it loads (numpy's import, the
+# kernels' first BLAS binding), taking a core from the start-up on a small machine (uvnav
+# replay of the thesis sample: -0.08 to -0.12 s wall, bench/bench_startup.py). A value set by
+# the user is kept.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 SUBCOMMANDS = {
     "replay": ("uvnav_tui.cli.replay", "run_replay"),

@@ -35,7 +35,6 @@ import dataclasses
 import json
 import os
 import sys
-import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -384,6 +383,8 @@ def run_replay(argv: list[str]) -> int:
     except OSError as exc:  # e.g. the disk filled up: every completed cycle is on disk
         return _cannot_write(exc, run)
     except Exception as exc:  # an engine bug (engine/run/session.py: never a bad record)
+        import traceback  # only here (start-up time: nothing else in a replay imports it)
+
         traceback.print_exc()
         print(f"uvnav replay: internal error ({type(exc).__name__}: {exc}): this is a bug, "
               "please report it with the record above", file=sys.stderr)
