@@ -37,8 +37,6 @@ from functools import reduce
 from operator import xor
 from typing import Any
 
-import pynmea2
-
 __all__ = [
     "NmeaValues",
     "SkipKind",
@@ -473,6 +471,8 @@ def parse_nmea_line(
                             "P" + text[2:5])
     if kind not in USED_TYPES:
         return SentenceSkip(SkipKind.UNKNOWN, f"{kind}: sentence type not used", kind)
+    import pynmea2  # on first use: a replay of a .RUN file never parses NMEA (start-up)
+
     try:
         msg = pynmea2.parse(text, check=True)
     except pynmea2.ChecksumError as exc:
