@@ -40,7 +40,10 @@ def _kernel() -> ModuleType | None:
     """Resolve :data:`_K` (once per process; :func:`_reset_kernel` forgets it, for tests)."""
     global _K
     if _K is _UNRESOLVED:
-        _K = native.bound_kernel("kalman_update")
+        k = native.bound_kernel("kalman_update")
+        if k is not None:  # what update_result() builds, and the LOM bounds it asks for
+            k.bind_result(FilterState, LomTest, LsTest, UpdateResult, _lom_limits)
+        _K = k
     return _K  # type: ignore[return-value]
 
 
@@ -295,27 +298,15 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
         new, H = state, rows.H
         if H.shape[1] < state.x.shape[0]:
             new, H = _full_width(state, rows, params)
-    out = k.update_new(new.x, new.P, H, z, rows.R, rows.angle_rows, params.joseph, IPSI)
-    if out is None:
+    # The kernel's update and the whole result in one call: x⁺, P⁺ (read-only) in a new
+    # FilterState as _with_frozen makes it, v (p,), S (p×p), K (n×p), the LOM test as
+    # _lom_from_nis makes it and the LsTest of Y = L⁻¹[HP | v̂ | I] (its t filled when the kernel
+    # computed it, else on access as usual); None where the kernel declines.
+    result = k.update_result(new, H, z, rows.R, rows.angle_rows, params.joseph, IPSI,
+                             params.alpha, rows.labels)
+    if result is None:
         return _update_py(state, rows, params)
-    # The kernel's new arrays: v (p,), S (p×p), K (n×p), x⁺ and P⁺ (read-only), the LS
-    # statistics t (p,; read-only, filled when t_ok) and Yc ((n+1+p)×p; Yc.T = L⁻¹[HP | v̂ | I],
-    # Fortran-ordered as trsm leaves it).
-    nis, t_ok, v, S, K, xn, Pn, t, Yc = out
-    n = xn.shape[0]
-    new = new._with_frozen(new.t, xn, Pn)
-    lom = _lom_from_nis(nis, p, params.alpha)
-    Y = Yc.T
-    ls = _new(LsTest)
-    if t_ok:  # LsTest.t, computed by the kernel (same bits); else on access as usual
-        ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject",
-                           t=t)
-    else:
-        ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject")
-    result = _new(UpdateResult)
-    result.__dict__.update(state=new, innovation=v, S=S, K=K, labels=rows.labels, lom=lom,
-                           ls=ls)
-    return result
+    return result  # type: ignore[no-any-return]
 
 
 _EMPTY = np.empty

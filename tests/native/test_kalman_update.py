@@ -116,14 +116,14 @@ def test_the_kernel_really_runs_on_the_replay(replay_updates, monkeypatch) -> No
     """No silent fallback: the kernel answers for every update of the replay."""
     k = U._kernel()
     answered = []
-    real = k.update_new
+    real = k.update_result
 
     class Spy:
         def __getattr__(self, name: str) -> object:
             return getattr(k, name)
 
         @staticmethod
-        def update_new(*args: object) -> object:
+        def update_result(*args: object) -> object:
             out = real(*args)
             answered.append(out is not None)
             return out
@@ -158,6 +158,28 @@ def test_update_new_is_update_into_new_arrays(replay_updates) -> None:
         assert Yc.flags.writeable
         if t_ok:
             assert same(t, t0) and not t.flags.writeable
+
+
+def test_update_result_builds_the_objects_the_python_builds(replay_updates) -> None:
+    """update_result() (what update() calls) builds the result as _update_py and the Python
+    update() before it did: the same classes, attributes in the same order, the LOM test's
+    values, numpy views of one array for l_inv and w, and the bounds of any α and p (more pairs
+    than the kernel remembers: its table is refilled)."""
+    for i, (state, rows, params) in enumerate(replay_updates[:120]):
+        if i % 3 == 0:
+            alpha = (0.001, 0.01, 0.05, 0.1, 0.2, 0.3)[i % 6] + (i % 40) * 1e-4
+            params = FilterParams(alpha=alpha, joseph=params.joseph, coloured=params.coloured)
+        ref = U._update_py(state, rows, params)
+        new = U.update(state, rows, params)
+        assert type(new) is U.UpdateResult and list(vars(new)) == list(vars(ref))
+        assert type(new.state) is FilterState and list(vars(new.state)) == list(vars(ref.state))
+        assert type(new.lom) is U.LomTest and list(vars(new.lom)) == list(vars(ref.lom))
+        for name, value in vars(ref.lom).items():
+            assert same(getattr(new.lom, name), value), name
+        assert type(new.ls) is U.LsTest and list(vars(new.ls))[:3] == ["l_inv", "w", "lom_reject"]
+        assert new.ls.l_inv.base is not None and new.ls.l_inv.base is new.ls.w.base
+        assert new.labels is rows.labels
+        assert new.state.fix_cov is state.fix_cov or rows.bias_keys
 
 
 @pytest.mark.parametrize("joseph", [True, False])
