@@ -20,7 +20,14 @@ import numpy as np
 
 from engine import native
 from engine.filter.lazy_scipy import blas, lapack
-from engine.filter.measurements import Measurement, distinct_key_tuple, h_template
+from engine.filter.measurements import (
+    Measurement,
+    _SensorLayout,
+    distinct_key_tuple,
+    h_template,
+    rows_measurement,
+    stack_measurements,
+)
 from engine.filter.params import FilterParams, read_only, symmetrised
 from engine.filter.state import IPSI, N_NAV, FilterState, add_fix_states
 from engine.geodesy.angles import wrap_2pi, wrap_pi
@@ -306,6 +313,68 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
                              params.alpha, rows.labels)
     if result is None:
         return _update_py(state, rows, params)
+    return result  # type: ignore[no-any-return]
+
+
+def update_rows(state: FilterState, zs: list[float], var: list[float], layout: _SensorLayout,
+                params: FilterParams) -> UpdateResult:
+    """``update(state, rows_measurement(zs, var, layout), params)``: the update with independent
+    rows (values ``zs``, variances ``var``, the ``layout`` of
+    ``engine.filter.measurements.sensor_rows``: the sensors' rows of a cycle), the kernel
+    reading the values and variances straight from the lists (``update_blocks``), without the
+    :class:`Measurement`; the same result, bit for bit."""
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    if k is not None and zs:
+        labels, cols_t, H, angle = layout
+        if H.shape[1] < state.x.shape[0]:  # _full_width's template
+            H = h_template(cols_t, state.x.shape[0])
+        result = k.update_blocks(state, H, ((zs, var),), angle, params.joseph, IPSI,
+                                 params.alpha, labels)
+        if result is not None:
+            return result  # type: ignore[no-any-return]
+    return update(state, rows_measurement(zs, var, layout), params)
+
+
+def update_two(state: FilterState, a: Measurement, b: Measurement,
+               params: FilterParams) -> UpdateResult:
+    """``update(state, stack_measurements(a, b), params)``: the cycle's update with rows ``a``
+    without fix-error keys (the pressure depth) stacked before rows ``b`` (the LSE, with its
+    fix-error keys and their prior), both with template H, and the fix-error states already in
+    the state (every fix but the first): the kernel stacks the two blocks itself
+    (``update_blocks``), without the stacked :class:`Measurement`, and H and the fix-error VCV
+    are those :func:`_with_bias_columns` makes of the stack. Anything else (and where the
+    kernel declines) goes through the stack and :func:`update`; the same result, bit for bit."""
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    ca, cb = a._cols, b._cols
+    if k is None or a.bias_keys or a.bias_cov is not None or ca is None or cb is None or \
+            not a.z.shape[0] or not b.z.shape[0]:
+        return update(state, stack_measurements(a, b), params)
+    n = state.x.shape[0]
+    ka = a.z.shape[0]
+    cols_t = ca + cb
+    bk = b.bias_keys
+    cov = b.bias_cov
+    if bk:
+        dk = distinct_key_tuple(bk)
+        # _stack_two's prior (b's leading m×m block; here all of it) and _with_bias_columns
+        # with nothing missing; else the general code (adding states, its errors)
+        if not dk or dk != state.fix_states or len(bk) != b.z.shape[0] or cov is None or \
+                type(cov) is not np.ndarray or cov.dtype != np.float64 or \
+                cov.shape != (len(dk), len(dk)):
+            return update(state, stack_measurements(a, b), params)
+        new = state.with_fix_cov(dk, cov)
+        H = _bias_h(cols_t, (None,) * ka + bk, new.fix_states, n)
+    else:
+        if a.H.shape[1] > n or b.H.shape[1] > n:
+            return update(state, stack_measurements(a, b), params)
+        new, H = state, h_template(cols_t, n)
+    angle = tuple(a.angle_rows)
+    if b.angle_rows:
+        angle += tuple(ka + i for i in b.angle_rows)
+    result = k.update_blocks(new, H, ((a.z, a.R), (b.z, b.R)), angle, params.joseph, IPSI,
+                             params.alpha, tuple(a.labels) + tuple(b.labels))
+    if result is None:
+        return update(state, stack_measurements(a, b), params)
     return result  # type: ignore[no-any-return]
 
 

@@ -881,6 +881,106 @@ done:
     return result;
 }
 
+/* One block of update_blocks(): its rows' values into z (k of them) and their VCV into the k×k
+ * block at R (row stride ld). A list of floats is the values, or the variances of independent
+ * rows (R diagonal); an array is read as a C-contiguous float64 (k,) / (k, k). Returns k, or -1
+ * (not covered: the Python runs; no exception left set). With z == NULL only counts. */
+static Py_ssize_t block_rows(PyObject *zo, PyObject *Ro, double *z, double *R, Py_ssize_t ld)
+{
+    Py_ssize_t k;
+    if (PyList_CheckExact(zo)) {
+        k = PyList_GET_SIZE(zo);
+        for (Py_ssize_t i = 0; i < k; i++)
+            if (!PyFloat_CheckExact(PyList_GET_ITEM(zo, i)))
+                return -1;
+        if (z != NULL)
+            for (Py_ssize_t i = 0; i < k; i++)
+                z[i] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(zo, i));
+    } else {
+        bufs_t bs = {.n = 0};
+        const double *d = get(&bs, zo, 1, -1, 0, 0);
+        k = d == NULL ? -1 : bs.v[0].shape[0];
+        if (d != NULL && z != NULL)
+            memcpy(z, d, sizeof(double) * (size_t)k);
+        release(&bs);
+        if (k < 0)
+            return -1;
+    }
+    if (PyList_CheckExact(Ro)) {
+        if (PyList_GET_SIZE(Ro) != k)
+            return -1;
+        for (Py_ssize_t i = 0; i < k; i++)
+            if (!PyFloat_CheckExact(PyList_GET_ITEM(Ro, i)))
+                return -1;
+        if (R != NULL)
+            for (Py_ssize_t i = 0; i < k; i++)
+                R[i * ld + i] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(Ro, i));
+    } else {
+        bufs_t bs = {.n = 0};
+        const double *d = get(&bs, Ro, 2, k, k, 0);
+        if (d != NULL && R != NULL)
+            for (Py_ssize_t i = 0; i < k; i++)
+                memcpy(R + i * ld, d + i * k, sizeof(double) * (size_t)k);
+        release(&bs);
+        if (d == NULL)
+            return -1;
+    }
+    return k;
+}
+
+PyDoc_STRVAR(update_blocks_doc,
+"update_blocks(state, H, blocks, angle_rows, joseph, ipsi, alpha, labels)\n"
+"    -> UpdateResult | None\n\n"
+"update_result() of the rows of `blocks`, a tuple of (z, R) stacked in order as\n"
+"measurements.stack_measurements stacks them (z concatenated, R block-diagonal, zeros\n"
+"elsewhere): z a list of floats or a float64 (k,) array, R a list of the rows' variances\n"
+"(independent rows) or a float64 (k, k) array. None where a block is not one of these or\n"
+"update_result() declines: the Python runs.");
+
+static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 8) {
+        PyErr_SetString(PyExc_TypeError, "update_blocks takes 8 arguments");
+        return NULL;
+    }
+    if (np_ready() < 0)
+        return NULL;
+    PyObject *blocks = args[2];
+    if (!PyTuple_CheckExact(blocks))
+        Py_RETURN_NONE;
+    Py_ssize_t nb = PyTuple_GET_SIZE(blocks), p = 0;
+    for (Py_ssize_t b = 0; b < nb; b++) {
+        PyObject *blk = PyTuple_GET_ITEM(blocks, b);
+        if (!PyTuple_CheckExact(blk) || PyTuple_GET_SIZE(blk) != 2)
+            Py_RETURN_NONE;
+        Py_ssize_t k = block_rows(PyTuple_GET_ITEM(blk, 0), PyTuple_GET_ITEM(blk, 1), NULL, NULL,
+                                  0);
+        if (k < 0)
+            Py_RETURN_NONE;
+        p += k;
+    }
+    if (p < 1 || p > 1000)
+        Py_RETURN_NONE;
+    double *z, *R;
+    PyObject *zo = new_array(p, 0, 1, &z), *Ro = zo == NULL ? NULL : new_array(p, p, 2, &R);
+    if (Ro == NULL) {
+        Py_XDECREF(zo);
+        return NULL;
+    }
+    memset(R, 0, sizeof(double) * (size_t)(p * p));
+    Py_ssize_t at = 0;
+    for (Py_ssize_t b = 0; b < nb; b++) {
+        PyObject *blk = PyTuple_GET_ITEM(blocks, b);
+        at += block_rows(PyTuple_GET_ITEM(blk, 0), PyTuple_GET_ITEM(blk, 1), z + at,
+                         R + at * p + at, p);
+    }
+    PyObject *ua[9] = {args[0], args[1], zo, Ro, args[3], args[4], args[5], args[6], args[7]};
+    PyObject *result = py_update_result(self, ua, 9);
+    Py_DECREF(zo);
+    Py_DECREF(Ro);
+    return result;
+}
+
 /* ------------------------------------------------------------------ innovation distance */
 
 PyDoc_STRVAR(distance_doc,
@@ -961,6 +1061,8 @@ static PyMethodDef methods[] = {
     {"distance", (PyCFunction)(void (*)(void))py_distance, METH_FASTCALL, distance_doc},
     {"update_result", (PyCFunction)(void (*)(void))py_update_result, METH_FASTCALL,
      update_result_doc},
+    {"update_blocks", (PyCFunction)(void (*)(void))py_update_blocks, METH_FASTCALL,
+     update_blocks_doc},
     {"bind_result", (PyCFunction)(void (*)(void))ku_bind_result, METH_FASTCALL,
      "bind_result(FilterState, LomTest, LsTest, UpdateResult, lom_limits): what update_result() "
      "builds and the bounds it asks for."},

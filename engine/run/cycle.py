@@ -36,7 +36,9 @@ from engine.filter.kalman import (
     stack_measurements,
     update,
 )
+from engine.filter.measurements import sensor_rows
 from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
+from engine.filter.update import update_rows, update_two
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -695,14 +697,14 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     # Heading and speed of this record drive the step into it (THEORY §14.1 item 6: the
     # sample's KF row moves on the mean of the two records' gyro headings). A state just
     # initialised from this record's readings has them already (no double counting).
-    sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
-                                     gyro_grid_rad=heading_grid, incl_rad=incl, params=params,
-                                     log_sigma_ms=sens.speed_sigma_ms,
-                                     gyro_sigma_deg=sens.heading_sigma_deg)
-    dr_sensors = sensor_rows.z.shape[0] > 0
+    # The rows of sensor_measurement(fstate, log_ms=…, gyro_grid_rad=…, incl_rad=…), updated
+    # from their values and variances without a Measurement (update_rows: the same update).
+    zs, var, layout = sensor_rows(None, speed_ms, heading_grid, incl, params,
+                                  sens.speed_sigma_ms, sens.heading_sigma_deg)
+    dr_sensors = len(zs) > 0
     sens_result = None
     if dr_sensors and not initialised:
-        sens_result = update(fstate, sensor_rows, params)
+        sens_result = update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
     pred_state, phi = predict_step(fstate, dt, params)
     return _Prediction(pred_state, filter_estimate("KF", grid, pred_state),
@@ -990,9 +992,14 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
     position restarts from the LSE. Returns the depth rows still to be applied (None: done)."""
     assert f.state is not None
     n_fix = meas.z.shape[0]
-    both = meas if depth_rows is None else stack_measurements(depth_rows, meas)
-    trial = update(f.state, both, ctx.filter_params)  # one update for all measured at this epoch
-    d_sigma = innovation_distance(trial, slice(both.z.shape[0] - n_fix, None))
+    # One update for all measured at this epoch: the depth rows stacked before the fix's
+    # (update_two is update(state, stack_measurements(depth_rows, meas), params)).
+    if depth_rows is None:
+        trial, p = update(f.state, meas, ctx.filter_params), n_fix
+    else:
+        trial = update_two(f.state, depth_rows, meas, ctx.filter_params)
+        p = depth_rows.z.shape[0] + n_fix
+    d_sigma = innovation_distance(trial, slice(p - n_fix, None))
     f.status = "ON"
     if d_sigma <= GROSS_GATE_SIGMA:
         f.result, f.state, f.has_fix, f.gated = trial, trial.state, True, 0
@@ -1078,7 +1085,8 @@ def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
 
 _UNSET = object()
 _POSITION_K: object = _UNSET
-"""The compiled estimate of :func:`filter_estimate` (``position_kernel``), once resolved."""
+"""The compiled estimate of :func:`filter_estimate` (``position_kernel``), once resolved: the
+one place it is held (``engine.filter.state.position_kernel`` resolves and binds, no cache)."""
 
 
 def _position_kernel() -> object:

@@ -197,6 +197,23 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
             return _real(*a, **k)
 
         mp.setattr(cycle_mod, name, recording)
+    real_rows, real_two = cycle_mod.sensor_rows, cycle_mod.update_two
+
+    def rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms=None,
+             gyro_sigma_deg=None):  # the sensor_measurement the cycle's rows stand for
+        kw = dict(depth_m=depth_m, log_ms=log_ms, gyro_grid_rad=gyro_grid_rad,
+                  incl_rad=incl_rad, params=params, log_sigma_ms=log_sigma_ms,
+                  gyro_sigma_deg=gyro_sigma_deg)
+        calls.append(("sensor_measurement", (None,), kw))
+        return real_rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms,
+                         gyro_sigma_deg)
+
+    def two(state, a, b, params):  # the stack update_two updates with
+        calls.append(("stack_measurements", (a, b), {}))
+        return real_two(state, a, b, params)
+
+    mp.setattr(cycle_mod, "sensor_rows", rows)
+    mp.setattr(cycle_mod, "update_two", two)
     try:
         replay(200)
     finally:

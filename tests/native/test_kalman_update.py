@@ -24,6 +24,7 @@ import engine.filter.update as U
 import engine.run.cycle as cycle_mod
 from engine import native
 from engine.filter import kalman as kf
+from engine.filter import measurements as ms
 from engine.filter.measurements import Measurement, _measurement
 from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState, add_fix_states
@@ -92,19 +93,105 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
     """The (state, rows, params) of every update of the first 200 demo epochs."""
 
     seen: list[tuple[FilterState, Measurement, FilterParams]] = []
-    orig = cycle_mod.update
+    mp = pytest.MonkeyPatch()
 
     def record(state: FilterState, rows: Measurement, params: FilterParams) -> U.UpdateResult:
         seen.append((state, rows, params))
-        return orig(state, rows, params)
+        return U.update(state, rows, params)
 
-    cycle_mod.update = record  # type: ignore[assignment]
+    # The cycle's updates: update(), and update_rows() / update_two(), which are update() of
+    # the rows' measurement and of the stack (test_update_rows_and_two_are_update).
+    mp.setattr(cycle_mod, "update", record)
+    mp.setattr(cycle_mod, "update_rows", lambda state, zs, var, layout, params: record(
+        state, ms.rows_measurement(zs, var, layout), params))
+    mp.setattr(cycle_mod, "update_two", lambda state, a, b, params: record(
+        state, ms.stack_measurements(a, b), params))
     try:
         replay(200)
     finally:
-        cycle_mod.update = orig  # type: ignore[assignment]
+        mp.undo()
     assert len(seen) > 300
     return seen
+
+
+@pytest.fixture(scope="module")
+def replay_blocks() -> list[tuple[str, tuple[object, ...]]]:
+    """The arguments of every update_rows() and update_two() of the first 100 demo epochs."""
+    seen: list[tuple[str, tuple[object, ...]]] = []
+    mp = pytest.MonkeyPatch()
+    for name in ("update_rows", "update_two"):
+        real = getattr(U, name)
+
+        def recording(*a: object, _name: str = name, _real=real) -> U.UpdateResult:
+            seen.append((_name, a))
+            return _real(*a)
+
+        mp.setattr(cycle_mod, name, recording)
+    try:
+        replay(100)
+    finally:
+        mp.undo()
+    assert {n for n, _ in seen} == {"update_rows", "update_two"}
+    return seen
+
+
+def _same_result(got: U.UpdateResult, ref: U.UpdateResult) -> None:
+    """Two update results alike bit for bit: every array, float and field, in the same order."""
+    assert list(vars(got)) == list(vars(ref)) and list(vars(got.state)) == list(vars(ref.state))
+    for name in ("t", "x", "P", "fix_states", "fix_tau_s", "fix_cov"):
+        assert same(getattr(got.state, name), getattr(ref.state, name)), name
+    for name in ("innovation", "S", "K", "labels"):
+        assert same(getattr(got, name), getattr(ref, name)), name
+    for name in ("l_inv", "w", "t", "lom_reject"):
+        assert same(getattr(got.ls, name), getattr(ref.ls, name)), name
+    assert vars(got.lom) == vars(ref.lom)
+
+
+def test_update_rows_and_two_are_update(replay_blocks, monkeypatch) -> None:
+    """update_rows() and update_two() give update() of the rows' measurement and of the stack
+    (and so _update_py), with the kernel and without it (the Python path they fall back to),
+    on the cycle's calls and on inputs they hand to the general code: a fix-error state still
+    missing, a prior of another shape, H wider than the state, rows without fix-error keys."""
+    cases: list[tuple[str, tuple[object, ...]]] = list(replay_blocks)
+    two = [a for n, a in replay_blocks if n == "update_two"]
+    state, depth, lse, params = two[-1]
+    assert lse.bias_keys and state.fix_states == ("fix_e", "fix_n")
+    bare = FilterState(state.t, state.x[:N_NAV], state.P[:N_NAV, :N_NAV])
+    cases.append(("update_two", (bare, depth, lse, params)))  # the states are added
+    wide = _measurement(lse.z, lse.H, lse.R, lse.labels, (), lse.bias_keys,
+                        np.eye(3), lse.bias_tau_s, lse._cols)
+    cases.append(("update_two", (state, depth, wide, params)))  # prior 3×3: the general code
+    plain = _measurement(lse.z, lse.H, lse.R, lse.labels, cols=lse._cols)
+    cases.append(("update_two", (state, depth, plain, params)))
+    cases.append(("update_two", (bare, depth, plain, params)))
+    cases.append(("update_two", (state, plain, depth, params)))
+    for kernel in (U._K, None):
+        monkeypatch.setattr(U, "_K", kernel)
+        for name, a in cases:
+            if name == "update_rows":
+                st_, zs, var, layout, prm = a
+                ref = U.update(st_, ms.rows_measurement(zs, var, layout), prm)
+                _same_result(U.update_rows(*a), ref)
+                _same_result(U._update_py(st_, ms.rows_measurement(zs, var, layout), prm), ref)
+            else:
+                st_, x, y, prm = a
+                ref = U.update(st_, ms.stack_measurements(x, y), prm)
+                _same_result(U.update_two(*a), ref)
+                _same_result(U._update_py(st_, ms.stack_measurements(x, y), prm), ref)
+
+
+def test_update_blocks_declines_what_it_does_not_cover(replay_blocks) -> None:
+    """update_blocks() reads lists of floats and float64 arrays only, else None (the Python)."""
+    k = U._kernel()
+    state, zs, var, layout, params = next(a for n, a in replay_blocks if n == "update_rows")
+    labels, _cols, H, angle = layout
+    H = ms.h_template(_cols, state.n)
+    args = (angle, params.joseph, U.IPSI, params.alpha, labels)
+    assert k.update_blocks(state, H, ((zs, var),), *args) is not None
+    bad_z = [int(z) for z in zs]
+    for blocks in (((bad_z, var),), ((zs, var[:-1]),), ((zs,),), [(zs, var)], ((), ),
+                   ((np.array(zs, dtype=np.float32), var),), ((zs, np.eye(len(zs))[:, :1]),)):
+        assert k.update_blocks(state, H, blocks, *args) is None
 
 
 def test_the_updates_of_a_demo_replay_are_the_same(replay_updates) -> None:
@@ -349,3 +436,26 @@ def test_binding_is_lazy() -> None:
             "assert 'engine.native.blas' not in sys.modules\n"
             "assert 'scipy' not in sys.modules\n")
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
+
+
+def test_update_blocks_answers_the_cycle(replay_blocks, monkeypatch) -> None:
+    """No silent fallback: update_blocks() answers every update_rows()/update_two() of the
+    replay but the first fix's (whose fix-error states are added by the general code)."""
+    k = U._kernel()
+    answered = []
+    real = k.update_blocks
+
+    class Spy:
+        def __getattr__(self, name: str) -> object:
+            return getattr(k, name)
+
+        @staticmethod
+        def update_blocks(*args: object) -> object:
+            out = real(*args)
+            answered.append(out is not None)
+            return out
+
+    monkeypatch.setattr(U, "_K", Spy())
+    for name, a in replay_blocks:
+        getattr(U, name)(*a)
+    assert len(answered) >= len(replay_blocks) - 2 and all(answered)
