@@ -160,7 +160,8 @@ def sensor_measurement(
                                          log_sigma_ms, gyro_sigma_deg))
 
 
-_SensorLayout = tuple[tuple[str, ...], tuple[tuple[int, ...], ...], np.ndarray, tuple[int, ...]]
+SensorLayout = tuple[tuple[str, ...], tuple[tuple[int, ...], ...], np.ndarray, tuple[int, ...]]
+"""(labels, H columns, H template over the nav states, angle rows) of a set of sensor rows."""
 
 
 def sensor_rows(
@@ -171,7 +172,7 @@ def sensor_rows(
     params: FilterParams,
     log_sigma_ms: float | None = None,
     gyro_sigma_deg: float | None = None,
-) -> tuple[list[float], list[float], _SensorLayout]:
+) -> tuple[list[float], list[float], SensorLayout]:
     """The values (m, m/s, rad, rad), variances of their white noise and layout (labels, H
     columns, H template over the nav states, angle rows: :func:`_sensor_layout`) of the sensor
     rows of :func:`sensor_measurement`, which :func:`rows_measurement` makes the measurement of
@@ -209,7 +210,7 @@ def sensor_rows(
     return zs, var, layout
 
 
-def rows_measurement(zs: list[float], var: list[float], layout: _SensorLayout) -> Measurement:
+def rows_measurement(zs: list[float], var: list[float], layout: SensorLayout) -> Measurement:
     """The measurement of independent rows: values ``zs``, variances ``var`` (R diagonal) and
     the ``layout`` of :func:`sensor_rows` (its arrays from the compiled helper where built)."""
     labels, cols_t, H, angle = layout
@@ -240,11 +241,11 @@ def _sensor_variances(params: FilterParams) -> tuple[FilterParams, float, float,
     return c
 
 
-_LAYOUTS: dict[int, _SensorLayout] = {}
+_LAYOUTS: dict[int, SensorLayout] = {}
 """Bit set of the sensors present (1 depth, 2 log, 4 gyro, 8 inclinometer) → layout."""
 
 
-def _sensor_layout(which: int) -> _SensorLayout:
+def _sensor_layout(which: int) -> SensorLayout:
     """(labels, H columns, H template, angle rows) of the sensor rows in bit set ``which``
     (1 depth, 2 log, 4 gyro, 8 inclinometer), in :func:`_sensor_rows`' order."""
     rows = [(label, cols) for bit, label, cols in

@@ -22,7 +22,7 @@ from engine import native
 from engine.filter.lazy_scipy import blas, lapack
 from engine.filter.measurements import (
     Measurement,
-    _SensorLayout,
+    SensorLayout,
     distinct_key_tuple,
     h_template,
     rows_measurement,
@@ -316,7 +316,7 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
     return result  # type: ignore[no-any-return]
 
 
-def update_rows(state: FilterState, zs: list[float], var: list[float], layout: _SensorLayout,
+def update_rows(state: FilterState, zs: list[float], var: list[float], layout: SensorLayout,
                 params: FilterParams) -> UpdateResult:
     """``update(state, rows_measurement(zs, var, layout), params)``: the update with independent
     rows (values ``zs``, variances ``var``, the ``layout`` of
@@ -344,14 +344,40 @@ def update_two(state: FilterState, a: Measurement, b: Measurement,
     (``update_blocks``), without the stacked :class:`Measurement`, and H and the fix-error VCV
     are those :func:`_with_bias_columns` makes of the stack. Anything else (and where the
     kernel declines) goes through the stack and :func:`update`; the same result, bit for bit."""
+    if not (a.bias_keys or a.bias_cov is not None or a._cols is None or not a.z.shape[0]):
+        result = _update_two(state, (a.z, a.R), a._cols, a.labels, a.angle_rows, a.H.shape[1],
+                             b, params)
+        if result is not None:
+            return result
+    return update(state, stack_measurements(a, b), params)
+
+
+def update_rows_two(state: FilterState, zs: list[float], var: list[float],
+                    layout: SensorLayout, b: Measurement, params: FilterParams) -> UpdateResult:
+    """:func:`update_two` of the rows ``rows_measurement(zs, var, layout)`` (the pressure depth
+    of ``engine.filter.measurements.sensor_rows``) and ``b``, read straight from the lists."""
+    if zs:
+        labels, cols_t, H, angle = layout
+        result = _update_two(state, (zs, var), cols_t, labels, angle, H.shape[1], b, params)
+        if result is not None:
+            return result
+    return update(state, stack_measurements(rows_measurement(zs, var, layout), b), params)
+
+
+def _update_two(state: FilterState, block_a: tuple[object, object],
+                cols_a: tuple[tuple[int, ...], ...], labels_a: tuple[str, ...],
+                angle_a: tuple[int, ...], width_a: int, b: Measurement,
+                params: FilterParams) -> UpdateResult | None:
+    """The fast path of :func:`update_two` for rows ``a`` given by their block (z, R) for
+    ``update_blocks``, H columns, labels, angle rows and H width (at least one row, no
+    fix-error keys or prior); None: the caller runs the general code."""
     k = _K if _K is not _UNRESOLVED else _kernel()
-    ca, cb = a._cols, b._cols
-    if k is None or a.bias_keys or a.bias_cov is not None or ca is None or cb is None or \
-            not a.z.shape[0] or not b.z.shape[0]:
-        return update(state, stack_measurements(a, b), params)
+    cb = b._cols
+    if k is None or cb is None or not b.z.shape[0]:
+        return None
     n = state.x.shape[0]
-    ka = a.z.shape[0]
-    cols_t = ca + cb
+    ka = len(cols_a)
+    cols_t = cols_a + cb
     bk = b.bias_keys
     cov = b.bias_cov
     if bk:
@@ -361,21 +387,18 @@ def update_two(state: FilterState, a: Measurement, b: Measurement,
         if not dk or dk != state.fix_states or len(bk) != b.z.shape[0] or cov is None or \
                 type(cov) is not np.ndarray or cov.dtype != np.float64 or \
                 cov.shape != (len(dk), len(dk)):
-            return update(state, stack_measurements(a, b), params)
+            return None
         new = state.with_fix_cov(dk, cov)
         H = _bias_h(cols_t, (None,) * ka + bk, new.fix_states, n)
     else:
-        if a.H.shape[1] > n or b.H.shape[1] > n:
-            return update(state, stack_measurements(a, b), params)
+        if width_a > n or b.H.shape[1] > n:
+            return None
         new, H = state, h_template(cols_t, n)
-    angle = tuple(a.angle_rows)
+    angle = tuple(angle_a)
     if b.angle_rows:
         angle += tuple(ka + i for i in b.angle_rows)
-    result = k.update_blocks(new, H, ((a.z, a.R), (b.z, b.R)), angle, params.joseph, IPSI,
-                             params.alpha, tuple(a.labels) + tuple(b.labels))
-    if result is None:
-        return update(state, stack_measurements(a, b), params)
-    return result  # type: ignore[no-any-return]
+    return k.update_blocks(new, H, (block_a, (b.z, b.R)), angle,  # type: ignore[no-any-return]
+                           params.joseph, IPSI, params.alpha, tuple(labels_a) + tuple(b.labels))
 
 
 _EMPTY = np.empty

@@ -32,13 +32,12 @@ from engine.filter.kalman import (
     predict_step,
     restart_dr_states,
     restart_fix_states,
-    sensor_measurement,
     stack_measurements,
     update,
 )
-from engine.filter.measurements import sensor_rows
+from engine.filter.measurements import SensorLayout, sensor_rows
 from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
-from engine.filter.update import update_rows, update_two
+from engine.filter.update import update_rows, update_rows_two
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -845,9 +844,11 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     f = _Filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source, nav.gated_fixes,
                    "OFF" if not cfg.filter.on else "N/A")
     lse_ok = fix is not None and fix.lse_ok
-    depth_rows: Measurement | None = None
+    # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
+    # layout): updated from them without a Measurement (update_rows, update_rows_two).
+    depth_rows: tuple[list[float], list[float], SensorLayout] | None = None
     if pred.state is not None and sens.depth_m is not None:
-        depth_rows = sensor_measurement(pred.state, depth_m=sens.depth_m, params=params)
+        depth_rows = sensor_rows(sens.depth_m, None, None, None, params)
     if f.state is not None and fix is not None and lse_ok and not f.has_fix:
         # The first LSE initialises the filter position (THEORY D22): a DR start kilometres
         # away with the thesis P0 = I would otherwise pull against every fix.
@@ -871,7 +872,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
         # Filter off: dead reckoning restarts from each LSE (THEORY §12.6 Kalman ▸ Filtering).
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
     if f.state is not None and depth_rows is not None:
-        depth_result = update(f.state, depth_rows, params)
+        depth_result = update_rows(f.state, *depth_rows, params)
         f.state = depth_result.state
         f.result = f.result or depth_result
     return f
@@ -985,20 +986,22 @@ def _with_gnss(base: tuple[object, ...], gnss: tuple[object, ...] | None,
 
 
 def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measurement,
-                  depth_rows: Measurement | None, fix: FixResult | None,
-                  messages: list[str]) -> Measurement | None:
+                  depth_rows: tuple[list[float], list[float], SensorLayout] | None,
+                  fix: FixResult | None,
+                  messages: list[str]) -> tuple[list[float], list[float], SensorLayout] | None:
     """One update with everything measured at this epoch, taken unless the fix is a gross
     error (:data:`GROSS_GATE_SIGMA`); after :data:`GROSS_GATE_RESET` gated LSEs the filter
     position restarts from the LSE. Returns the depth rows still to be applied (None: done)."""
     assert f.state is not None
     n_fix = meas.z.shape[0]
     # One update for all measured at this epoch: the depth rows stacked before the fix's
-    # (update_two is update(state, stack_measurements(depth_rows, meas), params)).
+    # (update_rows_two is update(state, stack_measurements(the depth rows' measurement, meas),
+    # params)).
     if depth_rows is None:
         trial, p = update(f.state, meas, ctx.filter_params), n_fix
     else:
-        trial = update_two(f.state, depth_rows, meas, ctx.filter_params)
-        p = depth_rows.z.shape[0] + n_fix
+        trial = update_rows_two(f.state, *depth_rows, meas, ctx.filter_params)
+        p = len(depth_rows[0]) + n_fix
     d_sigma = innovation_distance(trial, slice(p - n_fix, None))
     f.status = "ON"
     if d_sigma <= GROSS_GATE_SIGMA:

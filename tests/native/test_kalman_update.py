@@ -99,13 +99,13 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
         seen.append((state, rows, params))
         return U.update(state, rows, params)
 
-    # The cycle's updates: update(), and update_rows() / update_two(), which are update() of
-    # the rows' measurement and of the stack (test_update_rows_and_two_are_update).
+    # The cycle's updates: update(), and update_rows() / update_rows_two(), which are update()
+    # of the rows' measurement and of the stack (test_update_rows_and_two_are_update).
     mp.setattr(cycle_mod, "update", record)
     mp.setattr(cycle_mod, "update_rows", lambda state, zs, var, layout, params: record(
         state, ms.rows_measurement(zs, var, layout), params))
-    mp.setattr(cycle_mod, "update_two", lambda state, a, b, params: record(
-        state, ms.stack_measurements(a, b), params))
+    mp.setattr(cycle_mod, "update_rows_two", lambda state, zs, var, layout, b, params: record(
+        state, ms.stack_measurements(ms.rows_measurement(zs, var, layout), b), params))
     try:
         replay(200)
     finally:
@@ -116,10 +116,11 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
 
 @pytest.fixture(scope="module")
 def replay_blocks() -> list[tuple[str, tuple[object, ...]]]:
-    """The arguments of every update_rows() and update_two() of the first 100 demo epochs."""
+    """The arguments of every update_rows() and update_rows_two() of the first 100 demo
+    epochs, and of update_two() of the same rows as a Measurement."""
     seen: list[tuple[str, tuple[object, ...]]] = []
     mp = pytest.MonkeyPatch()
-    for name in ("update_rows", "update_two"):
+    for name in ("update_rows", "update_rows_two"):
         real = getattr(U, name)
 
         def recording(*a: object, _name: str = name, _real=real) -> U.UpdateResult:
@@ -131,7 +132,9 @@ def replay_blocks() -> list[tuple[str, tuple[object, ...]]]:
         replay(100)
     finally:
         mp.undo()
-    assert {n for n, _ in seen} == {"update_rows", "update_two"}
+    assert {n for n, _ in seen} == {"update_rows", "update_rows_two"}
+    seen += [("update_two", (a[0], ms.rows_measurement(*a[1:4]), *a[4:]))
+             for n, a in list(seen) if n == "update_rows_two"]
     return seen
 
 
@@ -155,6 +158,12 @@ def test_update_rows_and_two_are_update(replay_blocks, monkeypatch) -> None:
     cases: list[tuple[str, tuple[object, ...]]] = list(replay_blocks)
     two = [a for n, a in replay_blocks if n == "update_two"]
     state, depth, lse, params = two[-1]
+    rows_two = [a for n, a in replay_blocks if n == "update_rows_two"][-1]
+    zs, var, layout = rows_two[1:4]
+    cases.append(("update_rows_two", (state, [], [], layout, lse, params)))  # no depth row
+    cases.append(("update_rows_two", (state, [int(zs[0])], var, layout, lse, params)))
+    bare_ = FilterState(state.t, state.x[:N_NAV], state.P[:N_NAV, :N_NAV])
+    cases.append(("update_rows_two", (bare_, zs, var, layout, lse, params)))
     assert lse.bias_keys and state.fix_states == ("fix_e", "fix_n")
     bare = FilterState(state.t, state.x[:N_NAV], state.P[:N_NAV, :N_NAV])
     cases.append(("update_two", (bare, depth, lse, params)))  # the states are added
@@ -173,6 +182,12 @@ def test_update_rows_and_two_are_update(replay_blocks, monkeypatch) -> None:
                 ref = U.update(st_, ms.rows_measurement(zs, var, layout), prm)
                 _same_result(U.update_rows(*a), ref)
                 _same_result(U._update_py(st_, ms.rows_measurement(zs, var, layout), prm), ref)
+            elif name == "update_rows_two":
+                st_, zs, var, layout, y, prm = a
+                x = ms.rows_measurement(zs, var, layout)
+                ref = U.update(st_, ms.stack_measurements(x, y), prm)
+                _same_result(U.update_rows_two(*a), ref)
+                _same_result(U._update_py(st_, ms.stack_measurements(x, y), prm), ref)
             else:
                 st_, x, y, prm = a
                 ref = U.update(st_, ms.stack_measurements(x, y), prm)
@@ -190,7 +205,7 @@ def test_update_blocks_declines_what_it_does_not_cover(replay_blocks) -> None:
     assert k.update_blocks(state, H, ((zs, var),), *args) is not None
     bad_z = [int(z) for z in zs]
     for blocks in (((bad_z, var),), ((zs, var[:-1]),), ((zs,),), [(zs, var)], ((), ),
-                   ((np.array(zs, dtype=np.float32), var),), ((zs, np.eye(len(zs))[:, :1]),)):
+                   ((np.array(zs, dtype=np.float32), var),), ((zs, np.eye(len(zs) + 1)),)):
         assert k.update_blocks(state, H, blocks, *args) is None
 
 
@@ -439,8 +454,9 @@ def test_binding_is_lazy() -> None:
 
 
 def test_update_blocks_answers_the_cycle(replay_blocks, monkeypatch) -> None:
-    """No silent fallback: update_blocks() answers every update_rows()/update_two() of the
-    replay but the first fix's (whose fix-error states are added by the general code)."""
+    """No silent fallback: update_blocks() answers every update_rows()/update_rows_two()/
+    update_two() of the replay but the first fix's (whose fix-error states are added by the
+    general code)."""
     k = U._kernel()
     answered = []
     real = k.update_blocks
@@ -458,4 +474,4 @@ def test_update_blocks_answers_the_cycle(replay_blocks, monkeypatch) -> None:
     monkeypatch.setattr(U, "_K", Spy())
     for name, a in replay_blocks:
         getattr(U, name)(*a)
-    assert len(answered) >= len(replay_blocks) - 2 and all(answered)
+    assert len(answered) >= len(replay_blocks) - 3 and all(answered)
