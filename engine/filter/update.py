@@ -19,6 +19,7 @@ from types import ModuleType
 import numpy as np
 
 from engine import native
+from engine.filter import state as _st
 from engine.filter.lazy_scipy import blas, lapack
 from engine.filter.measurements import (
     Measurement,
@@ -388,17 +389,22 @@ def _update_two(state: FilterState, block_a: tuple[object, object],
                 type(cov) is not np.ndarray or cov.dtype != np.float64 or \
                 cov.shape != (len(dk), len(dk)):
             return None
-        new = state.with_fix_cov(dk, cov)
-        H = _bias_h(cols_t, (None,) * ka + bk, new.fix_states, n)
+        # state.with_fix_cov(dk, cov) is the state with fix_cov = sym2(cov) (its case of all
+        # the fix-error states): the kernel's new state takes that fix_cov directly.
+        sk = _st._K if _st._K is not _st._UNRESOLVED else _st._kernel()
+        fc = sk.sym2(cov) if sk is not None else None  # type: ignore[attr-defined]
+        new = state if fc is not None else state.with_fix_cov(dk, cov)
+        H = _bias_h(cols_t, (None,) * ka + bk, state.fix_states, n)
     else:
         if width_a > n or b.H.shape[1] > n:
             return None
-        new, H = state, h_template(cols_t, n)
+        new, H, fc = state, h_template(cols_t, n), None
     angle = tuple(angle_a)
     if b.angle_rows:
         angle += tuple(ka + i for i in b.angle_rows)
     return k.update_blocks(new, H, (block_a, (b.z, b.R)), angle,  # type: ignore[no-any-return]
-                           params.joseph, IPSI, params.alpha, tuple(labels_a) + tuple(b.labels))
+                           params.joseph, IPSI, params.alpha, tuple(labels_a) + tuple(b.labels),
+                           fc)
 
 
 _EMPTY = np.empty

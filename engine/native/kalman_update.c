@@ -659,7 +659,8 @@ done:
 static PyObject *r_state_cls = NULL, *r_lom_cls = NULL, *r_ls_cls = NULL, *r_result_cls = NULL;
 static PyObject *r_limits = NULL, *r_empty = NULL, *r_key_w_slice = NULL;
 static PyObject *rs_x, *rs_P, *rs_T, *rs_t, *rs_lower, *rs_upper, *rs_dof, *rs_verdict, *rs_l_inv,
-    *rs_w, *rs_lom_reject, *rs_state, *rs_innovation, *rs_S, *rs_K, *rs_labels, *rs_lom, *rs_ls;
+    *rs_w, *rs_lom_reject, *rs_state, *rs_innovation, *rs_S, *rs_K, *rs_labels, *rs_lom, *rs_ls,
+    *rs_fix_cov;
 static PyObject *rv_reject, *rv_too_small, *rv_accept;
 
 #define NLIM 32
@@ -673,12 +674,13 @@ static int nlims = 0;
 
 static PyObject *ku_bind_result(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    static const char *names[18] = {"x", "P", "T", "t", "lower", "upper", "dof", "verdict",
+    static const char *names[19] = {"x", "P", "T", "t", "lower", "upper", "dof", "verdict",
                                     "l_inv", "w", "lom_reject", "state", "innovation", "S", "K",
-                                    "labels", "lom", "ls"};
-    PyObject **slots[18] = {&rs_x, &rs_P, &rs_T, &rs_t, &rs_lower, &rs_upper, &rs_dof,
+                                    "labels", "lom", "ls", "fix_cov"};
+    PyObject **slots[19] = {&rs_x, &rs_P, &rs_T, &rs_t, &rs_lower, &rs_upper, &rs_dof,
                             &rs_verdict, &rs_l_inv, &rs_w, &rs_lom_reject, &rs_state,
-                            &rs_innovation, &rs_S, &rs_K, &rs_labels, &rs_lom, &rs_ls};
+                            &rs_innovation, &rs_S, &rs_K, &rs_labels, &rs_lom, &rs_ls,
+                            &rs_fix_cov};
     if (nargs != 5) {
         PyErr_SetString(PyExc_TypeError,
                         "bind_result(FilterState, LomTest, LsTest, UpdateResult, lom_limits)");
@@ -689,7 +691,7 @@ static PyObject *ku_bind_result(PyObject *self, PyObject *const *args, Py_ssize_
             PyErr_SetString(PyExc_TypeError, "bind_result: the first four must be classes");
             return NULL;
         }
-    for (int i = 0; i < 18; i++)
+    for (int i = 0; i < 19; i++)
         if (*slots[i] == NULL && (*slots[i] = PyUnicode_InternFromString(names[i])) == NULL)
             return NULL;
     if ((rv_reject == NULL && (rv_reject = PyUnicode_InternFromString("reject")) == NULL) ||
@@ -769,15 +771,18 @@ static PyObject *bare_with(PyObject *cls, int n, PyObject *const *names, PyObjec
 }
 
 PyDoc_STRVAR(update_result_doc,
-"update_result(state, H, z, R, angle_rows, joseph, ipsi, alpha, labels) -> UpdateResult | None\n\n"
+"update_result(state, H, z, R, angle_rows, joseph, ipsi, alpha, labels[, fix_cov])\n"
+"    -> UpdateResult | None\n\n"
 "engine.filter.update.update for rows already full width (H over all of state's columns): the\n"
-"update_new() arrays and the result objects built from them as the Python builds them. None\n"
-"(nothing made) where update_new() declines or α is not a finite float: the Python runs.");
+"update_new() arrays and the result objects built from them as the Python builds them; a\n"
+"fix_cov (not None) is the new state's (the update of state.with_fix_cov(keys, C) whose\n"
+"sym2(C) it is, without that intermediate state). None (nothing made) where update_new()\n"
+"declines or α is not a finite float: the Python runs.");
 
 static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 9) {
-        PyErr_SetString(PyExc_TypeError, "update_result takes 9 arguments");
+    if (nargs != 9 && nargs != 10) {
+        PyErr_SetString(PyExc_TypeError, "update_result takes 9 or 10 arguments");
         return NULL;
     }
     if (r_result_cls == NULL) {
@@ -822,6 +827,7 @@ static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssiz
     if ((newst = PyBaseObject_Type.tp_new((PyTypeObject *)r_state_cls, r_empty, NULL)) == NULL ||
         (src = PyObject_GenericGetDict(state, NULL)) == NULL ||
         (dst = PyObject_GenericGetDict(newst, NULL)) == NULL || PyDict_Update(dst, src) < 0 ||
+        (nargs == 10 && args[9] != Py_None && PyDict_SetItem(dst, rs_fix_cov, args[9]) < 0) ||
         PyDict_SetItem(dst, rs_x, xn) < 0 || PyDict_SetItem(dst, rs_P, Pn) < 0)
         goto done;
     /* lom = _lom_from_nis(nis, p, alpha) */
@@ -929,7 +935,7 @@ static Py_ssize_t block_rows(PyObject *zo, PyObject *Ro, double *z, double *R, P
 }
 
 PyDoc_STRVAR(update_blocks_doc,
-"update_blocks(state, H, blocks, angle_rows, joseph, ipsi, alpha, labels)\n"
+"update_blocks(state, H, blocks, angle_rows, joseph, ipsi, alpha, labels[, fix_cov])\n"
 "    -> UpdateResult | None\n\n"
 "update_result() of the rows of `blocks`, a tuple of (z, R) stacked in order as\n"
 "measurements.stack_measurements stacks them (z concatenated, R block-diagonal, zeros\n"
@@ -939,8 +945,8 @@ PyDoc_STRVAR(update_blocks_doc,
 
 static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 8) {
-        PyErr_SetString(PyExc_TypeError, "update_blocks takes 8 arguments");
+    if (nargs != 8 && nargs != 9) {
+        PyErr_SetString(PyExc_TypeError, "update_blocks takes 8 or 9 arguments");
         return NULL;
     }
     if (np_ready() < 0)
@@ -974,8 +980,9 @@ static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssiz
         at += block_rows(PyTuple_GET_ITEM(blk, 0), PyTuple_GET_ITEM(blk, 1), z + at,
                          R + at * p + at, p);
     }
-    PyObject *ua[9] = {args[0], args[1], zo, Ro, args[3], args[4], args[5], args[6], args[7]};
-    PyObject *result = py_update_result(self, ua, 9);
+    PyObject *ua[10] = {args[0], args[1], zo, Ro, args[3], args[4], args[5], args[6], args[7],
+                        nargs == 9 ? args[8] : Py_None};
+    PyObject *result = py_update_result(self, ua, 10);
     Py_DECREF(zo);
     Py_DECREF(Ro);
     return result;

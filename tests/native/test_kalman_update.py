@@ -143,6 +143,7 @@ def _same_result(got: U.UpdateResult, ref: U.UpdateResult) -> None:
     assert list(vars(got)) == list(vars(ref)) and list(vars(got.state)) == list(vars(ref.state))
     for name in ("t", "x", "P", "fix_states", "fix_tau_s", "fix_cov"):
         assert same(getattr(got.state, name), getattr(ref.state, name)), name
+    assert not got.state.fix_cov.flags.writeable and not ref.state.fix_cov.flags.writeable
     for name in ("innovation", "S", "K", "labels"):
         assert same(getattr(got, name), getattr(ref, name)), name
     for name in ("l_inv", "w", "t", "lom_reject"):
