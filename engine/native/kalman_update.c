@@ -795,6 +795,7 @@ static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssiz
     PyObject *result = NULL, *out = NULL, *xo = NULL, *Po = NULL, *Y = NULL, *key = NULL;
     PyObject *l_inv = NULL, *w = NULL, *newst = NULL, *src = NULL, *dst = NULL, *lom = NULL;
     PyObject *ls = NULL, *tval = NULL, *dof = NULL, *sl = NULL, *nidx = NULL;
+    PyObject *lo = NULL, *hi = NULL;
     if ((xo = PyObject_GetAttr(state, rs_x)) == NULL || (Po = PyObject_GetAttr(state, rs_P)) == NULL)
         goto done;
     PyObject *ua[8] = {xo, Po, args[1], args[2], args[3], args[4], args[5], args[6]};
@@ -815,14 +816,19 @@ static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssiz
     Py_ssize_t p = PyObject_Length(v), n = PyObject_Length(xn);
     if (p < 0 || n < 0)
         goto done;
-    PyObject *lo, *hi;
     int st = lom_limits(p, PyFloat_AS_DOUBLE(alpha_obj), alpha_obj, &lo, &hi);
-    if (st < 0)
+    if (st < 0) {
+        lo = hi = NULL;
         goto done;
+    }
     if (st == 0) {
+        lo = hi = NULL;
         result = Py_NewRef(Py_None);
         goto done;
     }
+    /* own references: the table may be refilled (another thread) while objects are made */
+    Py_INCREF(lo);
+    Py_INCREF(hi);
     /* new = state._with_frozen(state.t, xn, Pn) */
     if ((newst = PyBaseObject_Type.tp_new((PyTypeObject *)r_state_cls, r_empty, NULL)) == NULL ||
         (src = PyObject_GenericGetDict(state, NULL)) == NULL ||
@@ -884,6 +890,8 @@ done:
     Py_XDECREF(dof);
     Py_XDECREF(sl);
     Py_XDECREF(nidx);
+    Py_XDECREF(lo);
+    Py_XDECREF(hi);
     return result;
 }
 
