@@ -156,6 +156,27 @@ def sensor_measurement(
     (:func:`_sensor_layout`); values and variances are those of :func:`_sensor_rows`, by the
     same operations (:func:`_sensor_measurement_py` is the code it replaces).
     """
+    return rows_measurement(*sensor_rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params,
+                                         log_sigma_ms, gyro_sigma_deg))
+
+
+SensorLayout = tuple[tuple[str, ...], tuple[tuple[int, ...], ...], np.ndarray, tuple[int, ...]]
+"""(labels, H columns, H template over the nav states, angle rows) of a set of sensor rows."""
+
+
+def sensor_rows(
+    depth_m: float | None,
+    log_ms: float | None,
+    gyro_grid_rad: float | None,
+    incl_rad: float | None,
+    params: FilterParams,
+    log_sigma_ms: float | None = None,
+    gyro_sigma_deg: float | None = None,
+) -> tuple[list[float], list[float], SensorLayout]:
+    """The values (m, m/s, rad, rad), variances of their white noise and layout (labels, H
+    columns, H template over the nav states, angle rows: :func:`_sensor_layout`) of the sensor
+    rows of :func:`sensor_measurement`, which :func:`rows_measurement` makes the measurement of
+    and ``engine.filter.update.update_rows`` updates a state with directly."""
     zs: list[float] = []
     var: list[float] = []
     which = 0
@@ -186,6 +207,12 @@ def sensor_measurement(
     layout = _LAYOUTS.get(which)
     if layout is None:
         layout = _LAYOUTS[which] = _sensor_layout(which)
+    return zs, var, layout
+
+
+def rows_measurement(zs: list[float], var: list[float], layout: SensorLayout) -> Measurement:
+    """The measurement of independent rows: values ``zs``, variances ``var`` (R diagonal) and
+    the ``layout`` of :func:`sensor_rows` (its arrays from the compiled helper where built)."""
     labels, cols_t, H, angle = layout
     k = _K if _K is not _UNRESOLVED else _kernel()
     zr = k.rows(zs, var) if k is not None else None
@@ -214,12 +241,11 @@ def _sensor_variances(params: FilterParams) -> tuple[FilterParams, float, float,
     return c
 
 
-_SensorLayout = tuple[tuple[str, ...], tuple[tuple[int, ...], ...], np.ndarray, tuple[int, ...]]
-_LAYOUTS: dict[int, _SensorLayout] = {}
+_LAYOUTS: dict[int, SensorLayout] = {}
 """Bit set of the sensors present (1 depth, 2 log, 4 gyro, 8 inclinometer) → layout."""
 
 
-def _sensor_layout(which: int) -> _SensorLayout:
+def _sensor_layout(which: int) -> SensorLayout:
     """(labels, H columns, H template, angle rows) of the sensor rows in bit set ``which``
     (1 depth, 2 log, 4 gyro, 8 inclinometer), in :func:`_sensor_rows`' order."""
     rows = [(label, cols) for bit, label, cols in

@@ -171,30 +171,22 @@ def estimate_parts(fs: FilterState) -> tuple[float, float, float, np.ndarray, bo
     return _estimate_parts_py(fs)
 
 
-_POSITION: Any = _UNRESOLVED
-"""``engine.native.kalman_predict`` with its ``position`` bound (:func:`position_kernel`), or
-None: then the estimate is made in Python (``engine.run.cycle.filter_estimate``)."""
-
-
 def position_kernel(estimate_cls: type) -> Any:
     """The kernel whose ``position(source, grid._packed, x, P)`` makes the whole estimate of a
-    state as an ``estimate_cls`` (``engine.run.cycle.PositionEstimate``), bound on first use to
-    the compiled TM inverse and error ellipse that ``TMGrid.inverse`` and ``error_ellipse``
-    call; None when any of the three kernels is not there (the Python makes it)."""
-    global _POSITION
-    if _POSITION is _UNRESOLVED:
-        from engine.geodesy import tmgrid
-        from engine.lsq import _kernel as lsq_kernel
+    state as an ``estimate_cls`` (``engine.run.cycle.PositionEstimate``), bound here to the
+    compiled TM inverse and error ellipse that ``TMGrid.inverse`` and ``error_ellipse`` call;
+    None when any of the three kernels is not there (the Python makes it). Resolved and bound
+    on each call: the one caller holds the answer (``engine.run.cycle._POSITION_K``)."""
+    from engine.geodesy import tmgrid
+    from engine.lsq import _kernel as lsq_kernel
 
-        k = _K if _K is not _UNRESOLVED else _kernel()
-        tm = tmgrid._K
-        lsq = lsq_kernel.kernel()
-        if k is None or tm is None or lsq is None or not hasattr(k, "position"):
-            _POSITION = None
-        else:
-            k.bind_position(tm.inverse, lsq.ellipse, estimate_cls)  # type: ignore[attr-defined]
-            _POSITION = k
-    return _POSITION
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    tm = tmgrid._K
+    lsq = lsq_kernel.kernel()
+    if k is None or tm is None or lsq is None or not hasattr(k, "position"):
+        return None
+    k.bind_position(tm.inverse, lsq.ellipse, estimate_cls)  # type: ignore[attr-defined]
+    return k
 
 
 def _estimate_parts_py(fs: FilterState) -> tuple[float, float, float, np.ndarray, bool]:

@@ -19,8 +19,16 @@ from types import ModuleType
 import numpy as np
 
 from engine import native
+from engine.filter import state as _st
 from engine.filter.lazy_scipy import blas, lapack
-from engine.filter.measurements import Measurement, distinct_key_tuple, h_template
+from engine.filter.measurements import (
+    Measurement,
+    SensorLayout,
+    distinct_key_tuple,
+    h_template,
+    rows_measurement,
+    stack_measurements,
+)
 from engine.filter.params import FilterParams, read_only, symmetrised
 from engine.filter.state import IPSI, N_NAV, FilterState, add_fix_states
 from engine.geodesy.angles import wrap_2pi, wrap_pi
@@ -40,7 +48,10 @@ def _kernel() -> ModuleType | None:
     """Resolve :data:`_K` (once per process; :func:`_reset_kernel` forgets it, for tests)."""
     global _K
     if _K is _UNRESOLVED:
-        _K = native.bound_kernel("kalman_update")
+        k = native.bound_kernel("kalman_update")
+        if k is not None:  # what update_result() builds, and the LOM bounds it asks for
+            k.bind_result(FilterState, LomTest, LsTest, UpdateResult, _lom_limits)
+        _K = k
     return _K  # type: ignore[return-value]
 
 
@@ -295,27 +306,105 @@ def update(state: FilterState, rows: Measurement, params: FilterParams) -> Updat
         new, H = state, rows.H
         if H.shape[1] < state.x.shape[0]:
             new, H = _full_width(state, rows, params)
-    out = k.update_new(new.x, new.P, H, z, rows.R, rows.angle_rows, params.joseph, IPSI)
-    if out is None:
+    # The kernel's update and the whole result in one call: x⁺, P⁺ (read-only) in a new
+    # FilterState as _with_frozen makes it, v (p,), S (p×p), K (n×p), the LOM test as
+    # _lom_from_nis makes it and the LsTest of Y = L⁻¹[HP | v̂ | I] (its t filled when the kernel
+    # computed it, else on access as usual); None where the kernel declines.
+    result = k.update_result(new, H, z, rows.R, rows.angle_rows, params.joseph, IPSI,
+                             params.alpha, rows.labels)
+    if result is None:
         return _update_py(state, rows, params)
-    # The kernel's new arrays: v (p,), S (p×p), K (n×p), x⁺ and P⁺ (read-only), the LS
-    # statistics t (p,; read-only, filled when t_ok) and Yc ((n+1+p)×p; Yc.T = L⁻¹[HP | v̂ | I],
-    # Fortran-ordered as trsm leaves it).
-    nis, t_ok, v, S, K, xn, Pn, t, Yc = out
-    n = xn.shape[0]
-    new = new._with_frozen(new.t, xn, Pn)
-    lom = _lom_from_nis(nis, p, params.alpha)
-    Y = Yc.T
-    ls = _new(LsTest)
-    if t_ok:  # LsTest.t, computed by the kernel (same bits); else on access as usual
-        ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject",
-                           t=t)
+    return result  # type: ignore[no-any-return]
+
+
+def update_rows(state: FilterState, zs: list[float], var: list[float], layout: SensorLayout,
+                params: FilterParams) -> UpdateResult:
+    """``update(state, rows_measurement(zs, var, layout), params)``: the update with independent
+    rows (values ``zs``, variances ``var``, the ``layout`` of
+    ``engine.filter.measurements.sensor_rows``: the sensors' rows of a cycle), the kernel
+    reading the values and variances straight from the lists (``update_blocks``), without the
+    :class:`Measurement`; the same result, bit for bit."""
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    if k is not None and zs:
+        labels, cols_t, H, angle = layout
+        if H.shape[1] < state.x.shape[0]:  # _full_width's template
+            H = h_template(cols_t, state.x.shape[0])
+        result = k.update_blocks(state, H, ((zs, var),), angle, params.joseph, IPSI,
+                                 params.alpha, labels)
+        if result is not None:
+            return result  # type: ignore[no-any-return]
+    return update(state, rows_measurement(zs, var, layout), params)
+
+
+def update_two(state: FilterState, a: Measurement, b: Measurement,
+               params: FilterParams) -> UpdateResult:
+    """``update(state, stack_measurements(a, b), params)``: the cycle's update with rows ``a``
+    without fix-error keys (the pressure depth) stacked before rows ``b`` (the LSE, with its
+    fix-error keys and their prior), both with template H, and the fix-error states already in
+    the state (every fix but the first): the kernel stacks the two blocks itself
+    (``update_blocks``), without the stacked :class:`Measurement`, and H and the fix-error VCV
+    are those :func:`_with_bias_columns` makes of the stack. Anything else (and where the
+    kernel declines) goes through the stack and :func:`update`; the same result, bit for bit."""
+    if not (a.bias_keys or a.bias_cov is not None or a._cols is None or not a.z.shape[0]):
+        result = _update_two(state, (a.z, a.R), a._cols, a.labels, a.angle_rows, a.H.shape[1],
+                             b, params)
+        if result is not None:
+            return result
+    return update(state, stack_measurements(a, b), params)
+
+
+def update_rows_two(state: FilterState, zs: list[float], var: list[float],
+                    layout: SensorLayout, b: Measurement, params: FilterParams) -> UpdateResult:
+    """:func:`update_two` of the rows ``rows_measurement(zs, var, layout)`` (the pressure depth
+    of ``engine.filter.measurements.sensor_rows``) and ``b``, read straight from the lists."""
+    if zs:
+        labels, cols_t, H, angle = layout
+        result = _update_two(state, (zs, var), cols_t, labels, angle, H.shape[1], b, params)
+        if result is not None:
+            return result
+    return update(state, stack_measurements(rows_measurement(zs, var, layout), b), params)
+
+
+def _update_two(state: FilterState, block_a: tuple[object, object],
+                cols_a: tuple[tuple[int, ...], ...], labels_a: tuple[str, ...],
+                angle_a: tuple[int, ...], width_a: int, b: Measurement,
+                params: FilterParams) -> UpdateResult | None:
+    """The fast path of :func:`update_two` for rows ``a`` given by their block (z, R) for
+    ``update_blocks``, H columns, labels, angle rows and H width (at least one row, no
+    fix-error keys or prior); None: the caller runs the general code."""
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    cb = b._cols
+    if k is None or cb is None or not b.z.shape[0]:
+        return None
+    n = state.x.shape[0]
+    ka = len(cols_a)
+    cols_t = cols_a + cb
+    bk = b.bias_keys
+    cov = b.bias_cov
+    if bk:
+        dk = distinct_key_tuple(bk)
+        # _stack_two's prior (b's leading m×m block; here all of it) and _with_bias_columns
+        # with nothing missing; else the general code (adding states, its errors)
+        if not dk or dk != state.fix_states or len(bk) != b.z.shape[0] or cov is None or \
+                type(cov) is not np.ndarray or cov.dtype != np.float64 or \
+                cov.shape != (len(dk), len(dk)):
+            return None
+        # state.with_fix_cov(dk, cov) is the state with fix_cov = sym2(cov) (its case of all
+        # the fix-error states): the kernel's new state takes that fix_cov directly.
+        sk = _st._K if _st._K is not _st._UNRESOLVED else _st._kernel()
+        fc = sk.sym2(cov) if sk is not None else None  # type: ignore[attr-defined]
+        new = state if fc is not None else state.with_fix_cov(dk, cov)
+        H = _bias_h(cols_t, (None,) * ka + bk, state.fix_states, n)
     else:
-        ls.__dict__.update(l_inv=Y[:, n + 1:], w=Y[:, n], lom_reject=lom.verdict == "reject")
-    result = _new(UpdateResult)
-    result.__dict__.update(state=new, innovation=v, S=S, K=K, labels=rows.labels, lom=lom,
-                           ls=ls)
-    return result
+        if width_a > n or b.H.shape[1] > n:
+            return None
+        new, H, fc = state, h_template(cols_t, n), None
+    angle = tuple(angle_a)
+    if b.angle_rows:
+        angle += tuple(ka + i for i in b.angle_rows)
+    return k.update_blocks(new, H, (block_a, (b.z, b.R)), angle,  # type: ignore[no-any-return]
+                           params.joseph, IPSI, params.alpha, tuple(labels_a) + tuple(b.labels),
+                           fc)
 
 
 _EMPTY = np.empty

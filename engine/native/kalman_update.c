@@ -646,6 +646,356 @@ done:
     return result;
 }
 
+/* ------------------------------------------------------------------ the whole UpdateResult */
+
+/* update_result(): engine.filter.update.update's steps after its rows are full width, in one
+ * call: update_new()'s arrays, then the objects the Python builds from them, in its order and
+ * with the same values — the new FilterState (the input state's instance dict, then x⁺ and P⁺,
+ * as FilterState._with_frozen fills it), the LomTest (_lom_from_nis: T = nis / p against the
+ * bounds of _lom_limits(p, α), remembered here per (p, α) as the Python's _LIMITS remembers
+ * them), the LsTest (l_inv = Y[:, n+1:] and w = Y[:, n] of Y = Yc.T, numpy's own views; t set
+ * when the kernel filled it) and the UpdateResult, each a bare instance whose attributes are
+ * set as object.__setattr__ sets them. Bound once by bind_result(). */
+static PyObject *r_state_cls = NULL, *r_lom_cls = NULL, *r_ls_cls = NULL, *r_result_cls = NULL;
+static PyObject *r_limits = NULL, *r_empty = NULL, *r_key_w_slice = NULL;
+static PyObject *rs_x, *rs_P, *rs_T, *rs_t, *rs_lower, *rs_upper, *rs_dof, *rs_verdict, *rs_l_inv,
+    *rs_w, *rs_lom_reject, *rs_state, *rs_innovation, *rs_S, *rs_K, *rs_labels, *rs_lom, *rs_ls,
+    *rs_fix_cov;
+static PyObject *rv_reject, *rv_too_small, *rv_accept;
+
+#define NLIM 32
+typedef struct {
+    Py_ssize_t p;
+    double alpha;
+    PyObject *lo, *hi; /* the floats _lom_limits returned (references held) */
+} lim_t;
+static lim_t lims[NLIM];
+static int nlims = 0;
+
+static PyObject *ku_bind_result(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    static const char *names[19] = {"x", "P", "T", "t", "lower", "upper", "dof", "verdict",
+                                    "l_inv", "w", "lom_reject", "state", "innovation", "S", "K",
+                                    "labels", "lom", "ls", "fix_cov"};
+    PyObject **slots[19] = {&rs_x, &rs_P, &rs_T, &rs_t, &rs_lower, &rs_upper, &rs_dof,
+                            &rs_verdict, &rs_l_inv, &rs_w, &rs_lom_reject, &rs_state,
+                            &rs_innovation, &rs_S, &rs_K, &rs_labels, &rs_lom, &rs_ls,
+                            &rs_fix_cov};
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError,
+                        "bind_result(FilterState, LomTest, LsTest, UpdateResult, lom_limits)");
+        return NULL;
+    }
+    for (int i = 0; i < 4; i++)
+        if (!PyType_Check(args[i])) {
+            PyErr_SetString(PyExc_TypeError, "bind_result: the first four must be classes");
+            return NULL;
+        }
+    for (int i = 0; i < 19; i++)
+        if (*slots[i] == NULL && (*slots[i] = PyUnicode_InternFromString(names[i])) == NULL)
+            return NULL;
+    if ((rv_reject == NULL && (rv_reject = PyUnicode_InternFromString("reject")) == NULL) ||
+        (rv_too_small == NULL &&
+         (rv_too_small = PyUnicode_InternFromString("too small")) == NULL) ||
+        (rv_accept == NULL && (rv_accept = PyUnicode_InternFromString("accept")) == NULL) ||
+        (r_empty == NULL && (r_empty = PyTuple_New(0)) == NULL))
+        return NULL;
+    Py_XSETREF(r_state_cls, Py_NewRef(args[0]));
+    Py_XSETREF(r_lom_cls, Py_NewRef(args[1]));
+    Py_XSETREF(r_ls_cls, Py_NewRef(args[2]));
+    Py_XSETREF(r_result_cls, Py_NewRef(args[3]));
+    Py_XSETREF(r_limits, Py_NewRef(args[4]));
+    for (int i = 0; i < nlims; i++) {
+        Py_CLEAR(lims[i].lo);
+        Py_CLEAR(lims[i].hi);
+    }
+    nlims = 0;
+    Py_RETURN_NONE;
+}
+
+/* The bounds (lower, upper) of the LOM test on p rows at α as _lom_limits(p, α) gives them
+ * (borrowed), or -1 (exception set) / 0 (not two floats: the Python runs). */
+static int lom_limits(Py_ssize_t p, double alpha, PyObject *alpha_obj, PyObject **lo,
+                      PyObject **hi)
+{
+    for (int i = 0; i < nlims; i++)
+        if (lims[i].p == p && lims[i].alpha == alpha) {
+            *lo = lims[i].lo;
+            *hi = lims[i].hi;
+            return 1;
+        }
+    PyObject *pa[2] = {PyLong_FromSsize_t(p), alpha_obj};
+    if (pa[0] == NULL)
+        return -1;
+    PyObject *r = PyObject_Vectorcall(r_limits, pa, 2, NULL);
+    Py_DECREF(pa[0]);
+    if (r == NULL)
+        return -1;
+    if (!PyTuple_CheckExact(r) || PyTuple_GET_SIZE(r) != 2 ||
+        !PyFloat_CheckExact(PyTuple_GET_ITEM(r, 0)) ||
+        !PyFloat_CheckExact(PyTuple_GET_ITEM(r, 1))) {
+        Py_DECREF(r);
+        return 0;
+    }
+    if (nlims == NLIM) {
+        for (int i = 0; i < nlims; i++) {
+            Py_CLEAR(lims[i].lo);
+            Py_CLEAR(lims[i].hi);
+        }
+        nlims = 0;
+    }
+    lim_t *e = &lims[nlims++];
+    e->p = p;
+    e->alpha = alpha;
+    e->lo = Py_NewRef(PyTuple_GET_ITEM(r, 0));
+    e->hi = Py_NewRef(PyTuple_GET_ITEM(r, 1));
+    Py_DECREF(r);
+    *lo = e->lo;
+    *hi = e->hi;
+    return 1;
+}
+
+/* A bare instance of `cls` (object.__new__(cls)) with `n` attributes set as object.__setattr__
+ * sets them, or NULL (exception set). */
+static PyObject *bare_with(PyObject *cls, int n, PyObject *const *names, PyObject *const *vals)
+{
+    PyObject *obj = PyBaseObject_Type.tp_new((PyTypeObject *)cls, r_empty, NULL);
+    if (obj == NULL)
+        return NULL;
+    for (int i = 0; i < n; i++)
+        if (PyObject_GenericSetAttr(obj, names[i], vals[i]) < 0) {
+            Py_DECREF(obj);
+            return NULL;
+        }
+    return obj;
+}
+
+PyDoc_STRVAR(update_result_doc,
+"update_result(state, H, z, R, angle_rows, joseph, ipsi, alpha, labels[, fix_cov])\n"
+"    -> UpdateResult | None\n\n"
+"engine.filter.update.update for rows already full width (H over all of state's columns): the\n"
+"update_new() arrays and the result objects built from them as the Python builds them; a\n"
+"fix_cov (not None) is the new state's (the update of state.with_fix_cov(keys, C) whose\n"
+"sym2(C) it is, without that intermediate state). None (nothing made) where update_new()\n"
+"declines or α is not a finite float: the Python runs.");
+
+static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9 && nargs != 10) {
+        PyErr_SetString(PyExc_TypeError, "update_result takes 9 or 10 arguments");
+        return NULL;
+    }
+    if (r_result_cls == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "kalman_update: bind_result(...) first");
+        return NULL;
+    }
+    PyObject *state = args[0], *alpha_obj = args[7];
+    if (!PyFloat_CheckExact(alpha_obj) || !isfinite(PyFloat_AS_DOUBLE(alpha_obj)))
+        Py_RETURN_NONE;
+    PyObject *result = NULL, *out = NULL, *xo = NULL, *Po = NULL, *Y = NULL, *key = NULL;
+    PyObject *l_inv = NULL, *w = NULL, *newst = NULL, *src = NULL, *dst = NULL, *lom = NULL;
+    PyObject *ls = NULL, *tval = NULL, *dof = NULL, *sl = NULL, *nidx = NULL;
+    PyObject *lo = NULL, *hi = NULL;
+    if ((xo = PyObject_GetAttr(state, rs_x)) == NULL || (Po = PyObject_GetAttr(state, rs_P)) == NULL)
+        goto done;
+    PyObject *ua[8] = {xo, Po, args[1], args[2], args[3], args[4], args[5], args[6]};
+    if ((out = py_update_new(self, ua, 8)) == NULL)
+        goto done;
+    if (out == Py_None) {
+        result = out;
+        out = NULL;
+        goto done;
+    }
+    /* (nis, t_ok, v, S, K, xn, Pn, t, Yc) */
+    double nis = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(out, 0));
+    int t_ok = PyTuple_GET_ITEM(out, 1) == Py_True;
+    PyObject *v = PyTuple_GET_ITEM(out, 2), *S = PyTuple_GET_ITEM(out, 3);
+    PyObject *K = PyTuple_GET_ITEM(out, 4), *xn = PyTuple_GET_ITEM(out, 5);
+    PyObject *Pn = PyTuple_GET_ITEM(out, 6), *t = PyTuple_GET_ITEM(out, 7);
+    PyObject *Yc = PyTuple_GET_ITEM(out, 8);
+    Py_ssize_t p = PyObject_Length(v), n = PyObject_Length(xn);
+    if (p < 0 || n < 0)
+        goto done;
+    int st = lom_limits(p, PyFloat_AS_DOUBLE(alpha_obj), alpha_obj, &lo, &hi);
+    if (st < 0) {
+        lo = hi = NULL;
+        goto done;
+    }
+    if (st == 0) {
+        lo = hi = NULL;
+        result = Py_NewRef(Py_None);
+        goto done;
+    }
+    /* own references: the table may be refilled (another thread) while objects are made */
+    Py_INCREF(lo);
+    Py_INCREF(hi);
+    /* new = state._with_frozen(state.t, xn, Pn) */
+    if ((newst = PyBaseObject_Type.tp_new((PyTypeObject *)r_state_cls, r_empty, NULL)) == NULL ||
+        (src = PyObject_GenericGetDict(state, NULL)) == NULL ||
+        (dst = PyObject_GenericGetDict(newst, NULL)) == NULL || PyDict_Update(dst, src) < 0 ||
+        (nargs == 10 && args[9] != Py_None && PyDict_SetItem(dst, rs_fix_cov, args[9]) < 0) ||
+        PyDict_SetItem(dst, rs_x, xn) < 0 || PyDict_SetItem(dst, rs_P, Pn) < 0)
+        goto done;
+    /* lom = _lom_from_nis(nis, p, alpha) */
+    double tv = nis / (double)p;
+    double upper = PyFloat_AS_DOUBLE(hi), lower = PyFloat_AS_DOUBLE(lo);
+    PyObject *verdict = tv > upper ? rv_reject : (tv < lower ? rv_too_small : rv_accept);
+    if ((tval = PyFloat_FromDouble(tv)) == NULL || (dof = PyLong_FromSsize_t(p)) == NULL)
+        goto done;
+    {
+        PyObject *names[5] = {rs_t, rs_lower, rs_upper, rs_dof, rs_verdict};
+        PyObject *vals[5] = {tval, lo, hi, dof, verdict};
+        if ((lom = bare_with(r_lom_cls, 5, names, vals)) == NULL)
+            goto done;
+    }
+    /* Y = Yc.T; l_inv = Y[:, n + 1:]; w = Y[:, n] (numpy's views) */
+    if ((Y = PyObject_GetAttr(Yc, rs_T)) == NULL)
+        goto done;
+    if (r_key_w_slice == NULL && (r_key_w_slice = PySlice_New(NULL, NULL, NULL)) == NULL)
+        goto done;
+    if ((nidx = PyLong_FromSsize_t(n + 1)) == NULL || (sl = PySlice_New(nidx, NULL, NULL)) == NULL ||
+        (key = PyTuple_Pack(2, r_key_w_slice, sl)) == NULL ||
+        (l_inv = PyObject_GetItem(Y, key)) == NULL)
+        goto done;
+    Py_CLEAR(key);
+    Py_CLEAR(nidx);
+    if ((nidx = PyLong_FromSsize_t(n)) == NULL ||
+        (key = PyTuple_Pack(2, r_key_w_slice, nidx)) == NULL || (w = PyObject_GetItem(Y, key)) == NULL)
+        goto done;
+    {
+        PyObject *names[4] = {rs_l_inv, rs_w, rs_lom_reject, rs_t};
+        PyObject *vals[4] = {l_inv, w, verdict == rv_reject ? Py_True : Py_False, t};
+        if ((ls = bare_with(r_ls_cls, t_ok ? 4 : 3, names, vals)) == NULL)
+            goto done;
+    }
+    {
+        PyObject *names[7] = {rs_state, rs_innovation, rs_S, rs_K, rs_labels, rs_lom, rs_ls};
+        PyObject *vals[7] = {newst, v, S, K, args[8], lom, ls};
+        result = bare_with(r_result_cls, 7, names, vals);
+    }
+done:
+    Py_XDECREF(out);
+    Py_XDECREF(xo);
+    Py_XDECREF(Po);
+    Py_XDECREF(Y);
+    Py_XDECREF(key);
+    Py_XDECREF(l_inv);
+    Py_XDECREF(w);
+    Py_XDECREF(newst);
+    Py_XDECREF(src);
+    Py_XDECREF(dst);
+    Py_XDECREF(lom);
+    Py_XDECREF(ls);
+    Py_XDECREF(tval);
+    Py_XDECREF(dof);
+    Py_XDECREF(sl);
+    Py_XDECREF(nidx);
+    Py_XDECREF(lo);
+    Py_XDECREF(hi);
+    return result;
+}
+
+/* One block of update_blocks(): its rows' values into z (k of them) and their VCV into the k×k
+ * block at R (row stride ld). A list of floats is the values, or the variances of independent
+ * rows (R diagonal); an array is read as a C-contiguous float64 (k,) / (k, k). Returns k, or -1
+ * (not covered: the Python runs; no exception left set). With z == NULL only counts. */
+static Py_ssize_t block_rows(PyObject *zo, PyObject *Ro, double *z, double *R, Py_ssize_t ld)
+{
+    Py_ssize_t k;
+    if (PyList_CheckExact(zo)) {
+        k = PyList_GET_SIZE(zo);
+        for (Py_ssize_t i = 0; i < k; i++)
+            if (!PyFloat_CheckExact(PyList_GET_ITEM(zo, i)))
+                return -1;
+        if (z != NULL)
+            for (Py_ssize_t i = 0; i < k; i++)
+                z[i] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(zo, i));
+    } else {
+        bufs_t bs = {.n = 0};
+        const double *d = get(&bs, zo, 1, -1, 0, 0);
+        k = d == NULL ? -1 : bs.v[0].shape[0];
+        if (d != NULL && z != NULL)
+            memcpy(z, d, sizeof(double) * (size_t)k);
+        release(&bs);
+        if (k < 0)
+            return -1;
+    }
+    if (PyList_CheckExact(Ro)) {
+        if (PyList_GET_SIZE(Ro) != k)
+            return -1;
+        for (Py_ssize_t i = 0; i < k; i++)
+            if (!PyFloat_CheckExact(PyList_GET_ITEM(Ro, i)))
+                return -1;
+        if (R != NULL)
+            for (Py_ssize_t i = 0; i < k; i++)
+                R[i * ld + i] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(Ro, i));
+    } else {
+        bufs_t bs = {.n = 0};
+        const double *d = get(&bs, Ro, 2, k, k, 0);
+        if (d != NULL && R != NULL)
+            for (Py_ssize_t i = 0; i < k; i++)
+                memcpy(R + i * ld, d + i * k, sizeof(double) * (size_t)k);
+        release(&bs);
+        if (d == NULL)
+            return -1;
+    }
+    return k;
+}
+
+PyDoc_STRVAR(update_blocks_doc,
+"update_blocks(state, H, blocks, angle_rows, joseph, ipsi, alpha, labels[, fix_cov])\n"
+"    -> UpdateResult | None\n\n"
+"update_result() of the rows of `blocks`, a tuple of (z, R) stacked in order as\n"
+"measurements.stack_measurements stacks them (z concatenated, R block-diagonal, zeros\n"
+"elsewhere): z a list of floats or a float64 (k,) array, R a list of the rows' variances\n"
+"(independent rows) or a float64 (k, k) array. None where a block is not one of these or\n"
+"update_result() declines: the Python runs.");
+
+static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 8 && nargs != 9) {
+        PyErr_SetString(PyExc_TypeError, "update_blocks takes 8 or 9 arguments");
+        return NULL;
+    }
+    if (np_ready() < 0)
+        return NULL;
+    PyObject *blocks = args[2];
+    if (!PyTuple_CheckExact(blocks))
+        Py_RETURN_NONE;
+    Py_ssize_t nb = PyTuple_GET_SIZE(blocks), p = 0;
+    for (Py_ssize_t b = 0; b < nb; b++) {
+        PyObject *blk = PyTuple_GET_ITEM(blocks, b);
+        if (!PyTuple_CheckExact(blk) || PyTuple_GET_SIZE(blk) != 2)
+            Py_RETURN_NONE;
+        Py_ssize_t k = block_rows(PyTuple_GET_ITEM(blk, 0), PyTuple_GET_ITEM(blk, 1), NULL, NULL,
+                                  0);
+        if (k < 0)
+            Py_RETURN_NONE;
+        p += k;
+    }
+    if (p < 1 || p > 1000)
+        Py_RETURN_NONE;
+    double *z, *R;
+    PyObject *zo = new_array(p, 0, 1, &z), *Ro = zo == NULL ? NULL : new_array(p, p, 2, &R);
+    if (Ro == NULL) {
+        Py_XDECREF(zo);
+        return NULL;
+    }
+    memset(R, 0, sizeof(double) * (size_t)(p * p));
+    Py_ssize_t at = 0;
+    for (Py_ssize_t b = 0; b < nb; b++) {
+        PyObject *blk = PyTuple_GET_ITEM(blocks, b);
+        at += block_rows(PyTuple_GET_ITEM(blk, 0), PyTuple_GET_ITEM(blk, 1), z + at,
+                         R + at * p + at, p);
+    }
+    PyObject *ua[10] = {args[0], args[1], zo, Ro, args[3], args[4], args[5], args[6], args[7],
+                        nargs == 9 ? args[8] : Py_None};
+    PyObject *result = py_update_result(self, ua, 10);
+    Py_DECREF(zo);
+    Py_DECREF(Ro);
+    return result;
+}
+
 /* ------------------------------------------------------------------ innovation distance */
 
 PyDoc_STRVAR(distance_doc,
@@ -724,6 +1074,13 @@ static PyMethodDef methods[] = {
     {"update", (PyCFunction)(void (*)(void))py_update, METH_FASTCALL, update_doc},
     {"update_new", (PyCFunction)(void (*)(void))py_update_new, METH_FASTCALL, update_new_doc},
     {"distance", (PyCFunction)(void (*)(void))py_distance, METH_FASTCALL, distance_doc},
+    {"update_result", (PyCFunction)(void (*)(void))py_update_result, METH_FASTCALL,
+     update_result_doc},
+    {"update_blocks", (PyCFunction)(void (*)(void))py_update_blocks, METH_FASTCALL,
+     update_blocks_doc},
+    {"bind_result", (PyCFunction)(void (*)(void))ku_bind_result, METH_FASTCALL,
+     "bind_result(FilterState, LomTest, LsTest, UpdateResult, lom_limits): what update_result() "
+     "builds and the bounds it asks for."},
     {"_bind", py_bind, METH_O,
      "_bind(addresses): the BLAS/LAPACK routines (engine.native.blas.all_addresses())."},
     {NULL, NULL, 0, NULL},

@@ -32,11 +32,13 @@ from engine.filter.kalman import (
     predict_step,
     restart_dr_states,
     restart_fix_states,
-    sensor_measurement,
+    sensor_measurement,  # noqa: F401 — bench/bench_engine.py times it as cycle's
     stack_measurements,
     update,
 )
+from engine.filter.measurements import SensorLayout, sensor_rows
 from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
+from engine.filter.update import update_rows, update_rows_two
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -695,14 +697,14 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     # Heading and speed of this record drive the step into it (THEORY §14.1 item 6: the
     # sample's KF row moves on the mean of the two records' gyro headings). A state just
     # initialised from this record's readings has them already (no double counting).
-    sensor_rows = sensor_measurement(fstate, depth_m=None, log_ms=speed_ms,
-                                     gyro_grid_rad=heading_grid, incl_rad=incl, params=params,
-                                     log_sigma_ms=sens.speed_sigma_ms,
-                                     gyro_sigma_deg=sens.heading_sigma_deg)
-    dr_sensors = sensor_rows.z.shape[0] > 0
+    # The rows of sensor_measurement(fstate, log_ms=…, gyro_grid_rad=…, incl_rad=…), updated
+    # from their values and variances without a Measurement (update_rows: the same update).
+    zs, var, layout = sensor_rows(None, speed_ms, heading_grid, incl, params,
+                                  sens.speed_sigma_ms, sens.heading_sigma_deg)
+    dr_sensors = len(zs) > 0
     sens_result = None
     if dr_sensors and not initialised:
-        sens_result = update(fstate, sensor_rows, params)
+        sens_result = update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
     pred_state, phi = predict_step(fstate, dt, params)
     return _Prediction(pred_state, filter_estimate("KF", grid, pred_state),
@@ -844,9 +846,11 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     f = _Filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source, nav.gated_fixes,
                    "OFF" if not cfg.filter.on else "N/A")
     lse_ok = fix is not None and fix.lse_ok
-    depth_rows: Measurement | None = None
+    # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
+    # layout): updated from them without a Measurement (update_rows, update_rows_two).
+    depth_rows: tuple[list[float], list[float], SensorLayout] | None = None
     if pred.state is not None and sens.depth_m is not None:
-        depth_rows = sensor_measurement(pred.state, depth_m=sens.depth_m, params=params)
+        depth_rows = sensor_rows(sens.depth_m, None, None, None, params)
     if f.state is not None and fix is not None and lse_ok and not f.has_fix:
         # The first LSE initialises the filter position (THEORY D22): a DR start kilometres
         # away with the thesis P0 = I would otherwise pull against every fix.
@@ -870,7 +874,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
         # Filter off: dead reckoning restarts from each LSE (THEORY §12.6 Kalman ▸ Filtering).
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
     if f.state is not None and depth_rows is not None:
-        depth_result = update(f.state, depth_rows, params)
+        depth_result = update_rows(f.state, *depth_rows, params)
         f.state = depth_result.state
         f.result = f.result or depth_result
     return f
@@ -984,16 +988,23 @@ def _with_gnss(base: tuple[object, ...], gnss: tuple[object, ...] | None,
 
 
 def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measurement,
-                  depth_rows: Measurement | None, fix: FixResult | None,
-                  messages: list[str]) -> Measurement | None:
+                  depth_rows: tuple[list[float], list[float], SensorLayout] | None,
+                  fix: FixResult | None,
+                  messages: list[str]) -> tuple[list[float], list[float], SensorLayout] | None:
     """One update with everything measured at this epoch, taken unless the fix is a gross
     error (:data:`GROSS_GATE_SIGMA`); after :data:`GROSS_GATE_RESET` gated LSEs the filter
     position restarts from the LSE. Returns the depth rows still to be applied (None: done)."""
     assert f.state is not None
     n_fix = meas.z.shape[0]
-    both = meas if depth_rows is None else stack_measurements(depth_rows, meas)
-    trial = update(f.state, both, ctx.filter_params)  # one update for all measured at this epoch
-    d_sigma = innovation_distance(trial, slice(both.z.shape[0] - n_fix, None))
+    # One update for all measured at this epoch: the depth rows stacked before the fix's
+    # (update_rows_two is update(state, stack_measurements(the depth rows' measurement, meas),
+    # params)).
+    if depth_rows is None:
+        trial, p = update(f.state, meas, ctx.filter_params), n_fix
+    else:
+        trial = update_rows_two(f.state, *depth_rows, meas, ctx.filter_params)
+        p = len(depth_rows[0]) + n_fix
+    d_sigma = innovation_distance(trial, slice(p - n_fix, None))
     f.status = "ON"
     if d_sigma <= GROSS_GATE_SIGMA:
         f.result, f.state, f.has_fix, f.gated = trial, trial.state, True, 0
@@ -1079,7 +1090,8 @@ def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
 
 _UNSET = object()
 _POSITION_K: object = _UNSET
-"""The compiled estimate of :func:`filter_estimate` (``position_kernel``), once resolved."""
+"""The compiled estimate of :func:`filter_estimate` (``position_kernel``), once resolved: the
+one place it is held (``engine.filter.state.position_kernel`` resolves and binds, no cache)."""
 
 
 def _position_kernel() -> object:

@@ -189,7 +189,7 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
     """(function name, args, kwargs) of the measurement builders over 200 demo epochs."""
     calls: list[tuple[str, tuple, dict]] = []
     mp = pytest.MonkeyPatch()
-    for name in ("sensor_measurement", "stack_measurements", "lse_measurement"):
+    for name in ("stack_measurements", "lse_measurement"):
         real = getattr(cycle_mod, name)
 
         def recording(*a: object, _name: str = name, _real=real, **k: object) -> Measurement:
@@ -197,6 +197,23 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
             return _real(*a, **k)
 
         mp.setattr(cycle_mod, name, recording)
+    real_rows, real_two = cycle_mod.sensor_rows, cycle_mod.update_rows_two
+
+    def rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms=None,
+             gyro_sigma_deg=None):  # the sensor_measurement the cycle's rows stand for
+        kw = dict(depth_m=depth_m, log_ms=log_ms, gyro_grid_rad=gyro_grid_rad,
+                  incl_rad=incl_rad, params=params, log_sigma_ms=log_sigma_ms,
+                  gyro_sigma_deg=gyro_sigma_deg)
+        calls.append(("sensor_measurement", (None,), kw))
+        return real_rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms,
+                         gyro_sigma_deg)
+
+    def two(state, zs, var, layout, b, params):  # the stack update_rows_two updates with
+        calls.append(("stack_measurements", (ms.rows_measurement(zs, var, layout), b), {}))
+        return real_two(state, zs, var, layout, b, params)
+
+    mp.setattr(cycle_mod, "sensor_rows", rows)
+    mp.setattr(cycle_mod, "update_rows_two", two)
     try:
         replay(200)
     finally:

@@ -24,6 +24,7 @@ import engine.filter.update as U
 import engine.run.cycle as cycle_mod
 from engine import native
 from engine.filter import kalman as kf
+from engine.filter import measurements as ms
 from engine.filter.measurements import Measurement, _measurement
 from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState, add_fix_states
@@ -92,19 +93,121 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
     """The (state, rows, params) of every update of the first 200 demo epochs."""
 
     seen: list[tuple[FilterState, Measurement, FilterParams]] = []
-    orig = cycle_mod.update
+    mp = pytest.MonkeyPatch()
 
     def record(state: FilterState, rows: Measurement, params: FilterParams) -> U.UpdateResult:
         seen.append((state, rows, params))
-        return orig(state, rows, params)
+        return U.update(state, rows, params)
 
-    cycle_mod.update = record  # type: ignore[assignment]
+    # The cycle's updates: update(), and update_rows() / update_rows_two(), which are update()
+    # of the rows' measurement and of the stack (test_update_rows_and_two_are_update).
+    mp.setattr(cycle_mod, "update", record)
+    mp.setattr(cycle_mod, "update_rows", lambda state, zs, var, layout, params: record(
+        state, ms.rows_measurement(zs, var, layout), params))
+    mp.setattr(cycle_mod, "update_rows_two", lambda state, zs, var, layout, b, params: record(
+        state, ms.stack_measurements(ms.rows_measurement(zs, var, layout), b), params))
     try:
         replay(200)
     finally:
-        cycle_mod.update = orig  # type: ignore[assignment]
+        mp.undo()
     assert len(seen) > 300
     return seen
+
+
+@pytest.fixture(scope="module")
+def replay_blocks() -> list[tuple[str, tuple[object, ...]]]:
+    """The arguments of every update_rows() and update_rows_two() of the first 100 demo
+    epochs, and of update_two() of the same rows as a Measurement."""
+    seen: list[tuple[str, tuple[object, ...]]] = []
+    mp = pytest.MonkeyPatch()
+    for name in ("update_rows", "update_rows_two"):
+        real = getattr(U, name)
+
+        def recording(*a: object, _name: str = name, _real=real) -> U.UpdateResult:
+            seen.append((_name, a))
+            return _real(*a)
+
+        mp.setattr(cycle_mod, name, recording)
+    try:
+        replay(100)
+    finally:
+        mp.undo()
+    assert {n for n, _ in seen} == {"update_rows", "update_rows_two"}
+    seen += [("update_two", (a[0], ms.rows_measurement(*a[1:4]), *a[4:]))
+             for n, a in list(seen) if n == "update_rows_two"]
+    return seen
+
+
+def _same_result(got: U.UpdateResult, ref: U.UpdateResult) -> None:
+    """Two update results alike bit for bit: every array, float and field, in the same order."""
+    assert list(vars(got)) == list(vars(ref)) and list(vars(got.state)) == list(vars(ref.state))
+    for name in ("t", "x", "P", "fix_states", "fix_tau_s", "fix_cov"):
+        assert same(getattr(got.state, name), getattr(ref.state, name)), name
+    assert not got.state.fix_cov.flags.writeable and not ref.state.fix_cov.flags.writeable
+    for name in ("innovation", "S", "K", "labels"):
+        assert same(getattr(got, name), getattr(ref, name)), name
+    for name in ("l_inv", "w", "t", "lom_reject"):
+        assert same(getattr(got.ls, name), getattr(ref.ls, name)), name
+    assert vars(got.lom) == vars(ref.lom)
+
+
+def test_update_rows_and_two_are_update(replay_blocks, monkeypatch) -> None:
+    """update_rows() and update_two() give update() of the rows' measurement and of the stack
+    (and so _update_py), with the kernel and without it (the Python path they fall back to),
+    on the cycle's calls and on inputs they hand to the general code: a fix-error state still
+    missing, a prior of another shape, H wider than the state, rows without fix-error keys."""
+    cases: list[tuple[str, tuple[object, ...]]] = list(replay_blocks)
+    two = [a for n, a in replay_blocks if n == "update_two"]
+    state, depth, lse, params = two[-1]
+    rows_two = [a for n, a in replay_blocks if n == "update_rows_two"][-1]
+    zs, var, layout = rows_two[1:4]
+    cases.append(("update_rows_two", (state, [], [], layout, lse, params)))  # no depth row
+    cases.append(("update_rows_two", (state, [int(zs[0])], var, layout, lse, params)))
+    bare_ = FilterState(state.t, state.x[:N_NAV], state.P[:N_NAV, :N_NAV])
+    cases.append(("update_rows_two", (bare_, zs, var, layout, lse, params)))
+    assert lse.bias_keys and state.fix_states == ("fix_e", "fix_n")
+    bare = FilterState(state.t, state.x[:N_NAV], state.P[:N_NAV, :N_NAV])
+    cases.append(("update_two", (bare, depth, lse, params)))  # the states are added
+    wide = _measurement(lse.z, lse.H, lse.R, lse.labels, (), lse.bias_keys,
+                        np.eye(3), lse.bias_tau_s, lse._cols)
+    cases.append(("update_two", (state, depth, wide, params)))  # prior 3×3: the general code
+    plain = _measurement(lse.z, lse.H, lse.R, lse.labels, cols=lse._cols)
+    cases.append(("update_two", (state, depth, plain, params)))
+    cases.append(("update_two", (bare, depth, plain, params)))
+    cases.append(("update_two", (state, plain, depth, params)))
+    for kernel in (U._K, None):
+        monkeypatch.setattr(U, "_K", kernel)
+        for name, a in cases:
+            if name == "update_rows":
+                st_, zs, var, layout, prm = a
+                ref = U.update(st_, ms.rows_measurement(zs, var, layout), prm)
+                _same_result(U.update_rows(*a), ref)
+                _same_result(U._update_py(st_, ms.rows_measurement(zs, var, layout), prm), ref)
+            elif name == "update_rows_two":
+                st_, zs, var, layout, y, prm = a
+                x = ms.rows_measurement(zs, var, layout)
+                ref = U.update(st_, ms.stack_measurements(x, y), prm)
+                _same_result(U.update_rows_two(*a), ref)
+                _same_result(U._update_py(st_, ms.stack_measurements(x, y), prm), ref)
+            else:
+                st_, x, y, prm = a
+                ref = U.update(st_, ms.stack_measurements(x, y), prm)
+                _same_result(U.update_two(*a), ref)
+                _same_result(U._update_py(st_, ms.stack_measurements(x, y), prm), ref)
+
+
+def test_update_blocks_declines_what_it_does_not_cover(replay_blocks) -> None:
+    """update_blocks() reads lists of floats and float64 arrays only, else None (the Python)."""
+    k = U._kernel()
+    state, zs, var, layout, params = next(a for n, a in replay_blocks if n == "update_rows")
+    labels, _cols, H, angle = layout
+    H = ms.h_template(_cols, state.n)
+    args = (angle, params.joseph, U.IPSI, params.alpha, labels)
+    assert k.update_blocks(state, H, ((zs, var),), *args) is not None
+    bad_z = [int(z) for z in zs]
+    for blocks in (((bad_z, var),), ((zs, var[:-1]),), ((zs,),), [(zs, var)], ((), ),
+                   ((np.array(zs, dtype=np.float32), var),), ((zs, np.eye(len(zs) + 1)),)):
+        assert k.update_blocks(state, H, blocks, *args) is None
 
 
 def test_the_updates_of_a_demo_replay_are_the_same(replay_updates) -> None:
@@ -116,14 +219,14 @@ def test_the_kernel_really_runs_on_the_replay(replay_updates, monkeypatch) -> No
     """No silent fallback: the kernel answers for every update of the replay."""
     k = U._kernel()
     answered = []
-    real = k.update_new
+    real = k.update_result
 
     class Spy:
         def __getattr__(self, name: str) -> object:
             return getattr(k, name)
 
         @staticmethod
-        def update_new(*args: object) -> object:
+        def update_result(*args: object) -> object:
             out = real(*args)
             answered.append(out is not None)
             return out
@@ -158,6 +261,28 @@ def test_update_new_is_update_into_new_arrays(replay_updates) -> None:
         assert Yc.flags.writeable
         if t_ok:
             assert same(t, t0) and not t.flags.writeable
+
+
+def test_update_result_builds_the_objects_the_python_builds(replay_updates) -> None:
+    """update_result() (what update() calls) builds the result as _update_py and the Python
+    update() before it did: the same classes, attributes in the same order, the LOM test's
+    values, numpy views of one array for l_inv and w, and the bounds of any α and p (more pairs
+    than the kernel remembers: its table is refilled)."""
+    for i, (state, rows, params) in enumerate(replay_updates[:120]):
+        if i % 3 == 0:
+            alpha = (0.001, 0.01, 0.05, 0.1, 0.2, 0.3)[i % 6] + (i % 40) * 1e-4
+            params = FilterParams(alpha=alpha, joseph=params.joseph, coloured=params.coloured)
+        ref = U._update_py(state, rows, params)
+        new = U.update(state, rows, params)
+        assert type(new) is U.UpdateResult and list(vars(new)) == list(vars(ref))
+        assert type(new.state) is FilterState and list(vars(new.state)) == list(vars(ref.state))
+        assert type(new.lom) is U.LomTest and list(vars(new.lom)) == list(vars(ref.lom))
+        for name, value in vars(ref.lom).items():
+            assert same(getattr(new.lom, name), value), name
+        assert type(new.ls) is U.LsTest and list(vars(new.ls))[:3] == ["l_inv", "w", "lom_reject"]
+        assert new.ls.l_inv.base is not None and new.ls.l_inv.base is new.ls.w.base
+        assert new.labels is rows.labels
+        assert new.state.fix_cov is state.fix_cov or rows.bias_keys
 
 
 @pytest.mark.parametrize("joseph", [True, False])
@@ -327,3 +452,27 @@ def test_binding_is_lazy() -> None:
             "assert 'engine.native.blas' not in sys.modules\n"
             "assert 'scipy' not in sys.modules\n")
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
+
+
+def test_update_blocks_answers_the_cycle(replay_blocks, monkeypatch) -> None:
+    """No silent fallback: update_blocks() answers every update_rows()/update_rows_two()/
+    update_two() of the replay but the first fix's (whose fix-error states are added by the
+    general code)."""
+    k = U._kernel()
+    answered = []
+    real = k.update_blocks
+
+    class Spy:
+        def __getattr__(self, name: str) -> object:
+            return getattr(k, name)
+
+        @staticmethod
+        def update_blocks(*args: object) -> object:
+            out = real(*args)
+            answered.append(out is not None)
+            return out
+
+    monkeypatch.setattr(U, "_K", Spy())
+    for name, a in replay_blocks:
+        getattr(U, name)(*a)
+    assert len(answered) >= len(replay_blocks) - 3 and all(answered)
