@@ -183,6 +183,25 @@ static const char DIGITS2[201] =
     "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
     "8081828384858687888990919293949596979899";
 
+/* The 8 decimal digits of v < 10^8 (leading zeros included) into o[0..8), all at once in
+ * one 64-bit word: v split into two 4-digit halves (32-bit lanes), each into two 2-digit
+ * pairs (16-bit lanes: x * 10486 >> 20 is x / 100 for x < 10^4), each pair into two digits
+ * (bytes: y * 103 >> 10 is y / 10 for y < 100); checked on every v < 10^8 against the
+ * digits by / and % (the 2026-12-03 change that brought it in). */
+static inline void digits8(uint32_t v, char *o)
+{
+    const uint64_t hi4 = v / 10000, lo4 = v - hi4 * 10000;
+    const uint64_t x = hi4 | (lo4 << 32);
+    const uint64_t y = ((x * 10486) >> 20) & UINT64_C(0x0000007F0000007F);
+    const uint64_t w = y | ((x - y * 100) << 16);
+    const uint64_t t = ((w * 103) >> 10) & UINT64_C(0x000F000F000F000F);
+    uint64_t bytes = (t | ((w - t * 10) << 8)) + UINT64_C(0x3030303030303030);
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+    bytes = __builtin_bswap64(bytes); /* the first digit in the lowest byte: first in memory */
+#endif
+    memcpy(o, &bytes, 8);
+}
+
 /* The text of x into o (at least 48 bytes: the copies below are of fixed sizes, the text at
  * most 23 bytes); its length, or 0 (not handled here). */
 static int short_repr(double x, char *o)
@@ -217,7 +236,7 @@ static int short_repr(double x, char *o)
     const uint64_t p5 = POW5[i], mask = (UINT64_C(1) << q) - 1;
     const unsigned __int128 pr = (unsigned __int128)mv * p5, pp = (unsigned __int128)mp * p5,
                             pm = (unsigned __int128)mm * p5;
-    if ((pp >> q) >> 64)
+    if ((uint64_t)(pp >> 64) >> q) /* pp >> q (q <= 51) above 64 bits */
         return 0;
     uint64_t vr = (uint64_t)(pr >> q), vp = (uint64_t)(pp >> q), vm = (uint64_t)(pm >> q);
     int vr_tz = ((uint64_t)pr & mask) == 0, vm_tz = accept && ((uint64_t)pm & mask) == 0;
@@ -288,45 +307,38 @@ static int short_repr(double x, char *o)
     const int n = dec_len(out), decpt = n + e10 + removed;
     if (decpt < -3 || decpt > 16)
         return 0;
-    /* the n digits into d[0..n), 8 at a time in 32 bits (n <= 20), then d is copied whole
-     * (fixed sizes, within the caller's 48 bytes) */
-    char d[48], *e = d + n;
-    while (out >= 100000000) {
-        uint32_t lo = (uint32_t)(out % 100000000), a = lo / 10000, b = lo % 10000;
-        out /= 100000000;
-        memcpy(e - 8, DIGITS2 + 2 * (a / 100), 2);
-        memcpy(e - 6, DIGITS2 + 2 * (a % 100), 2);
-        memcpy(e - 4, DIGITS2 + 2 * (b / 100), 2);
-        memcpy(e - 2, DIGITS2 + 2 * (b % 100), 2);
-        e -= 8;
-    }
-    uint32_t w = (uint32_t)out;
-    while (w >= 100) {
-        e -= 2;
-        memcpy(e, DIGITS2 + 2 * (w % 100), 2);
-        w /= 100;
-    }
-    if (w >= 10) {
-        e -= 2;
-        memcpy(e, DIGITS2 + 2 * w, 2);
+    /* the n digits, right-aligned in d[0..24) by 8-digit blocks (digits8), from ds on; then
+     * copied in fixed sizes (within d's 48 bytes) */
+    char d[48];
+    if (n <= 8) {
+        digits8((uint32_t)out, d + 16);
     } else {
-        *--e = (char)('0' + w);
+        uint64_t hi = out / 100000000;
+        digits8((uint32_t)(out - hi * 100000000), d + 16);
+        if (n <= 16) {
+            digits8((uint32_t)hi, d + 8);
+        } else {
+            uint64_t top = hi / 100000000;
+            digits8((uint32_t)(hi - top * 100000000), d + 8);
+            digits8((uint32_t)top, d);
+        }
     }
+    const char *ds = d + 24 - n;
     char *p = o;
     *p = '-';
     p += bits >> 63;
     if (decpt <= 0) { /* "0." + -decpt zeros (<= 3) + the digits */
         memcpy(p, "0.000", 5);
         p += 2 - decpt;
-        memcpy(p, d, 20);
+        memcpy(p, ds, 20);
         p += n;
     } else if (decpt < n) { /* the digits with the point after decpt of them */
-        memcpy(p, d, 20);
+        memcpy(p, ds, 20);
         p[decpt] = '.';
-        memcpy(p + decpt + 1, d + decpt, 20);
+        memcpy(p + decpt + 1, ds + decpt, 20);
         p += n + 1;
     } else { /* the digits, decpt - n zeros (decpt <= 16), ".0" */
-        memcpy(p, d, 20);
+        memcpy(p, ds, 20);
         memcpy(p + n, "0000000000000000", 16);
         p += decpt;
         memcpy(p, ".0", 2);
