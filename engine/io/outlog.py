@@ -542,6 +542,12 @@ class OutLogWriter:
         self.path = path
         self._fsync_every = max(1, fsync_every)
         self._since_sync = 0
+        self._fd: int | None = handle.utf8_fd
+        """The log's descriptor for :meth:`write_direct` (None: the handle encodes otherwise)."""
+        self._direct: int | None = self._fd
+        """:attr:`_fd` while nothing is left in the text buffer (None during a write through
+        it, after one that failed and after :meth:`close`): where :meth:`write_direct` may
+        write."""
 
     @classmethod
     def create(
@@ -576,7 +582,9 @@ class OutLogWriter:
     def _write(self, text: str, sync: bool = False) -> None:
         """Write and flush ``text``; every ``fsync_every`` writes (or with ``sync``) force the
         file to the disk."""
+        self._direct = None
         self._fh.write_flushed(text)
+        self._direct = self._fd
         self._since_sync += 1
         if sync or self._since_sync >= self._fsync_every:
             self._fh.fsync()
@@ -586,11 +594,37 @@ class OutLogWriter:
         """Write one complete cycle block's text (``CYCLE`` … ``END n=…`` and its newline, as
         :meth:`write_cycle` renders it: :func:`engine.run.records.cycle_text`) in a single
         flushed write (:meth:`_write`, written out: once per cycle)."""
+        self._direct = None
         self._fh.write_flushed(text)
+        self._direct = self._fd
         self._since_sync += 1
         if self._since_sync >= self._fsync_every:
             self._fh.fsync()
             self._since_sync = 0
+
+    def write_direct(self, write: Callable[[Any, int], int | None], item: object) -> bool:
+        """Write one complete cycle block by ``write(item, fd)``, a compiled writer
+        (:func:`engine.run.records.cycle_writer`) that builds the block of ``item`` and writes
+        its UTF-8 bytes to the log's descriptor itself (write(2) until all are written): the
+        bytes :meth:`write_block` hands to the operating system for the same text, past the
+        text layers, nothing being buffered before them. Counted for ``fsync_every`` as
+        :meth:`write_block`. False, with nothing written, where ``write`` declines (returns
+        None) or the log has no such descriptor (then write the block by :meth:`write_block`
+        or :meth:`write_cycle`); an OSError names the file."""
+        fd = self._direct
+        if fd is None:
+            return False
+        try:
+            done = write(item, fd)
+        except OSError as exc:
+            raise self._fh.os_error(exc) from exc
+        if done is None:
+            return False
+        self._since_sync += 1
+        if self._since_sync >= self._fsync_every:
+            self._fh.fsync()
+            self._since_sync = 0
+        return True
 
     def write_cycle(
         self, fields: Mapping[str, Value], lines: Sequence[tuple[str, Mapping[str, Value]]]
@@ -628,6 +662,7 @@ class OutLogWriter:
 
     def close(self) -> None:
         """Flush, force to disk and close (an error names the file)."""
+        self._direct = self._fd = None
         self._fh.close(sync=True)
 
     def __enter__(self) -> OutLogWriter:

@@ -28,6 +28,7 @@ close error.
 
 from __future__ import annotations
 
+import codecs
 import json
 import os
 import stat
@@ -186,12 +187,22 @@ def free_name(path: Path) -> Path:
 class OutputFile:
     """A text output (UTF-8, ``\\n`` line ends) whose every error names its file."""
 
-    def __init__(self, handle: IO[str], path: Path) -> None:
+    def __init__(self, handle: IO[str], path: Path, *, utf8_fd: int | None = None) -> None:
+        """``utf8_fd``: the descriptor of ``handle`` when it writes each str as its UTF-8
+        bytes, unchanged (``newline="\\n"``): then a caller may write such bytes straight to
+        it while nothing is buffered (:attr:`utf8_fd`)."""
         self._fh = handle
         self.path = path
+        self.utf8_fd = utf8_fd
+        """The descriptor that takes the handle's UTF-8 bytes directly, or None (another
+        encoding, or not known). Write to it only when every earlier write was flushed."""
 
     def _error(self, exc: OSError) -> OSError:
         return OSError(exc.errno, exc.strerror or str(exc), str(self.path))
+
+    def os_error(self, exc: OSError) -> OSError:
+        """``exc`` (from a write to :attr:`utf8_fd`) as an OSError naming this file."""
+        return self._error(exc)
 
     def write(self, text: str) -> None:
         """Write ``text`` (buffered)."""
@@ -378,7 +389,8 @@ class OutputGuard:
         st = os.fstat(fd)
         self.ids[(st.st_dev, st.st_ino)] = label
         handle = os.fdopen(fd, "w", encoding=encoding, newline="\n")
-        return OutputFile(handle, target)
+        return OutputFile(handle, target,
+                          utf8_fd=fd if codecs.lookup(encoding).name == "utf-8" else None)
 
     @staticmethod
     def _check_signature(head: bytes, target: Path, label: str, signature: Signature) -> None:

@@ -41,6 +41,9 @@
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#include <errno.h>
+#include <limits.h>
+#include <unistd.h>
 
 #ifndef UVN_SOURCE_DIGEST
 #define UVN_SOURCE_DIGEST "unknown"
@@ -180,6 +183,25 @@ static const char DIGITS2[201] =
     "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
     "8081828384858687888990919293949596979899";
 
+/* The 8 decimal digits of v < 10^8 (leading zeros included) into o[0..8), all at once in
+ * one 64-bit word: v split into two 4-digit halves (32-bit lanes), each into two 2-digit
+ * pairs (16-bit lanes: x * 10486 >> 20 is x / 100 for x < 10^4), each pair into two digits
+ * (bytes: y * 103 >> 10 is y / 10 for y < 100); checked on every v < 10^8 against the
+ * digits by / and % (the 2026-12-03 change that brought it in). */
+static inline void digits8(uint32_t v, char *o)
+{
+    const uint64_t hi4 = v / 10000, lo4 = v - hi4 * 10000;
+    const uint64_t x = hi4 | (lo4 << 32);
+    const uint64_t y = ((x * 10486) >> 20) & UINT64_C(0x0000007F0000007F);
+    const uint64_t w = y | ((x - y * 100) << 16);
+    const uint64_t t = ((w * 103) >> 10) & UINT64_C(0x000F000F000F000F);
+    uint64_t bytes = (t | ((w - t * 10) << 8)) + UINT64_C(0x3030303030303030);
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+    bytes = __builtin_bswap64(bytes); /* the first digit in the lowest byte: first in memory */
+#endif
+    memcpy(o, &bytes, 8);
+}
+
 /* The text of x into o (at least 48 bytes: the copies below are of fixed sizes, the text at
  * most 23 bytes); its length, or 0 (not handled here). */
 static int short_repr(double x, char *o)
@@ -214,7 +236,7 @@ static int short_repr(double x, char *o)
     const uint64_t p5 = POW5[i], mask = (UINT64_C(1) << q) - 1;
     const unsigned __int128 pr = (unsigned __int128)mv * p5, pp = (unsigned __int128)mp * p5,
                             pm = (unsigned __int128)mm * p5;
-    if ((pp >> q) >> 64)
+    if ((uint64_t)(pp >> 64) >> q) /* pp >> q (q <= 51) above 64 bits */
         return 0;
     uint64_t vr = (uint64_t)(pr >> q), vp = (uint64_t)(pp >> q), vm = (uint64_t)(pm >> q);
     int vr_tz = ((uint64_t)pr & mask) == 0, vm_tz = accept && ((uint64_t)pm & mask) == 0;
@@ -285,45 +307,38 @@ static int short_repr(double x, char *o)
     const int n = dec_len(out), decpt = n + e10 + removed;
     if (decpt < -3 || decpt > 16)
         return 0;
-    /* the n digits into d[0..n), 8 at a time in 32 bits (n <= 20), then d is copied whole
-     * (fixed sizes, within the caller's 48 bytes) */
-    char d[48], *e = d + n;
-    while (out >= 100000000) {
-        uint32_t lo = (uint32_t)(out % 100000000), a = lo / 10000, b = lo % 10000;
-        out /= 100000000;
-        memcpy(e - 8, DIGITS2 + 2 * (a / 100), 2);
-        memcpy(e - 6, DIGITS2 + 2 * (a % 100), 2);
-        memcpy(e - 4, DIGITS2 + 2 * (b / 100), 2);
-        memcpy(e - 2, DIGITS2 + 2 * (b % 100), 2);
-        e -= 8;
-    }
-    uint32_t w = (uint32_t)out;
-    while (w >= 100) {
-        e -= 2;
-        memcpy(e, DIGITS2 + 2 * (w % 100), 2);
-        w /= 100;
-    }
-    if (w >= 10) {
-        e -= 2;
-        memcpy(e, DIGITS2 + 2 * w, 2);
+    /* the n digits, right-aligned in d[0..24) by 8-digit blocks (digits8), from ds on; then
+     * copied in fixed sizes (within d's 48 bytes) */
+    char d[48];
+    if (n <= 8) {
+        digits8((uint32_t)out, d + 16);
     } else {
-        *--e = (char)('0' + w);
+        uint64_t hi = out / 100000000;
+        digits8((uint32_t)(out - hi * 100000000), d + 16);
+        if (n <= 16) {
+            digits8((uint32_t)hi, d + 8);
+        } else {
+            uint64_t top = hi / 100000000;
+            digits8((uint32_t)(hi - top * 100000000), d + 8);
+            digits8((uint32_t)top, d);
+        }
     }
+    const char *ds = d + 24 - n;
     char *p = o;
     *p = '-';
     p += bits >> 63;
     if (decpt <= 0) { /* "0." + -decpt zeros (<= 3) + the digits */
         memcpy(p, "0.000", 5);
         p += 2 - decpt;
-        memcpy(p, d, 20);
+        memcpy(p, ds, 20);
         p += n;
     } else if (decpt < n) { /* the digits with the point after decpt of them */
-        memcpy(p, d, 20);
+        memcpy(p, ds, 20);
         p[decpt] = '.';
-        memcpy(p + decpt + 1, d + decpt, 20);
+        memcpy(p + decpt + 1, ds + decpt, 20);
         p += n + 1;
     } else { /* the digits, decpt - n zeros (decpt <= 16), ".0" */
-        memcpy(p, d, 20);
+        memcpy(p, ds, 20);
         memcpy(p + n, "0000000000000000", 16);
         p += decpt;
         memcpy(p, ".0", 2);
@@ -1902,6 +1917,209 @@ static PyObject *cycle_text(PyObject *self, PyObject *const *args, Py_ssize_t na
     return text;
 }
 
+/* ------------------------------------------------------------------------- the cycle's commit */
+
+/* cycle_writer(consts, dumps, format_text, format_value) -> write(r, fd): cycle_text bound to
+ * its constant arguments (a builtin function whose self is their tuple: no Python frame per
+ * cycle), writing the block's bytes itself to the file descriptor `fd` with write(2) (the
+ * whole buffer, a partial write continued, EINTR retried after the signal handlers ran, the
+ * GIL released around each call, as FileIO.write does): the UTF-8 bytes a TextIOWrapper
+ * (utf-8, newline "\n") would write for cycle_text's str, without making that str. Returns the
+ * number of bytes written, None where cycle_text declines (nothing written), OSError (errno)
+ * when the operating system refuses the write (engine.io.outlog.OutLogWriter.write_direct
+ * names the file). */
+static int write_all(int fd, const char *p, Py_ssize_t n)
+{
+    while (n > 0) {
+        Py_ssize_t w;
+        Py_BEGIN_ALLOW_THREADS
+        w = (Py_ssize_t)write(fd, p, (size_t)n);
+        Py_END_ALLOW_THREADS
+        if (w < 0) {
+            if (errno == EINTR) {
+                if (PyErr_CheckSignals() < 0)
+                    return -1;
+                continue;
+            }
+            PyErr_SetFromErrno(PyExc_OSError);
+            return -1;
+        }
+        p += w;
+        n -= w;
+    }
+    return 0;
+}
+
+static PyObject *cycle_write(PyObject *bound, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "write(r, fd) takes 2 arguments");
+        return NULL;
+    }
+    int overflow = 0;
+    long fd = PyLong_AsLongAndOverflow(args[1], &overflow);
+    if (fd == -1 && PyErr_Occurred())
+        return NULL;
+    if (overflow || fd < 0 || fd > INT_MAX) {
+        PyErr_SetString(PyExc_ValueError, "write(r, fd): fd is not a file descriptor");
+        return NULL;
+    }
+    PyObject *const *c = &PyTuple_GET_ITEM(bound, 0);
+    char stack_buf[8192];
+    buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
+    sink_t sink = {NULL, &b, c[2], c[3], c[1] != Py_None && short_ok()};
+    PyObject *res;
+    if (build_cycle_rows(&sink, args[0], c[0]) < 0)
+        res = declined();
+    else if (write_all((int)fd, b.p, b.n) < 0)
+        res = NULL;
+    else
+        res = PyLong_FromSsize_t(b.n);
+    if (b.heap)
+        PyMem_Free(b.p);
+    return res;
+}
+
+static PyMethodDef CYCLE_WRITE_DEF = {
+    "write_cycle", (PyCFunction)(void (*)(void))cycle_write, METH_FASTCALL,
+    "write(r, fd) -> int | None: the .OUT block of r (cycle_text's text, UTF-8) written to fd;\n"
+    "its length in bytes, or None (nothing written) where the Python must build it."};
+
+static PyObject *cycle_writer(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError,
+                        "cycle_writer(consts, dumps, format_text, format_value) takes 4 "
+                        "arguments");
+        return NULL;
+    }
+    PyObject *bound = PyTuple_New(4);
+    if (bound == NULL)
+        return NULL;
+    for (int i = 0; i < 4; i++)
+        PyTuple_SET_ITEM(bound, i, Py_NewRef(args[i]));
+    PyObject *f = PyCFunction_NewEx(&CYCLE_WRITE_DEF, bound, NULL);
+    Py_DECREF(bound);
+    return f;
+}
+
+/* freeze_result(fix, phi, u1, u2): engine.run.cycle._freeze_result's twin, the same arrays
+ * made read-only in the same order (fix.cov, fix.ellipse.eigenvectors, fix.raw_lops' A, omc_m,
+ * Cl and x_ref, phi, then each update's innovation, S, K, ls.l_inv and ls.w; a None skipped
+ * where the Python skips it). An exact numpy.ndarray has its WRITEABLE flag cleared here, what
+ * setflags(write=False) does once uvn_numpy.h checked that at first use (and only without
+ * NPY_ARRAY_WARN_ON_WRITE, which setflags clears too); anything else gets the call
+ * a.setflags(write=False) itself. Returns True, or None (nothing done: numpy not ready) for the
+ * Python to do it; an error raised on the way is the one the Python raises at that point. */
+enum { F_COV, F_ELLIPSE, F_EIGENVECTORS, F_RAW_LOPS, F_A, F_OMC_M, F_CL, F_X_REF, F_INNOVATION,
+       F_S, F_K, F_LS, F_L_INV, F_W, F_SETFLAGS, F_WRITE, F_COUNT };
+static const char *const FREEZE_NAMES[F_COUNT] = {
+    "cov", "ellipse", "eigenvectors", "raw_lops", "A", "omc_m", "Cl", "x_ref", "innovation",
+    "S", "K", "ls", "l_inv", "w", "setflags", "write"};
+static PyObject *FREEZE_ATTR[F_COUNT];
+static PyObject *WRITE_KWNAMES; /* ("write",) */
+#define NP_WARN_ON_WRITE 0x80000000u /* NPY_ARRAY_WARN_ON_WRITE */
+
+static int freeze_names(void)
+{
+    for (int i = 0; i < F_COUNT; i++)
+        if ((FREEZE_ATTR[i] = PyUnicode_InternFromString(FREEZE_NAMES[i])) == NULL)
+            return -1;
+    return (WRITE_KWNAMES = PyTuple_Pack(1, FREEZE_ATTR[F_WRITE])) == NULL ? -1 : 0;
+}
+
+/* a.setflags(write=False): 0, or -1 (exception set). */
+static int freeze_array(PyObject *a)
+{
+    if (np_layout == 1 && (PyObject *)Py_TYPE(a) == np_ndarray &&
+        !((unsigned)((np_fields_t *)a)->flags & NP_WARN_ON_WRITE)) {
+        ((np_fields_t *)a)->flags &= ~NP_WRITEABLE;
+        return 0;
+    }
+    PyObject *call[2] = {a, Py_False};
+    PyObject *r = PyObject_VectorcallMethod(FREEZE_ATTR[F_SETFLAGS], call,
+                                            1 | PY_VECTORCALL_ARGUMENTS_OFFSET, WRITE_KWNAMES);
+    if (r == NULL)
+        return -1;
+    Py_DECREF(r);
+    return 0;
+}
+
+/* getattr(o, FREEZE_ATTR[i]) frozen: 0, or -1. */
+static int freeze_attr(PyObject *o, int i)
+{
+    PyObject *a = PyObject_GetAttr(o, FREEZE_ATTR[i]);
+    if (a == NULL)
+        return -1;
+    int rc = freeze_array(a);
+    Py_DECREF(a);
+    return rc;
+}
+
+static PyObject *freeze_result(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "freeze_result(fix, phi, u1, u2) takes 4 arguments");
+        return NULL;
+    }
+    if (np_layout < 0 && np_ready() < 0) {
+        if (!PyErr_ExceptionMatches(PyExc_Exception))
+            return NULL;
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    PyObject *fix = args[0], *o = NULL, *ls = NULL;
+    if (fix != Py_None) {
+        if (freeze_attr(fix, F_COV) < 0 || (o = PyObject_GetAttr(fix, FREEZE_ATTR[F_ELLIPSE])) == NULL)
+            return NULL;
+        int rc = o == Py_None ? 0 : freeze_attr(o, F_EIGENVECTORS);
+        Py_DECREF(o);
+        if (rc < 0 || (o = PyObject_GetAttr(fix, FREEZE_ATTR[F_RAW_LOPS])) == NULL)
+            return NULL;
+        if (o != Py_None) { /* A, omc_m, Cl, x_ref: read all four, then frozen (the tuple) */
+            PyObject *arr[4] = {NULL, NULL, NULL, NULL};
+            for (int k = 0; k < 4 && rc == 0; k++)
+                if ((arr[k] = PyObject_GetAttr(o, FREEZE_ATTR[F_A + k])) == NULL)
+                    rc = -1;
+            for (int k = 0; k < 4 && rc == 0; k++)
+                rc = freeze_array(arr[k]);
+            for (int k = 0; k < 4; k++)
+                Py_XDECREF(arr[k]);
+        }
+        Py_DECREF(o);
+        if (rc < 0)
+            return NULL;
+    }
+    if (args[1] != Py_None && freeze_array(args[1]) < 0)
+        return NULL;
+    for (int j = 2; j < 4; j++) {
+        PyObject *u = args[j];
+        if (u == Py_None)
+            continue;
+        /* (u.innovation, u.S, u.K, u.ls.l_inv, u.ls.w): read all five, then frozen */
+        PyObject *arr[5] = {NULL, NULL, NULL, NULL, NULL};
+        int rc = 0;
+        for (int k = 0; k < 3 && rc == 0; k++)
+            if ((arr[k] = PyObject_GetAttr(u, FREEZE_ATTR[F_INNOVATION + k])) == NULL)
+                rc = -1;
+        if (rc == 0 && (ls = PyObject_GetAttr(u, FREEZE_ATTR[F_LS])) == NULL)
+            rc = -1;
+        if (rc == 0 && (arr[3] = PyObject_GetAttr(ls, FREEZE_ATTR[F_L_INV])) == NULL)
+            rc = -1;
+        if (rc == 0 && (arr[4] = PyObject_GetAttr(ls, FREEZE_ATTR[F_W])) == NULL)
+            rc = -1;
+        Py_XDECREF(ls);
+        ls = NULL;
+        for (int k = 0; k < 5 && rc == 0; k++)
+            rc = freeze_array(arr[k]);
+        for (int k = 0; k < 5; k++)
+            Py_XDECREF(arr[k]);
+        if (rc < 0)
+            return NULL;
+    }
+    Py_RETURN_TRUE;
+}
+
 /* ------------------------------------------------------------------------- test hooks */
 
 static PyObject *float_repr(PyObject *self, PyObject *arg)
@@ -1985,6 +2203,13 @@ static PyMethodDef methods[] = {
      "cycle_text(r, consts, dumps, format_text, format_value) -> str | None\n\n"
      "render_rows(cycle_rows(r, consts), ...): the whole .OUT block of a CycleResult in one\n"
      "call; None where the Python must build or write it."},
+    {"cycle_writer", (PyCFunction)(void (*)(void))cycle_writer, METH_FASTCALL,
+     "cycle_writer(consts, dumps, format_text, format_value) -> write(r, fd)\n\n"
+     "cycle_text bound to its constants, writing the block's UTF-8 bytes to fd itself:\n"
+     "write returns their number, or None (nothing written) where the Python must write."},
+    {"freeze_result", (PyCFunction)(void (*)(void))freeze_result, METH_FASTCALL,
+     "freeze_result(fix, phi, u1, u2) -> True | None\n\n"
+     "engine.run.cycle._freeze_result's arrays made read-only; None: left to the Python."},
     {"float_repr", float_repr, METH_O,
      "float_repr(x) -> repr(float(x)) by PyOS_double_to_string('r', Py_DTSF_ADD_DOT_0)."},
     {"short_checked", short_checked, METH_NOARGS,
@@ -2011,7 +2236,7 @@ PyMODINIT_FUNC PyInit_outfmt(void)
 {
     init_classes();
     init_pow5();
-    if (init_cycle_names() < 0)
+    if (init_cycle_names() < 0 || freeze_names() < 0)
         return NULL;
     PyDateTime_IMPORT; /* NULL (error cleared): the time stamp by the Python function */
     if (PyDateTimeAPI == NULL)

@@ -493,6 +493,23 @@ def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
                 a.setflags(write=False)
 
 
+_FREEZE_UNSET = object()
+_FREEZE: object = _FREEZE_UNSET
+"""``outfmt.freeze_result`` or None, once :func:`_freeze_kernel` resolved it."""
+
+
+def _freeze_kernel() -> Callable[..., bool | None] | None:
+    """``outfmt.freeze_result`` (engine/native/outfmt.c: :func:`_freeze_result` in one call,
+    the same arrays made read-only in the same order), resolved once; None without the kernel
+    (not built, stale, ``UVNAV_PURE=1``): then :func:`_freeze_result` does it."""
+    from engine import native
+
+    global _FREEZE
+    k = native.kernel("outfmt")
+    _FREEZE = getattr(k, "freeze_result", None) if k is not None else None
+    return _FREEZE  # type: ignore[return-value]
+
+
 def _cm_for(nav: NavState, lon: float) -> float:
     cm = nav.cm_deg
     if cm is None:
@@ -604,8 +621,11 @@ def step(
         fix_cov_scale=fit_scale, fix_gate=filt.gate,
         lane_slips=0 if lanes is None else lanes.slips,
     )
-    _freeze_result(fix, None if filt.link is None else filt.link[2], filt.result,
-                   pred.sensor_update)
+    freeze = _FREEZE if _FREEZE is not _FREEZE_UNSET else _freeze_kernel()
+    if freeze is None or freeze(fix, None if filt.link is None else filt.link[2], filt.result,
+                                pred.sensor_update) is None:
+        _freeze_result(fix, None if filt.link is None else filt.link[2], filt.result,
+                       pred.sensor_update)
     next_nav = _NEW(NavState)
     next_nav.__dict__.update(
         n=n, last_time=rec.time, cm_deg=cm, mpp_lat_deg=mpp.lat_deg,

@@ -8,6 +8,7 @@ and the major-axis azimuth in degrees from grid north.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from datetime import datetime
 from math import isfinite, sqrt
 from operator import attrgetter
@@ -345,3 +346,15 @@ def cycle_text(r: CycleResult) -> str | None:
     if _K is None:
         return None
     return _K.cycle_text(r, _CYCLE_CONSTS, _float_writer(), _format_text, format_value)
+
+
+def cycle_writer() -> Callable[[CycleResult, int], int | None] | None:
+    """``write(r, fd)``: :func:`cycle_text`'s block of ``r`` written as UTF-8 bytes to the
+    descriptor ``fd`` by the kernel itself (``outfmt.cycle_writer``: the same text, no str made,
+    no Python frame per cycle; :meth:`~engine.io.outlog.OutLogWriter.write_direct` calls it);
+    it returns the number of bytes, or None with nothing written for a cycle it leaves to the
+    Python. None without the kernel (then :func:`cycle_text` / :func:`cycle_block`)."""
+    make = getattr(_K, "cycle_writer", None) if _K is not None else None
+    if make is None:
+        return None
+    return make(_CYCLE_CONSTS, _float_writer(), _format_text, format_value)  # type: ignore[no-any-return]

@@ -64,7 +64,7 @@ from engine.run.cycle import (
     reproject_state,
     step,
 )
-from engine.run.records import cycle_block, cycle_json, cycle_text
+from engine.run.records import cycle_block, cycle_json, cycle_text, cycle_writer
 from engine.run.setup import (
     CHAIN_FILE,
     DATUM_FILE,
@@ -213,6 +213,8 @@ class Session:
         self._prev_record: RunRecord | None = None
         self._smoother: SmootherSpill | None = SmootherSpill() if collect_smoother else None
         self._out: OutLogWriter | None = None
+        self._write_cycle: Callable[[CycleResult, int], int | None] | None = None
+        """The compiled block writer for :meth:`OutLogWriter.write_direct` (None: none)."""
         self._jsonl: OutputFile | None = None
         self.jsonl_path: Path | None = None
         self._open_outputs(config, out_path, jsonl_path, force,
@@ -243,6 +245,7 @@ class Session:
                     force=force,
                     guard=guard,
                 )
+                self._write_cycle = cycle_writer()
         except BaseException:
             self.close()
             if self.jsonl_path is not None and not force:
@@ -384,12 +387,14 @@ class Session:
             counts[3] += result.lane_slips
         out = self._out
         if out is not None:  # the block in one compiled call where it can, else by the Python
-            text = cycle_text(result)
-            if text is not None:
-                out.write_block(text)
-            else:
-                head, lines = cycle_block(result)
-                out.write_cycle(head, lines)
+            write = self._write_cycle  # built and written to the file by the kernel itself
+            if write is None or not out.write_direct(write, result):
+                text = cycle_text(result)
+                if text is not None:
+                    out.write_block(text)
+                else:
+                    head, lines = cycle_block(result)
+                    out.write_cycle(head, lines)
         if self._jsonl is not None:
             self._jsonl.write(json.dumps(cycle_json(result), separators=(",", ":")) + "\n")
             self._jsonl.flush()
