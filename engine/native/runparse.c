@@ -327,8 +327,48 @@ rp_make(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     return obj;
 }
 
+PyDoc_STRVAR(make_attrs_doc,
+"make_attrs(cls, names, *values) -> cls instance\n\n"
+"A frozen dataclass instance without slots (an instance dict) made as object.__new__(cls)\n"
+"and its __dict__ filled with names[i] = values[i] (object.__setattr__'s generic store, past\n"
+"the class's frozen __setattr__): the instance engine.systems.base.new_reading makes.\n"
+"names: a tuple of str, one per value.");
+
+static PyObject *
+rp_make_attrs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
+        || PyTuple_GET_SIZE(args[1]) != nargs - 2) {
+        PyErr_SetString(PyExc_TypeError, "make_attrs(cls, names, *values): one value per name");
+        return NULL;
+    }
+    PyTypeObject *tp = (PyTypeObject *)args[0];
+    if (tp->tp_dictoffset == 0) {
+        PyErr_SetString(PyExc_TypeError, "make_attrs: the class has no instance dict");
+        return NULL;
+    }
+    PyObject *obj = tp->tp_alloc(tp, 0);
+    if (obj == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < nargs - 2; i++) {
+        PyObject *name = PyTuple_GET_ITEM(args[1], i);
+        if (!PyUnicode_CheckExact(name)) {
+            PyErr_SetString(PyExc_TypeError, "make_attrs: a name is not a str");
+            Py_DECREF(obj);
+            return NULL;
+        }
+        if (PyObject_GenericSetAttr(obj, name, args[2 + i]) < 0) {
+            Py_DECREF(obj);
+            return NULL;
+        }
+    }
+    return obj;
+}
+
 static PyMethodDef rp_methods[] = {
     {"make", (PyCFunction)(void (*)(void))rp_make, METH_FASTCALL, make_doc},
+    {"make_attrs", (PyCFunction)(void (*)(void))rp_make_attrs, METH_FASTCALL,
+     make_attrs_doc},
     {"bind", (PyCFunction)(void (*)(void))rp_bind, METH_FASTCALL,
      "bind(cls, setters, tzinfo): the RunRecord class, its 17 slot descriptors, UTC."},
     {"record", (PyCFunction)(void (*)(void))rp_record, METH_FASTCALL, record_doc},

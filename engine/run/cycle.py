@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from datetime import datetime
+from typing import Any
 
 import numpy as np
 
@@ -61,7 +62,7 @@ from engine.lsq.fix import (
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig, resolve_vessel
 from engine.systems import registry
-from engine.systems.base import CycleInputs, SystemReading
+from engine.systems.base import CycleInputs, SystemReading, attrs_maker
 from engine.systems.decca import (
     DECCA,
     DECCA_TRACK_GAP_S,
@@ -740,7 +741,7 @@ def _provisional(nav: NavState, grid: TMGrid,
     if pred_state is None:
         return grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg), None
     x, y = pred_state.x[IX:IY + 1].tolist()  # = pred_state.east_north_m
-    return (x, y), PositionPrior(x, y, pred_state.P[IX:IY + 1, IX:IY + 1].copy())
+    return (x, y), _new_prior(x, y, pred_state.P[IX:IY + 1, IX:IY + 1].copy())
 
 
 def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, cm: float,
@@ -749,12 +750,23 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
     """Every navigation system's reading of this record, in registry order (a system sees the
     readings before it: Decca checks its lanes against GPS)."""
     readings: dict[str, SystemReading] = {}
+    extend = messages.extend
+    make = _new_inputs
+    if make is not None:
+        # CycleInputs(...) positionally in one compiled call (the same instance)
+        config = ctx.config
+        for system in registry.SYSTEMS:
+            reading = system.read(make(config, ctx, nav, rec, grid, cm, x_start, prior,
+                                       dict(readings)))
+            if reading.messages:
+                extend(reading.messages)
+            readings[system.name] = reading
+        return readings
     # The inputs of every system but ``earlier``, filled into each CycleInputs' __dict__ at
     # once (a plain frozen dataclass: the same instance as its __init__ makes, 9 fewer
     # object.__setattr__ calls per system; tests/run/test_cycle.py compares them).
     common = {"config": ctx.config, "context": ctx, "nav": nav, "record": rec, "grid": grid,
               "cm_deg": cm, "x_start": x_start, "prior": prior}
-    extend = messages.extend
     for system in registry.SYSTEMS:
         inputs = _NEW(CycleInputs)
         d = inputs.__dict__
@@ -771,12 +783,22 @@ def _sensor_values_maker() -> Callable[..., SensorValues]:
     """``SensorValues`` from every field positionally: ``engine.native.runparse.make`` bound to
     it (the same instance, without the dataclass ``__init__``'s ``object.__setattr__`` per
     field), or the class itself (the pure path)."""
+    return _slots_maker(SensorValues)
+
+
+def _slots_maker(cls: type) -> Callable[..., Any]:
+    """:func:`engine.systems.gps.slots_maker` of ``cls``."""
     from engine.systems.gps import slots_maker
 
-    return slots_maker(SensorValues)
+    return slots_maker(cls)
 
 
 _new_sensor_values = _sensor_values_maker()
+_new_prior = _slots_maker(PositionPrior)
+"""``PositionPrior(x_m, y_m, cov)`` positionally (:func:`_sensor_values_maker`'s way)."""
+_new_inputs = attrs_maker(CycleInputs)
+"""``CycleInputs`` from every field positionally in one compiled call, or None (the pure
+path fills each instance's ``__dict__``)."""
 
 
 def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, float],

@@ -322,15 +322,13 @@ def decca_geometry(
         kg = _geodesic_kernel(geodesic)
     if kg is not None:
         lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
-        r = _K.geometry(placed._scalars, kg, x_m, y_m, lat0, lon0)
+        # DeccaGeometry(d_master_m, az_master_rad, d_slave_m, az_slave_rad, baseline_m, lef,
+        # metres_per_lane, lop_azimuth_rad, n_calc, row) made in the kernel's one call, its
+        # arrays filled with the numbers of the Python's block
+        r = _K.geometry_new(placed._scalars, kg, x_m, y_m, lat0, lon0, _new_geometry,
+                            placed.baseline_m)
         if r is not NotImplemented:
-            d_master, az_master, values = r
-            block = np.array(values)
-            # DeccaGeometry(d_master_m, az_master_rad, d_slave_m, az_slave_rad, baseline_m,
-            # lef, metres_per_lane, lop_azimuth_rad, n_calc, row), positionally.
-            return _new_geometry(d_master, az_master, block[0:3], block[3:6], placed.baseline_m,
-                                 block[6:9], block[9:12], block[12:15], block[15:18],
-                                 block[18:24].reshape(3, 2))
+            return r  # type: ignore[no-any-return]
     return _decca_geometry_py(placed, x_m, y_m, geodesic, latlon_deg)
 
 
@@ -973,6 +971,17 @@ class DeccaObservations:
         if kg is not None and decca_vcv_m2 is _DECCA_VCV_M2:
             placed = self.reading.placed
             grid = placed.grid
+            tm = _tmgrid._K
+            if tm is not None and grid._packed is not None:
+                # p.latlon (the tmgrid kernel's inverse, set on p) and the rows in one call
+                r = _K.linearise_at(placed._scalars, kg, tm.inverse, grid._packed, grid, p,
+                                    self.observed, slot0, A, b, Cl, self.reading.cf)
+                if r is None:
+                    return
+                if r is not NotImplemented:  # Cl is not a float64 buffer: numpy assigns it
+                    s = slice(slot0, slot0 + len(PATTERNS))
+                    Cl[s, s] = r
+                    return
             lat0, lon0 = p.latlon if p.grid is grid else grid.inverse(p.x, p.y)
             r = _K.linearise(placed._scalars, kg, p.x, p.y, lat0, lon0, self.observed, slot0,
                              A, b, Cl, self.reading.cf)

@@ -304,8 +304,11 @@ class _GpsObservations:
                   Cl: np.ndarray) -> None:
         g = self.gps
         lat, lon = slot0 + ROW_LAT, slot0 + ROW_LON
-        set_row(A, lat, 0.0, 1.0)
-        set_row(A, lon, 1.0, 0.0)
+        # set_row(A, lat, 0.0, 1.0) and set_row(A, lon, 1.0, 0.0), written out
+        A[2 * lat] = 0.0
+        A[2 * lat + 1] = 1.0
+        A[2 * lon] = 1.0
+        A[2 * lon + 1] = 0.0
         b[lat] = g.y_m + g.corr_north_m - p.y
         b[lon] = g.x_m + g.corr_east_m - p.x
         Cl[lat, lat] = g.var_m2
