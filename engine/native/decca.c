@@ -925,6 +925,57 @@ static PyObject *py_linearise(PyObject *m, PyObject *const *args, Py_ssize_t nar
                          out[1][1], out[1][2], out[2][0], out[2][1], out[2][2]);
 }
 
+/* gps_rows(A, b, Cl, slot0, north, east, px, py, var): engine.systems.gps's coordinate rows
+ * (_GpsObservations.linearise) with north = y + corr_north, east = x + corr_east (m): A's
+ * rows (0, 1) and (1, 0) at slots slot0 and slot0 + 1, b = north - py, east - px, and var on
+ * Cl's diagonal there. None, or NotImplemented (nothing written) where Cl is not a writable
+ * float64 numpy array holding those slots or an argument is of another kind. */
+static PyObject *py_gps_rows(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    PyObject *A, *b, *v[6];
+    Py_ssize_t s0, n;
+    double north, east, px, py, var;
+    np_fields_t *f;
+    if (nargs != 9 || !PyList_CheckExact(args[0]) || !PyList_CheckExact(args[1])
+        || !PyLong_CheckExact(args[3]) || arg_float(args[4], &north)
+        || arg_float(args[5], &east) || arg_float(args[6], &px) || arg_float(args[7], &py)
+        || arg_float(args[8], &var))
+        Py_RETURN_NOTIMPLEMENTED;
+    A = args[0];
+    b = args[1];
+    s0 = PyLong_AsSsize_t(args[3]);
+    if (s0 < 0) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    if (np_layout < 0 && np_ready() < 0)
+        PyErr_Clear();
+    f = np_direct(args[2], 2);
+    n = PyList_GET_SIZE(b);
+    if (f == NULL || !(f->flags & NP_WRITEABLE) || s0 + 2 > f->dimensions[0]
+        || s0 + 2 > f->dimensions[1] || 2 * (s0 + 2) > PyList_GET_SIZE(A) || s0 + 2 > n)
+        Py_RETURN_NOTIMPLEMENTED;
+    v[0] = PyFloat_FromDouble(0.0);
+    v[1] = PyFloat_FromDouble(1.0);
+    v[2] = PyFloat_FromDouble(1.0);
+    v[3] = PyFloat_FromDouble(0.0);
+    v[4] = PyFloat_FromDouble(north - py);
+    v[5] = PyFloat_FromDouble(east - px);
+    for (int i = 0; i < 6; i++)
+        if (v[i] == NULL) {
+            for (int j = 0; j < 6; j++)
+                Py_XDECREF(v[j]);
+            return NULL;
+        }
+    for (int i = 0; i < 4; i++)
+        Py_XSETREF(PyList_GET_ITEM(A, 2 * s0 + i), v[i]);
+    Py_XSETREF(PyList_GET_ITEM(b, s0), v[4]);
+    Py_XSETREF(PyList_GET_ITEM(b, s0 + 1), v[5]);
+    *(double *)(f->data + s0 * f->strides[0] + s0 * f->strides[1]) = var;
+    *(double *)(f->data + (s0 + 1) * f->strides[0] + (s0 + 1) * f->strides[1]) = var;
+    Py_RETURN_NONE;
+}
+
 static PyObject *s_grid, *s_x, *s_y, *s_latlon;
 
 /* linearise_at(sc, geodesic, inverse, packed, grid, p, observed, slot0, A, b, Cl, cf):
@@ -1407,6 +1458,8 @@ static PyMethodDef methods[] = {
      "_LaneAt._lanes' numbers: (n_calc, 3x2 rows)."},
     {"_lef_certain", (PyCFunction)(void (*)(void))py_lef_certain, METH_FASTCALL,
      "Whether lanes() may skip the LEF's geodesics (it cannot raise there; tests)."},
+    {"gps_rows", (PyCFunction)(void (*)(void))py_gps_rows, METH_FASTCALL,
+     "engine.systems.gps's two coordinate rows written in one call."},
     {"linearise_at", (PyCFunction)(void (*)(void))py_linearise_at, METH_FASTCALL,
      "DeccaObservations.linearise at a Point on the chain's grid, its latlon made here."},
     {"linearise", (PyCFunction)(void (*)(void))py_linearise, METH_FASTCALL,

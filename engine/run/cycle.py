@@ -378,7 +378,10 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
              lat: float, lon: float,
              messages: list[str]) -> tuple[SensorValues, float | None]:
     cfg = ctx.config
-    status = ctx.derived().sensor_status
+    d = ctx._derived  # ctx.derived(), its usual case looked up here
+    if d is None or d.config is not cfg or d.systems is not registry.SYSTEMS:
+        d = ctx.derived()
+    status = d.sensor_status
     depth = None
     ref = nav.press_ref_hz
     if status[4] == 1 and rec.press_freq_hz is not None:
@@ -639,8 +642,18 @@ def _grid_for_cycle(ctx: RunContext, nav: NavState,
                     messages: list[str]) -> tuple[float, TMGrid, FilterState | None]:
     """The cycle's CM (from the provisional position, the last MPP, THEORY D3), its grid
     and the filter state re-projected onto it when the CM changed."""
-    cm = _cm_for(nav, nav.mpp_lon_deg)
-    grid = ctx.grid(cm)
+    # _cm_for(nav, nav.mpp_lon_deg) and ctx.grid(cm), written out (the same operations)
+    cm = nav.cm_deg
+    lon = nav.mpp_lon_deg
+    if cm is None:
+        cm = central_meridian_deg(lon)
+    else:
+        w = math.remainder(lon - cm, 360.0)  # wrap_180_deg
+        if abs(180.0 if w == -180.0 else w + 0.0) > 0.5 + CM_HYSTERESIS_DEG:
+            cm = central_meridian_deg(lon)
+    grid = ctx._grids.get(cm)
+    if grid is None:
+        grid = ctx.grid(cm)
     fstate = nav.filter
     if fstate is not None and nav.cm_deg is not None and cm != nav.cm_deg:
         fstate = reproject_state(fstate, ctx.grid(nav.cm_deg), grid)

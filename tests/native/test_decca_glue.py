@@ -128,3 +128,47 @@ def test_pure_path_makes_readings_in_python(monkeypatch: pytest.MonkeyPatch) -> 
     """Without the runparse kernel (UVNAV_PURE=1) the makers are the Python ones."""
     monkeypatch.setattr(native, "kernel", lambda name: None)
     assert base.attrs_maker(SystemReading) is None
+
+
+_M = st.floats(-1e7, 1e7, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(x=_M, y=_M, cn=st.floats(-50, 50), ce=st.floats(-50, 50), px=_M, py=_M,
+       var=st.floats(0.01, 1e4), slot0=st.integers(0, 3))
+def test_gps_rows_are_the_python_rows(x: float, y: float, cn: float, ce: float, px: float,
+                                      py: float, var: float, slot0: int) -> None:
+    """``decca.gps_rows`` writes the GPS coordinate rows of ``_GpsObservations.linearise``:
+    the same A, b and C_l bits as its Python (run with the kernel's function switched off)."""
+    from engine.systems import gps
+
+    fix = gps.GpsFix(52.0, 5.0, x, y, var, cn, ce)
+    obs = gps._GpsObservations(fix)
+    p = Point(GRID, FAST, px, py)
+    out = []
+    for rows in (gps._ROWS, None):
+        n = slot0 + 2
+        A, b, Cl = [0.25] * (2 * n), [0.5] * n, np.full((n, n), 0.75)
+        saved = gps._ROWS
+        gps._ROWS = rows
+        try:
+            obs.linearise(p, slot0, A, b, Cl)
+        finally:
+            gps._ROWS = saved
+        out.append((hexes(A), hexes(b), hexes(Cl)))
+    assert gps._ROWS is not None
+    assert out[0] == out[1]
+
+
+def test_gps_rows_decline_what_they_do_not_write() -> None:
+    """A read-only or too small C_l, or arguments of another kind: NotImplemented, nothing
+    written (the Python then writes, or raises, as before)."""
+    A, b = [0.25] * 4, [0.5] * 2
+    ro = np.eye(2)
+    ro.setflags(write=False)
+    for cl, slot0, north in ((ro, 0, 1.0), (np.eye(2), 1, 1.0), (np.eye(2).tolist(), 0, 1.0),
+                             (np.eye(2), 0, 1)):
+        assert K.gps_rows(A, b, cl, slot0, north, 2.0, 3.0, 4.0, 5.0) is NotImplemented
+        assert A == [0.25] * 4 and b == [0.5] * 2
+    assert K.gps_rows(A, b, np.eye(2), 0, 1.0, 2.0, 3.0, 4.0, 5.0) is None
+    assert A == [0.0, 1.0, 1.0, 0.0] and b == [1.0 - 4.0, 2.0 - 3.0]
