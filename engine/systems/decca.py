@@ -1072,7 +1072,9 @@ class DeccaSystem:
         cfg, ctx, rec = inputs.config, inputs.context, inputs.record
         if not cfg.decca.on:
             return SystemReading()
-        placed = ctx.placed_chain(inputs.cm_deg)
+        cm = inputs.cm_deg
+        pl = ctx._placed  # ctx.placed_chain(cm), its usual case looked up here
+        placed = pl[cm] if cm in pl else ctx.placed_chain(cm)
         if placed is None:
             return SystemReading(messages=(f"Decca chain {cfg.decca.chain} not in the chain file",))
         x_start, prior = inputs.x_start, inputs.prior
@@ -1124,6 +1126,39 @@ class DeccaSystem:
         cannot be evaluated)."""
         if value is None:
             return None
+        totals = value.totals
+        if totals is not None:
+            # the loop below for tracked totals, its three patterns written out
+            fr = value.fractions
+            corr = value.corrections_lanes
+            sel = value.selected
+            nan = math.nan
+            t0, t1, t2 = totals[0], totals[1], totals[2]
+            if t0 is None or fr[0] is None:
+                r0 = None
+                o0 = nan
+                a0 = False
+            else:
+                r0 = float(t0)
+                o0 = r0 + corr[0]
+                a0 = sel[0]
+            if t1 is None or fr[1] is None:
+                r1 = None
+                o1 = nan
+                a1 = False
+            else:
+                r1 = float(t1)
+                o1 = r1 + corr[1]
+                a1 = sel[1]
+            if t2 is None or fr[2] is None:
+                r2 = None
+                o2 = nan
+                a2 = False
+            else:
+                r2 = float(t2)
+                o2 = r2 + corr[2]
+                a2 = sel[2]
+            return DeccaObservations(value, [o0, o1, o2], [r0, r1, r2], [a0, a1, a2], [])
         observed = [math.nan] * 3
         raw: list[float | None] = [None, None, None]
         available = [False] * 3
