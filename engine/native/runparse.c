@@ -12,6 +12,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
+#include "uvn_numpy.h" /* numpy arrays read and made without numpy's headers (prior) */
 #include <math.h>
 #include <string.h>
 
@@ -365,8 +366,69 @@ rp_make_attrs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     return obj;
 }
 
+PyDoc_STRVAR(prior_doc,
+"prior(x, P, ix, iy, make) -> ((x, y), make(x, y, cov)) or None\n\n"
+"engine.run.cycle._provisional's filter part: x[ix:iy + 1].tolist() and\n"
+"make(x, y, P[ix:iy + 1, ix:iy + 1].copy()) for float64 numpy arrays x (1-D) and P (2-D) read\n"
+"through uvn_numpy.h, iy == ix + 1; None for anything else (the Python runs).");
+
+static PyObject *
+rp_prior(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    np_fields_t *fx, *fp;
+    Py_ssize_t ix, iy;
+    double x, y, *data;
+    PyObject *cov, *xo, *yo, *made, *a[3];
+    if (nargs != 5 || !PyLong_CheckExact(args[2]) || !PyLong_CheckExact(args[3]))
+        Py_RETURN_NONE;
+    if (np_layout < 0 && np_ready() < 0) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    ix = PyLong_AsSsize_t(args[2]);
+    iy = PyLong_AsSsize_t(args[3]);
+    if (ix < 0 || iy != ix + 1) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    fx = np_direct(args[0], 1);
+    fp = np_direct(args[1], 2);
+    if (fx == NULL || fp == NULL || iy >= fx->dimensions[0] || iy >= fp->dimensions[0]
+        || iy >= fp->dimensions[1])
+        Py_RETURN_NONE;
+    x = *(double *)(fx->data + ix * fx->strides[0]);
+    y = *(double *)(fx->data + iy * fx->strides[0]);
+    cov = new_array(2, 2, 2, &data);
+    if (cov == NULL)
+        return NULL;
+    for (int i = 0; i < 2; i++)
+        for (int j = 0; j < 2; j++)
+            data[2 * i + j] =
+                *(double *)(fp->data + (ix + i) * fp->strides[0] + (ix + j) * fp->strides[1]);
+    xo = PyFloat_FromDouble(x);
+    yo = PyFloat_FromDouble(y);
+    if (xo == NULL || yo == NULL) {
+        Py_XDECREF(xo);
+        Py_XDECREF(yo);
+        Py_DECREF(cov);
+        return NULL;
+    }
+    a[0] = xo;
+    a[1] = yo;
+    a[2] = cov;
+    made = PyObject_Vectorcall(args[4], a, 3, NULL);
+    Py_DECREF(cov);
+    if (made == NULL) {
+        Py_DECREF(xo);
+        Py_DECREF(yo);
+        return NULL;
+    }
+    return Py_BuildValue("((NN)N)", xo, yo, made);
+}
+
 static PyMethodDef rp_methods[] = {
     {"make", (PyCFunction)(void (*)(void))rp_make, METH_FASTCALL, make_doc},
+    {"prior", (PyCFunction)(void (*)(void))rp_prior, METH_FASTCALL, prior_doc},
     {"make_attrs", (PyCFunction)(void (*)(void))rp_make_attrs, METH_FASTCALL,
      make_attrs_doc},
     {"bind", (PyCFunction)(void (*)(void))rp_bind, METH_FASTCALL,

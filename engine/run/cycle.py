@@ -62,7 +62,7 @@ from engine.lsq.fix import (
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig, resolve_vessel
 from engine.systems import registry
-from engine.systems.base import CycleInputs, SystemReading, attrs_maker
+from engine.systems.base import CycleInputs, SystemReading, attrs_maker, runparse_function
 from engine.systems.decca import (
     DECCA,
     DECCA_TRACK_GAP_S,
@@ -753,6 +753,11 @@ def _provisional(nav: NavState, grid: TMGrid,
     prediction when there is a filter, else the last MPP without a prior."""
     if pred_state is None:
         return grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg), None
+    k = _prior_kernel
+    if k is not None:  # the lines below in one compiled call (the same floats and copy)
+        r = k(pred_state.x, pred_state.P, IX, IY, _new_prior)
+        if r is not None:
+            return r  # type: ignore[no-any-return]
     x, y = pred_state.x[IX:IY + 1].tolist()  # = pred_state.east_north_m
     return (x, y), _new_prior(x, y, pred_state.P[IX:IY + 1, IX:IY + 1].copy())
 
@@ -812,6 +817,10 @@ _new_prior = _slots_maker(PositionPrior)
 _new_inputs = attrs_maker(CycleInputs)
 """``CycleInputs`` from every field positionally in one compiled call, or None (the pure
 path fills each instance's ``__dict__``)."""
+_prior_kernel: Any = runparse_function("prior")
+"""``engine/native/runparse.c``'s ``prior``: :func:`_provisional`'s filter part in one call
+(None: the kernel not in use; it returns None for arrays it does not read, then the Python
+runs)."""
 
 
 def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, float],

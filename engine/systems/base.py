@@ -188,6 +188,14 @@ def attrs_maker(cls: type) -> Callable[..., Any] | None:
     return partial(kernel.make_attrs, cls, tuple(f.name for f in fields(cls)))
 
 
+def runparse_function(name: str) -> Any:
+    """The function ``name`` of the compiled ``engine.native.runparse`` (None: the kernel not
+    in use, ``UVNAV_PURE=1``, or a build without it)."""
+    from engine import native
+
+    return getattr(native.kernel("runparse"), name, None)
+
+
 new_reading: Callable[..., SystemReading] = attrs_maker(SystemReading) or _new_reading_py
 """``new_reading(value, messages, detail, observes)``: a :class:`SystemReading` made without
 its generated ``__init__`` (:func:`attrs_maker`, else :func:`_new_reading_py`)."""

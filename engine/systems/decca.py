@@ -1029,7 +1029,8 @@ class DeccaObservations:
         return self._at[1]
 
     def readings(self, p: Point) -> list[LopReading]:
-        geom = self.geometry_at(p)
+        at = self._at  # self.geometry_at(p), its computed case looked up here
+        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
         n_calc = geom.n_calc.tolist()
         lop_az = geom.lop_azimuth_rad.tolist()
         corrections = self.reading.corrections_lanes
@@ -1040,7 +1041,8 @@ class DeccaObservations:
 
     def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
         """A used pattern's hyperbola has the master and its slave as foci."""
-        geom = self.geometry_at(p)
+        at = self._at  # self.geometry_at(p), its computed case looked up here
+        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
         d_slave = geom.d_slave_m.tolist()
         near = math.inf
         for i in range(len(PATTERNS)):
