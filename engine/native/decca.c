@@ -17,6 +17,10 @@
  *   - lane_sigma's row @ cov @ row is numpy's matmul: cblas_dgemv (RowMajor, Trans) for the
  *     vector @ matrix, then DOUBLE_dot's 0.0 + cblas_ddot, numpy's own OpenBLAS routines
  *     (addresses from engine.native.blas, bound on first use).
+ * Glue of the systems' stage (issue 14, night): geometry_new makes decca_geometry's
+ * DeccaGeometry with its arrays in one call, linearise_at takes a Point's latlon from the
+ * tmgrid kernel's inverse before linearise, gps_rows writes engine.systems.gps's two
+ * coordinate rows (the same floats as their Python; tests/native/test_decca_glue.py).
  * Functions given arguments of other types than the Python fast path sees (not floats, not
  * tuples/lists of the expected lengths) return NotImplemented: the caller then runs its Python.
  */

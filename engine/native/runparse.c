@@ -8,7 +8,10 @@
  * numeric columns of [0-9.-] converted by PyOS_string_to_double (what float(str) calls, so the
  * same bits) and range-checked with the same comparisons; lat = d + m / 60.0 + s / 3600.0 in
  * that order (built with -ffp-contract=off). The record is made like object.__new__ plus the
- * slot setters (engine.io.runfile._new_record), bound once by bind(). */
+ * slot setters (engine.io.runfile._new_record), bound once by bind().
+ * Also the cycle's small objects made in one call: make (frozen slots dataclasses), make_attrs
+ * (frozen dataclasses with an instance dict: SystemReading, CycleInputs) and prior
+ * (engine.run.cycle._provisional's filter part; tests/native/test_runparse_glue.py). */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
