@@ -17,6 +17,10 @@
  *   - lane_sigma's row @ cov @ row is numpy's matmul: cblas_dgemv (RowMajor, Trans) for the
  *     vector @ matrix, then DOUBLE_dot's 0.0 + cblas_ddot, numpy's own OpenBLAS routines
  *     (addresses from engine.native.blas, bound on first use).
+ * Glue of the systems' stage (issue 14, night): geometry_new makes decca_geometry's
+ * DeccaGeometry with its arrays in one call, linearise_at takes a Point's latlon from the
+ * tmgrid kernel's inverse before linearise, gps_rows writes engine.systems.gps's two
+ * coordinate rows (the same floats as their Python; tests/native/test_decca_glue.py).
  * Functions given arguments of other types than the Python fast path sees (not floats, not
  * tuples/lists of the expected lengths) return NotImplemented: the caller then runs its Python.
  */
@@ -599,35 +603,32 @@ static int check_geodesic(PyObject *o)
     return !PyObject_TypeCheck(o, &GeodesicType);
 }
 
-/* geometry(sc, geodesic, x, y, lat0, lon0) -> (d_master, az_master, block): decca_geometry's
- * numbers, ``block`` its 24 per-pattern floats in the order of the Python's ``block`` list. */
-static PyObject *py_geometry(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+/* decca_geometry's numbers at (x, y) of geodetic (lat0, lon0): d_master, az_master and the
+ * 24 per-pattern floats in the order of the Python's ``block`` list. 0, -1 (error set). */
+static int geometry_numbers(const chain_t *c, const GeodesicObject *g, double x, double y,
+                            double lat0, double lon0, double *d_master, double *az_master,
+                            double block[24])
 {
-    chain_t c;
-    double x, y, lat0, lon0, az[4], lef[3], block[24], s0, c0;
+    double az[4], lef[3], s0, c0;
     lanes_t o;
-    if (nargs != 6 || read_chain(args[0], &c) || check_geodesic(args[1])
-        || arg_float(args[2], &x) || arg_float(args[3], &y) || arg_float(args[4], &lat0)
-        || arg_float(args[5], &lon0))
-        Py_RETURN_NOTIMPLEMENTED;
-    if (lane_model(&c, x, y, lat0, &o) < 0)
-        return NULL;
-    azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
+    if (lane_model(c, x, y, lat0, &o) < 0)
+        return -1;
+    azimuths(g, c, lat0, lon0, az);
     if (lef_of(az, lef) < 0)
-        return NULL;
+        return -1;
     for (int j = 0; j < 3; j++) {
         block[j] = o.dist[j + 1];
         block[3 + j] = py_mod(az[j + 1], TWO_PI);
         block[6 + j] = lef[j];
-        block[9 + j] = c.lam[j] * lef[j] / 2.0;
+        block[9 + j] = c->lam[j] * lef[j] / 2.0;
     }
     if (py_sin(az[0], &s0) < 0 || py_cos(az[0], &c0) < 0)
-        return NULL;
+        return -1;
     for (int j = 0; j < 3; j++) {
         double sa, ca, t;
         if (py_sin(az[j + 1], &sa) < 0 || py_cos(az[j + 1], &ca) < 0
             || py_atan2(-s0 + sa, -c0 + ca, &t) < 0)
-            return NULL;
+            return -1;
         block[12 + j] = py_mod(t + HALF_PI, TWO_PI);
     }
     for (int j = 0; j < 3; j++) {
@@ -635,7 +636,67 @@ static PyObject *py_geometry(PyObject *m, PyObject *const *args, Py_ssize_t narg
         block[18 + 2 * j] = o.row_x[j];
         block[19 + 2 * j] = o.row_y[j];
     }
-    return Py_BuildValue("(ddN)", o.dist[0], py_mod(az[0], TWO_PI), list_of(block, 24));
+    *d_master = o.dist[0];
+    *az_master = py_mod(az[0], TWO_PI);
+    return 0;
+}
+
+/* geometry(sc, geodesic, x, y, lat0, lon0) -> (d_master, az_master, block): decca_geometry's
+ * numbers, ``block`` its 24 per-pattern floats in the order of the Python's ``block`` list. */
+static PyObject *py_geometry(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    double x, y, lat0, lon0, block[24], dm, azm;
+    if (nargs != 6 || read_chain(args[0], &c) || check_geodesic(args[1])
+        || arg_float(args[2], &x) || arg_float(args[3], &y) || arg_float(args[4], &lat0)
+        || arg_float(args[5], &lon0))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (geometry_numbers(&c, (GeodesicObject *)args[1], x, y, lat0, lon0, &dm, &azm, block) < 0)
+        return NULL;
+    return Py_BuildValue("(ddN)", dm, azm, list_of(block, 24));
+}
+
+/* geometry_new(sc, geodesic, x, y, lat0, lon0, make, baseline_m) -> make(d_master, az_master,
+ * d_slave, az_slave, baseline_m, lef, metres_per_lane, lop_azimuth_rad, n_calc, row): the
+ * DeccaGeometry of decca_geometry in one call, its arrays (3,) and row (3, 2) float64 made here
+ * (uvn_numpy.h) with the values the Python's block views hold. NotImplemented as geometry. */
+static PyObject *py_geometry_new(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    double x, y, lat0, lon0, block[24], dm, azm, *data;
+    PyObject *v[10] = {NULL}, *out = NULL;
+    if (nargs != 8 || read_chain(args[0], &c) || check_geodesic(args[1])
+        || arg_float(args[2], &x) || arg_float(args[3], &y) || arg_float(args[4], &lat0)
+        || arg_float(args[5], &lon0))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (geometry_numbers(&c, (GeodesicObject *)args[1], x, y, lat0, lon0, &dm, &azm, block) < 0)
+        return NULL;
+    if (np_ready() < 0)
+        return NULL;
+    v[0] = PyFloat_FromDouble(dm);
+    v[1] = PyFloat_FromDouble(azm);
+    if (v[0] == NULL || v[1] == NULL)
+        goto done;
+    v[4] = Py_NewRef(args[7]);
+    {
+        /* d_slave, az_slave, lef, metres_per_lane, lop_azimuth_rad, n_calc: block[3i:3i+3] */
+        static const int slot[6] = {2, 3, 5, 6, 7, 8};
+        for (int i = 0; i < 6; i++) {
+            v[slot[i]] = new_array(3, 0, 1, &data);
+            if (v[slot[i]] == NULL)
+                goto done;
+            memcpy(data, block + 3 * i, 3 * sizeof(double));
+        }
+    }
+    v[9] = new_array(3, 2, 2, &data);
+    if (v[9] == NULL)
+        goto done;
+    memcpy(data, block + 18, 6 * sizeof(double));
+    out = PyObject_Vectorcall(args[6], v, 10, NULL);
+done:
+    for (int i = 0; i < 10; i++)
+        Py_XDECREF(v[i]);
+    return out;
 }
 
 /* Where the LEF of _LaneAt._lanes cannot raise, so its four geodesics need not be computed.
@@ -866,6 +927,130 @@ static PyObject *py_linearise(PyObject *m, PyObject *const *args, Py_ssize_t nar
         Py_RETURN_NONE;
     return Py_BuildValue("[[ddd][ddd][ddd]]", out[0][0], out[0][1], out[0][2], out[1][0],
                          out[1][1], out[1][2], out[2][0], out[2][1], out[2][2]);
+}
+
+/* gps_rows(A, b, Cl, slot0, north, east, px, py, var): engine.systems.gps's coordinate rows
+ * (_GpsObservations.linearise) with north = y + corr_north, east = x + corr_east (m): A's
+ * rows (0, 1) and (1, 0) at slots slot0 and slot0 + 1, b = north - py, east - px, and var on
+ * Cl's diagonal there. None, or NotImplemented (nothing written) where Cl is not a writable
+ * float64 numpy array holding those slots or an argument is of another kind. */
+static PyObject *py_gps_rows(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    PyObject *A, *b, *v[6];
+    Py_ssize_t s0, n;
+    double north, east, px, py, var;
+    np_fields_t *f;
+    if (nargs != 9 || !PyList_CheckExact(args[0]) || !PyList_CheckExact(args[1])
+        || !PyLong_CheckExact(args[3]) || arg_float(args[4], &north)
+        || arg_float(args[5], &east) || arg_float(args[6], &px) || arg_float(args[7], &py)
+        || arg_float(args[8], &var))
+        Py_RETURN_NOTIMPLEMENTED;
+    A = args[0];
+    b = args[1];
+    s0 = PyLong_AsSsize_t(args[3]);
+    if (s0 < 0) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    if (np_layout < 0 && np_ready() < 0)
+        PyErr_Clear();
+    f = np_direct(args[2], 2);
+    n = PyList_GET_SIZE(b);
+    if (f == NULL || !(f->flags & NP_WRITEABLE) || s0 + 2 > f->dimensions[0]
+        || s0 + 2 > f->dimensions[1] || 2 * (s0 + 2) > PyList_GET_SIZE(A) || s0 + 2 > n)
+        Py_RETURN_NOTIMPLEMENTED;
+    v[0] = PyFloat_FromDouble(0.0);
+    v[1] = PyFloat_FromDouble(1.0);
+    v[2] = PyFloat_FromDouble(1.0);
+    v[3] = PyFloat_FromDouble(0.0);
+    v[4] = PyFloat_FromDouble(north - py);
+    v[5] = PyFloat_FromDouble(east - px);
+    for (int i = 0; i < 6; i++)
+        if (v[i] == NULL) {
+            for (int j = 0; j < 6; j++)
+                Py_XDECREF(v[j]);
+            return NULL;
+        }
+    for (int i = 0; i < 4; i++)
+        Py_XSETREF(PyList_GET_ITEM(A, 2 * s0 + i), v[i]);
+    Py_XSETREF(PyList_GET_ITEM(b, s0), v[4]);
+    Py_XSETREF(PyList_GET_ITEM(b, s0 + 1), v[5]);
+    *(double *)(f->data + s0 * f->strides[0] + s0 * f->strides[1]) = var;
+    *(double *)(f->data + (s0 + 1) * f->strides[0] + (s0 + 1) * f->strides[1]) = var;
+    Py_RETURN_NONE;
+}
+
+static PyObject *s_grid, *s_x, *s_y, *s_latlon;
+
+/* linearise_at(sc, geodesic, inverse, packed, grid, p, observed, slot0, A, b, Cl, cf):
+ * DeccaObservations.linearise for a Point ``p`` on the chain's ``grid``: its (lat, lon) is
+ * p._latlon, or, not yet set, the tmgrid kernel's inverse(packed, p.x, p.y) (what p.latlon
+ * calls through TMGrid.inverse, with its memo), then set as p.latlon sets it; then linearise.
+ * NotImplemented (nothing written or set) for another grid, an inverse the kernel declines,
+ * or arguments linearise does not take. */
+static PyObject *py_linearise_at(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    PyObject *p, *g, *x, *y, *ll, *a[12], *r;
+    if (nargs != 12)
+        Py_RETURN_NOTIMPLEMENTED;
+    p = args[5];
+    g = PyObject_GetAttr(p, s_grid);
+    if (g == NULL)
+        goto decline;
+    Py_DECREF(g); /* identity only */
+    if (g != args[4])
+        Py_RETURN_NOTIMPLEMENTED;
+    x = PyObject_GetAttr(p, s_x);
+    y = x == NULL ? NULL : PyObject_GetAttr(p, s_y);
+    ll = y == NULL ? NULL : PyObject_GetAttr(p, s_latlon);
+    if (ll == NULL) {
+        Py_XDECREF(x);
+        Py_XDECREF(y);
+        goto decline;
+    }
+    if (!PyFloat_CheckExact(x) || !PyFloat_CheckExact(y)) {
+        r = Py_NewRef(Py_NotImplemented);
+        goto done;
+    }
+    if (ll == Py_None) {
+        PyObject *ia[3] = {args[3], x, y};
+        Py_DECREF(ll);
+        ll = PyObject_Vectorcall(args[2], ia, 3, NULL);
+        if (ll == NULL) {
+            Py_DECREF(x);
+            Py_DECREF(y);
+            goto decline;
+        }
+        if (ll == Py_None) { /* the kernel declines: TMGrid.inverse runs its Python */
+            r = Py_NewRef(Py_NotImplemented);
+            goto done;
+        }
+        if (PyObject_SetAttr(p, s_latlon, ll) < 0) {
+            r = NULL;
+            goto done;
+        }
+    }
+    if (!PyTuple_CheckExact(ll) || PyTuple_GET_SIZE(ll) != 2) {
+        r = Py_NewRef(Py_NotImplemented);
+        goto done;
+    }
+    a[0] = args[0];
+    a[1] = args[1];
+    a[2] = x;
+    a[3] = y;
+    a[4] = PyTuple_GET_ITEM(ll, 0);
+    a[5] = PyTuple_GET_ITEM(ll, 1);
+    for (int i = 6; i < 12; i++)
+        a[i] = args[i];
+    r = py_linearise(m, a, 12);
+done:
+    Py_DECREF(x);
+    Py_DECREF(y);
+    Py_DECREF(ll);
+    return r;
+decline:
+    PyErr_Clear();
+    Py_RETURN_NOTIMPLEMENTED;
 }
 
 /* vcv_m2(d_master, d_slave, baseline_sky, cf, k) -> _vcv_m2(_vcv_core(...), k), for the tests. */
@@ -1269,12 +1454,18 @@ static PyMethodDef methods[] = {
     {"lane_model", (PyCFunction)(void (*)(void))py_lane_model, METH_FASTCALL,
      "decca._lane_model: (dist, n_calc, row_x, row_y)."},
     {"lef", (PyCFunction)py_lef, METH_O, "decca._lef: 1/sin(gamma/2) per pattern."},
+    {"geometry_new", (PyCFunction)(void (*)(void))py_geometry_new, METH_FASTCALL,
+     "decca_geometry's DeccaGeometry in one call (its arrays made here)."},
     {"geometry", (PyCFunction)(void (*)(void))py_geometry, METH_FASTCALL,
      "decca_geometry's numbers: (d_master, az_master, block of 24)."},
     {"lanes", (PyCFunction)(void (*)(void))py_lanes, METH_FASTCALL,
      "_LaneAt._lanes' numbers: (n_calc, 3x2 rows)."},
     {"_lef_certain", (PyCFunction)(void (*)(void))py_lef_certain, METH_FASTCALL,
      "Whether lanes() may skip the LEF's geodesics (it cannot raise there; tests)."},
+    {"gps_rows", (PyCFunction)(void (*)(void))py_gps_rows, METH_FASTCALL,
+     "engine.systems.gps's two coordinate rows written in one call."},
+    {"linearise_at", (PyCFunction)(void (*)(void))py_linearise_at, METH_FASTCALL,
+     "DeccaObservations.linearise at a Point on the chain's grid, its latlon made here."},
     {"linearise", (PyCFunction)(void (*)(void))py_linearise, METH_FASTCALL,
      "DeccaObservations.linearise's rows and VCV block."},
     {"vcv_m2", (PyCFunction)py_vcv_m2, METH_VARARGS, "_vcv_m2(_vcv_core(...), k)."},
@@ -1319,8 +1510,12 @@ PyMODINIT_FUNC PyInit_decca(void)
     s_track = PyUnicode_InternFromString("track");
     s_notes = PyUnicode_InternFromString("notes");
     s_slips = PyUnicode_InternFromString("slips");
+    s_grid = PyUnicode_InternFromString("grid");
+    s_x = PyUnicode_InternFromString("x");
+    s_y = PyUnicode_InternFromString("y");
+    s_latlon = PyUnicode_InternFromString("_latlon");
     if (s_total_seconds == NULL || s_totals == NULL || s_track == NULL || s_notes == NULL
-        || s_slips == NULL)
+        || s_slips == NULL || s_grid == NULL || s_x == NULL || s_y == NULL || s_latlon == NULL)
         return NULL;
     if (PyType_Ready(&GeodesicType) < 0)
         return NULL;

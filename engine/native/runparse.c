@@ -8,10 +8,14 @@
  * numeric columns of [0-9.-] converted by PyOS_string_to_double (what float(str) calls, so the
  * same bits) and range-checked with the same comparisons; lat = d + m / 60.0 + s / 3600.0 in
  * that order (built with -ffp-contract=off). The record is made like object.__new__ plus the
- * slot setters (engine.io.runfile._new_record), bound once by bind(). */
+ * slot setters (engine.io.runfile._new_record), bound once by bind().
+ * Also the cycle's small objects made in one call: make (frozen slots dataclasses), make_attrs
+ * (frozen dataclasses with an instance dict: SystemReading, CycleInputs) and prior
+ * (engine.run.cycle._provisional's filter part; tests/native/test_runparse_glue.py). */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
+#include "uvn_numpy.h" /* numpy arrays read and made without numpy's headers (prior) */
 #include <math.h>
 #include <string.h>
 
@@ -327,8 +331,109 @@ rp_make(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     return obj;
 }
 
+PyDoc_STRVAR(make_attrs_doc,
+"make_attrs(cls, names, *values) -> cls instance\n\n"
+"A frozen dataclass instance without slots (an instance dict) made as object.__new__(cls)\n"
+"and its __dict__ filled with names[i] = values[i] (object.__setattr__'s generic store, past\n"
+"the class's frozen __setattr__): the instance engine.systems.base.new_reading makes.\n"
+"names: a tuple of str, one per value.");
+
+static PyObject *
+rp_make_attrs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
+        || PyTuple_GET_SIZE(args[1]) != nargs - 2) {
+        PyErr_SetString(PyExc_TypeError, "make_attrs(cls, names, *values): one value per name");
+        return NULL;
+    }
+    PyTypeObject *tp = (PyTypeObject *)args[0];
+    if (tp->tp_dictoffset == 0) {
+        PyErr_SetString(PyExc_TypeError, "make_attrs: the class has no instance dict");
+        return NULL;
+    }
+    PyObject *obj = tp->tp_alloc(tp, 0);
+    if (obj == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < nargs - 2; i++) {
+        PyObject *name = PyTuple_GET_ITEM(args[1], i);
+        if (!PyUnicode_CheckExact(name)) {
+            PyErr_SetString(PyExc_TypeError, "make_attrs: a name is not a str");
+            Py_DECREF(obj);
+            return NULL;
+        }
+        if (PyObject_GenericSetAttr(obj, name, args[2 + i]) < 0) {
+            Py_DECREF(obj);
+            return NULL;
+        }
+    }
+    return obj;
+}
+
+PyDoc_STRVAR(prior_doc,
+"prior(x, P, ix, iy, make) -> ((x, y), make(x, y, cov)) or None\n\n"
+"engine.run.cycle._provisional's filter part: x[ix:iy + 1].tolist() and\n"
+"make(x, y, P[ix:iy + 1, ix:iy + 1].copy()) for float64 numpy arrays x (1-D) and P (2-D) read\n"
+"through uvn_numpy.h, iy == ix + 1; None for anything else (the Python runs).");
+
+static PyObject *
+rp_prior(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    np_fields_t *fx, *fp;
+    Py_ssize_t ix, iy;
+    double x, y, *data;
+    PyObject *cov, *xo, *yo, *made, *a[3];
+    if (nargs != 5 || !PyLong_CheckExact(args[2]) || !PyLong_CheckExact(args[3]))
+        Py_RETURN_NONE;
+    if (np_layout < 0 && np_ready() < 0) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    ix = PyLong_AsSsize_t(args[2]);
+    iy = PyLong_AsSsize_t(args[3]);
+    if (ix < 0 || iy != ix + 1) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    fx = np_direct(args[0], 1);
+    fp = np_direct(args[1], 2);
+    if (fx == NULL || fp == NULL || iy >= fx->dimensions[0] || iy >= fp->dimensions[0]
+        || iy >= fp->dimensions[1])
+        Py_RETURN_NONE;
+    x = *(double *)(fx->data + ix * fx->strides[0]);
+    y = *(double *)(fx->data + iy * fx->strides[0]);
+    cov = new_array(2, 2, 2, &data);
+    if (cov == NULL)
+        return NULL;
+    for (int i = 0; i < 2; i++)
+        for (int j = 0; j < 2; j++)
+            data[2 * i + j] =
+                *(double *)(fp->data + (ix + i) * fp->strides[0] + (ix + j) * fp->strides[1]);
+    xo = PyFloat_FromDouble(x);
+    yo = PyFloat_FromDouble(y);
+    if (xo == NULL || yo == NULL) {
+        Py_XDECREF(xo);
+        Py_XDECREF(yo);
+        Py_DECREF(cov);
+        return NULL;
+    }
+    a[0] = xo;
+    a[1] = yo;
+    a[2] = cov;
+    made = PyObject_Vectorcall(args[4], a, 3, NULL);
+    Py_DECREF(cov);
+    if (made == NULL) {
+        Py_DECREF(xo);
+        Py_DECREF(yo);
+        return NULL;
+    }
+    return Py_BuildValue("((NN)N)", xo, yo, made);
+}
+
 static PyMethodDef rp_methods[] = {
     {"make", (PyCFunction)(void (*)(void))rp_make, METH_FASTCALL, make_doc},
+    {"prior", (PyCFunction)(void (*)(void))rp_prior, METH_FASTCALL, prior_doc},
+    {"make_attrs", (PyCFunction)(void (*)(void))rp_make_attrs, METH_FASTCALL,
+     make_attrs_doc},
     {"bind", (PyCFunction)(void (*)(void))rp_bind, METH_FASTCALL,
      "bind(cls, setters, tzinfo): the RunRecord class, its 17 slot descriptors, UTC."},
     {"record", (PyCFunction)(void (*)(void))rp_record, METH_FASTCALL, record_doc},

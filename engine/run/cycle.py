@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from datetime import datetime
+from typing import Any
 
 import numpy as np
 
@@ -63,7 +64,7 @@ from engine.lsq.fix import (
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig, resolve_vessel
 from engine.systems import registry
-from engine.systems.base import CycleInputs, SystemReading
+from engine.systems.base import CycleInputs, SystemReading, attrs_maker, runparse_function
 from engine.systems.decca import (
     DECCA,
     DECCA_TRACK_GAP_S,
@@ -379,7 +380,10 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
              lat: float, lon: float,
              messages: list[str]) -> tuple[SensorValues, float | None]:
     cfg = ctx.config
-    status = ctx.derived().sensor_status
+    d = ctx._derived  # ctx.derived(), its usual case looked up here
+    if d is None or d.config is not cfg or d.systems is not registry.SYSTEMS:
+        d = ctx.derived()
+    status = d.sensor_status
     depth = None
     ref = nav.press_ref_hz
     if status[4] == 1 and rec.press_freq_hz is not None:
@@ -660,8 +664,18 @@ def _grid_for_cycle(ctx: RunContext, nav: NavState,
                     messages: list[str]) -> tuple[float, TMGrid, FilterState | None]:
     """The cycle's CM (from the provisional position, the last MPP, THEORY D3), its grid
     and the filter state re-projected onto it when the CM changed."""
-    cm = _cm_for(nav, nav.mpp_lon_deg)
-    grid = ctx.grid(cm)
+    # _cm_for(nav, nav.mpp_lon_deg) and ctx.grid(cm), written out (the same operations)
+    cm = nav.cm_deg
+    lon = nav.mpp_lon_deg
+    if cm is None:
+        cm = central_meridian_deg(lon)
+    else:
+        w = math.remainder(lon - cm, 360.0)  # wrap_180_deg
+        if abs(180.0 if w == -180.0 else w + 0.0) > 0.5 + CM_HYSTERESIS_DEG:
+            cm = central_meridian_deg(lon)
+    grid = ctx._grids.get(cm)
+    if grid is None:
+        grid = ctx.grid(cm)
     fstate = nav.filter
     if fstate is not None and nav.cm_deg is not None and cm != nav.cm_deg:
         fstate = reproject_state(fstate, ctx.grid(nav.cm_deg), grid)
@@ -761,8 +775,13 @@ def _provisional(nav: NavState, grid: TMGrid,
     prediction when there is a filter, else the last MPP without a prior."""
     if pred_state is None:
         return grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg), None
+    k = _prior_kernel
+    if k is not None:  # the lines below in one compiled call (the same floats and copy)
+        r = k(pred_state.x, pred_state.P, IX, IY, _new_prior)
+        if r is not None:
+            return r  # type: ignore[no-any-return]
     x, y = pred_state.x[IX:IY + 1].tolist()  # = pred_state.east_north_m
-    return (x, y), PositionPrior(x, y, pred_state.P[IX:IY + 1, IX:IY + 1].copy())
+    return (x, y), _new_prior(x, y, pred_state.P[IX:IY + 1, IX:IY + 1].copy())
 
 
 def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, cm: float,
@@ -771,12 +790,23 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
     """Every navigation system's reading of this record, in registry order (a system sees the
     readings before it: Decca checks its lanes against GPS)."""
     readings: dict[str, SystemReading] = {}
+    extend = messages.extend
+    make = _new_inputs
+    if make is not None:
+        # CycleInputs(...) positionally in one compiled call (the same instance)
+        config = ctx.config
+        for system in registry.SYSTEMS:
+            reading = system.read(make(config, ctx, nav, rec, grid, cm, x_start, prior,
+                                       dict(readings)))
+            if reading.messages:
+                extend(reading.messages)
+            readings[system.name] = reading
+        return readings
     # The inputs of every system but ``earlier``, filled into each CycleInputs' __dict__ at
     # once (a plain frozen dataclass: the same instance as its __init__ makes, 9 fewer
     # object.__setattr__ calls per system; tests/run/test_cycle.py compares them).
     common = {"config": ctx.config, "context": ctx, "nav": nav, "record": rec, "grid": grid,
               "cm_deg": cm, "x_start": x_start, "prior": prior}
-    extend = messages.extend
     for system in registry.SYSTEMS:
         inputs = _NEW(CycleInputs)
         d = inputs.__dict__
@@ -793,12 +823,26 @@ def _sensor_values_maker() -> Callable[..., SensorValues]:
     """``SensorValues`` from every field positionally: ``engine.native.runparse.make`` bound to
     it (the same instance, without the dataclass ``__init__``'s ``object.__setattr__`` per
     field), or the class itself (the pure path)."""
+    return _slots_maker(SensorValues)
+
+
+def _slots_maker(cls: type) -> Callable[..., Any]:
+    """:func:`engine.systems.gps.slots_maker` of ``cls``."""
     from engine.systems.gps import slots_maker
 
-    return slots_maker(SensorValues)
+    return slots_maker(cls)
 
 
 _new_sensor_values = _sensor_values_maker()
+_new_prior = _slots_maker(PositionPrior)
+"""``PositionPrior(x_m, y_m, cov)`` positionally (:func:`_sensor_values_maker`'s way)."""
+_new_inputs = attrs_maker(CycleInputs)
+"""``CycleInputs`` from every field positionally in one compiled call, or None (the pure
+path fills each instance's ``__dict__``)."""
+_prior_kernel: Any = runparse_function("prior")
+"""``engine/native/runparse.c``'s ``prior``: :func:`_provisional`'s filter part in one call
+(None: the kernel not in use; it returns None for arrays it does not read, then the Python
+runs)."""
 
 
 def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, float],

@@ -18,9 +18,10 @@ order (``slot_labels`` says how many and their short names).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, fields
 from datetime import datetime
+from functools import partial
 from typing import Any, Protocol
 
 import numpy as np
@@ -164,14 +165,40 @@ class SystemReading:
 _NEW = object.__new__
 
 
-def new_reading(value: Any, messages: tuple[str, ...], detail: Any,
-                observes: bool) -> SystemReading:
+def _new_reading_py(value: Any, messages: tuple[str, ...], detail: Any,
+                    observes: bool) -> SystemReading:
     """``SystemReading(value, messages, detail, observes)`` with its instance dict filled at
     once (a plain frozen dataclass: the same instance, without the generated ``__init__``'s
     ``object.__setattr__`` per field; a system's reading is made every cycle)."""
     r = _NEW(SystemReading)
     r.__dict__.update(value=value, messages=messages, detail=detail, observes=observes)
     return r
+
+
+def attrs_maker(cls: type) -> Callable[..., Any] | None:
+    """``engine.native.runparse.make_attrs`` bound to the plain frozen dataclass ``cls`` and
+    its field names: ``cls`` from every field positionally, the same instance as
+    ``object.__new__`` plus its ``__dict__`` filled makes, in one compiled call; None where
+    the kernel is not in use (``UVNAV_PURE=1``)."""
+    from engine import native
+
+    kernel = native.kernel("runparse")
+    if kernel is None or not hasattr(kernel, "make_attrs"):
+        return None
+    return partial(kernel.make_attrs, cls, tuple(f.name for f in fields(cls)))
+
+
+def runparse_function(name: str) -> Any:
+    """The function ``name`` of the compiled ``engine.native.runparse`` (None: the kernel not
+    in use, ``UVNAV_PURE=1``, or a build without it)."""
+    from engine import native
+
+    return getattr(native.kernel("runparse"), name, None)
+
+
+new_reading: Callable[..., SystemReading] = attrs_maker(SystemReading) or _new_reading_py
+"""``new_reading(value, messages, detail, observes)``: a :class:`SystemReading` made without
+its generated ``__init__`` (:func:`attrs_maker`, else :func:`_new_reading_py`)."""
 
 
 class NavSystem(Protocol):

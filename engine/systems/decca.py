@@ -322,15 +322,13 @@ def decca_geometry(
         kg = _geodesic_kernel(geodesic)
     if kg is not None:
         lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
-        r = _K.geometry(placed._scalars, kg, x_m, y_m, lat0, lon0)
+        # DeccaGeometry(d_master_m, az_master_rad, d_slave_m, az_slave_rad, baseline_m, lef,
+        # metres_per_lane, lop_azimuth_rad, n_calc, row) made in the kernel's one call, its
+        # arrays filled with the numbers of the Python's block
+        r = _K.geometry_new(placed._scalars, kg, x_m, y_m, lat0, lon0, _new_geometry,
+                            placed.baseline_m)
         if r is not NotImplemented:
-            d_master, az_master, values = r
-            block = np.array(values)
-            # DeccaGeometry(d_master_m, az_master_rad, d_slave_m, az_slave_rad, baseline_m,
-            # lef, metres_per_lane, lop_azimuth_rad, n_calc, row), positionally.
-            return _new_geometry(d_master, az_master, block[0:3], block[3:6], placed.baseline_m,
-                                 block[6:9], block[9:12], block[12:15], block[15:18],
-                                 block[18:24].reshape(3, 2))
+            return r  # type: ignore[no-any-return]
     return _decca_geometry_py(placed, x_m, y_m, geodesic, latlon_deg)
 
 
@@ -973,6 +971,17 @@ class DeccaObservations:
         if kg is not None and decca_vcv_m2 is _DECCA_VCV_M2:
             placed = self.reading.placed
             grid = placed.grid
+            tm = _tmgrid._K
+            if tm is not None and grid._packed is not None:
+                # p.latlon (the tmgrid kernel's inverse, set on p) and the rows in one call
+                r = _K.linearise_at(placed._scalars, kg, tm.inverse, grid._packed, grid, p,
+                                    self.observed, slot0, A, b, Cl, self.reading.cf)
+                if r is None:
+                    return
+                if r is not NotImplemented:  # Cl is not a float64 buffer: numpy assigns it
+                    s = slice(slot0, slot0 + len(PATTERNS))
+                    Cl[s, s] = r
+                    return
             lat0, lon0 = p.latlon if p.grid is grid else grid.inverse(p.x, p.y)
             r = _K.linearise(placed._scalars, kg, p.x, p.y, lat0, lon0, self.observed, slot0,
                              A, b, Cl, self.reading.cf)
@@ -1020,7 +1029,8 @@ class DeccaObservations:
         return self._at[1]
 
     def readings(self, p: Point) -> list[LopReading]:
-        geom = self.geometry_at(p)
+        at = self._at  # self.geometry_at(p), its computed case looked up here
+        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
         n_calc = geom.n_calc.tolist()
         lop_az = geom.lop_azimuth_rad.tolist()
         corrections = self.reading.corrections_lanes
@@ -1031,7 +1041,8 @@ class DeccaObservations:
 
     def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
         """A used pattern's hyperbola has the master and its slave as foci."""
-        geom = self.geometry_at(p)
+        at = self._at  # self.geometry_at(p), its computed case looked up here
+        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
         d_slave = geom.d_slave_m.tolist()
         near = math.inf
         for i in range(len(PATTERNS)):
@@ -1063,7 +1074,9 @@ class DeccaSystem:
         cfg, ctx, rec = inputs.config, inputs.context, inputs.record
         if not cfg.decca.on:
             return SystemReading()
-        placed = ctx.placed_chain(inputs.cm_deg)
+        cm = inputs.cm_deg
+        pl = ctx._placed  # ctx.placed_chain(cm), its usual case looked up here
+        placed = pl[cm] if cm in pl else ctx.placed_chain(cm)
         if placed is None:
             return SystemReading(messages=(f"Decca chain {cfg.decca.chain} not in the chain file",))
         x_start, prior = inputs.x_start, inputs.prior
@@ -1115,6 +1128,39 @@ class DeccaSystem:
         cannot be evaluated)."""
         if value is None:
             return None
+        totals = value.totals
+        if totals is not None:
+            # the loop below for tracked totals, its three patterns written out
+            fr = value.fractions
+            corr = value.corrections_lanes
+            sel = value.selected
+            nan = math.nan
+            t0, t1, t2 = totals[0], totals[1], totals[2]
+            if t0 is None or fr[0] is None:
+                r0 = None
+                o0 = nan
+                a0 = False
+            else:
+                r0 = float(t0)
+                o0 = r0 + corr[0]
+                a0 = sel[0]
+            if t1 is None or fr[1] is None:
+                r1 = None
+                o1 = nan
+                a1 = False
+            else:
+                r1 = float(t1)
+                o1 = r1 + corr[1]
+                a1 = sel[1]
+            if t2 is None or fr[2] is None:
+                r2 = None
+                o2 = nan
+                a2 = False
+            else:
+                r2 = float(t2)
+                o2 = r2 + corr[2]
+                a2 = sel[2]
+            return DeccaObservations(value, [o0, o1, o2], [r0, r1, r2], [a0, a1, a2], [])
         observed = [math.nan] * 3
         raw: list[float | None] = [None, None, None]
         available = [False] * 3

@@ -289,6 +289,12 @@ def gps_weight(config: Any, record: RunRecord) -> GpsWeight:
                      se_sf=config.lsq.gps_se_sf, receiver=g.receiver)
 
 
+_ROWS: Any = getattr(native.kernel("decca"), "gps_rows", None)
+"""``engine/native/decca.c``'s ``gps_rows``: :meth:`_GpsObservations.linearise` in one call
+(None: not built, stale, ``UVNAV_PURE=1``; it returns NotImplemented for a C_l it does not
+write, then the Python runs)."""
+
+
 class _GpsObservations:
     """The two coordinate rows of a GPS fix (thesis ch. 5, table 5.1 category I)."""
 
@@ -296,16 +302,27 @@ class _GpsObservations:
 
     def __init__(self, gps: GpsFix) -> None:
         self.gps = gps
+        self._north_east = (gps.y_m + gps.corr_north_m, gps.x_m + gps.corr_east_m)
+        """The corrected grid position (northing, easting; m), the minuends of O − C."""
 
     def available(self) -> list[bool]:
         return [True, True]
 
     def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
                   Cl: np.ndarray) -> None:
+        k = _ROWS
+        if k is not None:
+            # the rows below in one compiled call (the same floats; None: written)
+            north, east = self._north_east
+            if k(A, b, Cl, slot0, north, east, p.x, p.y, self.gps.var_m2) is None:
+                return
         g = self.gps
         lat, lon = slot0 + ROW_LAT, slot0 + ROW_LON
-        set_row(A, lat, 0.0, 1.0)
-        set_row(A, lon, 1.0, 0.0)
+        # set_row(A, lat, 0.0, 1.0) and set_row(A, lon, 1.0, 0.0), written out
+        A[2 * lat] = 0.0
+        A[2 * lat + 1] = 1.0
+        A[2 * lon] = 1.0
+        A[2 * lon + 1] = 0.0
         b[lat] = g.y_m + g.corr_north_m - p.y
         b[lon] = g.x_m + g.corr_east_m - p.x
         Cl[lat, lat] = g.var_m2
