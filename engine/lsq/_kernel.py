@@ -78,7 +78,7 @@ def _bind(mod: ModuleType) -> ModuleType | None:
         return None
     addresses = {**{f"np_{k}": v for k, v in cblas.items()},
                  **{f"npl_{k}": v for k, v in lapack.items()}}  # SciPy's library not needed
-    mod._bind(addresses, np.empty, math.hypot, _CLASSES["solution"], _CLASSES["ellipse"])
+    mod._bind(addresses, math.hypot, _CLASSES["solution"], _CLASSES["ellipse"])
     return mod
 
 

@@ -1346,16 +1346,16 @@ static PyObject *lsq_quiet(PyObject *self, PyObject *const *args, Py_ssize_t nar
 /* ---------------------------------------------------------------------------------------- */
 
 PyDoc_STRVAR(bind_doc,
-"_bind(addresses, numpy_empty, math_hypot, solution_type, ellipse_type)\n"
+"_bind(addresses, math_hypot, solution_type, ellipse_type)\n"
 "\n"
 "Bind numpy's np_dgemm, np_dgemv, np_ddot and npl_dgesv (addresses as engine.native.blas gives\n"
-"them, keys as in all_addresses()), numpy.empty, math.hypot,\n"
+"them, keys as in all_addresses()), math.hypot,\n"
 "adjustment._Solution and confidence.Ellipse; called once, on first use.");
 
 static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 5) {
-        PyErr_SetString(PyExc_TypeError, "_bind needs 5 arguments");
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "_bind needs 4 arguments");
         return NULL;
     }
     /* only numpy's routines: SciPy's OpenBLAS (all_addresses) need not be loaded for this */
@@ -1383,8 +1383,8 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
     b.dgemv = (uvn_dgemv_t)ptr[1];
     b.ddot = (uvn_ddot_t)ptr[2];
     b.npl_dgesv = (uvn_npl_dgesv_t)ptr[3];
-    if (!PyType_Check(args[3]) || !PyType_IsSubtype((PyTypeObject *)args[3], &PyTuple_Type) ||
-        !PyType_Check(args[4])) {
+    if (!PyType_Check(args[2]) || !PyType_IsSubtype((PyTypeObject *)args[2], &PyTuple_Type) ||
+        !PyType_Check(args[3])) {
         PyErr_SetString(PyExc_TypeError, "_bind: a tuple type and a class expected");
         return NULL;
     }
@@ -1397,11 +1397,11 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
                 return NULL;
         }
     B = b;
-    if (np_ready() < 0) /* numpy.empty itself (args[1]) is what uvn_numpy.h falls back to */
+    if (np_ready() < 0) /* uvn_numpy.h looks numpy.empty up itself */
         return NULL;
-    Py_XSETREF(py_hypot, Py_NewRef(args[2]));
-    Py_XSETREF(sol_type, (PyTypeObject *)Py_NewRef(args[3]));
-    Py_XSETREF(ellipse_type, Py_NewRef(args[4]));
+    Py_XSETREF(py_hypot, Py_NewRef(args[1]));
+    Py_XSETREF(sol_type, (PyTypeObject *)Py_NewRef(args[2]));
+    Py_XSETREF(ellipse_type, Py_NewRef(args[3]));
     bound = 1;
     Py_RETURN_NONE;
 }
