@@ -6,8 +6,8 @@ the first ``N_EPOCHS`` records of the bundled demo (surfaced: GPS + Decca + filt
 The headline is a plain replay (``Session.run`` with the ``.OUT`` log, nothing instrumented).
 The stage split comes from the same replay with timers around the stage functions: the names
 in ``STAGES`` as the cycle (``engine.run.cycle``) calls them, and the session's ``.OUT`` block and
-write (``engine.run.session.cycle_text`` / ``cycle_block``, ``OutLogWriter.write_block`` /
-``write_cycle``); parsing the ``.RUN`` is
+write (``OutLogWriter.write_direct``, or ``engine.run.session.cycle_text`` / ``cycle_block``,
+``OutLogWriter.write_block`` / ``write_cycle``); parsing the ``.RUN`` is
 timed on its own. "rest of the cycle" is the time inside ``engine.run.cycle.step`` outside the
 stage functions; the session's own bookkeeping (history, counters) is in no row. The timers
 cost about a microsecond per call, so the rows add up to a little more than the headline.
@@ -57,8 +57,8 @@ STAGES = {
                             "engine.systems.decca:_tracked_totals"),
     "LSQ fix + tests": ("compute_fix",),
     "filter (predict, updates)": (
-        "predict_step", "update", "sensor_measurement", "lse_measurement", "stack_measurements",
-        "innovation_distance"),
+        "predict_step", "update", "sensor_rows", "update_rows", "update_rows_two",
+        "lse_measurement", "stack_measurements", "innovation_distance"),
 }
 """Stage → the functions of ``engine.run.cycle`` (as ``step`` calls them) whose time it is."""
 BASELINE_REVS = {"f81acd7": "when issue 14 was filed", "7aa241a": "before the bit-exact speed work"}
@@ -125,9 +125,11 @@ def _instrumented(acc: dict[str, float]) -> Iterator[None]:
             patches.append((mod, attr, _timed(getattr(mod, attr), acc, stage)))
     # session.step calls engine.run.cycle.step through its own imported name.
     patches.append((session_mod, "step", _timed(session_mod.step, acc, CYCLE)))
-    # The session writes the block in one compiled call (cycle_text + write_block) and falls
-    # back to cycle_block + write_cycle: all four are timed as the .OUT stage.
-    for obj, attr in ((session_mod, "cycle_text"), (session_mod, "cycle_block"),
+    # The session writes the block by the compiled writer (OutLogWriter.write_direct: text
+    # and write(2) in one call) and falls back to cycle_text + write_block, then to
+    # cycle_block + write_cycle: all five are timed as the .OUT stage.
+    for obj, attr in ((OutLogWriter, "write_direct"),
+                      (session_mod, "cycle_text"), (session_mod, "cycle_block"),
                       (OutLogWriter, "write_block"), (OutLogWriter, "write_cycle")):
         patches.append((obj, attr, _timed(getattr(obj, attr), acc, LOG_STAGE)))
     originals = [(obj, name, getattr(obj, name)) for obj, name, _ in patches]

@@ -33,7 +33,6 @@ from engine.filter.kalman import (
     predict_step,
     restart_dr_states,
     restart_fix_states,
-    sensor_measurement,  # noqa: F401 — bench/bench_engine.py times it as cycle's
     stack_measurements,
     update,
 )
