@@ -1130,37 +1130,20 @@ class DeccaSystem:
             return None
         totals = value.totals
         if totals is not None:
-            # the loop below for tracked totals, its three patterns written out
+            # the loop below for tracked totals, without its resolver and messages
             fr = value.fractions
             corr = value.corrections_lanes
             sel = value.selected
-            nan = math.nan
-            t0, t1, t2 = totals[0], totals[1], totals[2]
-            if t0 is None or fr[0] is None:
-                r0 = None
-                o0 = nan
-                a0 = False
-            else:
-                r0 = float(t0)
-                o0 = r0 + corr[0]
-                a0 = sel[0]
-            if t1 is None or fr[1] is None:
-                r1 = None
-                o1 = nan
-                a1 = False
-            else:
-                r1 = float(t1)
-                o1 = r1 + corr[1]
-                a1 = sel[1]
-            if t2 is None or fr[2] is None:
-                r2 = None
-                o2 = nan
-                a2 = False
-            else:
-                r2 = float(t2)
-                o2 = r2 + corr[2]
-                a2 = sel[2]
-            return DeccaObservations(value, [o0, o1, o2], [r0, r1, r2], [a0, a1, a2], [])
+            t_obs = [math.nan] * 3
+            t_raw: list[float | None] = [None, None, None]
+            t_av = [False] * 3
+            for i in (0, 1, 2):
+                t = totals[i]
+                if t is not None and fr[i] is not None:
+                    r = t_raw[i] = float(t)
+                    t_obs[i] = r + corr[i]
+                    t_av[i] = sel[i]
+            return DeccaObservations(value, t_obs, t_raw, t_av, [])
         observed = [math.nan] * 3
         raw: list[float | None] = [None, None, None]
         available = [False] * 3
