@@ -100,8 +100,27 @@ def version_text() -> str:
     return f"uvnav {v}\ncompiled kernels (engine/native, docs/PERFORMANCE.md):\n{kernels}"
 
 
+EXIT_BROKEN_PIPE = 128 + 13
+"""Exit status when standard output's reader went away (as a process killed by SIGPIPE)."""
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Dispatch to the sub-command (or the console); returns the exit status."""
+    """Dispatch to the sub-command (or the console); returns the exit status. When standard
+    output's reader closes early (``uvnav --help | head -3``), exits quietly with
+    :data:`EXIT_BROKEN_PIPE` instead of a traceback; files the command writes (``.OUT``) are
+    closed by the command as on any error."""
+    try:
+        return _dispatch(argv)
+    except BrokenPipeError:
+        # Point stdout at /dev/null so the interpreter's own flush at exit does not fail again.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+        return EXIT_BROKEN_PIPE
+
+
+def _dispatch(argv: list[str] | None) -> int:
+    """:func:`main` without its broken-pipe handling."""
     args = list(sys.argv[1:] if argv is None else argv)
     if args and args[0] in ("-h", "--help"):
         print(USAGE)
