@@ -37,10 +37,9 @@ from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import TestedAdjustment, _quiet, adjust_with_testing
 from engine.lsq.statistics import (
     REJECT_BOUND,
-    UnitVarianceTest,
-    _variance_bounds,
     delta0,
     frozen_instance,
+    unit_variance_test,
     w_critical,
 )
 from engine.systems import registry
@@ -372,17 +371,10 @@ def compute_fix(
                          scale_vcv, d0)
         if type(state) is dict:
             s2 = state["s2"]
-            if s2 is not None:  # unit_variance_test(s2, r, alpha, s02) written out
-                dof = state["redundancy"]  # an int (>= 1: s2 is None for r < 1)
-                if dof >= 1 and math.isfinite(s2):
-                    lower, upper = _variance_bounds(dof, alpha, s02)  # checked hashable
-                    vt = _NEW(UnitVarianceTest)
-                    _SET(vt, "__dict__", {
-                        "statistic": dof * s2 / s02, "lower": lower, "upper": upper,
-                        "accepted": bool(lower < s2 < upper), "dof": dof})
-                    state["variance_test"] = vt
-            first = _NEW(Adjustment)
-            _SET(first, "__dict__", state)  # frozen_instance(Adjustment, state)
+            if s2 is not None:  # the kernel left variance_test None (as gauss_newton)
+                state["variance_test"] = unit_variance_test(s2, state["redundancy"], alpha,
+                                                            s02)
+            first = frozen_instance(Adjustment, state)
             if first.ok and first.redundancy >= 1:
                 monitor = k.quiet(first.stats_block, k_alpha, REJECT_BOUND)
                 if monitor is not None:
@@ -452,67 +444,41 @@ def _at_estimate(
 ) -> FixResult:
     """The fix at the adjusted point: geodetic position, ellipse, linear-range check, the raw
     LOPs of a hybrid fix and the LOP table; a failed fix where the models cannot be evaluated.
-    ``used``: the final adjustment's used slots as a list when the caller has it.
-
-    The nearest-station check of :func:`_beyond_linear_range` and the kernel's table of
-    :func:`_lop_rows` are written out here (the same calls in the same order, two frames
-    fewer); the result is made without the generated ``__init__`` (as ``frozen_instance``)."""
+    ``used``: the final adjustment's used slots as a list when the caller has it."""
     adj = tested.adjustment
     messages = problem.messages
-    sets = problem.sets
-    layout = problem.layout
     try:
         xe, yn = adj.x.tolist()
         lat, lon = grid.inverse(xe, yn)
         p_hat = Point(grid, geodesic, xe, yn, (lat, lon))
-        decca = sets.get(DECCA.name)
-        is_decca = isinstance(decca, DeccaObservations)
-        geom = decca.geometry_at(p_hat) if is_decca else None
+        decca = problem.sets.get(DECCA.name)
+        geom = decca.geometry_at(p_hat) if isinstance(decca, DeccaObservations) else None
         k = _kernel.kernel()  # error_ellipse's kernel call, made here (one call fewer)
-        cov = adj.cov_x
-        ellipse = None if k is None else k.ellipse(cov)
+        ellipse = None if k is None else k.ellipse(adj.cov_x)
         if ellipse is None:
-            ellipse = error_ellipse(cov)
+            ellipse = error_ellipse(adj.cov_x)
         if used is None:
             used = adj.used.tolist()
-        if not problem.uses_prior:  # _beyond_linear_range
-            near = math.inf
-            for name, obs in sets.items():
-                slots = layout[name]
-                d = obs.nearest_station_m(p_hat, used[slots.start:slots.stop])
-                if d < near:  # min(near, d)
-                    near = d
-            if near != math.inf:
-                # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled
-                reason = _linear_range_reason(
-                    adj, near, ellipse.eigenvalues[0] if cov is adj.cov_x_apriori else None)
-                if reason is not None:
-                    return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
+        if not problem.uses_prior:
+            # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
+            l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None
+            reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
+            if reason is not None:
+                return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
         raw = _raw_lops(model, adj, x_start) if problem.uses_prior else None
-        alpha = settings.reliab_interval / 100.0
-        maker = _ROW_MAKER
-        if k is not None and maker[0] is k and maker[1] is not LopRow:  # _lop_rows' kernel call
-            groups = []
-            for name, obs in sets.items():
-                groups.append((layout[name].start, obs.readings(p_hat)))
-            lops = k.lop_rows(groups, adj.stats_block, adj.v, adj.used, w_critical(alpha),
-                              REJECT_BOUND)
-            if lops is None:
-                lops = _lop_rows_py(adj, groups, alpha, used, maker[1])
-        else:
-            lops = _lop_rows(adj, sets, p_hat, alpha, used, layout)
+        lops = _lop_rows(adj, problem.sets, p_hat, settings.reliab_interval / 100.0, used,
+                         problem.layout)
     except EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
                        tested, messages)
-    res = _NEW(FixResult)
-    _SET(res, "__dict__", {  # frozen_instance written out
+    return frozen_instance(FixResult, {
         "ok": True,
         "reason": None,
         "x_m": xe,
         "y_m": yn,
         "lat_deg": lat,
         "lon_deg": lon,
-        "cov": cov,
+        "cov": adj.cov_x,
         "ellipse": ellipse,
         "category": adj.category,
         "n_used": adj.n_used,
@@ -520,7 +486,8 @@ def _at_estimate(
         "s2": adj.s2,
         "lops": tuple(lops),
         "tested": tested,
-        "decca_observed": decca.raw if is_decca else (None, None, None),
+        "decca_observed": (decca.raw if isinstance(decca, DeccaObservations)
+                           else (None, None, None)),
         "decca_geometry": geom,
         "rejected_slots": tuple([s for s, _w in tested.rejected]) if tested.rejected else (),
         "candidate_slot": tested.candidate,
@@ -528,12 +495,8 @@ def _at_estimate(
         "messages": tuple(messages),
         "raw_lops": raw,
     })
-    return res
 
 
-_NEW = object.__new__
-_SET = object.__setattr__
-"""``frozen_instance`` written out where a result is made every fix (no frame)."""
 
 
 def _raw_lops(model: _Model, adj: Adjustment, x_start: np.ndarray) -> RawLops:

@@ -63,7 +63,13 @@ from engine.lsq.fix import (
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig, resolve_vessel
 from engine.systems import registry
-from engine.systems.base import CycleInputs, SystemReading, attrs_maker, runparse_function
+from engine.systems.base import (
+    CycleInputs,
+    SystemReading,
+    attrs_maker,
+    runparse_function,
+    slots_maker,
+)
 from engine.systems.decca import (
     DECCA,
     DECCA_TRACK_GAP_S,
@@ -379,10 +385,7 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
              lat: float, lon: float,
              messages: list[str]) -> tuple[SensorValues, float | None]:
     cfg = ctx.config
-    d = ctx._derived  # ctx.derived(), its usual case looked up here
-    if d is None or d.config is not cfg or d.systems is not registry.SYSTEMS:
-        d = ctx.derived()
-    status = d.sensor_status
+    status = ctx.derived().sensor_status
     depth = None
     ref = nav.press_ref_hz
     if status[4] == 1 and rec.press_freq_hz is not None:
@@ -663,18 +666,8 @@ def _grid_for_cycle(ctx: RunContext, nav: NavState,
                     messages: list[str]) -> tuple[float, TMGrid, FilterState | None]:
     """The cycle's CM (from the provisional position, the last MPP, THEORY D3), its grid
     and the filter state re-projected onto it when the CM changed."""
-    # _cm_for(nav, nav.mpp_lon_deg) and ctx.grid(cm), written out (the same operations)
-    cm = nav.cm_deg
-    lon = nav.mpp_lon_deg
-    if cm is None:
-        cm = central_meridian_deg(lon)
-    else:
-        w = math.remainder(lon - cm, 360.0)  # wrap_180_deg
-        if abs(180.0 if w == -180.0 else w + 0.0) > 0.5 + CM_HYSTERESIS_DEG:
-            cm = central_meridian_deg(lon)
-    grid = ctx._grids.get(cm)
-    if grid is None:
-        grid = ctx.grid(cm)
+    cm = _cm_for(nav, nav.mpp_lon_deg)
+    grid = ctx.grid(cm)
     fstate = nav.filter
     if fstate is not None and nav.cm_deg is not None and cm != nav.cm_deg:
         fstate = reproject_state(fstate, ctx.grid(nav.cm_deg), grid)
@@ -822,18 +815,11 @@ def _sensor_values_maker() -> Callable[..., SensorValues]:
     """``SensorValues`` from every field positionally: ``engine.native.runparse.make`` bound to
     it (the same instance, without the dataclass ``__init__``'s ``object.__setattr__`` per
     field), or the class itself (the pure path)."""
-    return _slots_maker(SensorValues)
-
-
-def _slots_maker(cls: type) -> Callable[..., Any]:
-    """:func:`engine.systems.gps.slots_maker` of ``cls``."""
-    from engine.systems.gps import slots_maker
-
-    return slots_maker(cls)
+    return slots_maker(SensorValues)
 
 
 _new_sensor_values = _sensor_values_maker()
-_new_prior = _slots_maker(PositionPrior)
+_new_prior = slots_maker(PositionPrior)
 """``PositionPrior(x_m, y_m, cov)`` positionally (:func:`_sensor_values_maker`'s way)."""
 _new_inputs = attrs_maker(CycleInputs)
 """``CycleInputs`` from every field positionally in one compiled call, or None (the pure

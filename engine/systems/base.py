@@ -175,6 +175,18 @@ def _new_reading_py(value: Any, messages: tuple[str, ...], detail: Any,
     return r
 
 
+def slots_maker(cls: type) -> Callable[..., Any]:
+    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
+    ``engine.native.runparse.make`` bound to it (the same instance, without the dataclass
+    ``__init__``'s per-field ``object.__setattr__``), or ``cls`` itself (the pure path)."""
+    from engine import native
+
+    kernel = native.kernel("runparse")
+    if kernel is None:
+        return cls
+    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
+
+
 def attrs_maker(cls: type) -> Callable[..., Any] | None:
     """``engine.native.runparse.make_attrs`` bound to the plain frozen dataclass ``cls`` and
     its field names: ``cls`` from every field positionally, the same instance as

@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from datetime import datetime
-from functools import partial
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -36,6 +35,7 @@ from engine.systems.base import (
     Point,
     SystemReading,
     new_reading,
+    slots_maker,
 )
 
 _K: Any = native.kernel("decca")
@@ -1177,20 +1177,10 @@ class DeccaSystem:
         return f"Decca {DECCA_PATTERN_NAMES[index]}"
 
 
-def _slots_maker(cls: type) -> Any:
-    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
-    ``engine.native.runparse.make`` bound to it (the same instance, without the dataclass
-    ``__init__``'s per-field ``object.__setattr__``), or ``cls`` itself (the pure path)."""
-    kernel = native.kernel("runparse")
-    if kernel is None:
-        return cls
-    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
-
-
-_new_source = _slots_maker(LaneSource)
-_new_reading = _slots_maker(DeccaReading)
-_new_geometry = _slots_maker(DeccaGeometry)
-_new_lop = _slots_maker(LopReading)
+_new_source = slots_maker(LaneSource)
+_new_reading = slots_maker(DeccaReading)
+_new_geometry = slots_maker(DeccaGeometry)
+_new_lop = slots_maker(LopReading)
 """:class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry` and
 :class:`engine.systems.base.LopReading` from every field, positionally."""
 

@@ -12,9 +12,8 @@ rows (:class:`PriorObservations`, THEORY §4.6).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
-from functools import partial
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -31,6 +30,7 @@ from engine.systems.base import (
     SystemReading,
     new_reading,
     set_row,
+    slots_maker,
 )
 
 GPS_VAR_CA_M2 = 2500.0
@@ -123,16 +123,6 @@ class GpsInput:
     y_m: float
     weight: GpsWeight | None = None
     """The σ of its coordinates and where it came from (None only for a hand-built input)."""
-
-
-def slots_maker(cls: type) -> Callable[..., Any]:
-    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
-    ``engine.native.runparse.make`` bound to it (the same instance, without the dataclass
-    ``__init__``'s per-field ``object.__setattr__``), or ``cls`` itself (the pure path)."""
-    kernel = native.kernel("runparse")
-    if kernel is None:
-        return cls
-    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
 
 
 _new_input = slots_maker(GpsInput)

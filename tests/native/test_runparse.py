@@ -184,4 +184,4 @@ def test_slots_maker_is_the_class_without_kernel(monkeypatch: pytest.MonkeyPatch
 
     monkeypatch.setattr(native, "kernel", lambda name: None)
     assert gps_mod.slots_maker(gps_mod.GpsFix) is gps_mod.GpsFix
-    assert decca_mod._slots_maker(decca_mod.LaneSource) is decca_mod.LaneSource
+    assert decca_mod.slots_maker(decca_mod.LaneSource) is decca_mod.LaneSource
