@@ -301,12 +301,77 @@ class _ProjPoint:
 
         return point
 
+    def definition(self) -> str | None:
+        """The pipeline PROJ runs (``proj_pj_info(pj).definition``, as pyproj's
+        ``Transformer.definition``): ``proj_create`` rewrites the string it is given (steps that
+        undo each other go, a pipeline of such steps becomes ``proj=noop``); None if unknown."""
+        import ctypes
+
+        class PJProjInfo(ctypes.Structure):
+            _fields_ = [("id", ctypes.c_char_p), ("description", ctypes.c_char_p),
+                        ("definition", ctypes.c_char_p), ("has_inverse", ctypes.c_int),
+                        ("accuracy", ctypes.c_double)]
+
+        try:
+            info = self._lib.proj_pj_info
+        except AttributeError:
+            return None
+        info.restype = PJProjInfo
+        info.argtypes = [ctypes.c_void_p]
+        text = info(self._pj).definition
+        return None if text is None else text.decode("utf-8", "replace")
+
     def __del__(self) -> None:
         lib = self._lib
         if self._pj:
             lib.proj_destroy(self._pj)
         if self._ctx:
             lib.proj_context_destroy(self._ctx)
+
+
+_SHIFT_PROBES: tuple[tuple[float, float, float], ...] = (
+    (52.0, 3.0, 0.0), (57.7, -1.25, -45.5), (-33.9, 151.2, 100.0), (0.0, 0.0, 0.0),
+    (89.99999, -179.9, -5000.0), (-90.0, 0.0, 0.0), (0.0, 180.0, 10000.0),
+    (-45.0, -180.0, -10000.0), (10.0, -45.0, 1e-9),
+)
+"""(lat, lon degrees, h m) on which the compiled datum shift must give libproj's bits before it
+replaces the PROJ call: near the chart's area, poles, ±180°, heights ±10 km."""
+
+
+def _compiled_point(proj: _ProjPoint, src: Datum, dst: Datum, pipeline: str) -> Any:
+    """The point call of :class:`DatumShift`: ``engine.native.datum.Shift`` (PROJ 9.5.1's
+    arithmetic for :func:`helmert_pipeline`'s steps, compiled; it hands what it does not cover
+    to ``proj.point``) where the kernel is built and PROJ runs the pipeline as written
+    (:meth:`_ProjPoint.definition`) and the kernel gives PROJ's bits on :data:`_SHIFT_PROBES`;
+    else ``proj.point`` itself (``UVNAV_PURE=1``, no kernel, a pipeline PROJ simplified)."""
+    from engine import native
+
+    k = native.kernel("datum")
+    if k is None or proj._deg_in or proj._deg_out:
+        return proj.point
+    if proj.definition() != " ".join(word.lstrip("+") for word in pipeline.split()):
+        return proj.point
+
+    def ell(e: Ellipsoid) -> tuple[float, float]:  # as _ell_args writes it: rf 0.0 for +b=a
+        return float(e.a_m), 0.0 if e.f == 0.0 else float(e.inv_f)
+
+    def helmert(d: Datum) -> tuple[float, ...] | None:  # as _helmert_args writes it
+        if _is_identity(d):
+            return None
+        return (float(d.dx_m), float(d.dy_m), float(d.dz_m), float(d.rx_arcsec),
+                float(d.ry_arcsec), float(d.rz_arcsec), float(d.scale_ppm))
+
+    try:
+        shift = k.Shift(proj.point, *ell(src.ellipsoid), helmert(src), *ell(dst.ellipsoid),
+                        helmert(dst))
+    except (TypeError, ValueError):
+        return proj.point
+    for q in _SHIFT_PROBES:
+        got = shift.forward(*q)
+        want = proj.point(*q, None, PJ_FWD, False, False)
+        if got is None or list(map(float.hex, got)) != list(map(float.hex, want)):
+            return proj.point
+    return shift
 
 
 class DatumShift:
@@ -334,7 +399,7 @@ class DatumShift:
         except (OSError, ValueError):  # pyproj's Transformer then (and its error, if any)
             self._proj = None
         if self._proj is not None:
-            self._point: Any = self._proj.point
+            self._point: Any = _compiled_point(self._proj, src, dst, self.pipeline)
             self._forward: Any = PJ_FWD
         else:
             from pyproj.enums import TransformDirection
