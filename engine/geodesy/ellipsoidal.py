@@ -380,9 +380,11 @@ class DatumShift:
     Build once per datum pair; coordinates are latitude and longitude in degrees and
     ellipsoidal height in metres. The per-point call (:meth:`transform`, and the kernels
     through ``_point``) goes to PROJ's ``proj_trans`` in pyproj's libproj through ctypes
-    (:class:`_ProjPoint`), without importing pyproj (start-up time); pyproj's ``Transformer``
-    of the same pipeline is made on first use by the array and inverse calls, and serves
-    every call where libproj cannot be loaded that way. Not thread-safe (PROJ objects should
+    (:class:`_ProjPoint`), without importing pyproj (start-up time), or, where it is built, to
+    its compiled twin ``engine.native.datum`` (PROJ's arithmetic, the same bits:
+    :func:`_compiled_point`); pyproj's ``Transformer`` of the same pipeline is made on first use
+    by the array and inverse calls, and serves every call where libproj cannot be loaded that
+    way. Not thread-safe (PROJ objects should
     not be shared between threads).
     """
 
