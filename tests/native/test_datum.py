@@ -261,3 +261,39 @@ def test_other_calls_go_to_proj() -> None:
         KERNEL.Shift(proj, -1.0, 298.257223563, None, 6378388.0, 297.0, None)
     with pytest.raises(TypeError):
         KERNEL.Shift(proj, 6378137.0, 298.257223563, (1.0, 2.0), 6378388.0, 297.0, None)
+
+
+# --------------------------------------------------------------------------- other datums
+_MM = st.integers(-1_000_000, 1_000_000).map(lambda v: v / 1000.0)      # ±1000 m, to 1 mm
+_MAS = st.integers(-30_000, 30_000).map(lambda v: v / 1000.0)           # ±30″, to 1 mas
+_PPB = st.integers(-50_000, 50_000).map(lambda v: v / 1000.0)           # ±50 ppm
+_ELL = st.sampled_from([(6378388.0, 297.0), (6377563.396, 299.3249646), (6371000.0, 0.0),
+                        (6378137.0, 298.257223563), (6378249.145, 293.465)])
+
+
+@st.composite
+def _datums(draw: Any) -> Any:
+    """A datum with any Bursa-Wolf (zero or not, rotations and scale included) on an ellipsoid
+    of the file's kind or a sphere (``+b=a``)."""
+    from engine.geodesy.ellipsoid import Datum, Ellipsoid
+
+    a, inv_f = draw(_ELL)
+    zero = draw(st.booleans())
+    p = [0.0] * 7 if zero else [draw(_MM), draw(_MM), draw(_MM), draw(_MAS), draw(_MAS),
+                                draw(_MAS), draw(_PPB)]
+    return Datum("X", Ellipsoid("E", a, inv_f), *p)
+
+
+@needs_kernel
+@needs_proj
+@settings(deadline=None, max_examples=60)
+@given(src=_datums(), dst=_datums(), lat=_LAT, lon=_LON, h=_H)
+def test_any_seven_parameters(src: Any, dst: Any, lat: float, lon: float, h: float) -> None:
+    """Datums beyond the file's (three rotations, scale of either sign, spheres): compiled
+    wherever PROJ runs the pipeline as written, and libproj's bits."""
+    shift = DatumShift(src, dst)
+    written = " ".join(w.lstrip("+") for w in shift.pipeline.split())
+    assert (type(shift._point) is KERNEL.Shift) == (shift._proj.definition() == written)
+    if type(shift._point) is KERNEL.Shift:
+        assert shift._point.forward(lat, lon, h) is not None
+    assert _point(shift, lat, lon, h) == _proj(shift, lat, lon, h)
