@@ -191,11 +191,12 @@ class RawLops:
     slots: tuple[int, ...]
 
 
-@dataclass
+@dataclass(slots=True)
 class _Problem:
     """The observation sets of one fix by system name (registry order), which slots are used,
-    whether the filter's prediction stands in for GPS, the operator texts so far and the
-    registry's slot layout (``registry.layout()``) and its number of slots."""
+    whether the filter's prediction stands in for GPS, the operator texts so far, the
+    registry's slot layout (``registry.layout()``), its number of slots and each system's
+    (first slot, end) by name (``spans``, the layout's ranges as pairs of ints)."""
 
     sets: dict[str, ObservationSet]
     used: list[bool]
@@ -203,6 +204,7 @@ class _Problem:
     messages: list[str]
     layout: Mapping[str, range]
     n_slots: int
+    spans: dict[str, tuple[int, int]]
 
 
 class _Model:
@@ -262,9 +264,9 @@ def _eye(n: int) -> np.ndarray:
     return eye
 
 
-_N_SLOTS: list[Any] = [None, 0, ()]
+_N_SLOTS: list[Any] = [None, 0, (), {}]
 """[the registry layout last seen by :func:`_gather` (None: none yet), its number of slots,
-(system, name, first slot) of each system in registry order]."""
+(system, name, first slot) of each system in registry order, name -> (first slot, end)]."""
 
 
 def _gather(
@@ -280,11 +282,12 @@ def _gather(
     sets: dict[str, ObservationSet] = {}
     memo = _N_SLOTS
     if memo[0] is layout:  # the layout is the registry's (cached per SYSTEMS)
-        n_slots, order = memo[1], memo[2]
+        n_slots, order, spans = memo[1], memo[2], memo[3]
     else:
         n_slots = sum(len(r) for r in layout.values())
         order = tuple((s, s.name, layout[s.name].start) for s in registry.SYSTEMS)
-        memo[:] = [layout, n_slots, order]
+        spans = {name: (r.start, r.stop) for name, r in layout.items()}
+        memo[:] = [layout, n_slots, order, spans]
     used = [False] * n_slots
     messages: list[str] = []
     for system, name, first in order:
@@ -307,7 +310,7 @@ def _gather(
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
         sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
-    return _Problem(sets, used, uses_prior, messages, layout, n_slots)
+    return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans)
 
 
 def compute_fix(
@@ -459,15 +462,26 @@ def _at_estimate(
             ellipse = error_ellipse(adj.cov_x)
         if used is None:
             used = adj.used.tolist()
-        if not problem.uses_prior:
-            # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
-            l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None
-            reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
-            if reason is not None:
-                return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
-        raw = _raw_lops(model, adj, x_start) if problem.uses_prior else None
-        lops = _lop_rows(adj, problem.sets, p_hat, settings.reliab_interval / 100.0, used,
-                         problem.layout)
+        # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
+        l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None
+        alpha = settings.reliab_interval / 100.0
+        if problem.uses_prior:  # no linear-range check; the raw LOPs before the table
+            raw = _raw_lops(model, adj, x_start)
+            check = False
+        else:
+            raw = None
+            check = True
+        # the check and the table in one compiled call (_tail_py); None: the Python below
+        lops = None if k is None or _ROW_MAKER[0] is not k else k.tail(
+            problem.sets, problem.spans, p_hat, used, check, l1, adj.stats_block, adj.v,
+            adj.used, w_critical(alpha), REJECT_BOUND)
+        if lops is None:
+            if check:
+                reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout,
+                                              l1)
+                if reason is not None:
+                    return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
+            lops = _lop_rows(adj, problem.sets, p_hat, alpha, used, problem.layout)
     except EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
                        tested, messages)
@@ -576,6 +590,20 @@ def _no_fix(
         tested=tested,
         messages=tuple(messages),
     )
+
+
+def _tail_py(adj: Adjustment, problem: _Problem, p_hat: Point, used: list[bool],
+             check: bool, l1: float | None, alpha: float) -> tuple[LopRow, ...] | str:
+    """The compiled ``tail``'s twin: with ``check``, :func:`_beyond_linear_range`'s reason
+    (returned as the string) when there is one; then :func:`_lop_rows_py` of the systems'
+    readings at ``p_hat`` as a tuple."""
+    if check:
+        reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
+        if reason is not None:
+            return reason
+    groups = [(problem.spans[name][0], obs.readings(p_hat))
+              for name, obs in problem.sets.items()]
+    return tuple(_lop_rows_py(adj, groups, alpha, used, _row_maker()))
 
 
 def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,

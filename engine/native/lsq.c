@@ -17,7 +17,9 @@
  *   quiet(stats, k, bound)          both at once when nothing is to be rejected;
  *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
  *                                   same frozen slotted instance; bound by _bind_row);
- *   lop_rows(groups, stats, ...)    fix._lop_rows' table: every row() with its tests.
+ *   lop_rows(groups, stats, ...)    fix._lop_rows' table: every row() with its tests;
+ *   tail(sets, spans, p, ...)       fix._at_estimate's linear-range check and lop_rows() of
+ *                                   the systems' readings in one call (fix._tail_py).
  * Each returns None where the Python would take a rare branch (u != 2, a singular or
  * ill-conditioned matrix, non-finite values, an untestable slot, ...): the caller then runs
  * the Python, which gives the same result or the same failure reason.
@@ -1624,7 +1626,125 @@ done:
     return res;
 }
 
+/* ---------------------------------------------------------------------------------------- */
+/* tail: fix._at_estimate's linear-range check and LOP table in one call */
+
+PyDoc_STRVAR(tail_doc,
+"tail(sets, spans, p, used, check, l1, stats, v, used_arr, k, bound) -> tuple of rows or None\n"
+"\n"
+"engine.lsq.fix._tail_py: with check, fix._beyond_linear_range (near = the min over the\n"
+"systems, in sets order, of obs.nearest_station_m(p, used[start:stop]); l1 the larger\n"
+"eigenvalue); then lop_rows() of (start, obs.readings(p)) for each system of sets, as a\n"
+"tuple. sets a dict name -> ObservationSet, spans a dict name -> (start, stop), used the\n"
+"final used slots as a list of bools. None where the Python must run: a fix beyond the\n"
+"linear range (it says why), check without l1, an exception of a system (the Python calls\n"
+"it again and says why), other types, lop_rows() declining.");
+
+static PyObject *nearest_name = NULL, *readings_name = NULL;
+
+static PyObject *lsq_tail(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 11) {
+        PyErr_SetString(PyExc_TypeError,
+                        "tail(sets, spans, p, used, check, l1, stats, v, used_arr, k, bound)");
+        return NULL;
+    }
+    if (nearest_name == NULL &&
+        ((nearest_name = PyUnicode_InternFromString("nearest_station_m")) == NULL ||
+         (readings_name = PyUnicode_InternFromString("readings")) == NULL))
+        return NULL;
+    PyObject *sets = args[0], *spans = args[1], *p = args[2], *used = args[3];
+    int check = PyObject_IsTrue(args[4]);
+    if (check < 0)
+        return NULL;
+    if (!PyDict_CheckExact(sets) || !PyDict_CheckExact(spans) || !PyList_CheckExact(used) ||
+        (check && !PyFloat_CheckExact(args[5])))
+        return Py_NewRef(Py_None);
+    Py_ssize_t ns = PyDict_GET_SIZE(sets), pos = 0, i = 0;
+    if (ns > 16)
+        return Py_NewRef(Py_None);
+    Py_ssize_t start[16], stop[16];
+    PyObject *name, *obs, *obj[16];
+    while (PyDict_Next(sets, &pos, &name, &obs)) { /* the types first: nothing called */
+        PyObject *sp = PyDict_GetItemWithError(spans, name);
+        if (sp == NULL || !PyTuple_CheckExact(sp) || PyTuple_GET_SIZE(sp) != 2) {
+            PyErr_Clear();
+            return Py_NewRef(Py_None);
+        }
+        start[i] = PyLong_AsSsize_t(PyTuple_GET_ITEM(sp, 0));
+        stop[i] = PyLong_AsSsize_t(PyTuple_GET_ITEM(sp, 1));
+        if (PyErr_Occurred()) {
+            PyErr_Clear();
+            return Py_NewRef(Py_None);
+        }
+        obj[i++] = obs;
+    }
+    if (i != ns)
+        return Py_NewRef(Py_None);
+    if (check) { /* _beyond_linear_range */
+        double near = INFINITY;
+        for (i = 0; i < ns; i++) {
+            PyObject *sl = PyList_GetSlice(used, start[i], stop[i]);
+            if (sl == NULL)
+                return NULL;
+            PyObject *ca[3] = {obj[i], p, sl};
+            PyObject *r = PyObject_VectorcallMethod(nearest_name, ca,
+                                                    3 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+            Py_DECREF(sl);
+            if (r == NULL) {
+                if (!PyErr_ExceptionMatches(PyExc_Exception))
+                    return NULL;
+                PyErr_Clear(); /* the Python calls it again and says why */
+                return Py_NewRef(Py_None);
+            }
+            int isf = PyFloat_CheckExact(r);
+            double d = isf ? PyFloat_AS_DOUBLE(r) : 0.0;
+            Py_DECREF(r);
+            if (!isf)
+                return Py_NewRef(Py_None);
+            if (d < near) /* min(near, d) */
+                near = d;
+        }
+        if (near != INFINITY) { /* _linear_range_reason: a = sqrt(max(l1, 0.0)) */
+            double l1 = PyFloat_AS_DOUBLE(args[5]);
+            double a = sqrt(0.0 > l1 ? 0.0 : l1);
+            if (!(a < near))
+                return Py_NewRef(Py_None); /* beyond the linear range: the Python says why */
+        }
+    }
+    PyObject *groups = PyList_New(ns);
+    if (groups == NULL)
+        return NULL;
+    for (i = 0; i < ns; i++) {
+        PyObject *ca[2] = {obj[i], p};
+        PyObject *r = PyObject_VectorcallMethod(readings_name, ca,
+                                                2 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+        if (r == NULL) {
+            Py_DECREF(groups);
+            if (!PyErr_ExceptionMatches(PyExc_Exception))
+                return NULL;
+            PyErr_Clear();
+            return Py_NewRef(Py_None);
+        }
+        PyObject *g = Py_BuildValue("(nN)", start[i], r);
+        if (g == NULL) {
+            Py_DECREF(groups);
+            return NULL;
+        }
+        PyList_SET_ITEM(groups, i, g);
+    }
+    PyObject *la[6] = {groups, args[6], args[7], args[8], args[9], args[10]};
+    PyObject *rows = lsq_lop_rows(self, la, 6);
+    Py_DECREF(groups);
+    if (rows == NULL || rows == Py_None)
+        return rows;
+    PyObject *t = PyList_AsTuple(rows);
+    Py_DECREF(rows);
+    return t;
+}
+
 static PyMethodDef methods[] = {
+    {"tail", (PyCFunction)(void (*)(void))lsq_tail, METH_FASTCALL, tail_doc},
     {"_bind_row", (PyCFunction)(void (*)(void))lsq_bind_row, METH_FASTCALL, bind_row_doc},
     {"row", (PyCFunction)(void (*)(void))lsq_row, METH_FASTCALL, row_doc},
     {"lop_rows", (PyCFunction)(void (*)(void))lsq_lop_rows, METH_FASTCALL, lop_rows_doc},

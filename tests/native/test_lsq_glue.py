@@ -380,3 +380,87 @@ def test_lop_rows_declines_what_the_python_must_do() -> None:
     assert K.lop_rows([(0, (1, 2))], *args) is None  # not a list of readings
     assert K.lop_rows([(0, [object()])], *args) is None  # not a reading
     assert K.lop_rows([], *args) == []
+
+
+# ------------------------------------------------------------------------------------------
+# tail: the linear-range check and the table of the systems' readings in one call
+
+
+def _tail_calls(replay: dict[str, list[Any]]) -> list[tuple[Any, ...]]:
+    """The arguments of every ``tail`` call of the replay's fixes and of their variants."""
+    calls: list[tuple[Any, ...]] = []
+    real = K.tail
+
+    def record(*a: Any) -> Any:
+        calls.append(a)
+        return real(*a)
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(K, "tail", record)
+    try:
+        _fixes(_variants(replay["calls"]), False, mp)
+    finally:
+        mp.undo()
+    return calls
+
+
+def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
+    """fix._tail_py on what ``tail`` was given (``a``: its arguments)."""
+    import types
+
+    from engine.systems import registry
+
+    sets, spans, p_hat, used, check, l1, stats, v, used_arr, k, bound = a
+    assert k == fix.w_critical(alpha) and bound == fix.REJECT_BOUND
+    adj = types.SimpleNamespace(stats_block=stats, v=v, used=used_arr, cov_x_apriori=None)
+    problem = types.SimpleNamespace(sets=sets, spans=spans, layout=registry.layout())
+    return fix._tail_py(adj, problem, p_hat, used, check, l1, alpha)  # type: ignore[arg-type]
+
+
+@needs_kernel
+def test_replay_tail_is_the_python(replay: dict[str, list[Any]]) -> None:
+    """``tail`` gives _tail_py's rows (to the bit) on every call of the replay's fixes and
+    their variants (GPS + Decca, Decca alone, blunders), and declines (None) what the Python
+    must say: beyond the linear range (a huge λ1), a check without λ1, a system raising."""
+    calls = _tail_calls(replay)
+    assert len(calls) > 150
+    n_rows = 0
+    for a in calls:
+        if a[4] and a[5] is None:  # ScaleVCV: λ1 of the a priori C_x̂ not at hand
+            assert K.tail(*a) is None
+            continue
+        got, want = K.tail(*a), _twin(a)
+        assert type(want) is tuple and type(got) is tuple and len(got) == len(want)
+        for g, w in zip(got, want, strict=True):
+            assert same_row(g, w, same_values=False)
+            n_rows += 1
+        if a[4]:
+            big = (*a[:5], 1e30, *a[6:])
+            assert K.tail(*big) is None and isinstance(_twin(big), str)
+            assert K.tail(*a[:5], None, *a[6:]) is None
+            nan = (*a[:5], math.nan, *a[6:])  # sqrt(max(nan, 0)) is nan: beyond, as Python
+            assert K.tail(*nan) is None and isinstance(_twin(nan), str)
+            neg = (*a[:5], -4.0, *a[6:])  # max(l1, 0.0): a = 0
+            assert same(K.tail(*neg), _twin(neg))
+        no_check = (*a[:4], False, None, *a[6:])
+        assert same(K.tail(*no_check), _twin(no_check))
+    assert n_rows > 500
+
+    class Boom:
+        def nearest_station_m(self, *a: Any) -> float:
+            raise ValueError("boom")
+
+        def readings(self, *a: Any) -> list[Any]:
+            raise ValueError("boom")
+
+    class NotFloat(Boom):
+        def nearest_station_m(self, *a: Any) -> float:
+            return 5  # an int: the Python's min() would take it, the kernel leaves it
+
+    a = calls[0]
+    for bad in (Boom(), NotFloat()):
+        sets = dict(a[0], gps=bad)
+        assert K.tail(sets, *a[1:]) is None
+        assert K.tail(sets, a[1], a[2], a[3], False, None, *a[6:]) is None  # readings raise
+    assert K.tail(dict(a[0], other=Boom()), *a[1:]) is None  # no span
+    assert K.tail(a[0], a[1], a[2], tuple(a[3]), *a[4:]) is None  # used not a list
