@@ -37,6 +37,8 @@ from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import TestedAdjustment, _quiet, adjust_with_testing
 from engine.lsq.statistics import (
     REJECT_BOUND,
+    UnitVarianceTest,
+    _variance_bounds,
     delta0,
     frozen_instance,
     unit_variance_test,
@@ -368,20 +370,21 @@ def compute_fix(
     if quick is not None and policy in ("Y", "N", "A"):
         # adjust_with_testing's plain LSQ path in one compiled call (gauss_newton's ``adjust``)
         # and, with nothing to reject, its result (``quiet``, _quiet) without its layers
+        # and its tests (_first_py, _tested_py) with the results built by the kernel
         alpha, eps, max_iter, s02, scale_vcv, d0, k_alpha = quick
         used_b = np.array(problem.used, dtype=bool)
-        state = k.adjust(model.spec, x_start, used_b, eps, max_iter, COND_MAX, MAX_AXIS_RATIO,
-                         scale_vcv, d0)
-        if type(state) is dict:
-            s2 = state["s2"]
-            if s2 is not None:  # the kernel left variance_test None (as gauss_newton)
-                state["variance_test"] = unit_variance_test(s2, state["redundancy"], alpha,
-                                                            s02)
-            first = frozen_instance(Adjustment, state)
-            if first.ok and first.redundancy >= 1:
-                monitor = k.quiet(first.stats_block, k_alpha, REJECT_BOUND)
-                if monitor is not None:
-                    tested = _quiet(first, monitor, policy, estimator)
+        if _FIX_BOUND[0] is not k:
+            _bind_fix(k)
+        state = k.adjust_tested(model.spec, x_start, used_b, eps, max_iter, COND_MAX,
+                                MAX_AXIS_RATIO, scale_vcv, d0, alpha, s02, k_alpha,
+                                REJECT_BOUND, policy, estimator)
+        if type(state) is dict:  # the kernel left the tests to the Python
+            state = _first_py(state, alpha, s02)
+        if type(state) is Adjustment:
+            first = state
+            tested = _tested_py(first, k_alpha, policy, estimator, k)
+        elif type(state) is TestedAdjustment:
+            first, tested = state.adjustment, state
     if tested is None:  # everything else (and the pure path): the layers as they are
         tested = adjust_with_testing(
             model,
@@ -404,6 +407,37 @@ def compute_fix(
         return _no_fix(grid, x0, adj.reason or "no fix", adj.n_used, tested, messages)
     return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings,
                         problem.used if adj is first else None)  # its used slots as a list
+
+
+def _first_py(state: dict[str, Any], alpha: float, s02: float) -> Adjustment:
+    """The Adjustment of the compiled ``adjust``'s fields (``state``, variance_test None, as
+    ``gauss_newton`` leaves it) with its unit-variance test (α, σ0² of the settings)."""
+    s2 = state["s2"]
+    if s2 is not None:
+        state["variance_test"] = unit_variance_test(s2, state["redundancy"], alpha, s02)
+    return frozen_instance(Adjustment, state)
+
+
+def _tested_py(first: Adjustment, k_alpha: float, policy: str, estimator: str,
+               k: Any) -> TestedAdjustment | None:
+    """adjust_with_testing's result for a fix with nothing to reject, flag or ask (the
+    kernel's ``quiet`` finds the monitor band, :func:`engine.lsq.snooping._quiet` builds it);
+    None when the layers have more to do."""
+    if first.ok and first.redundancy >= 1:
+        monitor = k.quiet(first.stats_block, k_alpha, REJECT_BOUND)
+        if monitor is not None:
+            return _quiet(first, monitor, policy, estimator)
+    return None
+
+
+_FIX_BOUND: list[Any] = [None]
+"""[the lsq kernel module :func:`_bind_fix` bound (None: none yet)]."""
+
+
+def _bind_fix(k: Any) -> None:
+    """Give the kernel the classes and the bounds function ``adjust_tested`` uses."""
+    k._bind_fix(Adjustment, TestedAdjustment, UnitVarianceTest, _variance_bounds)
+    _FIX_BOUND[0] = k
 
 
 _QUICK: list[Any] = [None, None]

@@ -18,6 +18,9 @@
  *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
  *                                   same frozen slotted instance; bound by _bind_row);
  *   lop_rows(groups, stats, ...)    fix._lop_rows' table: every row() with its tests;
+ *   adjust_tested(spec, x, ...)     adjust(), then the unit-variance test, the Adjustment and
+ *                                   a quiet fix's TestedAdjustment built here (fix._first_py,
+ *                                   fix._tested_py);
  *   tail(sets, spans, p, ...)       fix._at_estimate's linear-range check and lop_rows() of
  *                                   the systems' readings in one call (fix._tail_py).
  * Each returns None where the Python would take a rare branch (u != 2, a singular or
@@ -1627,6 +1630,208 @@ done:
 }
 
 /* ---------------------------------------------------------------------------------------- */
+/* adjust_tested: adjust() and compute_fix's tests of a quiet fix, the results built here */
+
+PyDoc_STRVAR(bind_fix_doc,
+"_bind_fix(adjustment_cls, tested_cls, variance_test_cls, variance_bounds)\n"
+"\n"
+"Bind what adjust_tested() builds and calls: adjustment.Adjustment, snooping.TestedAdjustment,\n"
+"statistics.UnitVarianceTest (frozen dataclasses with an instance dict, nothing done by\n"
+"__init__ but setting the fields) and statistics._variance_bounds.");
+
+static PyObject *fix_cls[3] = {NULL, NULL, NULL}; /* Adjustment, TestedAdjustment, UVT */
+static PyObject *variance_bounds = NULL;
+static PyObject *dict_name = NULL, *empty_args = NULL;
+#define N_VT_KEYS 5
+#define N_TA_KEYS 12
+static PyObject *vt_keys[N_VT_KEYS], *ta_keys[N_TA_KEYS];
+
+static PyObject *lsq_bind_fix(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4 || !PyType_Check(args[0]) || !PyType_Check(args[1]) ||
+        !PyType_Check(args[2]) || !PyCallable_Check(args[3])) {
+        PyErr_SetString(PyExc_TypeError, "_bind_fix(adjustment_cls, tested_cls, "
+                                         "variance_test_cls, variance_bounds)");
+        return NULL;
+    }
+    static const char *vn[N_VT_KEYS] = {"statistic", "lower", "upper", "accepted", "dof"};
+    static const char *tn[N_TA_KEYS] = {
+        "adjustment", "rejected", "candidate", "candidate_w", "flagged", "monitor",
+        "not_identifiable", "variance_test", "messages", "policy", "estimator", "robust"};
+    if (dict_name == NULL) {
+        if ((dict_name = PyUnicode_InternFromString("__dict__")) == NULL ||
+            (empty_args = PyTuple_New(0)) == NULL)
+            return NULL;
+        for (int i = 0; i < N_VT_KEYS; i++)
+            if ((vt_keys[i] = PyUnicode_InternFromString(vn[i])) == NULL)
+                return NULL;
+        for (int i = 0; i < N_TA_KEYS; i++)
+            if ((ta_keys[i] = PyUnicode_InternFromString(tn[i])) == NULL)
+                return NULL;
+    }
+    for (int i = 0; i < 3; i++) {
+        PyTypeObject *tp = (PyTypeObject *)args[i];
+        if (tp->tp_dictoffset == 0 || tp->tp_new != PyBaseObject_Type.tp_new) {
+            PyErr_SetString(PyExc_TypeError, "_bind_fix: classes with an instance dict");
+            return NULL;
+        }
+    }
+    for (int i = 0; i < 3; i++)
+        Py_XSETREF(fix_cls[i], Py_NewRef(args[i]));
+    Py_XSETREF(variance_bounds, Py_NewRef(args[3]));
+    Py_RETURN_NONE;
+}
+
+/* frozen_instance(cls, d): object.__new__(cls) with d as its instance dict (d's reference
+ * taken over, also on failure). New reference or NULL. */
+static PyObject *with_dict(PyObject *cls, PyObject *d)
+{
+    if (d == NULL)
+        return NULL;
+    PyObject *obj = PyBaseObject_Type.tp_new((PyTypeObject *)cls, empty_args, NULL);
+    if (obj != NULL && PyObject_GenericSetAttr(obj, dict_name, d) < 0)
+        Py_CLEAR(obj);
+    Py_DECREF(d);
+    return obj;
+}
+
+/* A new dict of n keys and values, or NULL. */
+static PyObject *dict_of(int n, PyObject *const *keys, PyObject *const *vals)
+{
+    PyObject *d = _PyDict_NewPresized(n);
+    for (int i = 0; i < n && d != NULL; i++)
+        if (vals[i] == NULL || PyDict_SetItem(d, keys[i], vals[i]) < 0)
+            Py_CLEAR(d);
+    return d;
+}
+
+PyDoc_STRVAR(adjust_tested_doc,
+"adjust_tested(spec, x, used, eps, max_iter, cond_max, max_axis_ratio, scale_vcv, d0, alpha,\n"
+"              s02, k, bound, policy, estimator)\n"
+"-> TestedAdjustment, Adjustment, dict, (iterations, x, steps) or None\n"
+"\n"
+"adjust() (its first nine arguments), then what fix._first_py and fix._tested_py do with its\n"
+"dict: the unit-variance test (statistics.unit_variance_test: _variance_bounds called, the\n"
+"UnitVarianceTest built), the Adjustment, and for a fix that is ok with redundancy >= 1,\n"
+"nothing beyond bound and its unit variance accepted (or not tested), snooping._quiet's\n"
+"TestedAdjustment (monitor: quiet()'s band). Returns the Adjustment when there is more to do\n"
+"(fix._tested_py then), the dict when alpha or s02 is not a float (fix._first_py), adjust()'s\n"
+"other results as they are. _bind_fix first.");
+
+static PyObject *lsq_adjust_tested(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 15) {
+        PyErr_SetString(PyExc_TypeError,
+                        "adjust_tested(spec, x, used, eps, max_iter, cond_max, max_axis_ratio, "
+                        "scale_vcv, d0, alpha, s02, k, bound, policy, estimator)");
+        return NULL;
+    }
+    if (variance_bounds == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "engine.native.lsq: _bind_fix() first");
+        return NULL;
+    }
+    double kc = PyFloat_AsDouble(args[11]);
+    if (kc == -1.0 && PyErr_Occurred())
+        return NULL;
+    double bound_w = PyFloat_AsDouble(args[12]);
+    if (bound_w == -1.0 && PyErr_Occurred())
+        return NULL;
+    PyObject *d = lsq_adjust(self, args, 9);
+    if (d == NULL || !PyDict_CheckExact(d))
+        return d;
+    PyObject *alpha = args[9], *s02o = args[10];
+    if (!PyFloat_CheckExact(alpha) || !PyFloat_CheckExact(s02o))
+        return d;
+    /* fix._first_py: the unit-variance test, then frozen_instance(Adjustment, state) */
+    PyObject *s2o = PyDict_GetItemWithError(d, adj_keys[15]);   /* s2 */
+    PyObject *ro = PyDict_GetItemWithError(d, adj_keys[8]);     /* redundancy */
+    PyObject *oko = PyDict_GetItemWithError(d, adj_keys[0]);    /* ok */
+    PyObject *stato = PyDict_GetItemWithError(d, adj_keys[18]); /* stats_block */
+    if (s2o == NULL || ro == NULL || oko == NULL || stato == NULL || !PyLong_CheckExact(ro) ||
+        !(s2o == Py_None || PyFloat_CheckExact(s2o))) {
+        if (PyErr_Occurred()) {
+            Py_DECREF(d);
+            return NULL;
+        }
+        return d;
+    }
+    Py_ssize_t r = PyLong_AsSsize_t(ro);
+    if (r == -1 && PyErr_Occurred()) {
+        Py_DECREF(d);
+        return NULL;
+    }
+    Py_INCREF(ro);
+    Py_INCREF(oko);
+    Py_INCREF(stato);
+    PyObject *vt = Py_NewRef(Py_None), *adj = NULL, *res = NULL;
+    int accepted = 1;
+    if (s2o != Py_None) {
+        double s2 = PyFloat_AS_DOUBLE(s2o);
+        if (r >= 1 && isfinite(s2)) { /* unit_variance_test(s2, r, alpha, s02) */
+            PyObject *ca[3] = {ro, alpha, s02o};
+            PyObject *b = PyObject_Vectorcall(variance_bounds, ca, 3, NULL);
+            if (b == NULL)
+                goto error;
+            if (!PyTuple_CheckExact(b) || PyTuple_GET_SIZE(b) != 2 ||
+                !PyFloat_CheckExact(PyTuple_GET_ITEM(b, 0)) ||
+                !PyFloat_CheckExact(PyTuple_GET_ITEM(b, 1))) {
+                Py_DECREF(b);
+                PyErr_SetString(PyExc_TypeError, "_variance_bounds: not two floats");
+                goto error;
+            }
+            double lower = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(b, 0));
+            double upper = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(b, 1));
+            accepted = lower < s2 && s2 < upper;
+            PyObject *st = PyFloat_FromDouble((double)r * s2 / PyFloat_AS_DOUBLE(s02o));
+            PyObject *vv[N_VT_KEYS] = {st, PyTuple_GET_ITEM(b, 0), PyTuple_GET_ITEM(b, 1),
+                                       accepted ? Py_True : Py_False, ro};
+            Py_SETREF(vt, with_dict(fix_cls[2], dict_of(N_VT_KEYS, vt_keys, vv)));
+            Py_XDECREF(st);
+            Py_DECREF(b);
+            if (vt == NULL)
+                goto error;
+            if (PyDict_SetItem(d, adj_keys[23], vt) < 0) /* variance_test */
+                goto error;
+        }
+    }
+    adj = with_dict(fix_cls[0], d);
+    d = NULL;
+    if (adj == NULL)
+        goto error;
+    /* fix._tested_py for a quiet fix: snooping._quiet without messages */
+    if (oko != Py_True || r < 1 || !accepted)
+        goto first;
+    PyObject *qa[3] = {stato, args[11], args[12]};
+    PyObject *mon = lsq_quiet(self, qa, 3);
+    if (mon == NULL)
+        goto error;
+    if (mon == Py_None) {
+        Py_DECREF(mon);
+        goto first;
+    }
+    PyObject *empty = PyTuple_New(0);
+    PyObject *tv[N_TA_KEYS] = {adj, empty, Py_None, Py_None, empty, mon, Py_False, vt, empty,
+                               args[13], args[14], Py_None};
+    res = with_dict(fix_cls[1], dict_of(N_TA_KEYS, ta_keys, tv));
+    Py_XDECREF(empty);
+    Py_DECREF(mon);
+    goto done;
+first:
+    res = Py_NewRef(adj);
+    goto done;
+error:
+    res = NULL;
+done:
+    Py_XDECREF(d);
+    Py_XDECREF(adj);
+    Py_DECREF(vt);
+    Py_DECREF(ro);
+    Py_DECREF(oko);
+    Py_DECREF(stato);
+    return res;
+}
+
+/* ---------------------------------------------------------------------------------------- */
 /* tail: fix._at_estimate's linear-range check and LOP table in one call */
 
 PyDoc_STRVAR(tail_doc,
@@ -1744,6 +1949,9 @@ static PyObject *lsq_tail(PyObject *self, PyObject *const *args, Py_ssize_t narg
 }
 
 static PyMethodDef methods[] = {
+    {"_bind_fix", (PyCFunction)(void (*)(void))lsq_bind_fix, METH_FASTCALL, bind_fix_doc},
+    {"adjust_tested", (PyCFunction)(void (*)(void))lsq_adjust_tested, METH_FASTCALL,
+     adjust_tested_doc},
     {"tail", (PyCFunction)(void (*)(void))lsq_tail, METH_FASTCALL, tail_doc},
     {"_bind_row", (PyCFunction)(void (*)(void))lsq_bind_row, METH_FASTCALL, bind_row_doc},
     {"row", (PyCFunction)(void (*)(void))lsq_row, METH_FASTCALL, row_doc},

@@ -464,3 +464,57 @@ def test_replay_tail_is_the_python(replay: dict[str, list[Any]]) -> None:
         assert K.tail(sets, a[1], a[2], a[3], False, None, *a[6:]) is None  # readings raise
     assert K.tail(dict(a[0], other=Boom()), *a[1:]) is None  # no span
     assert K.tail(a[0], a[1], a[2], tuple(a[3]), *a[4:]) is None  # used not a list
+
+
+# ------------------------------------------------------------------------------------------
+# adjust_tested: adjust() and the tests of a quiet fix, the results built by the kernel
+
+
+@needs_kernel
+def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> None:
+    """``adjust_tested`` gives what ``adjust`` followed by fix._first_py and fix._tested_py
+    gives (a quiet fix's TestedAdjustment, else the Adjustment, field by field to the bit), on
+    the replay's models with their used slots and fewer, at several σ0² (the unit variance
+    accepted and rejected) and α; a dict where α or σ0² is not a float, adjust()'s hand-backs
+    as they are."""
+    from engine.lsq.adjustment import Adjustment
+    from engine.lsq.snooping import TestedAdjustment
+
+    fix._bind_fix(K)
+    kinds: set[tuple[str, bool]] = set()
+    for (a, _k), model in list(zip(replay["calls"], replay["models"], strict=False))[:80]:
+        n = model.n_slots
+        x0 = np.array(a[2], dtype=float)
+        for used in (np.array([True] * 5 + [False] * (n - 5)),
+                     np.array([True, True, False, True, False] + [False] * (n - 5)),
+                     np.array([True, False, True, True, True] + [False] * (n - 5))):
+            for alpha, s02 in ((0.05, 1.0), (0.01, 1e-3), (0.1, 50.0), (0.05, 0.2)):
+                base = (model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8)
+                kw = (fix.w_critical(alpha), fix.REJECT_BOUND, "A", "lsq")
+                got = K.adjust_tested(*base, alpha, s02, *kw)
+                state = K.adjust(*base)
+                assert type(state) is dict
+                first = fix._first_py(state, alpha, s02)
+                want = fix._tested_py(first, kw[0], "A", "lsq", K) or first
+                kinds.add((type(got).__name__, got.variance_test is None
+                           or got.variance_test.accepted))
+                if type(got) is Adjustment:  # more to do: the caller's _tested_py
+                    assert type(want) is Adjustment or not want.variance_test.accepted
+                    got = fix._tested_py(got, kw[0], "A", "lsq", K) or got
+                assert type(got) is type(want) and same(got, want)
+                if type(got) is TestedAdjustment:
+                    assert same(got.adjustment, want.adjustment)
+                    assert got.variance_test is got.adjustment.variance_test
+                    assert got.variance_test == want.variance_test
+                else:
+                    assert got.variance_test == want.variance_test
+                assert type(K.adjust_tested(*base, 1, s02, *kw)) is dict  # α an int
+    assert {("TestedAdjustment", True), ("Adjustment", False)} <= kinds, kinds
+    model = replay["models"][0]
+    x0 = np.array(replay["calls"][0][0][2], dtype=float)
+    used = np.array([True] + [False] * (model.n_slots - 1))
+    assert K.adjust_tested(model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8,
+                           0.05, 1.0, 1.96, 2.576, "A", "lsq") is None  # m < 2: adjust's None
+    assert type(Adjustment) is type and type(TestedAdjustment) is type
+    with pytest.raises(TypeError):
+        K._bind_fix(LopRow, TestedAdjustment, Adjustment, fix._variance_bounds)  # slotted
