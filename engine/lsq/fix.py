@@ -405,6 +405,12 @@ def compute_fix(
     adj = tested.adjustment
     if not adj.ok:
         return _no_fix(grid, x0, adj.reason or "no fix", adj.n_used, tested, messages)
+    if adj is first and not uses_prior and _ROW_MAKER[0] is k:
+        # _at_estimate in one compiled call (its used slots: the list); None: the Python
+        fix = k.estimate(grid, geodesic, tested, problem.sets, problem.spans, problem.used,
+                         messages, quick[6], REJECT_BOUND)  # type: ignore[index]
+        if fix is not None:
+            return fix  # type: ignore[no-any-return]
     return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings,
                         problem.used if adj is first else None)  # its used slots as a list
 
@@ -435,8 +441,10 @@ _FIX_BOUND: list[Any] = [None]
 
 
 def _bind_fix(k: Any) -> None:
-    """Give the kernel the classes and the bounds function ``adjust_tested`` uses."""
-    k._bind_fix(Adjustment, TestedAdjustment, UnitVarianceTest, _variance_bounds)
+    """Give the kernel the classes, the bounds function and the Decca system's name that
+    ``adjust_tested`` and ``estimate`` use."""
+    k._bind_fix(Adjustment, TestedAdjustment, UnitVarianceTest, _variance_bounds, Point,
+                DeccaObservations, FixResult, DECCA.name)
     _FIX_BOUND[0] = k
 
 

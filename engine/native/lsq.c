@@ -21,6 +21,8 @@
  *   adjust_tested(spec, x, ...)     adjust(), then the unit-variance test, the Adjustment and
  *                                   a quiet fix's TestedAdjustment built here (fix._first_py,
  *                                   fix._tested_py);
+ *   estimate(grid, ..., tested, ...) fix._at_estimate of a quiet fix of the LOPs alone: the
+ *                                   point, geometry, ellipse, tail() and the FixResult;
  *   tail(sets, spans, p, ...)       fix._at_estimate's linear-range check and lop_rows() of
  *                                   the systems' readings in one call (fix._tail_py).
  * Each returns None where the Python would take a rare branch (u != 2, a singular or
@@ -1633,14 +1635,19 @@ done:
 /* adjust_tested: adjust() and compute_fix's tests of a quiet fix, the results built here */
 
 PyDoc_STRVAR(bind_fix_doc,
-"_bind_fix(adjustment_cls, tested_cls, variance_test_cls, variance_bounds)\n"
+"_bind_fix(adjustment_cls, tested_cls, variance_test_cls, variance_bounds, point_cls,\n"
+"          decca_cls, fix_cls, decca_name)\n"
 "\n"
-"Bind what adjust_tested() builds and calls: adjustment.Adjustment, snooping.TestedAdjustment,\n"
-"statistics.UnitVarianceTest (frozen dataclasses with an instance dict, nothing done by\n"
-"__init__ but setting the fields) and statistics._variance_bounds.");
+"Bind what adjust_tested() and estimate() build and call: adjustment.Adjustment,\n"
+"snooping.TestedAdjustment, statistics.UnitVarianceTest, fix.FixResult (frozen dataclasses\n"
+"with an instance dict, nothing done by __init__ but setting the fields),\n"
+"statistics._variance_bounds, systems.base.Point, decca.DeccaObservations and the Decca\n"
+"system's name (its key in a fix's observation sets).");
 
 static PyObject *fix_cls[3] = {NULL, NULL, NULL}; /* Adjustment, TestedAdjustment, UVT */
 static PyObject *variance_bounds = NULL;
+static PyObject *est_cls[3] = {NULL, NULL, NULL}; /* Point, DeccaObservations, FixResult */
+static PyObject *decca_key = NULL;                /* the Decca system's name */
 static PyObject *dict_name = NULL, *empty_args = NULL;
 #define N_VT_KEYS 5
 #define N_TA_KEYS 12
@@ -1648,10 +1655,12 @@ static PyObject *vt_keys[N_VT_KEYS], *ta_keys[N_TA_KEYS];
 
 static PyObject *lsq_bind_fix(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 4 || !PyType_Check(args[0]) || !PyType_Check(args[1]) ||
-        !PyType_Check(args[2]) || !PyCallable_Check(args[3])) {
+    if (nargs != 8 || !PyType_Check(args[0]) || !PyType_Check(args[1]) ||
+        !PyType_Check(args[2]) || !PyCallable_Check(args[3]) || !PyType_Check(args[4]) ||
+        !PyType_Check(args[5]) || !PyType_Check(args[6]) || !PyUnicode_CheckExact(args[7])) {
         PyErr_SetString(PyExc_TypeError, "_bind_fix(adjustment_cls, tested_cls, "
-                                         "variance_test_cls, variance_bounds)");
+                                         "variance_test_cls, variance_bounds, point_cls, "
+                                         "decca_cls, fix_cls, decca_name)");
         return NULL;
     }
     static const char *vn[N_VT_KEYS] = {"statistic", "lower", "upper", "accepted", "dof"};
@@ -1669,8 +1678,8 @@ static PyObject *lsq_bind_fix(PyObject *self, PyObject *const *args, Py_ssize_t 
             if ((ta_keys[i] = PyUnicode_InternFromString(tn[i])) == NULL)
                 return NULL;
     }
-    for (int i = 0; i < 3; i++) {
-        PyTypeObject *tp = (PyTypeObject *)args[i];
+    for (int i = 0; i < 4; i++) {
+        PyTypeObject *tp = (PyTypeObject *)args[i == 3 ? 6 : i];
         if (tp->tp_dictoffset == 0 || tp->tp_new != PyBaseObject_Type.tp_new) {
             PyErr_SetString(PyExc_TypeError, "_bind_fix: classes with an instance dict");
             return NULL;
@@ -1679,6 +1688,9 @@ static PyObject *lsq_bind_fix(PyObject *self, PyObject *const *args, Py_ssize_t 
     for (int i = 0; i < 3; i++)
         Py_XSETREF(fix_cls[i], Py_NewRef(args[i]));
     Py_XSETREF(variance_bounds, Py_NewRef(args[3]));
+    for (int i = 0; i < 3; i++)
+        Py_XSETREF(est_cls[i], Py_NewRef(args[4 + i]));
+    Py_XSETREF(decca_key, Py_NewRef(args[7]));
     Py_RETURN_NONE;
 }
 
@@ -1948,7 +1960,199 @@ static PyObject *lsq_tail(PyObject *self, PyObject *const *args, Py_ssize_t narg
     return t;
 }
 
+
+/* ---------------------------------------------------------------------------------------- */
+/* estimate: fix._at_estimate of a quiet fix (no prior, nothing rejected) in one call */
+
+PyDoc_STRVAR(estimate_doc,
+"estimate(grid, geodesic, tested, sets, spans, used, messages, k, bound) -> FixResult or None\n"
+"\n"
+"engine.lsq.fix._at_estimate for a fix of the LOPs alone (not the hybrid fix) with nothing\n"
+"rejected: x_m, y_m of the adjustment's x, grid.inverse of them, the Point there (with its\n"
+"lat/lon), the Decca set's geometry_at it, ellipse() of cov_x, then tail() with the check\n"
+"(l1 from the ellipse when cov_x is cov_x_apriori) and the FixResult built (messages: a tuple\n"
+"of the list). used: the final adjustment's used slots as a list. None (the Python runs, and\n"
+"says why) where tail() or ellipse() decline, a system or the grid raises, or a type is not\n"
+"the usual one. _bind_fix first.");
+
+#define N_FR_KEYS 21
+static PyObject *fr_keys[N_FR_KEYS];
+static PyObject *inverse_name, *geometry_at_name, *raw_name, *adjustment_name, *rejected_name,
+    *candidate_name, *x_name, *cov_x_name, *cov_x_apriori_name, *category_name, *n_used_name,
+    *rms_name, *s2_name, *stats_name, *v_name, *used_name;
+
+static int estimate_ready(void)
+{
+    static const char *fn[N_FR_KEYS] = {
+        "ok", "reason", "x_m", "y_m", "lat_deg", "lon_deg", "cov", "ellipse", "category",
+        "n_used", "rms_m", "s2", "lops", "tested", "decca_observed", "decca_geometry",
+        "rejected_slots", "candidate_slot", "uses_prior", "messages", "raw_lops"};
+    if (used_name != NULL)
+        return 0;
+    for (int i = 0; i < N_FR_KEYS; i++)
+        if ((fr_keys[i] = PyUnicode_InternFromString(fn[i])) == NULL)
+            return -1;
+    PyObject **dst[16] = {&inverse_name, &geometry_at_name, &raw_name, &adjustment_name,
+                          &rejected_name, &candidate_name, &x_name, &cov_x_name,
+                          &cov_x_apriori_name, &category_name, &n_used_name, &rms_name,
+                          &s2_name, &stats_name, &v_name, &used_name};
+    static const char *an[16] = {"inverse", "geometry_at", "raw", "adjustment", "rejected",
+                                 "candidate", "x", "cov_x", "cov_x_apriori", "category",
+                                 "n_used", "rms_m", "s2", "stats_block", "v", "used"};
+    for (int i = 0; i < 16; i++)
+        if ((*dst[i] = PyUnicode_InternFromString(an[i])) == NULL)
+            return -1;
+    return 0;
+}
+
+static PyObject *lsq_estimate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9) {
+        PyErr_SetString(PyExc_TypeError, "estimate(grid, geodesic, tested, sets, spans, used, "
+                                         "messages, k, bound)");
+        return NULL;
+    }
+    if (est_cls[2] == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "engine.native.lsq: _bind_fix() first");
+        return NULL;
+    }
+    if (estimate_ready() < 0)
+        return NULL;
+    PyObject *grid = args[0], *geodesic = args[1], *tested = args[2], *sets = args[3];
+    PyObject *messages = args[6];
+    if (!PyDict_CheckExact(sets) || !PyList_CheckExact(messages))
+        return Py_NewRef(Py_None);
+    /* every object made or looked up, released at the end */
+    enum { ADJ, REJ, CAND, X, COVX, COVA, CAT, NUSED, RMS, S2, STATS, V, USED, XE, YN, LL,
+           LLT, P, GEOM, ELL, L1, LOPS, RAW, MSG, NOBJ };
+    PyObject *o[NOBJ] = {NULL};
+    PyObject *res = NULL, *decca = NULL;
+    if ((o[ADJ] = PyObject_GetAttr(tested, adjustment_name)) == NULL ||
+        (o[REJ] = PyObject_GetAttr(tested, rejected_name)) == NULL ||
+        (o[CAND] = PyObject_GetAttr(tested, candidate_name)) == NULL)
+        goto raised;
+    if (!PyTuple_CheckExact(o[REJ]) || PyTuple_GET_SIZE(o[REJ]) != 0)
+        goto none; /* rejections: the Python's rejected_slots */
+    PyObject *an[10] = {x_name, cov_x_name, cov_x_apriori_name, category_name, n_used_name,
+                        rms_name, s2_name, stats_name, v_name, used_name};
+    for (int i = 0; i < 10; i++)
+        if ((o[X + i] = PyObject_GetAttr(o[ADJ], an[i])) == NULL)
+            goto raised;
+    /* xe, yn = adj.x.tolist() */
+    buf_t xb = {0};
+    if (buf_get(o[X], &xb, 1) < 0)
+        goto none;
+    if (xb.view.shape[0] != 2) {
+        buf_release(&xb);
+        goto none;
+    }
+    o[XE] = PyFloat_FromDouble(AT1(xb, 0));
+    o[YN] = PyFloat_FromDouble(AT1(xb, 1));
+    buf_release(&xb);
+    if (o[XE] == NULL || o[YN] == NULL)
+        goto error;
+    { /* lat, lon = grid.inverse(xe, yn) */
+        PyObject *ca[3] = {grid, o[XE], o[YN]};
+        o[LL] = PyObject_VectorcallMethod(inverse_name, ca, 3 | PY_VECTORCALL_ARGUMENTS_OFFSET,
+                                          NULL);
+        if (o[LL] == NULL)
+            goto raised;
+        if (!PyTuple_CheckExact(o[LL]) || PyTuple_GET_SIZE(o[LL]) != 2)
+            goto none;
+        o[LLT] = PyTuple_Pack(2, PyTuple_GET_ITEM(o[LL], 0), PyTuple_GET_ITEM(o[LL], 1));
+        if (o[LLT] == NULL)
+            goto error;
+    }
+    { /* p_hat = Point(grid, geodesic, xe, yn, (lat, lon)) */
+        PyObject *ca[5] = {grid, geodesic, o[XE], o[YN], o[LLT]};
+        if ((o[P] = PyObject_Vectorcall(est_cls[0], ca, 5, NULL)) == NULL)
+            goto raised;
+    }
+    /* geom = decca.geometry_at(p_hat) if isinstance(decca, DeccaObservations) else None */
+    decca = PyDict_GetItemWithError(sets, decca_key); /* borrowed */
+    if (decca == NULL && PyErr_Occurred())
+        goto error;
+    int is_decca = 0;
+    if (decca != NULL) {
+        is_decca = PyObject_IsInstance(decca, est_cls[1]);
+        if (is_decca < 0)
+            goto raised;
+    }
+    if (is_decca) {
+        PyObject *ca[2] = {decca, o[P]};
+        o[GEOM] = PyObject_VectorcallMethod(geometry_at_name, ca,
+                                            2 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+        if (o[GEOM] == NULL)
+            goto raised;
+        if ((o[RAW] = PyObject_GetAttr(decca, raw_name)) == NULL)
+            goto raised;
+    }
+    else {
+        o[GEOM] = Py_NewRef(Py_None);
+        o[RAW] = PyTuple_Pack(3, Py_None, Py_None, Py_None);
+        if (o[RAW] == NULL)
+            goto error;
+    }
+    /* ellipse = k.ellipse(adj.cov_x) (the Python's error_ellipse where it declines) */
+    {
+        PyObject *ca[1] = {o[COVX]};
+        o[ELL] = lsq_ellipse(self, ca, 1);
+        if (o[ELL] == NULL)
+            goto error;
+        if (o[ELL] == Py_None)
+            goto none;
+    }
+    /* l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None */
+    if (o[COVX] == o[COVA]) {
+        PyObject *ev = PyObject_GetAttr(o[ELL], ellipse_keys[3]);
+        if (ev == NULL)
+            goto raised;
+        if (PyTuple_CheckExact(ev) && PyTuple_GET_SIZE(ev) >= 1)
+            o[L1] = Py_NewRef(PyTuple_GET_ITEM(ev, 0));
+        Py_DECREF(ev);
+        if (o[L1] == NULL)
+            goto none;
+    }
+    else
+        o[L1] = Py_NewRef(Py_None);
+    { /* the check and the table: tail() */
+        PyObject *ta[11] = {sets, args[4], o[P], args[5], Py_True, o[L1], o[STATS], o[V],
+                            o[USED], args[7], args[8]};
+        o[LOPS] = lsq_tail(self, ta, 11);
+        if (o[LOPS] == NULL)
+            goto error;
+        if (o[LOPS] == Py_None)
+            goto none;
+    }
+    if ((o[MSG] = PyList_AsTuple(messages)) == NULL)
+        goto error;
+    {
+        PyObject *empty = PyTuple_New(0);
+        PyObject *fv[N_FR_KEYS] = {
+            Py_True, Py_None, o[XE], o[YN], PyTuple_GET_ITEM(o[LL], 0),
+            PyTuple_GET_ITEM(o[LL], 1), o[COVX], o[ELL], o[CAT], o[NUSED], o[RMS], o[S2],
+            o[LOPS], tested, o[RAW], o[GEOM], empty, o[CAND], Py_False, o[MSG], Py_None};
+        res = with_dict(est_cls[2], dict_of(N_FR_KEYS, fr_keys, fv));
+        Py_XDECREF(empty);
+    }
+    goto done;
+raised: /* an exception of the objects called: the Python calls them again and says why */
+    if (!PyErr_ExceptionMatches(PyExc_Exception))
+        goto error;
+    PyErr_Clear();
+none:
+    res = Py_NewRef(Py_None);
+    goto done;
+error:
+    res = NULL;
+done:
+    for (int i = 0; i < NOBJ; i++)
+        Py_XDECREF(o[i]);
+    return res;
+}
+
 static PyMethodDef methods[] = {
+    {"estimate", (PyCFunction)(void (*)(void))lsq_estimate, METH_FASTCALL, estimate_doc},
     {"_bind_fix", (PyCFunction)(void (*)(void))lsq_bind_fix, METH_FASTCALL, bind_fix_doc},
     {"adjust_tested", (PyCFunction)(void (*)(void))lsq_adjust_tested, METH_FASTCALL,
      adjust_tested_doc},

@@ -397,6 +397,7 @@ def _tail_calls(replay: dict[str, list[Any]]) -> list[tuple[Any, ...]]:
 
     mp = pytest.MonkeyPatch()
     mp.setattr(K, "tail", record)
+    mp.setattr(K, "estimate", lambda *a: None)  # _at_estimate, which calls tail
     try:
         _fixes(_variants(replay["calls"]), False, mp)
     finally:
@@ -518,3 +519,51 @@ def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> Non
     assert type(Adjustment) is type and type(TestedAdjustment) is type
     with pytest.raises(TypeError):
         K._bind_fix(LopRow, TestedAdjustment, Adjustment, fix._variance_bounds)  # slotted
+
+
+# ------------------------------------------------------------------------------------------
+# estimate: _at_estimate of a quiet fix in one call
+
+
+@needs_kernel
+def test_replay_estimate_is_at_estimate(replay: dict[str, list[Any]]) -> None:
+    """compute_fix with ``estimate`` gives the FixResult it gives without it (fix._at_estimate,
+    field by field to the bit, the table's rows, messages, geometry), on the replay's fixes
+    and their variants; ``estimate`` builds most of them and declines (None) a fix with
+    rejections, a grid or system that raises and sets it cannot read."""
+    calls = _variants(replay["calls"])
+    made: list[Any] = []
+    args: list[tuple[Any, ...]] = []
+    real = K.estimate
+
+    def record(*a: Any) -> Any:
+        r = real(*a)
+        args.append(a)
+        made.append(r)
+        return r
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(K, "estimate", record)
+    got = _fixes(calls, False, mp)
+    mp.setattr(K, "estimate", lambda *a: None)
+    want = _fixes(calls, False, mp)
+    mp.undo()
+    for g, w in zip(got, want, strict=True):
+        assert same(g, w) and len(g.lops) == len(w.lops)
+        assert same(g.decca_geometry, w.decca_geometry)
+    assert sum(type(r) is fix.FixResult for r in made) > 150
+    a = args[0]
+
+    class Raising:
+        def __init__(self, grid: Any) -> None:
+            self.grid = grid
+
+        def inverse(self, *xy: Any) -> Any:
+            raise ValueError("off the grid")
+
+    assert K.estimate(Raising(a[0]), *a[1:]) is None
+    assert K.estimate(a[0], a[1], a[2], dict(a[3], manual=object()), *a[4:]) is None
+    assert K.estimate(a[0], a[1], a[2], list(a[3]), *a[4:]) is None
+    tested = dataclasses.replace(a[2], rejected=((2, 9.0),))
+    assert K.estimate(a[0], a[1], tested, *a[3:]) is None
+    assert type(K.estimate(*a)) is fix.FixResult
