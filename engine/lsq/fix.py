@@ -197,8 +197,9 @@ class RawLops:
 class _Problem:
     """The observation sets of one fix by system name (registry order), which slots are used,
     whether the filter's prediction stands in for GPS, the operator texts so far, the
-    registry's slot layout (``registry.layout()``), its number of slots and each system's
-    (first slot, end) by name (``spans``, the layout's ranges as pairs of ints)."""
+    registry's slot layout (``registry.layout()``), its number of slots, each system's
+    (first slot, end) by name (``spans``, the layout's ranges as pairs of ints) and each
+    set with its first slot in ``sets`` order (``parts``, :class:`_Model`'s)."""
 
     sets: dict[str, ObservationSet]
     used: list[bool]
@@ -207,19 +208,27 @@ class _Problem:
     layout: Mapping[str, range]
     n_slots: int
     spans: dict[str, tuple[int, int]]
+    parts: tuple[tuple[int, ObservationSet], ...] | None = None
 
 
 class _Model:
     """The linearisation callback for the adjustment core (A5.9–A5.27): each system writes the
     rows of its slots."""
 
+    __slots__ = ("_eye", "geodesic", "grid", "n_slots", "parts", "spec")
+
     def __init__(self, grid: TMGrid, geodesic: GeodesicSolver,
                  sets: Mapping[str, ObservationSet],
-                 layout: Mapping[str, range] | None = None, n_slots: int | None = None) -> None:
+                 layout: Mapping[str, range] | None = None, n_slots: int | None = None,
+                 parts: tuple[tuple[int, ObservationSet], ...] | None = None) -> None:
+        """``parts``: (first slot, set) of each of ``sets`` in order, when the caller has it
+        (:func:`_gather`)."""
         self.grid = grid
         self.geodesic = geodesic
         slots = registry.layout() if layout is None else layout
-        parts = self.parts = tuple([(slots[name].start, obs) for name, obs in sets.items()])
+        if parts is None:
+            parts = tuple([(slots[name].start, obs) for name, obs in sets.items()])
+        self.parts = parts
         self.n_slots = sum(len(r) for r in slots.values()) if n_slots is None else n_slots
         eye = self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
         self.spec = (parts, Point, grid, geodesic, eye)
@@ -292,6 +301,7 @@ def _gather(
         memo[:] = [layout, n_slots, order, spans]
     used = [False] * n_slots
     messages: list[str] = []
+    parts: list[tuple[int, ObservationSet]] = []
     for system, name, first in order:
         try:
             obs = system.observations(values.get(name), p0)
@@ -300,6 +310,7 @@ def _gather(
         if obs is None:
             continue
         sets[name] = obs
+        parts.append((first, obs))
         messages.extend(obs.messages)
         available = obs.available()
         used[first:first + len(available)] = available
@@ -312,7 +323,8 @@ def _gather(
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
         sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
-    return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans)
+        return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans)
+    return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans, tuple(parts))
 
 
 def compute_fix(
@@ -359,7 +371,7 @@ def compute_fix(
     if n_avail < 2:
         return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
                        messages=messages)
-    model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots)
+    model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots, problem.parts)
     x_start = np.array(x0, dtype=float)
     uses_prior = problem.uses_prior
     policy = "N" if uses_prior else settings.lop_reject
