@@ -372,7 +372,7 @@ def compute_fix(
         return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
                        messages=messages)
     model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots, problem.parts)
-    x_start = np.array(x0, dtype=float)
+    x_start: np.ndarray | None = None  # np.array(x0, dtype=float) where the Python needs it
     uses_prior = problem.uses_prior
     policy = "N" if uses_prior else settings.lop_reject
     estimator = "lsq" if uses_prior else settings.estimator
@@ -380,14 +380,13 @@ def compute_fix(
     k = _kernel.kernel()
     quick = None if k is None or estimator != "lsq" else _quick_settings(settings)
     if quick is not None and policy in ("Y", "N", "A"):
-        # adjust_with_testing's plain LSQ path in one compiled call (gauss_newton's ``adjust``)
-        # and, with nothing to reject, its result (``quiet``, _quiet) without its layers
-        # and its tests (_first_py, _tested_py) with the results built by the kernel
+        # adjust_with_testing's plain LSQ path in one compiled call (gauss_newton's ``adjust``,
+        # on x0 and the used slots made arrays as np.array makes them), with its tests and,
+        # with nothing to reject, its result built by the kernel (_first_py, _tested_py)
         alpha, eps, max_iter, s02, scale_vcv, d0, k_alpha = quick
-        used_b = np.array(problem.used, dtype=bool)
         if _FIX_BOUND[0] is not k:
             _bind_fix(k)
-        state = k.adjust_tested(model.spec, x_start, used_b, eps, max_iter, COND_MAX,
+        state = k.adjust_tested(model.spec, x0, problem.used, eps, max_iter, COND_MAX,
                                 MAX_AXIS_RATIO, scale_vcv, d0, alpha, s02, k_alpha,
                                 REJECT_BOUND, policy, estimator)
         if type(state) is dict:  # the kernel left the tests to the Python
@@ -398,6 +397,7 @@ def compute_fix(
         elif type(state) is TestedAdjustment:
             first, tested = state.adjustment, state
     if tested is None:  # everything else (and the pure path): the layers as they are
+        x_start = np.array(x0, dtype=float)
         tested = adjust_with_testing(
             model,
             x_start,
@@ -423,6 +423,8 @@ def compute_fix(
                          messages, quick[6], REJECT_BOUND)  # type: ignore[index]
         if fix is not None:
             return fix  # type: ignore[no-any-return]
+    if x_start is None:
+        x_start = np.array(x0, dtype=float)
     return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings,
                         problem.used if adj is first else None)  # its used slots as a list
 
@@ -456,7 +458,7 @@ def _bind_fix(k: Any) -> None:
     """Give the kernel the classes, the bounds function and the Decca system's name that
     ``adjust_tested`` and ``estimate`` use."""
     k._bind_fix(Adjustment, TestedAdjustment, UnitVarianceTest, _variance_bounds, Point,
-                DeccaObservations, FixResult, DECCA.name)
+                DeccaObservations, FixResult, DECCA.name, np.dtype(bool))
     _FIX_BOUND[0] = k
 
 

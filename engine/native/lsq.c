@@ -1636,18 +1636,19 @@ done:
 
 PyDoc_STRVAR(bind_fix_doc,
 "_bind_fix(adjustment_cls, tested_cls, variance_test_cls, variance_bounds, point_cls,\n"
-"          decca_cls, fix_cls, decca_name)\n"
+"          decca_cls, fix_cls, decca_name, bool_dtype)\n"
 "\n"
 "Bind what adjust_tested() and estimate() build and call: adjustment.Adjustment,\n"
 "snooping.TestedAdjustment, statistics.UnitVarianceTest, fix.FixResult (frozen dataclasses\n"
 "with an instance dict, nothing done by __init__ but setting the fields),\n"
 "statistics._variance_bounds, systems.base.Point, decca.DeccaObservations and the Decca\n"
-"system's name (its key in a fix's observation sets).");
+"system's name (its key in a fix's observation sets); bool_dtype numpy.dtype(bool).");
 
 static PyObject *fix_cls[3] = {NULL, NULL, NULL}; /* Adjustment, TestedAdjustment, UVT */
 static PyObject *variance_bounds = NULL;
 static PyObject *est_cls[3] = {NULL, NULL, NULL}; /* Point, DeccaObservations, FixResult */
 static PyObject *decca_key = NULL;                /* the Decca system's name */
+static PyObject *bool_descr = NULL;               /* numpy.dtype(bool) */
 static PyObject *dict_name = NULL, *empty_args = NULL;
 #define N_VT_KEYS 5
 #define N_TA_KEYS 12
@@ -1655,12 +1656,12 @@ static PyObject *vt_keys[N_VT_KEYS], *ta_keys[N_TA_KEYS];
 
 static PyObject *lsq_bind_fix(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 8 || !PyType_Check(args[0]) || !PyType_Check(args[1]) ||
+    if (nargs != 9 || !PyType_Check(args[0]) || !PyType_Check(args[1]) ||
         !PyType_Check(args[2]) || !PyCallable_Check(args[3]) || !PyType_Check(args[4]) ||
         !PyType_Check(args[5]) || !PyType_Check(args[6]) || !PyUnicode_CheckExact(args[7])) {
         PyErr_SetString(PyExc_TypeError, "_bind_fix(adjustment_cls, tested_cls, "
                                          "variance_test_cls, variance_bounds, point_cls, "
-                                         "decca_cls, fix_cls, decca_name)");
+                                         "decca_cls, fix_cls, decca_name, bool_dtype)");
         return NULL;
     }
     static const char *vn[N_VT_KEYS] = {"statistic", "lower", "upper", "accepted", "dof"};
@@ -1691,6 +1692,7 @@ static PyObject *lsq_bind_fix(PyObject *self, PyObject *const *args, Py_ssize_t 
     for (int i = 0; i < 3; i++)
         Py_XSETREF(est_cls[i], Py_NewRef(args[4 + i]));
     Py_XSETREF(decca_key, Py_NewRef(args[7]));
+    Py_XSETREF(bool_descr, Py_NewRef(args[8]));
     Py_RETURN_NONE;
 }
 
@@ -1717,6 +1719,48 @@ static PyObject *dict_of(int n, PyObject *const *keys, PyObject *const *vals)
     return d;
 }
 
+/* numpy.array(x0, dtype=float) of a tuple of two floats and numpy.array(used, dtype=bool) of
+ * a list of bools, made here (the same arrays: C-ordered, writable, aligned); anything else is
+ * passed on as it is (adjust() reads arrays, and declines what it cannot read). New references
+ * in *xo, *uo, or -1 (exception set). */
+static int start_arrays(PyObject *x, PyObject *used, PyObject **xo, PyObject **uo)
+{
+    *xo = *uo = NULL;
+    if (PyTuple_CheckExact(x) && PyTuple_GET_SIZE(x) == 2 &&
+        PyFloat_CheckExact(PyTuple_GET_ITEM(x, 0)) &&
+        PyFloat_CheckExact(PyTuple_GET_ITEM(x, 1))) {
+        double *d;
+        if ((*xo = lsq_new(2, -1, &d)) == NULL)
+            return -1;
+        d[0] = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(x, 0));
+        d[1] = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(x, 1));
+    }
+    else
+        *xo = Py_NewRef(x);
+    Py_ssize_t n = PyList_CheckExact(used) ? PyList_GET_SIZE(used) : -1;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *b = PyList_GET_ITEM(used, i);
+        if (b != Py_True && b != Py_False)
+            n = -1;
+    }
+    if (n >= 1 && bool_descr != NULL && np_new_from_descr != NULL && np_layout == 1) {
+        Py_ssize_t dims[1] = {n};
+        Py_INCREF(bool_descr); /* stolen */
+        *uo = np_new_from_descr((PyTypeObject *)np_ndarray, bool_descr, 1, dims, NULL, NULL, 0,
+                                NULL);
+        if (*uo == NULL) {
+            Py_CLEAR(*xo);
+            return -1;
+        }
+        unsigned char *u8 = (unsigned char *)((np_fields_t *)*uo)->data;
+        for (Py_ssize_t i = 0; i < n; i++)
+            u8[i] = PyList_GET_ITEM(used, i) == Py_True;
+    }
+    else
+        *uo = Py_NewRef(used);
+    return 0;
+}
+
 PyDoc_STRVAR(adjust_tested_doc,
 "adjust_tested(spec, x, used, eps, max_iter, cond_max, max_axis_ratio, scale_vcv, d0, alpha,\n"
 "              s02, k, bound, policy, estimator)\n"
@@ -1728,7 +1772,8 @@ PyDoc_STRVAR(adjust_tested_doc,
 "nothing beyond bound and its unit variance accepted (or not tested), snooping._quiet's\n"
 "TestedAdjustment (monitor: quiet()'s band). Returns the Adjustment when there is more to do\n"
 "(fix._tested_py then), the dict when alpha or s02 is not a float (fix._first_py), adjust()'s\n"
-"other results as they are. _bind_fix first.");
+"other results as they are. x may be a tuple of two floats and used a list of bools: the\n"
+"arrays compute_fix made of them are made here. _bind_fix first.");
 
 static PyObject *lsq_adjust_tested(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -1748,7 +1793,15 @@ static PyObject *lsq_adjust_tested(PyObject *self, PyObject *const *args, Py_ssi
     double bound_w = PyFloat_AsDouble(args[12]);
     if (bound_w == -1.0 && PyErr_Occurred())
         return NULL;
-    PyObject *d = lsq_adjust(self, args, 9);
+    PyObject *aa[9], *xo, *uo;
+    if (start_arrays(args[1], args[2], &xo, &uo) < 0)
+        return NULL;
+    memcpy(aa, args, sizeof(aa));
+    aa[1] = xo;
+    aa[2] = uo;
+    PyObject *d = lsq_adjust(self, aa, 9);
+    Py_DECREF(xo);
+    Py_DECREF(uo);
     if (d == NULL || !PyDict_CheckExact(d))
         return d;
     PyObject *alpha = args[9], *s02o = args[10];

@@ -493,6 +493,13 @@ def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> Non
                 base = (model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8)
                 kw = (fix.w_critical(alpha), fix.REJECT_BOUND, "A", "lsq")
                 got = K.adjust_tested(*base, alpha, s02, *kw)
+                # x0 as compute_fix's tuple, used as its list: the arrays made by the kernel
+                lists = K.adjust_tested(model.spec, tuple(x0.tolist()), used.tolist(),
+                                        *base[3:], alpha, s02, *kw)
+                assert type(lists) is type(got) and same(lists, got)
+                adj_l = lists if type(lists) is Adjustment else lists.adjustment
+                assert adj_l.used.flags.writeable and adj_l.used.flags.c_contiguous
+                assert same(adj_l.used, used)
                 state = K.adjust(*base)
                 assert type(state) is dict
                 first = fix._first_py(state, alpha, s02)
