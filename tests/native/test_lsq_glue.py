@@ -7,6 +7,12 @@
 * ``_Model.arrays`` (what :func:`engine.lsq.adjustment.gauss_newton` calls when the model
   offers it) gives the arrays of ``_Model.__call__``, and a whole adjustment with and without
   it is the same to the bit.
+* The one-call fix (2026-12-03 night): ``tail`` (the linear-range check and the table of
+  the systems' readings) is ``fix._tail_py``; ``adjust_tested`` (adjust, the unit-variance
+  test, the Adjustment and a quiet fix's TestedAdjustment built in C, the start arrays made
+  of compute_fix's tuple and list) is ``adjust`` + ``fix._first_py`` + ``fix._tested_py``;
+  ``estimate`` (a quiet fix's FixResult) is ``fix._at_estimate``; each declines what the
+  Python must say.
 """
 
 from __future__ import annotations
