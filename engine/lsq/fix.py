@@ -37,6 +37,8 @@ from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
 from engine.lsq.snooping import TestedAdjustment, _quiet, adjust_with_testing
 from engine.lsq.statistics import (
     REJECT_BOUND,
+    UnitVarianceTest,
+    _variance_bounds,
     delta0,
     frozen_instance,
     unit_variance_test,
@@ -191,11 +193,13 @@ class RawLops:
     slots: tuple[int, ...]
 
 
-@dataclass
+@dataclass(slots=True)
 class _Problem:
     """The observation sets of one fix by system name (registry order), which slots are used,
-    whether the filter's prediction stands in for GPS, the operator texts so far and the
-    registry's slot layout (``registry.layout()``) and its number of slots."""
+    whether the filter's prediction stands in for GPS, the operator texts so far, the
+    registry's slot layout (``registry.layout()``), its number of slots, each system's
+    (first slot, end) by name (``spans``, the layout's ranges as pairs of ints) and each
+    set with its first slot in ``sets`` order (``parts``, :class:`_Model`'s)."""
 
     sets: dict[str, ObservationSet]
     used: list[bool]
@@ -203,19 +207,28 @@ class _Problem:
     messages: list[str]
     layout: Mapping[str, range]
     n_slots: int
+    spans: dict[str, tuple[int, int]]
+    parts: tuple[tuple[int, ObservationSet], ...] | None = None
 
 
 class _Model:
     """The linearisation callback for the adjustment core (A5.9–A5.27): each system writes the
     rows of its slots."""
 
+    __slots__ = ("_eye", "geodesic", "grid", "n_slots", "parts", "spec")
+
     def __init__(self, grid: TMGrid, geodesic: GeodesicSolver,
                  sets: Mapping[str, ObservationSet],
-                 layout: Mapping[str, range] | None = None, n_slots: int | None = None) -> None:
+                 layout: Mapping[str, range] | None = None, n_slots: int | None = None,
+                 parts: tuple[tuple[int, ObservationSet], ...] | None = None) -> None:
+        """``parts``: (first slot, set) of each of ``sets`` in order, when the caller has it
+        (:func:`_gather`)."""
         self.grid = grid
         self.geodesic = geodesic
         slots = registry.layout() if layout is None else layout
-        parts = self.parts = tuple([(slots[name].start, obs) for name, obs in sets.items()])
+        if parts is None:
+            parts = tuple([(slots[name].start, obs) for name, obs in sets.items()])
+        self.parts = parts
         self.n_slots = sum(len(r) for r in slots.values()) if n_slots is None else n_slots
         eye = self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
         self.spec = (parts, Point, grid, geodesic, eye)
@@ -262,9 +275,9 @@ def _eye(n: int) -> np.ndarray:
     return eye
 
 
-_N_SLOTS: list[Any] = [None, 0, ()]
+_N_SLOTS: list[Any] = [None, 0, (), {}]
 """[the registry layout last seen by :func:`_gather` (None: none yet), its number of slots,
-(system, name, first slot) of each system in registry order]."""
+(system, name, first slot) of each system in registry order, name -> (first slot, end)]."""
 
 
 def _gather(
@@ -280,13 +293,15 @@ def _gather(
     sets: dict[str, ObservationSet] = {}
     memo = _N_SLOTS
     if memo[0] is layout:  # the layout is the registry's (cached per SYSTEMS)
-        n_slots, order = memo[1], memo[2]
+        n_slots, order, spans = memo[1], memo[2], memo[3]
     else:
         n_slots = sum(len(r) for r in layout.values())
         order = tuple((s, s.name, layout[s.name].start) for s in registry.SYSTEMS)
-        memo[:] = [layout, n_slots, order]
+        spans = {name: (r.start, r.stop) for name, r in layout.items()}
+        memo[:] = [layout, n_slots, order, spans]
     used = [False] * n_slots
     messages: list[str] = []
+    parts: list[tuple[int, ObservationSet]] = []
     for system, name, first in order:
         try:
             obs = system.observations(values.get(name), p0)
@@ -295,6 +310,7 @@ def _gather(
         if obs is None:
             continue
         sets[name] = obs
+        parts.append((first, obs))
         messages.extend(obs.messages)
         available = obs.available()
         used[first:first + len(available)] = available
@@ -307,7 +323,8 @@ def _gather(
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
         sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
-    return _Problem(sets, used, uses_prior, messages, layout, n_slots)
+        return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans)
+    return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans, tuple(parts))
 
 
 def compute_fix(
@@ -354,8 +371,8 @@ def compute_fix(
     if n_avail < 2:
         return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
                        messages=messages)
-    model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots)
-    x_start = np.array(x0, dtype=float)
+    model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots, problem.parts)
+    x_start: np.ndarray | None = None  # np.array(x0, dtype=float) where the Python needs it
     uses_prior = problem.uses_prior
     policy = "N" if uses_prior else settings.lop_reject
     estimator = "lsq" if uses_prior else settings.estimator
@@ -363,23 +380,24 @@ def compute_fix(
     k = _kernel.kernel()
     quick = None if k is None or estimator != "lsq" else _quick_settings(settings)
     if quick is not None and policy in ("Y", "N", "A"):
-        # adjust_with_testing's plain LSQ path in one compiled call (gauss_newton's ``adjust``)
-        # and, with nothing to reject, its result (``quiet``, _quiet) without its layers
+        # adjust_with_testing's plain LSQ path in one compiled call (gauss_newton's ``adjust``,
+        # on x0 and the used slots made arrays as np.array makes them), with its tests and,
+        # with nothing to reject, its result built by the kernel (_first_py, _tested_py)
         alpha, eps, max_iter, s02, scale_vcv, d0, k_alpha = quick
-        used_b = np.array(problem.used, dtype=bool)
-        state = k.adjust(model.spec, x_start, used_b, eps, max_iter, COND_MAX, MAX_AXIS_RATIO,
-                         scale_vcv, d0)
-        if type(state) is dict:
-            s2 = state["s2"]
-            if s2 is not None:  # the kernel left variance_test None (as gauss_newton)
-                state["variance_test"] = unit_variance_test(s2, state["redundancy"], alpha,
-                                                            s02)
-            first = frozen_instance(Adjustment, state)
-            if first.ok and first.redundancy >= 1:
-                monitor = k.quiet(first.stats_block, k_alpha, REJECT_BOUND)
-                if monitor is not None:
-                    tested = _quiet(first, monitor, policy, estimator)
+        if _FIX_BOUND[0] is not k:
+            _bind_fix(k)
+        state = k.adjust_tested(model.spec, x0, problem.used, eps, max_iter, COND_MAX,
+                                MAX_AXIS_RATIO, scale_vcv, d0, alpha, s02, k_alpha,
+                                REJECT_BOUND, policy, estimator)
+        if type(state) is dict:  # the kernel left the tests to the Python
+            state = _first_py(state, alpha, s02)
+        if type(state) is Adjustment:
+            first = state
+            tested = _tested_py(first, k_alpha, policy, estimator, k)
+        elif type(state) is TestedAdjustment:
+            first, tested = state.adjustment, state
     if tested is None:  # everything else (and the pure path): the layers as they are
+        x_start = np.array(x0, dtype=float)
         tested = adjust_with_testing(
             model,
             x_start,
@@ -399,8 +417,49 @@ def compute_fix(
     adj = tested.adjustment
     if not adj.ok:
         return _no_fix(grid, x0, adj.reason or "no fix", adj.n_used, tested, messages)
+    if adj is first and not uses_prior and _ROW_MAKER[0] is k:
+        # _at_estimate in one compiled call (its used slots: the list); None: the Python
+        fix = k.estimate(grid, geodesic, tested, problem.sets, problem.spans, problem.used,
+                         messages, quick[6], REJECT_BOUND)  # type: ignore[index]
+        if fix is not None:
+            return fix  # type: ignore[no-any-return]
+    if x_start is None:
+        x_start = np.array(x0, dtype=float)
     return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings,
                         problem.used if adj is first else None)  # its used slots as a list
+
+
+def _first_py(state: dict[str, Any], alpha: float, s02: float) -> Adjustment:
+    """The Adjustment of the compiled ``adjust``'s fields (``state``, variance_test None, as
+    ``gauss_newton`` leaves it) with its unit-variance test (α, σ0² of the settings)."""
+    s2 = state["s2"]
+    if s2 is not None:
+        state["variance_test"] = unit_variance_test(s2, state["redundancy"], alpha, s02)
+    return frozen_instance(Adjustment, state)
+
+
+def _tested_py(first: Adjustment, k_alpha: float, policy: str, estimator: str,
+               k: Any) -> TestedAdjustment | None:
+    """adjust_with_testing's result for a fix with nothing to reject, flag or ask (the
+    kernel's ``quiet`` finds the monitor band, :func:`engine.lsq.snooping._quiet` builds it);
+    None when the layers have more to do."""
+    if first.ok and first.redundancy >= 1:
+        monitor = k.quiet(first.stats_block, k_alpha, REJECT_BOUND)
+        if monitor is not None:
+            return _quiet(first, monitor, policy, estimator)
+    return None
+
+
+_FIX_BOUND: list[Any] = [None]
+"""[the lsq kernel module :func:`_bind_fix` bound (None: none yet)]."""
+
+
+def _bind_fix(k: Any) -> None:
+    """Give the kernel the classes, the bounds function and the Decca system's name that
+    ``adjust_tested`` and ``estimate`` use."""
+    k._bind_fix(Adjustment, TestedAdjustment, UnitVarianceTest, _variance_bounds, Point,
+                DeccaObservations, FixResult, DECCA.name, np.dtype(bool))
+    _FIX_BOUND[0] = k
 
 
 _QUICK: list[Any] = [None, None]
@@ -459,15 +518,26 @@ def _at_estimate(
             ellipse = error_ellipse(adj.cov_x)
         if used is None:
             used = adj.used.tolist()
-        if not problem.uses_prior:
-            # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
-            l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None
-            reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
-            if reason is not None:
-                return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
-        raw = _raw_lops(model, adj, x_start) if problem.uses_prior else None
-        lops = _lop_rows(adj, problem.sets, p_hat, settings.reliab_interval / 100.0, used,
-                         problem.layout)
+        # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
+        l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None
+        alpha = settings.reliab_interval / 100.0
+        if problem.uses_prior:  # no linear-range check; the raw LOPs before the table
+            raw = _raw_lops(model, adj, x_start)
+            check = False
+        else:
+            raw = None
+            check = True
+        # the check and the table in one compiled call (_tail_py); None: the Python below
+        lops = None if k is None or _ROW_MAKER[0] is not k else k.tail(
+            problem.sets, problem.spans, p_hat, used, check, l1, adj.stats_block, adj.v,
+            adj.used, w_critical(alpha), REJECT_BOUND)
+        if lops is None:
+            if check:
+                reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout,
+                                              l1)
+                if reason is not None:
+                    return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
+            lops = _lop_rows(adj, problem.sets, p_hat, alpha, used, problem.layout)
     except EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
                        tested, messages)
@@ -576,6 +646,20 @@ def _no_fix(
         tested=tested,
         messages=tuple(messages),
     )
+
+
+def _tail_py(adj: Adjustment, problem: _Problem, p_hat: Point, used: list[bool],
+             check: bool, l1: float | None, alpha: float) -> tuple[LopRow, ...] | str:
+    """The compiled ``tail``'s twin: with ``check``, :func:`_beyond_linear_range`'s reason
+    (returned as the string) when there is one; then :func:`_lop_rows_py` of the systems'
+    readings at ``p_hat`` as a tuple."""
+    if check:
+        reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
+        if reason is not None:
+            return reason
+    groups = [(problem.spans[name][0], obs.readings(p_hat))
+              for name, obs in problem.sets.items()]
+    return tuple(_lop_rows_py(adj, groups, alpha, used, _row_maker()))
 
 
 def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,

@@ -315,4 +315,6 @@ class CumulativeVariance:
         if s2 is None or r < 1 or not math.isfinite(s2):
             return self
         big_r = self.R + int(r)
-        return CumulativeVariance(self.sigma2 + (r / big_r) * (s2 - self.sigma2), big_r)
+        return frozen_instance(CumulativeVariance,  # once per fix: no generated __init__
+                               {"sigma2": self.sigma2 + (r / big_r) * (s2 - self.sigma2),
+                                "R": big_r})

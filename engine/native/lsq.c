@@ -17,7 +17,14 @@
  *   quiet(stats, k, bound)          both at once when nothing is to be rejected;
  *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
  *                                   same frozen slotted instance; bound by _bind_row);
- *   lop_rows(groups, stats, ...)    fix._lop_rows' table: every row() with its tests.
+ *   lop_rows(groups, stats, ...)    fix._lop_rows' table: every row() with its tests;
+ *   adjust_tested(spec, x, ...)     adjust(), then the unit-variance test, the Adjustment and
+ *                                   a quiet fix's TestedAdjustment built here (fix._first_py,
+ *                                   fix._tested_py);
+ *   estimate(grid, ..., tested, ...) fix._at_estimate of a quiet fix of the LOPs alone: the
+ *                                   point, geometry, ellipse, tail() and the FixResult;
+ *   tail(sets, spans, p, ...)       fix._at_estimate's linear-range check and lop_rows() of
+ *                                   the systems' readings in one call (fix._tail_py).
  * Each returns None where the Python would take a rare branch (u != 2, a singular or
  * ill-conditioned matrix, non-finite values, an untestable slot, ...): the caller then runs
  * the Python, which gives the same result or the same failure reason.
@@ -1624,7 +1631,585 @@ done:
     return res;
 }
 
+/* ---------------------------------------------------------------------------------------- */
+/* adjust_tested: adjust() and compute_fix's tests of a quiet fix, the results built here */
+
+PyDoc_STRVAR(bind_fix_doc,
+"_bind_fix(adjustment_cls, tested_cls, variance_test_cls, variance_bounds, point_cls,\n"
+"          decca_cls, fix_cls, decca_name, bool_dtype)\n"
+"\n"
+"Bind what adjust_tested() and estimate() build and call: adjustment.Adjustment,\n"
+"snooping.TestedAdjustment, statistics.UnitVarianceTest, fix.FixResult (frozen dataclasses\n"
+"with an instance dict, nothing done by __init__ but setting the fields),\n"
+"statistics._variance_bounds, systems.base.Point, decca.DeccaObservations and the Decca\n"
+"system's name (its key in a fix's observation sets); bool_dtype numpy.dtype(bool).");
+
+static PyObject *fix_cls[3] = {NULL, NULL, NULL}; /* Adjustment, TestedAdjustment, UVT */
+static PyObject *variance_bounds = NULL;
+static PyObject *est_cls[3] = {NULL, NULL, NULL}; /* Point, DeccaObservations, FixResult */
+static PyObject *decca_key = NULL;                /* the Decca system's name */
+static PyObject *bool_descr = NULL;               /* numpy.dtype(bool) */
+static PyObject *dict_name = NULL, *empty_args = NULL;
+#define N_VT_KEYS 5
+#define N_TA_KEYS 12
+static PyObject *vt_keys[N_VT_KEYS], *ta_keys[N_TA_KEYS];
+
+static PyObject *lsq_bind_fix(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9 || !PyType_Check(args[0]) || !PyType_Check(args[1]) ||
+        !PyType_Check(args[2]) || !PyCallable_Check(args[3]) || !PyType_Check(args[4]) ||
+        !PyType_Check(args[5]) || !PyType_Check(args[6]) || !PyUnicode_CheckExact(args[7])) {
+        PyErr_SetString(PyExc_TypeError, "_bind_fix(adjustment_cls, tested_cls, "
+                                         "variance_test_cls, variance_bounds, point_cls, "
+                                         "decca_cls, fix_cls, decca_name, bool_dtype)");
+        return NULL;
+    }
+    static const char *vn[N_VT_KEYS] = {"statistic", "lower", "upper", "accepted", "dof"};
+    static const char *tn[N_TA_KEYS] = {
+        "adjustment", "rejected", "candidate", "candidate_w", "flagged", "monitor",
+        "not_identifiable", "variance_test", "messages", "policy", "estimator", "robust"};
+    if (dict_name == NULL) {
+        if ((dict_name = PyUnicode_InternFromString("__dict__")) == NULL ||
+            (empty_args = PyTuple_New(0)) == NULL)
+            return NULL;
+        for (int i = 0; i < N_VT_KEYS; i++)
+            if ((vt_keys[i] = PyUnicode_InternFromString(vn[i])) == NULL)
+                return NULL;
+        for (int i = 0; i < N_TA_KEYS; i++)
+            if ((ta_keys[i] = PyUnicode_InternFromString(tn[i])) == NULL)
+                return NULL;
+    }
+    for (int i = 0; i < 4; i++) {
+        PyTypeObject *tp = (PyTypeObject *)args[i == 3 ? 6 : i];
+        if (tp->tp_dictoffset == 0 || tp->tp_new != PyBaseObject_Type.tp_new) {
+            PyErr_SetString(PyExc_TypeError, "_bind_fix: classes with an instance dict");
+            return NULL;
+        }
+    }
+    for (int i = 0; i < 3; i++)
+        Py_XSETREF(fix_cls[i], Py_NewRef(args[i]));
+    Py_XSETREF(variance_bounds, Py_NewRef(args[3]));
+    for (int i = 0; i < 3; i++)
+        Py_XSETREF(est_cls[i], Py_NewRef(args[4 + i]));
+    Py_XSETREF(decca_key, Py_NewRef(args[7]));
+    Py_XSETREF(bool_descr, Py_NewRef(args[8]));
+    Py_RETURN_NONE;
+}
+
+/* frozen_instance(cls, d): object.__new__(cls) with d as its instance dict (d's reference
+ * taken over, also on failure). New reference or NULL. */
+static PyObject *with_dict(PyObject *cls, PyObject *d)
+{
+    if (d == NULL)
+        return NULL;
+    PyObject *obj = PyBaseObject_Type.tp_new((PyTypeObject *)cls, empty_args, NULL);
+    if (obj != NULL && PyObject_GenericSetAttr(obj, dict_name, d) < 0)
+        Py_CLEAR(obj);
+    Py_DECREF(d);
+    return obj;
+}
+
+/* A new dict of n keys and values, or NULL. */
+static PyObject *dict_of(int n, PyObject *const *keys, PyObject *const *vals)
+{
+    PyObject *d = _PyDict_NewPresized(n);
+    for (int i = 0; i < n && d != NULL; i++)
+        if (vals[i] == NULL || PyDict_SetItem(d, keys[i], vals[i]) < 0)
+            Py_CLEAR(d);
+    return d;
+}
+
+/* numpy.array(x0, dtype=float) of a tuple of two floats and numpy.array(used, dtype=bool) of
+ * a list of bools, made here (the same arrays: C-ordered, writable, aligned); anything else is
+ * passed on as it is (adjust() reads arrays, and declines what it cannot read). New references
+ * in *xo, *uo, or -1 (exception set). */
+static int start_arrays(PyObject *x, PyObject *used, PyObject **xo, PyObject **uo)
+{
+    *xo = *uo = NULL;
+    if (PyTuple_CheckExact(x) && PyTuple_GET_SIZE(x) == 2 &&
+        PyFloat_CheckExact(PyTuple_GET_ITEM(x, 0)) &&
+        PyFloat_CheckExact(PyTuple_GET_ITEM(x, 1))) {
+        double *d;
+        if ((*xo = lsq_new(2, -1, &d)) == NULL)
+            return -1;
+        d[0] = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(x, 0));
+        d[1] = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(x, 1));
+    }
+    else
+        *xo = Py_NewRef(x);
+    Py_ssize_t n = PyList_CheckExact(used) ? PyList_GET_SIZE(used) : -1;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *b = PyList_GET_ITEM(used, i);
+        if (b != Py_True && b != Py_False)
+            n = -1;
+    }
+    if (n >= 1 && bool_descr != NULL && np_new_from_descr != NULL && np_layout == 1) {
+        Py_ssize_t dims[1] = {n};
+        Py_INCREF(bool_descr); /* stolen */
+        *uo = np_new_from_descr((PyTypeObject *)np_ndarray, bool_descr, 1, dims, NULL, NULL, 0,
+                                NULL);
+        if (*uo == NULL) {
+            Py_CLEAR(*xo);
+            return -1;
+        }
+        unsigned char *u8 = (unsigned char *)((np_fields_t *)*uo)->data;
+        for (Py_ssize_t i = 0; i < n; i++)
+            u8[i] = PyList_GET_ITEM(used, i) == Py_True;
+    }
+    else
+        *uo = Py_NewRef(used);
+    return 0;
+}
+
+PyDoc_STRVAR(adjust_tested_doc,
+"adjust_tested(spec, x, used, eps, max_iter, cond_max, max_axis_ratio, scale_vcv, d0, alpha,\n"
+"              s02, k, bound, policy, estimator)\n"
+"-> TestedAdjustment, Adjustment, dict, (iterations, x, steps) or None\n"
+"\n"
+"adjust() (its first nine arguments), then what fix._first_py and fix._tested_py do with its\n"
+"dict: the unit-variance test (statistics.unit_variance_test: _variance_bounds called, the\n"
+"UnitVarianceTest built), the Adjustment, and for a fix that is ok with redundancy >= 1,\n"
+"nothing beyond bound and its unit variance accepted (or not tested), snooping._quiet's\n"
+"TestedAdjustment (monitor: quiet()'s band). Returns the Adjustment when there is more to do\n"
+"(fix._tested_py then), the dict when alpha or s02 is not a float (fix._first_py), adjust()'s\n"
+"other results as they are. x may be a tuple of two floats and used a list of bools: the\n"
+"arrays compute_fix made of them are made here. _bind_fix first.");
+
+static PyObject *lsq_adjust_tested(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 15) {
+        PyErr_SetString(PyExc_TypeError,
+                        "adjust_tested(spec, x, used, eps, max_iter, cond_max, max_axis_ratio, "
+                        "scale_vcv, d0, alpha, s02, k, bound, policy, estimator)");
+        return NULL;
+    }
+    if (variance_bounds == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "engine.native.lsq: _bind_fix() first");
+        return NULL;
+    }
+    double kc = PyFloat_AsDouble(args[11]);
+    if (kc == -1.0 && PyErr_Occurred())
+        return NULL;
+    double bound_w = PyFloat_AsDouble(args[12]);
+    if (bound_w == -1.0 && PyErr_Occurred())
+        return NULL;
+    PyObject *aa[9], *xo, *uo;
+    if (start_arrays(args[1], args[2], &xo, &uo) < 0)
+        return NULL;
+    memcpy(aa, args, sizeof(aa));
+    aa[1] = xo;
+    aa[2] = uo;
+    PyObject *d = lsq_adjust(self, aa, 9);
+    Py_DECREF(xo);
+    Py_DECREF(uo);
+    if (d == NULL || !PyDict_CheckExact(d))
+        return d;
+    PyObject *alpha = args[9], *s02o = args[10];
+    if (!PyFloat_CheckExact(alpha) || !PyFloat_CheckExact(s02o))
+        return d;
+    /* fix._first_py: the unit-variance test, then frozen_instance(Adjustment, state) */
+    PyObject *s2o = PyDict_GetItemWithError(d, adj_keys[15]);   /* s2 */
+    PyObject *ro = PyDict_GetItemWithError(d, adj_keys[8]);     /* redundancy */
+    PyObject *oko = PyDict_GetItemWithError(d, adj_keys[0]);    /* ok */
+    PyObject *stato = PyDict_GetItemWithError(d, adj_keys[18]); /* stats_block */
+    if (s2o == NULL || ro == NULL || oko == NULL || stato == NULL || !PyLong_CheckExact(ro) ||
+        !(s2o == Py_None || PyFloat_CheckExact(s2o))) {
+        if (PyErr_Occurred()) {
+            Py_DECREF(d);
+            return NULL;
+        }
+        return d;
+    }
+    Py_ssize_t r = PyLong_AsSsize_t(ro);
+    if (r == -1 && PyErr_Occurred()) {
+        Py_DECREF(d);
+        return NULL;
+    }
+    Py_INCREF(ro);
+    Py_INCREF(oko);
+    Py_INCREF(stato);
+    PyObject *vt = Py_NewRef(Py_None), *adj = NULL, *res = NULL;
+    int accepted = 1;
+    if (s2o != Py_None) {
+        double s2 = PyFloat_AS_DOUBLE(s2o);
+        if (r >= 1 && isfinite(s2)) { /* unit_variance_test(s2, r, alpha, s02) */
+            PyObject *ca[3] = {ro, alpha, s02o};
+            PyObject *b = PyObject_Vectorcall(variance_bounds, ca, 3, NULL);
+            if (b == NULL)
+                goto error;
+            if (!PyTuple_CheckExact(b) || PyTuple_GET_SIZE(b) != 2 ||
+                !PyFloat_CheckExact(PyTuple_GET_ITEM(b, 0)) ||
+                !PyFloat_CheckExact(PyTuple_GET_ITEM(b, 1))) {
+                Py_DECREF(b);
+                PyErr_SetString(PyExc_TypeError, "_variance_bounds: not two floats");
+                goto error;
+            }
+            double lower = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(b, 0));
+            double upper = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(b, 1));
+            accepted = lower < s2 && s2 < upper;
+            PyObject *st = PyFloat_FromDouble((double)r * s2 / PyFloat_AS_DOUBLE(s02o));
+            PyObject *vv[N_VT_KEYS] = {st, PyTuple_GET_ITEM(b, 0), PyTuple_GET_ITEM(b, 1),
+                                       accepted ? Py_True : Py_False, ro};
+            Py_SETREF(vt, with_dict(fix_cls[2], dict_of(N_VT_KEYS, vt_keys, vv)));
+            Py_XDECREF(st);
+            Py_DECREF(b);
+            if (vt == NULL)
+                goto error;
+            if (PyDict_SetItem(d, adj_keys[23], vt) < 0) /* variance_test */
+                goto error;
+        }
+    }
+    adj = with_dict(fix_cls[0], d);
+    d = NULL;
+    if (adj == NULL)
+        goto error;
+    /* fix._tested_py for a quiet fix: snooping._quiet without messages */
+    if (oko != Py_True || r < 1 || !accepted)
+        goto first;
+    PyObject *qa[3] = {stato, args[11], args[12]};
+    PyObject *mon = lsq_quiet(self, qa, 3);
+    if (mon == NULL)
+        goto error;
+    if (mon == Py_None) {
+        Py_DECREF(mon);
+        goto first;
+    }
+    PyObject *empty = PyTuple_New(0);
+    PyObject *tv[N_TA_KEYS] = {adj, empty, Py_None, Py_None, empty, mon, Py_False, vt, empty,
+                               args[13], args[14], Py_None};
+    res = with_dict(fix_cls[1], dict_of(N_TA_KEYS, ta_keys, tv));
+    Py_XDECREF(empty);
+    Py_DECREF(mon);
+    goto done;
+first:
+    res = Py_NewRef(adj);
+    goto done;
+error:
+    res = NULL;
+done:
+    Py_XDECREF(d);
+    Py_XDECREF(adj);
+    Py_DECREF(vt);
+    Py_DECREF(ro);
+    Py_DECREF(oko);
+    Py_DECREF(stato);
+    return res;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* tail: fix._at_estimate's linear-range check and LOP table in one call */
+
+PyDoc_STRVAR(tail_doc,
+"tail(sets, spans, p, used, check, l1, stats, v, used_arr, k, bound) -> tuple of rows or None\n"
+"\n"
+"engine.lsq.fix._tail_py: with check, fix._beyond_linear_range (near = the min over the\n"
+"systems, in sets order, of obs.nearest_station_m(p, used[start:stop]); l1 the larger\n"
+"eigenvalue); then lop_rows() of (start, obs.readings(p)) for each system of sets, as a\n"
+"tuple. sets a dict name -> ObservationSet, spans a dict name -> (start, stop), used the\n"
+"final used slots as a list of bools. None where the Python must run: a fix beyond the\n"
+"linear range (it says why), check without l1, an exception of a system (the Python calls\n"
+"it again and says why), other types, lop_rows() declining.");
+
+static PyObject *nearest_name = NULL, *readings_name = NULL;
+
+static PyObject *lsq_tail(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 11) {
+        PyErr_SetString(PyExc_TypeError,
+                        "tail(sets, spans, p, used, check, l1, stats, v, used_arr, k, bound)");
+        return NULL;
+    }
+    if (nearest_name == NULL &&
+        ((nearest_name = PyUnicode_InternFromString("nearest_station_m")) == NULL ||
+         (readings_name = PyUnicode_InternFromString("readings")) == NULL))
+        return NULL;
+    PyObject *sets = args[0], *spans = args[1], *p = args[2], *used = args[3];
+    int check = PyObject_IsTrue(args[4]);
+    if (check < 0)
+        return NULL;
+    if (!PyDict_CheckExact(sets) || !PyDict_CheckExact(spans) || !PyList_CheckExact(used) ||
+        (check && !PyFloat_CheckExact(args[5])))
+        return Py_NewRef(Py_None);
+    Py_ssize_t ns = PyDict_GET_SIZE(sets), pos = 0, i = 0;
+    if (ns > 16)
+        return Py_NewRef(Py_None);
+    Py_ssize_t start[16], stop[16];
+    PyObject *name, *obs, *obj[16];
+    while (PyDict_Next(sets, &pos, &name, &obs)) { /* the types first: nothing called */
+        PyObject *sp = PyDict_GetItemWithError(spans, name);
+        if (sp == NULL || !PyTuple_CheckExact(sp) || PyTuple_GET_SIZE(sp) != 2) {
+            PyErr_Clear();
+            return Py_NewRef(Py_None);
+        }
+        start[i] = PyLong_AsSsize_t(PyTuple_GET_ITEM(sp, 0));
+        stop[i] = PyLong_AsSsize_t(PyTuple_GET_ITEM(sp, 1));
+        if (PyErr_Occurred()) {
+            PyErr_Clear();
+            return Py_NewRef(Py_None);
+        }
+        obj[i++] = obs;
+    }
+    if (i != ns)
+        return Py_NewRef(Py_None);
+    if (check) { /* _beyond_linear_range */
+        double near = INFINITY;
+        for (i = 0; i < ns; i++) {
+            PyObject *sl = PyList_GetSlice(used, start[i], stop[i]);
+            if (sl == NULL)
+                return NULL;
+            PyObject *ca[3] = {obj[i], p, sl};
+            PyObject *r = PyObject_VectorcallMethod(nearest_name, ca,
+                                                    3 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+            Py_DECREF(sl);
+            if (r == NULL) {
+                if (!PyErr_ExceptionMatches(PyExc_Exception))
+                    return NULL;
+                PyErr_Clear(); /* the Python calls it again and says why */
+                return Py_NewRef(Py_None);
+            }
+            int isf = PyFloat_CheckExact(r);
+            double d = isf ? PyFloat_AS_DOUBLE(r) : 0.0;
+            Py_DECREF(r);
+            if (!isf)
+                return Py_NewRef(Py_None);
+            if (d < near) /* min(near, d) */
+                near = d;
+        }
+        if (near != INFINITY) { /* _linear_range_reason: a = sqrt(max(l1, 0.0)) */
+            double l1 = PyFloat_AS_DOUBLE(args[5]);
+            double a = sqrt(0.0 > l1 ? 0.0 : l1);
+            if (!(a < near))
+                return Py_NewRef(Py_None); /* beyond the linear range: the Python says why */
+        }
+    }
+    PyObject *groups = PyList_New(ns);
+    if (groups == NULL)
+        return NULL;
+    for (i = 0; i < ns; i++) {
+        PyObject *ca[2] = {obj[i], p};
+        PyObject *r = PyObject_VectorcallMethod(readings_name, ca,
+                                                2 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+        if (r == NULL) {
+            Py_DECREF(groups);
+            if (!PyErr_ExceptionMatches(PyExc_Exception))
+                return NULL;
+            PyErr_Clear();
+            return Py_NewRef(Py_None);
+        }
+        PyObject *g = Py_BuildValue("(nN)", start[i], r);
+        if (g == NULL) {
+            Py_DECREF(groups);
+            return NULL;
+        }
+        PyList_SET_ITEM(groups, i, g);
+    }
+    PyObject *la[6] = {groups, args[6], args[7], args[8], args[9], args[10]};
+    PyObject *rows = lsq_lop_rows(self, la, 6);
+    Py_DECREF(groups);
+    if (rows == NULL || rows == Py_None)
+        return rows;
+    PyObject *t = PyList_AsTuple(rows);
+    Py_DECREF(rows);
+    return t;
+}
+
+
+/* ---------------------------------------------------------------------------------------- */
+/* estimate: fix._at_estimate of a quiet fix (no prior, nothing rejected) in one call */
+
+PyDoc_STRVAR(estimate_doc,
+"estimate(grid, geodesic, tested, sets, spans, used, messages, k, bound) -> FixResult or None\n"
+"\n"
+"engine.lsq.fix._at_estimate for a fix of the LOPs alone (not the hybrid fix) with nothing\n"
+"rejected: x_m, y_m of the adjustment's x, grid.inverse of them, the Point there (with its\n"
+"lat/lon), the Decca set's geometry_at it, ellipse() of cov_x, then tail() with the check\n"
+"(l1 from the ellipse when cov_x is cov_x_apriori) and the FixResult built (messages: a tuple\n"
+"of the list). used: the final adjustment's used slots as a list. None (the Python runs, and\n"
+"says why) where tail() or ellipse() decline, a system or the grid raises, or a type is not\n"
+"the usual one. _bind_fix first.");
+
+#define N_FR_KEYS 21
+static PyObject *fr_keys[N_FR_KEYS];
+static PyObject *inverse_name, *geometry_at_name, *raw_name, *adjustment_name, *rejected_name,
+    *candidate_name, *x_name, *cov_x_name, *cov_x_apriori_name, *category_name, *n_used_name,
+    *rms_name, *s2_name, *stats_name, *v_name, *used_name;
+
+static int estimate_ready(void)
+{
+    static const char *fn[N_FR_KEYS] = {
+        "ok", "reason", "x_m", "y_m", "lat_deg", "lon_deg", "cov", "ellipse", "category",
+        "n_used", "rms_m", "s2", "lops", "tested", "decca_observed", "decca_geometry",
+        "rejected_slots", "candidate_slot", "uses_prior", "messages", "raw_lops"};
+    if (used_name != NULL)
+        return 0;
+    for (int i = 0; i < N_FR_KEYS; i++)
+        if ((fr_keys[i] = PyUnicode_InternFromString(fn[i])) == NULL)
+            return -1;
+    PyObject **dst[16] = {&inverse_name, &geometry_at_name, &raw_name, &adjustment_name,
+                          &rejected_name, &candidate_name, &x_name, &cov_x_name,
+                          &cov_x_apriori_name, &category_name, &n_used_name, &rms_name,
+                          &s2_name, &stats_name, &v_name, &used_name};
+    static const char *an[16] = {"inverse", "geometry_at", "raw", "adjustment", "rejected",
+                                 "candidate", "x", "cov_x", "cov_x_apriori", "category",
+                                 "n_used", "rms_m", "s2", "stats_block", "v", "used"};
+    for (int i = 0; i < 16; i++)
+        if ((*dst[i] = PyUnicode_InternFromString(an[i])) == NULL)
+            return -1;
+    return 0;
+}
+
+static PyObject *lsq_estimate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9) {
+        PyErr_SetString(PyExc_TypeError, "estimate(grid, geodesic, tested, sets, spans, used, "
+                                         "messages, k, bound)");
+        return NULL;
+    }
+    if (est_cls[2] == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "engine.native.lsq: _bind_fix() first");
+        return NULL;
+    }
+    if (estimate_ready() < 0)
+        return NULL;
+    PyObject *grid = args[0], *geodesic = args[1], *tested = args[2], *sets = args[3];
+    PyObject *messages = args[6];
+    if (!PyDict_CheckExact(sets) || !PyList_CheckExact(messages))
+        return Py_NewRef(Py_None);
+    /* every object made or looked up, released at the end */
+    enum { ADJ, REJ, CAND, X, COVX, COVA, CAT, NUSED, RMS, S2, STATS, V, USED, XE, YN, LL,
+           LLT, P, GEOM, ELL, L1, LOPS, RAW, MSG, NOBJ };
+    PyObject *o[NOBJ] = {NULL};
+    PyObject *res = NULL, *decca = NULL;
+    if ((o[ADJ] = PyObject_GetAttr(tested, adjustment_name)) == NULL ||
+        (o[REJ] = PyObject_GetAttr(tested, rejected_name)) == NULL ||
+        (o[CAND] = PyObject_GetAttr(tested, candidate_name)) == NULL)
+        goto raised;
+    if (!PyTuple_CheckExact(o[REJ]) || PyTuple_GET_SIZE(o[REJ]) != 0)
+        goto none; /* rejections: the Python's rejected_slots */
+    PyObject *an[10] = {x_name, cov_x_name, cov_x_apriori_name, category_name, n_used_name,
+                        rms_name, s2_name, stats_name, v_name, used_name};
+    for (int i = 0; i < 10; i++)
+        if ((o[X + i] = PyObject_GetAttr(o[ADJ], an[i])) == NULL)
+            goto raised;
+    /* xe, yn = adj.x.tolist() */
+    buf_t xb = {0};
+    if (buf_get(o[X], &xb, 1) < 0)
+        goto none;
+    if (xb.view.shape[0] != 2) {
+        buf_release(&xb);
+        goto none;
+    }
+    o[XE] = PyFloat_FromDouble(AT1(xb, 0));
+    o[YN] = PyFloat_FromDouble(AT1(xb, 1));
+    buf_release(&xb);
+    if (o[XE] == NULL || o[YN] == NULL)
+        goto error;
+    { /* lat, lon = grid.inverse(xe, yn) */
+        PyObject *ca[3] = {grid, o[XE], o[YN]};
+        o[LL] = PyObject_VectorcallMethod(inverse_name, ca, 3 | PY_VECTORCALL_ARGUMENTS_OFFSET,
+                                          NULL);
+        if (o[LL] == NULL)
+            goto raised;
+        if (!PyTuple_CheckExact(o[LL]) || PyTuple_GET_SIZE(o[LL]) != 2)
+            goto none;
+        o[LLT] = PyTuple_Pack(2, PyTuple_GET_ITEM(o[LL], 0), PyTuple_GET_ITEM(o[LL], 1));
+        if (o[LLT] == NULL)
+            goto error;
+    }
+    { /* p_hat = Point(grid, geodesic, xe, yn, (lat, lon)) */
+        PyObject *ca[5] = {grid, geodesic, o[XE], o[YN], o[LLT]};
+        if ((o[P] = PyObject_Vectorcall(est_cls[0], ca, 5, NULL)) == NULL)
+            goto raised;
+    }
+    /* geom = decca.geometry_at(p_hat) if isinstance(decca, DeccaObservations) else None */
+    decca = PyDict_GetItemWithError(sets, decca_key); /* borrowed */
+    if (decca == NULL && PyErr_Occurred())
+        goto error;
+    int is_decca = 0;
+    if (decca != NULL) {
+        is_decca = PyObject_IsInstance(decca, est_cls[1]);
+        if (is_decca < 0)
+            goto raised;
+    }
+    if (is_decca) {
+        PyObject *ca[2] = {decca, o[P]};
+        o[GEOM] = PyObject_VectorcallMethod(geometry_at_name, ca,
+                                            2 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+        if (o[GEOM] == NULL)
+            goto raised;
+        if ((o[RAW] = PyObject_GetAttr(decca, raw_name)) == NULL)
+            goto raised;
+    }
+    else {
+        o[GEOM] = Py_NewRef(Py_None);
+        o[RAW] = PyTuple_Pack(3, Py_None, Py_None, Py_None);
+        if (o[RAW] == NULL)
+            goto error;
+    }
+    /* ellipse = k.ellipse(adj.cov_x) (the Python's error_ellipse where it declines) */
+    {
+        PyObject *ca[1] = {o[COVX]};
+        o[ELL] = lsq_ellipse(self, ca, 1);
+        if (o[ELL] == NULL)
+            goto error;
+        if (o[ELL] == Py_None)
+            goto none;
+    }
+    /* l1 = ellipse.eigenvalues[0] if adj.cov_x is adj.cov_x_apriori else None */
+    if (o[COVX] == o[COVA]) {
+        PyObject *ev = PyObject_GetAttr(o[ELL], ellipse_keys[3]);
+        if (ev == NULL)
+            goto raised;
+        if (PyTuple_CheckExact(ev) && PyTuple_GET_SIZE(ev) >= 1)
+            o[L1] = Py_NewRef(PyTuple_GET_ITEM(ev, 0));
+        Py_DECREF(ev);
+        if (o[L1] == NULL)
+            goto none;
+    }
+    else
+        o[L1] = Py_NewRef(Py_None);
+    { /* the check and the table: tail() */
+        PyObject *ta[11] = {sets, args[4], o[P], args[5], Py_True, o[L1], o[STATS], o[V],
+                            o[USED], args[7], args[8]};
+        o[LOPS] = lsq_tail(self, ta, 11);
+        if (o[LOPS] == NULL)
+            goto error;
+        if (o[LOPS] == Py_None)
+            goto none;
+    }
+    if ((o[MSG] = PyList_AsTuple(messages)) == NULL)
+        goto error;
+    {
+        PyObject *empty = PyTuple_New(0);
+        PyObject *fv[N_FR_KEYS] = {
+            Py_True, Py_None, o[XE], o[YN], PyTuple_GET_ITEM(o[LL], 0),
+            PyTuple_GET_ITEM(o[LL], 1), o[COVX], o[ELL], o[CAT], o[NUSED], o[RMS], o[S2],
+            o[LOPS], tested, o[RAW], o[GEOM], empty, o[CAND], Py_False, o[MSG], Py_None};
+        res = with_dict(est_cls[2], dict_of(N_FR_KEYS, fr_keys, fv));
+        Py_XDECREF(empty);
+    }
+    goto done;
+raised: /* an exception of the objects called: the Python calls them again and says why */
+    if (!PyErr_ExceptionMatches(PyExc_Exception))
+        goto error;
+    PyErr_Clear();
+none:
+    res = Py_NewRef(Py_None);
+    goto done;
+error:
+    res = NULL;
+done:
+    for (int i = 0; i < NOBJ; i++)
+        Py_XDECREF(o[i]);
+    return res;
+}
+
 static PyMethodDef methods[] = {
+    {"estimate", (PyCFunction)(void (*)(void))lsq_estimate, METH_FASTCALL, estimate_doc},
+    {"_bind_fix", (PyCFunction)(void (*)(void))lsq_bind_fix, METH_FASTCALL, bind_fix_doc},
+    {"adjust_tested", (PyCFunction)(void (*)(void))lsq_adjust_tested, METH_FASTCALL,
+     adjust_tested_doc},
+    {"tail", (PyCFunction)(void (*)(void))lsq_tail, METH_FASTCALL, tail_doc},
     {"_bind_row", (PyCFunction)(void (*)(void))lsq_bind_row, METH_FASTCALL, bind_row_doc},
     {"row", (PyCFunction)(void (*)(void))lsq_row, METH_FASTCALL, row_doc},
     {"lop_rows", (PyCFunction)(void (*)(void))lsq_lop_rows, METH_FASTCALL, lop_rows_doc},

@@ -7,6 +7,12 @@
 * ``_Model.arrays`` (what :func:`engine.lsq.adjustment.gauss_newton` calls when the model
   offers it) gives the arrays of ``_Model.__call__``, and a whole adjustment with and without
   it is the same to the bit.
+* The one-call fix (2026-12-03 night): ``tail`` (the linear-range check and the table of
+  the systems' readings) is ``fix._tail_py``; ``adjust_tested`` (adjust, the unit-variance
+  test, the Adjustment and a quiet fix's TestedAdjustment built in C, the start arrays made
+  of compute_fix's tuple and list) is ``adjust`` + ``fix._first_py`` + ``fix._tested_py``;
+  ``estimate`` (a quiet fix's FixResult) is ``fix._at_estimate``; each declines what the
+  Python must say.
 """
 
 from __future__ import annotations
@@ -380,3 +386,197 @@ def test_lop_rows_declines_what_the_python_must_do() -> None:
     assert K.lop_rows([(0, (1, 2))], *args) is None  # not a list of readings
     assert K.lop_rows([(0, [object()])], *args) is None  # not a reading
     assert K.lop_rows([], *args) == []
+
+
+# ------------------------------------------------------------------------------------------
+# tail: the linear-range check and the table of the systems' readings in one call
+
+
+def _tail_calls(replay: dict[str, list[Any]]) -> list[tuple[Any, ...]]:
+    """The arguments of every ``tail`` call of the replay's fixes and of their variants."""
+    calls: list[tuple[Any, ...]] = []
+    real = K.tail
+
+    def record(*a: Any) -> Any:
+        calls.append(a)
+        return real(*a)
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(K, "tail", record)
+    mp.setattr(K, "estimate", lambda *a: None)  # _at_estimate, which calls tail
+    try:
+        _fixes(_variants(replay["calls"]), False, mp)
+    finally:
+        mp.undo()
+    return calls
+
+
+def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
+    """fix._tail_py on what ``tail`` was given (``a``: its arguments)."""
+    import types
+
+    from engine.systems import registry
+
+    sets, spans, p_hat, used, check, l1, stats, v, used_arr, k, bound = a
+    assert k == fix.w_critical(alpha) and bound == fix.REJECT_BOUND
+    adj = types.SimpleNamespace(stats_block=stats, v=v, used=used_arr, cov_x_apriori=None)
+    problem = types.SimpleNamespace(sets=sets, spans=spans, layout=registry.layout())
+    return fix._tail_py(adj, problem, p_hat, used, check, l1, alpha)  # type: ignore[arg-type]
+
+
+@needs_kernel
+def test_replay_tail_is_the_python(replay: dict[str, list[Any]]) -> None:
+    """``tail`` gives _tail_py's rows (to the bit) on every call of the replay's fixes and
+    their variants (GPS + Decca, Decca alone, blunders), and declines (None) what the Python
+    must say: beyond the linear range (a huge λ1), a check without λ1, a system raising."""
+    calls = _tail_calls(replay)
+    assert len(calls) > 150
+    n_rows = 0
+    for a in calls:
+        if a[4] and a[5] is None:  # ScaleVCV: λ1 of the a priori C_x̂ not at hand
+            assert K.tail(*a) is None
+            continue
+        got, want = K.tail(*a), _twin(a)
+        assert type(want) is tuple and type(got) is tuple and len(got) == len(want)
+        for g, w in zip(got, want, strict=True):
+            assert same_row(g, w, same_values=False)
+            n_rows += 1
+        if a[4]:
+            big = (*a[:5], 1e30, *a[6:])
+            assert K.tail(*big) is None and isinstance(_twin(big), str)
+            assert K.tail(*a[:5], None, *a[6:]) is None
+            nan = (*a[:5], math.nan, *a[6:])  # sqrt(max(nan, 0)) is nan: beyond, as Python
+            assert K.tail(*nan) is None and isinstance(_twin(nan), str)
+            neg = (*a[:5], -4.0, *a[6:])  # max(l1, 0.0): a = 0
+            assert same(K.tail(*neg), _twin(neg))
+        no_check = (*a[:4], False, None, *a[6:])
+        assert same(K.tail(*no_check), _twin(no_check))
+    assert n_rows > 500
+
+    class Boom:
+        def nearest_station_m(self, *a: Any) -> float:
+            raise ValueError("boom")
+
+        def readings(self, *a: Any) -> list[Any]:
+            raise ValueError("boom")
+
+    class NotFloat(Boom):
+        def nearest_station_m(self, *a: Any) -> float:
+            return 5  # an int: the Python's min() would take it, the kernel leaves it
+
+    a = calls[0]
+    for bad in (Boom(), NotFloat()):
+        sets = dict(a[0], gps=bad)
+        assert K.tail(sets, *a[1:]) is None
+        assert K.tail(sets, a[1], a[2], a[3], False, None, *a[6:]) is None  # readings raise
+    assert K.tail(dict(a[0], other=Boom()), *a[1:]) is None  # no span
+    assert K.tail(a[0], a[1], a[2], tuple(a[3]), *a[4:]) is None  # used not a list
+
+
+# ------------------------------------------------------------------------------------------
+# adjust_tested: adjust() and the tests of a quiet fix, the results built by the kernel
+
+
+@needs_kernel
+def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> None:
+    """``adjust_tested`` gives what ``adjust`` followed by fix._first_py and fix._tested_py
+    gives (a quiet fix's TestedAdjustment, else the Adjustment, field by field to the bit), on
+    the replay's models with their used slots and fewer, at several σ0² (the unit variance
+    accepted and rejected) and α; a dict where α or σ0² is not a float, adjust()'s hand-backs
+    as they are."""
+    from engine.lsq.adjustment import Adjustment
+    from engine.lsq.snooping import TestedAdjustment
+
+    fix._bind_fix(K)
+    kinds: set[tuple[str, bool]] = set()
+    for (a, _k), model in list(zip(replay["calls"], replay["models"], strict=False))[:80]:
+        n = model.n_slots
+        x0 = np.array(a[2], dtype=float)
+        for used in (np.array([True] * 5 + [False] * (n - 5)),
+                     np.array([True, True, False, True, False] + [False] * (n - 5)),
+                     np.array([True, False, True, True, True] + [False] * (n - 5))):
+            for alpha, s02 in ((0.05, 1.0), (0.01, 1e-3), (0.1, 50.0), (0.05, 0.2)):
+                base = (model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8)
+                kw = (fix.w_critical(alpha), fix.REJECT_BOUND, "A", "lsq")
+                got = K.adjust_tested(*base, alpha, s02, *kw)
+                # x0 as compute_fix's tuple, used as its list: the arrays made by the kernel
+                lists = K.adjust_tested(model.spec, tuple(x0.tolist()), used.tolist(),
+                                        *base[3:], alpha, s02, *kw)
+                assert type(lists) is type(got) and same(lists, got)
+                adj_l = lists if type(lists) is Adjustment else lists.adjustment
+                assert adj_l.used.flags.writeable and adj_l.used.flags.c_contiguous
+                assert same(adj_l.used, used)
+                state = K.adjust(*base)
+                assert type(state) is dict
+                first = fix._first_py(state, alpha, s02)
+                want = fix._tested_py(first, kw[0], "A", "lsq", K) or first
+                kinds.add((type(got).__name__, got.variance_test is None
+                           or got.variance_test.accepted))
+                if type(got) is Adjustment:  # more to do: the caller's _tested_py
+                    assert type(want) is Adjustment or not want.variance_test.accepted
+                    got = fix._tested_py(got, kw[0], "A", "lsq", K) or got
+                assert type(got) is type(want) and same(got, want)
+                if type(got) is TestedAdjustment:
+                    assert same(got.adjustment, want.adjustment)
+                    assert got.variance_test is got.adjustment.variance_test
+                    assert got.variance_test == want.variance_test
+                else:
+                    assert got.variance_test == want.variance_test
+                assert type(K.adjust_tested(*base, 1, s02, *kw)) is dict  # α an int
+    assert {("TestedAdjustment", True), ("Adjustment", False)} <= kinds, kinds
+    model = replay["models"][0]
+    x0 = np.array(replay["calls"][0][0][2], dtype=float)
+    used = np.array([True] + [False] * (model.n_slots - 1))
+    assert K.adjust_tested(model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8,
+                           0.05, 1.0, 1.96, 2.576, "A", "lsq") is None  # m < 2: adjust's None
+    assert type(Adjustment) is type and type(TestedAdjustment) is type
+    with pytest.raises(TypeError):
+        K._bind_fix(LopRow, TestedAdjustment, Adjustment, fix._variance_bounds)  # slotted
+
+
+# ------------------------------------------------------------------------------------------
+# estimate: _at_estimate of a quiet fix in one call
+
+
+@needs_kernel
+def test_replay_estimate_is_at_estimate(replay: dict[str, list[Any]]) -> None:
+    """compute_fix with ``estimate`` gives the FixResult it gives without it (fix._at_estimate,
+    field by field to the bit, the table's rows, messages, geometry), on the replay's fixes
+    and their variants; ``estimate`` builds most of them and declines (None) a fix with
+    rejections, a grid or system that raises and sets it cannot read."""
+    calls = _variants(replay["calls"])
+    made: list[Any] = []
+    args: list[tuple[Any, ...]] = []
+    real = K.estimate
+
+    def record(*a: Any) -> Any:
+        r = real(*a)
+        args.append(a)
+        made.append(r)
+        return r
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(K, "estimate", record)
+    got = _fixes(calls, False, mp)
+    mp.setattr(K, "estimate", lambda *a: None)
+    want = _fixes(calls, False, mp)
+    mp.undo()
+    for g, w in zip(got, want, strict=True):
+        assert same(g, w) and len(g.lops) == len(w.lops)
+        assert same(g.decca_geometry, w.decca_geometry)
+    assert sum(type(r) is fix.FixResult for r in made) > 150
+    a = args[0]
+
+    class Raising:
+        def __init__(self, grid: Any) -> None:
+            self.grid = grid
+
+        def inverse(self, *xy: Any) -> Any:
+            raise ValueError("off the grid")
+
+    assert K.estimate(Raising(a[0]), *a[1:]) is None
+    assert K.estimate(a[0], a[1], a[2], dict(a[3], manual=object()), *a[4:]) is None
+    assert K.estimate(a[0], a[1], a[2], list(a[3]), *a[4:]) is None
+    tested = dataclasses.replace(a[2], rejected=((2, 9.0),))
+    assert K.estimate(a[0], a[1], tested, *a[3:]) is None
+    assert type(K.estimate(*a)) is fix.FixResult
