@@ -285,6 +285,22 @@ def test_update_result_builds_the_objects_the_python_builds(replay_updates) -> N
         assert new.state.fix_cov is state.fix_cov or rows.bias_keys
 
 
+def test_ls_views_are_numpys_views(replay_updates) -> None:
+    """The LsTest's l_inv and w the kernel makes from Y's data (without numpy's .T and
+    indexing, once its probe found them equal) are the views numpy makes: same base, data,
+    shape, strides and flags."""
+    k = U._kernel()
+    for state, rows, params in replay_updates[:60]:
+        new = U.update(state, rows, params)
+        Yc = new.ls.w.base
+        n = new.state.x.shape[0]
+        for got, ref in ((new.ls.l_inv, Yc.T[:, n + 1:]), (new.ls.w, Yc.T[:, n])):
+            assert got.base is ref.base is Yc
+            assert got.__array_interface__ == ref.__array_interface__
+            assert got.flags == ref.flags and got.strides == ref.strides
+    assert k._views_state() == 1
+
+
 @pytest.mark.parametrize("joseph", [True, False])
 def test_replay_states_with_other_rows(replay_updates, joseph: bool) -> None:
     """The replay's states with one row, two rows and the thesis' P update."""
