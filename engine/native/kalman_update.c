@@ -1099,18 +1099,23 @@ static Py_ssize_t block_rows(PyObject *zo, PyObject *Ro, double *z, double *R, P
 }
 
 PyDoc_STRVAR(update_blocks_doc,
-"update_blocks(state, H, blocks, angle_rows, joseph, ipsi, alpha, labels[, fix_cov])\n"
-"    -> UpdateResult | None\n\n"
+"update_blocks(state, H, blocks, angle_rows, joseph, ipsi, alpha, labels[, fix_cov[, gate]])\n"
+"    -> UpdateResult | (UpdateResult, float | None) | None\n\n"
 "update_result() of the rows of `blocks`, a tuple of (z, R) stacked in order as\n"
 "measurements.stack_measurements stacks them (z concatenated, R block-diagonal, zeros\n"
 "elsewhere): z a list of floats or a float64 (k,) array, R a list of the rows' variances\n"
 "(independent rows) or a float64 (k, k) array. None where a block is not one of these or\n"
-"update_result() declines: the Python runs.");
+"update_result() declines: the Python runs. With gate (an int, not None) the result comes\n"
+"with distance(result.innovation, result.S, gate, p) of its rows gate: (the Mahalanobis\n"
+"length of the last block for the cycle's gross-error gate; None where distance() declines).");
+
+static PyObject *py_distance(PyObject *self, PyObject *const *args, Py_ssize_t nargs);
+
 
 static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 8 && nargs != 9) {
-        PyErr_SetString(PyExc_TypeError, "update_blocks takes 8 or 9 arguments");
+    if (nargs < 8 || nargs > 10) {
+        PyErr_SetString(PyExc_TypeError, "update_blocks takes 8 to 10 arguments");
         return NULL;
     }
     if (np_ready() < 0)
@@ -1146,11 +1151,29 @@ static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssiz
                          R + at * p + at, p);
     }
     PyObject *ua[10] = {args[0], args[1], Py_None, Py_None, args[3], args[4], args[5], args[6],
-                        args[7], nargs == 9 ? args[8] : Py_None};
+                        args[7], nargs >= 9 ? args[8] : Py_None};
     PyObject *result = result_build(ua, 10, z, R, p);
     if (zr != zr_stack)
         PyMem_Free(zr);
-    return result;
+    if (result == NULL || result == Py_None || nargs < 10 || args[9] == Py_None)
+        return result;
+    /* (result, innovation_distance(result, slice(gate, None))) */
+    PyObject *v = PyObject_GetAttr(result, rs_innovation);
+    PyObject *S = v == NULL ? NULL : PyObject_GetAttr(result, rs_S);
+    PyObject *stop = S == NULL ? NULL : PyLong_FromSsize_t(p);
+    PyObject *d = NULL, *pair = NULL;
+    if (stop != NULL) {
+        PyObject *da[4] = {v, S, args[9], stop};
+        d = py_distance(self, da, 4);
+    }
+    if (d != NULL)
+        pair = PyTuple_Pack(2, result, d);
+    Py_XDECREF(v);
+    Py_XDECREF(S);
+    Py_XDECREF(stop);
+    Py_XDECREF(d);
+    Py_DECREF(result);
+    return pair;
 }
 
 /* ------------------------------------------------------------------ innovation distance */

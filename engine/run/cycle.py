@@ -38,7 +38,7 @@ from engine.filter.kalman import (
 )
 from engine.filter.measurements import SensorLayout, sensor_rows
 from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
-from engine.filter.update import update_rows, update_rows_two
+from engine.filter.update import update_rows, update_rows_two_gated
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -868,7 +868,7 @@ def _fitness(fix: FixResult | None,
     return fit_scale, fit_note, fix_cov
 
 
-@dataclass
+@dataclass(slots=True)
 class _Filtering:
     """The filter's side of one cycle as the update phase advances it: state, smoother link,
     whether it has taken a fix, the fix source its fix-error states model, gated fixes in a
@@ -896,7 +896,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
                    "OFF" if not cfg.filter.on else "N/A")
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
-    # layout): updated from them without a Measurement (update_rows, update_rows_two).
+    # layout): updated from them without a Measurement (update_rows, update_rows_two_gated).
     depth_rows: tuple[list[float], list[float], SensorLayout] | None = None
     if pred.state is not None and sens.depth_m is not None:
         depth_rows = sensor_rows(sens.depth_m, None, None, None, params)
@@ -1044,16 +1044,14 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
     error (:data:`GROSS_GATE_SIGMA`); after :data:`GROSS_GATE_RESET` gated LSEs the filter
     position restarts from the LSE. Returns the depth rows still to be applied (None: done)."""
     assert f.state is not None
-    n_fix = meas.z.shape[0]
     # One update for all measured at this epoch: the depth rows stacked before the fix's
-    # (update_rows_two is update(state, stack_measurements(the depth rows' measurement, meas),
-    # params)).
+    # (update_rows_two_gated is update(state, stack_measurements(the depth rows' measurement,
+    # meas), params) and the innovation_distance of the fix's rows, the last, in one call).
     if depth_rows is None:
-        trial, p = update(f.state, meas, ctx.filter_params), n_fix
+        trial = update(f.state, meas, ctx.filter_params)
+        d_sigma = innovation_distance(trial, slice(0, None))
     else:
-        trial = update_rows_two(f.state, *depth_rows, meas, ctx.filter_params)
-        p = len(depth_rows[0]) + n_fix
-    d_sigma = innovation_distance(trial, slice(p - n_fix, None))
+        trial, d_sigma = update_rows_two_gated(f.state, *depth_rows, meas, ctx.filter_params)
     f.status = "ON"
     if d_sigma <= GROSS_GATE_SIGMA:
         f.result, f.state, f.has_fix, f.gated = trial, trial.state, True, 0

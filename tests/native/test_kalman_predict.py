@@ -197,7 +197,7 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
             return _real(*a, **k)
 
         mp.setattr(cycle_mod, name, recording)
-    real_rows, real_two = cycle_mod.sensor_rows, cycle_mod.update_rows_two
+    real_rows, real_two = cycle_mod.sensor_rows, cycle_mod.update_rows_two_gated
 
     def rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms=None,
              gyro_sigma_deg=None):  # the sensor_measurement the cycle's rows stand for
@@ -208,12 +208,12 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
         return real_rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms,
                          gyro_sigma_deg)
 
-    def two(state, zs, var, layout, b, params):  # the stack update_rows_two updates with
+    def two(state, zs, var, layout, b, params):  # the stack update_rows_two_gated updates with
         calls.append(("stack_measurements", (ms.rows_measurement(zs, var, layout), b), {}))
         return real_two(state, zs, var, layout, b, params)
 
     mp.setattr(cycle_mod, "sensor_rows", rows)
-    mp.setattr(cycle_mod, "update_rows_two", two)
+    mp.setattr(cycle_mod, "update_rows_two_gated", two)
     try:
         replay(200)
     finally:
