@@ -110,10 +110,23 @@ def lse_measurement(
         if k is not None:
             arrays = k.lse(x_m, y_m, C2, params.fix_sigma_frac)
             if arrays is not None:
-                return _measurement(arrays[0], h_template(_LSE_COLS, N_NAV), arrays[1],
-                                    _LSE_LABELS, (), keys, arrays[2],
-                                    (params.fix_tau_s, params.fix_tau_s), _LSE_COLS)
+                # _measurement(z, h_template(_LSE_COLS, N_NAV), R, _LSE_LABELS, (), keys, cov,
+                # (τ, τ), _LSE_COLS) inline (every cycle): the same dict, in the same order
+                H = _LSE_H[0]
+                if H is None:
+                    H = _LSE_H[0] = h_template(_LSE_COLS, N_NAV)
+                m = _NEW(Measurement)
+                tau = params.fix_tau_s
+                m.__dict__.update(z=arrays[0], H=H, R=arrays[1], labels=_LSE_LABELS,
+                                  angle_rows=(), bias_keys=keys, bias_cov=arrays[2],
+                                  bias_tau_s=(tau, tau), _cols=_LSE_COLS)
+                return m
     return _lse_py(x_m, y_m, C2, params, keys)
+
+
+_NEW = object.__new__
+_LSE_H: list[np.ndarray | None] = [None]
+"""``h_template(_LSE_COLS, N_NAV)``, the LSE rows' H, once made (the same read-only array)."""
 
 
 def _lse_py(

@@ -733,8 +733,15 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         sens_result = update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
     pred_state, phi = predict_step(fstate, dt, params)
-    return _Prediction(pred_state, filter_estimate("KF", grid, pred_state),
-                       (fstate, pred_state, phi), sens_result, dr_sensors, reference)
+    # filter_estimate("KF", grid, pred_state), its compiled call made here (the same estimate);
+    # where the kernel is not there or declines, filter_estimate
+    k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
+    est = None if k is None else k.position(  # type: ignore[attr-defined]
+        "KF", grid._packed, pred_state.x, pred_state.P)
+    if est is None:
+        est = filter_estimate("KF", grid, pred_state)
+    return _Prediction(pred_state, est, (fstate, pred_state, phi), sens_result, dr_sensors,
+                       reference)
 
 
 def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,

@@ -70,6 +70,18 @@ def test_replay_predictions_are_bit_identical(replay_steps):
 
 
 @needs_kernel
+def test_predict_step_is_predict(replay_steps):
+    """predict_step() (its memo lookups and the new state made inline) is _predict(…, True)
+    and _predict_py: the same floats, arrays, metadata and instance dict, in the same order."""
+    for state, dt, params in replay_steps:
+        got = pr.predict_step(state, dt, params)
+        for ref in (pr._predict(state, dt, params, True), pr._predict_py(state, dt, params, True)):
+            _same(got, ref)
+            assert type(got[0]) is FilterState and list(vars(got[0])) == list(vars(ref[0]))
+            assert got[0].fix_cov is state.fix_cov and got[0].t == state.t + dt
+
+
+@needs_kernel
 def test_the_kernel_is_what_runs(replay_steps, monkeypatch: pytest.MonkeyPatch):
     """The kernel answers (not None) for the replay's states: the Python is not called."""
     def boom(*a: object) -> None:
@@ -182,6 +194,7 @@ def _same_meas(a: Measurement, b: Measurement) -> None:
     for f in ("labels", "angle_rows", "bias_keys", "bias_tau_s", "_cols"):
         u, v = getattr(a, f), getattr(b, f)
         assert u == v and type(u) is type(v), (f, u, v)
+    assert type(a) is type(b) and list(vars(a)) == list(vars(b))
 
 
 @pytest.fixture(scope="module")
