@@ -990,12 +990,15 @@ static PyObject *result_build(PyObject *const *args, Py_ssize_t nargs, const dou
     /* own references: the table may be refilled (another thread) while objects are made */
     Py_INCREF(lo);
     Py_INCREF(hi);
-    /* new = state._with_frozen(state.t, xn, Pn) */
+    /* new = state._with_frozen(state.t, xn, Pn): its instance dict a copy of state's (the same
+     * keys in the same order as the Python's update of an empty dict; a copy of a split-table
+     * dict shares its keys instead of inserting them one by one), then fix_cov, x and P */
     if ((newst = PyBaseObject_Type.tp_new((PyTypeObject *)r_state_cls, r_empty, NULL)) == NULL ||
         (src = PyObject_GenericGetDict(state, NULL)) == NULL ||
-        (dst = PyObject_GenericGetDict(newst, NULL)) == NULL || PyDict_Update(dst, src) < 0 ||
+        (dst = PyDict_Copy(src)) == NULL ||
         (nargs == 10 && args[9] != Py_None && PyDict_SetItem(dst, rs_fix_cov, args[9]) < 0) ||
-        PyDict_SetItem(dst, rs_x, xn) < 0 || PyDict_SetItem(dst, rs_P, Pn) < 0)
+        PyDict_SetItem(dst, rs_x, xn) < 0 || PyDict_SetItem(dst, rs_P, Pn) < 0 ||
+        PyObject_GenericSetDict(newst, dst, NULL) < 0)
         goto done;
     /* lom = _lom_from_nis(nis, p, alpha) */
     double tv = nis / (double)p;
