@@ -951,7 +951,10 @@ def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_
     if gnss and ctx.filter_params_gnss is not None:
         params = ctx.filter_params_gnss
     meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
-    source = _with_gnss(ctx.derived().fix_source, gnss, f.source)
+    base = ctx.derived().fix_source
+    # _with_gnss(base, gnss, f.source); with this record's receiver part (not None) it is
+    # base + gnss, done here
+    source = base + gnss if gnss is not None else _with_gnss(base, gnss, f.source)
     if gnss and source == f.source:
         _rescale_gnss_fix_states(f, meas)
     if source != f.source:
