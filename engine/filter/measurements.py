@@ -223,6 +223,20 @@ def sensor_rows(
     return zs, var, layout
 
 
+def depth_sensor_rows(depth_m: float,
+                      params: FilterParams) -> tuple[list[float], list[float], SensorLayout]:
+    """``sensor_rows(depth_m, None, None, None, params)``: the pressure depth's row alone (m,
+    its variance σ_p² m² and layout), the cycle's depth update, without the other sensors'
+    branches."""
+    c = _VARIANCES.get(id(params))
+    if c is None or c[0] is not params:
+        c = _sensor_variances(params)
+    layout = _LAYOUTS.get(1)
+    if layout is None:
+        layout = _LAYOUTS[1] = _sensor_layout(1)
+    return [depth_m], [c[1]], layout
+
+
 def rows_measurement(zs: list[float], var: list[float], layout: SensorLayout) -> Measurement:
     """The measurement of independent rows: values ``zs``, variances ``var`` (R diagonal) and
     the ``layout`` of :func:`sensor_rows` (its arrays from the compiled helper where built)."""

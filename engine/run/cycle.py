@@ -36,7 +36,7 @@ from engine.filter.kalman import (
     stack_measurements,
     update,
 )
-from engine.filter.measurements import SensorLayout, sensor_rows
+from engine.filter.measurements import SensorLayout, depth_sensor_rows, sensor_rows
 from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
 from engine.filter.update import update_rows, update_rows_two_gated
 from engine.geodesy.angles import wrap_180_deg
@@ -903,10 +903,11 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
                    "OFF" if not cfg.filter.on else "N/A")
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
-    # layout): updated from them without a Measurement (update_rows, update_rows_two_gated).
+    # layout, depth_sensor_rows): updated from them without a Measurement (update_rows,
+    # update_rows_two_gated).
     depth_rows: tuple[list[float], list[float], SensorLayout] | None = None
     if pred.state is not None and sens.depth_m is not None:
-        depth_rows = sensor_rows(sens.depth_m, None, None, None, params)
+        depth_rows = depth_sensor_rows(sens.depth_m, params)  # sensor_rows(depth, None, …)
     if f.state is not None and fix is not None and lse_ok and not f.has_fix:
         # The first LSE initialises the filter position (THEORY D22): a DR start kilometres
         # away with the thesis P0 = I would otherwise pull against every fix.

@@ -226,12 +226,25 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
         return real_two(state, zs, var, layout, b, params)
 
     mp.setattr(cycle_mod, "sensor_rows", rows)
+    mp.setattr(cycle_mod, "depth_sensor_rows", lambda depth_m, params: rows(
+        depth_m, None, None, None, params))
     mp.setattr(cycle_mod, "update_rows_two_gated", two)
     try:
         replay(200)
     finally:
         mp.undo()
     return calls
+
+
+def test_depth_sensor_rows_is_sensor_rows() -> None:
+    """depth_sensor_rows(d, params) is sensor_rows(d, None, None, None, params): the same
+    values, variances (bits) and the same layout object."""
+    for params in (FilterParams(), FilterParams(sigma_press_m=0.37)):
+        for d in (0.0, 12.5, 1e-7, 3021.25):
+            got = ms.depth_sensor_rows(d, params)
+            ref = ms.sensor_rows(d, None, None, None, params)
+            assert got[0] == ref[0] and [v.hex() for v in got[1]] == [v.hex() for v in ref[1]]
+            assert got[2] is ref[2]
 
 
 def test_replay_measurement_rows_are_the_same(replay_rows):
