@@ -110,10 +110,23 @@ def lse_measurement(
         if k is not None:
             arrays = k.lse(x_m, y_m, C2, params.fix_sigma_frac)
             if arrays is not None:
-                return _measurement(arrays[0], h_template(_LSE_COLS, N_NAV), arrays[1],
-                                    _LSE_LABELS, (), keys, arrays[2],
-                                    (params.fix_tau_s, params.fix_tau_s), _LSE_COLS)
+                # _measurement(z, h_template(_LSE_COLS, N_NAV), R, _LSE_LABELS, (), keys, cov,
+                # (τ, τ), _LSE_COLS) inline (every cycle): the same dict, in the same order
+                H = _LSE_H[0]
+                if H is None:
+                    H = _LSE_H[0] = h_template(_LSE_COLS, N_NAV)
+                m = _NEW(Measurement)
+                tau = params.fix_tau_s
+                m.__dict__.update(z=arrays[0], H=H, R=arrays[1], labels=_LSE_LABELS,
+                                  angle_rows=(), bias_keys=keys, bias_cov=arrays[2],
+                                  bias_tau_s=(tau, tau), _cols=_LSE_COLS)
+                return m
     return _lse_py(x_m, y_m, C2, params, keys)
+
+
+_NEW = object.__new__
+_LSE_H: list[np.ndarray | None] = [None]
+"""``h_template(_LSE_COLS, N_NAV)``, the LSE rows' H, once made (the same read-only array)."""
 
 
 def _lse_py(
@@ -208,6 +221,20 @@ def sensor_rows(
     if layout is None:
         layout = _LAYOUTS[which] = _sensor_layout(which)
     return zs, var, layout
+
+
+def depth_sensor_rows(depth_m: float,
+                      params: FilterParams) -> tuple[list[float], list[float], SensorLayout]:
+    """``sensor_rows(depth_m, None, None, None, params)``: the pressure depth's row alone (m,
+    its variance σ_p² m² and layout), the cycle's depth update, without the other sensors'
+    branches."""
+    c = _VARIANCES.get(id(params))
+    if c is None or c[0] is not params:
+        c = _sensor_variances(params)
+    layout = _LAYOUTS.get(1)
+    if layout is None:
+        layout = _LAYOUTS[1] = _sensor_layout(1)
+    return [depth_m], [c[1]], layout
 
 
 def rows_measurement(zs: list[float], var: list[float], layout: SensorLayout) -> Measurement:

@@ -40,12 +40,27 @@ def predict_step(
     """
     k = _K if _K is not _UNRESOLVED else _kernel()
     if k is not None and dt > 0.0:  # _predict(state, dt, params, True) inline (every cycle)
-        c = step_constants(params, dt)
-        fd = c.fix_decay(state.fix_tau_s) if state.fix_states else None
+        # step_constants(params, dt) and c.fix_decay(state.fix_tau_s): their memos read here
+        c = params._memo.get(dt)
+        if c is None:
+            c = step_constants(params, dt)
+        fd = None
+        if state.fix_states:
+            fd = c.fix.get(state.fix_tau_s)
+            if fd is None:
+                fd = c.fix_decay(state.fix_tau_s)
         r = k.predict(state.x, state.P, c, fd, state.fix_cov, True)
         if r is not None:  # the kernel's x and P are new and read-only already
-            return state._with_frozen(state.t + dt, r[0], r[1]), r[2]
+            # state._with_frozen(state.t + dt, r[0], r[1]) inline
+            new = _NEW(FilterState)
+            d = new.__dict__
+            d.update(state.__dict__)
+            d["t"], d["x"], d["P"] = state.t + dt, r[0], r[1]
+            return new, r[2]
     return _predict(state, dt, params, True)
+
+
+_NEW = object.__new__
 
 
 def predict(state: FilterState, dt: float, params: FilterParams) -> FilterState:

@@ -365,46 +365,96 @@ def update_rows_two(state: FilterState, zs: list[float], var: list[float],
     return update(state, stack_measurements(rows_measurement(zs, var, layout), b), params)
 
 
+def update_rows_two_gated(state: FilterState, zs: list[float], var: list[float],
+                          layout: SensorLayout, b: Measurement,
+                          params: FilterParams) -> tuple[UpdateResult, float]:
+    """:func:`update_rows_two` and the gross-error gate's distance of ``b``'s rows,
+    ``innovation_distance(result, slice(len(zs), None))``, in one compiled call where the kernel
+    takes them (``update_blocks`` with its gate); the same result and float as the two calls."""
+    if zs:
+        labels, cols_t, H, angle = layout
+        r = _update_two(state, (zs, var), cols_t, labels, angle, H.shape[1], b, params, len(zs))
+        if r is not None:
+            result, d = r
+            if d is None:  # the kernel's distance declined: the Python's
+                d = innovation_distance(result, slice(len(zs), None))
+            return result, d
+    result = update(state, stack_measurements(rows_measurement(zs, var, layout), b), params)
+    return result, innovation_distance(result, slice(len(zs), None))
+
+
+_TWO_LAST: list[tuple[object, ...] | None] = [None]
+"""The last plan of :func:`_update_two`, one tuple (replaced whole): its key (a's columns,
+labels, angle rows and H width, b's columns, fix-error keys, labels and angle rows, the state's
+fix-error states, compared by identity; the number of states), then H, the stacked angle rows
+and labels and whether b's keys are the state's fix-error states. The cycle passes the same
+objects every time, so these are looked up and stacked once."""
+
+
 def _update_two(state: FilterState, block_a: tuple[object, object],
                 cols_a: tuple[tuple[int, ...], ...], labels_a: tuple[str, ...],
                 angle_a: tuple[int, ...], width_a: int, b: Measurement,
-                params: FilterParams) -> UpdateResult | None:
+                params: FilterParams, gate: int | None = None) -> UpdateResult | None:
     """The fast path of :func:`update_two` for rows ``a`` given by their block (z, R) for
     ``update_blocks``, H columns, labels, angle rows and H width (at least one row, no
-    fix-error keys or prior); None: the caller runs the general code."""
+    fix-error keys or prior); None: the caller runs the general code. With ``gate`` (the first
+    of b's rows) the kernel's (result, distance or None) of :func:`update_rows_two_gated`."""
     k = _K if _K is not _UNRESOLVED else _kernel()
     cb = b._cols
     if k is None or cb is None or not b.z.shape[0]:
         return None
     n = state.x.shape[0]
-    ka = len(cols_a)
-    cols_t = cols_a + cb
     bk = b.bias_keys
-    cov = b.bias_cov
+    fs = state.fix_states
+    lb = b.labels
+    ab = b.angle_rows
+    lk = _TWO_LAST[0]
+    if lk is not None and lk[0] is cols_a and lk[1] is labels_a and lk[2] is angle_a and \
+            lk[3] == width_a and lk[4] is cb and lk[5] is bk and lk[6] is lb and lk[7] is ab and \
+            lk[8] is fs and lk[9] == n:
+        H, angle, labels, keys_ok = lk[10:]
+    else:
+        H = None
+        keys_ok = False
+        ka = len(cols_a)
+        cols_t = cols_a + cb
+        if bk:
+            dk = distinct_key_tuple(bk)
+            keys_ok = bool(dk) and dk == fs
+            if keys_ok:
+                H = _bias_h(cols_t, (None,) * ka + bk, fs, n)
+        elif not (width_a > n or b.H.shape[1] > n):
+            H = h_template(cols_t, n)
+        if H is None:
+            return None
+        angle = tuple(angle_a)
+        if ab:
+            angle += tuple(ka + i for i in ab)
+        labels = tuple(labels_a) + tuple(lb)
+        _TWO_LAST[0] = (cols_a, labels_a, angle_a, width_a, cb, bk, lb, ab, fs, n, H, angle,
+                        labels, keys_ok)
     if bk:
-        dk = distinct_key_tuple(bk)
+        cov = b.bias_cov
         # _stack_two's prior (b's leading m×m block; here all of it) and _with_bias_columns
         # with nothing missing; else the general code (adding states, its errors)
-        if not dk or dk != state.fix_states or len(bk) != b.z.shape[0] or cov is None or \
+        if not keys_ok or len(bk) != b.z.shape[0] or cov is None or \
                 type(cov) is not np.ndarray or cov.dtype != np.float64 or \
-                cov.shape != (len(dk), len(dk)):
+                cov.shape != (len(fs), len(fs)):
             return None
         # state.with_fix_cov(dk, cov) is the state with fix_cov = sym2(cov) (its case of all
         # the fix-error states): the kernel's new state takes that fix_cov directly.
         sk = _st._K if _st._K is not _st._UNRESOLVED else _st._kernel()
         fc = sk.sym2(cov) if sk is not None else None  # type: ignore[attr-defined]
-        new = state if fc is not None else state.with_fix_cov(dk, cov)
-        H = _bias_h(cols_t, (None,) * ka + bk, state.fix_states, n)
+        new = state if fc is not None else state.with_fix_cov(fs, cov)
     else:
         if width_a > n or b.H.shape[1] > n:
             return None
-        new, H, fc = state, h_template(cols_t, n), None
-    angle = tuple(angle_a)
-    if b.angle_rows:
-        angle += tuple(ka + i for i in b.angle_rows)
-    return k.update_blocks(new, H, (block_a, (b.z, b.R)), angle,  # type: ignore[no-any-return]
-                           params.joseph, IPSI, params.alpha, tuple(labels_a) + tuple(b.labels),
-                           fc)
+        new, fc = state, None
+    if gate is None:
+        return k.update_blocks(new, H, (block_a, (b.z, b.R)),  # type: ignore[no-any-return]
+                               angle, params.joseph, IPSI, params.alpha, labels, fc)
+    return k.update_blocks(new, H, (block_a, (b.z, b.R)),  # type: ignore[no-any-return]
+                           angle, params.joseph, IPSI, params.alpha, labels, fc, gate)
 
 
 _EMPTY = np.empty

@@ -166,13 +166,19 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
     PyObject *result = NULL, *xa = NULL, *Pa = NULL, *Phia = NULL;
 
     /* ---- inputs; anything unexpected: None (the Python path runs) ---- */
-    Py_buffer xb;
-    if (PyObject_GetBuffer(xo, &xb, PyBUF_RECORDS_RO) < 0) {
-        PyErr_Clear();
-        Py_RETURN_NONE;
+    Py_ssize_t n;
+    np_fields_t *fx = np_direct(xo, 1);
+    if (fx != NULL) {  /* numpy's own float64 array: its length, as its buffer would give it */
+        n = fx->dimensions[0];
+    } else {
+        Py_buffer xb;
+        if (PyObject_GetBuffer(xo, &xb, PyBUF_RECORDS_RO) < 0) {
+            PyErr_Clear();
+            Py_RETURN_NONE;
+        }
+        n = xb.ndim == 1 ? xb.shape[0] : -1;
+        PyBuffer_Release(&xb);
     }
-    Py_ssize_t n = xb.ndim == 1 ? xb.shape[0] : -1;
-    PyBuffer_Release(&xb);
     int m = (int)(n - NNAV);
     int aug = fd != Py_None;
     if (n < NNAV || n > NMAX || (aug ? m < 1 : m != 0))

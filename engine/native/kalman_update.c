@@ -364,6 +364,9 @@ static int ls_t(const double *li, const double *w, int64_t p, double *t)
     return 1;
 }
 
+/* Scratch doubles update_core() keeps on the stack (16 KiB: n ≤ 18 states with p ≤ 8 rows). */
+#define UPDATE_STACK_WORK 2048
+
 /* The update of update() / update_new() on checked inputs (H p×n, x n, P n×n, z p, R p×p)
  * into the outputs Y, v, S, K, xn, Pn, t_ls: 1 with *nis and *t_ok set, 0 for the Python to run
  * instead (no exception), -1 on an error (exception set). */
@@ -373,9 +376,11 @@ static int update_core(const double *x, const double *P, const double *H, const 
                        double *Pn, double *t_ls, double *nis_out, int *t_ok_out)
 {
     int status = 0;
-    /* scratch: Hx p, HP p·n, L p·p, t n, KH, A, AP, Pj, KRKt n·n each, KR n·p */
-    double *work = PyMem_Malloc(sizeof(double) * (size_t)(p + p * n + p * p + n + 5 * n * n +
-                                                          n * p));
+    /* scratch: Hx p, HP p·n, L p·p, t n, KH, A, AP, Pj, KRKt n·n each, KR n·p; on the stack
+     * for the cycle's sizes (a heap block of this size is a malloc/free per update) */
+    double stack_work[UPDATE_STACK_WORK];
+    size_t need = (size_t)(p + p * n + p * p + n + 5 * n * n + n * p);
+    double *work = need <= UPDATE_STACK_WORK ? stack_work : PyMem_Malloc(sizeof(double) * need);
     if (work == NULL) {
         PyErr_NoMemory();
         return -1;
@@ -500,16 +505,20 @@ static int update_core(const double *x, const double *P, const double *H, const 
 fallback:
     status = 0;
 done:
-    PyMem_Free(work);
+    if (work != stack_work)
+        PyMem_Free(work);
     return status;
 }
 
 /* The flags and the (checked) inputs x, P, H, z, R of update() / update_new() (args[0..4];
  * args[ia], args[ia+1], args[ia+2] are angle_rows, joseph, ipsi): 1, 0 (the Python runs) or
- * -1 (exception set). */
-static int update_inputs(bufs_t *bs, PyObject *const *args, int ia, const double **x,
-                         const double **P, const double **H, const double **z, const double **R,
-                         int64_t *p, int64_t *n, int *joseph, Py_ssize_t *ipsi)
+ * -1 (exception set). With z_raw not NULL, z and R (p_raw rows: R p_raw×p_raw, C order) are
+ * these C arrays instead of args[3] and args[4] (update_blocks' stacked rows). */
+static int update_inputs_raw(bufs_t *bs, PyObject *const *args, int ia, const double *z_raw,
+                             const double *R_raw, int64_t p_raw, const double **x,
+                             const double **P, const double **H, const double **z,
+                             const double **R, int64_t *p, int64_t *n, int *joseph,
+                             Py_ssize_t *ipsi)
 {
     if (!bound) {
         PyErr_SetString(PyExc_RuntimeError, "kalman_update: _bind(addresses) first");
@@ -527,10 +536,26 @@ static int update_inputs(bufs_t *bs, PyObject *const *args, int ia, const double
     *n = hv->shape[1];
     if (*p < 1 || *n < 2 || *p > 1000000 || *ipsi < 0 || *ipsi >= *n)
         return 0;
-    if (!(*x = get(bs, args[0], 1, *n, 0, 0)) || !(*P = get(bs, args[1], 2, *n, *n, 0)) ||
-        !(*z = get(bs, args[3], 1, *p, 0, 0)) || !(*R = get(bs, args[4], 2, *p, *p, 0)))
+    if (!(*x = get(bs, args[0], 1, *n, 0, 0)) || !(*P = get(bs, args[1], 2, *n, *n, 0)))
+        return 0;
+    if (z_raw != NULL) {
+        if (*p != p_raw)
+            return 0;
+        *z = z_raw;
+        *R = R_raw;
+        return 1;
+    }
+    if (!(*z = get(bs, args[3], 1, *p, 0, 0)) || !(*R = get(bs, args[4], 2, *p, *p, 0)))
         return 0;
     return 1;
+}
+
+/* update_inputs_raw() of args[3] and args[4]. */
+static int update_inputs(bufs_t *bs, PyObject *const *args, int ia, const double **x,
+                         const double **P, const double **H, const double **z, const double **R,
+                         int64_t *p, int64_t *n, int *joseph, Py_ssize_t *ipsi)
+{
+    return update_inputs_raw(bs, args, ia, NULL, NULL, 0, x, P, H, z, R, p, n, joseph, ipsi);
 }
 
 PyDoc_STRVAR(update_doc,
@@ -587,9 +612,44 @@ PyDoc_STRVAR(update_new_doc,
 "and returned; xn and Pn read-only, t too when t_ok (else t is unfilled). None: the caller\n"
 "runs the Python.");
 
-static PyObject *py_update_new(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* update_new()'s work: args as update_new() takes them (x, P, H, z, R, angle_rows, joseph,
+ * ipsi; z and R unread when z_raw is not NULL, see update_inputs_raw()). Fills o[0..6] with the
+ * new arrays Y, v, S, K, xn, Pn, t (references owned by the caller, NULL where not made), *nis
+ * and *t_ok. Returns 1, 0 (the Python runs; arrays made are the caller's to drop) or -1
+ * (exception set). */
+static int update_make(PyObject *const *args, const double *z_raw, const double *R_raw,
+                       int64_t p_raw, PyObject **o, double *nis, int *t_ok)
 {
     bufs_t bs = {.n = 0};
+    const double *H, *x, *P, *z, *R;
+    double *d[7]; /* Y, v, S, K, xn, Pn, t */
+    int64_t p, n;
+    int joseph, st;
+    Py_ssize_t ipsi;
+    st = update_inputs_raw(&bs, args, 5, z_raw, R_raw, p_raw, &x, &P, &H, &z, &R, &p, &n, &joseph,
+                           &ipsi);
+    if (st <= 0)
+        goto done;
+    if (!(o[0] = new_array(n + 1 + p, p, 2, &d[0])) || !(o[1] = new_array(p, 0, 1, &d[1])) ||
+        !(o[2] = new_array(p, p, 2, &d[2])) || !(o[3] = new_array(n, p, 2, &d[3])) ||
+        !(o[4] = new_array(n, 0, 1, &d[4])) || !(o[5] = new_array(n, n, 2, &d[5])) ||
+        !(o[6] = new_array(p, 0, 1, &d[6]))) {
+        st = -1;
+        goto done;
+    }
+    st = update_core(x, P, H, z, R, p, n, args[5], joseph, ipsi, d[0], d[1], d[2], d[3], d[4],
+                     d[5], d[6], nis, t_ok);
+    if (st <= 0)
+        goto done;
+    if (freeze(o[4]) < 0 || freeze(o[5]) < 0 || (*t_ok && freeze(o[6]) < 0))
+        st = -1;
+done:
+    release(&bs);
+    return st;
+}
+
+static PyObject *py_update_new(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
     PyObject *result = NULL, *o[7] = {NULL};
     if (nargs != 8) {
         PyErr_SetString(PyExc_TypeError, "update_new takes 8 arguments");
@@ -597,30 +657,12 @@ static PyObject *py_update_new(PyObject *self, PyObject *const *args, Py_ssize_t
     }
     if (np_ready() < 0)
         return NULL;
-    const double *H, *x, *P, *z, *R;
-    double *d[7]; /* Y, v, S, K, xn, Pn, t */
-    int64_t p, n;
-    int joseph, st;
-    Py_ssize_t ipsi;
-    if ((st = update_inputs(&bs, args, 5, &x, &P, &H, &z, &R, &p, &n, &joseph, &ipsi)) < 0)
-        goto done;
-    if (st == 0)
-        goto fallback;
-    if (!(o[0] = new_array(n + 1 + p, p, 2, &d[0])) || !(o[1] = new_array(p, 0, 1, &d[1])) ||
-        !(o[2] = new_array(p, p, 2, &d[2])) || !(o[3] = new_array(n, p, 2, &d[3])) ||
-        !(o[4] = new_array(n, 0, 1, &d[4])) || !(o[5] = new_array(n, n, 2, &d[5])) ||
-        !(o[6] = new_array(p, 0, 1, &d[6])))
-        goto done;
     double nis;
-    int t_ok;
-    st = update_core(x, P, H, z, R, p, n, args[5], joseph, ipsi, d[0], d[1], d[2], d[3], d[4],
-                     d[5], d[6], &nis, &t_ok);
+    int t_ok, st = update_make(args, NULL, NULL, 0, o, &nis, &t_ok);
     if (st < 0)
         goto done;
     if (st == 0)
         goto fallback;
-    if (freeze(o[4]) < 0 || freeze(o[5]) < 0 || (t_ok && freeze(o[6]) < 0))
-        goto done;
     /* (nis, t_ok, v, S, K, xn, Pn, t, Y): the tuple takes the arrays' references */
     PyObject *fnis = PyFloat_FromDouble(nis);
     if (fnis == NULL || (result = PyTuple_New(9)) == NULL) {
@@ -642,7 +684,6 @@ fallback:
 done:
     for (int i = 0; i < 7; i++)
         Py_XDECREF(o[i]);
-    release(&bs);
     return result;
 }
 
@@ -779,12 +820,129 @@ PyDoc_STRVAR(update_result_doc,
 "sym2(C) it is, without that intermediate state). None (nothing made) where update_new()\n"
 "declines or α is not a finite float: the Python runs.");
 
-static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* l_inv = Y[:, n + 1:] and w = Y[:, n] of Y = Yc.T (Yc C-ordered (n+1+p)×p) as numpy makes these
+ * views: made here from Yc's data (PyArray_NewFromDescr with the views' shapes and strides, the
+ * writeable flag of a view of a writeable array, base Yc: the array that owns the data, where
+ * numpy's view of a view points too) once views_probe() found them equal to numpy's own in
+ * shape, strides, flags and base; else (or views_probe() failing) by numpy's .T and indexing.
+ * 1, or -1 (exception set). */
+static int views_state = -1; /* 1: made here, 0: numpy's indexing, -1: not probed yet */
+
+static PyObject *view_here(PyObject *Yc, int nd, Py_ssize_t d0, Py_ssize_t d1, Py_ssize_t s0,
+                           Py_ssize_t s1, double *data)
 {
-    if (nargs != 9 && nargs != 10) {
-        PyErr_SetString(PyExc_TypeError, "update_result takes 9 or 10 arguments");
+    Py_ssize_t dims[2] = {d0, d1}, strides[2] = {s0, s1};
+    Py_INCREF(np_f64); /* stolen */
+    PyObject *a = np_new_from_descr((PyTypeObject *)np_ndarray, np_f64, nd, dims, strides, data,
+                                    NP_WRITEABLE, NULL);
+    if (a == NULL)
         return NULL;
+    ((np_fields_t *)a)->base = Py_NewRef(Yc);
+    return a;
+}
+
+static int views_numpy(PyObject *Yc, Py_ssize_t n, PyObject **l_inv, PyObject **w)
+{
+    PyObject *Y = NULL, *nidx = NULL, *sl = NULL, *key = NULL;
+    int st = -1;
+    *l_inv = *w = NULL;
+    if (r_key_w_slice == NULL && (r_key_w_slice = PySlice_New(NULL, NULL, NULL)) == NULL)
+        return -1;
+    if ((Y = PyObject_GetAttr(Yc, rs_T)) == NULL)
+        goto done;
+    if ((nidx = PyLong_FromSsize_t(n + 1)) == NULL || (sl = PySlice_New(nidx, NULL, NULL)) == NULL ||
+        (key = PyTuple_Pack(2, r_key_w_slice, sl)) == NULL ||
+        (*l_inv = PyObject_GetItem(Y, key)) == NULL)
+        goto done;
+    Py_CLEAR(key);
+    Py_CLEAR(nidx);
+    if ((nidx = PyLong_FromSsize_t(n)) == NULL ||
+        (key = PyTuple_Pack(2, r_key_w_slice, nidx)) == NULL || (*w = PyObject_GetItem(Y, key)) == NULL)
+        goto done;
+    st = 1;
+done:
+    if (st < 0) {
+        Py_CLEAR(*l_inv);
+        Py_CLEAR(*w);
     }
+    Py_XDECREF(Y);
+    Py_XDECREF(nidx);
+    Py_XDECREF(sl);
+    Py_XDECREF(key);
+    return st;
+}
+
+static int views_made(PyObject *Yc, Py_ssize_t n, Py_ssize_t p, PyObject **l_inv, PyObject **w)
+{
+    double *d = (double *)((np_fields_t *)Yc)->data;
+    *w = NULL;
+    if ((*l_inv = view_here(Yc, 2, p, p, 8, 8 * p, d + (n + 1) * p)) == NULL ||
+        (*w = view_here(Yc, 1, p, 0, 8, 0, d + n * p)) == NULL) {
+        Py_CLEAR(*l_inv);
+        return -1;
+    }
+    return 1;
+}
+
+/* Are views_made()'s arrays numpy's (views_numpy()) on probe arrays of the shapes the filter
+ * uses (p = 1, 2, 5)? Sets views_state; 0, or -1 (exception set). */
+static int views_probe(void)
+{
+    int ok = np_new_from_descr != NULL && np_layout == 1;
+    for (Py_ssize_t p = 1; ok && p <= 5; p += (p == 2 ? 3 : 1)) {
+        Py_ssize_t n = 13;
+        double *d;
+        PyObject *Yc = new_array(n + 1 + p, p, 2, &d), *a[2] = {NULL}, *b[2] = {NULL};
+        if (Yc == NULL)
+            return -1;
+        if (views_numpy(Yc, n, &a[0], &a[1]) < 0 || views_made(Yc, n, p, &b[0], &b[1]) < 0) {
+            Py_XDECREF(a[0]);
+            Py_XDECREF(a[1]);
+            Py_DECREF(Yc);
+            return -1;
+        }
+        for (int i = 0; i < 2 && ok; i++) {
+            np_fields_t *fa = (np_fields_t *)a[i], *fb = (np_fields_t *)b[i];
+            ok = Py_TYPE(a[i]) == Py_TYPE(b[i]) && fa->data == fb->data && fa->nd == fb->nd &&
+                 fa->base == fb->base && fa->base == Yc && fa->descr == fb->descr &&
+                 fa->flags == fb->flags;
+            for (int k = 0; k < fa->nd && ok; k++)
+                ok = fa->dimensions[k] == fb->dimensions[k] && fa->strides[k] == fb->strides[k];
+            if (ok) { /* and what Python sees: the flags object compares equal */
+                PyObject *fla = PyObject_GetAttrString(a[i], "flags");
+                PyObject *flb = fla == NULL ? NULL : PyObject_GetAttrString(b[i], "flags");
+                int eq = flb == NULL ? -1 : PyObject_RichCompareBool(fla, flb, Py_EQ);
+                Py_XDECREF(fla);
+                Py_XDECREF(flb);
+                if (eq < 0)
+                    PyErr_Clear();
+                ok = eq == 1;
+            }
+        }
+        for (int i = 0; i < 2; i++) {
+            Py_XDECREF(a[i]);
+            Py_XDECREF(b[i]);
+        }
+        Py_DECREF(Yc);
+    }
+    views_state = ok;
+    return 0;
+}
+
+static int ls_views(PyObject *Yc, Py_ssize_t n, Py_ssize_t p, PyObject **l_inv, PyObject **w)
+{
+    if (views_state < 0 && views_probe() < 0)
+        return -1;
+    if (views_state == 1)
+        return views_made(Yc, n, p, l_inv, w);
+    return views_numpy(Yc, n, l_inv, w);
+}
+
+/* update_result() of args (state, H, z, R, angle_rows, joseph, ipsi, alpha, labels[, fix_cov];
+ * z and R unread when z_raw is not NULL: update_inputs_raw()). */
+static PyObject *result_build(PyObject *const *args, Py_ssize_t nargs, const double *z_raw,
+                              const double *R_raw, int64_t p_raw)
+{
     if (r_result_cls == NULL) {
         PyErr_SetString(PyExc_RuntimeError, "kalman_update: bind_result(...) first");
         return NULL;
@@ -792,31 +950,34 @@ static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssiz
     PyObject *state = args[0], *alpha_obj = args[7];
     if (!PyFloat_CheckExact(alpha_obj) || !isfinite(PyFloat_AS_DOUBLE(alpha_obj)))
         Py_RETURN_NONE;
-    PyObject *result = NULL, *out = NULL, *xo = NULL, *Po = NULL, *Y = NULL, *key = NULL;
+    if (np_ready() < 0)
+        return NULL;
+    PyObject *result = NULL, *xo = NULL, *Po = NULL, *o[7] = {NULL};
     PyObject *l_inv = NULL, *w = NULL, *newst = NULL, *src = NULL, *dst = NULL, *lom = NULL;
-    PyObject *ls = NULL, *tval = NULL, *dof = NULL, *sl = NULL, *nidx = NULL;
+    PyObject *ls = NULL, *tval = NULL, *dof = NULL;
     PyObject *lo = NULL, *hi = NULL;
     if ((xo = PyObject_GetAttr(state, rs_x)) == NULL || (Po = PyObject_GetAttr(state, rs_P)) == NULL)
         goto done;
     PyObject *ua[8] = {xo, Po, args[1], args[2], args[3], args[4], args[5], args[6]};
-    if ((out = py_update_new(self, ua, 8)) == NULL)
+    double nis;
+    int t_ok;
+    int st = update_make(ua, z_raw, R_raw, p_raw, o, &nis, &t_ok);
+    if (st < 0)
         goto done;
-    if (out == Py_None) {
-        result = out;
-        out = NULL;
+    if (st == 0) {
+        result = Py_NewRef(Py_None);
         goto done;
     }
-    /* (nis, t_ok, v, S, K, xn, Pn, t, Yc) */
-    double nis = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(out, 0));
-    int t_ok = PyTuple_GET_ITEM(out, 1) == Py_True;
-    PyObject *v = PyTuple_GET_ITEM(out, 2), *S = PyTuple_GET_ITEM(out, 3);
-    PyObject *K = PyTuple_GET_ITEM(out, 4), *xn = PyTuple_GET_ITEM(out, 5);
-    PyObject *Pn = PyTuple_GET_ITEM(out, 6), *t = PyTuple_GET_ITEM(out, 7);
-    PyObject *Yc = PyTuple_GET_ITEM(out, 8);
-    Py_ssize_t p = PyObject_Length(v), n = PyObject_Length(xn);
-    if (p < 0 || n < 0)
-        goto done;
-    int st = lom_limits(p, PyFloat_AS_DOUBLE(alpha_obj), alpha_obj, &lo, &hi);
+    /* Y, v, S, K, xn, Pn, t */
+    PyObject *Yc = o[0], *v = o[1], *S = o[2], *K = o[3], *xn = o[4], *Pn = o[5], *t = o[6];
+    Py_ssize_t p = ((np_fields_t *)v)->dimensions[0], n = ((np_fields_t *)xn)->dimensions[0];
+    if (np_layout != 1) {
+        p = PyObject_Length(v);
+        n = PyObject_Length(xn);
+        if (p < 0 || n < 0)
+            goto done;
+    }
+    st = lom_limits(p, PyFloat_AS_DOUBLE(alpha_obj), alpha_obj, &lo, &hi);
     if (st < 0) {
         lo = hi = NULL;
         goto done;
@@ -829,12 +990,15 @@ static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssiz
     /* own references: the table may be refilled (another thread) while objects are made */
     Py_INCREF(lo);
     Py_INCREF(hi);
-    /* new = state._with_frozen(state.t, xn, Pn) */
+    /* new = state._with_frozen(state.t, xn, Pn): its instance dict a copy of state's (the same
+     * keys in the same order as the Python's update of an empty dict; a copy of a split-table
+     * dict shares its keys instead of inserting them one by one), then fix_cov, x and P */
     if ((newst = PyBaseObject_Type.tp_new((PyTypeObject *)r_state_cls, r_empty, NULL)) == NULL ||
         (src = PyObject_GenericGetDict(state, NULL)) == NULL ||
-        (dst = PyObject_GenericGetDict(newst, NULL)) == NULL || PyDict_Update(dst, src) < 0 ||
+        (dst = PyDict_Copy(src)) == NULL ||
         (nargs == 10 && args[9] != Py_None && PyDict_SetItem(dst, rs_fix_cov, args[9]) < 0) ||
-        PyDict_SetItem(dst, rs_x, xn) < 0 || PyDict_SetItem(dst, rs_P, Pn) < 0)
+        PyDict_SetItem(dst, rs_x, xn) < 0 || PyDict_SetItem(dst, rs_P, Pn) < 0 ||
+        PyObject_GenericSetDict(newst, dst, NULL) < 0)
         goto done;
     /* lom = _lom_from_nis(nis, p, alpha) */
     double tv = nis / (double)p;
@@ -849,18 +1013,7 @@ static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssiz
             goto done;
     }
     /* Y = Yc.T; l_inv = Y[:, n + 1:]; w = Y[:, n] (numpy's views) */
-    if ((Y = PyObject_GetAttr(Yc, rs_T)) == NULL)
-        goto done;
-    if (r_key_w_slice == NULL && (r_key_w_slice = PySlice_New(NULL, NULL, NULL)) == NULL)
-        goto done;
-    if ((nidx = PyLong_FromSsize_t(n + 1)) == NULL || (sl = PySlice_New(nidx, NULL, NULL)) == NULL ||
-        (key = PyTuple_Pack(2, r_key_w_slice, sl)) == NULL ||
-        (l_inv = PyObject_GetItem(Y, key)) == NULL)
-        goto done;
-    Py_CLEAR(key);
-    Py_CLEAR(nidx);
-    if ((nidx = PyLong_FromSsize_t(n)) == NULL ||
-        (key = PyTuple_Pack(2, r_key_w_slice, nidx)) == NULL || (w = PyObject_GetItem(Y, key)) == NULL)
+    if (ls_views(Yc, n, p, &l_inv, &w) < 0)
         goto done;
     {
         PyObject *names[4] = {rs_l_inv, rs_w, rs_lom_reject, rs_t};
@@ -874,11 +1027,10 @@ static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssiz
         result = bare_with(r_result_cls, 7, names, vals);
     }
 done:
-    Py_XDECREF(out);
+    for (int i = 0; i < 7; i++)
+        Py_XDECREF(o[i]);
     Py_XDECREF(xo);
     Py_XDECREF(Po);
-    Py_XDECREF(Y);
-    Py_XDECREF(key);
     Py_XDECREF(l_inv);
     Py_XDECREF(w);
     Py_XDECREF(newst);
@@ -888,11 +1040,18 @@ done:
     Py_XDECREF(ls);
     Py_XDECREF(tval);
     Py_XDECREF(dof);
-    Py_XDECREF(sl);
-    Py_XDECREF(nidx);
     Py_XDECREF(lo);
     Py_XDECREF(hi);
     return result;
+}
+
+static PyObject *py_update_result(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9 && nargs != 10) {
+        PyErr_SetString(PyExc_TypeError, "update_result takes 9 or 10 arguments");
+        return NULL;
+    }
+    return result_build(args, nargs, NULL, NULL, 0);
 }
 
 /* One block of update_blocks(): its rows' values into z (k of them) and their VCV into the k×k
@@ -943,18 +1102,23 @@ static Py_ssize_t block_rows(PyObject *zo, PyObject *Ro, double *z, double *R, P
 }
 
 PyDoc_STRVAR(update_blocks_doc,
-"update_blocks(state, H, blocks, angle_rows, joseph, ipsi, alpha, labels[, fix_cov])\n"
-"    -> UpdateResult | None\n\n"
+"update_blocks(state, H, blocks, angle_rows, joseph, ipsi, alpha, labels[, fix_cov[, gate]])\n"
+"    -> UpdateResult | (UpdateResult, float | None) | None\n\n"
 "update_result() of the rows of `blocks`, a tuple of (z, R) stacked in order as\n"
 "measurements.stack_measurements stacks them (z concatenated, R block-diagonal, zeros\n"
 "elsewhere): z a list of floats or a float64 (k,) array, R a list of the rows' variances\n"
 "(independent rows) or a float64 (k, k) array. None where a block is not one of these or\n"
-"update_result() declines: the Python runs.");
+"update_result() declines: the Python runs. With gate (an int, not None) the result comes\n"
+"with distance(result.innovation, result.S, gate, p) of its rows gate: (the Mahalanobis\n"
+"length of the last block for the cycle's gross-error gate; None where distance() declines).");
+
+static PyObject *py_distance(PyObject *self, PyObject *const *args, Py_ssize_t nargs);
+
 
 static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 8 && nargs != 9) {
-        PyErr_SetString(PyExc_TypeError, "update_blocks takes 8 or 9 arguments");
+    if (nargs < 8 || nargs > 10) {
+        PyErr_SetString(PyExc_TypeError, "update_blocks takes 8 to 10 arguments");
         return NULL;
     }
     if (np_ready() < 0)
@@ -975,12 +1139,13 @@ static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssiz
     }
     if (p < 1 || p > 1000)
         Py_RETURN_NONE;
-    double *z, *R;
-    PyObject *zo = new_array(p, 0, 1, &z), *Ro = zo == NULL ? NULL : new_array(p, p, 2, &R);
-    if (Ro == NULL) {
-        Py_XDECREF(zo);
-        return NULL;
-    }
+    /* the stacked z and R in C scratch (on the stack for up to 16 rows): update_core reads
+     * them as it would read the arrays of these values */
+    double zr_stack[16 + 16 * 16];
+    double *zr = p <= 16 ? zr_stack : PyMem_Malloc(sizeof(double) * (size_t)(p + p * p));
+    if (zr == NULL)
+        return PyErr_NoMemory();
+    double *z = zr, *R = zr + p;
     memset(R, 0, sizeof(double) * (size_t)(p * p));
     Py_ssize_t at = 0;
     for (Py_ssize_t b = 0; b < nb; b++) {
@@ -988,12 +1153,30 @@ static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssiz
         at += block_rows(PyTuple_GET_ITEM(blk, 0), PyTuple_GET_ITEM(blk, 1), z + at,
                          R + at * p + at, p);
     }
-    PyObject *ua[10] = {args[0], args[1], zo, Ro, args[3], args[4], args[5], args[6], args[7],
-                        nargs == 9 ? args[8] : Py_None};
-    PyObject *result = py_update_result(self, ua, 10);
-    Py_DECREF(zo);
-    Py_DECREF(Ro);
-    return result;
+    PyObject *ua[10] = {args[0], args[1], Py_None, Py_None, args[3], args[4], args[5], args[6],
+                        args[7], nargs >= 9 ? args[8] : Py_None};
+    PyObject *result = result_build(ua, 10, z, R, p);
+    if (zr != zr_stack)
+        PyMem_Free(zr);
+    if (result == NULL || result == Py_None || nargs < 10 || args[9] == Py_None)
+        return result;
+    /* (result, innovation_distance(result, slice(gate, None))) */
+    PyObject *v = PyObject_GetAttr(result, rs_innovation);
+    PyObject *S = v == NULL ? NULL : PyObject_GetAttr(result, rs_S);
+    PyObject *stop = S == NULL ? NULL : PyLong_FromSsize_t(p);
+    PyObject *d = NULL, *pair = NULL;
+    if (stop != NULL) {
+        PyObject *da[4] = {v, S, args[9], stop};
+        d = py_distance(self, da, 4);
+    }
+    if (d != NULL)
+        pair = PyTuple_Pack(2, result, d);
+    Py_XDECREF(v);
+    Py_XDECREF(S);
+    Py_XDECREF(stop);
+    Py_XDECREF(d);
+    Py_DECREF(result);
+    return pair;
 }
 
 /* ------------------------------------------------------------------ innovation distance */
@@ -1070,7 +1253,15 @@ static PyObject *py_bind(PyObject *self, PyObject *addresses)
     Py_RETURN_NONE;
 }
 
+static PyObject *py_views_state(PyObject *self, PyObject *unused)
+{
+    return PyLong_FromLong(views_state);
+}
+
 static PyMethodDef methods[] = {
+    {"_views_state", py_views_state, METH_NOARGS,
+     "_views_state() -> 1 (the LsTest views made by the kernel), 0 (by numpy's indexing) or -1 "
+     "(not probed yet)."},
     {"update", (PyCFunction)(void (*)(void))py_update, METH_FASTCALL, update_doc},
     {"update_new", (PyCFunction)(void (*)(void))py_update_new, METH_FASTCALL, update_new_doc},
     {"distance", (PyCFunction)(void (*)(void))py_distance, METH_FASTCALL, distance_doc},

@@ -36,9 +36,9 @@ from engine.filter.kalman import (
     stack_measurements,
     update,
 )
-from engine.filter.measurements import SensorLayout, sensor_rows
+from engine.filter.measurements import SensorLayout, depth_sensor_rows, sensor_rows
 from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
-from engine.filter.update import update_rows, update_rows_two
+from engine.filter.update import update_rows, update_rows_two_gated
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -733,8 +733,15 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         sens_result = update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
     pred_state, phi = predict_step(fstate, dt, params)
-    return _Prediction(pred_state, filter_estimate("KF", grid, pred_state),
-                       (fstate, pred_state, phi), sens_result, dr_sensors, reference)
+    # filter_estimate("KF", grid, pred_state), its compiled call made here (the same estimate);
+    # where the kernel is not there or declines, filter_estimate
+    k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
+    est = None if k is None else k.position(  # type: ignore[attr-defined]
+        "KF", grid._packed, pred_state.x, pred_state.P)
+    if est is None:
+        est = filter_estimate("KF", grid, pred_state)
+    return _Prediction(pred_state, est, (fstate, pred_state, phi), sens_result, dr_sensors,
+                       reference)
 
 
 def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,
@@ -868,7 +875,7 @@ def _fitness(fix: FixResult | None,
     return fit_scale, fit_note, fix_cov
 
 
-@dataclass
+@dataclass(slots=True)
 class _Filtering:
     """The filter's side of one cycle as the update phase advances it: state, smoother link,
     whether it has taken a fix, the fix source its fix-error states model, gated fixes in a
@@ -896,10 +903,11 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
                    "OFF" if not cfg.filter.on else "N/A")
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
-    # layout): updated from them without a Measurement (update_rows, update_rows_two).
+    # layout, depth_sensor_rows): updated from them without a Measurement (update_rows,
+    # update_rows_two_gated).
     depth_rows: tuple[list[float], list[float], SensorLayout] | None = None
     if pred.state is not None and sens.depth_m is not None:
-        depth_rows = sensor_rows(sens.depth_m, None, None, None, params)
+        depth_rows = depth_sensor_rows(sens.depth_m, params)  # sensor_rows(depth, None, …)
     if f.state is not None and fix is not None and lse_ok and not f.has_fix:
         # The first LSE initialises the filter position (THEORY D22): a DR start kilometres
         # away with the thesis P0 = I would otherwise pull against every fix.
@@ -944,7 +952,10 @@ def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_
     if gnss and ctx.filter_params_gnss is not None:
         params = ctx.filter_params_gnss
     meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
-    source = _with_gnss(ctx.derived().fix_source, gnss, f.source)
+    base = ctx.derived().fix_source
+    # _with_gnss(base, gnss, f.source); with this record's receiver part (not None) it is
+    # base + gnss, done here
+    source = base + gnss if gnss is not None else _with_gnss(base, gnss, f.source)
     if gnss and source == f.source:
         _rescale_gnss_fix_states(f, meas)
     if source != f.source:
@@ -1044,16 +1055,14 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
     error (:data:`GROSS_GATE_SIGMA`); after :data:`GROSS_GATE_RESET` gated LSEs the filter
     position restarts from the LSE. Returns the depth rows still to be applied (None: done)."""
     assert f.state is not None
-    n_fix = meas.z.shape[0]
     # One update for all measured at this epoch: the depth rows stacked before the fix's
-    # (update_rows_two is update(state, stack_measurements(the depth rows' measurement, meas),
-    # params)).
+    # (update_rows_two_gated is update(state, stack_measurements(the depth rows' measurement,
+    # meas), params) and the innovation_distance of the fix's rows, the last, in one call).
     if depth_rows is None:
-        trial, p = update(f.state, meas, ctx.filter_params), n_fix
+        trial = update(f.state, meas, ctx.filter_params)
+        d_sigma = innovation_distance(trial, slice(0, None))
     else:
-        trial = update_rows_two(f.state, *depth_rows, meas, ctx.filter_params)
-        p = len(depth_rows[0]) + n_fix
-    d_sigma = innovation_distance(trial, slice(p - n_fix, None))
+        trial, d_sigma = update_rows_two_gated(f.state, *depth_rows, meas, ctx.filter_params)
     f.status = "ON"
     if d_sigma <= GROSS_GATE_SIGMA:
         f.result, f.state, f.has_fix, f.gated = trial, trial.state, True, 0

@@ -70,6 +70,18 @@ def test_replay_predictions_are_bit_identical(replay_steps):
 
 
 @needs_kernel
+def test_predict_step_is_predict(replay_steps):
+    """predict_step() (its memo lookups and the new state made inline) is _predict(…, True)
+    and _predict_py: the same floats, arrays, metadata and instance dict, in the same order."""
+    for state, dt, params in replay_steps:
+        got = pr.predict_step(state, dt, params)
+        for ref in (pr._predict(state, dt, params, True), pr._predict_py(state, dt, params, True)):
+            _same(got, ref)
+            assert type(got[0]) is FilterState and list(vars(got[0])) == list(vars(ref[0]))
+            assert got[0].fix_cov is state.fix_cov and got[0].t == state.t + dt
+
+
+@needs_kernel
 def test_the_kernel_is_what_runs(replay_steps, monkeypatch: pytest.MonkeyPatch):
     """The kernel answers (not None) for the replay's states: the Python is not called."""
     def boom(*a: object) -> None:
@@ -182,6 +194,7 @@ def _same_meas(a: Measurement, b: Measurement) -> None:
     for f in ("labels", "angle_rows", "bias_keys", "bias_tau_s", "_cols"):
         u, v = getattr(a, f), getattr(b, f)
         assert u == v and type(u) is type(v), (f, u, v)
+    assert type(a) is type(b) and list(vars(a)) == list(vars(b))
 
 
 @pytest.fixture(scope="module")
@@ -197,7 +210,7 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
             return _real(*a, **k)
 
         mp.setattr(cycle_mod, name, recording)
-    real_rows, real_two = cycle_mod.sensor_rows, cycle_mod.update_rows_two
+    real_rows, real_two = cycle_mod.sensor_rows, cycle_mod.update_rows_two_gated
 
     def rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms=None,
              gyro_sigma_deg=None):  # the sensor_measurement the cycle's rows stand for
@@ -208,17 +221,30 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
         return real_rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms,
                          gyro_sigma_deg)
 
-    def two(state, zs, var, layout, b, params):  # the stack update_rows_two updates with
+    def two(state, zs, var, layout, b, params):  # the stack update_rows_two_gated updates with
         calls.append(("stack_measurements", (ms.rows_measurement(zs, var, layout), b), {}))
         return real_two(state, zs, var, layout, b, params)
 
     mp.setattr(cycle_mod, "sensor_rows", rows)
-    mp.setattr(cycle_mod, "update_rows_two", two)
+    mp.setattr(cycle_mod, "depth_sensor_rows", lambda depth_m, params: rows(
+        depth_m, None, None, None, params))
+    mp.setattr(cycle_mod, "update_rows_two_gated", two)
     try:
         replay(200)
     finally:
         mp.undo()
     return calls
+
+
+def test_depth_sensor_rows_is_sensor_rows() -> None:
+    """depth_sensor_rows(d, params) is sensor_rows(d, None, None, None, params): the same
+    values, variances (bits) and the same layout object."""
+    for params in (FilterParams(), FilterParams(sigma_press_m=0.37)):
+        for d in (0.0, 12.5, 1e-7, 3021.25):
+            got = ms.depth_sensor_rows(d, params)
+            ref = ms.sensor_rows(d, None, None, None, params)
+            assert got[0] == ref[0] and [v.hex() for v in got[1]] == [v.hex() for v in ref[1]]
+            assert got[2] is ref[2]
 
 
 def test_replay_measurement_rows_are_the_same(replay_rows):

@@ -99,13 +99,18 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
         seen.append((state, rows, params))
         return U.update(state, rows, params)
 
-    # The cycle's updates: update(), and update_rows() / update_rows_two(), which are update()
-    # of the rows' measurement and of the stack (test_update_rows_and_two_are_update).
+    # The cycle's updates: update(), and update_rows() / update_rows_two_gated(), which are
+    # update() of the rows' measurement and of the stack (test_update_rows_and_two_are_update,
+    # test_update_rows_two_gated_is_update_and_distance).
+    def gated(state: FilterState, zs: list[float], var: list[float], layout: ms.SensorLayout,
+              b: Measurement, params: FilterParams) -> tuple[U.UpdateResult, float]:
+        r = record(state, ms.stack_measurements(ms.rows_measurement(zs, var, layout), b), params)
+        return r, U.innovation_distance(r, slice(len(zs), None))
+
     mp.setattr(cycle_mod, "update", record)
     mp.setattr(cycle_mod, "update_rows", lambda state, zs, var, layout, params: record(
         state, ms.rows_measurement(zs, var, layout), params))
-    mp.setattr(cycle_mod, "update_rows_two", lambda state, zs, var, layout, b, params: record(
-        state, ms.stack_measurements(ms.rows_measurement(zs, var, layout), b), params))
+    mp.setattr(cycle_mod, "update_rows_two_gated", gated)
     try:
         replay(200)
     finally:
@@ -116,14 +121,16 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
 
 @pytest.fixture(scope="module")
 def replay_blocks() -> list[tuple[str, tuple[object, ...]]]:
-    """The arguments of every update_rows() and update_rows_two() of the first 100 demo
-    epochs, and of update_two() of the same rows as a Measurement."""
+    """The arguments of every update_rows() and update_rows_two_gated() (recorded as
+    update_rows_two, whose arguments they are) of the first 100 demo epochs, and of
+    update_two() of the same rows as a Measurement."""
     seen: list[tuple[str, tuple[object, ...]]] = []
     mp = pytest.MonkeyPatch()
-    for name in ("update_rows", "update_rows_two"):
+    for name, as_name in (("update_rows", "update_rows"),
+                          ("update_rows_two_gated", "update_rows_two")):
         real = getattr(U, name)
 
-        def recording(*a: object, _name: str = name, _real=real) -> U.UpdateResult:
+        def recording(*a: object, _name: str = as_name, _real=real) -> object:
             seen.append((_name, a))
             return _real(*a)
 
@@ -194,6 +201,43 @@ def test_update_rows_and_two_are_update(replay_blocks, monkeypatch) -> None:
                 ref = U.update(st_, ms.stack_measurements(x, y), prm)
                 _same_result(U.update_two(*a), ref)
                 _same_result(U._update_py(st_, ms.stack_measurements(x, y), prm), ref)
+
+
+def test_update_rows_two_gated_is_update_and_distance(replay_blocks, monkeypatch) -> None:
+    """update_rows_two_gated() is update_rows_two() and innovation_distance() of the fix's rows
+    (the last), bit for bit, with the kernel (one update_blocks call with its gate, which
+    answers every cycle's call but the first fix's) and without it; and so are the kernel's
+    gate on other starts; an update the kernel declines is declined with the gate too."""
+    two = [a for n, a in replay_blocks if n == "update_rows_two"]
+    state, zs, var, layout, lse, params = two[-1]
+    cases = list(two) + [(state, [], [], layout, lse, params)]  # no depth row: the stack
+    k = U._kernel()
+    for kernel in (k, None):
+        monkeypatch.setattr(U, "_K", kernel)
+        for a in cases:
+            got, d = U.update_rows_two_gated(*a)
+            ref = U.update_rows_two(*a)
+            _same_result(got, ref)
+            assert same(d, U._innovation_distance_py(ref, slice(len(a[1]), None)))
+    monkeypatch.setattr(U, "_K", k)
+    gated = 0
+    for a in two:
+        gated += U._update_two(a[0], (a[1], a[2]), a[3][1], a[3][0], a[3][3], a[3][2].shape[1],
+                               a[4], a[5], len(a[1])) is not None
+    assert gated >= len(two) - 1
+    labels, cols, H, angle = layout
+    Hw = U._bias_h(cols + lse._cols, (None,) * len(cols) + lse.bias_keys, state.fix_states,
+                   state.n)
+    p = len(zs) + 2
+    for gate in range(p + 1):
+        r = k.update_blocks(state, Hw, ((zs, var), (lse.z, lse.R)), angle + (), params.joseph,
+                            U.IPSI, params.alpha, labels + lse.labels, None, gate)
+        assert same(r[1], U._innovation_distance_py(r[0], slice(gate, None)))
+    # a fix whose R makes S not positive definite: declined (None), as update_blocks without gate
+    bad = -1e12 * np.eye(2)
+    args = (state, Hw, ((zs, var), (lse.z, bad)), angle, params.joseph, U.IPSI, params.alpha,
+            labels + lse.labels, None)
+    assert k.update_blocks(*args) is None and k.update_blocks(*args, len(zs)) is None
 
 
 def test_update_blocks_declines_what_it_does_not_cover(replay_blocks) -> None:
@@ -283,6 +327,22 @@ def test_update_result_builds_the_objects_the_python_builds(replay_updates) -> N
         assert new.ls.l_inv.base is not None and new.ls.l_inv.base is new.ls.w.base
         assert new.labels is rows.labels
         assert new.state.fix_cov is state.fix_cov or rows.bias_keys
+
+
+def test_ls_views_are_numpys_views(replay_updates) -> None:
+    """The LsTest's l_inv and w the kernel makes from Y's data (without numpy's .T and
+    indexing, once its probe found them equal) are the views numpy makes: same base, data,
+    shape, strides and flags."""
+    k = U._kernel()
+    for state, rows, params in replay_updates[:60]:
+        new = U.update(state, rows, params)
+        Yc = new.ls.w.base
+        n = new.state.x.shape[0]
+        for got, ref in ((new.ls.l_inv, Yc.T[:, n + 1:]), (new.ls.w, Yc.T[:, n])):
+            assert got.base is ref.base is Yc
+            assert got.__array_interface__ == ref.__array_interface__
+            assert got.flags == ref.flags and got.strides == ref.strides
+    assert k._views_state() == 1
 
 
 @pytest.mark.parametrize("joseph", [True, False])
