@@ -202,6 +202,19 @@ static inline void digits8(uint32_t v, char *o)
     memcpy(o, &bytes, 8);
 }
 
+/* The low 64 bits of v >> q for 0 <= q < 64: on x86-64 one SHRD (what gcc emits for the
+ * 128-bit shift, without the fix-up for q >= 64 it must add as it does not know q < 64). */
+static inline uint64_t shr128(unsigned __int128 v, int q)
+{
+#if defined(__x86_64__) && defined(__GNUC__)
+    uint64_t lo = (uint64_t)v;
+    __asm__("shrdq %%cl, %1, %0" : "+r"(lo) : "r"((uint64_t)(v >> 64)), "c"(q) : "cc");
+    return lo;
+#else
+    return (uint64_t)(v >> q);
+#endif
+}
+
 /* The text of x into o (at least 48 bytes: the copies below are of fixed sizes, the text at
  * most 23 bytes); its length, or 0 (not handled here). */
 static int short_repr(double x, char *o)
@@ -238,7 +251,7 @@ static int short_repr(double x, char *o)
                             pm = (unsigned __int128)mm * p5;
     if ((uint64_t)(pp >> 64) >> q) /* pp >> q (q <= 51) above 64 bits */
         return 0;
-    uint64_t vr = (uint64_t)(pr >> q), vp = (uint64_t)(pp >> q), vm = (uint64_t)(pm >> q);
+    uint64_t vr = shr128(pr, q), vp = shr128(pp, q), vm = shr128(pm, q); /* q <= 51 */
     int vr_tz = ((uint64_t)pr & mask) == 0, vm_tz = accept && ((uint64_t)pm & mask) == 0;
     if (!accept && ((uint64_t)pp & mask) == 0)
         vp--; /* the upper bound itself does not read back as x */
@@ -318,9 +331,12 @@ static int short_repr(double x, char *o)
         if (n <= 16) {
             digits8((uint32_t)hi, d + 8);
         } else {
-            uint64_t top = hi / 100000000;
-            digits8((uint32_t)(hi - top * 100000000), d + 8);
-            digits8((uint32_t)top, d);
+            uint64_t top = hi / 100000000; /* one digit: out < 2^64 has at most 20, and */
+            digits8((uint32_t)(hi - top * 100000000), d + 8); /* n = 17 here (mv 5^i/2^q) */
+            if (top < 10)
+                d[7] = (char)('0' + top);
+            else
+                digits8((uint32_t)top, d);
         }
     }
     const char *ds = d + 24 - n;
@@ -444,12 +460,42 @@ static int short_ok(void)
     return short_state = ok;
 }
 
+/* The texts short_repr wrote last, by the float's bits (a direct-mapped table of 512): a
+ * cycle block writes many a float twice (the LOP's calc and the LSE's lat, the KF's x and
+ * the MPP's, the TEST bounds, one cycle to the next; ~20 % of the demo's floats), and the
+ * text of the same bits is the same text. t[23] is the text's length (<= 23), 0: empty. */
+#define FTEXT_BITS 9
+typedef struct {
+    uint64_t bits;
+    char t[24];
+} ftext_t;
+static ftext_t FTEXT[1 << FTEXT_BITS];
+
+/* short_repr(x, o) through FTEXT (o: at least 48 bytes; up to 24 copied on a hit). */
+static inline int short_repr_cached(double x, char *o)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    ftext_t *e = &FTEXT[(bits * UINT64_C(0x9E3779B97F4A7C15)) >> (64 - FTEXT_BITS)];
+    if (e->bits == bits && e->t[23] != 0) {
+        memcpy(o, e->t, 24);
+        return e->t[23];
+    }
+    int n = short_repr(x, o);
+    if (n > 0 && n <= 23) {
+        e->bits = bits;
+        memcpy(e->t, o, 23);
+        e->t[23] = (char)n;
+    }
+    return n;
+}
+
 /* repr(x): short_repr where it writes x, else repr's own routine. */
 static int buf_put_float(buf_t *b, double x)
 {
     if (buf_reserve(b, 48) < 0)
         return -1;
-    int n = short_state == 1 ? short_repr(x, b->p + b->n) : 0;
+    int n = short_state == 1 ? short_repr_cached(x, b->p + b->n) : 0;
     if (n == 0)
         return buf_put_repr(b, x);
     b->n += n;
@@ -564,6 +610,30 @@ static int buf_put_result(buf_t *b, PyObject *r)
     return rc;
 }
 
+/* ascii_text_form of the short ASCII str values written last, by the str object (a
+ * direct-mapped table of 64 holding a reference to each, so that an address stays its str's
+ * while it is in the table; a str never changes): the words of a block (verdicts, system
+ * and pattern names, the datum, "ON", "KF") are the same objects cycle after cycle. */
+#define TFORM_N 64
+#define TFORM_MAX_LEN 32
+static struct {
+    PyObject *s;
+    int form;
+} TFORM[TFORM_N];
+
+static inline int text_form_cached(PyObject *s, const unsigned char *u, Py_ssize_t n)
+{
+    if (n > TFORM_MAX_LEN)
+        return ascii_text_form(u, n);
+    size_t h = ((uintptr_t)s >> 4) % TFORM_N;
+    if (TFORM[h].s == s)
+        return TFORM[h].form;
+    int form = ascii_text_form(u, n);
+    Py_XSETREF(TFORM[h].s, Py_NewRef(s));
+    TFORM[h].form = form;
+    return form;
+}
+
 /* An exact str value as outlog._format_text writes it. */
 static int buf_put_text(buf_t *b, PyObject *s, PyObject *format_text)
 {
@@ -574,7 +644,7 @@ static int buf_put_text(buf_t *b, PyObject *s, PyObject *format_text)
     if (PyUnicode_IS_ASCII(s)) {
         const unsigned char *u = (const unsigned char *)PyUnicode_DATA(s);
         Py_ssize_t n = PyUnicode_GET_LENGTH(s);
-        int form = ascii_text_form(u, n);
+        int form = text_form_cached(s, u, n);
         if (form == 0)
             return buf_put(b, (const char *)u, n);
         if (form == 1)
@@ -1006,7 +1076,7 @@ static keytext_t *key_text(PyObject *keys)
             }
             len += PyUnicode_GET_LENGTH(k) * 4 + 2;
         }
-        char *text = PyMem_Malloc((size_t)len + 1);
+        char *text = PyMem_Calloc((size_t)len + 16, 1); /* + 16: write_row's fixed copies */
         Py_ssize_t *end = PyMem_Malloc(sizeof(Py_ssize_t) * (size_t)(n + 1));
         if (text == NULL || end == NULL) {
             PyMem_Free(text);
@@ -1052,8 +1122,14 @@ static int write_row(sink_t *s, PyObject *prefix, PyObject *keys, PyObject *valu
     for (Py_ssize_t i = 0, n = PyTuple_GET_SIZE(keys); i < n; i++) {
         PyObject *v = PyTuple_GET_ITEM(values, i);
         if (kt != NULL) {
-            Py_ssize_t at = i > 0 ? kt->end[i - 1] : 0;
-            rc = buf_put(b, kt->text + at, kt->end[i] - at);
+            Py_ssize_t at = i > 0 ? kt->end[i - 1] : 0, len = kt->end[i] - at;
+            if (len <= 16 && b->n + 16 <= b->cap) { /* " key=": 16 bytes copied, len kept */
+                memcpy(b->p + b->n, kt->text + at, 16);
+                b->n += len;
+                rc = 0;
+            } else {
+                rc = buf_put(b, kt->text + at, len);
+            }
         } else {
             PyObject *k = PyTuple_GET_ITEM(keys, i);
             if (!PyUnicode_CheckExact(k))
@@ -2164,6 +2240,18 @@ static PyObject *short_float(PyObject *self, PyObject *arg)
     return PyUnicode_FromStringAndSize(s, n);
 }
 
+static PyObject *short_float_cached(PyObject *self, PyObject *arg)
+{
+    double x = PyFloat_AsDouble(arg);
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    char s[48];
+    int n = short_repr_cached(x, s);
+    if (n == 0)
+        Py_RETURN_NONE;
+    return PyUnicode_FromStringAndSize(s, n);
+}
+
 static PyObject *text_form(PyObject *self, PyObject *arg)
 {
     if (!PyUnicode_CheckExact(arg)) {
@@ -2220,6 +2308,9 @@ static PyMethodDef methods[] = {
     {"short_float", short_float, METH_O,
      "short_float(x) -> repr(float(x)) by the kernel's own shortest digits, or None where it\n"
      "leaves x to repr's routine (subnormals, the exponent forms)."},
+    {"short_float_cached", short_float_cached, METH_O,
+     "short_float_cached(x) -> short_float(x) through the table of the last texts written\n"
+     "(the path cycle_text takes): the same text, or None, for the same x."},
     {"text_form", text_form, METH_O,
      "text_form(word) -> outlog._format_text(word) where decided in C, else None."},
     {NULL, NULL, 0, NULL},
