@@ -176,3 +176,29 @@ def test_every_float_of_a_demo_replay() -> None:
         for x in values:
             got = K.short_float_cached(x)
             assert got == repr(x) or (got is None and "e" in repr(x)), x
+
+
+_WORDS = st.one_of(
+    st.sampled_from(["accept", "reject", "GPS", "Decca", "Lat", "ON", "KF", "ED50", "", "-",
+                     "1e5", "nan", "123", "12.5", "a b", 'q"', "x=y", "lse", "IV", "1_0"]),
+    st.text(alphabet="abcdef0123456789.-_e =\"\\", max_size=12),
+    st.text(max_size=40),
+)
+
+
+@needs_kernel
+@settings(max_examples=300, deadline=None)
+@given(st.lists(_WORDS, min_size=1, max_size=40))
+def test_remembered_word_forms_are_the_python_rule(words: list[str]) -> None:
+    """The quoting form of a str value is remembered per str object (64 slots): words
+    written again (the same objects, equal copies, after other words took their slot) are
+    written as outlog._format_text writes them."""
+    from engine.io import outlog
+
+    assert K is not None
+    copies = ["".join(list(w)) for w in words]  # equal words, other objects (most of them)
+    values = tuple(words + copies + words[::-1])
+    rows = [("W", tuple(f"k{i}" for i in range(len(values))), values)]
+    for _ in range(2):
+        got = K.render_rows(rows, None, outlog._format_text, outlog.format_value)
+        assert got == outlog._render_rows_py(rows, False)
