@@ -202,6 +202,19 @@ static inline void digits8(uint32_t v, char *o)
     memcpy(o, &bytes, 8);
 }
 
+/* The low 64 bits of v >> q for 0 <= q < 64: on x86-64 one SHRD (what gcc emits for the
+ * 128-bit shift, without the fix-up for q >= 64 it must add as it does not know q < 64). */
+static inline uint64_t shr128(unsigned __int128 v, int q)
+{
+#if defined(__x86_64__) && defined(__GNUC__)
+    uint64_t lo = (uint64_t)v;
+    __asm__("shrdq %%cl, %1, %0" : "+r"(lo) : "r"((uint64_t)(v >> 64)), "c"(q) : "cc");
+    return lo;
+#else
+    return (uint64_t)(v >> q);
+#endif
+}
+
 /* The text of x into o (at least 48 bytes: the copies below are of fixed sizes, the text at
  * most 23 bytes); its length, or 0 (not handled here). */
 static int short_repr(double x, char *o)
@@ -238,7 +251,7 @@ static int short_repr(double x, char *o)
                             pm = (unsigned __int128)mm * p5;
     if ((uint64_t)(pp >> 64) >> q) /* pp >> q (q <= 51) above 64 bits */
         return 0;
-    uint64_t vr = (uint64_t)(pr >> q), vp = (uint64_t)(pp >> q), vm = (uint64_t)(pm >> q);
+    uint64_t vr = shr128(pr, q), vp = shr128(pp, q), vm = shr128(pm, q); /* q <= 51 */
     int vr_tz = ((uint64_t)pr & mask) == 0, vm_tz = accept && ((uint64_t)pm & mask) == 0;
     if (!accept && ((uint64_t)pp & mask) == 0)
         vp--; /* the upper bound itself does not read back as x */
@@ -318,9 +331,12 @@ static int short_repr(double x, char *o)
         if (n <= 16) {
             digits8((uint32_t)hi, d + 8);
         } else {
-            uint64_t top = hi / 100000000;
-            digits8((uint32_t)(hi - top * 100000000), d + 8);
-            digits8((uint32_t)top, d);
+            uint64_t top = hi / 100000000; /* one digit: out < 2^64 has at most 20, and */
+            digits8((uint32_t)(hi - top * 100000000), d + 8); /* n = 17 here (mv 5^i/2^q) */
+            if (top < 10)
+                d[7] = (char)('0' + top);
+            else
+                digits8((uint32_t)top, d);
         }
     }
     const char *ds = d + 24 - n;
@@ -444,12 +460,42 @@ static int short_ok(void)
     return short_state = ok;
 }
 
+/* The texts short_repr wrote last, by the float's bits (a direct-mapped table of 512): a
+ * cycle block writes many a float twice (the LOP's calc and the LSE's lat, the KF's x and
+ * the MPP's, the TEST bounds, one cycle to the next; ~20 % of the demo's floats), and the
+ * text of the same bits is the same text. t[23] is the text's length (<= 23), 0: empty. */
+#define FTEXT_BITS 9
+typedef struct {
+    uint64_t bits;
+    char t[24];
+} ftext_t;
+static ftext_t FTEXT[1 << FTEXT_BITS];
+
+/* short_repr(x, o) through FTEXT (o: at least 48 bytes; up to 24 copied on a hit). */
+static inline int short_repr_cached(double x, char *o)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    ftext_t *e = &FTEXT[(bits * UINT64_C(0x9E3779B97F4A7C15)) >> (64 - FTEXT_BITS)];
+    if (e->bits == bits && e->t[23] != 0) {
+        memcpy(o, e->t, 24);
+        return e->t[23];
+    }
+    int n = short_repr(x, o);
+    if (n > 0 && n <= 23) {
+        e->bits = bits;
+        memcpy(e->t, o, 23);
+        e->t[23] = (char)n;
+    }
+    return n;
+}
+
 /* repr(x): short_repr where it writes x, else repr's own routine. */
 static int buf_put_float(buf_t *b, double x)
 {
     if (buf_reserve(b, 48) < 0)
         return -1;
-    int n = short_state == 1 ? short_repr(x, b->p + b->n) : 0;
+    int n = short_state == 1 ? short_repr_cached(x, b->p + b->n) : 0;
     if (n == 0)
         return buf_put_repr(b, x);
     b->n += n;
@@ -564,6 +610,30 @@ static int buf_put_result(buf_t *b, PyObject *r)
     return rc;
 }
 
+/* ascii_text_form of the short ASCII str values written last, by the str object (a
+ * direct-mapped table of 64 holding a reference to each, so that an address stays its str's
+ * while it is in the table; a str never changes): the words of a block (verdicts, system
+ * and pattern names, the datum, "ON", "KF") are the same objects cycle after cycle. */
+#define TFORM_N 64
+#define TFORM_MAX_LEN 32
+static struct {
+    PyObject *s;
+    int form;
+} TFORM[TFORM_N];
+
+static inline int text_form_cached(PyObject *s, const unsigned char *u, Py_ssize_t n)
+{
+    if (n > TFORM_MAX_LEN)
+        return ascii_text_form(u, n);
+    size_t h = ((uintptr_t)s >> 4) % TFORM_N;
+    if (TFORM[h].s == s)
+        return TFORM[h].form;
+    int form = ascii_text_form(u, n);
+    Py_XSETREF(TFORM[h].s, Py_NewRef(s));
+    TFORM[h].form = form;
+    return form;
+}
+
 /* An exact str value as outlog._format_text writes it. */
 static int buf_put_text(buf_t *b, PyObject *s, PyObject *format_text)
 {
@@ -574,7 +644,7 @@ static int buf_put_text(buf_t *b, PyObject *s, PyObject *format_text)
     if (PyUnicode_IS_ASCII(s)) {
         const unsigned char *u = (const unsigned char *)PyUnicode_DATA(s);
         Py_ssize_t n = PyUnicode_GET_LENGTH(s);
-        int form = ascii_text_form(u, n);
+        int form = text_form_cached(s, u, n);
         if (form == 0)
             return buf_put(b, (const char *)u, n);
         if (form == 1)
@@ -1006,7 +1076,7 @@ static keytext_t *key_text(PyObject *keys)
             }
             len += PyUnicode_GET_LENGTH(k) * 4 + 2;
         }
-        char *text = PyMem_Malloc((size_t)len + 1);
+        char *text = PyMem_Calloc((size_t)len + 16, 1); /* + 16: write_row's fixed copies */
         Py_ssize_t *end = PyMem_Malloc(sizeof(Py_ssize_t) * (size_t)(n + 1));
         if (text == NULL || end == NULL) {
             PyMem_Free(text);
@@ -1036,12 +1106,27 @@ static keytext_t *key_text(PyObject *keys)
     return NULL;
 }
 
-/* Write the row (prefix, keys, values) as write_rows does. 0, -1 (error) or FALLBACK. */
-static int write_row(sink_t *s, PyObject *prefix, PyObject *keys, PyObject *values)
+/* A row's values on their way to the sink without a tuple: each a Python object (a new
+ * reference), or, where o is NULL, a float computed or read here (the KF line, the VCVs, the
+ * 95 % semi-axes), written as repr writes PyFloat_FromDouble(d) (which cycle_rows makes). */
+typedef struct {
+    PyObject *o;
+    double d;
+} val_t;
+
+/* Write the row (prefix, keys, values) as write_rows does, the values either the items of
+ * the tuple `values` or, with values NULL, vals[0..nv). 0, -1 (error) or FALLBACK. */
+static int write_row_of(sink_t *s, PyObject *prefix, PyObject *keys, PyObject *values,
+                        const val_t *vals, Py_ssize_t nv)
 {
     buf_t *b = s->b;
+    if (values != NULL) {
+        if (!PyTuple_CheckExact(values))
+            return FALLBACK;
+        nv = PyTuple_GET_SIZE(values);
+    }
     if (!PyUnicode_CheckExact(prefix) || !PyTuple_CheckExact(keys) ||
-        !PyTuple_CheckExact(values) || PyTuple_GET_SIZE(keys) != PyTuple_GET_SIZE(values))
+        PyTuple_GET_SIZE(keys) != nv)
         return FALLBACK;
     keytext_t *kt = key_text(keys);
     int rc = buf_put_str(b, prefix);
@@ -1049,11 +1134,17 @@ static int write_row(sink_t *s, PyObject *prefix, PyObject *keys, PyObject *valu
         return rc;
     if (kt != NULL && !kt->ascii)
         b->ascii = 0;
-    for (Py_ssize_t i = 0, n = PyTuple_GET_SIZE(keys); i < n; i++) {
-        PyObject *v = PyTuple_GET_ITEM(values, i);
+    for (Py_ssize_t i = 0, n = nv; i < n; i++) {
+        PyObject *v = values != NULL ? PyTuple_GET_ITEM(values, i) : vals[i].o;
         if (kt != NULL) {
-            Py_ssize_t at = i > 0 ? kt->end[i - 1] : 0;
-            rc = buf_put(b, kt->text + at, kt->end[i] - at);
+            Py_ssize_t at = i > 0 ? kt->end[i - 1] : 0, len = kt->end[i] - at;
+            if (len <= 16 && b->n + 16 <= b->cap) { /* " key=": 16 bytes copied, len kept */
+                memcpy(b->p + b->n, kt->text + at, 16);
+                b->n += len;
+                rc = 0;
+            } else {
+                rc = buf_put(b, kt->text + at, len);
+            }
         } else {
             PyObject *k = PyTuple_GET_ITEM(keys, i);
             if (!PyUnicode_CheckExact(k))
@@ -1066,15 +1157,21 @@ static int write_row(sink_t *s, PyObject *prefix, PyObject *keys, PyObject *valu
         }
         if (rc)
             return rc;
-        if (PyFloat_CheckExact(v))
-            rc = s->short_floats ? buf_put_float(b, PyFloat_AS_DOUBLE(v))
-                                 : buf_put_repr(b, PyFloat_AS_DOUBLE(v));
-        else
+        if (v == NULL || PyFloat_CheckExact(v)) {
+            double x = v == NULL ? vals[i].d : PyFloat_AS_DOUBLE(v);
+            rc = s->short_floats ? buf_put_float(b, x) : buf_put_repr(b, x);
+        } else {
             rc = buf_put_value(b, v, s->format_text, s->format_value);
+        }
         if (rc)
             return rc;
     }
     return 0;
+}
+
+static int write_row(sink_t *s, PyObject *prefix, PyObject *keys, PyObject *values)
+{
+    return write_row_of(s, prefix, keys, values, NULL, 0);
 }
 
 /* Append the row (prefix, keys, values) to the sink; steals `values`. 0 or -1 (an error set;
@@ -1099,6 +1196,42 @@ static int add_row(sink_t *rows, PyObject *prefix, PyObject *keys, PyObject *val
     return rc;
 }
 
+/* Release the references of vals[0..n). */
+static void vals_clear(val_t *vals, Py_ssize_t n)
+{
+    for (Py_ssize_t i = 0; i < n; i++)
+        Py_CLEAR(vals[i].o);
+}
+
+/* add_row of the values vals[0..n) (their references taken, the array left cleared): into
+ * the sink's buffer directly, or (cycle_rows) as a tuple, each float made a float object. */
+static int add_vals(sink_t *rows, PyObject *prefix, PyObject *keys, val_t *vals, Py_ssize_t n)
+{
+    if (rows->list == NULL) {
+        int rc = write_row_of(rows, prefix, keys, NULL, vals, n);
+        vals_clear(vals, n);
+        if (rc == FALLBACK)
+            decline();
+        return rc == 0 ? 0 : -1;
+    }
+    PyObject *t = PyTuple_New(n);
+    if (t == NULL) {
+        vals_clear(vals, n);
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *o = vals[i].o != NULL ? vals[i].o : PyFloat_FromDouble(vals[i].d);
+        vals[i].o = NULL;
+        if (o == NULL) {
+            vals_clear(vals, n);
+            Py_DECREF(t);
+            return -1;
+        }
+        PyTuple_SET_ITEM(t, i, o);
+    }
+    return add_row(rows, prefix, keys, t);
+}
+
 /* A tuple of n + extra items: the attributes `names` of `o`, then `extra` empty slots. */
 static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, slot_t (*slots)[2],
                              Py_ssize_t n, Py_ssize_t extra)
@@ -1117,29 +1250,73 @@ static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, slot_t (*slots
     return t;
 }
 
-/* A tuple of the first n items of `items` (new references) and `extra` empty slots. */
-static PyObject *tuple_of(PyObject *const *items, Py_ssize_t n, Py_ssize_t extra)
+/* The attributes `names` of `o` into vals[0..n) (new references). 0, or -1 (none kept). */
+static int attrs_vals(PyObject *o, PyObject *const *names, slot_t (*slots)[2], Py_ssize_t n,
+                      val_t *vals)
 {
-    PyObject *t = PyTuple_New(n + extra);
-    if (t == NULL)
-        return NULL;
-    for (Py_ssize_t i = 0; i < n; i++)
-        PyTuple_SET_ITEM(t, i, Py_NewRef(items[i]));
-    return t;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        vals[i].o = get_attr(o, names[i], slots[i]);
+        vals[i].d = 0.0;
+        if (vals[i].o == NULL) {
+            vals_clear(vals, i);
+            return -1;
+        }
+    }
+    return 0;
 }
 
-/* records._position_row: its values into v[0..] (new references; *n of them, 5 to 11) and
- * the index of its key variant (ellipse present + 2 * VCV finite). 0 or -1. */
+/* vals[i] = o (a new reference, or NULL); 0, or -1 where o is NULL. */
+static inline int val_set(val_t *vals, Py_ssize_t i, PyObject *o)
+{
+    vals[i].o = o;
+    vals[i].d = 0.0;
+    return o == NULL ? -1 : 0;
+}
+
+/* records._position_row: its values into v[0..] (new references, or floats; *n of them, 5 to
+ * 11) and the index of its key variant (ellipse present + 2 * VCV finite). 0 or -1. */
 typedef struct {
-    PyObject *v[11];
+    val_t v[11];
     int n, variant;
 } pos_t;
 
 static void pos_clear(pos_t *p)
 {
-    for (int i = 0; i < p->n; i++)
-        Py_CLEAR(p->v[i]);
+    vals_clear(p->v, p->n);
     p->n = 0;
+}
+
+/* The next value of p: the object o (a new reference; NULL: an error, nothing added). */
+static inline int pos_obj(pos_t *p, PyObject *o)
+{
+    if (o == NULL)
+        return -1;
+    p->v[p->n].o = o;
+    p->v[p->n++].d = 0.0;
+    return 0;
+}
+
+/* The next value of p: the float d (written as repr writes it). */
+static inline void pos_dbl(pos_t *p, double d)
+{
+    p->v[p->n].o = NULL;
+    p->v[p->n++].d = d;
+}
+
+/* _K95 * a: the product of two exact floats as a float (float_mul: the C product), else
+ * PyNumber_Multiply's object. Steals a. */
+static int pos_k95(pos_t *p, PyObject *k95, PyObject *a)
+{
+    if (a == NULL)
+        return -1;
+    if (PyFloat_CheckExact(k95) && PyFloat_CheckExact(a)) {
+        pos_dbl(p, PyFloat_AS_DOUBLE(k95) * PyFloat_AS_DOUBLE(a));
+        Py_DECREF(a);
+        return 0;
+    }
+    PyObject *r = PyNumber_Multiply(k95, a);
+    Py_DECREF(a);
+    return pos_obj(p, r);
 }
 
 static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
@@ -1148,14 +1325,11 @@ static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
     static const int names[4] = {A_LAT_DEG, A_LON_DEG, A_X_M, A_Y_M};
     p->n = 0;
     p->variant = 0;
-    for (int i = 0; i < 4; i++) {
-        if ((p->v[p->n] = GET(obj, names[i])) == NULL)
+    for (int i = 0; i < 4; i++)
+        if (pos_obj(p, GET(obj, names[i])) < 0)
             goto fail;
-        p->n++;
-    }
-    if ((p->v[p->n] = depth != NULL ? Py_NewRef(depth) : GET(obj, A_DEPTH_M)) == NULL)
+    if (pos_obj(p, depth != NULL ? Py_NewRef(depth) : GET(obj, A_DEPTH_M)) < 0)
         goto fail;
-    p->n++;
     PyObject *cov = GET(obj, A_COV), *ell = NULL;
     if (cov == NULL)
         goto fail;
@@ -1164,25 +1338,9 @@ static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
         goto fail;
     }
     if (ell != Py_None) {
-        PyObject *a = GET(ell, A_A_M);
-        if (a == NULL)
+        if (pos_k95(p, k95, GET(ell, A_A_M)) < 0 || pos_k95(p, k95, GET(ell, A_B_M)) < 0 ||
+            pos_obj(p, GET(ell, A_AZ_DEG)) < 0)
             goto fail_both;
-        p->v[p->n] = PyNumber_Multiply(k95, a);
-        Py_DECREF(a);
-        if (p->v[p->n] == NULL)
-            goto fail_both;
-        p->n++;
-        PyObject *b = GET(ell, A_B_M);
-        if (b == NULL)
-            goto fail_both;
-        p->v[p->n] = PyNumber_Multiply(k95, b);
-        Py_DECREF(b);
-        if (p->v[p->n] == NULL)
-            goto fail_both;
-        p->n++;
-        if ((p->v[p->n] = GET(ell, A_AZ_DEG)) == NULL)
-            goto fail_both;
-        p->n++;
         p->variant |= 1;
     }
     np_fields_t *fc = cov != Py_None ? np_direct(cov, 2) : NULL;
@@ -1193,12 +1351,9 @@ static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
             c[k] = *(const double *)(fc->data + (k >> 1) * fc->strides[0] +
                                      (k & 1) * fc->strides[1]);
         if (isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2]) && isfinite(c[3])) {
-            static const int use[3] = {0, 1, 3};
-            for (int k = 0; k < 3; k++) {
-                if ((p->v[p->n] = PyFloat_FromDouble(c[use[k]])) == NULL)
-                    goto fail_both;
-                p->n++;
-            }
+            pos_dbl(p, c[0]);
+            pos_dbl(p, c[1]);
+            pos_dbl(p, c[3]);
             p->variant |= 2;
         }
     } else if (cov != Py_None) {
@@ -1222,9 +1377,9 @@ static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
         }
         if (isfinite(PyFloat_AS_DOUBLE(c[0])) && isfinite(PyFloat_AS_DOUBLE(c[1])) &&
             isfinite(PyFloat_AS_DOUBLE(c[2])) && isfinite(PyFloat_AS_DOUBLE(c[3]))) {
-            p->v[p->n++] = Py_NewRef(c[0]);
-            p->v[p->n++] = Py_NewRef(c[1]);
-            p->v[p->n++] = Py_NewRef(c[3]);
+            pos_obj(p, Py_NewRef(c[0]));
+            pos_obj(p, Py_NewRef(c[1]));
+            pos_obj(p, Py_NewRef(c[3]));
             p->variant |= 2;
         }
         Py_DECREF(l);
@@ -1410,9 +1565,13 @@ static PyObject *head_list(PyObject *x, PyObject *n_nav)
     return l;
 }
 
-/* The KF line's values: the states, then the standard deviations of P's diagonal. */
-static PyObject *kf_values(PyObject *fs, PyObject *n_nav)
+/* The KF line's values: the states, then the standard deviations of P's diagonal. Read from
+ * the arrays: into kv[0..*kn) as floats (at most KF_VALS of them), NULL returned; else a
+ * tuple (*kn -1), or NULL with an error set (*kn -1). */
+#define KF_VALS 64
+static PyObject *kf_values(PyObject *fs, PyObject *n_nav, val_t *kv, Py_ssize_t *kn)
 {
+    *kn = -1;
     PyObject *x = NULL, *xl = NULL, *P = NULL, *d = NULL, *dl = NULL, *t = NULL;
     if ((x = GET(fs, A_X)) == NULL)
         goto done;
@@ -1431,6 +1590,18 @@ static PyObject *kf_values(PyObject *fs, PyObject *n_nav)
                                                                : fp->dimensions[1];
         nd = nd < nn ? nd : nn;
         Py_ssize_t sx = fx->strides[0], sd = fp->strides[0] + fp->strides[1];
+        if (nx + nd <= KF_VALS) { /* the floats themselves, no objects */
+            for (Py_ssize_t i = 0; i < nx + nd; i++) {
+                double v = i < nx ? *(const double *)(fx->data + i * sx)
+                                  : *(const double *)(fp->data + (i - nx) * sd);
+                if (i >= nx) /* records: sqrt(v) if v > 0.0 else (v if v != v else 0.0) */
+                    v = v > 0.0 ? sqrt(v) : (v != v ? v : 0.0);
+                kv[i].o = NULL;
+                kv[i].d = v;
+            }
+            *kn = nx + nd;
+            goto done;
+        }
         if ((t = PyTuple_New(nx + nd)) == NULL)
             goto done;
         for (Py_ssize_t i = 0; i < nx + nd; i++) {
@@ -1491,37 +1662,32 @@ done:
 static int add_test(sink_t *rows, PyObject *keys, PyObject *u, PyObject *kind)
 {
     static const int lom_names[5] = {A_T, A_LOWER, A_UPPER, A_DOF, A_VERDICT};
-    PyObject *t = PyTuple_New(8), *lom = NULL, *ls = NULL, *ls_t = NULL, *labels = NULL;
-    if (t == NULL)
-        return -1;
+    PyObject *lom = NULL, *ls = NULL, *ls_t = NULL, *labels = NULL;
+    val_t t[8];
+    Py_ssize_t n = 0;
     if ((lom = GET(u, A_LOM)) == NULL)
         goto fail;
-    for (int i = 0; i < 5; i++) {
-        PyObject *v = GET(lom, lom_names[i]);
-        if (v == NULL)
+    for (int i = 0; i < 5; i++, n++)
+        if (val_set(t, n, GET(lom, lom_names[i])) < 0)
             goto fail;
-        PyTuple_SET_ITEM(t, i, v);
-    }
     if ((ls = GET(u, A_LS)) == NULL || (ls_t = GET(ls, A_T)) == NULL)
         goto fail;
-    PyObject *text = ls_text(ls_t);
-    if (text == NULL)
+    if (val_set(t, n, ls_text(ls_t)) < 0)
         goto fail;
-    PyTuple_SET_ITEM(t, 5, text);
-    PyTuple_SET_ITEM(t, 6, Py_NewRef(kind));
+    n++;
+    val_set(t, n++, Py_NewRef(kind));
     if ((labels = GET(u, A_LABELS)) == NULL)
         goto fail;
-    PyObject *lt = PyUnicode_Join(STR[S_COMMA], labels);
-    if (lt == NULL)
+    if (val_set(t, n, PyUnicode_Join(STR[S_COMMA], labels)) < 0)
         goto fail;
-    PyTuple_SET_ITEM(t, 7, lt);
+    n++;
     Py_DECREF(lom);
     Py_DECREF(ls);
     Py_DECREF(ls_t);
     Py_DECREF(labels);
-    return add_row(rows, STR[S_TEST], keys, t);
+    return add_vals(rows, STR[S_TEST], keys, t, n);
 fail:
-    Py_DECREF(t);
+    vals_clear(t, n);
     Py_XDECREF(lom);
     Py_XDECREF(ls);
     Py_XDECREF(ls_t);
@@ -1531,6 +1697,7 @@ fail:
 
 /* Append a row per item of the iterable `items`: (prefix, keys, attrs of the item), or with
  * names == NULL (prefix, keys, (item,)). */
+#define EACH_VALS 16
 static int add_each(sink_t *rows, PyObject *items, PyObject *prefix, PyObject *keys,
                     PyObject *const *names, slot_t (*slots)[2], Py_ssize_t n)
 {
@@ -1538,9 +1705,22 @@ static int add_each(sink_t *rows, PyObject *items, PyObject *prefix, PyObject *k
     if (it == NULL)
         return -1;
     while ((o = PyIter_Next(it)) != NULL) {
-        PyObject *v = names != NULL ? attrs_tuple(o, names, slots, n, 0) : PyTuple_Pack(1, o);
-        Py_DECREF(o);
-        if (add_row(rows, prefix, keys, v) < 0) {
+        int rc;
+        if (names == NULL) {
+            val_t v = {o, 0.0}; /* takes o */
+            rc = add_vals(rows, prefix, keys, &v, 1);
+        } else if (n <= EACH_VALS) {
+            val_t v[EACH_VALS];
+            rc = attrs_vals(o, names, slots, n, v);
+            Py_DECREF(o);
+            if (rc == 0)
+                rc = add_vals(rows, prefix, keys, v, n);
+        } else {
+            PyObject *v = attrs_tuple(o, names, slots, n, 0);
+            Py_DECREF(o);
+            rc = add_row(rows, prefix, keys, v);
+        }
+        if (rc < 0) {
             Py_DECREF(it);
             return -1;
         }
@@ -1569,43 +1749,40 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
     if (np_layout < 0 && np_ready() < 0) /* numpy's arrays read directly once checked */
         return -1;
     PyObject *const *c = &PyTuple_GET_ITEM(consts, 0);
-    PyObject *mpp = NULL, *s = NULL, *o = NULL, *v = NULL,
+    PyObject *mpp = NULL, *s = NULL, *o = NULL,
              *n_obj = NULL;
-    pos_t pos = {{NULL}, 0, 0};
+    pos_t pos = {.n = 0};
     int rc;
     if ((mpp = GET(r, A_MPP)) == NULL)
         goto fail;
 
     /* CYCLE n t record filter source datum cm dt */
-    if ((v = PyTuple_New(8)) == NULL)
-        goto fail;
     {
         static const int head[8] = {A_N, A_TIME, A_RECORD, A_FILTER_STATUS, -1, A_DATUM,
                                     A_CM_DEG, A_DT_S};
+        val_t hv[8];
         for (int i = 0; i < 8; i++) {
             PyObject *x = head[i] < 0 ? GET(mpp, A_SOURCE) : GET(r, head[i]);
-            if (x == NULL)
-                goto fail;
-            if (i == 1) {
+            if (x != NULL && i == 1) {
                 PyObject *t = utc_text(x, c[C_UTC_TEXT]);
                 Py_DECREF(x);
-                if ((x = t) == NULL)
-                    goto fail;
+                x = t;
             }
-            PyTuple_SET_ITEM(v, i, x);
+            if (val_set(hv, i, x) < 0) {
+                vals_clear(hv, i);
+                goto fail;
+            }
         }
+        n_obj = Py_NewRef(hv[0].o);
+        if (add_vals(rows, STR[S_CYCLE], c[C_HEAD_KEYS], hv, 8) < 0)
+            goto fail;
     }
-    n_obj = Py_NewRef(PyTuple_GET_ITEM(v, 0));
-    rc = add_row(rows, STR[S_CYCLE], c[C_HEAD_KEYS], v);
-    v = NULL;
-    if (rc < 0)
-        goto fail;
 
     /* IN, SYS, SENS */
     if ((s = GET(r, A_SENSORS)) == NULL)
         goto fail;
     {
-        PyObject *ref = GET(s, A_REFERENCE), *sens;
+        PyObject *ref = GET(s, A_REFERENCE);
         if (ref == NULL)
             goto fail;
         int other = PyObject_RichCompareBool(ref, STR[S_WATER], Py_NE), standin = 0;
@@ -1615,45 +1792,51 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
             Py_DECREF(ref);
             goto fail;
         }
-        sens = attrs_tuple(s, SENS_ATTR, SENS_SLOT, N_SENS, other ? (standin ? 3 : 1) : 0);
-        if (sens != NULL && other) {
-            PyTuple_SET_ITEM(sens, N_SENS, Py_NewRef(ref));
+        val_t sens[N_SENS + 3];
+        Py_ssize_t ns = N_SENS;
+        rc = attrs_vals(s, SENS_ATTR, SENS_SLOT, N_SENS, sens);
+        if (rc == 0 && other) {
+            val_set(sens, ns++, Py_NewRef(ref));
             if (standin) {
                 PyObject *hs = GET(s, A_HEADING_SIGMA_DEG), *ss = hs ? GET(s, A_SPEED_SIGMA_MS)
                                                                      : NULL;
                 if (ss == NULL) {
                     Py_XDECREF(hs);
-                    Py_CLEAR(sens);
+                    vals_clear(sens, ns);
+                    rc = -1;
                 } else {
-                    PyTuple_SET_ITEM(sens, N_SENS + 1, hs);
-                    PyTuple_SET_ITEM(sens, N_SENS + 2, ss);
+                    val_set(sens, ns++, hs);
+                    val_set(sens, ns++, ss);
                 }
             }
         }
         Py_DECREF(ref);
-        if (sens == NULL)
+        if (rc < 0)
             goto fail;
-        PyObject *raw = GET(r, A_RAW);
-        if (add_row(rows, STR[S_IN], c[C_IN_KEYS], raw ? PyTuple_Pack(1, raw) : NULL) < 0) {
-            Py_XDECREF(raw);
-            Py_DECREF(sens);
+        val_t one[2];
+        if (val_set(one, 0, GET(r, A_RAW)) < 0 ||
+            add_vals(rows, STR[S_IN], c[C_IN_KEYS], one, 1) < 0) {
+            vals_clear(sens, ns);
             goto fail;
         }
-        Py_DECREF(raw);
         PyObject *systems = GET(r, A_SYSTEMS), *status = NULL, *st = NULL;
         if (systems != NULL && (status = GET(s, A_STATUS)) != NULL)
             st = join_str(STR[S_EMPTY], status);
-        rc = st == NULL ? -1 : add_row(rows, STR[S_SYS], c[C_SYS_KEYS],
-                                       PyTuple_Pack(2, systems, st));
-        Py_XDECREF(systems);
         Py_XDECREF(status);
-        Py_XDECREF(st);
+        if (st == NULL) {
+            Py_XDECREF(systems);
+            rc = -1;
+        } else {
+            val_set(one, 0, systems);
+            val_set(one, 1, st);
+            rc = add_vals(rows, STR[S_SYS], c[C_SYS_KEYS], one, 2);
+        }
         if (rc < 0) {
-            Py_DECREF(sens);
+            vals_clear(sens, ns);
             goto fail;
         }
         PyObject *keys = PyTuple_GET_ITEM(c[C_SENS_KEYS], other ? (standin ? 2 : 1) : 0);
-        if (add_row(rows, STR[S_SENS], keys, sens) < 0)
+        if (add_vals(rows, STR[S_SENS], keys, sens, ns) < 0)
             goto fail;
     }
 
@@ -1669,20 +1852,22 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
             Py_DECREF(w);
             goto fail;
         }
-        PyObject *g = attrs_tuple(o, GPS_ATTR, GPS_SLOT, N_GPS, weighted ? 5 : 0);
-        if (g != NULL && weighted) {
+        val_t g[N_GPS + 5];
+        Py_ssize_t ng = N_GPS;
+        rc = attrs_vals(o, GPS_ATTR, GPS_SLOT, N_GPS, g);
+        if (rc == 0 && weighted) {
             static const int wn[5] = {A_HDOP, A_QUALITY, A_SATS, A_UERE_M, A_SIGMA_M};
-            for (int i = 0; i < 5; i++) {
-                PyObject *x = GET(w, wn[i]);
-                if (x == NULL) {
-                    Py_CLEAR(g);
+            for (int i = 0; i < 5; i++, ng++) {
+                if (val_set(g, ng, GET(w, wn[i])) < 0) {
+                    vals_clear(g, ng);
+                    rc = -1;
                     break;
                 }
-                PyTuple_SET_ITEM(g, N_GPS + i, x);
             }
         }
         Py_DECREF(w);
-        if (add_row(rows, STR[S_GPS], c[weighted ? C_GPS_WEIGHT_KEYS : C_GPS_KEYS], g) < 0)
+        if (rc < 0 ||
+            add_vals(rows, STR[S_GPS], c[weighted ? C_GPS_WEIGHT_KEYS : C_GPS_KEYS], g, ng) < 0)
             goto fail;
     }
     Py_CLEAR(o);
@@ -1736,34 +1921,33 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
                 rc = -1;
             if (rc == 0 && fails && (scale = GET(r, A_FIX_COV_SCALE)) == NULL)
                 rc = -1;
-            if (rc == 0) {
-                Py_ssize_t n = 5 + pos.n + (has_rej ? 1 : 0) + (fails ? 2 : 0), k = 5;
-                v = PyTuple_New(n);
-                if (v == NULL) {
-                    rc = -1;
-                } else {
-                    for (int i = 0; i < 5; i++) {
-                        PyTuple_SET_ITEM(v, i, head[i]);
-                        head[i] = NULL;
-                    }
-                    for (int i = 0; i < pos.n; i++) {
-                        PyTuple_SET_ITEM(v, k++, pos.v[i]);
-                        pos.v[i] = NULL;
-                    }
-                    pos.n = 0;
-                    if (has_rej) {
-                        PyTuple_SET_ITEM(v, k++, rej_text);
-                        rej_text = NULL;
-                    }
-                    if (fails) {
-                        PyTuple_SET_ITEM(v, k++, Py_NewRef(STR[S_FAIL]));
-                        PyTuple_SET_ITEM(v, k++, scale);
-                        scale = NULL;
-                    }
-                    int idx = variant | (has_rej ? 4 : 0) | (fails ? 8 : 0);
-                    rc = add_row(rows, STR[S_LSE], PyTuple_GET_ITEM(c[C_LSE_KEYS], idx), v);
-                    v = NULL;
+            if (rc == 0) { /* head, the position's values, rejected, fail and scale */
+                val_t lv[5 + 11 + 3];
+                Py_ssize_t k = 0;
+                for (int i = 0; i < 5; i++) {
+                    lv[k].o = head[i];
+                    lv[k++].d = 0.0;
+                    head[i] = NULL;
                 }
+                for (int i = 0; i < pos.n; i++) {
+                    lv[k++] = pos.v[i];
+                    pos.v[i].o = NULL;
+                }
+                pos.n = 0;
+                if (has_rej) {
+                    lv[k].o = rej_text;
+                    lv[k++].d = 0.0;
+                    rej_text = NULL;
+                }
+                if (fails) {
+                    lv[k].o = Py_NewRef(STR[S_FAIL]);
+                    lv[k++].d = 0.0;
+                    lv[k].o = scale;
+                    lv[k++].d = 0.0;
+                    scale = NULL;
+                }
+                int idx = variant | (has_rej ? 4 : 0) | (fails ? 8 : 0);
+                rc = add_vals(rows, STR[S_LSE], PyTuple_GET_ITEM(c[C_LSE_KEYS], idx), lv, k);
             }
             for (int i = 0; i < 5; i++)
                 Py_XDECREF(head[i]);
@@ -1774,13 +1958,10 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
             if (rc < 0)
                 goto fail;
         } else {
-            PyObject *reason = GET(o, A_REASON);
-            if (add_row(rows, STR[S_NOFIX], c[C_NOFIX_KEYS],
-                        reason ? PyTuple_Pack(1, reason) : NULL) < 0) {
-                Py_XDECREF(reason);
+            val_t reason;
+            if (val_set(&reason, 0, GET(o, A_REASON)) < 0 ||
+                add_vals(rows, STR[S_NOFIX], c[C_NOFIX_KEYS], &reason, 1) < 0)
                 goto fail;
-            }
-            Py_DECREF(reason);
         }
     }
     Py_CLEAR(o);
@@ -1791,10 +1972,9 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
     if (o != Py_None) {
         if (position_row(&pos, o, NULL, c[C_K95]) < 0)
             goto fail;
-        v = tuple_of(pos.v, pos.n, 0);
-        rc = add_row(rows, STR[S_KFP], PyTuple_GET_ITEM(c[C_POS_KEYS], pos.variant), v);
-        v = NULL;
-        pos_clear(&pos);
+        int variant = pos.variant, n = pos.n;
+        pos.n = 0; /* add_vals takes the values */
+        rc = add_vals(rows, STR[S_KFP], PyTuple_GET_ITEM(c[C_POS_KEYS], variant), pos.v, n);
         if (rc < 0)
             goto fail;
     }
@@ -1803,8 +1983,15 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
     /* KF */
     if ((o = GET(r, A_FILTER_STATE)) == NULL)
         goto fail;
-    if (o != Py_None && add_row(rows, STR[S_KF], c[C_KF_KEYS], kf_values(o, c[C_N_NAV])) < 0)
-        goto fail;
+    if (o != Py_None) {
+        val_t kv[KF_VALS];
+        Py_ssize_t kn;
+        PyObject *t = kf_values(o, c[C_N_NAV], kv, &kn);
+        rc = kn >= 0 ? add_vals(rows, STR[S_KF], c[C_KF_KEYS], kv, kn)
+                     : add_row(rows, STR[S_KF], c[C_KF_KEYS], t);
+        if (rc < 0)
+            goto fail;
+    }
     Py_CLEAR(o);
 
     /* TEST: the epoch's update, then the sensors' (records.updates) */
@@ -1826,18 +2013,14 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
         PyObject *src = GET(mpp, A_SOURCE);
         if (src == NULL)
             goto fail;
-        v = tuple_of(pos.v, pos.n, 1);
-        if (v == NULL) {
-            Py_DECREF(src);
-            goto fail;
-        }
-        /* (mpp.source,) + pos */
-        for (Py_ssize_t i = pos.n; i > 0; i--)
-            PyTuple_SET_ITEM(v, i, PyTuple_GET_ITEM(v, i - 1));
-        PyTuple_SET_ITEM(v, 0, src);
-        rc = add_row(rows, STR[S_MPP], PyTuple_GET_ITEM(c[C_MPP_KEYS], pos.variant), v);
-        v = NULL;
-        pos_clear(&pos);
+        val_t mv[1 + 11]; /* (mpp.source,) + pos */
+        mv[0].o = src;
+        mv[0].d = 0.0;
+        for (int i = 0; i < pos.n; i++)
+            mv[1 + i] = pos.v[i];
+        int variant = pos.variant, n = pos.n;
+        pos.n = 0; /* add_vals takes the values */
+        rc = add_vals(rows, STR[S_MPP], PyTuple_GET_ITEM(c[C_MPP_KEYS], variant), mv, 1 + n);
         if (rc < 0)
             goto fail;
     }
@@ -1849,10 +2032,13 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
     Py_CLEAR(o);
 
     /* END n, and the final newline (OutLogWriter.write_cycle) */
-    if (add_row(rows, STR[S_END], c[C_N_KEYS], PyTuple_Pack(1, n_obj)) < 0 ||
-        add_row(rows, STR[S_NL], EMPTY_TUPLE, Py_NewRef(EMPTY_TUPLE)) < 0)
-        goto fail;
-    Py_DECREF(n_obj);
+    {
+        val_t end = {n_obj, 0.0}; /* takes n_obj */
+        n_obj = NULL;
+        if (add_vals(rows, STR[S_END], c[C_N_KEYS], &end, 1) < 0 ||
+            add_vals(rows, STR[S_NL], EMPTY_TUPLE, &end, 0) < 0)
+            goto fail;
+    }
     Py_DECREF(mpp);
     Py_DECREF(s);
     return 0;
@@ -1860,7 +2046,6 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
 fail:
     Py_XDECREF(n_obj);
     pos_clear(&pos);
-    Py_XDECREF(v);
     Py_XDECREF(o);
     Py_XDECREF(s);
     Py_XDECREF(mpp);
@@ -2164,6 +2349,18 @@ static PyObject *short_float(PyObject *self, PyObject *arg)
     return PyUnicode_FromStringAndSize(s, n);
 }
 
+static PyObject *short_float_cached(PyObject *self, PyObject *arg)
+{
+    double x = PyFloat_AsDouble(arg);
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    char s[48];
+    int n = short_repr_cached(x, s);
+    if (n == 0)
+        Py_RETURN_NONE;
+    return PyUnicode_FromStringAndSize(s, n);
+}
+
 static PyObject *text_form(PyObject *self, PyObject *arg)
 {
     if (!PyUnicode_CheckExact(arg)) {
@@ -2220,6 +2417,9 @@ static PyMethodDef methods[] = {
     {"short_float", short_float, METH_O,
      "short_float(x) -> repr(float(x)) by the kernel's own shortest digits, or None where it\n"
      "leaves x to repr's routine (subnormals, the exponent forms)."},
+    {"short_float_cached", short_float_cached, METH_O,
+     "short_float_cached(x) -> short_float(x) through the table of the last texts written\n"
+     "(the path cycle_text takes): the same text, or None, for the same x."},
     {"text_form", text_form, METH_O,
      "text_form(word) -> outlog._format_text(word) where decided in C, else None."},
     {NULL, NULL, 0, NULL},
