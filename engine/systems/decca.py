@@ -705,7 +705,7 @@ class _LaneAt:
         return g[0][i], lane_sigma(g[1][i], src.cov)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class LaneTotals:
     """Outcome of :func:`decca_totals`: total lane counts per pattern (None: not available),
     the new lane track, the operator notes and the number of lane slips corrected from GPS."""
@@ -871,17 +871,9 @@ def decca_totals(
                 slips += slipped
         totals[i] = total
         new_track[i] = (total, time)
-    # LaneTotals(...) with its instance dict filled at once (a plain frozen dataclass: the same
-    # instance, without the generated __init__'s object.__setattr__ per field).
-    out = _NEW(LaneTotals)
-    out.__dict__.update(totals=(totals[0], totals[1], totals[2]), track=tuple(new_track),
-                        notes=tuple(notes), slips=slips)
-    return out
-
-
-_NEW = object.__new__
-"""A bare instance of a class, for a frozen dataclass without slots or ``__post_init__`` whose
-``__dict__`` the caller fills at once with every field (as ``engine.run.cycle`` does)."""
+    # LaneTotals(...) positionally (_new_totals: its slots set in one compiled call)
+    return _new_totals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes),
+                       slips)
 
 
 def _tracked_totals(placed: ChainOnGrid, geodesic: GeodesicSolver,
@@ -946,6 +938,8 @@ class DeccaReading:
 class DeccaObservations:
     """The three pattern rows of a fix: corrected total lane counts as metric LOPs (A5.9–A5.12,
     k = λc·LEF/2 metres per lane) with the a priori VCV of A4.1–A4.4 in m²."""
+
+    __slots__ = ("_at", "_available", "messages", "observed", "raw", "reading")
 
     def __init__(self, reading: DeccaReading, observed: list[float],
                  raw: list[float | None], available: list[bool], messages: list[str]) -> None:
@@ -1181,7 +1175,9 @@ _new_source = slots_maker(LaneSource)
 _new_reading = slots_maker(DeccaReading)
 _new_geometry = slots_maker(DeccaGeometry)
 _new_lop = slots_maker(LopReading)
-""":class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry` and
-:class:`engine.systems.base.LopReading` from every field, positionally."""
+_new_totals = slots_maker(LaneTotals)
+""":class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry`,
+:class:`engine.systems.base.LopReading` and :class:`LaneTotals` from every field,
+positionally."""
 
 DECCA = DeccaSystem()

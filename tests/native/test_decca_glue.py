@@ -7,14 +7,15 @@ the Decca kernel give the same values, bit for bit, as the Python they stand for
   latitude/longitude yet: the rows, misclosures and VCV block of ``_linearise_py``, and the
   point's ``latlon`` set to what ``TMGrid.inverse`` gives (as ``Point.latlon`` sets it);
   another grid is declined and the Python runs;
-* ``runparse.make_attrs``: ``SystemReading`` and ``CycleInputs`` equal to the instances their
-  ``__init__`` and the pure ``__dict__`` fill make.
+* ``runparse.make``: ``SystemReading`` and ``CycleInputs`` (slots dataclasses) equal to the
+  instances their ``__init__`` makes; ``runparse.make_attrs`` the same for a plain frozen
+  dataclass with an instance dict.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import FrozenInstanceError, fields
+from dataclasses import FrozenInstanceError, dataclass, fields
 
 import numpy as np
 import pytest
@@ -103,31 +104,57 @@ def test_linearise_at_declines_another_grid() -> None:
     assert fast == _rows(o, Point(other, PURE, MX + 1e4, MY + 2e4), 0, True)
 
 
+@dataclass(frozen=True)
+class _PlainInputs:
+    """A plain frozen dataclass (an instance dict) with CycleInputs' fields, for make_attrs."""
+
+    config: object
+    context: object
+    nav: object
+    record: object
+    grid: object
+    cm_deg: object
+    x_start: object
+    prior: object
+    earlier: object
+
+
 def test_readings_made_in_one_call_are_the_dataclass_instances() -> None:
     value = object()
     for args in ((value, ("a", "b"), None, True), (None, (), 3.5, False)):
         r = base.new_reading(*args)
         q = base._new_reading_py(*args)
         assert type(r) is SystemReading and r == q == SystemReading(*args)
-        assert vars(r) == vars(q)
+        for f in fields(SystemReading):
+            assert getattr(r, f.name) is getattr(q, f.name)
+        assert not hasattr(r, "__dict__")
         with pytest.raises(FrozenInstanceError):
             r.value = 1  # type: ignore[misc]
-    make = base.attrs_maker(CycleInputs)
+    make = base.slots_maker(CycleInputs)
+    plain = base.attrs_maker(_PlainInputs)
     if native.kernel("runparse") is None:
-        assert make is None
+        assert make is CycleInputs and plain is None
         return
-    assert make is not None
+    assert make is not CycleInputs and plain is not None
     vals = [object() for _ in fields(CycleInputs)]
     c = make(*vals)
-    assert c == CycleInputs(*vals) and set(vars(c)) == {f.name for f in fields(CycleInputs)}
+    assert c == CycleInputs(*vals) and not hasattr(c, "__dict__")
+    for f, v in zip(fields(CycleInputs), vals, strict=True):
+        assert getattr(c, f.name) is v
     with pytest.raises(TypeError):
         make(*vals[:-1])
+    d = plain(*vals)
+    assert d == _PlainInputs(*vals) and set(vars(d)) == {f.name for f in fields(_PlainInputs)}
+    with pytest.raises(TypeError):
+        plain(*vals[:-1])
 
 
 def test_pure_path_makes_readings_in_python(monkeypatch: pytest.MonkeyPatch) -> None:
     """Without the runparse kernel (UVNAV_PURE=1) the makers are the Python ones."""
     monkeypatch.setattr(native, "kernel", lambda name: None)
-    assert base.attrs_maker(SystemReading) is None
+    assert base.attrs_maker(_PlainInputs) is None
+    assert base.slots_maker(SystemReading) is SystemReading
+    assert base._reading_maker() is base._new_reading_py
 
 
 _M = st.floats(-1e7, 1e7, allow_nan=False)
