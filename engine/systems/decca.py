@@ -1023,8 +1023,20 @@ class DeccaObservations:
         return self._at[1]
 
     def readings(self, p: Point) -> list[LopReading]:
+        """The page rows of the patterns read (:meth:`_readings_py`; the list made in one
+        compiled call, ``page`` in engine/native/decca.c, where the kernel is)."""
         at = self._at  # self.geometry_at(p), its computed case looked up here
         geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
+        page = _PAGE
+        if page is not None:
+            rows = page(geom.n_calc, geom.lop_azimuth_rad, self.raw,
+                        self.reading.corrections_lanes, DECCA_PATTERN_NAMES, "Decca", _new_lop)
+            if rows is not NotImplemented:
+                return rows  # type: ignore[no-any-return]
+        return self._readings_py(geom)
+
+    def _readings_py(self, geom: DeccaGeometry) -> list[LopReading]:
+        """:meth:`readings` at the geometry ``geom`` of its point, in Python."""
         n_calc = geom.n_calc.tolist()
         lop_az = geom.lop_azimuth_rad.tolist()
         corrections = self.reading.corrections_lanes
@@ -1034,9 +1046,20 @@ class DeccaObservations:
                 for i, raw in enumerate(self.raw) if raw is not None]
 
     def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
-        """A used pattern's hyperbola has the master and its slave as foci."""
+        """A used pattern's hyperbola has the master and its slave as foci (:meth:`_nearest_py`;
+        in one compiled call, ``nearest`` in engine/native/decca.c, where the kernel is)."""
         at = self._at  # self.geometry_at(p), its computed case looked up here
         geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
+        nearest = _NEAREST
+        if nearest is not None:
+            near = nearest(geom.d_master_m, geom.d_slave_m, used)
+            if near is not NotImplemented:
+                return near  # type: ignore[no-any-return]
+        return self._nearest_py(geom, used)
+
+    @staticmethod
+    def _nearest_py(geom: DeccaGeometry, used: Sequence[bool]) -> float:
+        """:meth:`nearest_station_m` at the geometry ``geom`` of its point, in Python."""
         d_slave = geom.d_slave_m.tolist()
         near = math.inf
         for i in range(len(PATTERNS)):
@@ -1176,6 +1199,12 @@ _new_reading = slots_maker(DeccaReading)
 _new_geometry = slots_maker(DeccaGeometry)
 _new_lop = slots_maker(LopReading)
 _new_totals = slots_maker(LaneTotals)
+_PAGE: Any = getattr(_K, "page", None)
+_NEAREST: Any = getattr(_K, "nearest", None)
+"""``engine/native/decca.c``'s ``page`` and ``nearest``: :meth:`DeccaObservations.readings`
+and :meth:`DeccaObservations.nearest_station_m` after the geometry, each in one call (None:
+the kernel not in use; NotImplemented for arrays or sequences they do not read: the Python
+runs)."""
 """:class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry`,
 :class:`engine.systems.base.LopReading` and :class:`LaneTotals` from every field,
 positionally."""
