@@ -1546,6 +1546,55 @@ static PyObject *py_nearest(PyObject *m, PyObject *const *args, Py_ssize_t nargs
     return PyFloat_FromDouble(near);
 }
 
+/* observed(totals, fractions, corrections, selected, nan) -> (observed, raw, available) |
+ * NotImplemented: DeccaSystem.observations' loop for tracked totals. Each a list of 3 that
+ * starts [nan] * 3, [None] * 3, [False] * 3; for each pattern i whose total and fraction are
+ * not None: raw[i] = float(totals[i]), observed[i] = raw[i] + corrections[i] (IEEE add) and
+ * available[i] = selected[i]. Tuples of 3, totals and corrections exact floats (else
+ * NotImplemented: the Python's float() and + run); nan: the caller's math.nan. */
+static PyObject *py_observed(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    PyObject *obs, *raw, *av;
+    if (nargs != 5)
+        Py_RETURN_NOTIMPLEMENTED;
+    for (int k = 0; k < 4; k++)
+        if (!PyTuple_CheckExact(args[k]) || PyTuple_GET_SIZE(args[k]) != 3)
+            Py_RETURN_NOTIMPLEMENTED;
+    for (Py_ssize_t i = 0; i < 3; i++) {
+        PyObject *t = PyTuple_GET_ITEM(args[0], i);
+        if (t != Py_None && PyTuple_GET_ITEM(args[1], i) != Py_None
+            && (!PyFloat_CheckExact(t) || !PyFloat_CheckExact(PyTuple_GET_ITEM(args[2], i))))
+            Py_RETURN_NOTIMPLEMENTED;
+    }
+    obs = PyList_New(3);
+    raw = PyList_New(3);
+    av = PyList_New(3);
+    if (obs == NULL || raw == NULL || av == NULL)
+        goto fail;
+    for (Py_ssize_t i = 0; i < 3; i++) {
+        PyObject *t = PyTuple_GET_ITEM(args[0], i);
+        if (t != Py_None && PyTuple_GET_ITEM(args[1], i) != Py_None) {
+            PyObject *o = PyFloat_FromDouble(PyFloat_AS_DOUBLE(t)
+                                             + PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(args[2], i)));
+            if (o == NULL)
+                goto fail; /* the lists' unset items are NULL: freed alike */
+            PyList_SET_ITEM(obs, i, o);
+            PyList_SET_ITEM(raw, i, Py_NewRef(t));
+            PyList_SET_ITEM(av, i, Py_NewRef(PyTuple_GET_ITEM(args[3], i)));
+        } else {
+            PyList_SET_ITEM(obs, i, Py_NewRef(args[4]));
+            PyList_SET_ITEM(raw, i, Py_NewRef(Py_None));
+            PyList_SET_ITEM(av, i, Py_NewRef(Py_False));
+        }
+    }
+    return Py_BuildValue("(NNN)", obs, raw, av);
+fail:
+    Py_XDECREF(obs);
+    Py_XDECREF(raw);
+    Py_XDECREF(av);
+    return NULL;
+}
+
 static PyMethodDef methods[] = {
     {"lane_model", (PyCFunction)(void (*)(void))py_lane_model, METH_FASTCALL,
      "decca._lane_model: (dist, n_calc, row_x, row_y)."},
@@ -1569,6 +1618,8 @@ static PyMethodDef methods[] = {
      "decca.lane_sigma through numpy's dgemv and ddot."},
     {"lane_check", (PyCFunction)(void (*)(void))py_lane_check, METH_FASTCALL,
      "decca._gps_lane_check's numbers: (value, slip)."},
+    {"observed", (PyCFunction)(void (*)(void))py_observed, METH_FASTCALL,
+     "DeccaSystem.observations' lists for tracked totals."},
     {"page", (PyCFunction)(void (*)(void))py_page, METH_FASTCALL,
      "DeccaObservations.readings' LopReading list after its geometry."},
     {"nearest", (PyCFunction)(void (*)(void))py_nearest, METH_FASTCALL,

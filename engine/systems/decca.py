@@ -1147,6 +1147,12 @@ class DeccaSystem:
             return None
         totals = value.totals
         if totals is not None:
+            observed_of = _OBSERVED
+            if observed_of is not None:  # the loop below in one compiled call (same lists)
+                lists = observed_of(totals, value.fractions, value.corrections_lanes,
+                                    value.selected, math.nan)
+                if lists is not NotImplemented:
+                    return DeccaObservations(value, *lists, [])
             # the loop below for tracked totals, without its resolver and messages
             fr = value.fractions
             corr = value.corrections_lanes
@@ -1199,6 +1205,10 @@ _new_reading = slots_maker(DeccaReading)
 _new_geometry = slots_maker(DeccaGeometry)
 _new_lop = slots_maker(LopReading)
 _new_totals = slots_maker(LaneTotals)
+_OBSERVED: Any = getattr(_K, "observed", None)
+"""``engine/native/decca.c``'s ``observed``: :meth:`DeccaSystem.observations`' lists of
+tracked totals in one call (None: the kernel not in use; NotImplemented for what it does not
+read: the Python loop runs)."""
 _PAGE: Any = getattr(_K, "page", None)
 _NEAREST: Any = getattr(_K, "nearest", None)
 """``engine/native/decca.c``'s ``page`` and ``nearest``: :meth:`DeccaObservations.readings`

@@ -323,3 +323,78 @@ def test_pure_path_has_no_page_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
     assert fast == pure and len(fast) == 2
     geom = obs.geometry_at(p)
     assert obs.nearest_station_m(p, [True] * 3) == obs._nearest_py(geom, [True] * 3)
+
+
+# ------------------------------------------------------- observed (tracked totals' lists)
+
+def _observations_both(value: decca.DeccaReading, monkeypatch: pytest.MonkeyPatch
+                       ) -> tuple[object, object]:
+    """DeccaSystem.observations of ``value`` with the kernel's lists and with the Python loop,
+    as comparable values (lists by type and bits, the raw tuple, messages)."""
+    p0 = Point(GRID, FAST, MX, MY)
+
+    def parts(o: decca.DeccaObservations) -> object:
+        return ([_cell(v) for v in o.observed], [_cell(v) for v in o.raw],
+                [_cell(v) for v in o._available], o.messages, o.reading is value, o._at)
+
+    fast = decca.DECCA.observations(value, p0)
+    with monkeypatch.context() as mp:
+        mp.setattr(decca, "_OBSERVED", None)
+        pure = decca.DECCA.observations(value, p0)
+    assert fast is not None and pure is not None
+    return parts(fast), parts(pure)
+
+
+def test_observed_on_the_replay(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every Decca reading of 120 demo epochs: the kernel's lists are the Python loop's."""
+    from tests.native.replay import replay
+
+    seen: list[decca.DeccaReading] = []
+    orig = decca.DeccaSystem.observations
+
+    def spy(self, value, p0):  # type: ignore[no-untyped-def]
+        if value is not None:
+            seen.append(value)
+        return orig(self, value, p0)
+
+    monkeypatch.setattr(decca.DeccaSystem, "observations", spy)
+    replay(120)
+    monkeypatch.setattr(decca.DeccaSystem, "observations", orig)
+    assert len(seen) > 100 and decca._OBSERVED is not None
+    for value in seen:
+        assert value.totals is not None
+        args = (value.totals, value.fractions, value.corrections_lanes, value.selected,
+                math.nan)
+        assert decca._OBSERVED(*args) is not NotImplemented
+        fast, pure = _observations_both(value, monkeypatch)
+        assert fast == pure
+
+
+_TOTAL = st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True))
+
+
+@settings(max_examples=200, deadline=None)
+@given(totals=st.tuples(_TOTAL, _TOTAL, _TOTAL),
+       fr=st.tuples(*[st.one_of(st.none(), st.floats(0.0, 0.999))] * 3),
+       corr=st.tuples(*[st.floats(allow_nan=True, allow_infinity=True)] * 3),
+       sel=st.tuples(st.booleans(), st.booleans(), st.booleans()))
+def test_observed_anywhere(totals: tuple[float | None, ...], fr: tuple[float | None, ...],
+                           corr: tuple[float, float, float], sel: tuple[bool, bool, bool]
+                           ) -> None:
+    value = decca.DeccaReading(PLACED, fr, (None, None, None), sel, corr, 64.0, totals)
+    with pytest.MonkeyPatch.context() as mp:
+        fast, pure = _observations_both(value, mp)
+    assert fast == pure
+
+
+def test_observed_declines_what_it_does_not_read() -> None:
+    good = ((1.0, None, 2.0), (0.1, 0.2, None), (0.0, 0.5, 0.25), (True, False, True), math.nan)
+    obs, raw, av = K.observed(*good)
+    assert raw == [1.0, None, None] and av == [True, False, False]
+    assert obs[0] == 1.0 and obs[1] is math.nan and obs[2] is math.nan
+    for i, bad in ((0, [1.0, None, 2.0]), (0, (1, None, 2.0)), (2, (0, 0.5, 0.25)),
+                   (1, (0.1, 0.2)), (3, [True, False, True])):
+        args = list(good)
+        args[i] = bad
+        assert K.observed(*args) is NotImplemented
+    assert K.observed(*good[:-1]) is NotImplemented
