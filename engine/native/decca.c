@@ -1450,6 +1450,151 @@ static PyObject *py_sync_sq(PyObject *m, PyObject *noargs)
     return Py_BuildValue("(ddd)", SYNC_2[0], SYNC_2[1], SYNC_2[2]);
 }
 
+/* page(n_calc, lop_az, raw, corrections, names, system, make) -> list | NotImplemented:
+ * DeccaObservations._readings_py's list, [make(i, system, names[i], raw[i], corrections[i],
+ * n_calc[i], math.degrees(lop_az[i])) for i, raw in enumerate(raw) if raw is not None], for
+ * float64 arrays of 3 (uvn_numpy.h) and tuples of 3; math.degrees is CPython's x * (180/pi)
+ * (mathmodule.c's radToDeg, the same constant; tests/native/test_decca_glue.py compares). */
+static const double RAD_TO_DEG = 180.0 / Py_MATH_PI;
+
+static PyObject *py_page(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    np_fields_t *fn, *fa;
+    PyObject *out, *raw, *corr, *names;
+    if (nargs != 7 || !PyTuple_CheckExact(args[2]) || !PyTuple_CheckExact(args[3])
+        || !PyTuple_CheckExact(args[4]) || PyTuple_GET_SIZE(args[2]) != 3
+        || PyTuple_GET_SIZE(args[3]) != 3 || PyTuple_GET_SIZE(args[4]) != 3)
+        Py_RETURN_NOTIMPLEMENTED;
+    if (np_layout < 0 && np_ready() < 0) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    fn = np_direct(args[0], 1);
+    fa = np_direct(args[1], 1);
+    if (fn == NULL || fa == NULL || fn->dimensions[0] != 3 || fa->dimensions[0] != 3)
+        Py_RETURN_NOTIMPLEMENTED;
+    raw = args[2];
+    corr = args[3];
+    names = args[4];
+    out = PyList_New(0);
+    if (out == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < 3; i++) {
+        PyObject *r = PyTuple_GET_ITEM(raw, i), *a[7], *row;
+        double nc, az;
+        int rc;
+        if (r == Py_None)
+            continue;
+        nc = *(double *)(fn->data + i * fn->strides[0]);
+        az = *(double *)(fa->data + i * fa->strides[0]);
+        a[0] = PyLong_FromSsize_t(i);
+        a[1] = args[5];
+        a[2] = PyTuple_GET_ITEM(names, i);
+        a[3] = r;
+        a[4] = PyTuple_GET_ITEM(corr, i);
+        a[5] = PyFloat_FromDouble(nc);
+        a[6] = PyFloat_FromDouble(az * RAD_TO_DEG);
+        row = (a[0] == NULL || a[5] == NULL || a[6] == NULL) ? NULL
+              : PyObject_Vectorcall(args[6], a, 7, NULL);
+        Py_XDECREF(a[0]);
+        Py_XDECREF(a[5]);
+        Py_XDECREF(a[6]);
+        rc = row == NULL ? -1 : PyList_Append(out, row);
+        Py_XDECREF(row);
+        if (rc < 0) {
+            Py_DECREF(out);
+            return NULL;
+        }
+    }
+    return out;
+}
+
+/* nearest(d_master, d_slave, used) -> float | NotImplemented: DeccaObservations.nearest_station_m
+ * after its geometry: near = inf; near = min(near, d_master, d_slave[i]) for each i of 3 whose
+ * used[i] is true (min's own order: the first smallest by `<`), d_slave a float64 array of 3,
+ * d_master a float, used a list or tuple of at least 3. */
+static PyObject *py_nearest(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    np_fields_t *fs;
+    PyObject *used;
+    double dm, near = Py_HUGE_VAL;
+    if (nargs != 3 || !PyFloat_CheckExact(args[0])
+        || !(PyList_CheckExact(args[2]) || PyTuple_CheckExact(args[2])))
+        Py_RETURN_NOTIMPLEMENTED;
+    if (np_layout < 0 && np_ready() < 0) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    fs = np_direct(args[1], 1);
+    used = args[2];
+    if (fs == NULL || fs->dimensions[0] != 3 || PySequence_Fast_GET_SIZE(used) < 3)
+        Py_RETURN_NOTIMPLEMENTED;
+    dm = PyFloat_AS_DOUBLE(args[0]);
+    for (Py_ssize_t i = 0; i < 3; i++) {
+        int t = PyObject_IsTrue(PySequence_Fast_GET_ITEM(used, i));
+        if (t < 0)
+            return NULL;
+        if (t) {
+            double ds = *(double *)(fs->data + i * fs->strides[0]), cur = near;
+            if (dm < cur)
+                cur = dm;
+            if (ds < cur)
+                cur = ds;
+            near = cur;
+        }
+    }
+    return PyFloat_FromDouble(near);
+}
+
+/* observed(totals, fractions, corrections, selected, nan) -> (observed, raw, available) |
+ * NotImplemented: DeccaSystem.observations' loop for tracked totals. Each a list of 3 that
+ * starts [nan] * 3, [None] * 3, [False] * 3; for each pattern i whose total and fraction are
+ * not None: raw[i] = float(totals[i]), observed[i] = raw[i] + corrections[i] (IEEE add) and
+ * available[i] = selected[i]. Tuples of 3, totals and corrections exact floats (else
+ * NotImplemented: the Python's float() and + run); nan: the caller's math.nan. */
+static PyObject *py_observed(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    PyObject *obs, *raw, *av;
+    if (nargs != 5)
+        Py_RETURN_NOTIMPLEMENTED;
+    for (int k = 0; k < 4; k++)
+        if (!PyTuple_CheckExact(args[k]) || PyTuple_GET_SIZE(args[k]) != 3)
+            Py_RETURN_NOTIMPLEMENTED;
+    for (Py_ssize_t i = 0; i < 3; i++) {
+        PyObject *t = PyTuple_GET_ITEM(args[0], i);
+        if (t != Py_None && PyTuple_GET_ITEM(args[1], i) != Py_None
+            && (!PyFloat_CheckExact(t) || !PyFloat_CheckExact(PyTuple_GET_ITEM(args[2], i))))
+            Py_RETURN_NOTIMPLEMENTED;
+    }
+    obs = PyList_New(3);
+    raw = PyList_New(3);
+    av = PyList_New(3);
+    if (obs == NULL || raw == NULL || av == NULL)
+        goto fail;
+    for (Py_ssize_t i = 0; i < 3; i++) {
+        PyObject *t = PyTuple_GET_ITEM(args[0], i);
+        if (t != Py_None && PyTuple_GET_ITEM(args[1], i) != Py_None) {
+            PyObject *o = PyFloat_FromDouble(PyFloat_AS_DOUBLE(t)
+                                             + PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(args[2], i)));
+            if (o == NULL)
+                goto fail; /* the lists' unset items are NULL: freed alike */
+            PyList_SET_ITEM(obs, i, o);
+            PyList_SET_ITEM(raw, i, Py_NewRef(t));
+            PyList_SET_ITEM(av, i, Py_NewRef(PyTuple_GET_ITEM(args[3], i)));
+        } else {
+            PyList_SET_ITEM(obs, i, Py_NewRef(args[4]));
+            PyList_SET_ITEM(raw, i, Py_NewRef(Py_None));
+            PyList_SET_ITEM(av, i, Py_NewRef(Py_False));
+        }
+    }
+    return Py_BuildValue("(NNN)", obs, raw, av);
+fail:
+    Py_XDECREF(obs);
+    Py_XDECREF(raw);
+    Py_XDECREF(av);
+    return NULL;
+}
+
 static PyMethodDef methods[] = {
     {"lane_model", (PyCFunction)(void (*)(void))py_lane_model, METH_FASTCALL,
      "decca._lane_model: (dist, n_calc, row_x, row_y)."},
@@ -1473,6 +1618,12 @@ static PyMethodDef methods[] = {
      "decca.lane_sigma through numpy's dgemv and ddot."},
     {"lane_check", (PyCFunction)(void (*)(void))py_lane_check, METH_FASTCALL,
      "decca._gps_lane_check's numbers: (value, slip)."},
+    {"observed", (PyCFunction)(void (*)(void))py_observed, METH_FASTCALL,
+     "DeccaSystem.observations' lists for tracked totals."},
+    {"page", (PyCFunction)(void (*)(void))py_page, METH_FASTCALL,
+     "DeccaObservations.readings' LopReading list after its geometry."},
+    {"nearest", (PyCFunction)(void (*)(void))py_nearest, METH_FASTCALL,
+     "DeccaObservations.nearest_station_m after its geometry (m)."},
     {"tracked", (PyCFunction)(void (*)(void))py_tracked, METH_FASTCALL,
      "decca_totals where every pattern is tracked and GPS finds no slip: LaneTotals."},
     {"_bind_blas", (PyCFunction)py_bind_blas, METH_VARARGS,

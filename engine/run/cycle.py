@@ -66,7 +66,6 @@ from engine.systems import registry
 from engine.systems.base import (
     CycleInputs,
     SystemReading,
-    attrs_maker,
     runparse_function,
     slots_maker,
 )
@@ -288,7 +287,7 @@ class SensorValues:
         return self.reference == "ground"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class CycleResult:
     """Everything one cycle produced (immutable; the pages, logs and tests read only this)."""
 
@@ -333,7 +332,7 @@ class CycleResult:
     """Decca lane slips corrected against GPS this cycle (one per pattern)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class NavState:
     """What one cycle hands to the next (the thesis' "common block", minus configuration)."""
 
@@ -614,41 +613,35 @@ def step(
         cumulative = cumulative.update(fix.s2, fix.n_used - 2)
     lanes = readings[DECCA.name].detail
     n = nav.n + 1
-    # CycleResult and NavState built by _NEW with their instance dicts filled at once.
-    result = _NEW(CycleResult)
-    result.__dict__.update(
-        n=n, record=rec.line_no, time=rec.time, raw=rec.raw, dt_s=dt,
-        datum=ctx.working.name, cm_deg=cm, systems=ctx.derived().systems_string, sensors=sens,
-        gps=readings[GPS.name].detail, decca_fractions=rec.decca, decca_on=ctx.config.decca.on,
-        fix=fix, kf_pred=pred.estimate, kf=kf_est, mpp=mpp, filter_status=filt.status,
-        filter_state=filt.state, filter_update=filt.result, cumulative=cumulative,
-        manual=nav.pending_obs, messages=tuple(messages), smoother_link=filt.link,
-        sensor_update=pred.sensor_update, fix_fails_tests=fit_note is not None,
-        fix_cov_scale=fit_scale, fix_gate=filt.gate,
-        lane_slips=0 if lanes is None else lanes.slips,
+    link = filt.link
+    # CycleResult(...) and NavState(...) positionally, in the order of their fields
+    # (_new_result, _new_nav: their slots set in one compiled call).
+    result = _new_result(
+        n, rec.line_no, rec.time, rec.raw, dt, ctx.working.name, cm,
+        ctx.derived().systems_string, sens, readings[GPS.name].detail, rec.decca,
+        ctx.config.decca.on, fix, pred.estimate, kf_est, mpp, filt.status, filt.state,
+        filt.result, cumulative, nav.pending_obs, tuple(messages), link,
+        pred.sensor_update, fit_note is not None, fit_scale, filt.gate,
+        0 if lanes is None else lanes.slips,
     )
     freeze = _FREEZE if _FREEZE is not _FREEZE_UNSET else _freeze_kernel()
-    if freeze is None or freeze(fix, None if filt.link is None else filt.link[2], filt.result,
-                                pred.sensor_update) is None:
-        _freeze_result(fix, None if filt.link is None else filt.link[2], filt.result,
-                       pred.sensor_update)
-    next_nav = _NEW(NavState)
-    next_nav.__dict__.update(
-        n=n, last_time=rec.time, cm_deg=cm, mpp_lat_deg=mpp.lat_deg,
-        mpp_lon_deg=mpp.lon_deg, filter=filt.state, cumulative=cumulative, pending_obs=(),
-        press_ref_hz=press_ref,
-        decca_track=nav.decca_track if lanes is None else lanes.track,
-        filter_has_fix=filt.has_fix, fix_source=filt.source, gated_fixes=filt.gated,
-        dr_reference=sens.reference, filter_reference=pred.reference,
+    phi = None if link is None else link[2]
+    if freeze is None or freeze(fix, phi, filt.result, pred.sensor_update) is None:
+        _freeze_result(fix, phi, filt.result, pred.sensor_update)
+    next_nav = _new_nav(
+        n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
+        nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
+        filt.gated, sens.reference, pred.reference,
     )
     return next_nav, result
 
 
-_NEW = object.__new__
-"""A bare instance of a class, for a frozen dataclass without slots or ``__post_init__`` whose
-``__dict__`` the caller fills at once with every field, instead of the generated ``__init__``'s
-one ``object.__setattr__`` per field (a CycleResult has 28: ~3 µs a cycle); as
-``FilterState._with`` does. tests/run/test_cycle.py checks every field is set."""
+_new_result = slots_maker(CycleResult)
+_new_nav = slots_maker(NavState)
+"""``CycleResult`` and ``NavState`` from every field positionally: ``engine.native.runparse.make``
+setting their slots (instead of the generated ``__init__``'s one ``object.__setattr__`` per
+field: a CycleResult has 28), or the class itself (the pure path).
+tests/run/test_cycle.py checks every field is set."""
 
 
 def _interval(ctx: RunContext, nav: NavState, rec: RunRecord) -> float:
@@ -790,28 +783,11 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
     readings before it: Decca checks its lanes against GPS)."""
     readings: dict[str, SystemReading] = {}
     extend = messages.extend
-    make = _new_inputs
-    if make is not None:
-        # CycleInputs(...) positionally in one compiled call (the same instance)
-        config = ctx.config
-        for system in registry.SYSTEMS:
-            reading = system.read(make(config, ctx, nav, rec, grid, cm, x_start, prior,
-                                       dict(readings)))
-            if reading.messages:
-                extend(reading.messages)
-            readings[system.name] = reading
-        return readings
-    # The inputs of every system but ``earlier``, filled into each CycleInputs' __dict__ at
-    # once (a plain frozen dataclass: the same instance as its __init__ makes, 9 fewer
-    # object.__setattr__ calls per system; tests/run/test_cycle.py compares them).
-    common = {"config": ctx.config, "context": ctx, "nav": nav, "record": rec, "grid": grid,
-              "cm_deg": cm, "x_start": x_start, "prior": prior}
+    make = _new_inputs  # CycleInputs(...) positionally (its slots set in one compiled call)
+    config = ctx.config
     for system in registry.SYSTEMS:
-        inputs = _NEW(CycleInputs)
-        d = inputs.__dict__
-        d.update(common)
-        d["earlier"] = dict(readings)
-        reading = system.read(inputs)
+        reading = system.read(make(config, ctx, nav, rec, grid, cm, x_start, prior,
+                                   dict(readings)))
         if reading.messages:
             extend(reading.messages)
         readings[system.name] = reading
@@ -828,9 +804,8 @@ def _sensor_values_maker() -> Callable[..., SensorValues]:
 _new_sensor_values = _sensor_values_maker()
 _new_prior = slots_maker(PositionPrior)
 """``PositionPrior(x_m, y_m, cov)`` positionally (:func:`_sensor_values_maker`'s way)."""
-_new_inputs = attrs_maker(CycleInputs)
-"""``CycleInputs`` from every field positionally in one compiled call, or None (the pure
-path fills each instance's ``__dict__``)."""
+_new_inputs = slots_maker(CycleInputs)
+"""``CycleInputs`` from every field positionally (:func:`_sensor_values_maker`'s way)."""
 _prior_kernel: Any = runparse_function("prior")
 """``engine/native/runparse.c``'s ``prior``: :func:`_provisional`'s filter part in one call
 (None: the kernel not in use; it returns None for arrays it does not read, then the Python

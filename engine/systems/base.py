@@ -124,7 +124,7 @@ class ObservationSet(Protocol):
         ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class CycleInputs:
     """What a system reads in one cycle: the record, the run (``config`` is the
     ``engine.run.config.RunConfig``, ``context`` the ``engine.run.cycle.RunContext``, ``nav``
@@ -149,7 +149,7 @@ class CycleInputs:
         return self.record.time
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class SystemReading:
     """One system's outcome of :meth:`NavSystem.read`: ``value`` is what the fix takes under the
     system's name (None: nothing this cycle), ``messages`` the operator texts, ``detail`` what the
@@ -162,17 +162,12 @@ class SystemReading:
     """Whether ``value`` holds an observation: the cycle computes a fix when any system's does."""
 
 
-_NEW = object.__new__
-
-
 def _new_reading_py(value: Any, messages: tuple[str, ...], detail: Any,
                     observes: bool) -> SystemReading:
-    """``SystemReading(value, messages, detail, observes)`` with its instance dict filled at
-    once (a plain frozen dataclass: the same instance, without the generated ``__init__``'s
-    ``object.__setattr__`` per field; a system's reading is made every cycle)."""
-    r = _NEW(SystemReading)
-    r.__dict__.update(value=value, messages=messages, detail=detail, observes=observes)
-    return r
+    """``SystemReading(value, messages, detail, observes)``: the pure path of
+    :data:`new_reading` (the class's own ``__init__``; a slots dataclass, so the compiled
+    ``make`` sets the same four slots)."""
+    return SystemReading(value, messages, detail, observes)
 
 
 def slots_maker(cls: type) -> Callable[..., Any]:
@@ -208,9 +203,17 @@ def runparse_function(name: str) -> Any:
     return getattr(native.kernel("runparse"), name, None)
 
 
-new_reading: Callable[..., SystemReading] = attrs_maker(SystemReading) or _new_reading_py
+def _reading_maker() -> Callable[..., SystemReading]:
+    """:func:`slots_maker` of :class:`SystemReading`, or :func:`_new_reading_py` on the pure
+    path (where ``slots_maker`` gives the class itself)."""
+    make = slots_maker(SystemReading)
+    return _new_reading_py if make is SystemReading else make
+
+
+new_reading: Callable[..., SystemReading] = _reading_maker()
 """``new_reading(value, messages, detail, observes)``: a :class:`SystemReading` made without
-its generated ``__init__`` (:func:`attrs_maker`, else :func:`_new_reading_py`)."""
+its generated ``__init__`` (``engine.native.runparse.make`` setting its slots, else
+:func:`_new_reading_py`)."""
 
 
 class NavSystem(Protocol):

@@ -705,7 +705,7 @@ class _LaneAt:
         return g[0][i], lane_sigma(g[1][i], src.cov)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class LaneTotals:
     """Outcome of :func:`decca_totals`: total lane counts per pattern (None: not available),
     the new lane track, the operator notes and the number of lane slips corrected from GPS."""
@@ -871,17 +871,9 @@ def decca_totals(
                 slips += slipped
         totals[i] = total
         new_track[i] = (total, time)
-    # LaneTotals(...) with its instance dict filled at once (a plain frozen dataclass: the same
-    # instance, without the generated __init__'s object.__setattr__ per field).
-    out = _NEW(LaneTotals)
-    out.__dict__.update(totals=(totals[0], totals[1], totals[2]), track=tuple(new_track),
-                        notes=tuple(notes), slips=slips)
-    return out
-
-
-_NEW = object.__new__
-"""A bare instance of a class, for a frozen dataclass without slots or ``__post_init__`` whose
-``__dict__`` the caller fills at once with every field (as ``engine.run.cycle`` does)."""
+    # LaneTotals(...) positionally (_new_totals: its slots set in one compiled call)
+    return _new_totals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes),
+                       slips)
 
 
 def _tracked_totals(placed: ChainOnGrid, geodesic: GeodesicSolver,
@@ -946,6 +938,8 @@ class DeccaReading:
 class DeccaObservations:
     """The three pattern rows of a fix: corrected total lane counts as metric LOPs (A5.9–A5.12,
     k = λc·LEF/2 metres per lane) with the a priori VCV of A4.1–A4.4 in m²."""
+
+    __slots__ = ("_at", "_available", "messages", "observed", "raw", "reading")
 
     def __init__(self, reading: DeccaReading, observed: list[float],
                  raw: list[float | None], available: list[bool], messages: list[str]) -> None:
@@ -1029,8 +1023,20 @@ class DeccaObservations:
         return self._at[1]
 
     def readings(self, p: Point) -> list[LopReading]:
+        """The page rows of the patterns read (:meth:`_readings_py`; the list made in one
+        compiled call, ``page`` in engine/native/decca.c, where the kernel is)."""
         at = self._at  # self.geometry_at(p), its computed case looked up here
         geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
+        page = _PAGE
+        if page is not None:
+            rows = page(geom.n_calc, geom.lop_azimuth_rad, self.raw,
+                        self.reading.corrections_lanes, DECCA_PATTERN_NAMES, "Decca", _new_lop)
+            if rows is not NotImplemented:
+                return rows  # type: ignore[no-any-return]
+        return self._readings_py(geom)
+
+    def _readings_py(self, geom: DeccaGeometry) -> list[LopReading]:
+        """:meth:`readings` at the geometry ``geom`` of its point, in Python."""
         n_calc = geom.n_calc.tolist()
         lop_az = geom.lop_azimuth_rad.tolist()
         corrections = self.reading.corrections_lanes
@@ -1040,9 +1046,20 @@ class DeccaObservations:
                 for i, raw in enumerate(self.raw) if raw is not None]
 
     def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
-        """A used pattern's hyperbola has the master and its slave as foci."""
+        """A used pattern's hyperbola has the master and its slave as foci (:meth:`_nearest_py`;
+        in one compiled call, ``nearest`` in engine/native/decca.c, where the kernel is)."""
         at = self._at  # self.geometry_at(p), its computed case looked up here
         geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
+        nearest = _NEAREST
+        if nearest is not None:
+            near = nearest(geom.d_master_m, geom.d_slave_m, used)
+            if near is not NotImplemented:
+                return near  # type: ignore[no-any-return]
+        return self._nearest_py(geom, used)
+
+    @staticmethod
+    def _nearest_py(geom: DeccaGeometry, used: Sequence[bool]) -> float:
+        """:meth:`nearest_station_m` at the geometry ``geom`` of its point, in Python."""
         d_slave = geom.d_slave_m.tolist()
         near = math.inf
         for i in range(len(PATTERNS)):
@@ -1130,6 +1147,12 @@ class DeccaSystem:
             return None
         totals = value.totals
         if totals is not None:
+            observed_of = _OBSERVED
+            if observed_of is not None:  # the loop below in one compiled call (same lists)
+                lists = observed_of(totals, value.fractions, value.corrections_lanes,
+                                    value.selected, math.nan)
+                if lists is not NotImplemented:
+                    return DeccaObservations(value, *lists, [])
             # the loop below for tracked totals, without its resolver and messages
             fr = value.fractions
             corr = value.corrections_lanes
@@ -1181,7 +1204,19 @@ _new_source = slots_maker(LaneSource)
 _new_reading = slots_maker(DeccaReading)
 _new_geometry = slots_maker(DeccaGeometry)
 _new_lop = slots_maker(LopReading)
-""":class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry` and
-:class:`engine.systems.base.LopReading` from every field, positionally."""
+_new_totals = slots_maker(LaneTotals)
+_OBSERVED: Any = getattr(_K, "observed", None)
+"""``engine/native/decca.c``'s ``observed``: :meth:`DeccaSystem.observations`' lists of
+tracked totals in one call (None: the kernel not in use; NotImplemented for what it does not
+read: the Python loop runs)."""
+_PAGE: Any = getattr(_K, "page", None)
+_NEAREST: Any = getattr(_K, "nearest", None)
+"""``engine/native/decca.c``'s ``page`` and ``nearest``: :meth:`DeccaObservations.readings`
+and :meth:`DeccaObservations.nearest_station_m` after the geometry, each in one call (None:
+the kernel not in use; NotImplemented for arrays or sequences they do not read: the Python
+runs)."""
+""":class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry`,
+:class:`engine.systems.base.LopReading` and :class:`LaneTotals` from every field,
+positionally."""
 
 DECCA = DeccaSystem()

@@ -289,6 +289,7 @@ class _GpsObservations:
     """The two coordinate rows of a GPS fix (thesis ch. 5, table 5.1 category I)."""
 
     messages: tuple[str, ...] = ()
+    __slots__ = ("_north_east", "gps")
 
     def __init__(self, gps: GpsFix) -> None:
         self.gps = gps
@@ -331,6 +332,7 @@ class PriorObservations:
     too-few-LOPs path; THEORY §4.6, §9.3)."""
 
     messages: tuple[str, ...] = ()
+    __slots__ = ("prior",)
 
     def __init__(self, prior: PositionPrior) -> None:
         self.prior = prior

@@ -138,7 +138,9 @@ class ManualSystem:
     def read(self, inputs: CycleInputs) -> SystemReading:
         """The observations queued for this cycle (``NavState.pending_obs``)."""
         obs = tuple(inputs.nav.pending_obs)
-        return new_reading(obs, (), None, bool(obs))
+        if not obs:
+            return _NOTHING  # the usual cycle: the one (immutable) reading of nothing
+        return new_reading(obs, (), None, True)
 
     def observations(self, value: Sequence[ManualObservation] | None,
                      p0: Point) -> _ManualObservations | None:
@@ -161,5 +163,8 @@ class ManualSystem:
         kind = "Brg" if o.kind == "bearing" else "Dist"
         return f"{o.sensor or o.kind} {kind} {o.station}"
 
+
+_NOTHING = SystemReading((), (), None, False)
+""":meth:`ManualSystem.read` of a cycle without observations (frozen: one for every cycle)."""
 
 MANUAL = ManualSystem()

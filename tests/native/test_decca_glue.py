@@ -7,14 +7,16 @@ the Decca kernel give the same values, bit for bit, as the Python they stand for
   latitude/longitude yet: the rows, misclosures and VCV block of ``_linearise_py``, and the
   point's ``latlon`` set to what ``TMGrid.inverse`` gives (as ``Point.latlon`` sets it);
   another grid is declined and the Python runs;
-* ``runparse.make_attrs``: ``SystemReading`` and ``CycleInputs`` equal to the instances their
-  ``__init__`` and the pure ``__dict__`` fill make.
+* ``runparse.make``: ``SystemReading`` and ``CycleInputs`` (slots dataclasses) equal to the
+  instances their ``__init__`` makes; ``runparse.make_attrs`` the same for a plain frozen
+  dataclass with an instance dict.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import FrozenInstanceError, fields
+from dataclasses import FrozenInstanceError, dataclass, fields
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -103,31 +105,57 @@ def test_linearise_at_declines_another_grid() -> None:
     assert fast == _rows(o, Point(other, PURE, MX + 1e4, MY + 2e4), 0, True)
 
 
+@dataclass(frozen=True)
+class _PlainInputs:
+    """A plain frozen dataclass (an instance dict) with CycleInputs' fields, for make_attrs."""
+
+    config: object
+    context: object
+    nav: object
+    record: object
+    grid: object
+    cm_deg: object
+    x_start: object
+    prior: object
+    earlier: object
+
+
 def test_readings_made_in_one_call_are_the_dataclass_instances() -> None:
     value = object()
     for args in ((value, ("a", "b"), None, True), (None, (), 3.5, False)):
         r = base.new_reading(*args)
         q = base._new_reading_py(*args)
         assert type(r) is SystemReading and r == q == SystemReading(*args)
-        assert vars(r) == vars(q)
+        for f in fields(SystemReading):
+            assert getattr(r, f.name) is getattr(q, f.name)
+        assert not hasattr(r, "__dict__")
         with pytest.raises(FrozenInstanceError):
             r.value = 1  # type: ignore[misc]
-    make = base.attrs_maker(CycleInputs)
+    make = base.slots_maker(CycleInputs)
+    plain = base.attrs_maker(_PlainInputs)
     if native.kernel("runparse") is None:
-        assert make is None
+        assert make is CycleInputs and plain is None
         return
-    assert make is not None
+    assert make is not CycleInputs and plain is not None
     vals = [object() for _ in fields(CycleInputs)]
     c = make(*vals)
-    assert c == CycleInputs(*vals) and set(vars(c)) == {f.name for f in fields(CycleInputs)}
+    assert c == CycleInputs(*vals) and not hasattr(c, "__dict__")
+    for f, v in zip(fields(CycleInputs), vals, strict=True):
+        assert getattr(c, f.name) is v
     with pytest.raises(TypeError):
         make(*vals[:-1])
+    d = plain(*vals)
+    assert d == _PlainInputs(*vals) and set(vars(d)) == {f.name for f in fields(_PlainInputs)}
+    with pytest.raises(TypeError):
+        plain(*vals[:-1])
 
 
 def test_pure_path_makes_readings_in_python(monkeypatch: pytest.MonkeyPatch) -> None:
     """Without the runparse kernel (UVNAV_PURE=1) the makers are the Python ones."""
     monkeypatch.setattr(native, "kernel", lambda name: None)
-    assert base.attrs_maker(SystemReading) is None
+    assert base.attrs_maker(_PlainInputs) is None
+    assert base.slots_maker(SystemReading) is SystemReading
+    assert base._reading_maker() is base._new_reading_py
 
 
 _M = st.floats(-1e7, 1e7, allow_nan=False)
@@ -172,3 +200,201 @@ def test_gps_rows_decline_what_they_do_not_write() -> None:
         assert A == [0.25] * 4 and b == [0.5] * 2
     assert K.gps_rows(A, b, np.eye(2), 0, 1.0, 2.0, 3.0, 4.0, 5.0) is None
     assert A == [0.0, 1.0, 1.0, 0.0] and b == [1.0 - 4.0, 2.0 - 3.0]
+
+
+# ------------------------------------------------- page and nearest (readings, nearest station)
+
+def _page_both(obs: decca.DeccaObservations, p: Point) -> tuple[object, object]:
+    """``readings`` (the kernel's page) and the Python's rows at ``p``, as comparable values."""
+    fast = obs.readings(p)
+    pure = obs._readings_py(obs.geometry_at(p))
+    assert type(fast) is list and all(type(r) is base.LopReading for r in fast)
+    return [[_cell(getattr(r, f.name)) for f in fields(r)] for r in fast], \
+        [[_cell(getattr(r, f.name)) for f in fields(r)] for r in pure]
+
+
+def _cell(v: object) -> object:
+    """A field compared by type and bits (a float by its hex)."""
+    return type(v).__name__, float.hex(v) if isinstance(v, float) else v
+
+
+def test_page_and_nearest_on_the_replay() -> None:
+    """Every Decca fix of 120 demo epochs: the kernel's page rows and nearest station are the
+    Python's, bit for bit (and the kernel is what ran)."""
+    from engine.lsq import fix as lsq_fix
+    from tests.native.replay import replay
+
+    seen: list[tuple[decca.DeccaObservations, Point, object]] = []
+    orig = lsq_fix._lop_rows
+
+    def spy(adj, sets, p_hat, *rest):  # type: ignore[no-untyped-def]
+        obs = sets.get(decca.DECCA.name)
+        if isinstance(obs, decca.DeccaObservations):
+            seen.append((obs, p_hat, adj.used.tolist()))
+        return orig(adj, sets, p_hat, *rest)
+
+    lsq_fix._lop_rows = spy
+    try:
+        replay(120)
+    finally:
+        lsq_fix._lop_rows = orig
+    assert len(seen) > 100 and decca._PAGE is not None and decca._NEAREST is not None
+    for obs, p, used in seen:
+        fast, pure = _page_both(obs, p)
+        assert fast == pure
+        geom = obs.geometry_at(p)
+        for u in (used[3:6], [True] * 3, [False, True, False]):
+            assert decca._NEAREST(geom.d_master_m, geom.d_slave_m, u) is not NotImplemented
+            assert hexes(obs.nearest_station_m(p, u)) == hexes(obs._nearest_py(geom, u))
+
+
+_RAW = st.one_of(st.none(), st.floats(-1e4, 1e4))
+
+
+@settings(max_examples=200, deadline=None)
+@given(dx=_OFFSET, dy=_OFFSET, raw=st.tuples(_RAW, _RAW, _RAW),
+       corr=st.tuples(st.floats(-5, 5), st.floats(-5, 5), st.floats(-5, 5)))
+def test_page_anywhere(dx: float, dy: float, raw: tuple[float | None, ...],
+                       corr: tuple[float, float, float]) -> None:
+    reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3,
+                                 corrections_lanes=corr)
+    obs = decca.DeccaObservations(reading, [math.nan] * 3, list(raw), [True] * 3, [])
+    p = Point(GRID, FAST, MX + dx, MY + dy)
+    try:
+        obs.geometry_at(p)
+    except (ValueError, ArithmeticError):
+        return
+    fast, pure = _page_both(obs, p)
+    assert fast == pure
+
+
+_ANY = st.floats(allow_nan=True, allow_infinity=True)
+
+
+@settings(max_examples=300, deadline=None)
+@given(az=st.tuples(_ANY, _ANY, _ANY))
+def test_page_degrees_are_math_degrees(az: tuple[float, float, float]) -> None:
+    """The kernel's math.degrees (x · 180/π, CPython's own constant) on any double."""
+    rows = K.page(np.zeros(3), np.array(az), (1.0, None, 2.0), (0.0, 0.0, 0.0),
+                  decca.DECCA_PATTERN_NAMES, "Decca", base.LopReading)
+    assert [hexes(r.az_deg) for r in rows] == [hexes(math.degrees(az[0])),
+                                               hexes(math.degrees(az[2]))]
+    assert [r.index for r in rows] == [0, 2]
+
+
+@settings(max_examples=300, deadline=None)
+@given(dm=_ANY, ds=st.tuples(_ANY, _ANY, _ANY),
+       used=st.tuples(st.booleans(), st.booleans(), st.booleans()))
+def test_nearest_anywhere(dm: float, ds: tuple[float, float, float],
+                          used: tuple[bool, bool, bool]) -> None:
+    """min's own order, NaN and infinities included."""
+    geom = SimpleNamespace(d_master_m=dm, d_slave_m=np.array(ds))
+    want = decca.DeccaObservations._nearest_py(geom, list(used))  # type: ignore[arg-type]
+    for u in (list(used), used):
+        assert hexes(K.nearest(dm, geom.d_slave_m, u)) == hexes(want)
+
+
+def test_page_and_nearest_decline_what_they_do_not_read() -> None:
+    names = decca.DECCA_PATTERN_NAMES
+    good = (np.zeros(3), np.zeros(3), (1.0, 2.0, 3.0), (0.0, 0.0, 0.0), names, "Decca",
+            base.LopReading)
+    assert len(K.page(*good)) == 3
+    for i, bad in ((0, np.zeros(3, dtype=np.float32)), (1, np.zeros(4)), (2, [1.0, 2.0, 3.0]),
+                   (3, (0.0, 0.0)), (4, list(names)), (1, np.zeros((3, 1)))):
+        args = list(good)
+        args[i] = bad
+        assert K.page(*args) is NotImplemented
+    assert K.page(*good[:-1]) is NotImplemented
+    d = np.ones(3)
+    assert K.nearest(2.0, d, [True] * 3) == 1.0
+    for args in ((np.float64(2.0), d, [True] * 3), (2.0, d[:2], [True] * 3),
+                 (2.0, d, np.ones(3, bool)), (2.0, d, [True])):
+        assert K.nearest(*args) is NotImplemented
+
+
+def test_pure_path_has_no_page_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Without the kernel (UVNAV_PURE=1) readings and nearest_station_m are the Python's."""
+    monkeypatch.setattr(decca, "_PAGE", None)
+    monkeypatch.setattr(decca, "_NEAREST", None)
+    reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3)
+    obs = decca.DeccaObservations(reading, [math.nan] * 3, [1.0, None, 3.0], [True] * 3, [])
+    p = Point(GRID, FAST, MX + 1e3, MY - 2e3)
+    fast, pure = _page_both(obs, p)
+    assert fast == pure and len(fast) == 2
+    geom = obs.geometry_at(p)
+    assert obs.nearest_station_m(p, [True] * 3) == obs._nearest_py(geom, [True] * 3)
+
+
+# ------------------------------------------------------- observed (tracked totals' lists)
+
+def _observations_both(value: decca.DeccaReading, monkeypatch: pytest.MonkeyPatch
+                       ) -> tuple[object, object]:
+    """DeccaSystem.observations of ``value`` with the kernel's lists and with the Python loop,
+    as comparable values (lists by type and bits, the raw tuple, messages)."""
+    p0 = Point(GRID, FAST, MX, MY)
+
+    def parts(o: decca.DeccaObservations) -> object:
+        return ([_cell(v) for v in o.observed], [_cell(v) for v in o.raw],
+                [_cell(v) for v in o._available], o.messages, o.reading is value, o._at)
+
+    fast = decca.DECCA.observations(value, p0)
+    with monkeypatch.context() as mp:
+        mp.setattr(decca, "_OBSERVED", None)
+        pure = decca.DECCA.observations(value, p0)
+    assert fast is not None and pure is not None
+    return parts(fast), parts(pure)
+
+
+def test_observed_on_the_replay(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every Decca reading of 120 demo epochs: the kernel's lists are the Python loop's."""
+    from tests.native.replay import replay
+
+    seen: list[decca.DeccaReading] = []
+    orig = decca.DeccaSystem.observations
+
+    def spy(self, value, p0):  # type: ignore[no-untyped-def]
+        if value is not None:
+            seen.append(value)
+        return orig(self, value, p0)
+
+    monkeypatch.setattr(decca.DeccaSystem, "observations", spy)
+    replay(120)
+    monkeypatch.setattr(decca.DeccaSystem, "observations", orig)
+    assert len(seen) > 100 and decca._OBSERVED is not None
+    for value in seen:
+        assert value.totals is not None
+        args = (value.totals, value.fractions, value.corrections_lanes, value.selected,
+                math.nan)
+        assert decca._OBSERVED(*args) is not NotImplemented
+        fast, pure = _observations_both(value, monkeypatch)
+        assert fast == pure
+
+
+_TOTAL = st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True))
+
+
+@settings(max_examples=200, deadline=None)
+@given(totals=st.tuples(_TOTAL, _TOTAL, _TOTAL),
+       fr=st.tuples(*[st.one_of(st.none(), st.floats(0.0, 0.999))] * 3),
+       corr=st.tuples(*[st.floats(allow_nan=True, allow_infinity=True)] * 3),
+       sel=st.tuples(st.booleans(), st.booleans(), st.booleans()))
+def test_observed_anywhere(totals: tuple[float | None, ...], fr: tuple[float | None, ...],
+                           corr: tuple[float, float, float], sel: tuple[bool, bool, bool]
+                           ) -> None:
+    value = decca.DeccaReading(PLACED, fr, (None, None, None), sel, corr, 64.0, totals)
+    with pytest.MonkeyPatch.context() as mp:
+        fast, pure = _observations_both(value, mp)
+    assert fast == pure
+
+
+def test_observed_declines_what_it_does_not_read() -> None:
+    good = ((1.0, None, 2.0), (0.1, 0.2, None), (0.0, 0.5, 0.25), (True, False, True), math.nan)
+    obs, raw, av = K.observed(*good)
+    assert raw == [1.0, None, None] and av == [True, False, False]
+    assert obs[0] == 1.0 and obs[1] is math.nan and obs[2] is math.nan
+    for i, bad in ((0, [1.0, None, 2.0]), (0, (1, None, 2.0)), (2, (0, 0.5, 0.25)),
+                   (1, (0.1, 0.2)), (3, [True, False, True])):
+        args = list(good)
+        args[i] = bad
+        assert K.observed(*args) is NotImplemented
+    assert K.observed(*good[:-1]) is NotImplemented

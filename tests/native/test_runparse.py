@@ -149,8 +149,10 @@ def test_make_builds_the_dataclass_instance() -> None:
     """runparse.make (the GPS and Decca readings' constructors) gives what __init__ gives."""
     import numpy as np
 
+    from engine.run import cycle as cycle_mod
     from engine.systems import decca as decca_mod
     from engine.systems import gps as gps_mod
+    from engine.systems.base import CycleInputs
 
     assert KERNEL is not None
     cov = np.eye(2)
@@ -162,6 +164,13 @@ def test_make_builds_the_dataclass_instance() -> None:
         (decca_mod.DeccaReading, decca_mod._new_reading,
          (None, (0.5, None, 0.25), (None, (1, 2), None), (True, False, True), (0.0, 0.1, 0.0),
           64.0, (44.5, None, 1.25))),
+        (decca_mod.LaneTotals, decca_mod._new_totals,
+         ((44.5, None, 1.25), (None, None, None), ("a note",), 1)),
+        (cycle_mod.CycleResult, cycle_mod._new_result,
+         tuple(object() for _ in fields(cycle_mod.CycleResult))),
+        (cycle_mod.NavState, cycle_mod._new_nav,
+         tuple(object() for _ in fields(cycle_mod.NavState))),
+        (CycleInputs, cycle_mod._new_inputs, tuple(object() for _ in fields(CycleInputs))),
     ]
     for cls, new, values in cases:
         assert new.func is KERNEL.make  # type: ignore[attr-defined]
@@ -179,9 +188,13 @@ def test_make_builds_the_dataclass_instance() -> None:
 
 
 def test_slots_maker_is_the_class_without_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    from engine.run import cycle as cycle_mod
     from engine.systems import decca as decca_mod
     from engine.systems import gps as gps_mod
+    from engine.systems.base import CycleInputs
 
     monkeypatch.setattr(native, "kernel", lambda name: None)
     assert gps_mod.slots_maker(gps_mod.GpsFix) is gps_mod.GpsFix
     assert decca_mod.slots_maker(decca_mod.LaneSource) is decca_mod.LaneSource
+    for cls in (decca_mod.LaneTotals, cycle_mod.CycleResult, cycle_mod.NavState, CycleInputs):
+        assert decca_mod.slots_maker(cls) is cls

@@ -374,8 +374,10 @@ def test_cycle_values_are_whole_frozen_dataclasses() -> None:
     for _ in range(3):
         r = s.step()
         for value, cls in ((r, CycleResult), (s.nav, NavState)):
-            assert set(vars(value)) == {f.name for f in fields(cls)}
-            assert cls(**vars(value)) == value
+            # every slot set (an unset one raises AttributeError), no instance dict besides
+            values = {f.name: getattr(value, f.name) for f in fields(cls)}
+            assert not hasattr(value, "__dict__")
+            assert cls(**values) == value
             with pytest.raises(FrozenInstanceError):
                 value.n = 0  # type: ignore[misc]
 

@@ -36,8 +36,10 @@ def test_cycle_inputs_are_whole_frozen_dataclasses(monkeypatch: pytest.MonkeyPat
     names = [system.name for system in registry.SYSTEMS]
     assert len(seen) == 3 * len(names)
     for k, (name, inputs) in enumerate(seen):
-        assert set(vars(inputs)) == {f.name for f in fields(CycleInputs)}
-        assert CycleInputs(**vars(inputs)) == inputs
+        # every slot set (an unset one raises AttributeError), no instance dict besides
+        values = {f.name: getattr(inputs, f.name) for f in fields(CycleInputs)}
+        assert not hasattr(inputs, "__dict__")
+        assert CycleInputs(**values) == inputs
         assert list(inputs.earlier) == names[:names.index(name)]
         assert inputs.context is s.context and inputs.config is s.context.config
         with pytest.raises(FrozenInstanceError):

@@ -113,3 +113,22 @@ def test_an_unregistered_system_is_not_read(monkeypatch: pytest.MonkeyPatch) -> 
     x, y, gps, ranges = _scene()
     f = compute_fix(GRID, GEOD, (x + 400.0, y - 300.0), gps=gps, readings={"acoustic": ranges})
     assert f.ok and f.n_used == 2 and f.rows_of("gps")
+
+
+def test_manual_reading_of_nothing_is_one_constant() -> None:
+    """The Obs-menu system's reading of a cycle without observations is always the same frozen
+    value (nothing to observe), equal to what its constructor makes; with observations queued
+    it reads them."""
+    from types import SimpleNamespace
+
+    from engine.systems.manual import MANUAL, ManualObservation
+
+    def inputs(pending: Any) -> Any:
+        return SimpleNamespace(nav=SimpleNamespace(pending_obs=pending))
+
+    empty = MANUAL.read(inputs(()))
+    assert empty == SystemReading((), (), None, False) and empty.value == ()
+    assert MANUAL.read(inputs([])) is empty and not empty.observes
+    obs = ManualObservation("bearing", "Heiloo", 52.6, 4.7, 45.0, 1.0)
+    r = MANUAL.read(inputs([obs]))
+    assert r == SystemReading((obs,), (), None, True)
