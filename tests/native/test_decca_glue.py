@@ -221,29 +221,28 @@ def _cell(v: object) -> object:
 def test_page_and_nearest_on_the_replay() -> None:
     """Every Decca fix of 120 demo epochs: the kernel's page rows and nearest station are the
     Python's, bit for bit (and the kernel is what ran)."""
-    from engine.lsq import fix as lsq_fix
     from tests.native.replay import replay
 
+    # the fix calls nearest_station_m(p_hat, used[start:stop]) and readings(p_hat) of each set at
+    # its estimate (in Python, or from the lsq kernel's tail/estimate through the methods)
     seen: list[tuple[decca.DeccaObservations, Point, object]] = []
-    orig = lsq_fix._lop_rows
+    orig = decca.DeccaObservations.nearest_station_m
 
-    def spy(adj, sets, p_hat, *rest):  # type: ignore[no-untyped-def]
-        obs = sets.get(decca.DECCA.name)
-        if isinstance(obs, decca.DeccaObservations):
-            seen.append((obs, p_hat, adj.used.tolist()))
-        return orig(adj, sets, p_hat, *rest)
+    def spy(self, p_hat, used):  # type: ignore[no-untyped-def]
+        seen.append((self, p_hat, list(used)))
+        return orig(self, p_hat, used)
 
-    lsq_fix._lop_rows = spy
+    decca.DeccaObservations.nearest_station_m = spy  # type: ignore[method-assign]
     try:
         replay(120)
     finally:
-        lsq_fix._lop_rows = orig
+        decca.DeccaObservations.nearest_station_m = orig  # type: ignore[method-assign]
     assert len(seen) > 100 and decca._PAGE is not None and decca._NEAREST is not None
     for obs, p, used in seen:
         fast, pure = _page_both(obs, p)
         assert fast == pure
         geom = obs.geometry_at(p)
-        for u in (used[3:6], [True] * 3, [False, True, False]):
+        for u in (used, [True] * 3, [False, True, False]):
             assert decca._NEAREST(geom.d_master_m, geom.d_slave_m, u) is not NotImplemented
             assert hexes(obs.nearest_station_m(p, u)) == hexes(obs._nearest_py(geom, u))
 
