@@ -57,8 +57,9 @@ STAGES = {
                             "engine.systems.decca:_tracked_totals"),
     "LSQ fix + tests": ("compute_fix",),
     "filter (predict, updates)": (
-        "predict_step", "update", "sensor_rows", "update_rows", "update_rows_two",
-        "lse_measurement", "stack_measurements", "innovation_distance"),
+        "predict_step", "update", "sensor_rows", "depth_sensor_rows", "update_rows",
+        "update_rows_two_gated", "lse_measurement", "stack_measurements",
+        "innovation_distance"),
 }
 """Stage → the functions of ``engine.run.cycle`` (as ``step`` calls them) whose time it is."""
 BASELINE_REVS = {"f81acd7": "when issue 14 was filed", "7aa241a": "before the bit-exact speed work"}
