@@ -144,10 +144,44 @@ static int attr_view(PyObject *obj, PyObject *name, int ndim, Py_ssize_t d0, Py_
 
 #define NVIEWS 10
 
+static PyObject *kp_position(PyObject *self, PyObject *const *args, Py_ssize_t nargs);
+static PyObject *s_t = NULL, *s_x = NULL, *s_P = NULL;
+
+/* state._with_frozen(t, x, P) as engine/filter/predict.py's predict_step writes it inline: a
+ * bare cls instance (object.__new__(cls)) whose instance dict is a copy of state's (the same
+ * keys in the same order) with t, x and P replaced. NULL (exception set). */
+static PyObject *frozen_state(PyObject *state, PyObject *cls, PyObject *t, PyObject *x,
+                              PyObject *P)
+{
+    if (!PyType_Check(cls)) {
+        PyErr_SetString(PyExc_TypeError, "predict: cls must be a class");
+        return NULL;
+    }
+    if ((s_t == NULL && (s_t = PyUnicode_InternFromString("t")) == NULL) ||
+        (s_x == NULL && (s_x = PyUnicode_InternFromString("x")) == NULL) ||
+        (s_P == NULL && (s_P = PyUnicode_InternFromString("P")) == NULL))
+        return NULL;
+    PyObject *empty = PyTuple_New(0), *newst = NULL, *src = NULL, *dst = NULL;
+    if (empty == NULL)
+        return NULL;
+    if ((newst = PyBaseObject_Type.tp_new((PyTypeObject *)cls, empty, NULL)) == NULL ||
+        (src = PyObject_GenericGetDict(state, NULL)) == NULL ||
+        (dst = PyDict_Copy(src)) == NULL || PyDict_SetItem(dst, s_t, t) < 0 ||
+        PyDict_SetItem(dst, s_x, x) < 0 || PyDict_SetItem(dst, s_P, P) < 0 ||
+        PyObject_GenericSetDict(newst, dst, NULL) < 0)
+        Py_CLEAR(newst);
+    Py_DECREF(empty);
+    Py_XDECREF(src);
+    Py_XDECREF(dst);
+    return newst;
+}
+
 static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 6) {
-        PyErr_SetString(PyExc_TypeError, "predict(x, P, c, fd, fix_cov, want_phi)");
+    if (nargs != 6 && nargs != 9 && nargs != 11) {
+        PyErr_SetString(PyExc_TypeError,
+                        "predict(x, P, c, fd, fix_cov, want_phi[, state, cls, t[, source, "
+                        "packed]])");
         return NULL;
     }
     if (!bound) {
@@ -350,7 +384,25 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
             goto fail;
         memcpy(Phid, Phi, sizeof Phi);
     }
-    result = PyTuple_Pack(3, xa, Pa, Phia);
+    if (nargs == 6) {
+        result = PyTuple_Pack(3, xa, Pa, Phia);
+        goto done;
+    }
+    /* (state._with_frozen(t, x, P), Φ[, position(source, packed, x, P)]) */
+    {
+        PyObject *newst = frozen_state(args[6], args[7], args[8], xa, Pa);
+        if (newst == NULL)
+            goto fail;
+        if (nargs == 9) {
+            result = PyTuple_Pack(2, newst, Phia);
+        } else {
+            PyObject *pa[4] = {args[9], args[10], xa, Pa};
+            PyObject *est = kp_position(self, pa, 4);
+            result = est == NULL ? NULL : PyTuple_Pack(3, newst, Phia, est);
+            Py_XDECREF(est);
+        }
+        Py_DECREF(newst);
+    }
     goto done;
 
 unsupported:
@@ -727,8 +779,11 @@ static PyMethodDef methods[] = {
      "_bind(addresses): the BLAS routines (engine.native.blas.all_addresses())."},
     {"is_bound", (PyCFunction)kp_is_bound, METH_NOARGS, "True once _bind has been called."},
     {"predict", (PyCFunction)(void (*)(void))kp_predict, METH_FASTCALL,
-     "predict(x, P, c, fd, fix_cov, want_phi) -> (x, P, Phi) or None: one time update of "
-     "engine.filter.predict (c: StepConstants, fd: FixDecay or None for the nav-only state)."},
+     "predict(x, P, c, fd, fix_cov, want_phi[, state, cls, t[, source, packed]]) -> (x, P, Phi) "
+     "or None: one time update of engine.filter.predict (c: StepConstants, fd: FixDecay or "
+     "None for the nav-only state). With state, cls, t: (state._with_frozen(t, x, P) as a new "
+     "cls instance, Phi); with source, packed too: (that state, Phi, position(source, packed, "
+     "x, P)), the estimate None where position() declines."},
     {"rows", (PyCFunction)(void (*)(void))kp_rows, METH_FASTCALL,
      "rows(zs, var) -> (z, R) or None: the arrays of sensor_measurement's rows."},
     {"lse", (PyCFunction)(void (*)(void))kp_lse, METH_FASTCALL,

@@ -37,6 +37,7 @@ from engine.filter.kalman import (
     update,
 )
 from engine.filter.measurements import SensorLayout, depth_sensor_rows, sensor_rows
+from engine.filter.predict import predict_step_position
 from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
 from engine.filter.update import update_rows, update_rows_two_gated
 from engine.geodesy.angles import wrap_180_deg
@@ -725,12 +726,15 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     if dr_sensors and not initialised:
         sens_result = update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
-    pred_state, phi = predict_step(fstate, dt, params)
-    # filter_estimate("KF", grid, pred_state), its compiled call made here (the same estimate);
-    # where the kernel is not there or declines, filter_estimate
+    # filter_estimate("KF", grid, pred_state), its compiled call made here (the same estimate)
+    # in the prediction's call (predict_step_position); where the kernel is not there or
+    # declines, filter_estimate
     k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
-    est = None if k is None else k.position(  # type: ignore[attr-defined]
-        "KF", grid._packed, pred_state.x, pred_state.P)
+    if k is None:
+        pred_state, phi = predict_step(fstate, dt, params)
+        est = None
+    else:
+        pred_state, phi, est = predict_step_position(fstate, dt, params, "KF", grid._packed)
     if est is None:
         est = filter_estimate("KF", grid, pred_state)
     return _Prediction(pred_state, est, (fstate, pred_state, phi), sens_result, dr_sensors,
