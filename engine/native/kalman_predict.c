@@ -101,6 +101,22 @@ static inline double at1(const view_t *w, Py_ssize_t i)
 }
 
 
+/* dst[i * ld + j] = w[r0 + i, c0 + j] for i < rows, j < cols: a copy (no arithmetic), a row at
+ * a time where the view's rows are contiguous. */
+static void copy2(const view_t *w, Py_ssize_t r0, Py_ssize_t c0, Py_ssize_t rows, Py_ssize_t cols,
+                  double *dst, Py_ssize_t ld)
+{
+    if (w->v.strides[1] == 8) {
+        for (Py_ssize_t i = 0; i < rows; i++)
+            memcpy(dst + i * ld, (const char *)w->v.buf + (r0 + i) * w->v.strides[0] + c0 * 8,
+                   sizeof(double) * (size_t)cols);
+        return;
+    }
+    for (Py_ssize_t i = 0; i < rows; i++)
+        for (Py_ssize_t j = 0; j < cols; j++)
+            dst[i * ld + j] = at2(w, r0 + i, c0 + j);
+}
+
 /* numpy's syrk() of cblasfuncs.c for a.dot(a.T), a r×k C-ordered: C = upper of a aᵀ, then the
  * lower triangle copied from the upper. C (r×r) is zeroed first as numpy's out buffer is. */
 static void np_syrk(int64_t r, int64_t k, const double *a, double *c)
@@ -246,9 +262,7 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
     for (Py_ssize_t i = 0; i < n; i++)
         xs[i] = at1(vx, i);
     double Phi[NNAV * NNAV];
-    for (int i = 0; i < NNAV; i++)
-        for (int j = 0; j < NNAV; j++)
-            Phi[i * NNAV + j] = at2(vcphi, i, j);
+    copy2(vcphi, 0, 0, NNAV, NNAV, Phi, NNAV);
     double v = xs[3], psi = xs[4], eps = xs[5];
     double ce = uvn_cos(eps), se = uvn_sin(eps), cp = uvn_cos(psi), sp = uvn_sin(psi);
     double vdt = v * dt;
@@ -267,9 +281,7 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
 
     /* ---- step_noise: Q_d = Gs Gsᵀ (+ V Vᵀ on the 3×3 position block) ---- */
     double Gs[NNAV * NW], Qd[NNAV * NNAV];
-    for (int i = 0; i < NNAV; i++)
-        for (int j = 0; j < NW; j++)
-            Gs[i * NW + j] = at2(vgs, i, j);
+    copy2(vgs, 0, 0, NNAV, NW, Gs, NW);
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < NW; j++)
             Gs[i * NW + j] = Phi[i * NNAV + 3 + j] * at1(vgss, j);
@@ -299,15 +311,11 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
             Pnav = (const double *)vP->v.buf;
             transP = UvnTrans;
         } else {
-            for (int i = 0; i < NNAV; i++)
-                for (int j = 0; j < NNAV; j++)
-                    Pnn[i * NNAV + j] = at2(vP, i, j);
+            copy2(vP, 0, 0, NNAV, NNAV, Pnn, NNAV);
             Pnav = Pnn;
         }
     } else {  /* P[:11, :11] is never contiguous: numpy copies it to C order */
-        for (int i = 0; i < NNAV; i++)
-            for (int j = 0; j < NNAV; j++)
-                Pnn[i * NNAV + j] = at2(vP, i, j);
+        copy2(vP, 0, 0, NNAV, NNAV, Pnn, NNAV);
         Pnav = Pnn;
     }
     memset(T, 0, sizeof T);
@@ -328,9 +336,7 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
                     (const double *)((const char *)vP->v.buf + NNAV * vP->v.strides[1]),
                     vP->v.strides[0] / 8, 0., W, 1);
         } else {  /* P[:11, 11:] is never contiguous: copied to C order, then dgemm */
-            for (int i = 0; i < NNAV; i++)
-                for (int j = 0; j < m; j++)
-                    Bn[i * m + j] = at2(vP, i, NNAV + j);
+            copy2(vP, 0, NNAV, NNAV, m, Bn, m);
             B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, NNAV, m, NNAV, 1., Phi, NNAV, Bn, m,
                     0., W, m);
         }
@@ -374,9 +380,10 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
             view_release(&vfphi);
             goto fail;
         }
-        for (Py_ssize_t i = 0; i < n; i++)
-            for (Py_ssize_t j = 0; j < n; j++)
-                Phid[i * n + j] = i < NNAV && j < NNAV ? Phi[i * NNAV + j] : at2(&vfphi, i, j);
+        /* full = fd.phi.copy(); full[:11, :11] = Φ_nav */
+        copy2(&vfphi, 0, 0, n, n, Phid, n);
+        for (int i = 0; i < NNAV; i++)
+            memcpy(Phid + i * n, Phi + i * NNAV, sizeof(double) * NNAV);
         view_release(&vfphi);
     } else {
         Phia = new_array(NNAV, NNAV, 2, &Phid);
