@@ -737,8 +737,9 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         pred_state, phi, est = predict_step_position(fstate, dt, params, "KF", grid._packed)
     if est is None:
         est = filter_estimate("KF", grid, pred_state)
-    return _Prediction(pred_state, est, (fstate, pred_state, phi), sens_result, dr_sensors,
-                       reference)
+    # _Prediction(...) positionally, every field (its slots set in one compiled call)
+    return _new_prediction(pred_state, est, (fstate, pred_state, phi), sens_result, dr_sensors,
+                           reference)
 
 
 def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,
@@ -878,8 +879,10 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     the gross-error gate; with the filter off, dead reckoning restarts from each LSE.
     ``gnss``: the receiver part of the fix source (:func:`gnss_source`)."""
     cfg, params = ctx.config, ctx.filter_params
-    f = _Filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source, nav.gated_fixes,
-                   "OFF" if not cfg.filter.on else "N/A")
+    # _Filtering(...) with every field positionally (result None, gate ""): its slots set in
+    # one compiled call
+    f = _new_filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
+                       nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "")
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
     # layout, depth_sensor_rows): updated from them without a Measurement (update_rows,
@@ -1060,6 +1063,12 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
                         f"{f.gated} gated fixes")
         f.gated = 0
     return depth_rows
+
+
+_new_prediction = slots_maker(_Prediction)
+"""``_Prediction`` from every field positionally (:func:`_sensor_values_maker`'s way)."""
+_new_filtering = slots_maker(_Filtering)
+"""``_Filtering`` from every field positionally (:func:`_sensor_values_maker`'s way)."""
 
 
 def _mpp(ctx: RunContext, nav: NavState, grid: TMGrid, kf_est: PositionEstimate | None,

@@ -482,3 +482,20 @@ def test_position_is_filter_estimate_in_python(replay_steps, monkeypatch: pytest
                 _same_estimate(got, cycle_mod.filter_estimate(source, grid, s))
     assert k.position("KF", None, s0.x, s0.P) is None
     assert k.position("KF", grid._packed, np.zeros(2), np.zeros((2, 2))) is None
+
+
+def test_cycle_makers_are_the_dataclasses() -> None:
+    """The cycle's _Prediction / _Filtering made positionally (runparse.make, or the class on
+    the pure path) equal the dataclasses' own instances, field by field."""
+    state = FilterState(0.0, np.zeros(N_NAV), np.eye(N_NAV))
+    link = (state, state, np.eye(N_NAV))
+    p = ("est", link, "upd", True, "ground")
+    got = cycle_mod._new_prediction(state, *p)
+    assert type(got) is cycle_mod._Prediction and got == cycle_mod._Prediction(state, *p)
+    assert cycle_mod._new_prediction(None, None, None, None, False, "water") == \
+        cycle_mod._Prediction()
+    f = (state, link, True, ("LSE",), 2, "N/A")
+    got_f = cycle_mod._new_filtering(*f, None, "")
+    assert type(got_f) is cycle_mod._Filtering and got_f == cycle_mod._Filtering(*f)
+    got_f.status = "ON"  # still a plain (mutable) slots instance
+    assert got_f.status == "ON"
