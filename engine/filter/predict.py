@@ -49,18 +49,39 @@ def predict_step(
             fd = c.fix.get(state.fix_tau_s)
             if fd is None:
                 fd = c.fix_decay(state.fix_tau_s)
-        r = k.predict(state.x, state.P, c, fd, state.fix_cov, True)
-        if r is not None:  # the kernel's x and P are new and read-only already
-            # state._with_frozen(state.t + dt, r[0], r[1]) inline
-            new = _NEW(FilterState)
-            d = new.__dict__
-            d.update(state.__dict__)
-            d["t"], d["x"], d["P"] = state.t + dt, r[0], r[1]
-            return new, r[2]
+        # the kernel's x and P (new, read-only) in state._with_frozen(state.t + dt, x, P),
+        # made by the kernel too: (new state, Φ)
+        r = k.predict(state.x, state.P, c, fd, state.fix_cov, True, state, FilterState,
+                      state.t + dt)
+        if r is not None:
+            return r  # type: ignore[no-any-return]
     return _predict(state, dt, params, True)
 
 
-_NEW = object.__new__
+def predict_step_position(
+    state: FilterState, dt: float, params: FilterParams, source: str, packed: object
+) -> tuple[FilterState, np.ndarray, Any]:
+    """:func:`predict_step` and the estimate ``position(source, packed, x, P)`` of the
+    predicted state (``engine.run.cycle.filter_estimate`` with the compiled ``position``, grid
+    ``packed`` = ``TMGrid._packed``) in one compiled call: (state, Φ, estimate). The estimate
+    is None where the kernel does not make it (not built, declining, ``position`` not bound):
+    the caller makes it as before."""
+    k = _K if _K is not _UNRESOLVED else _kernel()
+    if k is not None and dt > 0.0:  # predict_step's kernel call, with the position
+        c = params._memo.get(dt)
+        if c is None:
+            c = step_constants(params, dt)
+        fd = None
+        if state.fix_states:
+            fd = c.fix.get(state.fix_tau_s)
+            if fd is None:
+                fd = c.fix_decay(state.fix_tau_s)
+        r = k.predict(state.x, state.P, c, fd, state.fix_cov, True, state, FilterState,
+                      state.t + dt, source, packed)
+        if r is not None:
+            return r  # type: ignore[no-any-return]
+    new, phi = _predict(state, dt, params, True)
+    return new, phi, None
 
 
 def predict(state: FilterState, dt: float, params: FilterParams) -> FilterState:

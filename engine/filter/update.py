@@ -327,13 +327,25 @@ def update_rows(state: FilterState, zs: list[float], var: list[float], layout: S
     k = _K if _K is not _UNRESOLVED else _kernel()
     if k is not None and zs:
         labels, cols_t, H, angle = layout
-        if H.shape[1] < state.x.shape[0]:  # _full_width's template
-            H = h_template(cols_t, state.x.shape[0])
+        n = state.x.shape[0]
+        if H.shape[1] < n:  # _full_width's template, h_template(cols_t, n)
+            last = _ROWS_LAST[0]
+            if last[0] is cols_t and last[1] == n:
+                H = last[2]
+            else:
+                H = h_template(cols_t, n)
+                _ROWS_LAST[0] = (cols_t, n, H)
         result = k.update_blocks(state, H, ((zs, var),), angle, params.joseph, IPSI,
                                  params.alpha, labels)
         if result is not None:
             return result  # type: ignore[no-any-return]
     return update(state, rows_measurement(zs, var, layout), params)
+
+
+_ROWS_LAST: list[tuple[object, int, np.ndarray | None]] = [(None, -1, None)]
+"""The last ``h_template(cols, n)`` of :func:`update_rows` with its columns (compared by
+identity: the cycle passes the same layout tuple every time) and n: looked up once, not
+hashed per update."""
 
 
 def update_two(state: FilterState, a: Measurement, b: Measurement,

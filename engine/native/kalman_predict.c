@@ -101,6 +101,22 @@ static inline double at1(const view_t *w, Py_ssize_t i)
 }
 
 
+/* dst[i * ld + j] = w[r0 + i, c0 + j] for i < rows, j < cols: a copy (no arithmetic), a row at
+ * a time where the view's rows are contiguous. */
+static void copy2(const view_t *w, Py_ssize_t r0, Py_ssize_t c0, Py_ssize_t rows, Py_ssize_t cols,
+                  double *dst, Py_ssize_t ld)
+{
+    if (w->v.strides[1] == 8) {
+        for (Py_ssize_t i = 0; i < rows; i++)
+            memcpy(dst + i * ld, (const char *)w->v.buf + (r0 + i) * w->v.strides[0] + c0 * 8,
+                   sizeof(double) * (size_t)cols);
+        return;
+    }
+    for (Py_ssize_t i = 0; i < rows; i++)
+        for (Py_ssize_t j = 0; j < cols; j++)
+            dst[i * ld + j] = at2(w, r0 + i, c0 + j);
+}
+
 /* numpy's syrk() of cblasfuncs.c for a.dot(a.T), a r×k C-ordered: C = upper of a aᵀ, then the
  * lower triangle copied from the upper. C (r×r) is zeroed first as numpy's out buffer is. */
 static void np_syrk(int64_t r, int64_t k, const double *a, double *c)
@@ -144,10 +160,44 @@ static int attr_view(PyObject *obj, PyObject *name, int ndim, Py_ssize_t d0, Py_
 
 #define NVIEWS 10
 
+static PyObject *kp_position(PyObject *self, PyObject *const *args, Py_ssize_t nargs);
+static PyObject *s_t = NULL, *s_x = NULL, *s_P = NULL;
+
+/* state._with_frozen(t, x, P) as engine/filter/predict.py's predict_step writes it inline: a
+ * bare cls instance (object.__new__(cls)) whose instance dict is a copy of state's (the same
+ * keys in the same order) with t, x and P replaced. NULL (exception set). */
+static PyObject *frozen_state(PyObject *state, PyObject *cls, PyObject *t, PyObject *x,
+                              PyObject *P)
+{
+    if (!PyType_Check(cls)) {
+        PyErr_SetString(PyExc_TypeError, "predict: cls must be a class");
+        return NULL;
+    }
+    if ((s_t == NULL && (s_t = PyUnicode_InternFromString("t")) == NULL) ||
+        (s_x == NULL && (s_x = PyUnicode_InternFromString("x")) == NULL) ||
+        (s_P == NULL && (s_P = PyUnicode_InternFromString("P")) == NULL))
+        return NULL;
+    PyObject *empty = PyTuple_New(0), *newst = NULL, *src = NULL, *dst = NULL;
+    if (empty == NULL)
+        return NULL;
+    if ((newst = PyBaseObject_Type.tp_new((PyTypeObject *)cls, empty, NULL)) == NULL ||
+        (src = PyObject_GenericGetDict(state, NULL)) == NULL ||
+        (dst = PyDict_Copy(src)) == NULL || PyDict_SetItem(dst, s_t, t) < 0 ||
+        PyDict_SetItem(dst, s_x, x) < 0 || PyDict_SetItem(dst, s_P, P) < 0 ||
+        PyObject_GenericSetDict(newst, dst, NULL) < 0)
+        Py_CLEAR(newst);
+    Py_DECREF(empty);
+    Py_XDECREF(src);
+    Py_XDECREF(dst);
+    return newst;
+}
+
 static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 6) {
-        PyErr_SetString(PyExc_TypeError, "predict(x, P, c, fd, fix_cov, want_phi)");
+    if (nargs != 6 && nargs != 9 && nargs != 11) {
+        PyErr_SetString(PyExc_TypeError,
+                        "predict(x, P, c, fd, fix_cov, want_phi[, state, cls, t[, source, "
+                        "packed]])");
         return NULL;
     }
     if (!bound) {
@@ -212,9 +262,7 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
     for (Py_ssize_t i = 0; i < n; i++)
         xs[i] = at1(vx, i);
     double Phi[NNAV * NNAV];
-    for (int i = 0; i < NNAV; i++)
-        for (int j = 0; j < NNAV; j++)
-            Phi[i * NNAV + j] = at2(vcphi, i, j);
+    copy2(vcphi, 0, 0, NNAV, NNAV, Phi, NNAV);
     double v = xs[3], psi = xs[4], eps = xs[5];
     double ce = uvn_cos(eps), se = uvn_sin(eps), cp = uvn_cos(psi), sp = uvn_sin(psi);
     double vdt = v * dt;
@@ -233,9 +281,7 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
 
     /* ---- step_noise: Q_d = Gs Gsᵀ (+ V Vᵀ on the 3×3 position block) ---- */
     double Gs[NNAV * NW], Qd[NNAV * NNAV];
-    for (int i = 0; i < NNAV; i++)
-        for (int j = 0; j < NW; j++)
-            Gs[i * NW + j] = at2(vgs, i, j);
+    copy2(vgs, 0, 0, NNAV, NW, Gs, NW);
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < NW; j++)
             Gs[i * NW + j] = Phi[i * NNAV + 3 + j] * at1(vgss, j);
@@ -265,15 +311,11 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
             Pnav = (const double *)vP->v.buf;
             transP = UvnTrans;
         } else {
-            for (int i = 0; i < NNAV; i++)
-                for (int j = 0; j < NNAV; j++)
-                    Pnn[i * NNAV + j] = at2(vP, i, j);
+            copy2(vP, 0, 0, NNAV, NNAV, Pnn, NNAV);
             Pnav = Pnn;
         }
     } else {  /* P[:11, :11] is never contiguous: numpy copies it to C order */
-        for (int i = 0; i < NNAV; i++)
-            for (int j = 0; j < NNAV; j++)
-                Pnn[i * NNAV + j] = at2(vP, i, j);
+        copy2(vP, 0, 0, NNAV, NNAV, Pnn, NNAV);
         Pnav = Pnn;
     }
     memset(T, 0, sizeof T);
@@ -294,9 +336,7 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
                     (const double *)((const char *)vP->v.buf + NNAV * vP->v.strides[1]),
                     vP->v.strides[0] / 8, 0., W, 1);
         } else {  /* P[:11, 11:] is never contiguous: copied to C order, then dgemm */
-            for (int i = 0; i < NNAV; i++)
-                for (int j = 0; j < m; j++)
-                    Bn[i * m + j] = at2(vP, i, NNAV + j);
+            copy2(vP, 0, NNAV, NNAV, m, Bn, m);
             B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, NNAV, m, NNAV, 1., Phi, NNAV, Bn, m,
                     0., W, m);
         }
@@ -340,9 +380,10 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
             view_release(&vfphi);
             goto fail;
         }
-        for (Py_ssize_t i = 0; i < n; i++)
-            for (Py_ssize_t j = 0; j < n; j++)
-                Phid[i * n + j] = i < NNAV && j < NNAV ? Phi[i * NNAV + j] : at2(&vfphi, i, j);
+        /* full = fd.phi.copy(); full[:11, :11] = Φ_nav */
+        copy2(&vfphi, 0, 0, n, n, Phid, n);
+        for (int i = 0; i < NNAV; i++)
+            memcpy(Phid + i * n, Phi + i * NNAV, sizeof(double) * NNAV);
         view_release(&vfphi);
     } else {
         Phia = new_array(NNAV, NNAV, 2, &Phid);
@@ -350,7 +391,25 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
             goto fail;
         memcpy(Phid, Phi, sizeof Phi);
     }
-    result = PyTuple_Pack(3, xa, Pa, Phia);
+    if (nargs == 6) {
+        result = PyTuple_Pack(3, xa, Pa, Phia);
+        goto done;
+    }
+    /* (state._with_frozen(t, x, P), Φ[, position(source, packed, x, P)]) */
+    {
+        PyObject *newst = frozen_state(args[6], args[7], args[8], xa, Pa);
+        if (newst == NULL)
+            goto fail;
+        if (nargs == 9) {
+            result = PyTuple_Pack(2, newst, Phia);
+        } else {
+            PyObject *pa[4] = {args[9], args[10], xa, Pa};
+            PyObject *est = kp_position(self, pa, 4);
+            result = est == NULL ? NULL : PyTuple_Pack(3, newst, Phia, est);
+            Py_XDECREF(est);
+        }
+        Py_DECREF(newst);
+    }
     goto done;
 
 unsupported:
@@ -727,8 +786,11 @@ static PyMethodDef methods[] = {
      "_bind(addresses): the BLAS routines (engine.native.blas.all_addresses())."},
     {"is_bound", (PyCFunction)kp_is_bound, METH_NOARGS, "True once _bind has been called."},
     {"predict", (PyCFunction)(void (*)(void))kp_predict, METH_FASTCALL,
-     "predict(x, P, c, fd, fix_cov, want_phi) -> (x, P, Phi) or None: one time update of "
-     "engine.filter.predict (c: StepConstants, fd: FixDecay or None for the nav-only state)."},
+     "predict(x, P, c, fd, fix_cov, want_phi[, state, cls, t[, source, packed]]) -> (x, P, Phi) "
+     "or None: one time update of engine.filter.predict (c: StepConstants, fd: FixDecay or "
+     "None for the nav-only state). With state, cls, t: (state._with_frozen(t, x, P) as a new "
+     "cls instance, Phi); with source, packed too: (that state, Phi, position(source, packed, "
+     "x, P)), the estimate None where position() declines."},
     {"rows", (PyCFunction)(void (*)(void))kp_rows, METH_FASTCALL,
      "rows(zs, var) -> (z, R) or None: the arrays of sensor_measurement's rows."},
     {"lse", (PyCFunction)(void (*)(void))kp_lse, METH_FASTCALL,

@@ -467,9 +467,11 @@ static int update_core(const double *x, const double *P, const double *H, const 
         arr_t aR = mk2(R, p, p, p, 1), aKR = mk2(KR, n, p, p, 1), aKt = mk2(K, p, n, 1, p);
         if (np_dot(&aK, &aH, KH, n * n))
             goto fallback;
+        /* A = I - KH: 0.0 - KH off the diagonal, 1.0 - KH on it (the same subtractions) */
+        for (int64_t i = 0; i < n * n; i++)
+            A[i] = 0.0 - KH[i];
         for (int64_t i = 0; i < n; i++)
-            for (int64_t j = 0; j < n; j++)
-                A[i * n + j] = ((i == j) ? 1.0 : 0.0) - KH[i * n + j];
+            A[i * n + i] = 1.0 - KH[i * n + i];
         if (np_dot(&aA, &aP, AP, n * n) || np_dot(&aAP, &aAt, Pj, n * n) ||
             np_dot(&aK, &aR, KR, n * p) || np_dot(&aKR, &aKt, KRKt, n * n))
             goto fallback;
@@ -482,11 +484,10 @@ static int update_core(const double *x, const double *P, const double *H, const 
         for (int64_t i = 0; i < n * n; i++)
             Pj[i] = P[i] - KH[i];
     }
+    /* (Pj + Pjᵀ) then · 0.5, each rounded (no contraction): one pass */
     for (int64_t i = 0; i < n; i++)
         for (int64_t j = 0; j < n; j++)
-            Pn[i * n + j] = Pj[i * n + j] + Pj[j * n + i];
-    for (int64_t i = 0; i < n * n; i++)
-        Pn[i] = Pn[i] * 0.5;
+            Pn[i * n + j] = (Pj[i * n + j] + Pj[j * n + i]) * 0.5;
 
     /* nis = float(w.dot(w)); every variance > 0 and nis finite, else the Python raises */
     double nis;

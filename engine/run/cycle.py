@@ -37,6 +37,7 @@ from engine.filter.kalman import (
     update,
 )
 from engine.filter.measurements import SensorLayout, depth_sensor_rows, sensor_rows
+from engine.filter.predict import predict_step_position
 from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
 from engine.filter.update import update_rows, update_rows_two_gated
 from engine.geodesy.angles import wrap_180_deg
@@ -725,16 +726,20 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     if dr_sensors and not initialised:
         sens_result = update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
-    pred_state, phi = predict_step(fstate, dt, params)
-    # filter_estimate("KF", grid, pred_state), its compiled call made here (the same estimate);
-    # where the kernel is not there or declines, filter_estimate
+    # filter_estimate("KF", grid, pred_state), its compiled call made here (the same estimate)
+    # in the prediction's call (predict_step_position); where the kernel is not there or
+    # declines, filter_estimate
     k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
-    est = None if k is None else k.position(  # type: ignore[attr-defined]
-        "KF", grid._packed, pred_state.x, pred_state.P)
+    if k is None:
+        pred_state, phi = predict_step(fstate, dt, params)
+        est = None
+    else:
+        pred_state, phi, est = predict_step_position(fstate, dt, params, "KF", grid._packed)
     if est is None:
         est = filter_estimate("KF", grid, pred_state)
-    return _Prediction(pred_state, est, (fstate, pred_state, phi), sens_result, dr_sensors,
-                       reference)
+    # _Prediction(...) positionally, every field (its slots set in one compiled call)
+    return _new_prediction(pred_state, est, (fstate, pred_state, phi), sens_result, dr_sensors,
+                           reference)
 
 
 def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,
@@ -874,8 +879,10 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     the gross-error gate; with the filter off, dead reckoning restarts from each LSE.
     ``gnss``: the receiver part of the fix source (:func:`gnss_source`)."""
     cfg, params = ctx.config, ctx.filter_params
-    f = _Filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source, nav.gated_fixes,
-                   "OFF" if not cfg.filter.on else "N/A")
+    # _Filtering(...) with every field positionally (result None, gate ""): its slots set in
+    # one compiled call
+    f = _new_filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
+                       nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "")
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
     # layout, depth_sensor_rows): updated from them without a Measurement (update_rows,
@@ -1056,6 +1063,12 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
                         f"{f.gated} gated fixes")
         f.gated = 0
     return depth_rows
+
+
+_new_prediction = slots_maker(_Prediction)
+"""``_Prediction`` from every field positionally (:func:`_sensor_values_maker`'s way)."""
+_new_filtering = slots_maker(_Filtering)
+"""``_Filtering`` from every field positionally (:func:`_sensor_values_maker`'s way)."""
 
 
 def _mpp(ctx: RunContext, nav: NavState, grid: TMGrid, kf_est: PositionEstimate | None,

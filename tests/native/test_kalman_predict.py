@@ -49,8 +49,16 @@ def replay_steps() -> list[tuple[FilterState, float, FilterParams]]:
         steps.append((state, dt, params))
         return real(state, dt, params)
 
+    real_pos = cycle_mod.predict_step_position
+
+    def recording_pos(state: FilterState, dt: float, params: FilterParams, source: str,
+                      packed: object) -> tuple[FilterState, np.ndarray, object]:
+        steps.append((state, dt, params))  # the cycle's prediction with its estimate
+        return real_pos(state, dt, params, source, packed)
+
     mp = pytest.MonkeyPatch()
     mp.setattr(cycle_mod, "predict_step", recording)
+    mp.setattr(cycle_mod, "predict_step_position", recording_pos)
     try:
         for name, n in (("DEMO.toml", 200), ("920917_1.toml", None)):
             replay(n, DATA / name)
@@ -79,6 +87,39 @@ def test_predict_step_is_predict(replay_steps):
             _same(got, ref)
             assert type(got[0]) is FilterState and list(vars(got[0])) == list(vars(ref[0]))
             assert got[0].fix_cov is state.fix_cov and got[0].t == state.t + dt
+
+
+@needs_kernel
+def test_predict_step_position_is_predict_step_and_position(replay_steps,
+                                                            monkeypatch: pytest.MonkeyPatch):
+    """predict_step_position() (one kernel call) is predict_step() and then the compiled
+    position() of the predicted state (cycle.filter_estimate): the same state, Φ and estimate;
+    its estimate None where position() declines (no grid), and from the Python's prediction
+    (kernel None, Δt 0) too, where the caller makes the estimate as before."""
+    from engine.geodesy.tmgrid import TMGrid
+
+    grid = TMGrid(cycle_mod.WGS84.ellipsoid, 3.0)
+    monkeypatch.setattr(cycle_mod, "_POSITION_K", cycle_mod._UNSET)
+    k = cycle_mod._position_kernel()
+    assert k is not None
+    for state, dt, params in replay_steps[:60]:
+        ref = pr.predict_step(state, dt, params)
+        got = pr.predict_step_position(state, dt, params, "KF", grid._packed)
+        _same(got[:2], ref)
+        assert type(got[0]) is FilterState and list(vars(got[0])) == list(vars(ref[0]))
+        assert got[0].fix_cov is state.fix_cov and got[0].t == state.t + dt
+        _same_estimate(got[2], k.position("KF", grid._packed, ref[0].x, ref[0].P))
+        _same_estimate(got[2], cycle_mod.filter_estimate("KF", grid, ref[0]))
+        none = pr.predict_step_position(state, dt, params, "KF", None)
+        _same(none[:2], ref)
+        assert none[2] is None
+    state, dt, params = replay_steps[0]
+    same = pr.predict_step_position(state, 0.0, params, "KF", grid._packed)
+    assert same[0] is state and same[2] is None
+    monkeypatch.setattr(pr, "_K", None)
+    py = pr.predict_step_position(state, dt, params, "KF", grid._packed)
+    _same(py[:2], pr._predict_py(state, dt, params, True))
+    assert py[2] is None
 
 
 @needs_kernel
@@ -441,3 +482,20 @@ def test_position_is_filter_estimate_in_python(replay_steps, monkeypatch: pytest
                 _same_estimate(got, cycle_mod.filter_estimate(source, grid, s))
     assert k.position("KF", None, s0.x, s0.P) is None
     assert k.position("KF", grid._packed, np.zeros(2), np.zeros((2, 2))) is None
+
+
+def test_cycle_makers_are_the_dataclasses() -> None:
+    """The cycle's _Prediction / _Filtering made positionally (runparse.make, or the class on
+    the pure path) equal the dataclasses' own instances, field by field."""
+    state = FilterState(0.0, np.zeros(N_NAV), np.eye(N_NAV))
+    link = (state, state, np.eye(N_NAV))
+    p = ("est", link, "upd", True, "ground")
+    got = cycle_mod._new_prediction(state, *p)
+    assert type(got) is cycle_mod._Prediction and got == cycle_mod._Prediction(state, *p)
+    assert cycle_mod._new_prediction(None, None, None, None, False, "water") == \
+        cycle_mod._Prediction()
+    f = (state, link, True, ("LSE",), 2, "N/A")
+    got_f = cycle_mod._new_filtering(*f, None, "")
+    assert type(got_f) is cycle_mod._Filtering and got_f == cycle_mod._Filtering(*f)
+    got_f.status = "ON"  # still a plain (mutable) slots instance
+    assert got_f.status == "ON"

@@ -203,6 +203,24 @@ def test_update_rows_and_two_are_update(replay_blocks, monkeypatch) -> None:
                 _same_result(U._update_py(st_, ms.stack_measurements(x, y), prm), ref)
 
 
+def test_update_rows_template_cache_follows_the_width(replay_blocks, monkeypatch) -> None:
+    """update_rows()'s last H template (looked up by the layout's identity and n) is
+    h_template's for each width in turn: a state with fix-error states, one without, again
+    with; each update the one of update()."""
+    rows = [a for n, a in replay_blocks if n == "update_rows"]
+    wide = next(a for a in rows if a[0].n > N_NAV)
+    st_, zs, var, layout, prm = wide
+    bare = FilterState(st_.t, st_.x[:N_NAV], st_.P[:N_NAV, :N_NAV])
+    monkeypatch.setattr(U, "_ROWS_LAST", [(None, -1, None)])
+    for s_ in (st_, bare, st_, st_):
+        ref = U.update(s_, ms.rows_measurement(zs, var, layout), prm)
+        _same_result(U.update_rows(s_, zs, var, layout, prm), ref)
+        last = U._ROWS_LAST[0]
+        if s_.n > N_NAV:
+            assert last[0] is layout[1] and last[1] == s_.n
+            assert last[2] is ms.h_template(layout[1], s_.n)
+
+
 def test_update_rows_two_gated_is_update_and_distance(replay_blocks, monkeypatch) -> None:
     """update_rows_two_gated() is update_rows_two() and innovation_distance() of the fix's rows
     (the last), bit for bit, with the kernel (one update_blocks call with its gate, which
