@@ -57,8 +57,8 @@ STAGES = {
                             "engine.systems.decca:_tracked_totals"),
     "LSQ fix + tests": ("compute_fix",),
     "filter (predict, updates)": (
-        "predict_step", "update", "sensor_rows", "depth_sensor_rows", "update_rows",
-        "update_rows_two_gated", "lse_measurement", "stack_measurements",
+        "predict_step", "predict_step_position", "update", "sensor_rows", "depth_sensor_rows",
+        "update_rows", "update_rows_two_gated", "lse_measurement", "stack_measurements",
         "innovation_distance"),
 }
 """Stage → the functions of ``engine.run.cycle`` (as ``step`` calls them) whose time it is."""
