@@ -40,15 +40,7 @@ def predict_step(
     """
     k = _K if _K is not _UNRESOLVED else _kernel()
     if k is not None and dt > 0.0:  # _predict(state, dt, params, True) inline (every cycle)
-        # step_constants(params, dt) and c.fix_decay(state.fix_tau_s): their memos read here
-        c = params._memo.get(dt)
-        if c is None:
-            c = step_constants(params, dt)
-        fd = None
-        if state.fix_states:
-            fd = c.fix.get(state.fix_tau_s)
-            if fd is None:
-                fd = c.fix_decay(state.fix_tau_s)
+        c, fd = _step_memos(state, dt, params)
         # the kernel's x and P (new, read-only) in state._with_frozen(state.t + dt, x, P),
         # made by the kernel too: (new state, Φ)
         r = k.predict(state.x, state.P, c, fd, state.fix_cov, True, state, FilterState,
@@ -68,20 +60,28 @@ def predict_step_position(
     the caller makes it as before."""
     k = _K if _K is not _UNRESOLVED else _kernel()
     if k is not None and dt > 0.0:  # predict_step's kernel call, with the position
-        c = params._memo.get(dt)
-        if c is None:
-            c = step_constants(params, dt)
-        fd = None
-        if state.fix_states:
-            fd = c.fix.get(state.fix_tau_s)
-            if fd is None:
-                fd = c.fix_decay(state.fix_tau_s)
+        c, fd = _step_memos(state, dt, params)
         r = k.predict(state.x, state.P, c, fd, state.fix_cov, True, state, FilterState,
                       state.t + dt, source, packed)
         if r is not None:
             return r  # type: ignore[no-any-return]
     new, phi = _predict(state, dt, params, True)
     return new, phi, None
+
+
+def _step_memos(state: FilterState, dt: float, params: FilterParams) -> tuple[Any, Any]:
+    """The kernel's step constants for Δt s and the fix states' decay (None without fix
+    states): ``step_constants(params, dt)`` and ``c.fix_decay(state.fix_tau_s)``, their memos
+    read first (every cycle)."""
+    c = params._memo.get(dt)
+    if c is None:
+        c = step_constants(params, dt)
+    fd = None
+    if state.fix_states:
+        fd = c.fix.get(state.fix_tau_s)
+        if fd is None:
+            fd = c.fix_decay(state.fix_tau_s)
+    return c, fd
 
 
 def predict(state: FilterState, dt: float, params: FilterParams) -> FilterState:
