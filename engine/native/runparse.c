@@ -11,7 +11,8 @@
  * slot setters (engine.io.runfile._new_record), bound once by bind().
  * Also the cycle's small objects made in one call: make (frozen slots dataclasses), make_attrs
  * (frozen dataclasses with an instance dict: SystemReading, CycleInputs) and prior
- * (engine.run.cycle._provisional's filter part; tests/native/test_runparse_glue.py). */
+ * (engine.run.cycle._provisional's filter part; tests/native/test_runparse_glue.py), and
+ * untrack: a kept cycle result out of the cyclic GC's lists (engine.run.retained). */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
@@ -429,6 +430,122 @@ rp_prior(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     return Py_BuildValue("((NN)N)", xo, yo, made);
 }
 
+/* untrack: the walk over one kept result (a DAG of frozen records and tuples). */
+#define UNTRACK_SEEN 16
+typedef struct {
+    PyObject *kinds;    /* dict: type -> True/False (frozen record or not), filled on demand */
+    PyObject *classify; /* callable(type) -> bool, asked once per type */
+    int depth;
+    int n_seen;         /* the types met in this call and their answers (no dict lookup) */
+    PyTypeObject *seen[UNTRACK_SEEN];
+    int record[UNTRACK_SEEN];
+} untrack_ctx;
+
+/* 1: a frozen record type, 0: not, -1: error (classify failed). */
+static int
+untrack_kind(PyTypeObject *tp, untrack_ctx *c)
+{
+    for (int i = 0; i < c->n_seen; i++)
+        if (c->seen[i] == tp)
+            return c->record[i];
+    PyObject *kind = PyDict_GetItemWithError(c->kinds, (PyObject *)tp);
+    if (kind == NULL) {
+        if (PyErr_Occurred())
+            return -1;
+        kind = PyObject_CallOneArg(c->classify, (PyObject *)tp);
+        if (kind == NULL)
+            return -1;
+        int ok = PyDict_SetItem(c->kinds, (PyObject *)tp, kind);
+        Py_DECREF(kind); /* the dict holds it */
+        if (ok < 0)
+            return -1;
+    }
+    int r = kind == Py_True;
+    if (c->n_seen < UNTRACK_SEEN) {
+        c->seen[c->n_seen] = tp;
+        c->record[c->n_seen++] = r;
+    }
+    return r;
+}
+
+static int untrack_walk(PyObject *o, untrack_ctx *c);
+
+static int
+untrack_visit(PyObject *o, void *arg)
+{
+    return untrack_walk(o, (untrack_ctx *)arg);
+}
+
+/* 0, or -1 with an exception set (the classify callable failed). Objects not tracked are
+ * left alone and not entered: atomic ones, ones CPython untracked (tuples and dicts of
+ * atomic values) and ones a walk untracked before (their children were walked then). */
+static int
+untrack_walk(PyObject *o, untrack_ctx *c)
+{
+    if (!PyObject_IS_GC(o) || !PyObject_GC_IsTracked(o) || c->depth > 64)
+        return 0;
+    if (PyDict_CheckExact(o)) {
+        /* a record's instance dict (or a dict field): its values walked, the dict itself
+         * untracked only when no key or value is tracked any more, CPython's own rule for
+         * dicts (and CPython tracks it again if a container is stored in it later) */
+        Py_ssize_t pos = 0;
+        PyObject *k, *v;
+        int none_tracked = 1;
+        c->depth++;
+        while (PyDict_Next(o, &pos, &k, &v)) {
+            if (untrack_walk(v, c) < 0) {
+                c->depth--;
+                return -1;
+            }
+            if ((PyObject_IS_GC(k) && PyObject_GC_IsTracked(k))
+                || (PyObject_IS_GC(v) && PyObject_GC_IsTracked(v)))
+                none_tracked = 0;
+        }
+        c->depth--;
+        if (none_tracked)
+            PyObject_GC_UnTrack(o);
+        return 0;
+    }
+    if (!PyTuple_CheckExact(o)) {
+        if (PyType_Check(o))
+            return 0; /* a record's class (visited by its traverse) */
+        int kind = untrack_kind(Py_TYPE(o), c);
+        if (kind < 0)
+            return -1;
+        if (kind == 0)
+            return 0; /* a list, a mutable object: stays tracked, not entered */
+    }
+    c->depth++;
+    int r = Py_TYPE(o)->tp_traverse(o, untrack_visit, c);
+    c->depth--;
+    if (r < 0)
+        return -1;
+    PyObject_GC_UnTrack(o);
+    return 0;
+}
+
+PyDoc_STRVAR(untrack_doc,
+"untrack(obj, kinds, classify) -> None\n\n"
+"Take obj and what it holds out of the cyclic garbage collector's lists, depth first: exact\n"
+"tuples, and instances of the types classify(type) calls frozen records (asked once per\n"
+"type, the answer kept in the dict kinds); an exact dict (a record's instance dict) has its\n"
+"values walked and is untracked when none of its keys and values is tracked any more.\n"
+"Anything else it meets (a list, a mutable object, a type) stays tracked and is not entered. Reference counting frees the objects as\n"
+"before; only a reference cycle through them would no longer be found (engine.run.retained).");
+
+static PyObject *
+rp_untrack(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3 || !PyDict_CheckExact(args[1]) || !PyCallable_Check(args[2])) {
+        PyErr_SetString(PyExc_TypeError, "untrack(obj, kinds: dict, classify: callable)");
+        return NULL;
+    }
+    untrack_ctx c = {args[1], args[2], 0, 0, {NULL}, {0}};
+    if (untrack_walk(args[0], &c) < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef rp_methods[] = {
     {"make", (PyCFunction)(void (*)(void))rp_make, METH_FASTCALL, make_doc},
     {"prior", (PyCFunction)(void (*)(void))rp_prior, METH_FASTCALL, prior_doc},
@@ -437,6 +554,7 @@ static PyMethodDef rp_methods[] = {
     {"bind", (PyCFunction)(void (*)(void))rp_bind, METH_FASTCALL,
      "bind(cls, setters, tzinfo): the RunRecord class, its 17 slot descriptors, UTC."},
     {"record", (PyCFunction)(void (*)(void))rp_record, METH_FASTCALL, record_doc},
+    {"untrack", (PyCFunction)(void (*)(void))rp_untrack, METH_FASTCALL, untrack_doc},
     {NULL, NULL, 0, NULL},
 };
 

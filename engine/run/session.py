@@ -65,6 +65,7 @@ from engine.run.cycle import (
     step,
 )
 from engine.run.records import cycle_block, cycle_json, cycle_text, cycle_writer
+from engine.run.retained import UNTRACK_MIN_HISTORY, untrack
 from engine.run.setup import (
     CHAIN_FILE,
     DATUM_FILE,
@@ -179,6 +180,9 @@ class Session:
         self.context: RunContext = build_context(config, self.datums, self.chains)
         self.nav: NavState = initial_state(config)
         self.history: deque[CycleResult] = deque(maxlen=max(1, history))
+        self._untrack = untrack if history >= UNTRACK_MIN_HISTORY else None
+        """Kept results off the cyclic collector's lists (engine.run.retained) where they are
+        kept long enough for it to pay."""
         self.bad_records: list[BadRecord] = []
         """The first :data:`BAD_RECORDS_KEPT` bad records (all of them are ``BAD`` lines of the
         ``.OUT`` log; :attr:`skipped_records` counts them all): memory stays bounded."""
@@ -361,6 +365,8 @@ class Session:
         if self._smoother is not None and nav.filter is not None:
             self._collect_smoother(nav, result)
         self.nav = nav
+        if self._untrack is not None:  # kept for `history` cycles: off the cyclic GC's lists
+            self._untrack(result)
         self.history.append(result)
         # The counts, with cycle_counts(result) summed into self._counts written out (each
         # added only where it is not 0, as the loop over cycle_counts did).

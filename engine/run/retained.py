@@ -1,0 +1,73 @@
+"""The cycle results a session keeps, out of the cyclic garbage collector's lists.
+
+A session keeps its last :data:`~engine.run.session.Session` ``history`` cycles (3600 by
+default: the console's pages and plots, the replay's summary). Each
+:class:`~engine.run.cycle.CycleResult` is a tree of about 45 frozen records and tuples (the
+fix, its tests and ellipses, the filter's states and updates), so a session holds some 150,000
+objects that CPython's cyclic collector walks again and again: each once when young, again
+when promoted, and all of them at every full collection. On the demo that walking cost about
+45 µs of the ~400 µs an epoch took (callbacks of :data:`gc.callbacks`, 5000 epochs), about 7 %
+of the instructions and more of the time (docs/PERFORMANCE.md, "The garbage collector").
+
+These objects cannot be part of a reference cycle: a frozen record gets its fields when it is
+made and never again, so nothing it holds can refer back to it unless a *mutable* object on
+the way is changed later, and the walk below does not enter mutable objects. Reference
+counting frees them as before; the collector just stops looking at them. :func:`untrack`
+takes a kept result and everything frozen under it off the collector's lists, in one compiled
+call (``engine.native.runparse.untrack``; ~2 µs an epoch). Without the kernel
+(``UVNAV_PURE=1``, no build) it does nothing: the pure path is the reference, not the fast
+one, and the results are the same either way.
+
+What is entered: exact tuples, and instances of frozen dataclasses (:func:`is_frozen_record`).
+What stops the walk and stays tracked: everything else (lists, dicts, the run context,
+numpy arrays are not tracked at all). ``tests/run/test_retained.py`` checks both, and that a
+session's objects are all freed once it is dropped (no cycle was hidden).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+from engine import native
+
+UNTRACK_MIN_HISTORY = 100
+"""A session untracks its results only when it keeps at least this many cycles. The walk costs
+about as many instructions as the collector's work it saves (~35 k an epoch on the demo); it
+pays because the collector's work is cache misses over the whole history (a full collection
+of a 3600-cycle history: ~80 ms) and the walk's is not. A result kept for fewer cycles is seen
+by a few young collections at most (one every ~25 demo cycles) and never by a full one: there
+the walk would only cost (the replay keeps 1, ``uvnav replay``; the console 3600)."""
+
+
+def is_frozen_record(tp: type) -> bool:
+    """True for a frozen dataclass (its instances never change after ``__init__``): the types
+    :func:`untrack` enters and takes off the collector's lists."""
+    params = getattr(tp, "__dataclass_params__", None)
+    return isinstance(tp, type) and dataclasses.is_dataclass(tp) and bool(
+        getattr(params, "frozen", False))
+
+
+def _untracker() -> Callable[[Any], None] | None:
+    """``runparse.untrack`` bound to a cache of each type's :func:`is_frozen_record` answer, or
+    None (no kernel)."""
+    kernel = native.kernel("runparse")
+    walk = getattr(kernel, "untrack", None)
+    if walk is None:
+        return None
+    kinds: dict[type, bool] = {}
+
+    def untrack(obj: Any) -> None:
+        walk(obj, kinds, is_frozen_record)
+
+    return untrack
+
+
+def _no_untrack(obj: Any) -> None:
+    """The pure path: the collector keeps tracking ``obj`` (same results, more GC work)."""
+
+
+untrack: Callable[[Any], None] = _untracker() or _no_untrack
+"""``untrack(result)``: ``result`` and the frozen records and tuples under it off the cyclic
+collector's lists (compiled), or nothing on the pure path."""
