@@ -412,7 +412,9 @@ def _tail_calls(replay: dict[str, list[Any]]) -> list[tuple[Any, ...]]:
 
 
 def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
-    """fix._tail_py on what ``tail`` was given (``a``: its arguments)."""
+    """fix._tail_py on what ``tail`` was given (``a``: its arguments), all in Python: its
+    table would take the compiled ``lop_rows`` (the one ``tail`` calls), made to decline
+    here so that the table is fix._lop_rows_py's."""
     import types
 
     from engine.systems import registry
@@ -421,7 +423,10 @@ def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
     assert k == fix.w_critical(alpha) and bound == fix.REJECT_BOUND
     adj = types.SimpleNamespace(stats_block=stats, v=v, used=used_arr, cov_x_apriori=None)
     problem = types.SimpleNamespace(sets=sets, spans=spans, layout=registry.layout())
-    return fix._tail_py(adj, problem, p_hat, used, check, l1, alpha)  # type: ignore[arg-type]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(K, "lop_rows", lambda *a: None)
+        return fix._tail_py(adj, problem, p_hat, used, check, l1,  # type: ignore[arg-type]
+                            alpha)
 
 
 @needs_kernel
