@@ -34,7 +34,7 @@ from engine import native
 from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, MAX_AXIS_RATIO, gauss_newton
 from engine.lsq.fix import LopRow
-from tests.native.replay import replay as replay_demo
+from tests.native.replay import replay_patched
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -77,7 +77,6 @@ def replay() -> dict[str, list[Any]]:
     import engine.run.cycle as cyc
 
     rec: dict[str, list[Any]] = {"calls": [], "models": []}
-    mp = pytest.MonkeyPatch()
     compute, model_cls = cyc.compute_fix, fix._Model
 
     def record(*a: Any, **k: Any) -> Any:
@@ -89,12 +88,7 @@ def replay() -> dict[str, list[Any]]:
             super().__init__(*a, **k)
             rec["models"].append(self)
 
-    mp.setattr(cyc, "compute_fix", record)
-    mp.setattr(fix, "_Model", Model)
-    try:
-        replay_demo(200)
-    finally:
-        mp.undo()
+    replay_patched([(cyc, "compute_fix", record), (fix, "_Model", Model)], 200)
     return rec
 
 
