@@ -395,12 +395,14 @@ def update_rows_two_gated(state: FilterState, zs: list[float], var: list[float],
     return result, innovation_distance(result, slice(len(zs), None))
 
 
-_TWO_LAST: list[tuple[object, ...] | None] = [None]
-"""The last plan of :func:`_update_two`, one tuple (replaced whole): its key (a's columns,
-labels, angle rows and H width, b's columns, fix-error keys, labels and angle rows, the state's
-fix-error states, compared by identity; the number of states), then H, the stacked angle rows
-and labels and whether b's keys are the state's fix-error states. The cycle passes the same
-objects every time, so these are looked up and stacked once."""
+_TWO_LAST: list[tuple[tuple[object, ...], tuple[object, ...]] | None] = [None]
+"""The last plan of :func:`_update_two`, (key, plan), replaced whole: the key is what the plan
+is made of (a's columns, labels, angle rows and H width, b's columns, fix-error keys, labels
+and angle rows, the state's fix-error states, the number of states; tuples and ints), the plan
+H, the stacked angle rows and labels and whether b's keys are the state's fix-error states.
+The cycle passes the same objects every time, so the keys' tuple comparison is ten identity
+checks in C and the plan is looked up and stacked once (equal but new objects: the same
+plan, also kept)."""
 
 
 def _update_two(state: FilterState, block_a: tuple[object, object],
@@ -420,11 +422,10 @@ def _update_two(state: FilterState, block_a: tuple[object, object],
     fs = state.fix_states
     lb = b.labels
     ab = b.angle_rows
+    key = (cols_a, labels_a, angle_a, width_a, cb, bk, lb, ab, fs, n)
     lk = _TWO_LAST[0]
-    if lk is not None and lk[0] is cols_a and lk[1] is labels_a and lk[2] is angle_a and \
-            lk[3] == width_a and lk[4] is cb and lk[5] is bk and lk[6] is lb and lk[7] is ab and \
-            lk[8] is fs and lk[9] == n:
-        H, angle, labels, keys_ok = lk[10:]
+    if lk is not None and lk[0] == key:
+        H, angle, labels, keys_ok = lk[1]
     else:
         H = None
         keys_ok = False
@@ -443,8 +444,7 @@ def _update_two(state: FilterState, block_a: tuple[object, object],
         if ab:
             angle += tuple(ka + i for i in ab)
         labels = tuple(labels_a) + tuple(lb)
-        _TWO_LAST[0] = (cols_a, labels_a, angle_a, width_a, cb, bk, lb, ab, fs, n, H, angle,
-                        labels, keys_ok)
+        _TWO_LAST[0] = (key, (H, angle, labels, keys_ok))
     if bk:
         cov = b.bias_cov
         # _stack_two's prior (b's leading m×m block; here all of it) and _with_bias_columns

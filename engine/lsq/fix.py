@@ -527,17 +527,15 @@ def _at_estimate(
         else:
             raw = None
             check = True
-        # the check and the table in one compiled call (_tail_py); None: the Python below
+        # the check and the table in one compiled call; None: its twin _tail_py (a string:
+        # beyond the linear range, the reason)
         lops = None if k is None or _ROW_MAKER[0] is not k else k.tail(
             problem.sets, problem.spans, p_hat, used, check, l1, adj.stats_block, adj.v,
             adj.used, w_critical(alpha), REJECT_BOUND)
         if lops is None:
-            if check:
-                reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout,
-                                              l1)
-                if reason is not None:
-                    return _no_fix(grid, x0, reason, adj.n_used, tested, messages)
-            lops = _lop_rows(adj, problem.sets, p_hat, alpha, used, problem.layout)
+            lops = _tail_py(adj, problem, p_hat, used, check, l1, alpha)
+            if type(lops) is str:
+                return _no_fix(grid, x0, lops, adj.n_used, tested, messages)
     except EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
                        tested, messages)
@@ -650,16 +648,16 @@ def _no_fix(
 
 def _tail_py(adj: Adjustment, problem: _Problem, p_hat: Point, used: list[bool],
              check: bool, l1: float | None, alpha: float) -> tuple[LopRow, ...] | str:
-    """The compiled ``tail``'s twin: with ``check``, :func:`_beyond_linear_range`'s reason
-    (returned as the string) when there is one; then :func:`_lop_rows_py` of the systems'
-    readings at ``p_hat`` as a tuple."""
+    """The compiled ``tail``'s twin, and :func:`_at_estimate`'s own where ``tail`` declines:
+    with ``check``, :func:`_beyond_linear_range`'s reason (returned as the string) when there
+    is one; then :func:`_lop_rows` of the systems' readings at ``p_hat`` as a tuple (the
+    compiled ``lop_rows`` where the kernel takes it, e.g. a check without ``l1`` (ScaleVCV),
+    which ``tail`` declines; else :func:`_lop_rows_py`)."""
     if check:
         reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
         if reason is not None:
             return reason
-    groups = [(problem.spans[name][0], obs.readings(p_hat))
-              for name, obs in problem.sets.items()]
-    return tuple(_lop_rows_py(adj, groups, alpha, used, _row_maker()))
+    return tuple(_lop_rows(adj, problem.sets, p_hat, alpha, used, problem.layout))
 
 
 def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
+
+import pytest
 
 from engine.run.config import load_config
 from engine.run.session import Session
@@ -22,3 +25,16 @@ def replay(max_cycles: int | None = 200, config: Path = DATA / "DEMO.toml",
         finally:
             session.close()
     return session
+
+
+def replay_patched(patches: Iterable[tuple[object, str, object]],
+                   max_cycles: int | None = 200, config: Path = DATA / "DEMO.toml",
+                   history: int = 1) -> Session:
+    """:func:`replay` with each ``(target, name, value)`` of ``patches`` set by pytest's
+    ``MonkeyPatch.setattr`` (in order) while it runs, all undone after however it ends: how the
+    module-scoped fixtures record what a real run hands to a kernel (the function-scoped
+    ``monkeypatch`` fixture is not theirs to use)."""
+    with pytest.MonkeyPatch.context() as mp:
+        for target, name, value in patches:
+            mp.setattr(target, name, value)
+        return replay(max_cycles, config, history)

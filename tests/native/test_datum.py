@@ -25,7 +25,7 @@ from engine import native
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import PJ_FWD, DatumShift
 from engine.io.datumfile import read_datum_file
-from tests.native.replay import replay
+from tests.native.replay import replay_patched
 from tests.paths import DATA
 
 KERNEL = native.kernel("datum")
@@ -130,12 +130,7 @@ def replayed() -> list[tuple[DatumShift, Any, tuple[Any, ...]]]:
 
         self._point = record
 
-    mp = pytest.MonkeyPatch()
-    mp.setattr(DatumShift, "__init__", init)
-    try:
-        replay(150)
-    finally:
-        mp.undo()
+    replay_patched([(DatumShift, "__init__", init)], 150)
     return seen
 
 

@@ -28,7 +28,7 @@ from engine.geodesy.tmgrid import TMGrid
 from engine.io.datumfile import read_datum_file
 from engine.io.deccafile import read_chain_file
 from engine.systems.base import Point
-from tests.native.replay import replay
+from tests.native.replay import replay_patched
 from tests.paths import DATA
 
 K = native.kernel("decca")
@@ -106,18 +106,11 @@ def replay_values() -> dict[str, list[Any]]:
         got["lanes"].append((self.placed, src))
         return orig_lanes(self, src)
 
-    orig_tracked = decca._tracked_totals
-    decca.DeccaObservations.linearise = lin  # type: ignore[method-assign]
-    decca._LaneAt._lanes = lanes  # type: ignore[method-assign]
-    decca.decca_totals = totals
-    decca._tracked_totals = lambda *a: None  # every record through decca_totals, recorded
-    try:
-        replay(120)
-    finally:
-        decca.DeccaObservations.linearise = orig_lin  # type: ignore[method-assign]
-        decca._LaneAt._lanes = orig_lanes  # type: ignore[method-assign]
-        decca.decca_totals = orig_totals
-        decca._tracked_totals = orig_tracked
+    replay_patched([(decca.DeccaObservations, "linearise", lin),
+                    (decca._LaneAt, "_lanes", lanes),
+                    (decca, "decca_totals", totals),
+                    # every record through decca_totals, recorded
+                    (decca, "_tracked_totals", lambda *a: None)], 120)
     assert len(got["lin"]) > 100 and len(got["lanes"]) > 100
     return got
 

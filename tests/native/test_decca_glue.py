@@ -221,7 +221,7 @@ def _cell(v: object) -> object:
 def test_page_and_nearest_on_the_replay() -> None:
     """Every Decca fix of 120 demo epochs: the kernel's page rows and nearest station are the
     Python's, bit for bit (and the kernel is what ran)."""
-    from tests.native.replay import replay
+    from tests.native.replay import replay_patched
 
     # the fix calls nearest_station_m(p_hat, used[start:stop]) and readings(p_hat) of each set at
     # its estimate (in Python, or from the lsq kernel's tail/estimate through the methods)
@@ -232,11 +232,7 @@ def test_page_and_nearest_on_the_replay() -> None:
         seen.append((self, p_hat, list(used)))
         return orig(self, p_hat, used)
 
-    decca.DeccaObservations.nearest_station_m = spy  # type: ignore[method-assign]
-    try:
-        replay(120)
-    finally:
-        decca.DeccaObservations.nearest_station_m = orig  # type: ignore[method-assign]
+    replay_patched([(decca.DeccaObservations, "nearest_station_m", spy)], 120)
     assert len(seen) > 100 and decca._PAGE is not None and decca._NEAREST is not None
     for obs, p, used in seen:
         fast, pure = _page_both(obs, p)

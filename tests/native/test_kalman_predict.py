@@ -18,7 +18,7 @@ from engine import native
 from engine.filter.measurements import Measurement
 from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState
-from tests.native.replay import replay
+from tests.native.replay import replay_patched
 from tests.paths import DATA
 
 KERNEL = pr._kernel()
@@ -56,14 +56,9 @@ def replay_steps() -> list[tuple[FilterState, float, FilterParams]]:
         steps.append((state, dt, params))  # the cycle's prediction with its estimate
         return real_pos(state, dt, params, source, packed)
 
-    mp = pytest.MonkeyPatch()
-    mp.setattr(cycle_mod, "predict_step", recording)
-    mp.setattr(cycle_mod, "predict_step_position", recording_pos)
-    try:
-        for name, n in (("DEMO.toml", 200), ("920917_1.toml", None)):
-            replay(n, DATA / name)
-    finally:
-        mp.undo()
+    for name, n in (("DEMO.toml", 200), ("920917_1.toml", None)):
+        replay_patched([(cycle_mod, "predict_step", recording),
+                        (cycle_mod, "predict_step_position", recording_pos)], n, DATA / name)
     return steps
 
 
@@ -242,7 +237,7 @@ def _same_meas(a: Measurement, b: Measurement) -> None:
 def replay_rows() -> list[tuple[str, tuple, dict]]:
     """(function name, args, kwargs) of the measurement builders over 200 demo epochs."""
     calls: list[tuple[str, tuple, dict]] = []
-    mp = pytest.MonkeyPatch()
+    patches: list[tuple[object, str, object]] = []
     for name in ("stack_measurements", "lse_measurement"):
         real = getattr(cycle_mod, name)
 
@@ -250,7 +245,7 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
             calls.append((_name, a, k))
             return _real(*a, **k)
 
-        mp.setattr(cycle_mod, name, recording)
+        patches.append((cycle_mod, name, recording))
     real_rows, real_two = cycle_mod.sensor_rows, cycle_mod.update_rows_two_gated
 
     def rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params, log_sigma_ms=None,
@@ -266,14 +261,11 @@ def replay_rows() -> list[tuple[str, tuple, dict]]:
         calls.append(("stack_measurements", (ms.rows_measurement(zs, var, layout), b), {}))
         return real_two(state, zs, var, layout, b, params)
 
-    mp.setattr(cycle_mod, "sensor_rows", rows)
-    mp.setattr(cycle_mod, "depth_sensor_rows", lambda depth_m, params: rows(
-        depth_m, None, None, None, params))
-    mp.setattr(cycle_mod, "update_rows_two_gated", two)
-    try:
-        replay(200)
-    finally:
-        mp.undo()
+    patches += [(cycle_mod, "sensor_rows", rows),
+                (cycle_mod, "depth_sensor_rows", lambda depth_m, params: rows(
+                    depth_m, None, None, None, params)),
+                (cycle_mod, "update_rows_two_gated", two)]
+    replay_patched(patches, 200)
     return calls
 
 

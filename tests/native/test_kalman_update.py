@@ -28,7 +28,7 @@ from engine.filter import measurements as ms
 from engine.filter.measurements import Measurement, _measurement
 from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState, add_fix_states
-from tests.native.replay import replay
+from tests.native.replay import replay_patched
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -93,7 +93,6 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
     """The (state, rows, params) of every update of the first 200 demo epochs."""
 
     seen: list[tuple[FilterState, Measurement, FilterParams]] = []
-    mp = pytest.MonkeyPatch()
 
     def record(state: FilterState, rows: Measurement, params: FilterParams) -> U.UpdateResult:
         seen.append((state, rows, params))
@@ -107,14 +106,10 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
         r = record(state, ms.stack_measurements(ms.rows_measurement(zs, var, layout), b), params)
         return r, U.innovation_distance(r, slice(len(zs), None))
 
-    mp.setattr(cycle_mod, "update", record)
-    mp.setattr(cycle_mod, "update_rows", lambda state, zs, var, layout, params: record(
-        state, ms.rows_measurement(zs, var, layout), params))
-    mp.setattr(cycle_mod, "update_rows_two_gated", gated)
-    try:
-        replay(200)
-    finally:
-        mp.undo()
+    replay_patched([(cycle_mod, "update", record),
+                    (cycle_mod, "update_rows", lambda state, zs, var, layout, params: record(
+                        state, ms.rows_measurement(zs, var, layout), params)),
+                    (cycle_mod, "update_rows_two_gated", gated)], 200)
     assert len(seen) > 300
     return seen
 
@@ -125,7 +120,7 @@ def replay_blocks() -> list[tuple[str, tuple[object, ...]]]:
     update_rows_two, whose arguments they are) of the first 100 demo epochs, and of
     update_two() of the same rows as a Measurement."""
     seen: list[tuple[str, tuple[object, ...]]] = []
-    mp = pytest.MonkeyPatch()
+    patches: list[tuple[object, str, object]] = []
     for name, as_name in (("update_rows", "update_rows"),
                           ("update_rows_two_gated", "update_rows_two")):
         real = getattr(U, name)
@@ -134,11 +129,8 @@ def replay_blocks() -> list[tuple[str, tuple[object, ...]]]:
             seen.append((_name, a))
             return _real(*a)
 
-        mp.setattr(cycle_mod, name, recording)
-    try:
-        replay(100)
-    finally:
-        mp.undo()
+        patches.append((cycle_mod, name, recording))
+    replay_patched(patches, 100)
     assert {n for n, _ in seen} == {"update_rows", "update_rows_two"}
     seen += [("update_two", (a[0], ms.rows_measurement(*a[1:4]), *a[4:]))
              for n, a in list(seen) if n == "update_rows_two"]

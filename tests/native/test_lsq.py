@@ -28,7 +28,7 @@ from engine import native
 from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
 from engine.lsq.statistics import delta0
-from tests.native.replay import replay
+from tests.native.replay import replay_patched
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -123,7 +123,6 @@ def recorded() -> dict[str, list[Any]]:
     while recording, so each is recorded as the Python saw it)."""
 
     rec: dict[str, list[Any]] = {"step": [], "finish": [], "ellipse": []}
-    mp = pytest.MonkeyPatch()
     evaluate, adjustment, ellipse = adj._evaluate, adj._adjustment_py, conf._error_ellipse_py
 
     def ev(lin: Any, run: adj._Run, sq: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -139,16 +138,13 @@ def recorded() -> dict[str, list[Any]]:
         rec["ellipse"].append(np.array(c2))
         return ellipse(c2)
 
-    mp.setattr(_kernel, "kernel", lambda: None)
-    # The filter estimate's ellipse too (its compiled PositionEstimate calls the ellipse in C).
-    mp.setattr(cycle, "_POSITION_K", None)
-    mp.setattr(adj, "_evaluate", ev)
-    mp.setattr(adj, "_adjustment_py", fin)
-    mp.setattr(conf, "_error_ellipse_py", ell)
-    try:
-        replay(200)
-    finally:
-        mp.undo()
+    replay_patched([(_kernel, "kernel", lambda: None),
+                    # the filter estimate's ellipse too (its compiled PositionEstimate calls
+                    # the ellipse in C)
+                    (cycle, "_POSITION_K", None),
+                    (adj, "_evaluate", ev),
+                    (adj, "_adjustment_py", fin),
+                    (conf, "_error_ellipse_py", ell)], 200)
     return rec
 
 

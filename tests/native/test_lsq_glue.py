@@ -34,7 +34,7 @@ from engine import native
 from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, MAX_AXIS_RATIO, gauss_newton
 from engine.lsq.fix import LopRow
-from tests.native.replay import replay as replay_demo
+from tests.native.replay import replay_patched
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -77,7 +77,6 @@ def replay() -> dict[str, list[Any]]:
     import engine.run.cycle as cyc
 
     rec: dict[str, list[Any]] = {"calls": [], "models": []}
-    mp = pytest.MonkeyPatch()
     compute, model_cls = cyc.compute_fix, fix._Model
 
     def record(*a: Any, **k: Any) -> Any:
@@ -89,12 +88,7 @@ def replay() -> dict[str, list[Any]]:
             super().__init__(*a, **k)
             rec["models"].append(self)
 
-    mp.setattr(cyc, "compute_fix", record)
-    mp.setattr(fix, "_Model", Model)
-    try:
-        replay_demo(200)
-    finally:
-        mp.undo()
+    replay_patched([(cyc, "compute_fix", record), (fix, "_Model", Model)], 200)
     return rec
 
 
@@ -412,7 +406,9 @@ def _tail_calls(replay: dict[str, list[Any]]) -> list[tuple[Any, ...]]:
 
 
 def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
-    """fix._tail_py on what ``tail`` was given (``a``: its arguments)."""
+    """fix._tail_py on what ``tail`` was given (``a``: its arguments), all in Python: its
+    table would take the compiled ``lop_rows`` (the one ``tail`` calls), made to decline
+    here so that the table is fix._lop_rows_py's."""
     import types
 
     from engine.systems import registry
@@ -421,7 +417,10 @@ def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
     assert k == fix.w_critical(alpha) and bound == fix.REJECT_BOUND
     adj = types.SimpleNamespace(stats_block=stats, v=v, used=used_arr, cov_x_apriori=None)
     problem = types.SimpleNamespace(sets=sets, spans=spans, layout=registry.layout())
-    return fix._tail_py(adj, problem, p_hat, used, check, l1, alpha)  # type: ignore[arg-type]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(K, "lop_rows", lambda *a: None)
+        return fix._tail_py(adj, problem, p_hat, used, check, l1,  # type: ignore[arg-type]
+                            alpha)
 
 
 @needs_kernel

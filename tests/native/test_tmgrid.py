@@ -32,7 +32,7 @@ from engine.geodesy.ellipsoid import WGS84_ELLIPSOID, Ellipsoid
 from engine.geodesy.ellipsoidal import datum_shift
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.datumfile import read_datum_file
-from tests.native.replay import replay
+from tests.native.replay import replay_patched
 from tests.paths import DATA, ROOT
 
 KERNEL = tmgrid._K
@@ -87,16 +87,10 @@ def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
             return originals[name](self, a, b)
         return record
 
-    mp = pytest.MonkeyPatch()
-    for name in calls:
-        mp.setattr(TMGrid, name, recorder(name))
     # The GPS input through its Python, whose grid.forward is recorded here (the kernel's
     # gps_input does the forward itself: test_gps_input_* below).
-    mp.setattr(gps, "gps_input", gps._gps_input_py)
-    try:
-        replay(200)
-    finally:
-        mp.undo()
+    replay_patched([*((TMGrid, name, recorder(name)) for name in calls),
+                    (gps, "gps_input", gps._gps_input_py)], 200)
     return calls
 
 
@@ -244,12 +238,7 @@ def gps_inputs() -> list[Any]:
         seen.append(inputs)
         return real(inputs)
 
-    mp = pytest.MonkeyPatch()
-    mp.setattr(gps, "gps_input", record)
-    try:
-        replay(150)
-    finally:
-        mp.undo()
+    replay_patched([(gps, "gps_input", record)], 150)
     return seen
 
 
