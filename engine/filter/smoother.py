@@ -150,12 +150,18 @@ def _fix_meta(names: object, taus: object) -> bytes | None:
                      struct.pack(f"<{j}d", *taus)])
 
 
-_meta_memo: list[tuple[object, object, bytes]] = [(object(), object(), b"")]
-"""The last (fix_states, fix_tau_s, their encoding), one tuple swapped whole: a run's states
-share the same two tuples (the memo's references keep their ids from being reused)."""
+MetaMemo = list[tuple[object, object, bytes]]
+"""One slot: the last (fix_states, fix_tau_s, their encoding), swapped whole. A run's states
+share the same two tuples (the memo's references keep their ids from being reused); each
+:class:`SmootherSpill` has its own."""
 
 
-def _encode_state(fs: object, parts: list[bytes]) -> bool:
+def new_meta_memo() -> MetaMemo:
+    """An empty :data:`MetaMemo` (matches no state)."""
+    return [(object(), object(), b"")]
+
+
+def _encode_state(fs: object, parts: list[bytes], memo: MetaMemo) -> bool:
     """Append ``fs``'s raw encoding to ``parts``; False when it needs pickle (anything but a
     FilterState of an exact float t, str names, float τ and float64 arrays, x 1-D, P n×n)."""
     if type(fs) is not FilterState:
@@ -168,25 +174,27 @@ def _encode_state(fs: object, parts: list[bytes]) -> bool:
     if P.shape != (n, n):
         return False
     names, taus = fs.fix_states, fs.fix_tau_s
-    memo_names, memo_taus, meta = _meta_memo[0]
+    memo_names, memo_taus, meta = memo[0]
     if names is not memo_names or taus is not memo_taus:
         new = _fix_meta(names, taus)
         if new is None:
             return False
         meta = new
-        _meta_memo[0] = (names, taus, meta)
+        memo[0] = (names, taus, meta)
     r, c = C.shape
     parts += (_STATE.pack(t, n, r, c), meta,  # type: ignore[list-item]
               x.tobytes(), P.tobytes(), C.tobytes())
     return True
 
 
-def _encode(item: tuple[SmootherRecord, Frame]) -> bytes:
+def _encode(item: tuple[SmootherRecord, Frame], memo: MetaMemo | None = None) -> bytes:
     """One spilled record: tag _TAG_RAW and the raw encoding (class doc), or tag _TAG_PICKLE
     and the pickle of (record, frame) for anything the raw encoding does not cover."""
     rec, frame = item
     if type(rec) is not SmootherRecord:
         return _pickled(item)
+    if memo is None:
+        memo = new_meta_memo()
     if type(frame) is float:
         flags = _HAS_FRAME
     elif frame is None:
@@ -199,9 +207,9 @@ def _encode(item: tuple[SmootherRecord, Frame]) -> bytes:
     if phi is not None:
         flags |= _HAS_PHI
     parts = [_HEAD.pack(_TAG_RAW, flags, frame)]
-    if not _encode_state(rec.filtered, parts):
+    if not _encode_state(rec.filtered, parts, memo):
         return _pickled(item)
-    if pred is not None and not _encode_state(pred, parts):
+    if pred is not None and not _encode_state(pred, parts, memo):
         return _pickled(item)
     if phi is not None:
         if type(phi) is not np.ndarray or phi.dtype != _F8 or phi.ndim != 2:
@@ -290,6 +298,7 @@ class SmootherSpill:
         self._fh: IO[bytes] | None = None
         self._on_disk = 0
         self._at_end = True  # the file position is at its end (appends need no seek)
+        self._memo = new_meta_memo()  # the run's fix-state names and taus, encoded once
         self._last: tuple[SmootherRecord, Frame] | None = None
 
     def __len__(self) -> int:
@@ -313,7 +322,7 @@ class SmootherSpill:
             if not self._at_end:
                 fh.seek(0, os.SEEK_END)
                 self._at_end = True
-            blob = _encode(self._last)
+            blob = _encode(self._last, self._memo)
             fh.write(blob)
             fh.write(_LEN.pack(len(blob)))
             self._on_disk += 1

@@ -452,8 +452,8 @@ def test_session_smoothing_is_identical_with_the_pickle_spill(monkeypatch) -> No
 
     tags: set[int] = set()
 
-    def encode(item: tuple[SmootherRecord, object]) -> bytes:
-        blob = encode_raw(item)
+    def encode(item: tuple[SmootherRecord, object], memo: sm.MetaMemo | None = None) -> bytes:
+        blob = encode_raw(item, memo)
         tags.add(blob[0])
         return blob
 
@@ -463,7 +463,7 @@ def test_session_smoothing_is_identical_with_the_pickle_spill(monkeypatch) -> No
         raw = smoothed()
     assert tags == {sm._TAG_RAW}  # every demo record takes the raw encoding
     with monkeypatch.context() as m:
-        m.setattr(sm, "_encode", sm._pickled)
+        m.setattr(sm, "_encode", lambda item, memo=None: sm._pickled(item))
         pickled = smoothed()
     assert len(raw) == len(pickled) == 600
     for a, b in zip(raw, pickled, strict=True):
