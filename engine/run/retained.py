@@ -1,7 +1,7 @@
 """The cycle results a session keeps, out of the cyclic garbage collector's lists.
 
-A session keeps its last :data:`~engine.run.session.Session` ``history`` cycles (3600 by
-default: the console's pages and plots, the replay's summary). Each
+A session keeps its last ``history`` cycles (``Session(history=...)``, 3600 by default: the
+console's pages and plots). Each
 :class:`~engine.run.cycle.CycleResult` is a tree of about 45 frozen records and tuples (the
 fix, its tests and ellipses, the filter's states and updates), so a session holds some 150,000
 objects that CPython's cyclic collector walks again and again: each once when young, again
@@ -14,12 +14,15 @@ made and never again, so nothing it holds can refer back to it unless a *mutable
 the way is changed later, and the walk below does not enter mutable objects. Reference
 counting frees them as before; the collector just stops looking at them. :func:`untrack`
 takes a kept result and everything frozen under it off the collector's lists, in one compiled
-call (``engine.native.runparse.untrack``; ~2 µs an epoch). Without the kernel
-(``UVNAV_PURE=1``, no build) it does nothing: the pure path is the reference, not the fast
-one, and the results are the same either way.
+call (``engine.native.runparse.untrack``; ~35 k instructions, a few µs, an epoch). Without
+the kernel (``UVNAV_PURE=1``, no build) it does nothing: the pure path is the reference, not
+the fast one, and the results are the same either way.
 
-What is entered: exact tuples, and instances of frozen dataclasses (:func:`is_frozen_record`).
-What stops the walk and stays tracked: everything else (lists, dicts, the run context,
+What is entered: exact tuples and instances of frozen dataclasses (:func:`is_frozen_record`),
+both then untracked; and exact dicts (a record's instance dict), whose values are walked and
+which are untracked only when none of their keys and values is tracked any more (CPython's own
+rule for dicts; CPython tracks such a dict again when a container is stored in it). What stops
+the walk and stays tracked: everything else (lists, the run context, other mutable objects;
 numpy arrays are not tracked at all). ``tests/run/test_retained.py`` checks both, and that a
 session's objects are all freed once it is dropped (no cycle was hidden).
 """
