@@ -431,23 +431,16 @@ rp_prior(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 }
 
 /* untrack: the walk over one kept result (a DAG of frozen records and tuples). */
-#define UNTRACK_SEEN 16
 typedef struct {
     PyObject *kinds;    /* dict: type -> True/False (frozen record or not), filled on demand */
     PyObject *classify; /* callable(type) -> bool, asked once per type */
     int depth;
-    int n_seen;         /* the types met in this call and their answers (no dict lookup) */
-    PyTypeObject *seen[UNTRACK_SEEN];
-    int record[UNTRACK_SEEN];
 } untrack_ctx;
 
 /* 1: a frozen record type, 0: not, -1: error (classify failed). */
 static int
 untrack_kind(PyTypeObject *tp, untrack_ctx *c)
 {
-    for (int i = 0; i < c->n_seen; i++)
-        if (c->seen[i] == tp)
-            return c->record[i];
     PyObject *kind = PyDict_GetItemWithError(c->kinds, (PyObject *)tp);
     if (kind == NULL) {
         if (PyErr_Occurred())
@@ -460,12 +453,14 @@ untrack_kind(PyTypeObject *tp, untrack_ctx *c)
         if (ok < 0)
             return -1;
     }
-    int r = kind == Py_True;
-    if (c->n_seen < UNTRACK_SEEN) {
-        c->seen[c->n_seen] = tp;
-        c->record[c->n_seen++] = r;
-    }
-    return r;
+    return kind == Py_True;
+}
+
+/* The collector tracks o. */
+static int
+gc_tracked(PyObject *o)
+{
+    return PyObject_IS_GC(o) && PyObject_GC_IsTracked(o);
 }
 
 static int untrack_walk(PyObject *o, untrack_ctx *c);
@@ -482,7 +477,7 @@ untrack_visit(PyObject *o, void *arg)
 static int
 untrack_walk(PyObject *o, untrack_ctx *c)
 {
-    if (!PyObject_IS_GC(o) || !PyObject_GC_IsTracked(o) || c->depth > 64)
+    if (!gc_tracked(o) || c->depth > 64)
         return 0;
     if (PyDict_CheckExact(o)) {
         /* a record's instance dict (or a dict field): its values walked, the dict itself
@@ -497,8 +492,7 @@ untrack_walk(PyObject *o, untrack_ctx *c)
                 c->depth--;
                 return -1;
             }
-            if ((PyObject_IS_GC(k) && PyObject_GC_IsTracked(k))
-                || (PyObject_IS_GC(v) && PyObject_GC_IsTracked(v)))
+            if (gc_tracked(k) || gc_tracked(v))
                 none_tracked = 0;
         }
         c->depth--;
@@ -530,8 +524,9 @@ PyDoc_STRVAR(untrack_doc,
 "tuples, and instances of the types classify(type) calls frozen records (asked once per\n"
 "type, the answer kept in the dict kinds); an exact dict (a record's instance dict) has its\n"
 "values walked and is untracked when none of its keys and values is tracked any more.\n"
-"Anything else it meets (a list, a mutable object, a type) stays tracked and is not entered. Reference counting frees the objects as\n"
-"before; only a reference cycle through them would no longer be found (engine.run.retained).");
+"Anything else it meets (a list, a mutable object, a type) stays tracked and is not\n"
+"entered. Reference counting frees the objects as before; only a reference cycle through\n"
+"them would no longer be found (engine.run.retained).");
 
 static PyObject *
 rp_untrack(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -540,7 +535,7 @@ rp_untrack(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         PyErr_SetString(PyExc_TypeError, "untrack(obj, kinds: dict, classify: callable)");
         return NULL;
     }
-    untrack_ctx c = {args[1], args[2], 0, 0, {NULL}, {0}};
+    untrack_ctx c = {args[1], args[2], 0};
     if (untrack_walk(args[0], &c) < 0)
         return NULL;
     Py_RETURN_NONE;
