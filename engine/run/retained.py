@@ -15,8 +15,8 @@ the way is changed later, and the walk below does not enter mutable objects. Ref
 counting frees them as before; the collector just stops looking at them. :func:`untrack`
 takes a kept result and everything frozen under it off the collector's lists, in one compiled
 call (``engine.native.runparse.untrack``; ~35 k instructions, a few µs, an epoch). Without
-the kernel (``UVNAV_PURE=1``, no build) it does nothing: the pure path is the reference, not
-the fast one, and the results are the same either way.
+the kernel (``UVNAV_PURE=1``, no build) it is None and nothing is untracked: the pure path is
+the reference, not the fast one, and the results are the same either way.
 
 What is entered: exact tuples and instances of frozen dataclasses (:func:`is_frozen_record`),
 both then untracked; and exact dicts (a record's instance dict), whose values are walked and
@@ -67,10 +67,7 @@ def _untracker() -> Callable[[Any], None] | None:
     return untrack
 
 
-def _no_untrack(obj: Any) -> None:
-    """The pure path: the collector keeps tracking ``obj`` (same results, more GC work)."""
-
-
-untrack: Callable[[Any], None] = _untracker() or _no_untrack
-"""``untrack(result)``: ``result`` and the frozen records and tuples under it off the cyclic
-collector's lists (compiled), or nothing on the pure path."""
+untrack: Callable[[Any], None] | None = _untracker()
+"""``untrack(result)``: ``result`` and the frozen records, tuples and dicts under it off the
+cyclic collector's lists (compiled); None on the pure path, where a session leaves its results
+to the collector (same results, more collector work)."""

@@ -182,7 +182,7 @@ class Session:
         self.history: deque[CycleResult] = deque(maxlen=max(1, history))
         self._untrack = untrack if history >= UNTRACK_MIN_HISTORY else None
         """Kept results off the cyclic collector's lists (engine.run.retained) where they are
-        kept long enough for it to pay."""
+        kept long enough for it to pay; None too on the pure path."""
         self.bad_records: list[BadRecord] = []
         """The first :data:`BAD_RECORDS_KEPT` bad records (all of them are ``BAD`` lines of the
         ``.OUT`` log; :attr:`skipped_records` counts them all): memory stays bounded."""

@@ -25,9 +25,8 @@ from engine.run.config import load_config
 from engine.run.session import Session
 
 ROOT = Path(__file__).resolve().parents[2]
-KERNEL = native.kernel("runparse")
 needs_kernel = pytest.mark.skipif(
-    KERNEL is None or not hasattr(KERNEL, "untrack"),
+    retained.untrack is None,
     reason=f"engine.native.runparse not in use: {native.status('runparse')}")
 
 
@@ -48,6 +47,11 @@ class _Mutable:
         self.leaf = leaf
 
 
+def _untrack(obj: object) -> None:
+    assert retained.untrack is not None
+    retained.untrack(obj)
+
+
 @needs_kernel
 def test_walk_enters_frozen_records_tuples_and_dicts_only() -> None:
     inner = _Leaf(1.5)
@@ -56,7 +60,7 @@ def test_walk_enters_frozen_records_tuples_and_dicts_only() -> None:
     table = {"a": _Leaf(3.5)}
     node = _Node((inner, _Leaf(mutable)), ["x"], table)
     assert all(gc.is_tracked(o) for o in (node, inner, node.leaves, table, mutable))
-    retained.untrack(node)
+    _untrack(node)
     assert not gc.is_tracked(node)
     assert not gc.is_tracked(node.leaves)
     assert not gc.is_tracked(inner)
@@ -73,20 +77,28 @@ def test_walk_enters_frozen_records_tuples_and_dicts_only() -> None:
 def test_dict_holding_a_tracked_value_stays_tracked_and_is_retracked_on_store() -> None:
     mixed = {"a": _Leaf(1.0), "b": []}
     plain = {"a": _Leaf(1.0)}
-    retained.untrack(_Node((), [], mixed))
-    retained.untrack(_Node((), [], plain))
+    _untrack(_Node((), [], mixed))
+    _untrack(_Node((), [], plain))
     assert gc.is_tracked(mixed) and not gc.is_tracked(mixed["a"])
     assert not gc.is_tracked(plain)
     plain["later"] = []  # CPython tracks a dict again when a container is stored in it
     assert gc.is_tracked(plain)
 
 
-def test_pure_path_untracks_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_pure_path_untracks_nothing(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """Without the kernel there is no walk, and a session's kept results stay tracked."""
+    import engine.run.session as session_mod
+
     monkeypatch.setattr(native, "kernel", lambda name: None)
     assert retained._untracker() is None
-    node = _Node((_Leaf(1.0),))
-    retained._no_untrack(node)
-    assert gc.is_tracked(node) and gc.is_tracked(node.leaves[0])
+    monkeypatch.setattr(session_mod, "untrack", None)
+    s = _demo_session(tmp_path, "P")
+    try:
+        s.run(max_cycles=5)
+        result = s.history[-1]
+        assert gc.is_tracked(result) and gc.is_tracked(result.sensors)
+    finally:
+        s.close()
 
 
 def test_is_frozen_record() -> None:
