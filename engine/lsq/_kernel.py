@@ -1,8 +1,10 @@
 """The compiled LSQ kernel (``engine/native/lsq.c``), bound to numpy's BLAS/LAPACK on first use.
 
 :func:`kernel` returns the module ready to call, or None: not built, stale, ``UVNAV_PURE=1``,
-numpy not on its bundled OpenBLAS, or a CPU where numpy's ``power``/``hypot`` loops would use
-its AVX-512 (SVML) code instead of libm, which the kernel calls. The binding
+or numpy not on its bundled OpenBLAS. The statistics block's ``np.power(q, -0.5)`` and
+``np.hypot`` are numpy's own ufuncs called from the kernel, so a CPU where numpy runs its
+AVX-512 (SVML) loops for them (whose last bits differ from libm's) gets the Python's bits too;
+until 2026-12-04 the kernel called libm there and was refused on such CPUs. The binding
 (:mod:`engine.native.blas`, which finds numpy's OpenBLAS through ctypes)
 happens on the first call, not at import, so start-up does not pay for it; only numpy's
 routines are needed (dgemm, dgemv, ddot, LAPACK dgesv), so SciPy's OpenBLAS is not loaded.
@@ -71,24 +73,14 @@ def _bind(mod: ModuleType) -> ModuleType | None:
     """Give ``mod`` its routine addresses and Python objects; None if it cannot be exact."""
     from engine.native import blas
 
-    if _numpy_uses_svml():
-        return None
     cblas, lapack = blas.numpy_cblas(), blas.numpy_lapack()
     if cblas is None or lapack is None:
         return None
     addresses = {**{f"np_{k}": v for k, v in cblas.items()},
                  **{f"npl_{k}": v for k, v in lapack.items()}}  # SciPy's library not needed
-    mod._bind(addresses, math.hypot, _CLASSES["solution"], _CLASSES["ellipse"])
+    mod._bind(addresses, math.hypot, _CLASSES["solution"], _CLASSES["ellipse"], np.power,
+              np.hypot)
     return mod
-
-
-def _numpy_uses_svml() -> bool:
-    """True where numpy's float64 power/hypot may run its AVX-512 SVML loops (not libm)."""
-    try:
-        features = np._core._multiarray_umath.__cpu_features__  # type: ignore[attr-defined]
-    except AttributeError:
-        return True  # another numpy layout: do not guess
-    return bool(features.get("AVX512_SKX") or features.get("AVX512F"))
 
 
 def unused_reason() -> str | None:
@@ -97,8 +89,6 @@ def unused_reason() -> str | None:
     without binding, for ``uvnav --version``."""
     if native.kernel("lsq") is None:
         return None
-    if _numpy_uses_svml():
-        return "numpy may run its AVX-512 (SVML) power/hypot loops here, not libm's"
     from engine.native import blas
 
     if blas.numpy_cblas() is None or blas.numpy_lapack() is None:

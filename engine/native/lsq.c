@@ -33,9 +33,10 @@
  * CBLAS routine numpy's cblas_matrixproduct picks, with its Order/Trans/ld arguments;
  * numpy.linalg.inv to numpy's LAPACK dgesv on a Fortran-order copy with an identity right-hand
  * side (numpy's umath_linalg); vector.vector to 0.0 + ddot (numpy's DOUBLE_dot); reductions of
- * two terms to (0.0 + p0) + p1; np.power / np.hypot to libm (no AVX-512 SVML here: the Python
- * side probes and refuses the kernel otherwise); Python's float ** and math.* to libm; CPython's
- * math.hypot (its own algorithm) is called through the function object.
+ * two terms to (0.0 + p0) + p1; np.power / np.hypot are numpy's own ufuncs, called on the
+ * statistics block's rows (np_binary: numpy's loops, AVX-512 SVML code where numpy runs it);
+ * Python's float ** and math.* to libm; CPython's math.hypot (its own algorithm) is called
+ * through the function object.
  */
 #include "uvn_blas.h"
 #include "uvn_numpy.h" /* arrays made and read without numpy.empty and the buffer protocol */
@@ -49,13 +50,15 @@
 static uvn_blas_t B;
 static int bound = 0;
 static PyObject *py_hypot = NULL;     /* math.hypot (CPython's vector_norm, not libm) */
+static PyObject *np_power = NULL;     /* numpy.power: sigma_d (5.8b) by numpy's own loop */
+static PyObject *np_hypot = NULL;     /* numpy.hypot: the external reliability's norm */
+static PyObject *minus_half = NULL;   /* the float -0.5, np.power's exponent */
 static PyTypeObject *sol_type = NULL; /* adjustment._Solution (a NamedTuple) */
 static PyObject *ellipse_type = NULL; /* confidence.Ellipse */
 static PyObject *ellipse_keys[6];
 
 /* libm through volatile pointers: no folding of pow(x, 2) into x*x or of calls into others */
 static double (*volatile vpow)(double, double) = pow;
-static double (*volatile vhypot)(double, double) = hypot;
 static double (*volatile vatan2)(double, double) = atan2;
 static double (*volatile vfmod)(double, double) = fmod;
 
@@ -156,6 +159,37 @@ static PyObject *call_py_hypot(double a, double b)
     Py_XDECREF(fa);
     Py_XDECREF(fb);
     return r;
+}
+
+/* out[j] = ufunc(a, b)[j] for j < m, computed by numpy itself (`ufunc(a_arr, b_obj, out_arr)`,
+ * b_obj the float -0.5 or an array of b): numpy.power and numpy.hypot run numpy's own loops,
+ * which on a CPU with AVX-512 are Intel's SVML code, not libm's, and round differently from
+ * libm in the last bit (np.power(q, -0.5): ~5 % of random q on an AVX-512 machine). Calling
+ * numpy gives the Python twin's bits on every CPU. 0, or -1 (exception set). */
+static int np_binary(PyObject *ufunc, const double *a, const double *b, Py_ssize_t m,
+                     double *out)
+{
+    double *ad, *bd = NULL, *od;
+    PyObject *ao = lsq_new(m, -1, &ad);
+    PyObject *bo = ao == NULL ? NULL : b == NULL ? Py_NewRef(minus_half) : lsq_new(m, -1, &bd);
+    PyObject *oo = bo == NULL ? NULL : lsq_new(m, -1, &od);
+    int ret = -1;
+    if (oo != NULL) {
+        memcpy(ad, a, sizeof(double) * m);
+        if (bd != NULL)
+            memcpy(bd, b, sizeof(double) * m);
+        PyObject *args[3] = {ao, bo, oo};
+        PyObject *r = PyObject_Vectorcall(ufunc, args, 3, NULL);
+        if (r != NULL) {
+            Py_DECREF(r); /* oo itself */
+            memcpy(out, od, sizeof(double) * m);
+            ret = 0;
+        }
+    }
+    Py_XDECREF(ao);
+    Py_XDECREF(bo);
+    Py_XDECREF(oo);
+    return ret;
 }
 
 /* numpy's pairwise sum (DOUBLE_pairwise_sum, n <= 128) from 0.0: only its finiteness is used */
@@ -562,21 +596,28 @@ static int finish_calc(fin_t *f, const double *Au, const double *bu, const doubl
         }
         memset(ac, 0, sizeof(double) * 2 * m);
         B.dgemm(UvnRowMajor, UvnNoTrans, UvnNoTrans, m, 2, 2, 1.0, Au, 2, cx, 2, 0.0, ac, 2);
+        double sd[MAXM], e0[MAXM], e1[MAXM], ext[MAXM];
+        if (np_binary(np_power, q, NULL, m, sd) < 0) /* np.power(q, -0.5) */
+            goto out;
+        for (Py_ssize_t j = 0; j < m; j++) {
+            double mdb = sd[j] * d0;
+            e0[j] = gain[j] * mdb;
+            e1[j] = gain[m + j] * mdb;
+        }
+        if (np_binary(np_hypot, e0, e1, m, ext) < 0) /* np.hypot(ext[0], ext[1]) */
+            goto out;
         for (Py_ssize_t j = 0; j < m; j++) {
             Py_ssize_t c = slot[j];
             double var_l = cl[j * cs0 + j * cs1];
-            double sd = vpow(q[j], -0.5);
-            double mdb = sd * d0;
-            double e0 = gain[j] * mdb, e1 = gain[m + j] * mdb;
-            st[0 * n + c] = sd;
-            st[1 * n + c] = -(wv[j] * sd);
-            st[2 * n + c] = sd / sqrt(var_l);
+            st[0 * n + c] = sd[j];
+            st[1 * n + c] = -(wv[j] * sd[j]);
+            st[2 * n + c] = sd[j] / sqrt(var_l);
             st[3 * n + c] = ((0.0 + Au[2 * j] * ac[2 * j]) + Au[2 * j + 1] * ac[2 * j + 1]) / var_l;
             st[4 * n + c] = 1.0 - ((0.0 + Au[2 * j] * gain[j]) + Au[2 * j + 1] * gain[m + j]);
-            st[5 * n + c] = mdb;
-            st[6 * n + c] = vhypot(e0, e1);
-            st[7 * n + c] = e0;
-            st[8 * n + c] = e1;
+            st[5 * n + c] = sd[j] * d0;
+            st[6 * n + c] = ext[j];
+            st[7 * n + c] = e0[j];
+            st[8 * n + c] = e1[j];
         }
     }
     double *v;
@@ -1353,16 +1394,16 @@ static PyObject *lsq_quiet(PyObject *self, PyObject *const *args, Py_ssize_t nar
 /* ---------------------------------------------------------------------------------------- */
 
 PyDoc_STRVAR(bind_doc,
-"_bind(addresses, math_hypot, solution_type, ellipse_type)\n"
+"_bind(addresses, math_hypot, solution_type, ellipse_type, np_power, np_hypot)\n"
 "\n"
 "Bind numpy's np_dgemm, np_dgemv, np_ddot and npl_dgesv (addresses as engine.native.blas gives\n"
-"them, keys as in all_addresses()), math.hypot,\n"
-"adjustment._Solution and confidence.Ellipse; called once, on first use.");
+"them, keys as in all_addresses()), math.hypot, adjustment._Solution, confidence.Ellipse and\n"
+"the ufuncs numpy.power and numpy.hypot; called once, on first use.");
 
 static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError, "_bind needs 4 arguments");
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "_bind needs 6 arguments");
         return NULL;
     }
     /* only numpy's routines: SciPy's OpenBLAS (all_addresses) need not be loaded for this */
@@ -1406,7 +1447,11 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
     B = b;
     if (np_ready() < 0) /* uvn_numpy.h looks numpy.empty up itself */
         return NULL;
+    if (minus_half == NULL && (minus_half = PyFloat_FromDouble(-0.5)) == NULL)
+        return NULL;
     Py_XSETREF(py_hypot, Py_NewRef(args[1]));
+    Py_XSETREF(np_power, Py_NewRef(args[4]));
+    Py_XSETREF(np_hypot, Py_NewRef(args[5]));
     Py_XSETREF(sol_type, (PyTypeObject *)Py_NewRef(args[2]));
     Py_XSETREF(ellipse_type, Py_NewRef(args[3]));
     bound = 1;

@@ -2,8 +2,8 @@
 
 :func:`engine.native.kernel_report` says whether each kernel is built and current; a built
 kernel can still stay unused where its results could differ from the Python's: the lsq kernel
-where numpy runs AVX-512 (SVML) loops, the filter kernels' updates where numpy's and SciPy's
-bundled OpenBLAS routines are not found (docs/PERFORMANCE.md, "Compiled kernels"). This module
+and the filter kernels' updates where numpy's (and SciPy's) bundled OpenBLAS routines are not
+found (docs/PERFORMANCE.md, "Compiled kernels"). This module
 asks the stages that decide, so the report says "compiled" only for a kernel in use.
 """
 
