@@ -26,7 +26,7 @@ test: $(STAMP)
 
 BENCH_STAMP := $(VENV)/.bench-installed
 
-# The bench extra (FilterPy, which pulls in matplotlib) only for `make bench`, not `make test`.
+# The bench extra (FilterPy, which pulls in matplotlib; the test extra has it too).
 $(BENCH_STAMP): $(STAMP) pyproject.toml
 	$(PY) -m pip install --quiet -e '.[bench]'
 	touch $(BENCH_STAMP)
