@@ -307,19 +307,21 @@ _DATES_MAX = 1024
 
 
 def _fast_record_py(line: str, line_no: int) -> RunRecord | None:
-    """The record of a well-formed line in the usual shape (both GPS coordinates present, 6–9
-    numeric columns, no ``key=value``), else None: then :func:`parse_run_line`'s checks decide.
+    """The record of a well-formed line in the usual shape (each GPS coordinate four tokens or
+    one ``-``, 6–9 numeric columns, no ``key=value``), else None: then :func:`parse_run_line`'s
+    checks decide.
 
     Accepts only what those checks accept and builds the same record with the same float
     operations (:func:`_parse_time`, :func:`~engine.io.deccafile.parse_dms`'s fast path,
     :func:`_parse_numbers`, :func:`_check_separators`), in one call with no exceptions raised,
     so a replay's hot path is cheap; every located error message stays the slow path's.
+    Records without GPS (``-`` ``-``: a dive) take it too since 2026-12-04.
     """
     toks = line.split()
     n = len(toks)
-    if n < 16 or n > 19 or "=" in line:
+    if n < 10 or n > 19 or "=" in line:
         return None
-    d, t, la_d, la_m, la_s, la_h, lo_d, lo_m, lo_s, lo_h = toks[:10]
+    d, t = toks[0], toks[1]
     if len(t) != 6 or not (t.isascii() and t.isdigit()):
         return None
     ymd = _DATES.get(d)
@@ -335,47 +337,36 @@ def _fast_record_py(line: str, line_no: int) -> RunRecord | None:
         time = datetime(ymd[0], ymd[1], ymd[2], hh, minute, second, tzinfo=UTC)
     except ValueError:
         return None
-    # parse_dms's fast path, latitude then longitude.
-    if not (
-        la_d.isascii() and la_d.isdigit() and la_m.isascii() and la_m.isdigit()
-        and la_s.isascii() and la_s.replace(".", "", 1).isdigit()
-        and lo_d.isascii() and lo_d.isdigit() and lo_m.isascii() and lo_m.isdigit()
-        and lo_s.isascii() and lo_s.replace(".", "", 1).isdigit()
-    ):
-        return None
-    memo = _FLOATS
-    mv = memo[la_m] if la_m in memo else _memo_float(la_m)
-    sv = memo[la_s] if la_s in memo else _memo_float(la_s)
-    if not (mv < 60.0 and sv < 60.0):
-        return None
-    lat = (memo[la_d] if la_d in memo else _memo_float(la_d)) + mv / 60.0 + sv / 3600.0
-    if not lat <= 90.0:
-        return None
-    if la_h == "S":
-        lat = -lat
-    elif la_h != "N":
-        return None
-    mv = memo[lo_m] if lo_m in memo else _memo_float(lo_m)
-    sv = memo[lo_s] if lo_s in memo else _memo_float(lo_s)
-    if not (mv < 60.0 and sv < 60.0):
-        return None
-    lon = (memo[lo_d] if lo_d in memo else _memo_float(lo_d)) + mv / 60.0 + sv / 3600.0
-    if not lon <= 180.0:
-        return None
-    if lo_h == "W":
-        lon = -lon
-    elif lo_h != "E":
+    # parse_dms's fast path, latitude then longitude (n >= 10: the four tokens exist)
+    i = 2
+    lat = lon = None
+    if toks[2] == "-":
+        i = 3
+    else:
+        lat = _dms_fast(toks[2], toks[3], toks[4], toks[5], "N", "S", 90.0)
+        if lat is None:
+            return None
+        i = 6
+    if toks[i] == "-":
+        i += 1
+    else:
+        lon = _dms_fast(toks[i], toks[i + 1], toks[i + 2], toks[i + 3], "E", "W", 180.0)
+        if lon is None:
+            return None
+        i += 4
+    if not 6 <= n - i <= 9:
         return None
     # _parse_numbers: the character check, float, the range checks.
-    cols = toks[10:]
+    cols = toks[i:]
     if " ".join(cols).translate(_NOT_NUMBER_CHARS):
         return None
+    memo = _FLOATS
     try:
         v = [None if tok == "-" else memo[tok] if tok in memo else _memo_float(tok)
              for tok in cols]
     except ValueError:
         return None
-    v += _PAD[n - 10]
+    v += _PAD[n - i]
     fr_r, fr_g, fr_p, hdg, spd, rud, incl, pfreq, echo = v
     if not (
         (fr_r is None or 0.0 <= fr_r < 1.0)
@@ -398,6 +389,27 @@ def _fast_record_py(line: str, line_no: int) -> RunRecord | None:
                        echo, raw)
 
 
+def _dms_fast(d: str, m: str, s: str, h: str, plus: str, minus: str,
+              limit: float) -> float | None:
+    """``D M S.sss H`` in degrees (``plus`` hemisphere positive, ``minus`` negative, at most
+    ``limit``) by :func:`~engine.io.deccafile.parse_dms`'s fast path, or None where that path
+    is not taken or the checked parser would raise."""
+    if not (d.isascii() and d.isdigit() and m.isascii() and m.isdigit()
+            and s.isascii() and s.replace(".", "", 1).isdigit()):
+        return None
+    memo = _FLOATS
+    mv = memo[m] if m in memo else _memo_float(m)
+    sv = memo[s] if s in memo else _memo_float(s)
+    if not (mv < 60.0 and sv < 60.0):
+        return None
+    value = (memo[d] if d in memo else _memo_float(d)) + mv / 60.0 + sv / 3600.0
+    if not value <= limit:
+        return None
+    if h == minus:
+        return -value
+    return value if h == plus else None
+
+
 _FLOATS: dict[str, float] = {}
 """Token → ``float(token)`` of the numeric tokens :func:`_fast_record` has converted (a day's
 fractions, headings, speeds … repeat; a dictionary look-up is far cheaper than ``float``);
@@ -417,7 +429,7 @@ _SETTERS = tuple(RunRecord.__dict__[f.name].__set__ for f in fields(RunRecord))
 """The slot setters of :class:`RunRecord`'s fields, in field order."""
 
 
-def _new_record(line_no: int, time: datetime, lat: float, lon: float,
+def _new_record(line_no: int, time: datetime, lat: float | None, lon: float | None,
                 decca: tuple[float | None, float | None, float | None], hdg: float | None,
                 spd: float | None, rud: float | None, incl: float | None,
                 pfreq: float | None, echo: float | None, raw: str) -> RunRecord:

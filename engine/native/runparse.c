@@ -1,5 +1,6 @@
-/* Compiled twin of engine.io.runfile._fast_record_py: one usual .RUN record (both GPS
- * coordinates, 6-9 numeric columns, no key=value) to a RunRecord, or None where the Python
+/* Compiled twin of engine.io.runfile._fast_record_py: one usual .RUN record (each GPS
+ * coordinate four tokens or one '-', 6-9 numeric columns, no key=value) to a RunRecord, or
+ * None where the Python
  * checks decide (then engine.io.runfile.parse_run_line's checked parser gives the same record
  * or the same located error).
  *
@@ -178,7 +179,7 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         n++;
         i = j;
     }
-    if (n < 16)
+    if (n < 10)
         Py_RETURN_NONE;
     /* date and time */
     if (tn[0] != 6 || tn[1] != 6 || !all_digits(tp[0], 6) || !all_digits(tp[1], 6))
@@ -190,10 +191,16 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     int hh = (t[0] - '0') * 10 + (t[1] - '0');
     int minute = (t[2] - '0') * 10 + (t[3] - '0');
     int second = (t[4] - '0') * 10 + (t[5] - '0');
-    /* GPS latitude and longitude: parse_dms's fast path */
-    double ll[2];
+    /* GPS latitude and longitude: one '-' or parse_dms's fast path (n >= 10: the four
+     * tokens exist); b: the next token */
+    double ll[2] = {0.0, 0.0};
+    int has_ll[2] = {0, 0};
+    int b = 2;
     for (int k = 0; k < 2; k++) {
-        int b = 2 + 4 * k;
+        if (tn[b] == 1 && tp[b][0] == '-') {
+            b++;
+            continue;
+        }
         if (!all_digits(tp[b], tn[b]) || !all_digits(tp[b + 1], tn[b + 1])
             || !decimal_digits(tp[b + 2], tn[b + 2]))
             Py_RETURN_NONE;
@@ -218,7 +225,11 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         else if (h != (k == 0 ? 'N' : 'E'))
             Py_RETURN_NONE;
         ll[k] = value;
+        has_ll[k] = 1;
+        b += 4;
     }
+    if (n - b < 6 || n - b > 9)
+        Py_RETURN_NONE;
     /* the numeric columns */
     double v[9];
     int present[9];
@@ -226,22 +237,22 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         v[k] = 0.0;
         present[k] = 0;
     }
-    for (int k = 10; k < n; k++) {
+    for (int k = b; k < n; k++) {
         for (Py_ssize_t c = 0; c < tn[k]; c++) {
             char ch = tp[k][c];
             if (!((ch >= '0' && ch <= '9') || ch == '.' || ch == '-'))
                 Py_RETURN_NONE;
         }
     }
-    for (int k = 10; k < n; k++) {
+    for (int k = b; k < n; k++) {
         if (tn[k] == 1 && tp[k][0] == '-')
             continue;
-        int r = to_double(tp[k], tn[k], &v[k - 10]);
+        int r = to_double(tp[k], tn[k], &v[k - b]);
         if (r < 0)
             return NULL;
         if (r == 0)
             Py_RETURN_NONE;
-        present[k - 10] = 1;
+        present[k - b] = 1;
     }
     if ((present[0] && !(0.0 <= v[0] && v[0] < 1.0))
         || (present[1] && !(0.0 <= v[1] && v[1] < 1.0))
@@ -279,8 +290,8 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         PyTuple_SET_ITEM(decca, k, f);
     }
     if (set_slot(rec, 0, Py_NewRef(args[1])) < 0 || set_slot(rec, 1, time) < 0
-        || set_slot(rec, 2, PyFloat_FromDouble(ll[0])) < 0
-        || set_slot(rec, 3, PyFloat_FromDouble(ll[1])) < 0 || set_slot(rec, 4, decca) < 0)
+        || set_slot(rec, 2, float_or_none(has_ll[0], ll[0])) < 0
+        || set_slot(rec, 3, float_or_none(has_ll[1], ll[1])) < 0 || set_slot(rec, 4, decca) < 0)
         goto fail;
     for (int k = 3; k < 9; k++)
         if (set_slot(rec, 2 + k, float_or_none(present[k], v[k])) < 0)
