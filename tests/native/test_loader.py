@@ -21,6 +21,26 @@ def test_every_kernel_is_compiled_where_a_compiler_exists(monkeypatch: pytest.Mo
         assert native.status(name) == "compiled", name
 
 
+def test_every_built_kernel_is_used_with_the_bundled_openblas(monkeypatch: pytest.MonkeyPatch):
+    """Built is not enough: a stage may still refuse its kernel on this machine (until
+    2026-12-04 the lsq kernel was refused on every AVX-512 CPU and the fix ran in Python while
+    ``status`` said "compiled"). With numpy's and SciPy's wheels (their bundled OpenBLAS), the
+    only ground for a refusal left, every built kernel must be in use."""
+    from engine.run import kernels
+
+    monkeypatch.delenv(native.PURE_ENV, raising=False)
+    cfg = np.__config__.CONFIG["Build Dependencies"]["blas"]
+    if cfg.get("name") not in ("scipy-openblas", "scipy-openblas64"):
+        pytest.skip(f"numpy is built against {cfg.get('name')}, not the bundled OpenBLAS")
+    import engine.lsq.adjustment  # noqa: F401  (registers the lsq kernel's result classes)
+    import engine.lsq.confidence  # noqa: F401
+
+    report = dict(kernels.kernel_report())
+    for name in native.kernel_names():
+        if native.status(name) == "compiled":
+            assert report[name] == "compiled", (name, report[name])
+
+
 def test_pure_env_turns_every_kernel_off(monkeypatch: pytest.MonkeyPatch):
     monkeypatch.setenv(native.PURE_ENV, "1")
     for name in native.kernel_names():
