@@ -3,8 +3,9 @@
 :func:`kernel` returns the module ready to call, or None: not built, stale, ``UVNAV_PURE=1``,
 or numpy not on its bundled OpenBLAS. The statistics block's ``np.power(q, -0.5)`` and
 ``np.hypot`` are numpy's own ufuncs called from the kernel, so a CPU where numpy runs its
-AVX-512 (SVML) loops for them (whose last bits differ from libm's) gets the Python's bits too;
-until 2026-12-04 the kernel called libm there and was refused on such CPUs. The binding
+AVX-512 (SVML) loop for ``power`` (whose last bit differs from libm's ``pow``) gets the
+Python's bits too (``hypot`` is libm's there, but goes through numpy all the same); until
+2026-12-04 the kernel called libm and was refused on such CPUs. The binding
 (:mod:`engine.native.blas`, which finds numpy's OpenBLAS through ctypes)
 happens on the first call, not at import, so start-up does not pay for it; only numpy's
 routines are needed (dgemm, dgemv, ddot, LAPACK dgesv), so SciPy's OpenBLAS is not loaded.

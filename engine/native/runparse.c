@@ -289,9 +289,17 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         }
         PyTuple_SET_ITEM(decca, k, f);
     }
-    if (set_slot(rec, 0, Py_NewRef(args[1])) < 0 || set_slot(rec, 1, time) < 0
-        || set_slot(rec, 2, float_or_none(has_ll[0], ll[0])) < 0
-        || set_slot(rec, 3, float_or_none(has_ll[1], ll[1])) < 0 || set_slot(rec, 4, decca) < 0)
+    /* set_slot steals its value: time and decca are released here until a slot holds them */
+    if (set_slot(rec, 0, Py_NewRef(args[1])) < 0) {
+        Py_DECREF(decca);
+        goto fail_time;
+    }
+    if (set_slot(rec, 1, time) < 0 || set_slot(rec, 2, float_or_none(has_ll[0], ll[0])) < 0
+        || set_slot(rec, 3, float_or_none(has_ll[1], ll[1])) < 0) {
+        Py_DECREF(decca);
+        goto fail;
+    }
+    if (set_slot(rec, 4, decca) < 0)
         goto fail;
     for (int k = 3; k < 9; k++)
         if (set_slot(rec, 2 + k, float_or_none(present[k], v[k])) < 0)

@@ -39,6 +39,7 @@ DIVE_LINES = [
     "920917 105009 - - - - - - - - - - - -\n", "920917 105009 -\n",
     DIVE.replace("105009", "105060"), DIVE.replace(" ", "\t"),
     DIVE.replace("250.9", "360"), DIVE.replace("\n", " hdop=1.2\n"),
+    DIVE.replace(" - - -", " 52 49 56.313 S - -", 1),  # latitude only
 ]
 
 

@@ -32,6 +32,11 @@ def test_every_built_kernel_is_used_with_the_bundled_openblas(monkeypatch: pytes
     cfg = np.__config__.CONFIG["Build Dependencies"]["blas"]
     if cfg.get("name") not in ("scipy-openblas", "scipy-openblas64"):
         pytest.skip(f"numpy is built against {cfg.get('name')}, not the bundled OpenBLAS")
+    import scipy
+
+    sp_blas = scipy.show_config(mode="dicts")["Build Dependencies"]["blas"]["name"]
+    if sp_blas not in ("scipy-openblas", "scipy-openblas64"):
+        pytest.skip(f"SciPy is built against {sp_blas}, not the bundled OpenBLAS")
     import engine.lsq.adjustment  # noqa: F401  (registers the lsq kernel's result classes)
     import engine.lsq.confidence  # noqa: F401
 
