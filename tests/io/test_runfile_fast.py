@@ -21,6 +21,7 @@ from engine.io.runfile import RunRecord, _fast_record_py, _new_record, _parse_to
 from engine.systems import decca as decca_mod
 from engine.systems import gps as gps_mod
 from tests.paths import DATA
+from tests.run_lines import DIVE_LINES, perturbed_dive_lines
 
 LINES = [
     *(DATA / "DEMO.RUN").read_text(encoding="utf-8").splitlines(keepends=True)[:400],
@@ -28,19 +29,6 @@ LINES = [
 ]
 SAMPLE = "920917 100002 52 49 56.313 N 004 29 55.439 E .876 .162 .032 232.6 10.0 .0 1.24 " \
          "39937.542 70.82\n"
-DIVE = "920917 105009 - - - - - 250.9 6.1 .0 .22 39651.487 19.76\n"
-"""A record without GPS (a dive): since 2026-12-04 it takes the hot path too."""
-DIVE_LINES = [
-    DIVE, DIVE.replace(" - - - - -", " - - .5 .25 .125"),
-    DIVE.replace(" - - -", " - 004 29 55.439 W -", 1), DIVE.replace(" 19.76", ""),
-    DIVE.replace(" 19.76", " 19.76 1"), DIVE.replace(" .22 39651.487 19.76", ""),
-    DIVE.replace(" - - -", " -- - -", 1), DIVE.replace(" - -", " -", 1),
-    "920917 105009 - - - - - - - -\n", "920917 105009 - - - - - - - - - - -\n",
-    "920917 105009 - - - - - - - - - - - -\n", "920917 105009 -\n",
-    DIVE.replace("105009", "105060"), DIVE.replace(" ", "\t"),
-    DIVE.replace("250.9", "360"), DIVE.replace("\n", " hdop=1.2\n"),
-    DIVE.replace(" - - -", " 52 49 56.313 S - -", 1),  # latitude only
-]
 
 
 def _bits(rec: RunRecord) -> tuple[object, ...]:
@@ -129,21 +117,10 @@ def test_dive_records_take_the_hot_path() -> None:
     assert all(_fast_record_py(ln, 7) is not None for ln in dives)
 
 
-_DIVE_TOKS = DIVE.split()
-
-
 @settings(max_examples=300, deadline=None)
-@given(st.lists(st.tuples(st.integers(0, len(_DIVE_TOKS) - 1),
-                          st.sampled_from(["-", "0", ".5", "-.5", "59.999", "60", "1.",
-                                           "", "N", "S", "E", "W", "x", "1e3", "nan",
-                                           "0.9999", "90", "180.000", "52 49 1.5 N",
-                                           "004 29 55.439 E", "- -", "1 2"])),
-                min_size=1, max_size=4))
-def test_perturbed_lines_without_gps_agree(edits: list[tuple[int, str]]) -> None:
-    toks = list(_DIVE_TOKS)
-    for k, tok in edits:
-        toks[k] = tok
-    _agrees(" ".join(t for t in toks if t) + "\n")
+@given(perturbed_dive_lines())
+def test_perturbed_lines_without_gps_agree(line: str) -> None:
+    _agrees(line)
 
 
 @settings(max_examples=300, deadline=None)

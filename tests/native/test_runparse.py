@@ -17,6 +17,7 @@ from engine import native
 from engine.io import runfile
 from engine.io.runfile import RunRecord, _fast_record_py
 from tests.paths import DATA, ROOT
+from tests.run_lines import DIVE_LINES, perturbed_dive_lines
 
 KERNEL = runfile._K
 needs_kernel = pytest.mark.skipif(KERNEL is None, reason="engine.native.runparse not built")
@@ -27,19 +28,6 @@ LINES = [
 ]
 SAMPLE = ("920917 100002 52 49 56.313 N 004 29 55.439 E .876 .162 .032 232.6 10.0 .0 1.24 "
           "39937.542 70.82\n")
-DIVE = "920917 105009 - - - - - 250.9 6.1 .0 .22 39651.487 19.76\n"
-"""A record without GPS (a dive): since 2026-12-04 it takes the hot path too."""
-DIVE_LINES = [
-    DIVE, DIVE.replace(" - - - - -", " - - .5 .25 .125"),
-    DIVE.replace(" - - -", " - 004 29 55.439 W -", 1), DIVE.replace(" 19.76", ""),
-    DIVE.replace(" 19.76", " 19.76 1"), DIVE.replace(" .22 39651.487 19.76", ""),
-    DIVE.replace(" - - -", " -- - -", 1), DIVE.replace(" - -", " -", 1),
-    "920917 105009 - - - - - - - -\n", "920917 105009 - - - - - - - - - - -\n",
-    "920917 105009 - - - - - - - - - - - -\n", "920917 105009 -\n",
-    DIVE.replace("105009", "105060"), DIVE.replace(" ", "\t"),
-    DIVE.replace("250.9", "360"), DIVE.replace("\n", " hdop=1.2\n"),
-    DIVE.replace(" - - -", " 52 49 56.313 S - -", 1),  # latitude only
-]
 _TOKS = SAMPLE.split()
 
 
@@ -113,22 +101,11 @@ def test_lines_without_gps_agree(line: str) -> None:
     _same(line)
 
 
-_DIVE_TOKS = DIVE.split()
-
-
 @needs_kernel
 @settings(max_examples=300, deadline=None)
-@given(st.lists(st.tuples(st.integers(0, len(_DIVE_TOKS) - 1),
-                          st.sampled_from(["-", "0", ".5", "-.5", "59.999", "60", "1.",
-                                           "", "N", "S", "E", "W", "x", "1e3", "nan",
-                                           "0.9999", "90", "180.000", "52 49 1.5 N",
-                                           "004 29 55.439 E", "- -", "1 2"])),
-                min_size=1, max_size=4))
-def test_perturbed_lines_without_gps_agree(edits: list[tuple[int, str]]) -> None:
-    toks = list(_DIVE_TOKS)
-    for k, tok in edits:
-        toks[k] = tok
-    _same(" ".join(t for t in toks if t) + "\n")
+@given(perturbed_dive_lines())
+def test_perturbed_lines_without_gps_agree(line: str) -> None:
+    _same(line)
 
 
 @needs_kernel
