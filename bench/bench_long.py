@@ -112,16 +112,14 @@ def first_hours(run: Path, hours: int) -> Path:
     return part
 
 
-def replay(part: Path, pycache: Path | None = None) -> tuple[float, float, int]:
+def replay(part: Path, pycache: Path) -> tuple[float, float, int]:
     """(wall s, CPU s, peak RSS KiB) of ``uvnav replay`` of ``part`` in a fresh process
     (``pycache``: its bytecode cache folder, written and read as Python does by default)."""
     out = part.with_suffix(".OUT")
     cmd = [str(BIN / "uvnav"), "replay", str(part), "--config", str(part.with_suffix(".toml")),
            "--out", str(out), "--force"]
-    env = dict(os.environ)
-    if pycache is not None:
-        env.pop("PYTHONDONTWRITEBYTECODE", None)
-        env["PYTHONPYCACHEPREFIX"] = str(pycache)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPYCACHEPREFIX"] = str(pycache)
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     hwm_kib = 0

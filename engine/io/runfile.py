@@ -48,7 +48,7 @@ from typing import Any
 
 from engine import native
 from engine.errors import InputError, read_error
-from engine.io.deccafile import format_dms, parse_dms
+from engine.io.deccafile import dms_fast, format_dms, parse_dms
 
 __all__ = [
     "BadRecord",
@@ -337,20 +337,19 @@ def _fast_record_py(line: str, line_no: int) -> RunRecord | None:
         time = datetime(ymd[0], ymd[1], ymd[2], hh, minute, second, tzinfo=UTC)
     except ValueError:
         return None
-    # parse_dms's fast path, latitude then longitude (n >= 10: the four tokens exist)
-    i = 2
+    # parse_dms's fast path (dms_fast), latitude then longitude (n >= 10: the tokens exist)
     lat = lon = None
     if toks[2] == "-":
         i = 3
     else:
-        lat = _dms_fast(toks[2], toks[3], toks[4], toks[5], "N", "S", 90.0)
+        lat = dms_fast(toks[2], toks[3], toks[4], toks[5], True, _memo_number)
         if lat is None:
             return None
         i = 6
     if toks[i] == "-":
         i += 1
     else:
-        lon = _dms_fast(toks[i], toks[i + 1], toks[i + 2], toks[i + 3], "E", "W", 180.0)
+        lon = dms_fast(toks[i], toks[i + 1], toks[i + 2], toks[i + 3], False, _memo_number)
         if lon is None:
             return None
         i += 4
@@ -389,25 +388,10 @@ def _fast_record_py(line: str, line_no: int) -> RunRecord | None:
                        echo, raw)
 
 
-def _dms_fast(d: str, m: str, s: str, h: str, plus: str, minus: str,
-              limit: float) -> float | None:
-    """``D M S.sss H`` in degrees (``plus`` hemisphere positive, ``minus`` negative, at most
-    ``limit``) by :func:`~engine.io.deccafile.parse_dms`'s fast path, or None where that path
-    is not taken or the checked parser would raise."""
-    if not (d.isascii() and d.isdigit() and m.isascii() and m.isdigit()
-            and s.isascii() and s.replace(".", "", 1).isdigit()):
-        return None
+def _memo_number(tok: str) -> float:
+    """``float(tok)`` through :data:`_FLOATS` (:func:`_memo_float` on a miss)."""
     memo = _FLOATS
-    mv = memo[m] if m in memo else _memo_float(m)
-    sv = memo[s] if s in memo else _memo_float(s)
-    if not (mv < 60.0 and sv < 60.0):
-        return None
-    value = (memo[d] if d in memo else _memo_float(d)) + mv / 60.0 + sv / 3600.0
-    if not value <= limit:
-        return None
-    if h == minus:
-        return -value
-    return value if h == plus else None
+    return memo[tok] if tok in memo else _memo_float(tok)
 
 
 _FLOATS: dict[str, float] = {}

@@ -21,6 +21,25 @@ def test_every_kernel_is_compiled_where_a_compiler_exists(monkeypatch: pytest.Mo
         assert native.status(name) == "compiled", name
 
 
+BUNDLED = ("scipy-openblas", "scipy-openblas64")
+"""The BLAS names numpy's and SciPy's wheels report for the OpenBLAS they bundle."""
+
+
+def _skip_without_bundled_openblas(scipy_too: bool = False) -> None:
+    """Skip where numpy (and, ``scipy_too``, SciPy) is not built on its bundled OpenBLAS: a
+    build from source against another BLAS, where the kernels find no routine addresses and
+    stay unused by design (docs/PERFORMANCE.md, "Compiled kernels")."""
+    name = np.__config__.CONFIG["Build Dependencies"]["blas"].get("name")
+    if name not in BUNDLED:
+        pytest.skip(f"numpy is built against {name}, not the bundled OpenBLAS")
+    if scipy_too:
+        import scipy
+
+        sp_name = scipy.show_config(mode="dicts")["Build Dependencies"]["blas"]["name"]
+        if sp_name not in BUNDLED:
+            pytest.skip(f"SciPy is built against {sp_name}, not the bundled OpenBLAS")
+
+
 def test_every_built_kernel_is_used_with_the_bundled_openblas(monkeypatch: pytest.MonkeyPatch):
     """Built is not enough: a stage may still refuse its kernel on this machine (until
     2026-12-04 the lsq kernel was refused on every AVX-512 CPU and the fix ran in Python while
@@ -29,14 +48,7 @@ def test_every_built_kernel_is_used_with_the_bundled_openblas(monkeypatch: pytes
     from engine.run import kernels
 
     monkeypatch.delenv(native.PURE_ENV, raising=False)
-    cfg = np.__config__.CONFIG["Build Dependencies"]["blas"]
-    if cfg.get("name") not in ("scipy-openblas", "scipy-openblas64"):
-        pytest.skip(f"numpy is built against {cfg.get('name')}, not the bundled OpenBLAS")
-    import scipy
-
-    sp_blas = scipy.show_config(mode="dicts")["Build Dependencies"]["blas"]["name"]
-    if sp_blas not in ("scipy-openblas", "scipy-openblas64"):
-        pytest.skip(f"SciPy is built against {sp_blas}, not the bundled OpenBLAS")
+    _skip_without_bundled_openblas(scipy_too=True)
     import engine.lsq.adjustment  # noqa: F401  (registers the lsq kernel's result classes)
     import engine.lsq.confidence  # noqa: F401
 
@@ -70,9 +82,7 @@ def test_a_stale_build_is_refused(monkeypatch: pytest.MonkeyPatch):
 
 def test_the_routine_addresses_are_found_for_the_bundled_openblas():
     """numpy's and SciPy's wheels bundle OpenBLAS; the kernels need both libraries' routines."""
-    cfg = np.__config__.CONFIG["Build Dependencies"]["blas"]
-    if cfg.get("name") not in ("scipy-openblas", "scipy-openblas64"):
-        pytest.skip(f"numpy is built against {cfg.get('name')}, not the bundled OpenBLAS")
+    _skip_without_bundled_openblas()
     addresses = blas.all_addresses()
     assert addresses is not None
     assert set(addresses) == ({f"np_{n}" for n in blas.NUMPY_CBLAS}
