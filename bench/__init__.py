@@ -10,5 +10,17 @@ engine's matrices (≤ 13×13) are below OpenBLAS's threading sizes, so the bits
 """
 
 import os
+from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
+def child_env(pycache: Path | None) -> dict[str, str]:
+    """The environment of a ``uvnav`` process a bench starts: this one's, with Python writing
+    and reading its bytecode cache as it does by default (``PYTHONDONTWRITEBYTECODE`` dropped)
+    in the folder ``pycache`` (``PYTHONPYCACHEPREFIX``; None: Python's own ``__pycache__``)."""
+    env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    if pycache is not None:
+        env["PYTHONPYCACHEPREFIX"] = str(pycache)
+    return env

@@ -36,6 +36,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench import child_env
+
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data"
 HOURS = (1, 6, 24)
@@ -118,10 +120,9 @@ def replay(part: Path, pycache: Path) -> tuple[float, float, int]:
     out = part.with_suffix(".OUT")
     cmd = [str(BIN / "uvnav"), "replay", str(part), "--config", str(part.with_suffix(".toml")),
            "--out", str(out), "--force"]
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env["PYTHONPYCACHEPREFIX"] = str(pycache)
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env=child_env(pycache))
     hwm_kib = 0
     while True:  # the child's own high-water mark, read until it exits (see _vm_hwm_kib)
         hwm_kib = max(hwm_kib, _vm_hwm_kib(proc.pid))

@@ -30,6 +30,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from bench import child_env
+
 ROOT = Path(__file__).resolve().parents[1]
 REPLAY_ARGS = ("replay", "data/920917_1.RUN", "--no-out")
 TERM_SIZE = (160, 50)
@@ -45,20 +47,12 @@ def _uvnav() -> list[str]:
     return [sys.executable, "-m", "uvnav_tui.cli.main"]
 
 
-def _env(pycache: Path | None) -> dict[str, str]:
-    env = dict(os.environ)
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
-    if pycache is not None:
-        env["PYTHONPYCACHEPREFIX"] = str(pycache)
-    return env
-
-
 def replay_once(pycache: Path | None = None) -> tuple[float, float]:
     """Seconds of one ``uvnav replay data/920917_1.RUN --no-out`` in a fresh process: wall
     clock and CPU time (user + system) of the process."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run([*_uvnav(), *REPLAY_ARGS], cwd=ROOT, env=_env(pycache), check=True,
+    subprocess.run([*_uvnav(), *REPLAY_ARGS], cwd=ROOT, env=child_env(pycache), check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
