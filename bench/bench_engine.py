@@ -12,6 +12,10 @@ timed on its own. "rest of the cycle" is the time inside ``engine.run.cycle.step
 stage functions; the session's own bookkeeping (history, counters) is in no row. The timers
 cost about a microsecond per call, so the rows add up to a little more than the headline.
 
+The same replay under cProfile gives the compiled kernels' own time (``engine/native``, every
+function and method whose profile label names that package, callbacks into Python excluded):
+what a cycle would still cost with no Python left between the kernels, the kernels as they are.
+
 The same run also compares against the engines of issue 14's start and of main before the bit-exact
 speed work (``BASELINE_REVS``, extracted once with ``git archive`` into the temp folder): each round
 replays the same epochs with each baseline tree and with this tree, each in a fresh process (warm-up
@@ -23,9 +27,11 @@ with a note where the checkout has no git history.
 
 from __future__ import annotations
 
+import cProfile
 import importlib
 import io
 import os
+import pstats
 import statistics
 import subprocess
 import sys
@@ -168,6 +174,45 @@ def _stage_split(cfg: RunConfig, out: Path, n: int) -> dict[str, float]:
     return {k: statistics.median(v) for k, v in spent.items()}
 
 
+KERNEL_LABEL = "engine.native."
+"""cProfile names every compiled kernel's function and method with its module (the ``.OUT``
+writer too, whose ``__module__`` is ``engine.native.outfmt``); nothing else has it."""
+
+
+def kernel_time(cfg: RunConfig, out: Path, n: int) -> tuple[float, dict[str, float]]:
+    """Seconds spent inside the compiled kernels (``engine/native``) per replay of ``n`` epochs,
+    the median over REPEATS replays under cProfile, and the median seconds of each kernel
+    function (keyed by cProfile's label). Only the kernels' own time is counted: what a cycle
+    with no Python between the kernels would still spend, the kernels as they are (their
+    Python result objects and numpy arrays included). cProfile's hooks around each kernel
+    call add well under a microsecond per call (about 25 calls an epoch)."""
+    totals: list[float] = []
+    each: dict[str, list[float]] = defaultdict(list)
+    for _ in range(REPEATS):
+        prof = cProfile.Profile()
+        prof.enable()
+        try:
+            _replay(cfg, out, n)
+        finally:
+            prof.disable()
+        stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]
+        own = {label: row[2] for (where, _, label), row in stats.items()
+               if where == "~" and KERNEL_LABEL in label}
+        totals.append(sum(own.values()))
+        for label, t in own.items():
+            each[label].append(t)
+    return statistics.median(totals), {k: statistics.median(v) for k, v in each.items()}
+
+
+def _kernel_name(label: str) -> str:
+    """``lsq.adjust_tested`` of cProfile's ``<built-in method engine.native.lsq.adjust_tested>``
+    (or of ``<method 'name' of 'engine.native.decca.Type' objects>``)."""
+    if label.startswith("<method '"):
+        name, _, owner = label[len("<method '"):].partition("' of '")
+        return owner.split("'")[0].removeprefix(KERNEL_LABEL) + "." + name
+    return label.split(KERNEL_LABEL, 1)[1].rstrip(">")
+
+
 def _baseline_tree(rev: str) -> Path | None:
     """The baseline engine's source tree (extracted once into the temp folder), or None."""
     dest = Path(tempfile.gettempdir()) / f"uvnav-bench-baseline-{rev}"
@@ -236,6 +281,14 @@ def main() -> None:
     total = sum(t for _, t in rows)
     for name, t in rows:
         print(f"  {name:34s}: {t / n * 1e6:7.1f} µs/epoch  {100 * t / total:5.1f} %")
+    t_kern, each = kernel_time(cfg, out, n)
+    if t_kern > 0.0:
+        top = sorted(each.items(), key=lambda kv: -kv[1])[:5]
+        print(f"  compiled kernels' own time (cProfile): {t_kern / n * 1e6:.1f} µs/epoch = "
+              f"{100 * t_kern / t_full:.0f} % of the replay")
+        print(f"    a cycle with no Python left between them: ≤ {n / t_kern:,.0f} epochs/s")
+        print("    largest: " + ", ".join(f"{_kernel_name(k)} {t / n * 1e6:.1f}"
+                                          for k, t in top) + " µs/epoch")
     cmp = compare_baselines(n)
     if cmp is None:
         print(f"  baselines {', '.join(BASELINE_REVS)}: not compared (no git history here)")

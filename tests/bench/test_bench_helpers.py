@@ -81,3 +81,21 @@ def test_engine_bench_times_every_stage(tmp_path, monkeypatch):
     spent = be._stage_split(load_config(be.CONFIG), tmp_path / "B.OUT", 30)
     for stage in (*be.STAGES, be.CYCLE, be.LOG_STAGE):
         assert spent[stage] > 0.0, stage
+
+
+def test_engine_bench_counts_the_compiled_kernels(tmp_path, monkeypatch):
+    """bench_engine's kernel time finds the kernels by the module in cProfile's label: the fix's
+    kernel and the ``.OUT`` writer (a method the kernel binds at run time, which had no module
+    in its label before) are both counted, and a method of a kernel type is named by its type."""
+    from bench import bench_engine as be
+    from engine.run import records
+
+    if records.cycle_writer() is None:
+        pytest.skip("the compiled .OUT writer is not in use (not built, or UVNAV_PURE=1)")
+    monkeypatch.setattr(be, "REPEATS", 1)
+    t, each = be.kernel_time(load_config(be.CONFIG), tmp_path / "B.OUT", 30)
+    names = {be._kernel_name(label) for label in each}
+    assert {"outfmt.write_cycle", "lsq.adjust_tested", "kalman_update.update_blocks"} <= names
+    assert t == pytest.approx(sum(each.values()))
+    assert be._kernel_name("<method 'forward' of 'engine.native.datum.Shift' objects>") == \
+        "datum.Shift.forward"
