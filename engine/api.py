@@ -144,7 +144,14 @@ if TYPE_CHECKING:
     )
     from engine.run.cycle import CycleResult, PositionEstimate, RunContext
     from engine.run.kernels import kernel_report
-    from engine.run.live import LEARN_S, LiveCycle, LiveRun, LiveStep, open_live_run
+    from engine.run.live import (
+        LEARN_S,
+        LiveCycle,
+        LiveRun,
+        LiveStep,
+        NoFixInTime,
+        open_live_run,
+    )
     from engine.run.nmea_config import derive_nmea_config, derived_config_lines
     from engine.run.nmea_out import NmeaOutOptions, NmeaPositionOut
     from engine.run.records import lse_estimate, position_json
@@ -188,7 +195,8 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     "engine.sim.simulate": ("read_data_files", "write_simulation"),
     "engine.io.nmea_send": ("NmeaSender", "open_nmea_sender", "parse_nmea_destination"),
     "engine.run.nmea_out": ("NmeaOutOptions", "NmeaPositionOut"),
-    "engine.run.live": ("LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "open_live_run"),
+    "engine.run.live": ("LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "NoFixInTime",
+                        "open_live_run"),
     "engine.io.live_sources": ("SourceState", "is_source_url", "parse_source_url"),
     # uvnav export (docs/EXPORT.md)
     "engine.io.export_geo": ("ELLIPSE_POINTS", "Wgs84Converter", "build_export"),
@@ -336,6 +344,7 @@ __all__ = [
     "LiveCycle",
     "LiveRun",
     "LiveStep",
+    "NoFixInTime",
     "SourceState",
     "is_source_url",
     "open_live_run",

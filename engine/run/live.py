@@ -114,8 +114,12 @@ class LiveRun:
         return self.feed.poll(timeout_s)
 
     def finish(self) -> LiveStep:
-        """Run the epoch the builder still holds (at the end of the run)."""
-        return self.process(self.feed.finish())
+        """Run what is still waiting at the end of the run: the learning seconds' records if
+        no poll took them yet, then the epoch the builder still holds."""
+        batch = self.feed.finish()
+        if self.backlog:
+            batch, self.backlog = replace(batch, records=[*self.backlog, *batch.records]), []
+        return self.process(batch)
 
     def process(self, batch: LiveBatch) -> LiveStep:
         """Run a cycle for each record of ``batch``."""
@@ -158,6 +162,19 @@ today's: a few seconds of a typical stream, so one without RMC/ZDA starts at onc
 stream that has them (an old log replayed into the port included) keeps its own date."""
 
 
+class NoFixInTime(Exception):
+    """A live run without a configuration reached its deadline before the stream gave a fix
+    (nothing to derive the configuration from; nothing was run). ``lines``: lines received;
+    ``raw_path``: the raw log that keeps them (None: no raw log, or no line to keep)."""
+
+    def __init__(self, url: str, lines: int, raw_path: Path | None) -> None:
+        super().__init__(f"{url}: no position fix in time ({lines} lines received): "
+                         "no configuration could be derived, nothing run")
+        self.url = url
+        self.lines = lines
+        self.raw_path = raw_path
+
+
 LEARN_S = 10.0
 """Without a configuration: seconds of data after the first fix from which the sensors are
 learned (docs/LIVE.md)."""
@@ -181,6 +198,7 @@ def open_live_run(
     learn_s: float = LEARN_S,
     on_state: Callable[[SourceState], None] | None = None,
     prepare: Callable[[RunConfig], RunConfig] | None = None,
+    deadline_mono_s: float | None = None,
 ) -> LiveRun:
     """Open a live run on ``url`` (module docstring). ``out_path`` None writes no ``.OUT`` and
     no raw log; ``nmea_options`` default to the configuration's ``[nmea]`` table. A bad URL is
@@ -193,7 +211,9 @@ def open_live_run(
     fix; this waits for them (``on_state`` hears of the source's changes meanwhile) and needs
     ``data_dir`` (TO_WGS84.DAT, DECCA.CHN). The records of those seconds are run first.
     ``prepare`` adjusts the configuration (given or derived) before the session is made (a
-    headless run's LOPReject policy).
+    headless run's LOPReject policy). ``deadline_mono_s`` (``time.monotonic()`` seconds; the
+    end of a run limited in time) ends that wait: the learning seconds are cut short there, and
+    with no fix by then :class:`NoFixInTime` is raised (the raw log kept if it has lines).
     """
     spec = parse_source_url(url)
     guard = guard if guard is not None else OutputGuard()
@@ -221,7 +241,10 @@ def open_live_run(
         if config is None:
             if data_dir is None:
                 raise ValueError("a live run without a configuration needs data_dir")
-            _learn(feed, builder, backlog, learn_s, on_state)
+            _learn(feed, builder, backlog, learn_s, on_state, deadline_mono_s)
+            if builder.stats.first_fix is None:
+                raise NoFixInTime(spec.url, feed.lines,
+                                  raw.path if raw is not None and raw.lines else None)
             config = config_from_stats(builder.stats, data_dir, nmea, run_file=run_file,
                                        config_dir=Path.cwd())
             data = None
@@ -243,9 +266,11 @@ def open_live_run(
             source.close()
             if raw is not None:
                 raw.close()
-        if raw is not None and not (isinstance(exc, KeyboardInterrupt) and raw.lines):
+        ended_wait = isinstance(exc, (KeyboardInterrupt, NoFixInTime))
+        if raw is not None and not (ended_wait and raw.lines):
             created += [raw.path, raw.times_path]  # always new files (never replaced); kept
-            # when Ctrl-C ended the wait for a derived configuration: lines were received
+            # when Ctrl-C or the deadline ended the wait for a derived configuration: lines
+            # were received
         for p in created:
             p.unlink(missing_ok=True)
         raise
@@ -255,10 +280,14 @@ def open_live_run(
 
 
 def _learn(feed: LiveFeed, builder: EpochBuilder, backlog: list[LiveRecord], learn_s: float,
-           on_state: Callable[[SourceState], None] | None) -> None:
-    """Receive until ``learn_s`` seconds after the first fix (records kept in ``backlog``)."""
+           on_state: Callable[[SourceState], None] | None,
+           deadline_mono_s: float | None = None) -> None:
+    """Receive until ``learn_s`` seconds after the first fix, or until ``deadline_mono_s``
+    (``time.monotonic()`` s) comes first (records kept in ``backlog``)."""
     fixed_at: float | None = None
     while fixed_at is None or time.monotonic() - fixed_at < learn_s:
+        if deadline_mono_s is not None and time.monotonic() >= deadline_mono_s:
+            return
         batch = feed.poll(0.25)
         backlog += batch.records
         if on_state is not None:
@@ -268,4 +297,5 @@ def _learn(feed: LiveFeed, builder: EpochBuilder, backlog: list[LiveRecord], lea
             fixed_at = time.monotonic()
 
 
-__all__ = ["LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "live_nmea_options", "open_live_run"]
+__all__ = ["LEARN_S", "LiveCycle", "LiveRun", "LiveStep", "NoFixInTime", "live_nmea_options",
+           "open_live_run"]

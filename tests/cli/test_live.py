@@ -28,6 +28,7 @@ from tests.live_helpers import (
     expected_lat,
     free_port,
     send_udp,
+    wait_bound_udp,
     write_config,
 )
 from tests.paths import ROOT
@@ -113,6 +114,76 @@ def test_live_without_config_derives_one_from_the_stream(
     assert gps is not None and gps["lat_in"] == pytest.approx(expected_lat(0), abs=1e-9)
     head = (tmp_path / "D.OUT").read_text()
     assert '# datum = "WGS84"' in head and "# [decca]\n# on = false" in head
+
+
+def main_within(argv: list[str], limit_s: float = DEADLINE_S) -> int:
+    """``main(argv)`` in a daemon thread; fails (instead of hanging the suite) when it has not
+    returned within ``limit_s``."""
+    result: list[int] = []
+    worker = threading.Thread(target=lambda: result.append(main(argv)), daemon=True)
+    worker.start()
+    worker.join(limit_s)
+    assert not worker.is_alive(), f"uvnav {' '.join(argv)} still running after {limit_s} s"
+    return result[0]
+
+
+def send_headings(port: int, stop: threading.Event) -> None:
+    """Only HDT sentences (a heading, never a position), every 50 ms until ``stop``."""
+    if not wait_bound_udp(port, stop):
+        return
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as out:
+        while not stop.wait(0.05):
+            out.sendto((epoch_lines(0)[2] + "\r\n").encode(), ("127.0.0.1", port))
+
+
+def test_live_seconds_ends_the_wait_for_a_first_fix(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """No --config and a stream with no position: --seconds ends the wait (it once waited for
+    ever), exit 3, nothing run, the raw log keeps the lines received and is named."""
+    port = free_port(socket.SOCK_DGRAM)
+    stop = threading.Event()
+    sender = threading.Thread(target=send_headings, args=(port, stop))
+    sender.start()
+    try:
+        status = main_within(["live", f"udp://127.0.0.1:{port}", "--out",
+                              str(tmp_path / "N.OUT"), "--seconds", "1.5"], 30.0)
+    finally:
+        stop.set()
+        sender.join()
+    err = capsys.readouterr().err
+    assert status == 3, err
+    assert (f"uvnav live: udp://127.0.0.1:{port}: no position fix within --seconds 1.5 ("
+            in err)
+    assert "no configuration could be derived, nothing run; raw log " in err
+    assert not (tmp_path / "N.OUT").exists()
+    raw = (tmp_path / "N.raw.nmea").read_bytes()
+    assert raw and set(raw.splitlines()) == {epoch_lines(0)[2].encode()}
+    assert str(tmp_path / "N.raw.nmea") in err
+
+
+def test_live_seconds_cuts_the_learning_short(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """No --config, --learn longer than --seconds: the configuration is derived from what came
+    by then, and the learning seconds' records are still run (exit 0)."""
+    port = free_port(socket.SOCK_DGRAM)
+    stop = threading.Event()
+    sender = threading.Thread(target=send_udp, args=(port, range(40), stop, 0.05))
+    sender.start()
+    try:
+        status = main_within(["live", f"udp://127.0.0.1:{port}", "--out",
+                              str(tmp_path / "C.OUT"), "--learn", "600", "--seconds", "1.5"],
+                             30.0)
+    finally:
+        stop.set()
+        sender.join()
+    out = capsys.readouterr().out
+    assert status == 0, out
+    assert "configuration derived from the stream" in out
+    cycles = read_out_log(tmp_path / "C.OUT").cycles
+    assert len(cycles) >= 1
+    gps = cycles[0].first("GPS")
+    assert gps is not None and gps["lat_in"] == pytest.approx(expected_lat(0), abs=1e-9)
+    assert len(cycle_lines(out)) == len(cycles)
 
 
 class DyingServer:

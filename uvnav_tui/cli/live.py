@@ -1,12 +1,14 @@
 """``uvnav live URL``: run headless on a live NMEA 0183 source (docs/LIVE.md).
 
 The source is ``udp://ADDRESS:PORT`` (receive datagrams), ``tcp://HOST:PORT`` (client,
-reconnecting) or ``serial:///dev/DEVICE?baud=N``. The run goes at the pace the data arrive.
+reconnecting), ``gpsd://HOST:PORT`` (a gpsd, asked to stream NMEA) or
+``serial:///dev/DEVICE?baud=N``. The run goes at the pace the data arrive.
 It prints one line per cycle (time, MPP, 95 % ellipse, latency from the line that closed the
 epoch to the position) and a line for each change of the source's state (``source lost …``,
 ``reconnected …``), and ends on Ctrl-C (exit 130), ``--cycles N`` or ``--seconds S`` (exit
 0) with every completed cycle in the ``.OUT`` log and every received line in the raw log
-``NAME.raw.nmea`` (+ ``NAME.raw.times.csv``) beside it.
+``NAME.raw.nmea`` (+ ``NAME.raw.times.csv``) beside it. ``--seconds`` counts from the start,
+the wait for a first fix without ``--config`` included.
 
 With ``--config`` the run uses that configuration (working datum, DR position, systems,
 ``[nmea]``). Without it the configuration is derived from the stream as ``uvnav replay`` derives
@@ -16,7 +18,9 @@ printed before the first cycle. Outputs follow the ``.OUT`` rule (README "Output
 default ``.OUT`` is ``live-YYYYMMDDTHHMMSSZ.OUT`` in the current directory.
 
 Exit status: 0 ended by ``--cycles``/``--seconds``; 1 an output cannot be written; 2 bad input
-(arguments, URL, configuration, a UDP port in use), nothing run; 4 internal error; 130 Ctrl-C.
+(arguments, URL, configuration, a UDP port in use), nothing run; 3 without ``--config``, no fix
+came before ``--seconds`` ended the run (nothing run; the raw log keeps the lines received); 4
+internal error; 130 Ctrl-C.
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ from engine.api import (
     InputError,
     LiveRun,
     LiveStep,
+    NoFixInTime,
     OutputGuard,
     RunConfig,
     SourceState,
@@ -49,6 +54,7 @@ from uvnav_tui.cli.replay import bundled_data_dir, headless_lop_policy, integrit
 EXIT_OK = 0
 EXIT_CANNOT_WRITE = 1
 EXIT_BAD_INPUT = 2
+EXIT_NO_FIX = 3
 EXIT_INTERNAL = 4
 EXIT_INTERRUPTED = 130
 POLL_S = 0.25
@@ -60,7 +66,7 @@ STILL_LOST_EVERY_S = 30.0
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``uvnav live``."""
     p = argparse.ArgumentParser(prog="uvnav live", description=__doc__.splitlines()[0])
-    p.add_argument("url", help="udp://0.0.0.0:10110, tcp://HOST:10110 or "
+    p.add_argument("url", help="udp://0.0.0.0:10110, tcp://HOST:10110, gpsd://HOST:2947 or "
                    "serial:///dev/ttyUSB0?baud=4800")
     p.add_argument("--config", help="run configuration TOML (default: derived from the stream: "
                    "first fix, sensors seen in the first --learn seconds)")
@@ -121,8 +127,9 @@ def _out_path(args: argparse.Namespace) -> Path | None:
     return Path(f"live-{datetime.now(UTC):%Y%m%dT%H%M%SZ}.OUT")
 
 
-def _open(args: argparse.Namespace) -> tuple[LiveRun, str]:
-    """The live run (raises InputError / OSError before anything runs)."""
+def _open(args: argparse.Namespace, start_mono_s: float) -> tuple[LiveRun, str]:
+    """The live run (raises InputError / OSError before anything runs; NoFixInTime when
+    ``--seconds`` from ``start_mono_s`` ended the wait for a first fix)."""
     spec = parse_source_url(args.url)
     guard = OutputGuard()
     if spec.kind == "serial":
@@ -156,7 +163,7 @@ def _open(args: argparse.Namespace) -> tuple[LiveRun, str]:
     run = open_live_run(spec.url, None, None, out_path=out, force=args.force, jsonl_path=jsonl,
                         guard=guard, lost_after_s=args.lost_after, history=1,
                         data_dir=bundled_data_dir(), learn_s=args.learn, on_state=on_state,
-                        prepare=prepare)
+                        prepare=prepare, deadline_mono_s=_deadline(args, start_mono_s))
     print("configuration derived from the stream (docs/NMEA.md):")
     for line in derived_config_lines(run.session.config):
         print(f"  {line}")
@@ -169,15 +176,20 @@ def _print_cycles(step: LiveStep, run: LiveRun, args: argparse.Namespace) -> Non
             print(cycle_line(c.result, c.latency_s, run.state), flush=True)
 
 
-def _loop(run: LiveRun, args: argparse.Namespace) -> None:
-    """Cycles until --cycles / --seconds (or Ctrl-C, raised through)."""
-    start = time.monotonic()
+def _deadline(args: argparse.Namespace, start_mono_s: float) -> float | None:
+    """When ``--seconds`` ends the run (``time.monotonic()`` s), or None."""
+    return None if args.seconds is None else start_mono_s + args.seconds
+
+
+def _loop(run: LiveRun, args: argparse.Namespace, start_mono_s: float) -> None:
+    """Cycles until --cycles / --seconds from ``start_mono_s`` (or Ctrl-C, raised through)."""
+    deadline = _deadline(args, start_mono_s)
     state: SourceState | None = None
     reminded = 0.0
     while True:
         if args.cycles is not None and run.cycles >= args.cycles:
             return
-        if args.seconds is not None and time.monotonic() - start >= args.seconds:
+        if deadline is not None and time.monotonic() >= deadline:
             _print_cycles(run.finish(), run, args)  # the epoch still open
             return
         step = run.poll(POLL_S)
@@ -218,8 +230,15 @@ def _summary(run: LiveRun, policy: str) -> None:
 def run_live(argv: list[str]) -> int:
     """Entry point of ``uvnav live``; returns the exit status (module docstring)."""
     args = build_parser().parse_args(argv)
+    start = time.monotonic()
     try:
-        run, policy = _open(args)
+        run, policy = _open(args, start)
+    except NoFixInTime as exc:
+        kept = f"; raw log {exc.raw_path}" if exc.raw_path is not None else ""
+        print(f"uvnav live: {exc.url}: no position fix within --seconds {args.seconds:g} "
+              f"({exc.lines} lines received): no configuration could be derived, nothing "
+              f"run{kept}", file=sys.stderr)
+        return EXIT_NO_FIX
     except InputError as exc:
         print(f"uvnav live: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -232,7 +251,7 @@ def run_live(argv: list[str]) -> int:
     status = EXIT_OK
     try:
         try:
-            _loop(run, args)
+            _loop(run, args, start)
         except KeyboardInterrupt:
             status = EXIT_INTERRUPTED
             _print_cycles(run.finish(), run, args)  # the epoch still open
