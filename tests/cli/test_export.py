@@ -129,3 +129,29 @@ def test_the_datum_file_is_an_input(run: Path, capsys: pytest.CaptureFixture[str
     assert "Not an earlier UVNAV output" in capsys.readouterr().err
     assert dat.read_bytes() == before
     assert not list(run.glob("TO_WGS84_*"))
+
+
+def test_a_write_error_removes_the_cut_file(run: Path, tmp_path: Path,
+                                            monkeypatch: pytest.MonkeyPatch,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """A full disk while a file is written: named, exit 1, and the cut file removed (a GeoJSON
+    cut in the middle is no file any reader takes); the files written before it are kept."""
+    from engine.io import outputs
+
+    real_write = outputs.OutputFile.write
+
+    def write(self: outputs.OutputFile, text: str) -> None:
+        if self.path.suffix == ".geojson":
+            real_write(self, text[:100])
+            raise OSError(28, "No space left on device", str(self.path))
+        real_write(self, text)
+
+    monkeypatch.setattr(outputs.OutputFile, "write", write)
+    gpx, geo = tmp_path / "w.gpx", tmp_path / "w.geojson"
+    rc = run_export([str(run / "920917_1.OUT"), "--gpx", str(gpx), "--geojson", str(geo)])
+    err = capsys.readouterr().err
+    assert rc == 1
+    assert (f"uvnav export: {geo}: cannot write: No space left on device ! "
+            "(the incomplete file removed)") in err
+    assert not geo.exists()
+    assert gpxpy.parse(gpx.read_text(encoding="utf-8")).tracks

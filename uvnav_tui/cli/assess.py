@@ -240,14 +240,14 @@ def run_assess(argv: list[str]) -> int:
     except InputError as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return 2
-    console = Console(highlight=False)
-    if not console.is_terminal:
-        console = Console(width=140, highlight=False)
-    print_report(result, console)
+    # The plot first, the report after: a report that cannot be printed (its reader gone,
+    # ``uvnav assess … | head``: uvnav_tui/cli/stdout.py) does not cost the plot.
+    plot: Path | None = None
     if svg_text is not None:
         try:
             with guard.open(args.svg, label="--svg", kind="svg", force=args.force) as fh:
                 fh.write(svg_text)
+            plot = fh.path
         except InputError as exc:
             print(f"{PROG}: {exc}", file=sys.stderr)
             return 2
@@ -255,7 +255,12 @@ def run_assess(argv: list[str]) -> int:
             print(f"{PROG}: {exc.filename or args.svg}: cannot write: {exc.strerror or exc} !",
                   file=sys.stderr)
             return 1
-        console.print(f"plot {escape(str(fh.path))}")
+    console = Console(highlight=False)
+    if not console.is_terminal:
+        console = Console(width=140, highlight=False)
+    print_report(result, console)
+    if plot is not None:
+        console.print(f"plot {escape(str(plot))}")
     return 0
 
 

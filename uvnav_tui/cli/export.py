@@ -132,22 +132,31 @@ def run_export(argv: list[str]) -> int:
             print(f"uvnav export: warning: {t}: {lost} ellipses left out (the logged grid "
                   "position does not match the logged latitude/longitude on any nearby CM)",
                   file=sys.stderr)
-    print(f"cycles {len(log.epochs)}  bad records {log.bad_records}  tracks "
-          + " ".join(f"{t} {sum(p is not None for p in data.tracks[t])}" for t in tracks))
-    print("datum " + ", ".join(data.datums) + " -> WGS84"
-          + (f" ({datum_file})" if datum_file is not None else ""))
+    # The files first, the report after: a report that cannot be printed (its reader gone,
+    # uvnav_tui/cli/stdout.py) does not cost the files.
+    written: list[tuple[str, Path]] = []
     for fmt, path, text in texts:
+        fh = None
         try:
             with guard.open(path, label=f"--{fmt}", kind=fmt, force=args.force) as fh:
                 fh.write(text)
                 fh.close(sync=True)
-                written = fh.path
+            written.append((fmt, fh.path))
         except InputError as exc:
             print(f"uvnav export: {exc}", file=sys.stderr)
             return EXIT_BAD_INPUT
         except OSError as exc:
+            # A cut GeoJSON, GPX or KML is not a file any reader takes: removed, not left.
+            if fh is not None:
+                fh.path.unlink(missing_ok=True)
             print(f"uvnav export: {exc.filename or path}: cannot write: "
-                  f"{exc.strerror or exc} !", file=sys.stderr)
+                  f"{exc.strerror or exc} !" + (" (the incomplete file removed)"
+                                                 if fh is not None else ""), file=sys.stderr)
             return EXIT_CANNOT_WRITE
-        print(f"{fmt} {written}")
+    print(f"cycles {len(log.epochs)}  bad records {log.bad_records}  tracks "
+          + " ".join(f"{t} {sum(p is not None for p in data.tracks[t])}" for t in tracks))
+    print("datum " + ", ".join(data.datums) + " -> WGS84"
+          + (f" ({datum_file})" if datum_file is not None else ""))
+    for fmt, done in written:
+        print(f"{fmt} {done}")
     return EXIT_OK

@@ -17,6 +17,8 @@ import importlib
 import os
 import sys
 
+from uvnav_tui.cli.stdout import StdoutFailed, guarded_stdout, silence_stdout
+
 # One OpenBLAS thread (numpy's and SciPy's bundled OpenBLAS read this when they load): every
 # matrix of the engine is at most 13×13, below the sizes at which OpenBLAS splits a routine
 # between threads, so the results are the same bits; but with a thread pool each library starts
@@ -100,28 +102,42 @@ def version_text() -> str:
     return f"uvnav {v}\ncompiled kernels (engine/native, docs/PERFORMANCE.md):\n{kernels}"
 
 
+EXIT_CANNOT_WRITE = 1
+"""Exit status when standard output (or an output file) cannot be written."""
 EXIT_BROKEN_PIPE = 128 + 13
 """Exit status when standard output's reader went away (as a process killed by SIGPIPE)."""
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Dispatch to the sub-command (or the console); returns the exit status. When standard
-    output's reader closes early (``uvnav --help | head -3``), exits quietly with
-    :data:`EXIT_BROKEN_PIPE` instead of a traceback; files the command writes (``.OUT``) are
-    closed by the command as on any error."""
+    """Dispatch to the sub-command (or the console); returns the exit status. A headless
+    command's standard output is guarded (uvnav_tui/cli/stdout.py): when its reader closes
+    early (``uvnav --help | head -3``) the command ends quietly with :data:`EXIT_BROKEN_PIPE`,
+    and when it cannot be written otherwise (``> /dev/full``) with one line naming standard
+    output and :data:`EXIT_CANNOT_WRITE`, never a traceback; files the command writes (``.OUT``)
+    are closed by the command as on any error."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    command = args[0] if args and args[0] in SUBCOMMANDS else None
+    headless = command is not None or (bool(args) and args[0] in ("-h", "--help", "--version"))
     try:
-        return _dispatch(argv)
+        if not headless:  # the console draws on its own terminal stream (Textual's driver)
+            return _dispatch(args)
+        with guarded_stdout():
+            return _dispatch(args)
+    except StdoutFailed as exc:
+        silence_stdout()
+        if isinstance(exc.error, BrokenPipeError):
+            return EXIT_BROKEN_PIPE
+        name = "uvnav" if command is None else f"uvnav {command}"
+        print(f"{name}: standard output: cannot write: {exc.error.strerror or exc.error} !",
+              file=sys.stderr)
+        return EXIT_CANNOT_WRITE
     except BrokenPipeError:
-        # Point stdout at /dev/null so the interpreter's own flush at exit does not fail again.
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        os.close(devnull)
+        silence_stdout()
         return EXIT_BROKEN_PIPE
 
 
-def _dispatch(argv: list[str] | None) -> int:
-    """:func:`main` without its broken-pipe handling."""
-    args = list(sys.argv[1:] if argv is None else argv)
+def _dispatch(args: list[str]) -> int:
+    """:func:`main` without its standard-output handling."""
     if args and args[0] in ("-h", "--help"):
         print(USAGE)
         return 0
