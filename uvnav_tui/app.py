@@ -13,6 +13,7 @@ are :class:`uvnav_tui.actions.MenuActions`, the pages are found by
 
 from __future__ import annotations
 
+import asyncio
 import gc
 import time
 from collections.abc import Iterable
@@ -42,6 +43,8 @@ from uvnav_tui.widgets.message_log import MessageLog
 from uvnav_tui.widgets.pulldown import PulldownScreen
 
 if TYPE_CHECKING:
+    from rich.console import RenderableType
+
     from engine.api import CycleResult, NmeaSender
 
 REFRESH_S = 0.1
@@ -190,6 +193,8 @@ class UVNAVApp(App[None]):
         self.message = ""
         self.message_log = MessageLog()
         self.hardcopies: list[tuple[Path, Path]] = []
+        self.exiting = asyncio.Event()
+        """Set when the console starts to exit (:meth:`exit`): a script driving it stops."""
         self._refresh_pending = False
         self._last_refresh = -1.0
         self._last_refresh_cpu = (0.0, 0.0)
@@ -480,6 +485,13 @@ class UVNAVApp(App[None]):
         """F1 or ``?``: the help screen (not twice)."""
         if not isinstance(self.screen, HelpScreen):
             self.push_screen(HelpScreen())
+
+    def exit(self, result: None = None, return_code: int = 0,
+             message: RenderableType | None = None) -> None:
+        """Leave the console (Textual's exit), telling a driving script first
+        (:attr:`exiting`)."""
+        self.exiting.set()
+        super().exit(result, return_code, message)
 
     def action_quit(self) -> None:  # type: ignore[override]
         """Quit asks for confirmation (thesis L5458)."""

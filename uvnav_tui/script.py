@@ -23,6 +23,7 @@ reproducible. Keys go through Textual's pilot, exactly as typed keys would.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -117,6 +118,25 @@ class ScriptRunner:
         if app.control is not None:
             app.control.budget = None
             app.kick()
+
+    async def run_or_quit(self, steps: list[Step]) -> bool:
+        """:meth:`run`, given up when the console exits meanwhile (the operator's Ctrl+Q, or a
+        ``quit`` step): True when every step ran. Textual waits for the script before it
+        exits, and a ``wait`` step would otherwise hold a quit console on a blank screen for
+        up to its timeout (10 min). Raises :class:`ScriptError` as :meth:`run` does."""
+        work = asyncio.ensure_future(self.run(steps))
+        quitting = asyncio.ensure_future(self.app.exiting.wait())
+        try:
+            await asyncio.wait({work, quitting}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            quitting.cancel()
+        if not work.done():
+            work.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await work
+            return False
+        work.result()  # its ScriptError, if any
+        return True
 
     async def run(self, steps: list[Step]) -> None:
         """Run every step; raises :class:`ScriptError` on the first failure."""

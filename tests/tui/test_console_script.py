@@ -172,3 +172,33 @@ def test_console_and_script_locate_unknown_names(tmp_path: Path, line: str, wher
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert f"bad.toml:{expected_line}: {where}: {message}" in err, err
+
+
+def test_quitting_the_console_ends_a_waiting_script(data_dir: Path) -> None:
+    """The operator quits while the script waits for cycles (the demo at real pace: a cycle a
+    second, 100000 asked for): the script is given up at once. Textual waits for its script
+    before it exits, so the console used to stay on a blank screen for the wait's timeout."""
+    import asyncio
+    import time
+
+    from test_console_support import drive, make_app, wait_for
+
+    from uvnav_tui.script import ScriptRunner
+
+    app = make_app(data_dir, "DEMO", pace_override=None)
+    outcome: list[object] = []
+
+    async def script(pilot) -> None:  # type: ignore[no-untyped-def]
+        runner = ScriptRunner(pilot, headless=True)
+        work = asyncio.ensure_future(
+            runner.run_or_quit(parse_script("key enter\nwait 100000\n")))
+        await wait_for(pilot, lambda: app.control is not None and app.control.cycles >= 1,
+                       "the first cycle")
+        t0 = time.monotonic()
+        app.exit()
+        outcome.append(await asyncio.wait_for(work, 30.0))
+        outcome.append(time.monotonic() - t0)
+
+    drive(app, script)
+    assert outcome[0] is False
+    assert outcome[1] < 30.0

@@ -58,7 +58,8 @@ def run_script(argv: list[str]) -> int:
     async def drive(pilot: Pilot[None]) -> None:
         runner = ScriptRunner(pilot, headless=args.headless)
         try:
-            await runner.run(steps)
+            if not await runner.run_or_quit(steps):
+                return  # the console was quit (Ctrl+Q, or the script's own quit)
         except ScriptError as exc:
             failure.append(str(exc))
             if args.headless:
