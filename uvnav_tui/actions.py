@@ -43,6 +43,9 @@ if TYPE_CHECKING:
 
 NOT_CONNECTED = "System not connected !"
 NO_RUN = "No run: Run ▸ Start opens Parameter Initialization"
+LOP_QUESTION_ARM_S = 0.5
+"""Seconds after the LOP rejection question opens during which no key answers it: it opens
+unasked, between keys typed for something else (a Return typed ahead used to discard the LOP)."""
 
 
 class MenuActions:
@@ -386,7 +389,9 @@ class MenuActions:
         if host.lop_policy in ("yes", "no"):
             self._lop_answer(slot, what, host.lop_policy == "yes")
             return
-        host.push_screen(ConfirmDialog("LOP rejection", question, default=True),
+        # Raised by a cycle, not asked for: keys typed ahead must not answer it.
+        host.push_screen(ConfirmDialog("LOP rejection", question, default=True,
+                                       arm_s=LOP_QUESTION_ARM_S),
                          callback=lambda yes: self._lop_answer(slot, what, bool(yes)))
 
     def _lop_answer(self, slot: int, what: str, discard: bool) -> None:

@@ -3,6 +3,7 @@ engine state it changed (configuration, pending observations, run state)."""
 
 from __future__ import annotations
 
+import asyncio
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ from textual.command import CommandPalette
 from textual.pilot import Pilot
 from textual.widgets import DataTable, Input, OptionList, Static
 
+from uvnav_tui.actions import LOP_QUESTION_ARM_S
 from uvnav_tui.dialogs.confirm_dialog import ConfirmDialog
 from uvnav_tui.dialogs.dialog import Dialog
 from uvnav_tui.dialogs.init_dialog import InitDialog
@@ -719,6 +721,40 @@ def test_data_kalman_sub_pages(data_dir: Path) -> None:
     drive(app, script)
 
 
+def test_a_question_not_asked_for_ignores_keys_typed_ahead() -> None:
+    """The LOP question opens unasked, between keys typed for something else: until its arming
+    time has passed (on its clock) Y, N, Esc and Return answer nothing; then they do."""
+    from textual.app import App
+
+    now = [100.0]
+    answers: list[bool | None] = []
+
+    class Host(App[None]):
+        def on_mount(self) -> None:
+            self.push_screen(ConfirmDialog("LOP rejection", "Discard LOP GPS Lat?", default=True,
+                                           arm_s=LOP_QUESTION_ARM_S, clock=lambda: now[0]),
+                             callback=answers.append)
+
+    app = Host()
+
+    async def script(pilot: Pilot[None]) -> None:
+        await wait_for(pilot, lambda: isinstance(app.screen, ConfirmDialog), "the question")
+        for key in ("enter", "y", "n", "escape"):
+            await pilot.press(key)
+        now[0] += LOP_QUESTION_ARM_S * 0.99
+        await pilot.press("enter")
+        assert isinstance(app.screen, ConfirmDialog) and answers == []
+        now[0] += LOP_QUESTION_ARM_S * 0.02
+        await pilot.press("enter")  # Yes is focused (the thesis' default answer)
+        await wait_for(pilot, lambda: answers == [True], "the answer")
+
+    async def main() -> None:
+        async with app.run_test() as pilot:
+            await script(pilot)
+
+    asyncio.run(main())
+
+
 def test_lop_reject_ask(tmp_path: Path) -> None:
     """LOPReject 'A': a flagged LOP interrupts the run; Yes recomputes without it."""
     data_dir = copy_data(tmp_path / "data")
@@ -731,6 +767,7 @@ def test_lop_reject_ask(tmp_path: Path) -> None:
         await wait_for(pilot, lambda: isinstance(app.screen, ConfirmDialog), "the LOP question")
         assert app.control.cycles == 5 and app.state_word == "Interrupted..."
         assert "Discard LOP GPS Lat?" in text_of(app)
+        await wait_for(pilot, lambda: app.screen.armed, "the question to take answers")
         await pilot.press("y")
         await wait_for(pilot, lambda: app.control.eof, "the end of the data file")
         history = list(app.control.session.history)

@@ -1,6 +1,13 @@
-"""Yes/No question (Quit, Run ▸ Start, discard an LOP): Y or N, Return on the focused button."""
+"""Yes/No question (Quit, Run ▸ Start, discard an LOP): Y or N, Return on the focused button.
+
+A question the operator did not ask for (the LOP rejection, raised by a cycle) can open between
+two keys the operator is typing for something else; ``arm_s`` makes it ignore every answer for
+that long after it is shown, so keys typed ahead never answer it."""
 
 from __future__ import annotations
+
+import time
+from collections.abc import Callable
 
 from textual import on
 from textual.app import ComposeResult
@@ -19,13 +26,23 @@ class ConfirmDialog(ModalScreen[bool]):
         Binding("y", "answer(True)", "Yes", show=False, priority=True),
         Binding("n", "answer(False)", "No", show=False, priority=True),
         Binding("escape", "answer(False)", "No", show=False, priority=True),
+        # Return presses the focused button here, not in the button, so that one typed
+        # before the question is armed leaves no trace (a button pressed shows itself pressed
+        # for a moment, and takes no press meanwhile).
+        Binding("enter", "press_focused", "Press", show=False, priority=True),
     ]
 
-    def __init__(self, title: str, question: str, *, default: bool = False) -> None:
+    def __init__(self, title: str, question: str, *, default: bool = False, arm_s: float = 0.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        """``arm_s``: seconds after it is shown during which no key, button or click answers
+        it (``clock``: the seconds it is measured on)."""
         super().__init__()
         self.title_text = title
         self.question = question
         self.default = default
+        self.arm_s = arm_s
+        self._clock = clock
+        self._shown_s = clock()
 
     def compose(self) -> ComposeResult:
         """The question and the two buttons."""
@@ -37,14 +54,27 @@ class ConfirmDialog(ModalScreen[bool]):
                 yield Button("No", id="no", compact=True)
 
     def on_mount(self) -> None:
-        """Focus the default answer (No unless told otherwise)."""
+        """Focus the default answer (No unless told otherwise); the arming time starts."""
+        self._shown_s = self._clock()
         self.query_one("#yes" if self.default else "#no", Button).focus()
 
+    @property
+    def armed(self) -> bool:
+        """True once ``arm_s`` has passed since the question was shown."""
+        return self._clock() - self._shown_s >= self.arm_s
+
     def action_answer(self, yes: bool) -> None:
-        """Close with the answer."""
-        self.dismiss(yes)
+        """Close with the answer (not before the question is armed)."""
+        if self.armed:
+            self.dismiss(yes)
+
+    def action_press_focused(self) -> None:
+        """Return: press the focused button (not before the question is armed)."""
+        if self.armed and isinstance(self.focused, Button):
+            self.focused.press()
 
     @on(Button.Pressed)
     def _pressed(self, event: Button.Pressed) -> None:
         event.stop()
-        self.dismiss(event.button.id == "yes")
+        if self.armed:
+            self.dismiss(event.button.id == "yes")
