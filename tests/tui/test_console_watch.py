@@ -18,6 +18,7 @@ from test_console_support import (
     make_app,
     start,
     text_of,
+    wait_for,
 )
 from textual.pilot import Pilot
 from textual.widgets import Static
@@ -512,5 +513,36 @@ def test_modified_data_file_is_warned_on_the_console(tmp_path: Path) -> None:
         assert any(t.startswith("Warning: ") and "DECCA.CHN: differs from the bundled" in t
                    for t in log), log
         assert not any("TO_WGS84.DAT" in t for t in log)  # the datum file is the shipped one
+
+    drive(app, script)
+
+
+def test_a_new_run_does_not_show_the_last_runs_message(tmp_path: Path) -> None:
+    """Run ▸ Start while the last run's message is still fresh on the message line: the new
+    run's screen does not show it (it did, its record time later than the new run's clock);
+    the message log (F2) keeps it."""
+    from uvnav_tui.dialogs.confirm_dialog import ConfirmDialog
+    from uvnav_tui.dialogs.init_dialog import InitDialog
+
+    data_dir = copy_data(tmp_path / "data")
+    run = data_dir / "920917_1.RUN"
+    run.write_text(run.read_text().replace("083542\t52 50 32.509", "083542\t52 50 37.509"))
+    app = make_app(data_dir, lop_policy="yes")
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot, 10)
+        line = app.screen.query_one(MessageLine)
+        old = line.text
+        assert old, "the first run left no message to carry over"
+        app.do_menu_action("run_start")
+        await wait_for(pilot, lambda: isinstance(app.screen, ConfirmDialog), "the question")
+        await pilot.press("y")
+        await wait_for(pilot, lambda: isinstance(app.screen, InitDialog), "the init dialog")
+        await pilot.press("enter")
+        await wait_for(pilot, lambda: app.control is not None and app.control.cycles == 0
+                       and not isinstance(app.screen, InitDialog), "the new run")
+        await pilot.pause()
+        assert app.screen.query_one(MessageLine).text != old
+        assert any(e.line() == old for e in app.message_log.since(0)[1])
 
     drive(app, script)

@@ -28,6 +28,7 @@ class MessageLine(Widget):
         super().__init__(id=id)
         self._log: MessageLog | None = None
         self._entry: LogEntry | None = None
+        self._since_s = 0.0
         self._text = ""
 
     def on_mount(self) -> None:
@@ -39,10 +40,16 @@ class MessageLine(Widget):
         """What the line shows now."""
         return self._text
 
-    def show(self, log: MessageLog, now_s: float | None = None) -> None:
-        """Show the newest entry of ``log`` unless it is older than :data:`MESSAGE_TTL_S`."""
+    def show(self, log: MessageLog, now_s: float | None = None,
+             since_s: float | None = None) -> None:
+        """Show the newest entry of ``log`` unless it is older than :data:`MESSAGE_TTL_S`, or
+        was logged before ``since_s`` (wall-clock s: the start of the current run, so that
+        the last run's message does not stand on the new run's screen; kept when None)."""
         self._log = log
-        self._entry = log.newest()
+        if since_s is not None:
+            self._since_s = since_s
+        entry = log.newest()
+        self._entry = entry if entry is not None and entry.wall_s >= self._since_s else None
         self._update(time.time() if now_s is None else now_s)
 
     def _age(self) -> None:
