@@ -400,6 +400,20 @@ def test_pages_fit_the_page_width(number: int, sample: tuple[Session, CycleResul
     assert max(len(ln) for ln in text.splitlines()) <= 80  # 100 columns less the status column
 
 
+def test_611_a_long_datum_name_widens_its_column(sample: tuple[Session, CycleResult]) -> None:
+    """A datum named as TO_WGS84.DAT may name it ("ED50 [DMA]", 10 characters) ran into the
+    latitude on Pg 611; the latitudes of both rows now start in the same column, after a
+    space."""
+    session, r = sample
+    text = mod(611).render(dataclasses.replace(r, datum="ED50 [DMA]"), session)
+    head, wgs, work = next(text.splitlines()[i:i + 3] for i, ln in enumerate(text.splitlines())
+                           if ln.startswith("datum"))
+    assert work.startswith("ED50 [DMA] 52°")
+    assert head.index("lat") == wgs.index("52°") == work.index("52°") == len("ED50 [DMA] ")
+    plain = mod(611).render(r, session).splitlines()
+    assert next(ln for ln in plain if ln.startswith("datum")).index("lat") == 9  # as before
+
+
 def test_systems_off(sample: tuple[Session, CycleResult]) -> None:
     session, r = sample
     cfg = session.config

@@ -45,13 +45,14 @@ def render(r: CycleResult, session: Session) -> str:
     g = r.gps
     if g is None:
         return "\n".join(out + ["No GPS fix in this record."])
+    dw = max(9, len(r.datum) + 1)  # a long datum name ("ED50 [DMA]") widens its column
     out += [
-        f"{'datum':<9}{'lat':<19}{'lon':<20}Hg",
-        f"{'WGS84':<9}{format_lat_dms(g.wgs84_lat_deg):<19}{format_lon_dms(g.wgs84_lon_deg):<20}"
-        f"{num(g.hg_m, 1)}",
+        f"{'datum':<{dw}}{'lat':<19}{'lon':<20}Hg",
+        f"{'WGS84':<{dw}}{format_lat_dms(g.wgs84_lat_deg):<19}"
+        f"{format_lon_dms(g.wgs84_lon_deg):<20}{num(g.hg_m, 1)}",
         # Hg on the working datum is 0 by construction (THEORY §12.8: hg_m is the WGS84 height
         # that puts the fix at height 0 on the working datum).
-        f"{r.datum:<9}{format_lat_dms(g.lat_deg):<19}{format_lon_dms(g.lon_deg):<20}0.00",
+        f"{r.datum:<{dw}}{format_lat_dms(g.lat_deg):<19}{format_lon_dms(g.lon_deg):<20}0.00",
         "",
         input_line(g.weight, cfg.run_gps_datum, cfg.gps.receiver),
         *weight_lines(g.weight),
