@@ -359,6 +359,36 @@ def test_hardcopy(data_dir: Path) -> None:
     assert (out / "UVNAV_920917_1_083539_Pg100.svg").read_text().startswith("<svg")
 
 
+def test_hardcopy_of_a_table_holds_the_whole_table(data_dir: Path) -> None:
+    """A table taller and wider than an 80×24 terminal (40 rows, a long last column): the
+    hardcopy's text is every row and every column, the SVG the screen (the text was the
+    screen too, rows and the last column cut)."""
+    from uvnav_tui.screens.table_screen import TableScreen
+
+    app = make_app(data_dir)
+    columns = ("t", "Time", "Note")
+    rows = [[f"+{i}:00", f"10:{i:02d}:00Z", f"row {i} " + "x" * 60 + f" end {i}"]
+            for i in range(40)]
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot, 2)
+        app.push_screen(TableScreen("Kalman ▸ Predict.", "a long table", columns, rows,
+                                    hardcopy_name="Predict"))
+        await wait_for(pilot, lambda: isinstance(app.screen, TableScreen), "the table")
+        await pilot.pause()
+        assert app.actions.write_hardcopy() is not None
+
+    drive(app, script, size=(80, 24))
+    out = data_dir / "hardcopy"
+    text = (out / "UVNAV_920917_1_083539_Predict.txt").read_text(encoding="utf-8")
+    lines = text.splitlines()
+    assert lines[:2] == ["Kalman ▸ Predict.", "a long table"]
+    assert lines[3].split() == ["t", "Time", "Note"]
+    assert len(lines) == 5 + 40
+    assert all(f"end {i}" in lines[5 + i] for i in range(40))
+    assert (out / "UVNAV_920917_1_083539_Predict.svg").read_text().startswith("<svg")
+
+
 def test_setup_params(data_dir: Path) -> None:
     """Setup ▸ Params ▸ Datum / DR Pos / Current: bad entries are rejected and kept; good ones
     change the working datum, the DR position and the current."""

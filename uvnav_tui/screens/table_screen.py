@@ -73,6 +73,19 @@ class TableScreen(ModalScreen[None]):
         table.add_rows(self.rows)
         table.focus()
 
+    def full_text(self) -> str:
+        """The whole table as plain text (title, note, a header and every row, columns
+        left-aligned two spaces apart): Edit ▸ Hardcopy's text file, which a screenshot of a
+        table taller or wider than the terminal would cut."""
+        widths = [max(len(str(c)), *(len(r[i]) for r in self.rows)) if self.rows else len(c)
+                  for i, c in enumerate(self.columns)]
+
+        def line(cells: Sequence[str]) -> str:
+            return "  ".join(f"{c:<{w}}" for c, w in zip(cells, widths, strict=True)).rstrip()
+
+        return "\n".join([self.title_text, self.note, "", line(self.columns),
+                          line(["-" * w for w in widths]), *(line(r) for r in self.rows)]) + "\n"
+
     def action_open_menu(self, index: int) -> None:
         """F10: the menu bar over the table."""
         app = cast(ConsoleHost, self.app)
