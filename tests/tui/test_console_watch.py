@@ -423,6 +423,30 @@ def test_message_panel_on_tall_terminals(data_dir: Path) -> None:
         drive(app, script, size=size)
 
 
+def test_message_panel_rewraps_when_the_terminal_grows(data_dir: Path) -> None:
+    """Messages logged at 80×24 (the panel hidden: its lines wrapped at RichLog's 20-column
+    minimum), then the terminal grown to 200×60: the panel's lines are as wide as it is, not
+    a 60-character message cut into 20-column pieces (it stayed so until the next message)."""
+    app = make_app(data_dir)
+    text = "a message of sixty characters, so wider than twenty columns."
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot, 2)
+        app.say(text)
+        await pilot.pause()
+        panel = app.screen.query_one(MessagePanel)
+        assert panel.display is False
+        await pilot.resize_terminal(200, 60)
+        await wait_for(pilot, lambda: panel.display and panel.region.width > 100,
+                       "the panel on the grown terminal")
+        await pilot.pause()
+        lines = [strip.text.rstrip() for strip in panel.lines]
+        assert any(ln.endswith(text) for ln in lines), lines
+        assert max(len(ln) for ln in lines) > 60
+
+    drive(app, script, size=(80, 24))
+
+
 # ------------------------------------------------------------------------------------------
 # 7. State by glyphs
 

@@ -11,6 +11,7 @@ from typing import Self
 
 from rich.text import Text
 from textual.containers import Vertical
+from textual.events import Resize
 from textual.geometry import Region
 from textual.widgets import RichLog
 
@@ -27,6 +28,10 @@ class MessageLogView(RichLog):
         super().__init__(id=id, classes=classes, max_lines=LOG_LIMIT, auto_scroll=True,
                          wrap=True, markup=False, highlight=False, min_width=20)
         self._next = 0
+        self._log: MessageLog | None = None
+        self._wrap_width = 0
+        """The width the lines written so far were wrapped at (0: hidden, or not yet laid
+        out: RichLog then wraps at ``min_width``)."""
         self._batch: list[bool] | None = None
         """While :meth:`sync` writes: the ``layout`` flags of the refreshes asked for."""
 
@@ -34,8 +39,11 @@ class MessageLogView(RichLog):
         """Write the entries added since the last call (each one as its own ``write``, so the
         lines are those of one write per entry; the refreshes they ask for and the scroll to
         the end are done once: at pace fast a sync may bring many entries)."""
+        self._log = log
         if log.total == self._next:
             return
+        if self._size_known:
+            self._wrap_width = self.scrollable_content_region.width
         start, entries = log.since(self._next)
         texts = [Text(e.line()) for e in entries]
         if start > self._next:
@@ -64,6 +72,20 @@ class MessageLogView(RichLog):
         # at once, not after the next frame: the panel keeps its size, so the end is known
         # now, and the new lines and the scroll are drawn in one frame instead of two
         self.scroll_end(animate=False, immediate=True, x_axis=False)
+
+    def on_resize(self, event: Resize) -> None:
+        """RichLog wraps a line once, when it is written: after a change of width (the panel
+        shown on a terminal grown from 80×24, where it was hidden and its lines wrapped at 20
+        columns) every line is written again at the new width."""
+        first = not self._size_known
+        super().on_resize(event)
+        width = self.scrollable_content_region.width
+        if first:
+            self._wrap_width = width
+        elif width and width != self._wrap_width and self._log is not None:
+            self.clear()
+            self._next = 0
+            self.sync(self._log)
 
     def refresh(self, *regions: Region, repaint: bool = True, layout: bool = False,
                 recompose: bool = False) -> Self:
