@@ -187,6 +187,10 @@ class Session:
         """The first :data:`BAD_RECORDS_KEPT` bad records (all of them are ``BAD`` lines of the
         ``.OUT`` log; :attr:`skipped_records` counts them all): memory stays bounded."""
         self.skipped_records = 0
+        self.cycle_config: RunConfig | None = None
+        """The configuration the latest cycle was computed with (None before the first): a
+        set-up change applies from the next cycle, so what labels that cycle's values (the
+        Decca chain of its lanes) is this, not :attr:`config`."""
         self.eof = False
         self.fixes = 0
         self.rejected_lops = 0
@@ -347,6 +351,7 @@ class Session:
             exc.add_note(f"while processing {self._run_name}:{rec.line_no}: {rec.raw!r}")
             raise
         self._prev_nav, self._prev_record = self.nav, rec
+        self.cycle_config = self.context.config
         self._commit(nav, result)
         return result
 
@@ -431,6 +436,7 @@ class Session:
             return None
         nav, result = step(self.context, self._prev_nav, self._prev_record,
                            excluded_slots=excluded_slots)
+        self.cycle_config = self.context.config
         dropped = self.history.pop()
         if dropped.fix is not None:
             self.fixes -= int(dropped.fix.lse_ok)

@@ -447,6 +447,34 @@ def test_message_panel_rewraps_when_the_terminal_grows(data_dir: Path) -> None:
     drive(app, script, size=(80, 24))
 
 
+def test_a_chain_chosen_since_does_not_label_the_last_cycles_lanes(data_dir: Path) -> None:
+    """Setup ▸ Systems ▸ Decca to chain 2E with the run suspended: Pg 100 and Pg 615 go on
+    naming 9B for the last cycle's 9B lanes and say 2E comes next (they showed "2E" beside 9B
+    numbers); after the next cycle they show 2E alone."""
+    from engine.api import SetDecca
+
+    app = make_app(data_dir)
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot, 3)
+        assert "Chain 9B" in text_of(app) and "next)" not in text_of(app)
+        assert app.actions.apply(SetDecca(on=True, chain="2E", red="B20", green="F34", purple="A51",
+                                                 select=("red", "green")))
+        await pilot.pause()
+        assert "Chain 9B (2E next)" in text_of(app)
+        app.show_page(615)
+        await pilot.pause()
+        assert "Chain : 9B (2E from the next cycle)" in text_of(app)
+        await app.wait_cycles(1)
+        await pilot.pause()
+        assert "Chain : 2E" in text_of(app) and "from the next cycle" not in text_of(app)
+        app.show_page(100)
+        await pilot.pause()
+        assert "Chain 2E" in text_of(app) and "next)" not in text_of(app)
+
+    drive(app, script)
+
+
 # ------------------------------------------------------------------------------------------
 # 7. State by glyphs
 

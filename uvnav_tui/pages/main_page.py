@@ -125,10 +125,17 @@ def gps_box_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
     ]
 
 
-def decca_box_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
-    """``Chain 9B``, then zone+lane per pattern (``Red B20.9 *``; * = selected)."""
+def decca_box_lines(r: CycleResult | None, cfg: RunConfig,
+                    cycle_cfg: RunConfig | None = None) -> list[str]:
+    """``Chain 9B``, then zone+lane per pattern (``Red B20.9 *``; * = selected). The chain and
+    the selection are those the cycle ``r`` was computed with (``cycle_cfg``), so that a chain
+    chosen since does not label the old chain's lanes: ``Chain 9B (2E next)`` until the next
+    cycle."""
     d = cfg.decca
-    lines = [f"Chain {d.chain}" + ("" if d.on else "  off")]
+    shown = cycle_cfg.decca if r is not None and cycle_cfg is not None else d
+    head = f"Chain {shown.chain}" + (f" ({d.chain} next)" if d.chain != shown.chain else "")
+    lines = [head + ("" if d.on else "  off")]
+    d = shown
     observed: tuple[float | None, ...] = (None, None, None)
     if r is not None and r.decca_on and r.fix is not None:
         observed = r.fix.decca_observed
@@ -178,8 +185,10 @@ class MainPage(Widget):
             self._texts[box] = text
             self.query_one(f"#{box}", Static).update(text, layout=False)
 
-    def show(self, r: CycleResult | None, cfg: RunConfig) -> None:
-        """Render the cycle ``r`` (None before the first cycle) with the run's settings."""
+    def show(self, r: CycleResult | None, cfg: RunConfig,
+             cycle_cfg: RunConfig | None = None) -> None:
+        """Render the cycle ``r`` (None before the first cycle) with the run's settings
+        (``cycle_cfg``: those ``r`` was computed with, where they label its values)."""
         level = cfg.lsq.conf_region_pct / 100.0
         datum = r.datum if r is not None else cfg.datum
         mpp = r.mpp if r is not None else None
@@ -192,4 +201,4 @@ class MainPage(Widget):
         mpp_box.border_subtitle = mpp.source if mpp is not None else ""
         self._set("sensor-strip", sensor_strip(r, cfg))
         self._set("box-gps", "\n".join(gps_box_lines(r, cfg)))
-        self._set("box-decca", "\n".join(decca_box_lines(r, cfg)))
+        self._set("box-decca", "\n".join(decca_box_lines(r, cfg, cycle_cfg)))

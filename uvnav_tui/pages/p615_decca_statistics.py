@@ -28,7 +28,10 @@ def condition_label(cf: float) -> str:
 def render(r: CycleResult, session: Session) -> str:
     """The text of Pg 615 for cycle ``r``."""
     cfg = session.config
-    out = [TITLE, "", f"Chain : {cfg.decca.chain}", ""]
+    # the chain r's lanes are of (a chain chosen since applies from the next cycle)
+    chain = (session.cycle_config or cfg).decca.chain
+    later = f" ({cfg.decca.chain} from the next cycle)" if cfg.decca.chain != chain else ""
+    out = [TITLE, "", f"Chain : {chain}{later}", ""]
     if not cfg.decca.on:
         return "\n".join(out + ["Decca is off (Setup ▸ Systems ▸ Decca)."])
     fix = r.fix

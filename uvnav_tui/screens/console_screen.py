@@ -106,7 +106,8 @@ class ConsoleScreen(Screen[None]):
         line.page = host.page
         self.query_one(MenuBar).dev_mode = host.dev_mode
         if host.page == 100:
-            self.query_one(MainPage).show(r, config)
+            self.query_one(MainPage).show(r, config,
+                                          run.session.cycle_config if run is not None else None)
             if panel:
                 self.query_one(MessagePanel).sync(host.message_log)
         else:
