@@ -73,3 +73,13 @@ def test_assess_into_a_closed_pipe_keeps_its_plot(data: Path, tmp_path: Path) ->
     assert proc.wait(timeout=300) == EXIT_BROKEN_PIPE, err
     assert "Traceback" not in err, err
     assert "UVNAV assess plot" in (tmp_path / "p.svg").read_text(encoding="utf-8")
+
+
+def test_control_characters_in_a_message_are_shown_literally(tmp_path: Path) -> None:
+    """A file name with an escape sequence (or a carriage return that would overwrite the
+    line) is quoted in the message as escapes, never sent to the terminal as they are."""
+    name = "x\x1b[31mred\rfake.RUN"
+    done = uvnav(["replay", name], tmp_path, subprocess.PIPE)
+    assert done.returncode == 2
+    assert "uvnav replay: x\\x1b[31mred\\x0dfake.RUN: File not found !" in done.stderr
+    assert "\x1b" not in done.stderr and "\r" not in done.stderr

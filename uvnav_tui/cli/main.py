@@ -17,7 +17,12 @@ import importlib
 import os
 import sys
 
-from uvnav_tui.cli.stdout import StdoutFailed, guarded_stdout, silence_stdout
+from uvnav_tui.cli.stdout import (
+    StdoutFailed,
+    guarded_stdout,
+    literal_stderr,
+    silence_stdout,
+)
 
 # One OpenBLAS thread (numpy's and SciPy's bundled OpenBLAS read this when they load): every
 # matrix of the engine is at most 13×13, below the sizes at which OpenBLAS splits a routine
@@ -121,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if not headless:  # the console draws on its own terminal stream (Textual's driver)
             return _dispatch(args)
-        with guarded_stdout():
+        with guarded_stdout(), literal_stderr():
             return _dispatch(args)
     except StdoutFailed as exc:
         silence_stdout()

@@ -67,6 +67,7 @@ from engine.api import (
     remove_created,
     run_inputs,
 )
+from uvnav_tui.cli.stdout import unfiltered_stderr
 
 if TYPE_CHECKING:
     from engine.api import NmeaSender
@@ -264,7 +265,8 @@ def _run(session: Session, run: Path,
 
     total = count_lines(run)
     with Progress(TextColumn("replay"), BarColumn(), MofNCompleteColumn(), TextColumn("lines"),
-                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+                  TimeElapsedColumn(), console=Console(file=unfiltered_stderr()),
+                  transient=True) as bar:
         task = bar.add_task("replay", total=total)
         def progress(r: CycleResult) -> None:
             if on_cycle is not None:

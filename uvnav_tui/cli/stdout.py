@@ -7,7 +7,8 @@ run; its failure is :class:`StdoutFailed`, a ``BaseException`` like ``KeyboardIn
 that neither ``except OSError`` (which would report it as a file it is not) nor ``except
 Exception`` (an internal error with a traceback) takes it. ``uvnav_tui.cli.main`` turns it into
 exit 141 (a reader that went away, as SIGPIPE would) or exit 1 with one line naming standard
-output.
+output. Standard error is made literal the same way (:func:`literal_stderr`): control
+characters in a message are written as escapes.
 """
 
 from __future__ import annotations
@@ -67,6 +68,48 @@ def guarded_stdout() -> Iterator[GuardedStdout]:
         guard.flush()
     finally:
         sys.stdout = stream
+
+
+CONTROL_ESCAPES = {c: f"\\x{c:02x}" for c in (*range(0x00, 0x20), 0x7F, *range(0x80, 0xA0))
+                   if c not in (0x09, 0x0A)}
+"""Every C0 and C1 control character but tab and newline, as its ``\\xNN`` escape."""
+
+
+class LiteralStderr:
+    """``stream`` (standard error) that writes control characters as ``\\xNN``: a file name
+    or record quoted in a message (``x\\x1b[31m.RUN: File not found !``) is shown literally,
+    never obeyed by the terminal. Rich output meant for the terminal (the replay's progress
+    bar) goes to :attr:`unfiltered`."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.unfiltered = stream
+
+    def write(self, text: str) -> int:
+        return self.unfiltered.write(text.translate(CONTROL_ESCAPES))
+
+    def writelines(self, lines: Iterable[str]) -> None:
+        for line in lines:
+            self.write(line)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.unfiltered, name)
+
+
+def unfiltered_stderr() -> TextIO:
+    """Standard error as the terminal gets it (for Rich's own control codes)."""
+    return getattr(sys.stderr, "unfiltered", sys.stderr)  # type: ignore[no-any-return]
+
+
+@contextmanager
+def literal_stderr() -> Iterator[LiteralStderr]:
+    """``sys.stderr`` as :class:`LiteralStderr` for the block, then put back."""
+    stream = sys.stderr
+    literal = LiteralStderr(stream)
+    sys.stderr = literal  # type: ignore[assignment]
+    try:
+        yield literal
+    finally:
+        sys.stderr = stream
 
 
 def silence_stdout() -> None:
