@@ -149,7 +149,8 @@ def test_cli_prints_the_table_and_rejects_bad_input(capsys: pytest.CaptureFixtur
     rows = [ln.split() for ln in out.splitlines() if ln.startswith("10 min")]
     assert [r[2:5] for r in rows] == [["1", "min", "2"], ["10", "min", "2"]]
     assert main(["denied", str(DATA / "DEMO.RUN"), "--window", "-5"]) == 2
-    assert "--window: Must be a number of seconds > 0 !" in capsys.readouterr().err
+    assert "--window: Must be a number of seconds > 0 and at most 30 days (2592000) !" in \
+        capsys.readouterr().err
     assert main(["denied", str(DATA / "DEMO.RUN"), "--start", "25:99"]) == 2
     assert "--start: Wrong start time" in capsys.readouterr().err
     assert main(["denied", str(DATA / "DEMO.RUN"), "--window", "86400"]) == 3

@@ -377,3 +377,15 @@ def test_progress_bar_on_a_terminal_shows_the_total(tmp_path: Path) -> None:
     text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", b"".join(chunks).decode("utf-8", "replace"))
     # 11 lines: the caption and 10 records; before, the bar had no total ("10/?").
     assert " 0/11 lines" in text and "11/11 lines" in text and "/?" not in text
+
+
+def test_out_and_no_out_together_are_refused(tmp_path: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """``--out FILE --no-out`` asked for a log and for none: a usage error (exit 2), nothing
+    run; the second used to win silently."""
+    with pytest.raises(SystemExit) as stop:
+        main(["replay", str(DATA / "920917_1.RUN"), "--out", str(tmp_path / "y.OUT"),
+              "--no-out"])
+    assert stop.value.code == 2
+    assert "argument --no-out: not allowed with argument --out" in capsys.readouterr().err
+    assert not (tmp_path / "y.OUT").exists()

@@ -157,7 +157,8 @@ def _positive(values: list[float] | None, default: tuple[float, ...], name: str)
     out = list(default) if not values else values
     for v in out:
         if not (math.isfinite(v) and 0 < v <= 86400 * 30):
-            raise InputError("Must be a number of seconds > 0 !", field=name, text=str(v))
+            raise InputError("Must be a number of seconds > 0 and at most 30 days (2592000) !",
+                             field=name, text=str(v))
     return out
 
 

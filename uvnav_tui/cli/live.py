@@ -73,10 +73,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--learn", type=float, default=LEARN_S, metavar="S",
                    help="without --config: seconds of data after the first fix from which the "
                    f"sensors are learned (default {LEARN_S:g})")
-    p.add_argument("--out", help=".OUT log (default live-YYYYMMDDTHHMMSSZ.OUT here; never "
+    out = p.add_mutually_exclusive_group()
+    out.add_argument("--out", help=".OUT log (default live-YYYYMMDDTHHMMSSZ.OUT here; never "
                    "overwritten: a free NAME_N.OUT is chosen); the raw log NAME.raw.nmea and "
                    "NAME.raw.times.csv go beside it")
-    p.add_argument("--no-out", action="store_true", help="write no .OUT log and no raw log")
+    out.add_argument("--no-out", action="store_true", help="write no .OUT log and no raw log")
     p.add_argument("--jsonl", help="also write one JSON object per cycle to this file")
     p.add_argument("--force", action="store_true",
                    help="replace earlier outputs (.OUT, --jsonl; a raw log is never replaced)")

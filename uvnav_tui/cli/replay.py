@@ -85,9 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run", help=".RUN file or NMEA 0183 log to replay (its config: --config, or "
                    "NAME.toml beside it; for an NMEA log without either, one is derived)")
     p.add_argument("--config", help="run configuration TOML (default: NAME.toml next to RUN)")
-    p.add_argument("--out", help=".OUT log to write (default: NAME.OUT next to RUN; an existing "
+    out = p.add_mutually_exclusive_group()
+    out.add_argument("--out", help=".OUT log to write (default: NAME.OUT next to RUN; an existing "
                    "log is never overwritten: a free NAME_N.OUT is chosen)")
-    p.add_argument("--no-out", action="store_true", help="write no .OUT log")
+    out.add_argument("--no-out", action="store_true", help="write no .OUT log")
     p.add_argument("--jsonl", help="also write one JSON object per cycle to this file (an "
                    "existing file is kept: a free NAME_N.jsonl is chosen)")
     p.add_argument("--smooth", nargs="?", const="", metavar="FILE",
