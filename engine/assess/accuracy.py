@@ -46,7 +46,7 @@ import os
 import re
 import sys
 from array import array
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -339,19 +339,40 @@ class _TrackBuilder:
                              np.frombuffer(self.lon, dtype=float).copy(), cov)
 
 
-def _read_jsonl(name: str, lines: Iterable[str]) -> NavLog:
+def _jsonl_lines(name: str, raw_lines: Iterable[bytes]) -> Iterator[tuple[int, str, bool]]:
+    """(line number, text, complete) of a JSON-lines file read as bytes: a line that is not
+    UTF-8 is an InputError naming it (it stopped the whole read, unlocated, before); the last
+    line without its newline is not complete (a run cut short)."""
+    for ln, raw in enumerate(raw_lines, start=1):
+        complete = raw.endswith(b"\n")
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            if not complete:  # half a character at the cut
+                yield ln, "", False
+                return
+            raise InputError("Not UTF-8 text !", file=name, line=ln, field="line",
+                             text=raw[:80].decode("utf-8", "replace")) from None
+        yield ln, text.rstrip("\n"), complete
+
+
+def _read_jsonl(name: str, lines: Iterable[tuple[int, str, bool]]) -> NavLog:
     t_ms = array("q")
     datum: list[str] = []
     cm = array("d")
     builders = {e: _TrackBuilder() for e in ESTIMATORS}
-    for ln, line in enumerate(lines, start=1):
+    notes: list[str] = []
+    for ln, line, complete in lines:
         if not line.strip():
             continue
         try:
             obj = json.loads(line)
         except json.JSONDecodeError as exc:
-            raise InputError(f"Not a JSON object: {exc.msg} !", file=name, line=ln,
-                             text=line[:80]) from None
+            if not complete:  # the run was cut while writing it: as for a cut .OUT
+                notes.append(f"{name}:{ln}: last line is incomplete (run interrupted)")
+                break
+            raise InputError(f"Not a JSON object: {exc.msg} at column {exc.colno} !",
+                             file=name, line=ln, text=line[:80]) from None
         if not isinstance(obj, dict) or "time" not in obj:
             raise InputError("JSON line without 'time' !", file=name, line=ln, field="time",
                              text=line[:80])
@@ -367,7 +388,8 @@ def _read_jsonl(name: str, lines: Iterable[str]) -> NavLog:
         path=name, kind="jsonl", t_ms=np.array(t_ms, dtype=np.int64), datum=tuple(datum),
         cm_deg=np.array(cm), tracks={e: b.build(e) for e, b in builders.items()},
         cov_exact=False,
-        notes=("covariances rebuilt from the printed 95 % ellipse (a95, b95 to 1 mm, az to "
+        notes=(*notes,
+               "covariances rebuilt from the printed 95 % ellipse (a95, b95 to 1 mm, az to "
                "0.01°): exact up to that rounding",
                "NIS skipped: JSON lines carry no filter innovations (use the .OUT log)"),
     )
@@ -403,7 +425,7 @@ def _read_out(name: str) -> NavLog:
         if not isinstance(c, OutCycle):
             continue
         f = c.fields
-        t_ms.append(_time_ms(str(f.get("t")), name, None, f"CYCLE n={f.get('n')} t"))
+        t_ms.append(_time_ms(str(f.get("t")), name, c.line or None, f"CYCLE n={f.get('n')} t"))
         datum.append(sys.intern(str(f.get("datum", ""))))
         cm.append(_f(f.get("cm")))
         lse = c.first("LSE")
@@ -441,15 +463,15 @@ def read_nav_log(path: str | os.PathLike[str]) -> NavLog:
     if not p.is_file():
         raise InputError("File not found !", file=name, field="log")
     try:
-        with open(p, encoding="utf-8") as fh:
+        with open(p, "rb") as fh:  # bytes: a line that is not UTF-8 is named by the reader
             head = fh.read(4096).lstrip()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"Cannot read the log: {exc} !", file=name) from None
+    except OSError as exc:
+        raise InputError(f"Cannot read the log: {exc.strerror or exc} !", file=name) from None
     if not head:
         raise InputError("Empty log file !", file=name)
-    if head.startswith("{"):
-        with open(p, encoding="utf-8") as fh:
-            return _read_jsonl(name, (line.rstrip("\n") for line in fh))
+    if head.startswith(b"{"):
+        with open(p, "rb") as fh:
+            return _read_jsonl(name, _jsonl_lines(name, fh))
     return _read_out(name)
 
 

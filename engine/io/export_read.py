@@ -186,7 +186,7 @@ def _out_epoch(c: OutCycle, name: str) -> ExportEpoch:
     record = f.get("record")
     return ExportEpoch(
         n=n if isinstance(n, int) else 0,
-        time=_time(f.get("t"), name, None, where),
+        time=_time(f.get("t"), name, c.line or None, where),
         record=record if isinstance(record, int) else None,
         datum=str(f.get("datum") or ""),
         cm_deg=_num(f.get("cm")),

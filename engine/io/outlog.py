@@ -497,6 +497,9 @@ class OutCycle:
 
     fields: dict[str, Value]
     lines: tuple[tuple[str, dict[str, Value]], ...]
+    line: int = field(default=0, compare=False)
+    """The CYCLE line's number in the file (1-based), for messages about its fields; 0 where
+    unknown."""
 
     def first(self, tag: str) -> dict[str, Value] | None:
         """The fields of the first inner line with ``tag``, or None."""
@@ -712,9 +715,12 @@ class OutCycles(Sequence[OutCycle]):
     but one byte offset per cycle, 8 bytes): iterate, index or take ``len``. The file was
     checked whole by :func:`read_out_log`; only the cycles found then are served."""
 
-    def __init__(self, path: str, offsets: array[int]) -> None:
+    def __init__(self, path: str, offsets: array[int],
+                 line_numbers: array[int] | None = None) -> None:
         self._path = path
         self._offsets = offsets
+        self._lines = line_numbers
+        """The CYCLE line's number of each cycle (8 more bytes per cycle), or None."""
 
     def __len__(self) -> int:
         return len(self._offsets)
@@ -741,6 +747,7 @@ class OutCycles(Sequence[OutCycle]):
         if first >= stop:
             return
         left = stop - first
+        index = first
         current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]]] | None = None
         for _off, _i, text, _complete in _raw_lines(self._path, self._path,
                                                      self._offsets[first]):
@@ -750,8 +757,10 @@ class OutCycles(Sequence[OutCycle]):
             if tag == "CYCLE":
                 current = (fields, [])
             elif tag == "END" and current is not None:
-                yield OutCycle(current[0], tuple(current[1]))
+                line = self._lines[index] if self._lines is not None else 0
+                yield OutCycle(current[0], tuple(current[1]), line)
                 current = None
+                index += 1
                 left -= 1
                 if left == 0:
                     return
@@ -795,7 +804,7 @@ def _scan(
     file and line, unless only a cut-short line follows it.
     """
     name = str(path)
-    current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]], int] | None = None
+    current: tuple[dict[str, Value], list[tuple[str, dict[str, Value]]], int, int] | None = None
     last_line = 0
     pending: tuple[int, str, str, str, str] | None = None  # line, text, message, field, got
     cut = False
@@ -821,11 +830,11 @@ def _scan(
         if tag == "CYCLE":
             if current is not None:
                 state.problems.append(f"{name}:{ln}: cycle block without END before this line")
-            current = (fields, [], off)
+            current = (fields, [], off, ln)
         elif tag == "END":
             if current is None:
                 raise InputError("END without CYCLE", file=name, line=ln, field="END", text=text)
-            yield "cycle", current[2], OutCycle(current[0], tuple(current[1]))
+            yield "cycle", current[2], OutCycle(current[0], tuple(current[1]), current[3])
             current = None
         elif current is not None:
             current[1].append((tag, fields))
@@ -869,11 +878,13 @@ def read_out_log(path: str | os.PathLike[str]) -> OutLogContents:
     name = str(path)
     state = _ScanState()
     offsets: array[int] = array("q")
+    line_numbers: array[int] = array("q")
     actions: list[dict[str, Value]] = []
     bad: list[dict[str, Value]] = []
     for kind, off, item in _scan(path, state):
         if kind == "cycle":
             offsets.append(off)
+            line_numbers.append(item.line)  # type: ignore[union-attr]
         elif kind == "action":
             actions.append(item)  # type: ignore[arg-type]
         else:
@@ -881,7 +892,7 @@ def read_out_log(path: str | os.PathLike[str]) -> OutLogContents:
     return OutLogContents(
         header=tuple(state.header),
         config_text="\n".join(state.config) + ("\n" if state.config else ""),
-        cycles=OutCycles(name, offsets),
+        cycles=OutCycles(name, offsets, line_numbers),
         actions=tuple(actions),
         bad_records=tuple(bad),
         truncated=state.truncated,

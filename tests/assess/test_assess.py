@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
@@ -457,3 +458,35 @@ def test_bad_inputs_exit_2_with_a_message(tmp_path: Path,
     # the datum file fills in a missing ellipsoid
     rc = main(["assess", str(log), str(no_ell), "--datum-file", str(DATA / "TO_WGS84.DAT")])
     assert rc == 0 and "matched 10" in capsys.readouterr().out
+
+
+def test_a_log_cut_or_damaged_is_named_by_line(tmp_path: Path) -> None:
+    """JSON lines cut in the middle of the last line (a run interrupted) are read as a cut
+    .OUT is, with a note; a line that is not UTF-8, or a CYCLE line with a bad time, is an
+    error naming file and line (they were unlocated, and a cut JSON line was refused)."""
+    n = 20
+    times, lat, lon = _truth_track(n)
+    C = np.diag([25.0, 25.0])
+    est = [offset(lat[k], lon[k], np.array([1.0, 0.0]), C) for k in range(n)]
+    cycles = [Cycle(times[k], est[k], est[k], est[k]) for k in range(n)]
+    whole = write_jsonl(tmp_path / "W.jsonl", cycles).read_bytes()
+    cut = tmp_path / "C.jsonl"
+    cut.write_bytes(whole[: whole.index(b"\n", len(whole) // 2) + 30])
+    log = read_nav_log(cut)
+    assert 0 < len(log.t_ms) < n
+    assert f"{cut}:{len(log.t_ms) + 1}: last line is incomplete (run interrupted)" in log.notes
+    out = write_out(tmp_path / "D.OUT", cycles).read_bytes().split(b"\n")
+    first = next(i for i, ln in enumerate(out) if ln.startswith(b"CYCLE"))
+    inner = first + 2
+    bad_utf8 = out.copy()
+    bad_utf8[inner] = b"garbage \xff"
+    (tmp_path / "U.OUT").write_bytes(b"\n".join(bad_utf8))
+    with pytest.raises(InputError) as err:
+        read_nav_log(tmp_path / "U.OUT")
+    assert str(err.value).startswith(f"{tmp_path / 'U.OUT'}:{inner + 1}: line: Not UTF-8 text !")
+    bad_time = out.copy()
+    bad_time[first] = re.sub(rb"t=\d{4}-\d\d", b"t=1992-99", bad_time[first])
+    (tmp_path / "T.OUT").write_bytes(b"\n".join(bad_time))
+    with pytest.raises(InputError) as err:
+        read_nav_log(tmp_path / "T.OUT")
+    assert str(err.value).startswith(f"{tmp_path / 'T.OUT'}:{first + 1}: CYCLE n=1 t: ")
