@@ -448,7 +448,7 @@ def parse_nmea_line(
         return SentenceSkip(SkipKind.AIS, "AIS/encapsulated sentence (!): not used",
                             text[3:6] if len(text) >= 6 else None)
     if text[0] != "$":
-        return SentenceSkip(SkipKind.NOT_TEXT, "not a sentence (does not start with $)")
+        return SentenceSkip(SkipKind.NOT_TEXT, "does not start with $")
     if len(text) > MAX_SENTENCE_CHARS:
         return SentenceSkip(SkipKind.MALFORMED, f"longer than {MAX_SENTENCE_CHARS} characters")
     star = text.rfind("*")

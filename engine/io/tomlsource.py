@@ -201,7 +201,8 @@ def _long_number_line(text: str) -> int:
 def read_text(path: str | os.PathLike[str]) -> str:
     """A UTF-8 text file (InputError ``File not found !``, ``Is a directory, not a file !``,
     ``Cannot read: …`` (:func:`~engine.errors.read_error`) or ``File is not UTF-8 text !``
-    with the line of the first bad byte)."""
+    with the line of the first bad byte). A byte-order mark at its start (what Windows editors
+    write) is dropped: TOML allows none, and a configuration saved by Notepad was refused."""
     file = Path(path)
     if "\0" in str(file):
         raise InputError(NUL_IN_PATH_MESSAGE, file=str(file))
@@ -210,7 +211,7 @@ def read_text(path: str | os.PathLike[str]) -> str:
     except OSError as exc:
         raise read_error(exc, str(file), FILE_NOT_FOUND_MESSAGE) from None
     try:
-        return raw.decode("utf-8")
+        return raw.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as err:
         line = raw[: err.start].count(b"\n") + 1
         raise InputError(NOT_UTF8_MESSAGE, file=str(file), line=line) from None

@@ -444,3 +444,17 @@ def test_switching_the_preset_in_the_dialog_changes_only_what_the_preset_decides
     f = new.filter
     assert (f.preset, f.model, f.p0, f.bias_noise, f.q_scale) == (
         "thesis", "thesis", "thesis", False, 2.0)
+
+
+def test_a_byte_order_mark_is_allowed(tmp_path: Path) -> None:
+    """A configuration saved by a Windows editor starts with a UTF-8 byte-order mark, which
+    TOML does not allow: it is dropped (such a file was refused as 'Invalid statement' on line
+    1), and the line numbers of later messages are unchanged."""
+    cfg = tmp_path / "bom.toml"
+    cfg.write_bytes(b"\xef\xbb\xbf" + b'datum = "WGS84"\n[demo]\ndelta_t_s = 5\n')
+    loaded = load_config(cfg)
+    assert loaded.datum == "WGS84" and loaded.demo.delta_t_s == 5
+    cfg.write_bytes(b"\xef\xbb\xbf" + b'datum = "WGS84"\n[demo]\ndelta_t_s = 0\n')
+    with pytest.raises(InputError) as err:
+        load_config(cfg)
+    assert str(err.value).startswith(f"{cfg}:3: demo.delta_t_s: ")
