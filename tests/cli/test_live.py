@@ -16,6 +16,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -92,15 +93,10 @@ def test_live_without_config_derives_one_from_the_stream(
     """No --config: DR position = the first fix, GPS on, Decca off, gyro and log on (HDT, VHW
     came), echo sounder n/a (no DBT) — as docs/NMEA.md derives one from a log."""
     port = free_port(socket.SOCK_DGRAM)
-    stop = threading.Event()
-    sender = threading.Thread(target=send_udp, args=(port, range(40), stop, 0.05))
-    sender.start()
-    try:
-        status = main(["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "D.OUT"),
-                       "--learn", "0.5", "--cycles", "30"])
-    finally:
-        stop.set()
-        sender.join()
+    status = live_while_sending(
+        send_udp_paced, (port, range(40)),
+        ["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "D.OUT"), "--learn", "0.5",
+         "--cycles", "30"])
     out = capsys.readouterr().out
     assert status == 0, out
     assert "no --config: waiting for the first fix" in out
@@ -116,6 +112,21 @@ def test_live_without_config_derives_one_from_the_stream(
     assert '# datum = "WGS84"' in head and "# [decca]\n# on = false" in head
 
 
+def live_while_sending(sender_target: Callable[..., None], sender_args: tuple[object, ...],
+                       argv: list[str], limit_s: float | None = None) -> int:
+    """``uvnav ARGV`` while a sender thread runs ``sender_target(*sender_args, stop)`` (stopped
+    and joined after); with ``limit_s`` the command must return within it (:func:`main_within`).
+    """
+    stop = threading.Event()
+    sender = threading.Thread(target=sender_target, args=(*sender_args, stop))
+    sender.start()
+    try:
+        return main(argv) if limit_s is None else main_within(argv, limit_s)
+    finally:
+        stop.set()
+        sender.join()
+
+
 def main_within(argv: list[str], limit_s: float = DEADLINE_S) -> int:
     """``main(argv)`` in a daemon thread; fails (instead of hanging the suite) when it has not
     returned within ``limit_s``."""
@@ -125,6 +136,11 @@ def main_within(argv: list[str], limit_s: float = DEADLINE_S) -> int:
     worker.join(limit_s)
     assert not worker.is_alive(), f"uvnav {' '.join(argv)} still running after {limit_s} s"
     return result[0]
+
+
+def send_udp_paced(port: int, seconds: range, stop: threading.Event) -> None:
+    """:func:`send_udp` with 50 ms between seconds (the learning seconds take real time)."""
+    send_udp(port, seconds, stop, 0.05)
 
 
 def send_headings(port: int, stop: threading.Event) -> None:
@@ -141,15 +157,10 @@ def test_live_seconds_ends_the_wait_for_a_first_fix(
     """No --config and a stream with no position: --seconds ends the wait (it once waited for
     ever), exit 3, nothing run, the raw log keeps the lines received and is named."""
     port = free_port(socket.SOCK_DGRAM)
-    stop = threading.Event()
-    sender = threading.Thread(target=send_headings, args=(port, stop))
-    sender.start()
-    try:
-        status = main_within(["live", f"udp://127.0.0.1:{port}", "--out",
-                              str(tmp_path / "N.OUT"), "--seconds", "1.5"], 30.0)
-    finally:
-        stop.set()
-        sender.join()
+    status = live_while_sending(
+        send_headings, (port,),
+        ["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "N.OUT"), "--seconds", "1.5"],
+        30.0)
     err = capsys.readouterr().err
     assert status == 3, err
     assert (f"uvnav live: udp://127.0.0.1:{port}: no position fix within --seconds 1.5 ("
@@ -166,16 +177,10 @@ def test_live_seconds_cuts_the_learning_short(
     """No --config, --learn longer than --seconds: the configuration is derived from what came
     by then, and the learning seconds' records are still run (exit 0)."""
     port = free_port(socket.SOCK_DGRAM)
-    stop = threading.Event()
-    sender = threading.Thread(target=send_udp, args=(port, range(40), stop, 0.05))
-    sender.start()
-    try:
-        status = main_within(["live", f"udp://127.0.0.1:{port}", "--out",
-                              str(tmp_path / "C.OUT"), "--learn", "600", "--seconds", "1.5"],
-                             30.0)
-    finally:
-        stop.set()
-        sender.join()
+    status = live_while_sending(
+        send_udp_paced, (port, range(40)),
+        ["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "C.OUT"), "--learn", "600",
+         "--seconds", "1.5"], 30.0)
     out = capsys.readouterr().out
     assert status == 0, out
     assert "configuration derived from the stream" in out

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 from test_console_support import (
-    copy_data,
+    blunder_data,
     drive,
     make_app,
     start,
@@ -787,9 +787,7 @@ def test_a_question_not_asked_for_ignores_keys_typed_ahead() -> None:
 
 def test_lop_reject_ask(tmp_path: Path) -> None:
     """LOPReject 'A': a flagged LOP interrupts the run; Yes recomputes without it."""
-    data_dir = copy_data(tmp_path / "data")
-    run = data_dir / "920917_1.RUN"
-    run.write_text(run.read_text().replace("083542\t52 50 32.509", "083542\t52 50 37.509"))
+    data_dir = blunder_data(tmp_path)
     app = make_app(data_dir, hold=False)
 
     async def script(pilot: Pilot[None]) -> None:

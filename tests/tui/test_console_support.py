@@ -23,6 +23,15 @@ from uvnav_tui.widgets.key_line import KeyLine
 from uvnav_tui.widgets.status_column import status_lines
 
 
+def blunder_data(tmp_path: Path) -> Path:
+    """A private data folder whose sample has a GPS blunder at 08:35:42 (latitude 5″ off): the
+    w-test flags LOP GPS Lat there, and under LOPReject 'A' the console asks about it."""
+    data_dir = copy_data(tmp_path / "data")
+    run = data_dir / "920917_1.RUN"
+    run.write_text(run.read_text().replace("083542\t52 50 32.509", "083542\t52 50 37.509"))
+    return data_dir
+
+
 def make_app(data_dir: Path, name: str = "920917_1", **kw: object) -> UVNAVApp:
     """A console on ``name``.toml of ``data_dir``: fast pace and held cycles unless told."""
     kw.setdefault("pace_override", "fast")

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pytest
 from test_console_support import (
+    blunder_data,
     copy_data,
     drive,
     make_app,
@@ -373,9 +374,7 @@ def test_engine_messages_name_lops_as_the_dialogs(tmp_path: Path) -> None:
     """A GPS blunder under LOPReject 'A': the engine's messages say ``LOP GPS Lat`` (before:
     ``LOP 0`` / ``LOP in slot 0``), every message is in the log with its record time, and an old
     console message no longer hides them."""
-    data_dir = copy_data(tmp_path / "data")
-    run = data_dir / "920917_1.RUN"
-    run.write_text(run.read_text().replace("083542\t52 50 32.509", "083542\t52 50 37.509"))
+    data_dir = blunder_data(tmp_path)
     app = make_app(data_dir, lop_policy="yes")
 
     async def script(pilot: Pilot[None]) -> None:
@@ -576,9 +575,7 @@ def test_a_new_run_does_not_show_the_last_runs_message(tmp_path: Path) -> None:
     from uvnav_tui.dialogs.confirm_dialog import ConfirmDialog
     from uvnav_tui.dialogs.init_dialog import InitDialog
 
-    data_dir = copy_data(tmp_path / "data")
-    run = data_dir / "920917_1.RUN"
-    run.write_text(run.read_text().replace("083542\t52 50 32.509", "083542\t52 50 37.509"))
+    data_dir = blunder_data(tmp_path)
     app = make_app(data_dir, lop_policy="yes")
 
     async def script(pilot: Pilot[None]) -> None:
