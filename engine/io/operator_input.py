@@ -31,6 +31,9 @@ FILE_NAME_MESSAGE = "Wrong file name !"
 
 MAX_SPEED_KN = 60.0
 """Upper limit of a typed speed (knots); a plausibility bound, not from the thesis."""
+MAX_DISTANCE_NM = 10800.0
+"""Upper limit of a typed distance (nm): half the Earth's circumference (21600 nm), so no
+distance on it is longer."""
 MAX_DEPTH_M = 1000.0
 """Upper limit of a typed depth (metres); a plausibility bound, not from the thesis."""
 
@@ -236,9 +239,10 @@ def parse_direction_deg(text: str, *, field: str = "direction") -> float:
 
 
 def parse_distance_nm(text: str, *, field: str = "distance") -> float:
-    """Distance in nautical miles (1 nm = 1852 m exactly, L7754), must be > 0."""
+    """Distance in nautical miles (1 nm = 1852 m exactly, L7754), 0 < d ≤
+    :data:`MAX_DISTANCE_NM`."""
     value = _plain_number(text, DISTANCE_MESSAGE, field)
-    if value <= 0.0:
+    if not 0.0 < value <= MAX_DISTANCE_NM:
         raise InputError(DISTANCE_MESSAGE, field=field, text=text)
     return value
 

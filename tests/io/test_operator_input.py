@@ -103,6 +103,8 @@ MALFORMED = [
     (parse_bearing_deg, "N45E", "Wrong bearing input !", "bearing"),
     (parse_distance_nm, "0", "Wrong distance input !", "distance"),
     (parse_distance_nm, "3 nm", "Wrong distance input !", "distance"),
+    (parse_distance_nm, "10800.001", "Wrong distance input !", "distance"),
+    (parse_distance_nm, "100000", "Wrong distance input !", "distance"),
     (parse_speed_kn, "61", "Wrong speed input !", "speed"),
     (parse_speed_kn, "", "Wrong speed input !", "speed"),
     (parse_direction_deg, "400", "Wrong direction input !", "direction"),
@@ -176,6 +178,7 @@ def test_valid_numbers() -> None:
     assert parse_bearing_deg(" 232.3 ") == 232.3
     assert parse_direction_deg("90") == 90.0
     assert parse_distance_nm(".5") == 0.5
+    assert parse_distance_nm("10800") == 10800.0  # half the Earth's circumference: the bound
     assert parse_speed_kn("12.7") == 12.7
     assert parse_speed_kn("0") == 0.0
     assert parse_depth_m("1000") == 1000.0

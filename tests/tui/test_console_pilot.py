@@ -594,6 +594,8 @@ def test_kalman_menu(data_dir: Path) -> None:
         assert message_of(interval) == "Wrong time interval input !"
         step = await fill(pilot, "predict-step", "abc")
         assert message_of(step) == "Wrong step size input !"
+        step = await fill(pilot, "predict-step", "0.1")  # below the table's 1 s resolution
+        assert message_of(step) == "Wrong step size input !"
         await fill(pilot, "predict-interval", "5")
         await fill(pilot, "predict-step", "30")
         await menu(pilot, "enter")

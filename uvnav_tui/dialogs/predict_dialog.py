@@ -16,12 +16,13 @@ MAX_INTERVAL_MIN = 24 * 60.0
 MAX_ROWS = 2000
 
 
-def _positive(text: str, message: str, limit: float) -> float:
+def _positive(text: str, message: str, limit: float, least: float = 0.0) -> float:
+    """A number in (0, limit], and at least ``least`` when that is above 0."""
     try:
         value = float(text.strip())
     except ValueError:
         raise InputError(message, text=text) from None
-    if not 0.0 < value <= limit:
+    if not (0.0 < value <= limit and value >= least):
         raise InputError(message, text=text)
     return value
 
@@ -31,9 +32,13 @@ def parse_interval_min(text: str) -> float:
     return _positive(text, INTERVAL_MESSAGE, MAX_INTERVAL_MIN)
 
 
+MIN_STEP_S = 1.0
+"""The table's times are to the second: a shorter step gave rows with the same time."""
+
+
 def parse_step_s(text: str) -> float:
-    """Step size in seconds, 0 < s ≤ 24 h."""
-    return _positive(text, STEP_MESSAGE, MAX_INTERVAL_MIN * 60.0)
+    """Step size in seconds, 1 s ≤ s ≤ 24 h."""
+    return _positive(text, STEP_MESSAGE, MAX_INTERVAL_MIN * 60.0, MIN_STEP_S)
 
 
 class PredictDialog(Dialog[tuple[float, float]]):
