@@ -58,7 +58,7 @@ import numpy.typing as npt
 from engine.errors import InputError
 from engine.geodesy.ellipsoid import Ellipsoid
 from engine.geodesy.tmgrid import TMGrid
-from engine.io.outlog import OutCycle, iter_out_log
+from engine.io.outlog import OutCycle, PositionChecks, iter_out_log
 from engine.lsq.statistics import chi2_bounds
 
 __all__ = [
@@ -421,6 +421,7 @@ def _read_out(name: str) -> NavLog:
     nis = array("d")
     dof = array("q")
     builders = {e: _TrackBuilder() for e in ESTIMATORS}
+    checks = PositionChecks(name)
     for _kind, c in events:
         if not isinstance(c, OutCycle):
             continue
@@ -433,6 +434,8 @@ def _read_out(name: str) -> NavLog:
         mpp = c.first("MPP")
         builders["kf"].add(mpp if f.get("source") == "KF" else None)
         builders["mpp"].add(mpp)
+        checks.check("LSE", lse, c.line)
+        checks.check("MPP", mpp, c.line)
         # NIS of the epoch's update (fix and depth), not of the sensor update (upd=sensors).
         test = next((t for t in c.all("TEST") if t.get("upd") != "sensors"), None)
         p = test.get("dof") if test is not None else None
@@ -445,7 +448,7 @@ def _read_out(name: str) -> NavLog:
             dof.append(0)
     if not t_ms:
         raise InputError("No cycles in the log !", file=name)
-    notes = list(log.problems)
+    notes = [*log.problems, *checks.notes()]
     rate = _poe_rate_from_config("\n".join(log.config) + "\n")
     return NavLog(
         path=name, kind="out", t_ms=np.array(t_ms, dtype=np.int64), datum=tuple(datum),

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from engine.errors import InputError
-from engine.io.outlog import OutCycle, iter_out_log
+from engine.io.outlog import OutCycle, PositionChecks, iter_out_log
 
 __all__ = [
     "MAX_SEMI_AXIS_M",
@@ -293,6 +293,7 @@ def read_export_log(path: str | os.PathLike[str]) -> ExportLog:
         raise InputError("Empty log file !", file=name)
     epochs: list[ExportEpoch] = []
     problems: list[str] = []
+    checks = PositionChecks(name)
     kind, config_text, bad, truncated = "jsonl", "", 0, False
     try:
         if head.startswith(b"{"):
@@ -311,6 +312,8 @@ def read_export_log(path: str | os.PathLike[str]) -> ExportLog:
             for what, item in events:
                 if what == "cycle" and isinstance(item, OutCycle):
                     _add(epochs, _out_epoch(item, name))
+                    for tag in ("LSE", "MPP", "GPS"):
+                        checks.check(tag, item.first(tag), item.line)
                 elif what == "bad":
                     bad += 1
             problems.extend(state.problems)
@@ -320,7 +323,7 @@ def read_export_log(path: str | os.PathLike[str]) -> ExportLog:
     if not epochs:
         raise InputError("No complete cycle in the log !", file=name)
     return ExportLog(name, kind, tuple(epochs), config_text, bad, truncated or bool(problems),
-                     tuple(problems))
+                     (*problems, *checks.notes()))
 
 
 def read_smoothed(path: str | os.PathLike[str]) -> tuple[list[SmoothedPoint], list[str]]:

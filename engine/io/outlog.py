@@ -32,6 +32,7 @@ tests/native/test_outfmt.py).
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 from array import array
@@ -766,6 +767,39 @@ class OutCycles(Sequence[OutCycle]):
                     return
             elif current is not None:
                 current[1].append((tag, fields))
+
+
+class PositionChecks:
+    """Logged positions whose ``lat`` or ``lon`` is no number this program writes (infinite,
+    or text; NaN is the engine's "no value"), per line tag: the reader leaves such a position
+    out of its track, and :meth:`notes` says where (the first one's line) and how often."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self._first: dict[str, tuple[int, Value]] = {}
+        self._count: dict[str, int] = {}
+
+    def check(self, tag: str, fields: Mapping[str, Value] | None, line: int) -> None:
+        """Look at the position ``fields`` of a ``tag`` line (the cycle's line ``line``)."""
+        if fields is None:
+            return
+        for key in ("lat", "lon"):
+            v = fields.get(key)
+            if isinstance(v, str) or (isinstance(v, float) and math.isinf(v)):
+                self._count[tag] = self._count.get(tag, 0) + 1
+                self._first.setdefault(tag, (line, v))
+                return
+
+    def notes(self) -> list[str]:
+        """``NAME:LINE: the cycle's MPP lat/lon is not a number (got inf): …`` per tag (LINE:
+        the cycle's CYCLE line)."""
+        out = []
+        for tag, (line, v) in self._first.items():
+            more = self._count[tag] - 1
+            out.append(f"{self.name}:{line}: the cycle's {tag} lat/lon is not a number (got "
+                       f"{v!r}): that position is left out"
+                       + (f", and {more} more such" if more else ""))
+        return out
 
 
 @dataclass

@@ -490,3 +490,24 @@ def test_a_log_cut_or_damaged_is_named_by_line(tmp_path: Path) -> None:
     with pytest.raises(InputError) as err:
         read_nav_log(tmp_path / "T.OUT")
     assert str(err.value).startswith(f"{tmp_path / 'T.OUT'}:{first + 1}: CYCLE n=1 t: ")
+
+
+def test_a_position_that_is_no_number_is_named(tmp_path: Path) -> None:
+    """An MPP whose latitude was damaged to ``1e999`` (infinite) or to text is left out of the
+    track, as before, but no longer silently: a note names the cycle's line and counts them.
+    NaN, the engine's own "no value", is not reported."""
+    n = 10
+    times, lat, lon = _truth_track(n)
+    C = np.diag([25.0, 25.0])
+    est = [offset(lat[k], lon[k], np.array([1.0, 0.0]), C) for k in range(n)]
+    out = write_out(tmp_path / "D.OUT", [Cycle(times[k], est[k], est[k], est[k])
+                                         for k in range(n)]).read_bytes().split(b"\n")
+    cycle_lines = [i for i, ln in enumerate(out) if ln.startswith(b"CYCLE")]
+    mpp = [i for i, ln in enumerate(out) if ln.lstrip().startswith(b"MPP")]
+    for k, bad in ((2, b"1e999"), (5, b"north"), (7, b"nan")):
+        out[mpp[k]] = re.sub(rb" lat=\S+", b" lat=" + bad, out[mpp[k]])
+    (tmp_path / "B.OUT").write_bytes(b"\n".join(out))
+    log = read_nav_log(tmp_path / "B.OUT")
+    assert not np.isfinite(log.tracks["mpp"].lat_deg[[2, 5, 7]]).any()  # out of the statistics
+    assert (f"{tmp_path / 'B.OUT'}:{cycle_lines[2] + 1}: the cycle's MPP lat/lon is not a "
+            "number (got inf): that position is left out, and 1 more such") in log.notes
