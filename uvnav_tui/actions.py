@@ -408,6 +408,7 @@ class MenuActions:
                 self.ask_lop(result, first=False)
                 return
         else:
+            run.keep(slot)
             host.say(f"LOP {what} kept (monitored)")
         run.awaiting_answer = False
         host.refresh_display()

@@ -379,6 +379,11 @@ class RunController:
                 self._log_messages(result)
             return result
 
+    def keep(self, slot: int) -> None:
+        """The operator kept the flagged LOP in ``slot`` (LOPReject 'A', no): logged."""
+        with self.lock:
+            self.session.record_lop_kept(slot)
+
     @property
     def bad_records(self) -> int:
         """Records of the ``.RUN`` file skipped as bad so far."""

@@ -455,6 +455,17 @@ class Session:
         self._commit(nav, result)
         return result
 
+    def record_lop_kept(self, slot: int) -> None:
+        """The operator kept the LOP in ``slot`` that the last cycle flagged (LOPReject 'A',
+        no): an ``ACT`` line in the ``.OUT``, as a discarded one has (``LOP kept (2,): Decca
+        Red``)."""
+        if self._out is None or not self.history:
+            return
+        result = self.history[-1]
+        system = "KF" if result.fix is not None and result.fix.uses_prior else "GPS"
+        name = lop_name(slot, system=system, manual=result.manual)
+        self._out.write_action({"cycle": result.n, "text": f"LOP kept {(slot,)}: {name}"})
+
     def run(
         self,
         max_cycles: int | None = None,

@@ -787,6 +787,27 @@ def test_a_question_not_asked_for_ignores_keys_typed_ahead() -> None:
     asyncio.run(main())
 
 
+def test_lop_kept_is_logged(tmp_path: Path) -> None:
+    """LOPReject 'A', No: the LOP stays, and the .OUT says so with an ACT line as it does for a
+    discarded one (a No, or a stray Esc, left no trace in the log)."""
+    app = make_app(blunder_data(tmp_path), hold=False)
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot)
+        await wait_for(pilot, lambda: isinstance(app.screen, ConfirmDialog), "the LOP question")
+        await wait_for(pilot, lambda: app.screen.armed, "the question to take answers")
+        await pilot.press("escape")
+        await wait_for(pilot, lambda: app.control.eof, "the end of the data file")
+        out = app.control.session.out_path
+        app.stop_run()
+        acts = [ln for ln in out.read_text(encoding="utf-8").splitlines()
+                if ln.startswith("ACT ")]
+        assert acts == ['ACT cycle=5 text="LOP kept (0,): GPS Lat"']
+        assert "LOP GPS Lat kept (monitored)" in [e.text for e in app.message_log.since(0)[1]]
+
+    drive(app, script)
+
+
 def test_lop_reject_ask(tmp_path: Path) -> None:
     """LOPReject 'A': a flagged LOP interrupts the run; Yes recomputes without it."""
     data_dir = blunder_data(tmp_path)
