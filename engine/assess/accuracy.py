@@ -58,7 +58,7 @@ import numpy.typing as npt
 from engine.errors import InputError
 from engine.geodesy.ellipsoid import Ellipsoid
 from engine.geodesy.tmgrid import TMGrid
-from engine.io.outlog import OutCycle, PositionChecks, iter_out_log
+from engine.io.outlog import OutCycle, PositionChecks, check_log_head, iter_out_log
 from engine.lsq.statistics import chi2_bounds
 
 __all__ = [
@@ -472,6 +472,7 @@ def read_nav_log(path: str | os.PathLike[str]) -> NavLog:
         raise InputError(f"Cannot read the log: {exc.strerror or exc} !", file=name) from None
     if not head:
         raise InputError("Empty log file !", file=name)
+    check_log_head(head, name)
     if head.startswith(b"{"):
         with open(p, "rb") as fh:
             return _read_jsonl(name, _jsonl_lines(name, fh))

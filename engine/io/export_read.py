@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from engine.errors import InputError
-from engine.io.outlog import OutCycle, PositionChecks, iter_out_log
+from engine.io.outlog import OutCycle, PositionChecks, check_log_head, iter_out_log
 
 __all__ = [
     "MAX_SEMI_AXIS_M",
@@ -303,11 +303,7 @@ def read_export_log(path: str | os.PathLike[str]) -> ExportLog:
                                      "log !", file=name, line=ln, field="time")
                 _add(epochs, _json_epoch(obj, name, ln))
         else:
-            if not head.startswith(b"# UVNAV output log"):
-                raise InputError("Not a UVNAV .OUT log or JSON-lines log (the first line is "
-                                 "neither '# UVNAV output log' nor a JSON object) !",
-                                 file=name, line=1, field="log",
-                                 text=head[:40].decode("utf-8", "replace"))
+            check_log_head(head, name)
             state, events = iter_out_log(path)
             for what, item in events:
                 if what == "cycle" and isinstance(item, OutCycle):

@@ -769,6 +769,16 @@ class OutCycles(Sequence[OutCycle]):
                 current[1].append((tag, fields))
 
 
+def check_log_head(head: bytes, name: str) -> None:
+    """InputError unless ``head`` (a log's first bytes, leading blanks removed) starts a
+    ``.OUT`` log (``# UVNAV output log``) or a JSON-lines log (``{``): a file that is neither
+    is named as such, not by the first parse error deep inside it."""
+    if not (head.startswith(b"{") or head.startswith(b"# UVNAV output log")):
+        raise InputError("Not a UVNAV .OUT log or JSON-lines log (the first line is neither "
+                         "'# UVNAV output log' nor a JSON object) !", file=name, line=1,
+                         field="log", text=head[:40].decode("utf-8", "replace"))
+
+
 class PositionChecks:
     """Logged positions whose ``lat`` or ``lon`` is no number this program writes (infinite,
     or text; NaN is the engine's "no value"), per line tag: the reader leaves such a position

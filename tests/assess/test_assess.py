@@ -511,3 +511,13 @@ def test_a_position_that_is_no_number_is_named(tmp_path: Path) -> None:
     assert not np.isfinite(log.tracks["mpp"].lat_deg[[2, 5, 7]]).any()  # out of the statistics
     assert (f"{tmp_path / 'B.OUT'}:{cycle_lines[2] + 1}: the cycle's MPP lat/lon is not a "
             "number (got inf): that position is left out, and 1 more such") in log.notes
+
+
+def test_a_file_that_is_no_log_is_named_as_such(tmp_path: Path) -> None:
+    """assess on a text file that is no log says so, as export does (it said 'token without
+    key=value' about its first word)."""
+    notes = tmp_path / "notes.txt"
+    notes.write_text("notes about the trip\n", encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_nav_log(notes)
+    assert str(err.value).startswith(f"{notes}:1: log: Not a UVNAV .OUT log or JSON-lines log")
