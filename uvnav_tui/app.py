@@ -193,9 +193,6 @@ class UVNAVApp(App[None]):
         self.message = ""
         self.message_log = MessageLog()
         self.hardcopies: list[tuple[Path, Path]] = []
-        self.run_started_wall_s = 0.0
-        """Wall-clock time (s) the current run started: the message line shows nothing older
-        (the message log, F2, keeps every run's)."""
         self.exiting = asyncio.Event()
         """Set when the console starts to exit (:meth:`exit`): a script driving it stops."""
         self._refresh_pending = False
@@ -310,7 +307,6 @@ class UVNAVApp(App[None]):
         if self.hold:
             self.control.budget = 0
         self.control.interrupted = len(self.screen_stack) > 1
-        self.run_started_wall_s = time.time()
         self.message = ""
         self.show_page(100)
         self.refresh_display()

@@ -34,7 +34,6 @@ class ConsoleHost(Protocol):
     base_config: RunConfig
     """The start-up configuration (Parameter Initialization starts from it)."""
     message_log: MessageLog
-    run_started_wall_s: float
     lop_policy: str
     """``ask``, ``yes`` or ``no``: how an LOP flagged for rejection is answered."""
     hardcopy_dir: Path

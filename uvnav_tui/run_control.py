@@ -95,6 +95,9 @@ class RunController:
         if not isinstance(session, api.Session):
             self.live, session = session, session.session
         self.session = session
+        self.started_wall_s = time.time()
+        """Wall-clock time (s) the run started: the message line shows nothing older (the
+        message log, F2, keeps every run's)."""
         self.on_cycle = on_cycle
         """Called with every new cycle (worker thread): the console's NMEA output."""
         self.source_state: SourceState | None = None

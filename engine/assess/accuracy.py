@@ -40,13 +40,12 @@ console package (``uvnav_tui/cli/assess_svg.py``).
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
 import sys
 from array import array
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -58,7 +57,13 @@ import numpy.typing as npt
 from engine.errors import InputError
 from engine.geodesy.ellipsoid import Ellipsoid
 from engine.geodesy.tmgrid import TMGrid
-from engine.io.outlog import OutCycle, PositionChecks, check_log_head, iter_out_log
+from engine.io.outlog import (
+    OutCycle,
+    PositionChecks,
+    check_log_head,
+    iter_json_objects,
+    iter_out_log,
+)
 from engine.lsq.statistics import chi2_bounds
 
 __all__ = [
@@ -339,43 +344,15 @@ class _TrackBuilder:
                              np.frombuffer(self.lon, dtype=float).copy(), cov)
 
 
-def _jsonl_lines(name: str, raw_lines: Iterable[bytes]) -> Iterator[tuple[int, str, bool]]:
-    """(line number, text, complete) of a JSON-lines file read as bytes: a line that is not
-    UTF-8 is an InputError naming it (it stopped the whole read, unlocated, before); the last
-    line without its newline is not complete (a run cut short)."""
-    for ln, raw in enumerate(raw_lines, start=1):
-        complete = raw.endswith(b"\n")
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError:
-            if not complete:  # half a character at the cut
-                yield ln, "", False
-                return
-            raise InputError("Not UTF-8 text !", file=name, line=ln, field="line",
-                             text=raw[:80].decode("utf-8", "replace")) from None
-        yield ln, text.rstrip("\n"), complete
-
-
-def _read_jsonl(name: str, lines: Iterable[tuple[int, str, bool]]) -> NavLog:
+def _read_jsonl(name: str) -> NavLog:
     t_ms = array("q")
     datum: list[str] = []
     cm = array("d")
     builders = {e: _TrackBuilder() for e in ESTIMATORS}
-    notes: list[str] = []
-    for ln, line, complete in lines:
-        if not line.strip():
-            continue
-        try:
-            obj = json.loads(line)
-        except json.JSONDecodeError as exc:
-            if not complete:  # the run was cut while writing it: as for a cut .OUT
-                notes.append(f"{name}:{ln}: last line is incomplete (run interrupted)")
-                break
-            raise InputError(f"Not a JSON object: {exc.msg} at column {exc.colno} !",
-                             file=name, line=ln, text=line[:80]) from None
-        if not isinstance(obj, dict) or "time" not in obj:
-            raise InputError("JSON line without 'time' !", file=name, line=ln, field="time",
-                             text=line[:80])
+    notes: list[str] = []  # a last line cut short (a run interrupted), as for a cut .OUT
+    for ln, obj in iter_json_objects(name, "a cycle of a --jsonl log", notes):
+        if "time" not in obj:
+            raise InputError("JSON line without 'time' !", file=name, line=ln, field="time")
         t_ms.append(_time_ms(str(obj["time"]), name, ln, "time"))
         datum.append(sys.intern(str(obj.get("datum", ""))))
         cm.append(_f(obj.get("cm_deg")))
@@ -474,8 +451,7 @@ def read_nav_log(path: str | os.PathLike[str]) -> NavLog:
         raise InputError("Empty log file !", file=name)
     check_log_head(head, name)
     if head.startswith(b"{"):
-        with open(p, "rb") as fh:
-            return _read_jsonl(name, _jsonl_lines(name, fh))
+        return _read_jsonl(name)
     return _read_out(name)
 
 

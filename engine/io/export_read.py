@@ -15,17 +15,22 @@ the 95 % ellipse semi-axes in metres and the major-axis azimuth in degrees from 
 
 from __future__ import annotations
 
-import json
 import math
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 from engine.errors import InputError
-from engine.io.outlog import OutCycle, PositionChecks, check_log_head, iter_out_log
+from engine.io.outlog import (
+    OutCycle,
+    PositionChecks,
+    check_log_head,
+    iter_json_objects,
+    iter_out_log,
+)
 
 __all__ = [
     "MAX_SEMI_AXIS_M",
@@ -230,31 +235,6 @@ def _json_epoch(obj: Mapping[str, Any], name: str, ln: int) -> ExportEpoch:
     )
 
 
-def _json_objects(path: str | os.PathLike[str], what: str,
-                  problems: list[str]) -> Iterator[tuple[int, dict[str, Any]]]:
-    """(line number, object) of a JSON-lines file. A last line without its newline that does
-    not parse is a write cut short: a problem, not an error; any other bad line is an
-    InputError naming file and line."""
-    name = str(path)
-    with open(path, "rb") as fh:
-        for ln, raw in enumerate(fh, start=1):
-            if not raw.strip():
-                continue
-            complete = raw.endswith(b"\n")
-            try:
-                obj = json.loads(raw)
-            except ValueError as exc:  # JSONDecodeError and UnicodeDecodeError
-                if not complete:
-                    problems.append(f"{name}:{ln}: last line is incomplete (run interrupted)")
-                    return
-                raise InputError(f"Not a JSON object ({exc}) !", file=name, line=ln,
-                                 field="line", text=raw[:80].decode("utf-8", "replace")) from None
-            if not isinstance(obj, dict):
-                raise InputError(f"Not a JSON object: not {what} !", file=name, line=ln,
-                                 field="line", text=raw[:80].decode("utf-8", "replace"))
-            yield ln, obj
-
-
 def _check_file(path: str | os.PathLike[str], label: str) -> str:
     name = str(path)
     p = Path(path)
@@ -297,7 +277,7 @@ def read_export_log(path: str | os.PathLike[str]) -> ExportLog:
     kind, config_text, bad, truncated = "jsonl", "", 0, False
     try:
         if head.startswith(b"{"):
-            for ln, obj in _json_objects(path, "a cycle of a --jsonl log", problems):
+            for ln, obj in iter_json_objects(path, "a cycle of a --jsonl log", problems):
                 if "time" not in obj or "mpp" not in obj:
                     raise InputError("JSON line without 'time' and 'mpp': not a --jsonl cycle "
                                      "log !", file=name, line=ln, field="time")
@@ -330,7 +310,7 @@ def read_smoothed(path: str | os.PathLike[str]) -> tuple[list[SmoothedPoint], li
     problems: list[str] = []
     out: list[SmoothedPoint] = []
     try:
-        for ln, obj in _json_objects(path, "a smoothed position", problems):
+        for ln, obj in iter_json_objects(path, "a smoothed position", problems):
             p = _point(obj, "az_deg")
             if p is None or not {"x", "y"} <= obj.keys():
                 raise InputError("Not a smoothed position (needs lat, lon, x, y) !", file=name,

@@ -713,8 +713,9 @@ def iter_out_lines(path: str | os.PathLike[str]) -> Iterator[tuple[int, str]]:
 
 class OutCycles(Sequence[OutCycle]):
     """The cycles of a ``.OUT`` log, read from the file on demand (nothing is kept in memory
-    but one byte offset per cycle, 8 bytes): iterate, index or take ``len``. The file was
-    checked whole by :func:`read_out_log`; only the cycles found then are served."""
+    but one byte offset and one line number per cycle, 16 bytes): iterate, index or take
+    ``len``. The file was checked whole by :func:`read_out_log`; only the cycles found then are
+    served."""
 
     def __init__(self, path: str, offsets: array[int],
                  line_numbers: array[int] | None = None) -> None:
@@ -767,6 +768,33 @@ class OutCycles(Sequence[OutCycle]):
                     return
             elif current is not None:
                 current[1].append((tag, fields))
+
+
+def iter_json_objects(path: str | os.PathLike[str], what: str,
+                      problems: list[str]) -> Iterator[tuple[int, dict[str, Any]]]:
+    """(line number, object) of a JSON-lines file (``--jsonl``, ``--smooth``: read by
+    ``uvnav assess`` and ``uvnav export``). A last line without its newline that does not
+    parse is a write cut short: a note in ``problems``, not an error; any other bad line (not
+    JSON, not UTF-8, not an object: ``what`` says what it should be) is an InputError naming
+    file and line."""
+    name = str(path)
+    with open(path, "rb") as fh:
+        for ln, raw in enumerate(fh, start=1):
+            if not raw.strip():
+                continue
+            complete = raw.endswith(b"\n")
+            try:
+                obj = json.loads(raw)
+            except ValueError as exc:  # JSONDecodeError and UnicodeDecodeError
+                if not complete:
+                    problems.append(f"{name}:{ln}: last line is incomplete (run interrupted)")
+                    return
+                raise InputError(f"Not a JSON object ({exc}) !", file=name, line=ln,
+                                 field="line", text=raw[:80].decode("utf-8", "replace")) from None
+            if not isinstance(obj, dict):
+                raise InputError(f"Not a JSON object: not {what} !", file=name, line=ln,
+                                 field="line", text=raw[:80].decode("utf-8", "replace"))
+            yield ln, obj
 
 
 def check_log_head(head: bytes, name: str) -> None:
@@ -916,7 +944,8 @@ def read_out_log(path: str | os.PathLike[str]) -> OutLogContents:
     so anything else is corruption).
 
     The whole file is checked, but the cycles are not kept: ``cycles`` is an :class:`OutCycles`
-    that reads them from the file on demand (8 bytes per cycle in memory). Actions and bad
+    that reads them from the file on demand (16 bytes per cycle in memory: the offset and the
+    CYCLE line's number). Actions and bad
     records are kept (they are few; a run's bad records are capped by the writer).
     """
     name = str(path)

@@ -351,7 +351,6 @@ class Session:
             exc.add_note(f"while processing {self._run_name}:{rec.line_no}: {rec.raw!r}")
             raise
         self._prev_nav, self._prev_record = self.nav, rec
-        self.cycle_config = self.context.config
         self._commit(nav, result)
         return result
 
@@ -370,6 +369,7 @@ class Session:
         if self._smoother is not None and nav.filter is not None:
             self._collect_smoother(nav, result)
         self.nav = nav
+        self.cycle_config = self.context.config
         if self._untrack is not None:  # kept for `history` cycles: off the cyclic GC's lists
             self._untrack(result)
         self.history.append(result)
@@ -436,7 +436,6 @@ class Session:
             return None
         nav, result = step(self.context, self._prev_nav, self._prev_record,
                            excluded_slots=excluded_slots)
-        self.cycle_config = self.context.config
         dropped = self.history.pop()
         if dropped.fix is not None:
             self.fixes -= int(dropped.fix.lse_ok)
@@ -446,25 +445,25 @@ class Session:
             self._counts[i] -= c
         if self._smoother:
             self._smoother.pop()
-        if self._out is not None:
-            system = "KF" if result.fix is not None and result.fix.uses_prior else "GPS"
-            names = ", ".join(lop_name(s, system=system, manual=result.manual)
-                              for s in excluded_slots)
-            self._out.write_action({"cycle": result.n,
-                                    "text": f"LOP discarded {excluded_slots}: {names}"})
+        self._lop_action(result, "discarded", excluded_slots)
         self._commit(nav, result)
         return result
+
+    def _lop_action(self, result: CycleResult, verb: str, slots: tuple[int, ...]) -> None:
+        """The ``ACT`` line of an operator's answer about flagged LOPs of cycle ``result``
+        (``LOP discarded (2,): Decca Red``)."""
+        if self._out is None:
+            return
+        system = "KF" if result.fix is not None and result.fix.uses_prior else "GPS"
+        names = ", ".join(lop_name(s, system=system, manual=result.manual) for s in slots)
+        self._out.write_action({"cycle": result.n, "text": f"LOP {verb} {slots}: {names}"})
 
     def record_lop_kept(self, slot: int) -> None:
         """The operator kept the LOP in ``slot`` that the last cycle flagged (LOPReject 'A',
         no): an ``ACT`` line in the ``.OUT``, as a discarded one has (``LOP kept (2,): Decca
         Red``)."""
-        if self._out is None or not self.history:
-            return
-        result = self.history[-1]
-        system = "KF" if result.fix is not None and result.fix.uses_prior else "GPS"
-        name = lop_name(slot, system=system, manual=result.manual)
-        self._out.write_action({"cycle": result.n, "text": f"LOP kept {(slot,)}: {name}"})
+        if self.history:
+            self._lop_action(self.history[-1], "kept", (slot,))
 
     def run(
         self,

@@ -16,7 +16,7 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from typing import Any, TextIO
 
 
@@ -28,46 +28,40 @@ class StdoutFailed(BaseException):
         self.error = error
 
 
-class GuardedStdout:
-    """``stream`` whose ``write``, ``writelines`` and ``flush`` raise :class:`StdoutFailed`
-    instead of an ``OSError``; everything else (``isatty``, ``fileno``, ``encoding``…) is the
-    stream's own."""
+class _InPlaceOf:
+    """A text stream put in the place of ``sys.stdout`` or ``sys.stderr``: ``writelines``
+    goes through the subclass's ``write``; everything else (``isatty``, ``fileno``,
+    ``encoding``, ``flush``…) is the wrapped ``stream``'s own."""
 
     def __init__(self, stream: TextIO) -> None:
-        self._stream = stream
+        self.stream = stream
 
     def write(self, text: str) -> int:
-        try:
-            return self._stream.write(text)
-        except OSError as exc:
-            raise StdoutFailed(exc) from exc
+        return self.stream.write(text)
 
     def writelines(self, lines: Iterable[str]) -> None:
         for line in lines:
             self.write(line)
 
-    def flush(self) -> None:
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
+
+
+class GuardedStdout(_InPlaceOf):
+    """Standard output whose ``write`` and ``flush`` raise :class:`StdoutFailed` instead of
+    an ``OSError``."""
+
+    def write(self, text: str) -> int:
         try:
-            self._stream.flush()
+            return self.stream.write(text)
         except OSError as exc:
             raise StdoutFailed(exc) from exc
 
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._stream, name)
-
-
-@contextmanager
-def guarded_stdout() -> Iterator[GuardedStdout]:
-    """``sys.stdout`` guarded for the block, flushed at its end (so that an error of the last
-    buffered lines is the command's, not the interpreter's at exit), then put back."""
-    stream = sys.stdout
-    guard = GuardedStdout(stream)
-    sys.stdout = guard  # type: ignore[assignment]
-    try:
-        yield guard
-        guard.flush()
-    finally:
-        sys.stdout = stream
+    def flush(self) -> None:
+        try:
+            self.stream.flush()
+        except OSError as exc:
+            raise StdoutFailed(exc) from exc
 
 
 CONTROL_ESCAPES = {c: f"\\x{c:02x}" for c in (*range(0x00, 0x20), 0x7F, *range(0x80, 0xA0))
@@ -75,41 +69,44 @@ CONTROL_ESCAPES = {c: f"\\x{c:02x}" for c in (*range(0x00, 0x20), 0x7F, *range(0
 """Every C0 and C1 control character but tab and newline, as its ``\\xNN`` escape."""
 
 
-class LiteralStderr:
-    """``stream`` (standard error) that writes control characters as ``\\xNN``: a file name
-    or record quoted in a message (``x\\x1b[31m.RUN: File not found !``) is shown literally,
-    never obeyed by the terminal. Rich output meant for the terminal (the replay's progress
-    bar) goes to :attr:`unfiltered`."""
-
-    def __init__(self, stream: TextIO) -> None:
-        self.unfiltered = stream
+class LiteralStderr(_InPlaceOf):
+    """Standard error that writes control characters as ``\\xNN``: a file name or record
+    quoted in a message (``x\\x1b[31m.RUN: File not found !``) is shown literally, never
+    obeyed by the terminal. Rich output meant for the terminal (the replay's progress bar)
+    goes to :func:`unfiltered_stderr`."""
 
     def write(self, text: str) -> int:
-        return self.unfiltered.write(text.translate(CONTROL_ESCAPES))
-
-    def writelines(self, lines: Iterable[str]) -> None:
-        for line in lines:
-            self.write(line)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.unfiltered, name)
+        return self.stream.write(text.translate(CONTROL_ESCAPES))
 
 
 def unfiltered_stderr() -> TextIO:
     """Standard error as the terminal gets it (for Rich's own control codes)."""
-    return getattr(sys.stderr, "unfiltered", sys.stderr)  # type: ignore[no-any-return]
+    err = sys.stderr
+    return err.stream if isinstance(err, LiteralStderr) else err
 
 
 @contextmanager
-def literal_stderr() -> Iterator[LiteralStderr]:
-    """``sys.stderr`` as :class:`LiteralStderr` for the block, then put back."""
-    stream = sys.stderr
-    literal = LiteralStderr(stream)
-    sys.stderr = literal  # type: ignore[assignment]
+def _in_place_of(name: str, wrapper: _InPlaceOf) -> Iterator[_InPlaceOf]:
+    """``sys.<name>`` is ``wrapper`` for the block, then the stream it wraps again."""
+    setattr(sys, name, wrapper)
     try:
-        yield literal
+        yield wrapper
     finally:
-        sys.stderr = stream
+        setattr(sys, name, wrapper.stream)
+
+
+@contextmanager
+def guarded_stdout() -> Iterator[_InPlaceOf]:
+    """``sys.stdout`` guarded for the block, flushed at its end (so that an error of the last
+    buffered lines is the command's, not the interpreter's at exit)."""
+    with _in_place_of("stdout", GuardedStdout(sys.stdout)) as guard:
+        yield guard
+        guard.flush()
+
+
+def literal_stderr() -> AbstractContextManager[_InPlaceOf]:
+    """``sys.stderr`` as :class:`LiteralStderr` for the block."""
+    return _in_place_of("stderr", LiteralStderr(sys.stderr))
 
 
 def silence_stdout() -> None:

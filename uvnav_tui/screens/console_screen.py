@@ -113,7 +113,8 @@ class ConsoleScreen(Screen[None]):
         else:
             self.query_one(StatusColumn).bad_records = run.bad_records if run else 0
             self.query_one(PageFrame).show(r, run.session if run is not None else None)
-        self.query_one(MessageLine).show(host.message_log, since_s=host.run_started_wall_s)
+        self.query_one(MessageLine).show(host.message_log,
+                                         since_s=run.started_wall_s if run is not None else None)
 
     def page_shown(self) -> None:
         """A page was selected: focus its body (so the cursor keys scroll it) and show its
