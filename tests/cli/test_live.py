@@ -73,7 +73,9 @@ def test_live_udp_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     sent_prefix = b"".join((s + "\r\n").encode() for k in range(n + 1) for s in epoch_lines(k))
     assert sent_prefix.startswith(raw) and raw.count(b"\r\n") >= 4 * (n + 1) - 4
     times = (tmp_path / "L.raw.times.csv").read_text().splitlines()
-    assert sum(1 for t in times if t[:1].isdigit()) == raw.count(b"\r\n")
+    rows = [t.split(",") for t in times if t[:1].isdigit()]  # line,lines,utc,mono_s
+    assert sum(int(r[1]) for r in rows) == raw.count(b"\r\n")
+    assert all(int(b[0]) == int(a[0]) + int(a[1]) for a, b in zip(rows, rows[1:], strict=False))
     # The .OUT header names the URL and the raw log as the run file.
     head = (tmp_path / "L.OUT").read_text().splitlines()[:40]
     assert f"# run udp://127.0.0.1:{port}" in head

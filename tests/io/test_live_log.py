@@ -111,8 +111,11 @@ def test_feed_writes_every_line_and_numbers_them_as_the_raw_log(tmp_path: Path) 
     assert raw.path.read_bytes() == b"".join(x.encode("latin-1") + b"\r\n" for x in expected)
     # The receive times, read back by pandas (comment lines: the source's states).
     times = pd.read_csv(raw.times_path, comment="#")
-    assert list(times.columns) == ["line", "utc", "mono_s"]
-    assert times["line"].tolist() == [1, 2, 3, 4, 5]
+    assert list(times.columns) == ["line", "lines", "utc", "mono_s"]
+    # A row per 0.1 s at most: the rows cover lines 1..5, each once, in order.
+    firsts, counts = times["line"].tolist(), times["lines"].tolist()
+    assert firsts[0] == 1 and sum(counts) == 5
+    assert all(firsts[i + 1] == firsts[i] + counts[i] for i in range(len(firsts) - 1))
     assert (times["mono_s"].diff().dropna() >= 0).all()
     utc = pd.to_datetime(times["utc"], utc=True)
     assert abs((utc.iloc[-1] - pd.Timestamp.now(tz="UTC")).total_seconds()) < DEADLINE_S
