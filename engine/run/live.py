@@ -34,7 +34,7 @@ from engine.io.datumfile import DatumFile
 from engine.io.deccafile import DeccaChain
 from engine.io.live_feed import LiveBatch, LiveFeed, LiveRecord
 from engine.io.live_log import RAW_PART_BYTES, RawLog, raw_log_stem
-from engine.io.live_sources import LiveSource, SourceState, parse_source_url
+from engine.io.live_sources import QUEUE_BYTES, LiveSource, SourceState, parse_source_url
 from engine.io.nmea_epochs import EpochBuilder, NmeaOptions, NmeaStats
 from engine.io.outputs import OutputGuard, free_name
 from engine.run.config import NmeaConfig, RunConfig
@@ -218,6 +218,7 @@ def open_live_run(
     lost_after_s: float = 5.0,
     backoff_s: tuple[float, float] = (0.5, 8.0),
     raw_part_bytes: int = RAW_PART_BYTES,
+    queue_bytes: int = QUEUE_BYTES,
     history: int = 3600,
     collect_smoother: bool = False,
     data_dir: Path | None = None,
@@ -227,7 +228,8 @@ def open_live_run(
     deadline_mono_s: float | None = None,
 ) -> LiveRun:
     """Open a live run on ``url`` (module docstring). ``out_path`` None writes no ``.OUT`` and
-    no raw log; ``raw_part_bytes`` is the size of a raw log's part (engine/io/live_log.py);
+    no raw log; ``raw_part_bytes`` is the size of a raw log's part (engine/io/live_log.py),
+    ``queue_bytes`` the bound of the lines waiting (engine/io/live_sources.py);
     ``nmea_options`` default to the configuration's ``[nmea]`` table. A bad URL is
     an :class:`~engine.errors.InputError` (field ``source …``) before anything is created; a
     UDP port in use is an :class:`OSError`, and the files already created are removed again.
@@ -253,7 +255,8 @@ def open_live_run(
         stem = raw_log_stem(out_path if force else free_name(Path(out_path)))
         raw = RawLog.create(stem, source_url=spec.url, origin_mono_s=time.monotonic(),
                             guard=guard, part_bytes=raw_part_bytes)
-    source = LiveSource(spec, lost_after_s=lost_after_s, backoff_s=backoff_s)
+    source = LiveSource(spec, lost_after_s=lost_after_s, backoff_s=backoff_s,
+                        queue_bytes=queue_bytes)
     feed: LiveFeed | None = None
     session: Session | None = None
     try:
