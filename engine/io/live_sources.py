@@ -237,11 +237,11 @@ class SourceState:
         return self.dropped + self.sys_dropped
 
     def trouble(self) -> str:
-        """``, CLOCK …, 1234 DROPPED`` when the stream's clock is in doubt or anything was
-        dropped (the state line and the cycle lines show it); "" otherwise."""
-        out = f", {self.clock}" if self.clock else ""
-        if self.drops:
-            out += f", {self.drops} DROPPED"
+        """``, 1234 DROPPED, CLOCK …`` when anything was dropped or the stream's clock is in
+        doubt (the state line and the cycle lines show it); "" otherwise."""
+        out = f", {self.drops} DROPPED" if self.drops else ""
+        if self.clock:
+            out += f", {self.clock}"
         return out
 
 

@@ -446,3 +446,12 @@ def test_tcp_reconnect_storm_backs_off() -> None:
     gaps = [b - a for a, b in zip(accepted, accepted[1:], strict=False)]
     assert all(g >= 0.45 for g in gaps), gaps
     assert len(states) <= 2 * len(accepted) + 1
+
+
+def test_state_says_drops_and_a_stalled_clock() -> None:
+    """What the cycle lines and the console's state line show (drops first: the shorter)."""
+    st = SourceState("receiving", 0.0, dropped=5, sys_dropped=7, clock="CLOCK BEHIND 97 s")
+    assert st.describe() == "receiving, 12 DROPPED, CLOCK BEHIND 97 s"
+    assert SourceState("receiving", 0.0).describe() == "receiving"
+    lost = SourceState("lost", 0.0, "no data for 5 s", dropped=1)
+    assert lost.describe(12.0) == "SOURCE LOST 12 s (no data for 5 s), 1 DROPPED"
