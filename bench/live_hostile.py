@@ -11,6 +11,8 @@ and the kernel's (``wait4``: CPU seconds, peak RSS):
   the system's drop count. Reported: sent, received, dropped by UVNAV, dropped by the system,
   whether they add up, peak RSS, CPU, how long past ``--seconds`` the run took, raw-log and
   times-file sizes.
+* **tcpflood**: a TCP server sends a 1 Hz stream's lines as fast as the connection takes them
+  for ``--flood-s`` seconds: sent, run, dropped, peak RSS, CPU.
 * **trickle**: a TCP server sends 200 valid lines, then one byte a second without a line end:
   when the run says the source is lost (``--lost-after 5``).
 * **storm**: a TCP server that accepts and closes at once, for 20 s: connections made, CPU,
@@ -20,9 +22,9 @@ and the kernel's (``wait4``: CPU seconds, peak RSS):
   restarted 100 s earlier (a real jump back): cycles run, sentences skipped, whether the stall
   was said.
 
-Run: ``.venv/bin/python bench/live_hostile.py [flood|trickle|storm|clock ...] [--rate N]
-[--flood-s S]`` (all four by default: about 90 s, two cores busy during the flood). Not part
-of ``make bench``: it loads the machine on purpose.
+Run: ``.venv/bin/python bench/live_hostile.py [flood|tcpflood|trickle|storm|clock ...] [--rate
+N] [--flood-s S]`` (all five by default: about 2 minutes, two cores busy during the floods).
+Not part of ``make bench``: it loads the machine on purpose.
 """
 
 from __future__ import annotations
@@ -192,6 +194,36 @@ def case_flood(rate: float, seconds: float) -> None:
                 break
 
 
+def case_tcpflood(seconds: float) -> None:
+    """A TCP server that sends as fast as the connection takes for ``seconds``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        listener = socket.create_server(("127.0.0.1", 0))
+        port = listener.getsockname()[1]
+        limit = seconds + 5.0
+        child = Child([f"tcp://127.0.0.1:{port}", "--config", str(config(d)), "--out", "P.OUT",
+                       "--seconds", f"{limit:g}"], d)
+        listener.settimeout(20.0)
+        conn, _ = listener.accept()
+        lines = [s for k in range(2000) for s in second_lines(k)]
+        block = "".join(s + "\r\n" for s in lines).encode()
+        sent = 0
+        with conn:
+            start = time.monotonic()
+            while time.monotonic() - start < seconds:
+                conn.sendall(block)
+                sent += len(lines)
+            status, wall, cpu, rss = child.wait()
+        listener.close()
+        c = _summary_counts(child.text)
+        got = c.get("received", 0) + c.get("unrun", 0) + c.get("uvnav", 0)
+        whole = "all" if got == sent else f"MISSING {sent - got}"
+        print(f"tcp flood for {seconds:g} s: sent {sent} lines ({sent / seconds:.0f}/s), run "
+              f"{c.get('received')}, after the end {c.get('unrun')}, dropped by UVNAV "
+              f"{c.get('uvnav')}; accounted {got} ({whole}); exit {status}, --seconds "
+              f"{limit:g} took {wall:.1f} s, CPU {cpu:.1f} s, peak RSS {rss:.0f} MB")
+
+
 def case_trickle() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -274,7 +306,8 @@ def case_clock() -> None:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("cases", nargs="*", default=["flood", "trickle", "storm", "clock"])
+    p.add_argument("cases", nargs="*",
+                   default=["flood", "tcpflood", "trickle", "storm", "clock"])
     p.add_argument("--rate", type=float, default=100_000.0, help="flood datagrams a second")
     p.add_argument("--flood-s", type=float, default=15.0, help="flood seconds")
     args = p.parse_args()
@@ -284,6 +317,8 @@ def main() -> None:
     for case in args.cases:
         if case == "flood":
             case_flood(args.rate, args.flood_s)
+        elif case == "tcpflood":
+            case_tcpflood(args.flood_s)
         elif case == "trickle":
             case_trickle()
         elif case == "storm":
