@@ -68,7 +68,7 @@ characters)."""
 READ_SLICE_S = 0.1
 """Longest blocking read [s]: how soon the reader notices :meth:`LiveSource.close` or silence."""
 QUEUE_BYTES = 4 * 1024 * 1024
-"""Most bytes of lines waiting for the consumer (module docstring "Overload"): about 20,000
+"""Most bytes of lines waiting for the consumer (module docstring "Overload"): about 14,000
 NMEA sentences, several seconds of a flood the consumer cannot keep up with."""
 POLL_LINES = 2000
 """Most lines one :meth:`LiveSource.poll` hands over, so a consumer behind a flood still gets
