@@ -638,6 +638,7 @@ class LiveSource:
         last_data = start
         got_lines = False
         cut_seen = 0
+        sys_seen = 0
         datagram = self.spec.kind == "udp"
         udp = transport if isinstance(transport, _UdpTransport) else None
         while not self._stop.is_set():
@@ -655,9 +656,10 @@ class LiveSource:
             now = self._clock()
             if data is not None:
                 last_data = now
-                if udp is not None and udp.sys_dropped > self._sys_dropped:
-                    self._pending_sys += udp.sys_dropped - self._sys_dropped
-                    self._sys_dropped = udp.sys_dropped
+                if udp is not None and udp.sys_dropped > sys_seen:  # counted per socket
+                    self._pending_sys += udp.sys_dropped - sys_seen
+                    self._sys_dropped += udp.sys_dropped - sys_seen
+                    sys_seen = udp.sys_dropped
                 lines = splitter.feed(data, end_of_message=datagram)
                 self._cut_bytes += splitter.cut_bytes - cut_seen
                 cut_seen = splitter.cut_bytes
