@@ -8,7 +8,11 @@ epoch to the position) and a line for each change of the source's state (``sourc
 ``reconnected …``), and ends on Ctrl-C (exit 130), ``--cycles N`` or ``--seconds S`` (exit
 0) with every completed cycle in the ``.OUT`` log and every received line in the raw log
 ``NAME.raw.nmea`` (+ ``NAME.raw.times.csv``) beside it. ``--seconds`` counts from the start,
-the wait for a first fix without ``--config`` included.
+the wait for a first fix without ``--config`` included. Under overload it says how many lines
+were dropped (``source overloaded: …``, at most every 10 s; ``, N DROPPED`` on the cycle
+lines), and when the stream's clock went back and its sentences are skipped, that
+(``CLOCK BEHIND …``, every 30 s while it lasts); the summary ends with what overload cost
+(docs/LIVE.md "Under overload").
 
 With ``--config`` the run uses that configuration (working datum, DR position, systems,
 ``[nmea]``). Without it the configuration is derived from the stream as ``uvnav replay`` derives
