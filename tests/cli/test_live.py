@@ -10,6 +10,7 @@ as the live run. Waits are on events and deadlines, generous for a loaded 2-core
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -61,6 +62,10 @@ def test_live_udp_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert lines[0].startswith("#1 12:00:00Z  52°50'00.000\" N 004°30'00.000\" E WGS84")
     assert "receiving from udp://127.0.0.1:" in out
     assert f"epochs {n}  fixes {n}" in out
+    cost = re.search(r"lines received (\d+)\nlines dropped 0 \(by UVNAV 0 when waiting lines "
+                     r"were full, datagrams by the system 0\), received after the end (\d+) "
+                     r"\(raw log only\), over-long lines 0 \(0 bytes not kept\)", out)
+    assert cost is not None, out
     cycles = read_out_log(tmp_path / "L.OUT").cycles
     assert len(cycles) == n
     for k, c in enumerate(cycles):
@@ -73,6 +78,7 @@ def test_live_udp_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     raw = (tmp_path / "L.raw.nmea").read_bytes()
     sent_prefix = b"".join((s + "\r\n").encode() for k in range(n + 1) for s in epoch_lines(k))
     assert sent_prefix.startswith(raw) and raw.count(b"\r\n") >= 4 * (n + 1) - 4
+    assert raw.count(b"\r\n") == int(cost.group(1)) + int(cost.group(2))
     times = (tmp_path / "L.raw.times.csv").read_text().splitlines()
     rows = [t.split(",") for t in times if t[:1].isdigit()]  # line,lines,utc,mono_s
     assert sum(int(r[1]) for r in rows) == raw.count(b"\r\n")
