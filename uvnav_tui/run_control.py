@@ -156,6 +156,9 @@ class RunController:
         state = self.live.state
         if state.is_lost:
             return f"{state.describe()} {self.live.url}"
+        trouble = state.trouble()
+        if trouble:  # drops or a stalled clock first: a long URL cut at 80 columns cannot hide
+            return f"{trouble[2:]} {self.live.url}"  # them
         if state.detail:  # a connection that keeps failing: the reason before the URL, so a
             # long URL cut at 80 columns cannot hide it (seen in tmux with an unknown host)
             return f"LIVE {state.describe()} {self.live.url}"

@@ -6,6 +6,13 @@ raw log (:mod:`engine.io.live_log`) and feeds it to an epoch builder (helper A's
 as the raw log does, so a bad line is reported as ``NAME.raw.nmea:LINE``. Each record comes
 with the receive time of the line that completed it, which is what the live latency is
 measured from (bench/bench_live.py).
+
+Under overload the source drops lines (engine/io/live_sources.py "Overload"); each gap is noted
+in the raw log's times file where it happened, and :attr:`LiveFeed.dropped` counts them. A poll
+takes at most :data:`~engine.io.live_sources.POLL_LINES` lines, so the caller gets back to its
+checks often however much waits. At :meth:`LiveFeed.close` the lines received but not yet
+polled are written to the raw log (not run: the run has ended), counted in
+:attr:`LiveFeed.unrun`.
 """
 
 from __future__ import annotations
@@ -61,6 +68,13 @@ class LiveFeed:
         self.epochs = epochs
         self.raw = raw
         self.lines = 0
+        self.dropped = 0
+        """Lines dropped (the source's waiting lines full) before the lines polled so far."""
+        self.sys_dropped = 0
+        """Datagrams the system dropped before the lines polled so far (UDP, Linux)."""
+        self.unrun = 0
+        """Lines received but not run: still waiting when the feed was closed (in the raw
+        log)."""
         self.closed = False
         self._gpsd = source.spec.kind == "gpsd"
         self._times: deque[tuple[int, float]] = deque(maxlen=RECEIVE_TIMES_KEPT)
@@ -100,11 +114,13 @@ class LiveFeed:
                 batch.states.append(item)
                 if self.raw is not None:
                     self.raw.write_state(item, time.time())
-        if self.raw is not None and (batch.lines or batch.states):
+        if self.raw is not None:
             self.raw.flush()
         return batch
 
     def _line(self, line: ReceivedLine, batch: LiveBatch) -> None:
+        self.dropped += line.dropped_before
+        self.sys_dropped += line.sys_dropped_before
         number = self.raw.write_line(line) if self.raw is not None else line.number
         self.lines += 1
         batch.lines += 1
@@ -120,15 +136,41 @@ class LiveFeed:
         return LiveBatch(records=[LiveRecord(i, now) for i in self.epochs.finish()])
 
     def close(self) -> None:
-        """Close the source (thread joined) and the raw log (waits for a poll in progress);
-        idempotent."""
+        """Close the source (thread joined) and the raw log (waits for a poll in progress):
+        the lines still waiting go to the raw log (not run, counted in :attr:`unrun`), and the
+        drops after the last of them are noted. Idempotent."""
         with self._lock:
+            if self.closed:
+                return
             self.closed = True
             try:
                 self.source.close()
+                self._drain()
             finally:
                 if self.raw is not None:
                     self.raw.close()
+
+    def _drain(self) -> None:
+        """Lines and states still waiting after the source closed: into the raw log."""
+        while True:
+            items = self.source.poll(0.0)
+            if not items:
+                break
+            for item in items:
+                if isinstance(item, ReceivedLine):
+                    self.dropped += item.dropped_before
+                    self.sys_dropped += item.sys_dropped_before
+                    self.unrun += 1
+                    if self.raw is not None:
+                        self.raw.write_line(item)
+                elif self.raw is not None:
+                    self.raw.write_state(item, time.time())
+        lines, datagrams = self.source.trailing_drops
+        self.dropped += lines
+        self.sys_dropped += datagrams
+        if self.raw is not None and (lines or datagrams):
+            self.raw.write_drops(lines, datagrams, time.time(), time.monotonic(),
+                                 f"after line {self.raw.lines} (at the end)")
 
 
 __all__ = ["EpochSink", "LiveBatch", "LiveFeed", "LiveRecord"]

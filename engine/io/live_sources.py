@@ -24,17 +24,33 @@ them and joins the thread.
 
 Lines are split at LF, CR LF or CR; each line keeps its characters exactly, without the line
 ending. Bytes outside printable ASCII are kept as well (decoded as Latin-1, one character per
-byte) so the parser can report binary noise; a line longer than :data:`MAX_LINE_BYTES` is cut
-there and passed on (the parser rejects it as too long).
+byte) so the parser can report binary noise; a line longer than :data:`MAX_LINE_BYTES` is one
+*over-long* line: its first :data:`MAX_LINE_BYTES` bytes are passed on (the parser rejects them
+as too long) and the rest up to its line end is not kept (counted in bytes).
+
+**Overload.** The lines waiting for the consumer are bounded in bytes (:data:`QUEUE_BYTES`,
+each line counted as its length plus :data:`LINE_ITEM_BYTES`); while that is full, newly
+received lines are dropped, counted (:attr:`SourceState.dropped`) and the count handed on with
+the next line that is kept (:attr:`ReceivedLine.dropped_before`), so the consumer knows where
+the gap is. On Linux a UDP source also counts the datagrams the system dropped because the
+socket's receive buffer was full (``SO_RXQ_OVFL``, :attr:`SourceState.sys_dropped`).
+
+**Liveness** counts complete lines, not bytes: a source that sends bytes without a line end is
+lost after ``lost_after_s`` as a silent one is. After a lost connection (and after a failed
+open) the next attempt waits the back-off, which only returns to its shortest after a
+connection has given a complete line, so a server that accepts and closes at once is retried
+every 0.5, 1, 2, 4, 8, 8 … s.
 """
 
 from __future__ import annotations
 
 import contextlib
-import queue
 import socket
+import struct
+import sys
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Protocol
@@ -47,11 +63,19 @@ DEFAULT_BAUD = 4800
 BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800)
 """Baud rates a ``serial://`` URL may ask for."""
 MAX_LINE_BYTES = 4096
-"""A line is cut at this length (an NMEA sentence is at most 82 characters)."""
+"""A longer line is one over-long line cut at this length (an NMEA sentence is at most 82
+characters)."""
 READ_SLICE_S = 0.1
 """Longest blocking read [s]: how soon the reader notices :meth:`LiveSource.close` or silence."""
-QUEUE_LINES = 100_000
-"""Lines waiting for the consumer before the oldest new ones are dropped (counted)."""
+QUEUE_BYTES = 4 * 1024 * 1024
+"""Most bytes of lines waiting for the consumer (module docstring "Overload"): about 14,000
+NMEA sentences, several seconds of a flood the consumer cannot keep up with."""
+POLL_LINES = 2000
+"""Most lines one :meth:`LiveSource.poll` hands over, so a consumer behind a flood still gets
+back to its own checks (a run's end, the console's keys) every few hundredths of a second."""
+SO_RXQ_OVFL = getattr(socket, "SO_RXQ_OVFL", 40 if sys.platform.startswith("linux") else None)
+"""Linux socket(7) option: each datagram received carries the count of datagrams the socket
+has dropped so far (receive buffer full)."""
 
 URL_FIELD = "source"
 URL_FORMS = ("udp://ADDRESS:PORT, tcp://HOST:PORT, gpsd://HOST:PORT or "
@@ -144,16 +168,28 @@ def parse_source_url(url: str) -> SourceSpec:
     raise _url_error(f"Unknown source kind: use {URL_FORMS} !", URL_FIELD, url)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class ReceivedLine:
     """One received line: its characters without the line ending, when it was received
     (``mono_s``: :func:`time.monotonic` seconds; ``utc_s``: POSIX seconds, UTC) and its
-    1-based number in the stream (the line number of the raw log)."""
+    1-based number in the stream (lines dropped under overload included). ``dropped_before``:
+    lines dropped (the waiting lines' bytes full) between the previous line handed over and
+    this one; ``sys_dropped_before``: datagrams the system dropped in that time (UDP, Linux);
+    ``overlong``: the line was longer than :data:`MAX_LINE_BYTES` and is cut there."""
 
     text: str
     mono_s: float
     utc_s: float
     number: int
+    dropped_before: int = 0
+    sys_dropped_before: int = 0
+    overlong: bool = False
+
+
+LINE_ITEM_BYTES = (sys.getsizeof(ReceivedLine("", 0.0, 0.0, 1 << 40)) + sys.getsizeof("")
+                   + 2 * sys.getsizeof(0.0) + sys.getsizeof(1 << 40) + 8)
+"""Bytes a waiting line takes beyond its characters (the item, its empty string, two floats,
+its number and a slot of the queue; CPython's sizes, measured at import)."""
 
 
 @dataclass(frozen=True)
@@ -162,7 +198,10 @@ class SourceState:
     (monotonic seconds; for ``lost``/``reconnecting`` the moment the source was lost),
     ``detail`` says why (the system's error, ``no data for 5 s``), ``lines`` counts the lines
     received so far, ``connects`` the successful opens, ``dropped`` the lines dropped because
-    the consumer fell :data:`QUEUE_LINES` behind."""
+    the consumer fell :data:`QUEUE_BYTES` behind, ``sys_dropped`` the datagrams the system
+    dropped (UDP on Linux), ``overlong`` the over-long lines and ``cut_bytes`` their bytes not
+    kept, ``clock`` what the consumer says of the stream's clock (empty: nothing wrong; set by
+    a live run, engine/run/live.py)."""
 
     status: str
     since_mono_s: float
@@ -170,6 +209,10 @@ class SourceState:
     lines: int = 0
     connects: int = 0
     dropped: int = 0
+    sys_dropped: int = 0
+    overlong: int = 0
+    cut_bytes: int = 0
+    clock: str = ""
 
     @property
     def is_lost(self) -> bool:
@@ -183,10 +226,23 @@ class SourceState:
             lost_s = max(0.0, now - self.since_mono_s)
             why = f" ({self.detail})" if self.detail else ""
             again = ", reconnecting" if self.status == STATUS_RECONNECTING else ""
-            return f"SOURCE LOST {lost_s:.0f} s{why}{again}"
+            return f"SOURCE LOST {lost_s:.0f} s{why}{again}{self.trouble()}"
         if self.status == STATUS_CONNECTING and self.detail:
-            return f"connecting ({self.detail})"
-        return self.status
+            return f"connecting ({self.detail}){self.trouble()}"
+        return f"{self.status}{self.trouble()}"
+
+    @property
+    def drops(self) -> int:
+        """Lines dropped by the reader plus datagrams dropped by the system."""
+        return self.dropped + self.sys_dropped
+
+    def trouble(self) -> str:
+        """``, 1234 DROPPED, CLOCK …`` when anything was dropped or the stream's clock is in
+        doubt (the state line and the cycle lines show it); "" otherwise."""
+        out = f", {self.drops} DROPPED" if self.drops else ""
+        if self.clock:
+            out += f", {self.clock}"
+        return out
 
 
 class Transport(Protocol):
@@ -212,12 +268,27 @@ class _UdpTransport:
             sock.close()
             raise
         self.sock = sock
+        self.sys_dropped = 0
+        """Datagrams the system dropped so far (receive buffer full; Linux only, else 0)."""
+        self._anc = 0
+        if SO_RXQ_OVFL is not None:
+            try:
+                sock.setsockopt(socket.SOL_SOCKET, SO_RXQ_OVFL, 1)
+                self._anc = socket.CMSG_SPACE(4)
+            except OSError:
+                self._anc = 0
 
     def read(self) -> bytes | None:
         try:
-            data, _addr = self.sock.recvfrom(65535)
+            if not self._anc:
+                data, _addr = self.sock.recvfrom(65535)
+                return data
+            data, anc, _flags, _addr = self.sock.recvmsg(65535, self._anc)
         except TimeoutError:
             return None
+        for level, kind, value in anc:
+            if level == socket.SOL_SOCKET and kind == SO_RXQ_OVFL and len(value) >= 4:
+                self.sys_dropped = struct.unpack("=I", value[:4])[0]
         return data
 
     def close(self) -> None:
@@ -283,32 +354,68 @@ class _SerialTransport:
 
 
 class LineSplitter:
-    """Bytes to lines (LF, CR LF or CR ends a line), a partial line kept until its end."""
+    """Bytes to lines (LF, CR LF or CR ends a line), a partial line kept until its end.
+
+    A line longer than :data:`MAX_LINE_BYTES` is handed on once, cut there, as soon as it is
+    that long; the rest of it, up to its line end, is skipped (:attr:`cut_bytes` counts the
+    bytes not kept), so a 50 MB line is one over-long line, not thousands of fragments.
+    :attr:`overlong` counts them.
+    """
 
     def __init__(self) -> None:
         self._partial = b""
         self._cr = False
+        self._skipping = False
+        self.overlong = 0
+        self.cut_bytes = 0
+        self.flags: list[bool] = []
+        """Per line of the last :meth:`feed`: True for an over-long one."""
 
     def feed(self, data: bytes, *, end_of_message: bool = False) -> list[str]:
         """The complete lines in ``data`` (with what was kept before); ``end_of_message``
-        (a UDP datagram) ends the last line too."""
+        (a UDP datagram) ends the last line too. :attr:`flags` marks the over-long ones."""
         out: list[str] = []
+        flags: list[bool] = []
+        self.flags = flags
+        if self._cr and data.startswith(b"\n"):
+            data = data[1:]  # the LF of a CR LF split across two reads
+        if data:
+            self._cr = data.endswith(b"\r")
+        if self._skipping:  # the rest of an over-long line, up to its line end
+            end = _line_end(data)
+            if end < 0:
+                self.cut_bytes += len(data)
+                if end_of_message:
+                    self._skipping = False
+                return out
+            self.cut_bytes += end
+            self._skipping = False
+            data = data[end:]
         text = self._partial + data
-        if self._cr and text.startswith(b"\n"):
-            text = text[1:]  # the LF of a CR LF split across two reads
-        self._cr = text.endswith(b"\r")
         pieces = text.replace(b"\r\n", b"\n").replace(b"\r", b"\n").split(b"\n")
         self._partial = pieces.pop()
         if end_of_message and self._partial:
             pieces.append(self._partial)
             self._partial = b""
-        if len(self._partial) > MAX_LINE_BYTES:
-            pieces.append(self._partial[:MAX_LINE_BYTES])
+        if len(self._partial) > MAX_LINE_BYTES:  # over-long already: handed on now, the rest
+            pieces.append(self._partial)  # of it skipped up to its line end
             self._partial = b""
+            self._skipping = True
         for piece in pieces:
             if piece:
+                long = len(piece) > MAX_LINE_BYTES
+                if long:
+                    self.overlong += 1
+                    self.cut_bytes += len(piece) - MAX_LINE_BYTES
                 out.append(piece[:MAX_LINE_BYTES].decode("latin-1"))
+                flags.append(long)
         return out
+
+
+def _line_end(data: bytes) -> int:
+    """Index of the first CR or LF in ``data`` (-1: none)."""
+    ends = [i for i in (data.find(b"\n"), data.find(b"\r")) if i >= 0]
+    return min(ends) if ends else -1
 
 
 Item = ReceivedLine | SourceState
@@ -318,11 +425,13 @@ Item = ReceivedLine | SourceState
 class LiveSource:
     """One live source read by a background thread (module docstring).
 
-    ``lost_after_s``: silence [s] after which a source that was receiving is ``lost``;
-    ``reconnect_after_s``: silence [s] after which a TCP connection is dropped and re-opened
-    (a half-open connection never reports its loss); ``backoff_s``: first and longest wait [s]
-    between attempts to (re)open, doubling in between. ``clock`` is the monotonic clock (a
-    test may pass its own).
+    ``lost_after_s``: time [s] without a complete line after which a source that was receiving
+    is ``lost``; ``reconnect_after_s``: time [s] without a complete line after which a TCP
+    connection is dropped and re-opened (a half-open connection never reports its loss, a
+    trickling one never ends); ``backoff_s``: first and longest wait [s] between attempts to
+    (re)open, doubling in between (module docstring); ``queue_bytes``: the bound of the
+    waiting lines (:data:`QUEUE_BYTES`). ``clock`` is the monotonic clock (a test may pass its
+    own).
     """
 
     def __init__(
@@ -333,6 +442,7 @@ class LiveSource:
         reconnect_after_s: float = 15.0,
         backoff_s: tuple[float, float] = (0.5, 8.0),
         connect_timeout_s: float = 3.0,
+        queue_bytes: int = QUEUE_BYTES,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.spec = parse_source_url(spec) if isinstance(spec, str) else spec
@@ -340,15 +450,24 @@ class LiveSource:
         self.reconnect_after_s = reconnect_after_s
         self.backoff_s = backoff_s
         self.connect_timeout_s = connect_timeout_s
+        self.queue_bytes = queue_bytes
         self._clock = clock
-        self._queue: queue.Queue[Item] = queue.Queue()
-        self._queued_lines = 0
-        self._count_lock = threading.Lock()
+        self._items: deque[Item] = deque()
+        self._queued_bytes = 0
+        self._ready = threading.Condition(threading.Lock())
         self._stop = threading.Event()
         self._transport: Transport | None = None
         self._transport_lock = threading.Lock()
         self._state = SourceState(STATUS_CONNECTING, clock())
         self._lines = 0
+        self._dropped = 0
+        self._pending_drop = 0
+        self._sys_dropped = 0
+        self._pending_sys = 0
+        self._overlong = 0
+        self._cut_bytes = 0
+        self.peak_queued_bytes = 0
+        """The most bytes that waited at once (bench/bench_live.py reports it)."""
         self._thread: threading.Thread | None = None
 
     # ------------------------------------------------------------------ consumer side
@@ -359,9 +478,11 @@ class LiveSource:
 
     @property
     def state(self) -> SourceState:
-        """The current state, with the lines received so far (a snapshot)."""
+        """The current state with the counts so far (a snapshot)."""
         state = self._state
-        return state if state.lines == self._lines else replace(state, lines=self._lines)
+        return replace(state, lines=self._lines, dropped=self._dropped,
+                       sys_dropped=self._sys_dropped, overlong=self._overlong,
+                       cut_bytes=self._cut_bytes)
 
     @property
     def local_port(self) -> int | None:
@@ -391,26 +512,34 @@ class LiveSource:
         self._thread.start()
         return self
 
-    def poll(self, timeout_s: float) -> list[Item]:
-        """Everything received since the last poll, waiting up to ``timeout_s`` seconds for the
-        first item (an empty list if nothing came)."""
+    def poll(self, timeout_s: float, max_lines: int = POLL_LINES) -> list[Item]:
+        """What was received since the last poll, in order, at most ``max_lines`` lines (the
+        rest waits for the next poll), waiting up to ``timeout_s`` seconds for the first item
+        (an empty list if nothing came)."""
         items: list[Item] = []
-        try:
-            items.append(self._queue.get(timeout=max(0.0, timeout_s)) if timeout_s > 0
-                         else self._queue.get_nowait())
-            while True:
-                items.append(self._queue.get_nowait())
-        except queue.Empty:
-            pass
-        n = sum(isinstance(i, ReceivedLine) for i in items)
-        if n:
-            with self._count_lock:
-                self._queued_lines -= n
+        with self._ready:
+            if not self._items and timeout_s > 0:
+                self._ready.wait(timeout_s)
+            n = 0
+            freed = 0
+            while self._items and n < max_lines:
+                item = self._items.popleft()
+                items.append(item)
+                if isinstance(item, ReceivedLine):
+                    n += 1
+                    freed += len(item.text) + LINE_ITEM_BYTES
+            self._queued_bytes -= freed
         return items
+
+    @property
+    def queued_bytes(self) -> int:
+        """Bytes of the lines waiting now (bounded by ``queue_bytes``)."""
+        return self._queued_bytes
 
     def close(self, timeout_s: float = 5.0) -> bool:
         """Stop the reader, close the socket or device and join the thread; True if the thread
-        ended within ``timeout_s``. Idempotent."""
+        ended within ``timeout_s``. Idempotent. What was received and not yet polled stays
+        for :meth:`poll`."""
         self._stop.set()
         self._set_transport(None)
         joined = True
@@ -422,6 +551,12 @@ class LiveSource:
             self._state = replace(self._state, status=STATUS_CLOSED, since_mono_s=self._clock(),
                                   detail="")
         return joined
+
+    @property
+    def trailing_drops(self) -> tuple[int, int]:
+        """Lines and datagrams dropped after the last line handed over (not yet reported with
+        a line: at the end of a run)."""
+        return self._pending_drop, self._pending_sys
 
     def __enter__(self) -> LiveSource:
         return self.start()
@@ -450,10 +585,14 @@ class LiveSource:
                    connected: bool = False) -> None:
         old = self._state
         new = SourceState(status, old.since_mono_s if since is None else since, detail,
-                          self._lines, old.connects + int(connected), old.dropped)
-        if new != old:
+                          self._lines, old.connects + int(connected), self._dropped,
+                          self._sys_dropped, self._overlong, self._cut_bytes)
+        if (new.status, new.since_mono_s, new.detail, new.connects) != (
+                old.status, old.since_mono_s, old.detail, old.connects):
             self._state = new
-            self._queue.put(new)
+            with self._ready:  # a state is never dropped (a few per back-off at most)
+                self._items.append(new)
+                self._ready.notify()
 
     def _run(self) -> None:
         try:
@@ -465,74 +604,108 @@ class LiveSource:
         backoff = self.backoff_s[0]
         while not self._stop.is_set():
             transport = self._transport
-            if transport is not None:
-                if not self._read_until_lost(transport):
-                    return
-                self._set_transport(None)
-                if self.spec.kind == "udp":  # a bound socket is never lost: it failed; wait
+            if transport is None:
+                again = self._state.connects > 0
+                try:
+                    self._set_transport(self._open())
+                except OSError as exc:
+                    reason = exc.strerror or str(exc)
+                    self._set_state(STATUS_RECONNECTING if again else STATUS_CONNECTING,
+                                    detail=reason)
                     self._stop.wait(backoff)
                     backoff = min(backoff * 2.0, self.backoff_s[1])
-                continue
-            again = self._state.connects > 0
-            try:
-                self._set_transport(self._open())
-            except OSError as exc:
-                reason = exc.strerror or str(exc)
+                    continue
                 self._set_state(STATUS_RECONNECTING if again else STATUS_CONNECTING,
-                                detail=reason)
-                self._stop.wait(backoff)
-                backoff = min(backoff * 2.0, self.backoff_s[1])
+                                detail="connected, waiting for data", connected=True)
                 continue
-            backoff = self.backoff_s[0]
-            self._set_state(STATUS_RECONNECTING if again else STATUS_CONNECTING,
-                            detail="connected, waiting for data", connected=True)
+            outcome = self._read_until_lost(transport)
+            if outcome is None:
+                return
+            self._set_transport(None)
+            if outcome:  # this connection gave lines: the next attempt waits the least
+                backoff = self.backoff_s[0]
+            # Wait before re-opening after a loss too: a server that accepts and closes at
+            # once (or a device that fails at once) is not hammered.
+            self._stop.wait(backoff)
+            backoff = min(backoff * 2.0, self.backoff_s[1])
 
-    def _read_until_lost(self, transport: Transport) -> bool:
-        """Read until the connection is lost (True: re-open) or the source is closed (False)."""
+    def _read_until_lost(self, transport: Transport) -> bool | None:
+        """Read until the connection is lost (True: it gave complete lines; False: none) or
+        the source is closed (None)."""
         splitter = LineSplitter()
-        last_mono = self._clock()
+        start = self._clock()
+        last_line = start  # the last complete line (liveness counts lines, not bytes)
+        last_data = start
+        got_lines = False
+        cut_seen = 0
+        sys_seen = 0
         datagram = self.spec.kind == "udp"
+        udp = transport if isinstance(transport, _UdpTransport) else None
         while not self._stop.is_set():
             try:
                 data = transport.read()
             except OSError as exc:
                 if self._stop.is_set():
-                    return False
+                    return None
                 # Lost since now, or still since the first loss when no line came in between
                 # (a reconnection that broke again at once).
                 since = self._state.since_mono_s if self._state.is_lost else self._clock()
                 self._set_state(STATUS_LOST, since=since,
                                 detail=exc.strerror or str(exc) or type(exc).__name__)
-                return True
+                return got_lines
             now = self._clock()
-            if data is None:
-                silent_s = now - last_mono
-                if self._state.status == STATUS_RECEIVING and silent_s >= self.lost_after_s:
-                    self._set_state(STATUS_LOST, since=last_mono,
-                                    detail=f"no data for {self.lost_after_s:g} s")
-                if self.spec.kind != "udp" and silent_s >= self.reconnect_after_s:
-                    if not self._state.is_lost:
-                        self._set_state(STATUS_LOST, since=last_mono,
-                                        detail=f"no data for {self.reconnect_after_s:g} s")
-                    return True
+            if data is not None:
+                last_data = now
+                if udp is not None and udp.sys_dropped > sys_seen:  # counted per socket
+                    self._pending_sys += udp.sys_dropped - sys_seen
+                    self._sys_dropped += udp.sys_dropped - sys_seen
+                    sys_seen = udp.sys_dropped
+                lines = splitter.feed(data, end_of_message=datagram)
+                self._cut_bytes += splitter.cut_bytes - cut_seen
+                cut_seen = splitter.cut_bytes
+                if lines:
+                    if not all(splitter.flags):
+                        last_line = now
+                        got_lines = True
+                        if self._state.status != STATUS_RECEIVING:
+                            self._set_state(STATUS_RECEIVING, since=now)
+                    self._take(lines, splitter, now)
+            silent_s = now - last_line
+            if silent_s < self.lost_after_s:
                 continue
-            utc = time.time()
-            last_mono = now
-            lines = splitter.feed(data, end_of_message=datagram)
-            if lines and self._state.status != STATUS_RECEIVING:
-                self._set_state(STATUS_RECEIVING, since=now)
-            for text in lines:
-                self._lines += 1
-                self._put_line(ReceivedLine(text, now, utc, self._lines))
-        return False
+            what = ("no complete line" if now - last_data < self.lost_after_s
+                    else "no data")
+            if self._state.status == STATUS_RECEIVING:
+                self._set_state(STATUS_LOST, since=last_line,
+                                detail=f"{what} for {self.lost_after_s:g} s")
+            if not datagram and silent_s >= self.reconnect_after_s:
+                if not self._state.is_lost:
+                    self._set_state(STATUS_LOST, since=last_line,
+                                    detail=f"{what} for {self.reconnect_after_s:g} s")
+                return got_lines
+        return None
 
-    def _put_line(self, line: ReceivedLine) -> None:
-        with self._count_lock:
-            if self._queued_lines >= QUEUE_LINES:
-                self._state = replace(self._state, dropped=self._state.dropped + 1)
-                return
-            self._queued_lines += 1
-        self._queue.put(line)
+    def _take(self, lines: list[str], splitter: LineSplitter, now: float) -> None:
+        """Queue the lines of one read (those that do not fit the bound are dropped,
+        counted)."""
+        utc = time.time()
+        flags = splitter.flags
+        self._overlong += sum(flags)
+        limit = self.queue_bytes
+        with self._ready:
+            for text, long in zip(lines, flags, strict=True):
+                self._lines += 1
+                size = len(text) + LINE_ITEM_BYTES
+                if self._queued_bytes + size > limit:
+                    self._dropped += 1
+                    self._pending_drop += 1
+                    continue
+                self._queued_bytes += size
+                self._items.append(ReceivedLine(text, now, utc, self._lines, self._pending_drop,
+                                                self._pending_sys, long))
+                self._pending_drop = self._pending_sys = 0
+            self.peak_queued_bytes = max(self.peak_queued_bytes, self._queued_bytes)
+            self._ready.notify()
 
 
 __all__ = [

@@ -31,11 +31,27 @@ A time of day is put on the day (date − 1, date, date + 1)
 that is nearest the log clock, so a time of day that wraps past midnight without a new date
 moves to the next day (a *midnight roll-over*, reported).
 
+**A plausible clock.** A sentence's time is believed at once when it is within
+:data:`JUMP_S` ahead of the log clock or :data:`LATE_TOLERANCE_S` behind it (a time of day
+alone is put on the day that brings it nearest the clock, so a roll-over past midnight is only
+ever seen near midnight). A time further off is a *jump*: it is held, not used, until the next
+timed sentences decide, as a GNSS receiver's own plausibility checks do. A sentence that keeps
+to the old clock refutes it (the held sentences are skipped as ``implausible time``, counted and
+reported with their file:line: one wild sentence, a ZDA dated 2099 or a ``235960`` at noon,
+never moves the clock); a sentence that keeps to the jump with a later time confirms it (the
+clock goes there, a gap or a reset, and the held sentences are used in order). A jump still
+unconfirmed at the end of the log is skipped. A time of day alone (GGA, GLL) that fits both
+the clock and a jump by whole days tells nothing about the date: it is used on the log clock
+while RMC/ZDA decide. The very first time of a log has nothing to be compared with and is
+taken as it is. A leap second ``23:59:60`` is taken as
+23:59:59.999 (the parser's rule), so it closes no epoch of the next day.
+
 **Time going backwards.** A time up to :data:`LATE_TOLERANCE_S` behind the log clock is a late
-sentence: used, the clock does not move back. A time further back, at or before the last closed
-epoch (a reset of the receiver, a log looping or concatenated), is reported with its file:line
-and everything is skipped (counted) until the time passes the last closed epoch again: a run
-cannot go back in time.
+sentence: used, the clock does not move back. A confirmed jump back (a reset of the receiver, a
+log looping or concatenated) moves the clock back; if that is at or before the last epoch
+emitted, it is reported with its file:line and everything is skipped (counted) until the time
+passes that epoch again — a run cannot go back in time. While so, :meth:`EpochBuilder.clock_trouble`
+says so (a live run shows it: a stall is never silent).
 
 Every record's ``raw`` is its ``.RUN`` line (:func:`~engine.io.runfile.format_run_record`) and
 its values are those of that line, so replaying the log and the converted ``.RUN`` agree.
@@ -72,6 +88,12 @@ DATE_HOLD_LINES = 2000
 """Sentences held while no date is known (beyond that the oldest are dropped, counted)."""
 LATE_TOLERANCE_S = 2.0
 """A sentence time up to this far behind the log clock is a late sentence, not a reset [s]."""
+JUMP_S = 10.0
+"""A sentence time more than this ahead of the log clock is a jump to be confirmed [s]: beyond
+the longest default staleness limit, where every value of the old clock is stale anyway."""
+HELD_JUMP_LINES = 50
+"""Sentences kept while a jump waits for its confirmation (more of the same time: the oldest
+are skipped)."""
 GAP_REPORT_S = 60.0
 """A forward jump of the log time longer than this is reported as a gap [s]."""
 MAX_EVENTS = 50
@@ -95,6 +117,17 @@ MISSING_SENSOR_TEXT = {
 }
 NO_DATE = "no date yet"
 TIME_BACK = "time went backwards"
+IMPLAUSIBLE = "implausible time"
+
+
+@dataclass
+class _Jump:
+    """A time far from the log clock, waiting for the next sentences (module docstring)."""
+
+    first: float
+    latest: float
+    line: int
+    held: list[tuple[int, str, NmeaValues, bool]]  # line, raw, values, clock only
 
 
 @dataclass(frozen=True)
@@ -222,6 +255,11 @@ class _Latest:
     depth: tuple[float, float] | None = None
 
 
+def _stamp(t: float) -> str:
+    """UTC POSIX seconds as ``YYYY-MM-DD HH:MM:SS``."""
+    return f"{datetime.fromtimestamp(t, UTC):%Y-%m-%d %H:%M:%S}"
+
+
 def _day_start(d: date) -> float:
     return datetime(d.year, d.month, d.day, tzinfo=UTC).timestamp()
 
@@ -245,6 +283,9 @@ class EpochBuilder:
         self._held: deque[tuple[int, str, NmeaValues]] = deque()
         self._behind_since: int | None = None
         self._behind_count = 0
+        self._jump: _Jump | None = None
+        self._last_emitted: float | None = None
+        """Time of the last epoch emitted [UTC POSIX s]: no epoch may come at or before it."""
         self._bad_kept: Counter[str] = Counter()
         self._last_line = 0
         self._no_date_reported = False
@@ -290,6 +331,8 @@ class EpochBuilder:
             self._held.clear()
             self.stats.event(self._last_line, f"no date in the log (no RMC/ZDA): {n} sentences "
                              "not used; set [nmea] date = YYYY-MM-DD")
+        if self._jump is not None:
+            self._refute(self._last_line, "not confirmed before the end of the log", out)
         if self._behind_since is not None:
             self.stats.event(self._last_line, f"log ended while its time was behind "
                              f"({self._behind_count} sentences skipped since line "
@@ -327,9 +370,9 @@ class EpochBuilder:
         if skip.time_s is None or (self._date is None and skip.date is None):
             return
         v = NmeaValues(skip.sentence_type or "", "", time_s=skip.time_s, date=skip.date)
-        t = self._resolve(v, line_no)  # a fix was used, so a date is known: nothing is held
-        if t is not None and not self._advance(t, line_no, raw, out):
-            self._behind_count += 1
+        t = self._place(v, line_no, raw, out, clock_only=True)  # a date is known: not held
+        if t is not None:
+            self._apply(v, t, line_no, raw, out, clock_only=True)
 
     # ------------------------------------------------------------------ date
     def _hold(self, line_no: int, raw: str, v: NmeaValues,
@@ -372,51 +415,158 @@ class EpochBuilder:
         for line_no, raw, v in held:
             self._use(v, line_no, raw, out)
 
-    def _resolve(self, v: NmeaValues, line_no: int) -> float | None:
-        """The UTC POSIX time of a sentence with a time (None for one without)."""
-        if v.date is not None and v.time_s is not None:
-            self._date = v.date
-            return _day_start(v.date) + v.time_s
-        if v.date is not None:
-            self._date = v.date
-            return None
+    def _resolve(self, v: NmeaValues, ref: float | None) -> tuple[float, date] | None:
+        """The UTC POSIX time of a sentence with a time and the day it is on (None for one
+        without): a time of day alone on the day that brings it nearest ``ref`` (None: on
+        the log's date)."""
         if v.time_s is None:
             return None
-        assert self._date is not None
-        base = self._date
-        if self._clock is None:
-            return _day_start(base) + v.time_s
+        if v.date is not None:
+            return _day_start(v.date) + v.time_s, v.date
+        if ref is None:
+            assert self._date is not None
+            return _day_start(self._date) + v.time_s, self._date
+        around = datetime.fromtimestamp(ref, UTC).date()
+        tod = v.time_s
+        best = min((around + timedelta(days=k) for k in (-1, 0, 1)),
+                   key=lambda d: abs(_day_start(d) + tod - ref))
+        return _day_start(best) + tod, best
+
+    def _set_day(self, v: NmeaValues, day: date, line_no: int) -> None:
+        """A believed sentence's day becomes the log's date (a time of day alone that went
+        past midnight: a roll-over, reported)."""
+        if v.date is not None:
+            self._date = v.date
+        elif self._date is None or day > self._date:
+            if self._date is not None:
+                self.stats.event(line_no, f"midnight roll-over: time of day wrapped without a "
+                                 f"new date, now {day.isoformat()}")
+            self._date = day
+
+    @staticmethod
+    def _fits(t: float, ref: float) -> bool:
+        return ref - LATE_TOLERANCE_S <= t <= ref + JUMP_S
+
+    def _place(self, v: NmeaValues, line_no: int, raw: str,
+               out: list[RunRecord | BadRecord], *, clock_only: bool = False) -> float | None:
+        """The time of a sentence with a time if it is believed now; None when it is held
+        for a jump (or, with a date only, has no time) (module docstring "A plausible
+        clock")."""
         clock = self._clock
-        best = min((base + timedelta(days=k) for k in (-1, 0, 1)),
-                   key=lambda d: abs(_day_start(d) + v.time_s - clock))  # type: ignore[operator]
-        t = _day_start(best) + v.time_s
-        if best > base:
-            self._date = best
-            self.stats.event(line_no, f"midnight roll-over: time of day wrapped without a new "
-                             f"date, now {best.isoformat()}")
-        return t
+        placed = self._resolve(v, clock)
+        if placed is None:
+            if v.date is not None:
+                self._date = v.date
+            return None
+        t, day = placed
+        jump = self._jump
+        if clock is None or self._fits(t, clock):
+            if jump is not None:
+                if v.date is None and self._fits(self._resolve(v, jump.latest)[0], jump.latest):
+                    # A time of day alone that fits both (a jump by whole days): it tells
+                    # nothing about the date; used on the log clock, the jump still waits.
+                    self._set_day(v, day, line_no)
+                    return t
+                self._refute(line_no, "the next sentences keep to the log clock", out)
+            self._set_day(v, day, line_no)
+            return t
+        if jump is not None:
+            t2, _day2 = self._resolve(v, jump.latest) or (t, day)
+            if self._fits(t2, jump.latest):
+                jump.held.append((line_no, raw, v, clock_only))
+                if len(jump.held) > HELD_JUMP_LINES:
+                    del jump.held[0]
+                    self.stats.skipped[IMPLAUSIBLE] += 1
+                if t2 > jump.first:
+                    self._confirm(line_no, out)
+                else:
+                    jump.latest = max(jump.latest, t2)
+                return None
+            self._refute(line_no, "the next sentence keeps to neither", out)
+        self._jump = _Jump(t, t, line_no, [(line_no, raw, v, clock_only)])
+        return None
+
+    def _refute(self, line_no: int, why: str, out: list[RunRecord | BadRecord]) -> None:
+        """The pending jump is not believed: its sentences are skipped (counted, reported)."""
+        jump = self._jump
+        assert jump is not None
+        self._jump = None
+        first_line, raw, _v, _c = jump.held[0]
+        n = len(jump.held)
+        off = jump.first - self._clock if self._clock is not None else 0.0
+        message = (f"{_stamp(jump.first)} is {off:+.0f} s from the log clock: {n} sentence"
+                   f"{'s' if n > 1 else ''} not used ({why}, line {line_no})")
+        self.stats.skipped[IMPLAUSIBLE] += sum(not c for _l, _r, _v, c in jump.held)
+        self.stats.event(first_line, f"{IMPLAUSIBLE} {message}")
+        self._bad(IMPLAUSIBLE, first_line, raw, message, out)
+
+    def _confirm(self, line_no: int, out: list[RunRecord | BadRecord]) -> None:
+        """The pending jump is believed: the clock goes there and its sentences are used."""
+        jump = self._jump
+        assert jump is not None
+        self._jump = None
+        off = jump.first - self._clock if self._clock is not None else 0.0
+        self.stats.event(jump.line, f"time jumped {off:+.0f} s to {_stamp(jump.first)} "
+                         f"(confirmed by line {line_no})")
+        ref = jump.first
+        for ln, raw, v, clock_only in jump.held:
+            placed = self._resolve(v, ref)
+            if placed is None:
+                continue
+            t, day = placed
+            self._set_day(v, day, ln)
+            ref = max(ref, t)
+            if self._apply(v, t, ln, raw, out, clock_only=clock_only) and not clock_only:
+                self._store_used(v, t)
 
     # ------------------------------------------------------------------ values
     def _use(self, v: NmeaValues, line_no: int, raw: str,
              out: list[RunRecord | BadRecord]) -> None:
-        t = self._resolve(v, line_no)
-        if t is not None and not self._advance(t, line_no, raw, out):
-            self._behind_count += 1
-            self.stats.skipped[TIME_BACK] += 1
+        t = self._place(v, line_no, raw, out)
+        if t is None:
+            if v.time_s is not None:
+                return  # held for a jump
+            if self._behind_since is not None:  # no time: skipped while the time is behind
+                self._behind_count += 1
+                self.stats.skipped[TIME_BACK] += 1
+                return
+        elif not self._apply(v, t, line_no, raw, out):
             return
-        if t is None and self._behind_since is not None:
-            self._behind_count += 1
+        self._store_used(v, t)
+
+    def _apply(self, v: NmeaValues, t: float, line_no: int, raw: str,
+               out: list[RunRecord | BadRecord], *, clock_only: bool = False) -> bool:
+        """Move the clock to a believed time ``t``; False (counted) when it is behind."""
+        if self._advance(t, line_no, raw, out):
+            return True
+        self._behind_count += 1
+        if not clock_only:
             self.stats.skipped[TIME_BACK] += 1
-            return
+        return False
+
+    def _store_used(self, v: NmeaValues, t: float | None) -> None:
         self.stats.used[v.sentence_type] += 1
         for note in v.notes:
             self.stats.notes[note] += 1
         self._store(v, t if t is not None else self._clock)
 
+    def clock_trouble(self) -> str:
+        """What is wrong with the log's clock now, in a few words for a state line (""
+        when nothing): ``CLOCK BEHIND 3600 s, 56 skipped`` while sentences are skipped
+        because the time went back, ``CLOCK JUMP? +43200 s, 1 held`` while a jump waits."""
+        if self._behind_since is not None and self._last_emitted is not None:
+            back = self._last_emitted - (self._clock or 0.0)
+            return f"CLOCK BEHIND {back:.0f} s, {self._behind_count} skipped"
+        jump = self._jump
+        if jump is not None and self._clock is not None:
+            return f"CLOCK JUMP? {jump.first - self._clock:+.0f} s, {len(jump.held)} held"
+        return ""
+
     def _advance(self, t: float, line_no: int, raw: str,
                  out: list[RunRecord | BadRecord]) -> bool:
-        """Move the log clock to ``t``, closing the epochs before it; False when ``t`` is
-        behind (the sentence is skipped)."""
+        """Move the log clock to a believed time ``t``, closing the epochs before it; False
+        when ``t`` is at or before the last epoch emitted after the clock went back (the
+        sentence is skipped)."""
         step = self.options.interval_s
         if self._clock is None or self._next_epoch is None:
             self._clock = t
@@ -424,31 +574,44 @@ class EpochBuilder:
             self.stats.first_time = datetime.fromtimestamp(t, UTC)
             self._fill_unstamped(t)
             return True
-        last_closed = self._next_epoch - step
+        last = self._last_emitted
+        if t < self._clock - LATE_TOLERANCE_S:  # a confirmed jump back: the clock goes back
+            back = self._clock - t
+            self._clock = t
+            self._forget_after(t if last is None else max(t, last))
+            self._next_epoch = math.ceil(t / step) * step
+            if last is not None and self._next_epoch <= last:
+                self._next_epoch = int(last) + step
+            if last is not None and t <= last and self._behind_since is None:
+                self._behind_since = line_no
+                self._behind_count = 0
+                message = (f"time went backwards by {back:.1f} s (to "
+                           f"{datetime.fromtimestamp(t, UTC):%Y-%m-%d %H:%M:%S}): sentences "
+                           "are skipped until it passes the last epoch")
+                self.stats.event(line_no, message)
+                self._bad(TIME_BACK, line_no, raw, message, out)
         if self._behind_since is not None:
-            if t <= last_closed:
+            if last is not None and t <= last:
+                self._clock = max(self._clock, t)
                 return False
             self.stats.event(line_no, f"time passes the last epoch again: "
                              f"{self._behind_count} sentences skipped since line "
                              f"{self._behind_since}")
             self._behind_since = None
             self._behind_count = 0
-        elif t < self._clock - LATE_TOLERANCE_S and t <= last_closed:
-            back = self._clock - t
-            self._behind_since = line_no
-            self._behind_count = 0
-            message = (f"time went backwards by {back:.1f} s (to "
-                       f"{datetime.fromtimestamp(t, UTC):%Y-%m-%d %H:%M:%S}): sentences are "
-                       "skipped until it passes the last epoch")
-            self.stats.event(line_no, message)
-            self._bad(TIME_BACK, line_no, raw, message, out)
-            return False
         if t > self._clock:
             if t - self._clock > GAP_REPORT_S:
                 self.stats.event(line_no, f"gap of {t - self._clock:.0f} s in the log time")
             self._close_before(t, line_no, out)
             self._clock = t
         return True
+
+    def _forget_after(self, t: float) -> None:
+        """Values stamped after ``t`` (by a clock that went back): gone."""
+        for f in dataclasses.fields(self._latest):
+            item = getattr(self._latest, f.name)
+            if item is not None and item[0] > t:
+                setattr(self._latest, f.name, None)
 
     def _fill_unstamped(self, t: float) -> None:
         """Values that came before the first time get that time."""
@@ -546,6 +709,7 @@ class EpochBuilder:
             cog_deg=cog, sog_kn=sog,
         )
         out.append(self._as_run_line(rec))
+        self._last_emitted = epoch
         if pos is not None:
             self._fix_used = pos[0]  # a fix is one measurement: it goes into one epoch only
         self.stats.epochs += 1

@@ -9,14 +9,21 @@ arrive (real time: nothing is paced here). Every completed cycle is on disk when
 :meth:`LiveRun.poll` returns (the session flushes each one).
 
 The ``.OUT`` header names the source's URL (``run udp://…``), and the configuration logged in it
-has the raw log as its ``run_file``, so ``uvnav replay NAME.raw.nmea`` with that configuration
-reproduces the run (without a raw log, the URL). The log time comes from the sentences; the
-date from the stream's RMC/ZDA, or today's UTC date when none arrives within
-:data:`LIVE_DATE_HOLD_LINES` sentences (a live stream is today's).
+has the raw log (its absolute path) as its ``run_file``, so ``uvnav replay NAME.raw.nmea`` with
+that configuration reproduces the run (without a raw log, the URL).
+
+:attr:`LiveRun.state` is the source's state with what the epoch builder says of the stream's
+clock (``CLOCK BEHIND …`` while sentences are skipped because its time went back), so a stalled
+run never looks merely "receiving". Lines dropped under overload are counted there, and the
+next cycle carries a message saying how many (its ``MSG`` line in the ``.OUT``).
+
+The log time comes from the sentences; the date from the stream's RMC/ZDA, or today's UTC date
+when none arrives within :data:`LIVE_DATE_HOLD_LINES` sentences (a live stream is today's).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -26,8 +33,8 @@ from pathlib import Path
 from engine.io.datumfile import DatumFile
 from engine.io.deccafile import DeccaChain
 from engine.io.live_feed import LiveBatch, LiveFeed, LiveRecord
-from engine.io.live_log import RawLog, raw_log_stem
-from engine.io.live_sources import LiveSource, SourceState, parse_source_url
+from engine.io.live_log import RAW_PART_BYTES, RawLog, raw_log_stem
+from engine.io.live_sources import QUEUE_BYTES, LiveSource, SourceState, parse_source_url
 from engine.io.nmea_epochs import EpochBuilder, NmeaOptions, NmeaStats
 from engine.io.outputs import OutputGuard, free_name
 from engine.run.config import NmeaConfig, RunConfig
@@ -70,6 +77,8 @@ class LiveRun:
         self.feed = feed
         self.builder = builder
         self.cycles = 0
+        self.drops_noted = 0
+        """Drops (lines and datagrams) already said in a cycle's message."""
         self.backlog: list[LiveRecord] = []
         """Records received before the session existed (a derived configuration): the next
         :meth:`receive` returns them first."""
@@ -81,8 +90,11 @@ class LiveRun:
 
     @property
     def state(self) -> SourceState:
-        """The source's current state."""
-        return self.feed.state
+        """The source's current state, with what is wrong with the stream's clock (module
+        docstring)."""
+        state = self.feed.state
+        clock = self.builder.clock_trouble()
+        return replace(state, clock=clock) if clock else state
 
     @property
     def raw_path(self) -> Path | None:
@@ -124,12 +136,25 @@ class LiveRun:
     def process(self, batch: LiveBatch) -> LiveStep:
         """Run a cycle for each record of ``batch``."""
         out = LiveStep(states=batch.states, lines=batch.lines)
+        self._note_drops()
         for rec in batch.records:
             result = self.session.process(rec.item)
             if result is not None:
                 self.cycles += 1
                 out.cycles.append(LiveCycle(result, rec.received_mono_s, time.monotonic()))
         return out
+
+    def _note_drops(self) -> None:
+        """New drops since the last message: a message for the next cycle (one waits at a
+        time; it counts all drops until that cycle)."""
+        st = self.feed.source.state
+        if st.drops > self.drops_noted and not self.session.pending_messages:
+            self.session.add_message(
+                f"Live source overloaded: {st.drops - self.drops_noted} lines dropped since "
+                f"the last such message ({st.dropped} lines dropped by UVNAV, "
+                f"{st.sys_dropped} datagrams by the system, in all; the raw log's times file "
+                "says where)")
+            self.drops_noted = st.drops
 
     def close(self) -> None:
         """Stop the source (thread joined), close the raw log and the session's logs
@@ -192,6 +217,8 @@ def open_live_run(
     nmea_options: NmeaOptions | None = None,
     lost_after_s: float = 5.0,
     backoff_s: tuple[float, float] = (0.5, 8.0),
+    raw_part_bytes: int = RAW_PART_BYTES,
+    queue_bytes: int = QUEUE_BYTES,
     history: int = 3600,
     collect_smoother: bool = False,
     data_dir: Path | None = None,
@@ -201,7 +228,9 @@ def open_live_run(
     deadline_mono_s: float | None = None,
 ) -> LiveRun:
     """Open a live run on ``url`` (module docstring). ``out_path`` None writes no ``.OUT`` and
-    no raw log; ``nmea_options`` default to the configuration's ``[nmea]`` table. A bad URL is
+    no raw log; ``raw_part_bytes`` is the size of a raw log's part (engine/io/live_log.py),
+    ``queue_bytes`` the bound of the lines waiting (engine/io/live_sources.py);
+    ``nmea_options`` default to the configuration's ``[nmea]`` table. A bad URL is
     an :class:`~engine.errors.InputError` (field ``source …``) before anything is created; a
     UDP port in use is an :class:`OSError`, and the files already created are removed again.
 
@@ -225,8 +254,9 @@ def open_live_run(
         guard.check(out_path, "--out")
         stem = raw_log_stem(out_path if force else free_name(Path(out_path)))
         raw = RawLog.create(stem, source_url=spec.url, origin_mono_s=time.monotonic(),
-                            guard=guard)
-    source = LiveSource(spec, lost_after_s=lost_after_s, backoff_s=backoff_s)
+                            guard=guard, part_bytes=raw_part_bytes)
+    source = LiveSource(spec, lost_after_s=lost_after_s, backoff_s=backoff_s,
+                        queue_bytes=queue_bytes)
     feed: LiveFeed | None = None
     session: Session | None = None
     try:
@@ -237,7 +267,9 @@ def open_live_run(
         feed = LiveFeed(source, builder, raw)
         source.start()
         backlog: list[LiveRecord] = []
-        run_file = str(raw.path) if raw is not None else spec.url
+        # Absolute: the configuration resolves a relative run_file against its own directory,
+        # not the current one a relative --out was given in.
+        run_file = os.path.abspath(raw.path) if raw is not None else spec.url
         if config is None:
             if data_dir is None:
                 raise ValueError("a live run without a configuration needs data_dir")

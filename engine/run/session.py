@@ -115,6 +115,8 @@ def cycle_counts(r: CycleResult) -> tuple[int, int, int, int]:
 NOT_ADVANCING_MESSAGE = "Time does not advance !"
 BAD_RECORDS_KEPT = 100
 """Bad records kept in :attr:`Session.bad_records` (the rest are counted and logged only)."""
+PENDING_MESSAGES = 20
+"""Messages from outside the cycles waiting for the next cycle (:meth:`Session.add_message`)."""
 
 
 def create_output(
@@ -217,6 +219,9 @@ class Session:
             self.nmea_header = tuple(_header_text(ln) for ln in self.nmea_scan.summary_lines())
         self._since_processed: int | None = None
         """Good records read since the last processed one (None before the first)."""
+        self.pending_messages: list[str] = []
+        """Messages for the next cycle's ``MSG`` lines from outside the cycle (a live source's
+        drops, :meth:`add_message`)."""
         self._prev_nav: NavState | None = None
         self._prev_record: RunRecord | None = None
         self._smoother: SmootherSpill | None = SmootherSpill() if collect_smoother else None
@@ -351,8 +356,19 @@ class Session:
             exc.add_note(f"while processing {self._run_name}:{rec.line_no}: {rec.raw!r}")
             raise
         self._prev_nav, self._prev_record = self.nav, rec
+        if self.pending_messages:
+            result = replace(result, messages=(*result.messages, *self.pending_messages))
+            self.pending_messages = []
         self._commit(nav, result)
         return result
+
+    def add_message(self, text: str) -> None:
+        """A message the next cycle carries (its ``MSG`` line in the ``.OUT``, the console's
+        message line): what happened outside the cycles, e.g. a live source's drops. At most
+        :data:`PENDING_MESSAGES` wait; beyond that the oldest goes."""
+        if len(self.pending_messages) >= PENDING_MESSAGES:
+            del self.pending_messages[0]
+        self.pending_messages.append(text)
 
     def _reject(self, rec: RunRecord, error: InputError) -> None:
         """Skip a parsed record the run cannot use: log it (``BAD``) and keep it."""

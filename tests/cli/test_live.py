@@ -10,6 +10,7 @@ as the live run. Waits are on events and deadlines, generous for a loaded 2-core
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -32,6 +33,7 @@ from tests.live_helpers import (
     wait_bound_udp,
     write_config,
 )
+from tests.nmea_lines import nmea
 from tests.paths import ROOT
 from uvnav_tui.cli.main import main
 
@@ -60,6 +62,10 @@ def test_live_udp_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert lines[0].startswith("#1 12:00:00Z  52°50'00.000\" N 004°30'00.000\" E WGS84")
     assert "receiving from udp://127.0.0.1:" in out
     assert f"epochs {n}  fixes {n}" in out
+    cost = re.search(r"lines received (\d+)\nlines dropped 0 \(by UVNAV 0 when waiting lines "
+                     r"were full, datagrams by the system 0\), received after the end (\d+) "
+                     r"\(raw log only\), over-long lines 0 \(0 bytes not kept\)", out)
+    assert cost is not None, out
     cycles = read_out_log(tmp_path / "L.OUT").cycles
     assert len(cycles) == n
     for k, c in enumerate(cycles):
@@ -72,8 +78,11 @@ def test_live_udp_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     raw = (tmp_path / "L.raw.nmea").read_bytes()
     sent_prefix = b"".join((s + "\r\n").encode() for k in range(n + 1) for s in epoch_lines(k))
     assert sent_prefix.startswith(raw) and raw.count(b"\r\n") >= 4 * (n + 1) - 4
+    assert raw.count(b"\r\n") == int(cost.group(1)) + int(cost.group(2))
     times = (tmp_path / "L.raw.times.csv").read_text().splitlines()
-    assert sum(1 for t in times if t[:1].isdigit()) == raw.count(b"\r\n")
+    rows = [t.split(",") for t in times if t[:1].isdigit()]  # line,lines,utc,mono_s
+    assert sum(int(r[1]) for r in rows) == raw.count(b"\r\n")
+    assert all(int(b[0]) == int(a[0]) + int(a[1]) for a, b in zip(rows, rows[1:], strict=False))
     # The .OUT header names the URL and the raw log as the run file.
     head = (tmp_path / "L.OUT").read_text().splitlines()[:40]
     assert f"# run udp://127.0.0.1:{port}" in head
@@ -307,3 +316,106 @@ def test_live_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
                      "--out", str(out)]) == 2
     assert "Address already in use" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["boat.toml"]  # nothing left behind
+
+
+def send_lines_udp(port: int, lines: list[str], pace_s: float, stop: threading.Event,
+                   per_datagram: int = 4) -> None:
+    """``lines``, ``per_datagram`` to a datagram, one datagram every ``pace_s``."""
+    if not wait_bound_udp(port, stop):
+        return
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as out:
+        for i in range(0, len(lines), per_datagram):
+            out.sendto("".join(s + "\r\n" for s in lines[i:i + per_datagram]).encode(),
+                       ("127.0.0.1", port))
+            if stop.wait(pace_s):
+                return
+
+
+def test_live_relative_out_names_a_run_file_that_exists(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """--out relative to the current directory, the configuration elsewhere: the .OUT
+    header's run_file is the raw log (found: built from the configuration's directory, a file
+    that does not exist)."""
+    cfg = write_config((tmp_path / "cfg").mkdir() or tmp_path / "cfg" / "boat.toml")
+    work = tmp_path / "work"
+    (work / "sub").mkdir(parents=True)
+    monkeypatch.chdir(work)
+    port = free_port(socket.SOCK_DGRAM)
+    status = live_while_sending(send_udp, (port, range(6)),
+                                ["live", f"udp://127.0.0.1:{port}", "--config", str(cfg),
+                                 "--out", "sub/L.OUT", "--cycles", "4"], 60.0)
+    assert status == 0
+    head = (work / "sub" / "L.OUT").read_text().splitlines()
+    run_file = next(ln for ln in head if ln.startswith("# run_file = "))
+    named = Path(run_file.split(" = ", 1)[1].strip('"'))
+    assert named == work / "sub" / "L.raw.nmea" and named.exists()
+
+
+def test_live_one_wild_clock_sentence_does_not_stall_the_run(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A ZDA dated 2099 in the stream (found: every later sentence skipped as "time went
+    backwards" while the state said "receiving"): skipped alone, the cycles go on."""
+    cfg = write_config(tmp_path / "boat.toml")
+    port = free_port(socket.SOCK_DGRAM)
+    lines = [s for k in range(10) for s in epoch_lines(k)]
+    lines += [nmea("GPZDA,120009.50,02,12,2099,00,00")]
+    lines += [s for k in range(10, 25) for s in epoch_lines(k)]
+    status = live_while_sending(
+        send_lines_udp, (port, lines, 0.01),
+        ["live", f"udp://127.0.0.1:{port}", "--config", str(cfg), "--out",
+         str(tmp_path / "W.OUT"), "--cycles", "22", "--seconds", "30"], 60.0)
+    out = capsys.readouterr().out
+    assert status == 0, out
+    assert len(cycle_lines(out)) == 22
+    assert "implausible time 1" in out and "CLOCK" not in out
+
+
+def test_live_clock_stall_is_said(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The stream's clock really goes back (a log restarted 100 s earlier): the run cannot go
+    back, its sentences are skipped until it passes the last epoch, and that is said (found:
+    silent, the state still "receiving")."""
+    cfg = write_config(tmp_path / "boat.toml")
+    port = free_port(socket.SOCK_DGRAM)
+    lines = [s for k in range(8) for s in epoch_lines(k)]
+    lines += [s for k in range(-100, -80) for s in epoch_lines(k)]
+    status = live_while_sending(
+        send_lines_udp, (port, lines, 0.05),
+        ["live", f"udp://127.0.0.1:{port}", "--config", str(cfg), "--out",
+         str(tmp_path / "S.OUT"), "--seconds", "2.5"], 60.0)
+    out = capsys.readouterr().out
+    assert status == 0, out
+    said = [ln for ln in out.splitlines() if " CLOCK BEHIND " in ln]
+    assert said and "the stream's time went back, its sentences are skipped" in said[0], out
+    assert "time went backwards" in out  # the summary's count
+
+
+def test_live_overload_is_a_message_of_the_next_cycle(tmp_path: Path) -> None:
+    """Lines dropped under overload (a small byte bound, a burst nobody polls): the next
+    cycle's MSG line in the .OUT says how many, and the state says DROPPED."""
+    from engine.api import load_run_config, open_live_run
+
+    cfg, data = load_run_config(write_config(tmp_path / "boat.toml"))
+    port = free_port(socket.SOCK_DGRAM)
+    run = open_live_run(f"udp://127.0.0.1:{port}", cfg, data, out_path=tmp_path / "O.OUT",
+                        queue_bytes=16 * 1024, history=1)
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as out:
+            for k in range(300):
+                out.sendto("".join(s + "\r\n" for s in epoch_lines(k)).encode(),
+                           ("127.0.0.1", port))
+        deadline = time.monotonic() + DEADLINE_S
+        seen = -1
+        while run.feed.source.state.lines != seen:
+            assert time.monotonic() < deadline
+            seen = run.feed.source.state.lines
+            time.sleep(0.3)
+        assert run.state.dropped > 0 and "DROPPED" in run.state.describe()
+        while run.cycles < 5:
+            assert time.monotonic() < deadline
+            run.poll(0.1)
+    finally:
+        run.close()
+    msgs = [t for c in read_out_log(tmp_path / "O.OUT").cycles for tag, f in c.lines
+            if tag == "MSG" for t in [str(f["text"])] if t.startswith("Live source overloaded")]
+    assert len(msgs) == 1
+    assert f"({run.feed.source.state.dropped} lines dropped by UVNAV" in msgs[0]

@@ -20,7 +20,7 @@ import pytest
 from engine.errors import InputError
 from engine.io.live_feed import LiveFeed
 from engine.io.live_log import RAW_SUFFIX, TIMES_SUFFIX, RawLog, raw_log_stem
-from engine.io.live_sources import LiveSource, SourceSpec, SourceState
+from engine.io.live_sources import LiveSource, ReceivedLine, SourceSpec, SourceState
 from engine.io.runfile import BadRecord, RunRecord
 
 DEADLINE_S = 20.0
@@ -111,8 +111,11 @@ def test_feed_writes_every_line_and_numbers_them_as_the_raw_log(tmp_path: Path) 
     assert raw.path.read_bytes() == b"".join(x.encode("latin-1") + b"\r\n" for x in expected)
     # The receive times, read back by pandas (comment lines: the source's states).
     times = pd.read_csv(raw.times_path, comment="#")
-    assert list(times.columns) == ["line", "utc", "mono_s"]
-    assert times["line"].tolist() == [1, 2, 3, 4, 5]
+    assert list(times.columns) == ["line", "lines", "utc", "mono_s"]
+    # A row per 0.1 s at most: the rows cover lines 1..5, each once, in order.
+    firsts, counts = times["line"].tolist(), times["lines"].tolist()
+    assert firsts[0] == 1 and sum(counts) == 5
+    assert all(firsts[i + 1] == firsts[i] + counts[i] for i in range(len(firsts) - 1))
     assert (times["mono_s"].diff().dropna() >= 0).all()
     utc = pd.to_datetime(times["utc"], utc=True)
     assert abs((utc.iloc[-1] - pd.Timestamp.now(tz="UTC")).total_seconds()) < DEADLINE_S
@@ -184,3 +187,79 @@ def test_gpsd_is_asked_for_nmea_and_its_json_kept_out_of_the_epochs(tmp_path: Pa
     assert [line for line, _ in builder.fed] == [GGA, HDT]
     assert [n for _, n in builder.fed] == [2, 3]  # numbered as in the raw log
     assert raw.path.read_bytes() == f"{version}\r\n{GGA}\r\n{HDT}\r\n".encode()
+
+
+def test_times_are_compact_and_parts_rotate_by_size(tmp_path: Path) -> None:
+    """A row of receive times per 0.1 s at most (found: a row per line, the times file larger
+    than the raw log), and the raw log goes on in a new part at part_bytes, line numbers
+    counting on."""
+    raw = RawLog.create(tmp_path / "R", source_url="udp://x:1", origin_mono_s=100.0,
+                        part_bytes=20 * (len(GGA) + 2))
+    n = 0
+    for second in range(3):  # 3 s of 1000 lines each, received in 10 bursts a second
+        for k in range(1000):
+            n += 1
+            mono = 100.0 + second + (k // 100) * 0.1 + (k % 100) * 1e-5
+            raw.write_line(ReceivedLine(GGA, mono, 1.7e9 + mono, n))
+    raw.close()
+    parts = raw.paths
+    assert len(parts) == 150 and parts[1] == tmp_path / "R.2.raw.nmea"  # 3000 / 20 lines
+    assert all(p.stat().st_size == 20 * (len(GGA) + 2) for p in parts)
+    rows = pd.concat([pd.read_csv(p.with_name(p.name.replace(".raw.nmea", TIMES_SUFFIX)),
+                                  comment="#") for p in parts])
+    # 30 bursts, cut at the 150 part boundaries (a boundary inside a burst cuts its row).
+    assert raw.rows == len(rows) <= 30 + 150
+    assert rows["lines"].sum() == 3000
+    firsts, counts = rows["line"].tolist(), rows["lines"].tolist()
+    assert firsts[0] == 1
+    assert all(firsts[i + 1] == firsts[i] + counts[i] for i in range(len(firsts) - 1))
+    head = (tmp_path / "R.2.raw.times.csv").read_text().splitlines()[0]
+    assert "part 2 of R.raw.nmea, first line 21" in head
+    total = sum(p.stat().st_size for p in parts)
+    times_total = sum(p.with_name(p.name.replace(".raw.nmea", TIMES_SUFFIX)).stat().st_size
+                      for p in parts)
+    assert times_total < total  # was larger than the raw log
+
+
+def test_flood_drops_are_noted_where_they_happened_and_nothing_waiting_is_lost(
+        tmp_path: Path) -> None:
+    """A feed whose source drops lines (a small byte bound, nobody polling during a burst):
+    the times file says how many were dropped before which line; lines still waiting when
+    the feed closes are written to the raw log (counted as not run)."""
+    spec = SourceSpec(url="udp://127.0.0.1:0", kind="udp", host="127.0.0.1", port=0)
+    source = LiveSource(spec, queue_bytes=16 * 1024).start()
+    raw = RawLog.create(tmp_path / "F", source_url=spec.url, origin_mono_s=time.monotonic())
+    builder = GgaCounter()
+    feed = LiveFeed(source, builder, raw)
+    sent = 400
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as out:
+            for _ in range(sent):
+                out.sendto(f"{HDT}\r\n".encode(), ("127.0.0.1", source.local_port))
+            deadline = time.monotonic() + DEADLINE_S
+            seen = -1
+            while source.state.lines != seen:  # until the reader has taken what came
+                assert time.monotonic() < deadline
+                seen = source.state.lines
+                time.sleep(0.3)
+            feed.poll(0.0)  # one poll: some lines run, the rest still wait
+            assert feed.lines > 0
+            out.sendto(f"{GGA}\r\n".encode(), ("127.0.0.1", source.local_port))
+            while source.state.lines + source.state.sys_dropped < sent + 1:
+                assert time.monotonic() < deadline
+                time.sleep(0.02)
+    finally:
+        feed.close()
+    st = source.state
+    assert st.dropped > 0
+    written = raw.path.read_bytes().count(b"\r\n")
+    assert written == feed.lines + feed.unrun == st.lines - st.dropped
+    assert written + st.dropped + st.sys_dropped == sent + 1
+    assert (feed.dropped, feed.sys_dropped) == (st.dropped, st.sys_dropped)
+    notes = [t for t in raw.times_path.read_text().splitlines() if t.startswith("# dropped")]
+    noted = [int(t.split()[4]) for t in notes]
+    assert sum(noted) == st.dropped
+    assert all(" lines (UVNAV: waiting lines full), " in t and " before line " in t
+               for t in notes)
+    times = pd.read_csv(raw.times_path, comment="#")
+    assert times["lines"].sum() == written

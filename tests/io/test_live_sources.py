@@ -7,6 +7,7 @@ the reader must hand over exactly those, in order.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import socket
 import threading
@@ -17,11 +18,13 @@ import pytest
 
 from engine.errors import InputError
 from engine.io.live_sources import (
+    SO_RXQ_OVFL,
     LineSplitter,
     LiveSource,
     ReceivedLine,
     SourceSpec,
     SourceState,
+    _UdpTransport,
     parse_source_url,
 )
 
@@ -279,3 +282,178 @@ def test_serial_through_a_pseudo_terminal() -> None:
             os.close(master)
         os.close(slave)
     assert not source.running
+
+
+# ----------------------------------------------------------------------------- hostile input
+def wait_for(what: Callable[[], bool], message: str) -> None:
+    deadline = time.monotonic() + DEADLINE_S
+    while not what():
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out: {message}")
+        time.sleep(0.02)
+
+
+def test_line_splitter_over_long_line_is_one_line() -> None:
+    """A line over MAX_LINE_BYTES, arriving in reads of any size, is one over-long line cut
+    there; the rest up to its line end is skipped and counted; the next line is whole."""
+    s = LineSplitter()
+    assert s.feed(b"$A*00\r\n" + b"x" * 3000) == ["$A*00"]
+    assert s.flags == [False]
+    got = s.feed(b"y" * 2000)  # now 5000 > 4096: handed on at once, cut
+    assert got == ["x" * 3000 + "y" * 1096] and s.flags == [True]
+    assert s.feed(b"z" * 100_000) == []  # skipped, up to the line end
+    assert s.feed(b"zz\r") == []
+    assert s.feed(b"\n$B*01\r\n") == ["$B*01"] and s.flags == [False]
+    assert (s.overlong, s.cut_bytes) == (1, 904 + 100_000 + 2)
+
+
+def test_tcp_50_mb_line_is_one_over_long_line() -> None:
+    """A 50 MB line on TCP (found: 1,096 "not a sentence" fragments) is one over-long line."""
+    server = LineServer()
+    source = LiveSource(f"tcp://127.0.0.1:{server.port}", lost_after_s=30.0).start()
+    size = 50 * 1024 * 1024
+    try:
+        server.accept()
+        assert server.client is not None
+        server.send(SENTENCES[:1])
+        chunk = b"A" * (1024 * 1024)
+        for _ in range(size // len(chunk)):
+            server.client.sendall(chunk)
+        server.send(["", SENTENCES[2]])  # the long line's end, then a sentence
+        lines, _states = collect(source, lambda ls, _s: len(ls) >= 3)
+    finally:
+        assert source.close(timeout_s=DEADLINE_S)
+        server.stop()
+    assert [x.text for x in lines] == [SENTENCES[0], "A" * 4096, SENTENCES[2]]
+    assert [x.overlong for x in lines] == [False, True, False]
+    st = source.state
+    assert (st.lines, st.overlong, st.cut_bytes) == (3, 1, size - 4096)
+
+
+def test_udp_flood_is_bounded_in_bytes_and_every_line_accounted_for() -> None:
+    """Nobody polls while 3000 datagrams come: the waiting lines stay within the byte bound,
+    the rest are dropped and counted, and each kept line says how many were dropped before
+    it. Every datagram sent is a line kept, a line dropped by UVNAV or a datagram the system
+    dropped (counted too on Linux)."""
+    bound = 32 * 1024
+    spec = SourceSpec(url="udp://127.0.0.1:0", kind="udp", host="127.0.0.1", port=0)
+    sent = 3000
+    with LiveSource(spec, queue_bytes=bound) as source, \
+            socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as out:
+        target = ("127.0.0.1", source.local_port)
+        for _ in range(sent):
+            out.sendto((SENTENCES[0] + "\r\n").encode(), target)
+        deadline = time.monotonic() + DEADLINE_S
+        seen = -1
+        while source.state.lines != seen:
+            assert time.monotonic() < deadline, "the reader to take the datagrams"
+            seen = source.state.lines  # until it stops growing: the socket is drained
+            time.sleep(0.3)
+        out.sendto((SENTENCES[2] + "\r\n").encode(), target)  # carries the system's count
+        wait_for(lambda: source.state.lines + source.state.sys_dropped >= sent + 1,
+                 "every datagram accounted for")
+        assert source.peak_queued_bytes <= bound
+        st = source.state
+        assert st.dropped > 0 and "DROPPED" in st.describe()
+        lines: list[ReceivedLine] = []
+        while True:
+            got = [x for x in source.poll(0.0, max_lines=100) if isinstance(x, ReceivedLine)]
+            if not got:
+                break
+            assert len(got) <= 100
+            lines += got
+    dropped_before = sum(x.dropped_before for x in lines) + source.trailing_drops[0]
+    sys_before = sum(x.sys_dropped_before for x in lines) + source.trailing_drops[1]
+    assert dropped_before == st.dropped and sys_before == st.sys_dropped
+    assert len(lines) + st.dropped + st.sys_dropped == sent + 1
+    assert [x.number for x in lines] == sorted(x.number for x in lines)
+    assert lines[-1].number == st.lines  # numbers count the dropped lines too
+
+
+@pytest.mark.skipif(SO_RXQ_OVFL is None, reason="SO_RXQ_OVFL is Linux only")
+def test_udp_datagrams_the_system_drops_are_counted() -> None:
+    """A receive buffer too small for a burst: the kernel drops datagrams; each one is counted
+    (socket(7) SO_RXQ_OVFL), so received + dropped = sent."""
+    transport = _UdpTransport(SourceSpec(url="udp://127.0.0.1:0", kind="udp",
+                                         host="127.0.0.1", port=0))
+    try:
+        transport.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        target = transport.sock.getsockname()
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as out:
+            for _ in range(300):
+                out.sendto(b"$HEHDT,274.07,T*03\r\n", target)
+            received = 0
+            while transport.read() is not None:
+                received += 1
+            out.sendto(b"$HEHDT,274.07,T*03\r\n", target)
+            assert transport.read() is not None
+        assert 0 < received < 300
+        assert received + transport.sys_dropped == 300
+    finally:
+        transport.close()
+
+
+def test_tcp_trickle_without_line_end_is_lost() -> None:
+    """Lines, then a byte every 0.05 s and never a line end: lost after lost_after_s (found:
+    "receiving" for as long as the bytes came)."""
+    server = LineServer()
+    source = LiveSource(f"tcp://127.0.0.1:{server.port}", lost_after_s=0.5).start()
+    stop = threading.Event()
+    try:
+        server.accept()
+        assert server.client is not None
+        server.send(SENTENCES)
+        client = server.client
+
+        def trickle() -> None:
+            with contextlib.suppress(OSError):
+                while not stop.wait(0.05):
+                    client.sendall(b"$")
+
+        t = threading.Thread(target=trickle)
+        t.start()
+        lines, states = collect(source, lambda _l, st: bool(st) and st[-1].is_lost)
+        assert states[-1].detail == "no complete line for 0.5 s"
+        assert t.is_alive()  # the bytes were still coming
+    finally:
+        stop.set()
+        assert source.close(timeout_s=DEADLINE_S)
+        server.stop()
+    assert [x.text for x in lines] == SENTENCES
+
+
+def test_tcp_reconnect_storm_backs_off() -> None:
+    """A server that accepts and closes at once (found: 172,852 connections in 25 s): the
+    back-off applies after a lost connection too, 0.5, 1, 2 … s."""
+    listener = socket.create_server(("127.0.0.1", 0))
+    listener.settimeout(0.05)
+    port = listener.getsockname()[1]
+    accepted: list[float] = []
+    source = LiveSource(f"tcp://127.0.0.1:{port}").start()  # the documented 0.5–8 s
+    t0 = time.monotonic()
+    try:
+        while time.monotonic() - t0 < 2.5:
+            try:
+                conn, _ = listener.accept()
+            except TimeoutError:
+                continue
+            accepted.append(time.monotonic() - t0)
+            conn.close()
+        states = [x for x in source.poll(0.0) if isinstance(x, SourceState)]
+    finally:
+        assert source.close(timeout_s=DEADLINE_S)
+        listener.close()
+    # Attempts at about 0, 0.5, 1.5 s (then 3.5 s): three in 2.5 s, never more than four.
+    assert 2 <= len(accepted) <= 4, accepted
+    gaps = [b - a for a, b in zip(accepted, accepted[1:], strict=False)]
+    assert all(g >= 0.45 for g in gaps), gaps
+    assert len(states) <= 2 * len(accepted) + 1
+
+
+def test_state_says_drops_and_a_stalled_clock() -> None:
+    """What the cycle lines and the console's state line show (drops first: the shorter)."""
+    st = SourceState("receiving", 0.0, dropped=5, sys_dropped=7, clock="CLOCK BEHIND 97 s")
+    assert st.describe() == "receiving, 12 DROPPED, CLOCK BEHIND 97 s"
+    assert SourceState("receiving", 0.0).describe() == "receiving"
+    lost = SourceState("lost", 0.0, "no data for 5 s", dropped=1)
+    assert lost.describe(12.0) == "SOURCE LOST 12 s (no data for 5 s), 1 DROPPED"

@@ -89,15 +89,92 @@ def test_midnight_roll_over_without_new_date() -> None:
 
 
 def test_time_backwards_skips_until_it_passes_the_last_epoch() -> None:
-    lines = [rmc(43200 + k) for k in range(5)]  # epochs 0..4 (4 closed at the end)
+    """A jump back confirmed by the next sentence (its time later than the jump's): the clock
+    goes back, and everything is skipped until it passes the last epoch emitted."""
+    lines = [rmc(43200 + k) for k in range(5)]  # epochs 0..3 emitted when 43204 came
+    lines += [rmc(43100), nmea("HEHDT,1.0,T"), rmc(43101), rmc(43102), rmc(43205), rmc(43206)]
+    recs, bad, b = run(lines)
+    assert [r.time.second for r in recs] == [0, 1, 2, 3, 5, 6]
+    assert all(r.heading_deg is None for r in recs)  # the HDT's stamp was after the resume
+    assert b.stats.skipped["time went backwards"] == 3  # 43100, 43101, 43102
+    assert len(bad) == 1 and bad[0].line_no == 6 and bad[0].error.field == "time went backwards"
+    assert any(e.startswith("T.nmea:6: time went backwards by 104.0 s") for e in b.stats.events)
+    assert any(e.startswith("T.nmea:10: time passes the last epoch again") for e in b.stats.events)
+
+
+def test_one_sentence_back_in_time_is_implausible_not_a_reset() -> None:
+    """One sentence 104 s back, the next ones keep to the clock: that one is skipped (reported
+    with its line), nothing else; the HDT between is used."""
+    lines = [rmc(43200 + k) for k in range(5)]
     lines += [rmc(43100), nmea("HEHDT,1.0,T"), rmc(43203), rmc(43205), rmc(43206)]
     recs, bad, b = run(lines)
     assert [r.time.second for r in recs] == [0, 1, 2, 3, 4, 5, 6]
-    assert all(r.heading_deg is None for r in recs)  # the HDT came while time was behind
-    assert b.stats.skipped["time went backwards"] == 3  # 43100, the HDT, 43203
-    assert len(bad) == 1 and bad[0].line_no == 6 and bad[0].error.field == "time went backwards"
-    assert any(e.startswith("T.nmea:6: time went backwards by 104.0 s") for e in b.stats.events)
-    assert any(e.startswith("T.nmea:9: time passes the last epoch again") for e in b.stats.events)
+    assert [r.heading_deg for r in recs][-3:] == [1.0, 1.0, 1.0]
+    assert b.stats.skipped == {"implausible time": 1}
+    assert [(x.line_no, x.error.field) for x in bad] == [(6, "implausible time")]
+    assert str(bad[0].error).startswith("T.nmea:6: implausible time: 2026-12-02 11:58:20 is "
+                                        "-104 s from the log clock: 1 sentence not used")
+
+
+def stream(first: int, n: int, day: str = "021226") -> list[str]:
+    """``n`` seconds of GGA + RMC + HDT from second of day ``first``."""
+    out = []
+    for t in range(first, first + n):
+        out += [gga(t), rmc(t, day), nmea("HEHDT,10.0,T")]
+    return out
+
+
+@pytest.mark.parametrize(("wild", "label"), [
+    (nmea("GPZDA,120005.00,02,12,2099,00,00"), "a ZDA dated 2099"),
+    (nmea("GPGGA,235960,5250.0000,N,00430.0000,E,1,07,1.2,2.0,M,46.0,M,,"), "235960 at noon"),
+    (rmc(43205, "021227"), "an RMC a year ahead"),
+])
+def test_one_implausible_clock_sentence_does_not_stall(wild: str, label: str) -> None:
+    """The cases of a hostile-input run: one such sentence used to move the clock, close
+    epochs at once, and make every later sentence "go backwards" (and a year's jump gave
+    false midnight roll-overs). Now it is refuted by the next sentence and skipped alone."""
+    lines = [*stream(43200, 5), wild, *stream(43205, 10)]  # the wild one is line 16
+    recs, bad, b = run(lines)
+    assert [r.time.second for r in recs] == list(range(15)), label
+    assert all(r.gps_lat_deg is not None for r in recs)
+    assert b.stats.skipped == {"implausible time": 1}, label
+    assert [x.line_no for x in bad] == [16]
+    assert not any("roll-over" in e or "backwards" in e or "gap" in e for e in b.stats.events)
+
+
+def test_year_jump_and_back_no_false_midnight_roll_overs() -> None:
+    """A stream that really runs a year ahead for a while (confirmed) and comes back: the
+    come-back is a reset (skipped until past the last epoch, said), never a roll-over."""
+    lines = stream(43200, 5) + stream(43205, 5, "021227") + stream(43210, 30)
+    recs, _, b = run(lines)
+    times = [r.time for r in recs]
+    assert times == sorted(set(times))
+    assert not any("roll-over" in e for e in b.stats.events)
+    assert any("time jumped +31535999 s to 2027-12-02 12:00:05" in e for e in b.stats.events)
+    assert any("time went backwards" in e for e in b.stats.events)
+    assert b.clock_trouble().startswith("CLOCK BEHIND ")  # still behind at the end: said
+
+
+def test_leap_second_2359_60() -> None:
+    """23:59:60 (the leap second of 2016-12-31) is 23:59:59.999: no epoch of the next day is
+    closed by it, nothing is skipped and no roll-over is reported (the RMCs carry the date)."""
+    leap = nmea("GPGGA,235960.00,5250.0000,N,00430.0000,E,1,07,1.2,2.0,M,46.0,M,,")
+    lines = [rmc(86398, "311216"), rmc(86399, "311216"), leap, rmc(0, "010117"),
+             rmc(1, "010117"), rmc(2, "010117")]
+    recs, bad, b = run(lines)
+    assert [r.time for r in recs] == [
+        datetime(2016, 12, 31, 23, 59, 58, tzinfo=UTC),
+        datetime(2016, 12, 31, 23, 59, 59, tzinfo=UTC),
+        datetime(2017, 1, 1, 0, 0, 0, tzinfo=UTC), datetime(2017, 1, 1, 0, 0, 1, tzinfo=UTC),
+        datetime(2017, 1, 1, 0, 0, 2, tzinfo=UTC)]
+    assert not bad and not b.stats.skipped and not b.stats.events
+
+
+def test_a_jump_unconfirmed_at_the_end_is_skipped() -> None:
+    recs, bad, b = run(stream(43200, 3) + [rmc(50000)])
+    assert [r.time.second for r in recs] == [0, 1, 2]
+    assert b.stats.skipped == {"implausible time": 1}
+    assert "not confirmed before the end of the log" in str(bad[0].error)
 
 
 def test_late_sentence_within_tolerance_is_used() -> None:

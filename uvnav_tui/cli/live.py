@@ -8,7 +8,11 @@ epoch to the position) and a line for each change of the source's state (``sourc
 ``reconnected …``), and ends on Ctrl-C (exit 130), ``--cycles N`` or ``--seconds S`` (exit
 0) with every completed cycle in the ``.OUT`` log and every received line in the raw log
 ``NAME.raw.nmea`` (+ ``NAME.raw.times.csv``) beside it. ``--seconds`` counts from the start,
-the wait for a first fix without ``--config`` included.
+the wait for a first fix without ``--config`` included. Under overload it says how many lines
+were dropped (``source overloaded: …``, at most every 10 s; ``, N DROPPED`` on the cycle
+lines), and when the stream's clock went back and its sentences are skipped, that
+(``CLOCK BEHIND …``, every 30 s while it lasts); the summary ends with what overload cost
+(docs/LIVE.md "Under overload").
 
 With ``--config`` the run uses that configuration (working datum, DR position, systems,
 ``[nmea]``). Without it the configuration is derived from the stream as ``uvnav replay`` derives
@@ -60,7 +64,10 @@ EXIT_INTERRUPTED = 130
 POLL_S = 0.25
 """Longest wait for data between two checks of the state and the stop conditions [s]."""
 STILL_LOST_EVERY_S = 30.0
-"""While the source is lost, a reminder line this often [s]."""
+"""While the source is lost (or the stream's clock stalls the run), a reminder line this
+often [s]."""
+DROPS_EVERY_S = 10.0
+"""While lines are being dropped (overload), a line saying how many at most this often [s]."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -187,6 +194,7 @@ def _loop(run: LiveRun, args: argparse.Namespace, start_mono_s: float) -> None:
     deadline = _deadline(args, start_mono_s)
     state: SourceState | None = None
     reminded = 0.0
+    watch = _Watch()
     while True:
         if args.cycles is not None and run.cycles >= args.cycles:
             return
@@ -200,6 +208,7 @@ def _loop(run: LiveRun, args: argparse.Namespace, start_mono_s: float) -> None:
                 print(line, flush=True)
             state = new
         current = run.state
+        watch.check(current, run.url)
         if current.is_lost and time.monotonic() - reminded >= STILL_LOST_EVERY_S:
             if reminded:
                 print(f"{datetime.now(UTC):%H:%M:%SZ} {current.describe()}", flush=True)
@@ -213,10 +222,40 @@ def _loop(run: LiveRun, args: argparse.Namespace, start_mono_s: float) -> None:
                 return
 
 
+class _Watch:
+    """Lines for what the source's state does not queue: lines dropped under overload (at most
+    every :data:`DROPS_EVERY_S`) and the stream's clock stalling the run (when it starts, every
+    :data:`STILL_LOST_EVERY_S` while it lasts, when it ends)."""
+
+    def __init__(self) -> None:
+        self.drops = 0
+        self.drops_said_at = -DROPS_EVERY_S
+        self.clock = ""
+        self.clock_said_at = 0.0
+
+    def check(self, state: SourceState, url: str) -> None:
+        now = time.monotonic()
+        stamp = f"{datetime.now(UTC):%H:%M:%SZ}"
+        if state.drops > self.drops and now - self.drops_said_at >= DROPS_EVERY_S:
+            print(f"{stamp} source overloaded: {url}: {state.drops - self.drops} more lines "
+                  f"dropped ({state.dropped} by UVNAV, {state.sys_dropped} datagrams by the "
+                  "system, in all; the raw log's times file says where)", flush=True)
+            self.drops, self.drops_said_at = state.drops, now
+        stalled = state.clock.startswith("CLOCK BEHIND")
+        if stalled and (not self.clock or now - self.clock_said_at >= STILL_LOST_EVERY_S):
+            print(f"{stamp} {state.clock}: the stream's time went back, its sentences are "
+                  "skipped until it passes the last epoch (no cycles meanwhile)", flush=True)
+            self.clock, self.clock_said_at = state.clock, now
+        elif not stalled and self.clock:
+            print(f"{stamp} clock: the stream's time passes the last epoch again", flush=True)
+            self.clock = ""
+
+
 def _summary(run: LiveRun, policy: str) -> None:
     s = run.session.summary()
     print(f"epochs {s.epochs}  fixes {s.fixes}  rejected LOPs {s.rejected_lops}  "
           f"skipped records {s.skipped_records}  lines received {run.feed.lines}")
+    print(overload_summary(run))
     print(integrity_summary_line(s, policy))
     for line in run.nmea_stats.summary_lines():
         print(f"nmea: {line}")
@@ -226,6 +265,17 @@ def _summary(run: LiveRun, policy: str) -> None:
         print(f"raw log {run.raw_path} (receive times {run.raw_times_path})")
     if s.jsonl_path is not None:
         print(f"json lines {s.jsonl_path}")
+
+
+def overload_summary(run: LiveRun) -> str:
+    """What overload cost: ``lines dropped 0 (by UVNAV 0, datagrams by the system 0), received
+    after the end 0 (raw log only), over-long lines 0 (0 bytes not kept)``."""
+    feed = run.feed
+    st = feed.source.state
+    return (f"lines dropped {feed.dropped + feed.sys_dropped} (by UVNAV {feed.dropped} when "
+            f"waiting lines were full, datagrams by the system {feed.sys_dropped}), received "
+            f"after the end {feed.unrun} (raw log only), over-long lines {st.overlong} "
+            f"({st.cut_bytes} bytes not kept)")
 
 
 def run_live(argv: list[str]) -> int:
