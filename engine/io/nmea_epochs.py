@@ -79,6 +79,10 @@ MAX_EVENTS = 50
 MAX_BAD_PER_KIND = 20
 """Damaged lines returned as :class:`BadRecord` per skip kind (the ``.OUT`` log's ``BAD``
 lines); the rest are counted in :class:`NmeaStats` only, so a noisy log keeps the log small."""
+MAX_TYPES_COUNTED = 100
+"""Distinct unused sentence types counted by name; further types are counted together as
+:data:`OTHER_TYPES` (a log of random junk addresses keeps the counts small)."""
+OTHER_TYPES = "other types"
 MAX_INTERVAL_S = 3600
 MAX_HDOP = 99.99
 """Largest HDOP the ``.RUN`` ``hdop=`` token takes (written with two decimals)."""
@@ -164,7 +168,12 @@ class NmeaStats:
     """Lines skipped, per kind (:class:`~engine.io.nmea_sentences.SkipKind`, ``no date yet``,
     ``time went backwards``)."""
     skipped_types: Counter[str] = field(default_factory=Counter)
-    """Unknown/unused sentence types, per type (``GSV`` …)."""
+    """Unknown/unused sentence types, per type (``GSV`` …; at most :data:`MAX_TYPES_COUNTED`
+    names, the rest under :data:`OTHER_TYPES`)."""
+    bad_unlisted: int = 0
+    """Damaged lines beyond the first :data:`MAX_BAD_PER_KIND` of their kind: counted here
+    and in :attr:`skipped`, not returned as :class:`~engine.io.runfile.BadRecord` (so not
+    ``BAD`` lines of the ``.OUT`` log)."""
     notes: Counter[str] = field(default_factory=Counter)
     """Parts of sentences not used and why (``HDG without variation: not used`` …)."""
     events: list[str] = field(default_factory=list)
@@ -198,6 +207,9 @@ class NmeaStats:
         if self.skipped:
             out.append("skipped: " + ", ".join(
                 f"{k} {n}" for k, n in sorted(self.skipped.items())))
+        if self.bad_unlisted:
+            out.append(f"damaged lines: {self.bad_unlisted} more than the first "
+                       f"{MAX_BAD_PER_KIND} of each kind listed one by one")
         if self.skipped_types:
             out.append("unused sentence types: " + ", ".join(
                 f"{k} {n}" for k, n in sorted(self.skipped_types.items())))
@@ -301,6 +313,18 @@ class EpochBuilder:
         return out
 
     # ------------------------------------------------------------------ skips
+    def damaged(self, line_no: int, raw: str, kind: str, message: str
+                ) -> list[RunRecord | BadRecord]:
+        """A line the reader found damaged before it could be fed (too long): counted as a
+        line and a skip of ``kind``, returned as a bad record while fewer than
+        :data:`MAX_BAD_PER_KIND` of its kind were."""
+        self._last_line = line_no
+        self.stats.lines += 1
+        self.stats.skipped[kind] += 1
+        out: list[RunRecord | BadRecord] = []
+        self._bad(kind, line_no, raw, message, out)
+        return out
+
     def _bad(self, kind: str, line_no: int, raw: str, message: str,
              out: list[RunRecord | BadRecord]) -> None:
         if self._bad_kept[kind] < MAX_BAD_PER_KIND:
@@ -309,12 +333,16 @@ class EpochBuilder:
             shown = text[:80] + ("…" if len(text) > 80 else "")
             out.append(BadRecord(line_no, shown, InputError(
                 message, file=self.source, line=line_no, field=kind)))
+        else:
+            self.stats.bad_unlisted += 1
 
     def _skip(self, skip: SentenceSkip, line_no: int, raw: str,
               out: list[RunRecord | BadRecord]) -> None:
         self.stats.skipped[skip.kind] += 1
         if skip.kind == SkipKind.UNKNOWN and skip.sentence_type:
-            self.stats.skipped_types[skip.sentence_type] += 1
+            types = self.stats.skipped_types
+            name = skip.sentence_type
+            types[name if name in types or len(types) < MAX_TYPES_COUNTED else OTHER_TYPES] += 1
         if skip.kind in SkipKind.REPORTED:
             self._bad(skip.kind, line_no, raw, skip.message, out)
 

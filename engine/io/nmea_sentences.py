@@ -118,6 +118,10 @@ _TIME_RE = re.compile(r"(\d\d)(\d\d)(\d\d)(\.\d*)?\Z")
 _LAT_RE = re.compile(r"(\d\d)(\d\d(?:\.\d*)?)\Z")
 _LON_RE = re.compile(r"(\d\d\d)(\d\d(?:\.\d*)?)\Z")
 _FRAME_RE = re.compile(r"\$[A-Z0-9]{5},[\x20-\x7e]*\*[0-9A-Fa-f]{2}\Z")
+_PROPRIETARY_RE = re.compile(r"\$(P[A-Z0-9]{3,9})[,*]")
+"""A proprietary sentence: its address field is ``P``, the maker's three-character mnemonic
+and the maker's own sentence type (``PGRMZ``, ``PNCTR``, ``PMTK001``); kept whole (up to 10
+characters) to name it in the counts."""
 NOT_FIX_MODES = frozenset("NEMS")
 """FAA mode indicators that are not a fix: not valid, estimated (DR), manual, simulator."""
 FIX_QUALITIES = frozenset({1, 2, 3, 4, 5})
@@ -463,12 +467,13 @@ def parse_nmea_line(
         return SentenceSkip(SkipKind.BAD_CHECKSUM,
                             f"checksum {text[star + 1:].upper()} != {_checksum(text[1:star]):02X}",
                             text[3:6] if len(text) >= 6 else None)
+    if text[1] == "P" and (m := _PROPRIETARY_RE.match(text)):
+        # proprietary: $PGRMC is Garmin's, not an RMC; its whole address names it (PMTK001)
+        return SentenceSkip(SkipKind.UNKNOWN, f"{m.group(1)}: proprietary sentence not used",
+                            m.group(1))
     if not _FRAME_RE.match(text):
         return SentenceSkip(SkipKind.MALFORMED, "not $TTSSS,…*hh")
     talker, kind = text[1:3], text[3:6]
-    if talker[0] == "P":  # proprietary ($PGRMC is Garmin's, not an RMC)
-        return SentenceSkip(SkipKind.UNKNOWN, f"P{text[2:5]}: proprietary sentence not used",
-                            "P" + text[2:5])
     if kind not in USED_TYPES:
         return SentenceSkip(SkipKind.UNKNOWN, f"{kind}: sentence type not used", kind)
     import pynmea2  # on first use: a replay of a .RUN file never parses NMEA (start-up)

@@ -120,7 +120,16 @@ def test_unknown_and_proprietary_types_are_counted_by_type() -> None:
     s = _skip(nmea("GPGSV,3,1,11,03,03,111,00"))
     assert (s.kind, s.sentence_type) == (SkipKind.UNKNOWN, "GSV")
     p = _skip(nmea("PGRMC,A,1"))  # Garmin's PGRMC is not an RMC
-    assert (p.kind, p.sentence_type) == (SkipKind.UNKNOWN, "PGRM")
+    assert (p.kind, p.sentence_type) == (SkipKind.UNKNOWN, "PGRMC")
+
+
+@pytest.mark.parametrize("address", ["PNCTR", "PGRMZ", "PMTK001", "PSRFTXT"])
+def test_proprietary_type_is_named_whole(address: str) -> None:
+    """The whole address field names a proprietary sentence (PNCTR was counted as PNCT), also
+    when it is longer than five characters (PMTK001 was malformed)."""
+    p = _skip(nmea(f"{address},1,2"))
+    assert (p.kind, p.sentence_type) == (SkipKind.UNKNOWN, address)
+    assert p.message.startswith(f"{address}: ")
 
 
 def test_missing_checksum_accepted_on_request() -> None:

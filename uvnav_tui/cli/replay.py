@@ -57,15 +57,16 @@ from engine.api import (
     derived_config_lines,
     format_lat_dms,
     format_lon_dms,
-    is_nmea_file,
     load_data,
     load_run_config,
+    not_nmea_message,
     open_nmea_sender,
     parse_nmea_destination,
     position_json,
     read_error,
     remove_created,
     run_inputs,
+    sniff_log,
 )
 from uvnav_tui.cli.stdout import unfiltered_stderr
 
@@ -174,7 +175,10 @@ def _config_for(
     for a configuration derived from an NMEA log (none given, none beside it), what the log
     gave. ``date`` (``--date``) overrides ``nmea.date``."""
     if config_path is None:
-        if not is_nmea_file(run):
+        sniff = sniff_log(run)
+        if not sniff.nmea and not sniff.text:  # neither a log nor a .RUN: say what it is
+            raise InputError(not_nmea_message(sniff), file=str(run))
+        if not sniff.nmea:
             raise InputError(NO_CONFIG_MESSAGE, file=str(run.with_suffix(".toml")),
                              field="configuration")
         cfg, stats = derive_nmea_config(run, bundled_data_dir(), _with_date(NmeaConfig(), date))
@@ -290,12 +294,16 @@ def _cannot_write(exc: OSError, run: Path) -> int:
     return EXIT_CANNOT_WRITE
 
 
-def _more_skipped(summary: RunSummary, shown: int) -> None:
+def _more_skipped(summary: RunSummary, shown: int, nmea: bool = False) -> None:
     """One line for the bad records beyond the first ones kept in memory (session.py)."""
     more = summary.skipped_records - shown
     if more > 0:
         where = (f"every one is a BAD line of {summary.out_path}" if summary.out_path is not None
                  else "not shown: no .OUT log (--no-out)")
+        if nmea:  # beyond the first of each kind, a log's damaged lines are counted only
+            where = ("all counted per kind in the nmea: lines; the first of each kind are BAD "
+                     f"lines of {summary.out_path}" if summary.out_path is not None else
+                     "all counted per kind in the nmea: lines")
         print(f"skipped: … and {more} more ({where})", file=sys.stderr)
 
 
@@ -412,7 +420,7 @@ def run_replay(argv: list[str]) -> int:
             print(f"nmea: {line}")
     for bad in session.bad_records:
         print(f"skipped: {bad.error}", file=sys.stderr)
-    _more_skipped(summary, len(session.bad_records))
+    _more_skipped(summary, len(session.bad_records), session.nmea_stats is not None)
     if summary.epochs == 0:
         print(f"uvnav replay: {run}: no record could be processed "
               f"({summary.skipped_records} skipped) !", file=sys.stderr)
