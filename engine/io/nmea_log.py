@@ -35,6 +35,8 @@ GZIP_MAGIC = b"\x1f\x8b"
 """First bytes of a gzip file (RFC 1952): a log rotated by its logger (``.nmea.gz``)."""
 _SENTENCE_RE = re.compile(
     r"[$!](?:[A-Z0-9]{5}|P[A-Z0-9]{3,9}),[\x20-\x7e]*\*[0-9A-Fa-f]{2}\Z")
+_NOT_TEXT_RE = re.compile(r"[^\t\x20-\x7e]")
+"""A character that is not printable ASCII or a tab (bytes outside ASCII read as U+FFFD)."""
 _NOT_TEXT_MAGIC = (
     (b"\xff\xfe\x00\x00", "UTF-32 text, byte-order mark FF FE 00 00, not ASCII"),
     (b"\x00\x00\xfe\xff", "UTF-32 text, byte-order mark 00 00 FE FF, not ASCII"),
@@ -138,7 +140,7 @@ def sniff_log(path: str | os.PathLike[str]) -> LogSniff:
     if any("\x00" in ln for ln in lines):
         return LogSniff(False, False, compressed, prefix + "binary data with NUL bytes: not "
                         "text, or UTF-16 text without a byte-order mark")
-    noisy = sum(1 for ln in lines if ln != "\x1a" and not ln.isprintable())
+    noisy = sum(1 for ln in lines if ln != "\x1a" and _NOT_TEXT_RE.search(ln))
     if noisy * 2 > len(lines):
         return LogSniff(False, False, compressed,
                         prefix + f"binary data: {noisy} of the first {len(lines)} lines are "

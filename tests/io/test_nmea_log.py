@@ -155,8 +155,10 @@ def test_cut_gzip_log_keeps_what_came_before(tmp_path: Path) -> None:
     (b"PK\x03\x04rest", "a ZIP archive"),
     (b"BZh91AY&SY", "bzip2-compressed"),
     (b"\x00\x01\x02\x03" * 40 + b"\n", "binary data with NUL bytes"),
+    (bytes(range(128, 256)) + b"\n" + bytes(range(160, 250)) + b"\n", "binary data: 2 of"),
     (b"hello\nworld\n", "text: 0 of its first 2 non-empty lines are NMEA 0183 sentences"),
-], ids=["empty", "utf16", "blank", "zip", "bzip2", "binary", "text"])
+    (b"Date\tTime\n920917\t083538\n", "text: 0 of its first 2"),  # a .RUN's tabs are text
+], ids=["empty", "utf16", "blank", "zip", "bzip2", "binary", "non-ascii", "text", "tabs"])
 def test_a_file_that_is_no_log_is_named(tmp_path: Path, data: bytes, what: str) -> None:
     from engine.io.nmea_log import not_nmea_message, sniff_log
 
