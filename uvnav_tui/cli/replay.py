@@ -32,9 +32,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import gzip
 import json
 import os
 import sys
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -215,14 +217,23 @@ def _guard_outputs(run: Path, config_path: Path | None, cfg: RunConfig, force: b
 
 
 def count_lines(path: Path) -> int:
-    """Number of lines of a file by a byte scan (a last line without newline counts)."""
+    """Number of lines of a file by a byte scan (a last line without newline counts), as the
+    log reader counts them: LF, CR LF and CR alone each end a line; a gzip file's content."""
     n = 0
     last = b"\n"
-    with open(path, "rb") as fh:
-        while chunk := fh.read(1 << 20):
-            n += chunk.count(b"\n")
-            last = chunk[-1:]
-    return n + (last != b"\n")
+    prev_cr = False
+    with open(path, "rb") as raw:
+        packed = raw.read(2) == b"\x1f\x8b"
+    with (gzip.open(path, "rb") if packed else open(path, "rb")) as fh:
+        try:
+            while chunk := fh.read(1 << 20):
+                n += chunk.count(b"\n") + chunk.count(b"\r") - chunk.count(b"\r\n")
+                n -= prev_cr and chunk[:1] == b"\n"  # a CR LF split between two chunks
+                prev_cr = chunk[-1:] == b"\r"
+                last = chunk[-1:]
+        except (EOFError, OSError, zlib.error):  # a cut .gz: the reader reports it
+            pass
+    return n + (last not in (b"\n", b"\r"))
 
 
 def _failed_fixes_line(s: RunSummary) -> str:
