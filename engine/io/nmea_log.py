@@ -1,9 +1,11 @@
 """NMEA 0183 log files as run input (docs/NMEA.md): sniffing, streaming, ``.RUN`` or NMEA.
 
-:func:`is_nmea_file` decides by content, not by suffix; :class:`NmeaLog` streams a log through
-:class:`~engine.io.nmea_epochs.EpochBuilder` one line at a time (constant memory, lines over
-:data:`MAX_LINE_CHARS` characters are damage, not read whole); :func:`open_records` gives the
-record iterator of either kind of run file.
+:func:`sniff_log` decides by content, not by suffix, and says what a file that is no log is;
+:class:`NmeaLog` streams a log through :class:`~engine.io.nmea_epochs.EpochBuilder` one line at
+a time (constant memory, lines over :data:`MAX_LINE_CHARS` characters are damage, not read
+whole), with any line end (LF, CR LF, CR) and through gzip when the file is compressed
+(:func:`open_log_text`); :func:`open_records` gives the record iterator of either kind of run
+file.
 """
 
 from __future__ import annotations
