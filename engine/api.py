@@ -96,6 +96,7 @@ if TYPE_CHECKING:
     from engine.assess.denied import (
         CHECKPOINTS_S,
         DeniedReport,
+        clean_records,
         denied_experiment,
         run_records,
         truth_reference,
@@ -122,7 +123,14 @@ if TYPE_CHECKING:
     from engine.io.export_write import csv_text, geojson_text, gpx_text, kml_text
     from engine.io.live_sources import SourceState, is_source_url, parse_source_url
     from engine.io.nmea_epochs import NmeaOptions, NmeaStats
-    from engine.io.nmea_log import CONVERTED_RUN_MARK, NmeaLog, is_nmea_file
+    from engine.io.nmea_log import (
+        CONVERTED_RUN_MARK,
+        LogSniff,
+        NmeaLog,
+        is_nmea_file,
+        not_nmea_message,
+        sniff_log,
+    )
     from engine.io.nmea_send import NmeaSender, open_nmea_sender, parse_nmea_destination
     from engine.io.runfile import BadRecord, RunRecord, format_run_record
     from engine.lsq.adjustment import Adjustment
@@ -167,7 +175,8 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
                              "UpdateResult", "sensor_measurement"),
     "engine.filter.poe": ("PoeSample", "drms", "poe_states"),
     "engine.io.nmea_epochs": ("NmeaOptions", "NmeaStats"),
-    "engine.io.nmea_log": ("CONVERTED_RUN_MARK", "NmeaLog", "is_nmea_file"),
+    "engine.io.nmea_log": ("CONVERTED_RUN_MARK", "LogSniff", "NmeaLog", "is_nmea_file",
+                           "not_nmea_message", "sniff_log"),
     # the .RUN reader (the console's first paint does not read records)
     "engine.io.runfile": ("BadRecord", "RunRecord", "format_run_record", "parse_run_line"),
     "engine.lsq.adjustment": ("Adjustment",),
@@ -186,8 +195,8 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     # headless work: assessment, GPS-denied experiment, simulation, NMEA out, live sources
     "engine.assess.accuracy": ("ESTIMATOR_LABELS", "ESTIMATORS", "PHASES", "Assessment",
                                "assess", "read_nav_log", "read_truth"),
-    "engine.assess.denied": ("CHECKPOINTS_S", "DeniedReport", "denied_experiment",
-                             "run_records", "truth_reference"),
+    "engine.assess.denied": ("CHECKPOINTS_S", "DeniedReport", "clean_records",
+                             "denied_experiment", "run_records", "truth_reference"),
     "engine.sim.scenario": ("load_scenario",),
     "engine.native": ("PURE_ENV",),
     "engine.geodesy.ellipsoidal": ("load_proj",),
@@ -360,6 +369,9 @@ __all__ = [
     "format_run_record",
     "is_nmea_file",
     "CONVERTED_RUN_MARK",
+    "LogSniff",
+    "not_nmea_message",
+    "sniff_log",
     # headless work: exports (uvnav export, imported on first use)
     "ELLIPSE_POINTS",
     "EXPORT_TRACKS",
@@ -376,6 +388,7 @@ __all__ = [
     # GPS-denied experiment (uvnav denied)
     "CHECKPOINTS_S",
     "DeniedReport",
+    "clean_records",
     "denied_experiment",
     "run_records",
     "truth_reference",

@@ -316,6 +316,8 @@ class UVNAVApp(App[None]):
         if scan is not None:  # an NMEA log without heading, log … (docs/NMEA.md)
             for missing in scan.missing_sensors():
                 self.say(f"NMEA log: {missing}")
+            for line in scan.variation_lines():  # compass headings made true: with what
+                self.say(f"NMEA log: {line}")
         self.kick()
         return None
 

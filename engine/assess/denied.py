@@ -52,7 +52,7 @@ from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import DatumShift, datum_shift
 from engine.io.datumfile import DatumFile
 from engine.io.deccafile import DeccaChain
-from engine.io.nmea_log import open_records
+from engine.io.nmea_log import NmeaLog, open_records
 from engine.io.runfile import BadRecord, RunRecord
 from engine.run.config import RunConfig
 from engine.run.cycle import CycleResult, NavState, RunContext, build_context, initial_state, step
@@ -67,6 +67,7 @@ __all__ = [
     "DeniedRow",
     "Reference",
     "WindowRun",
+    "clean_records",
     "denied_experiment",
     "hide_positions",
     "run_records",
@@ -239,9 +240,13 @@ def window_starts(times: Sequence[datetime], length_s: float, *, every_s: float 
         k += 1
 
 
-def _clean(records: Iterable[RunRecord | BadRecord]) -> tuple[list[RunRecord], int]:
-    """Good records in time order (a record whose time does not advance past the previous one
-    is skipped, as :class:`engine.run.session.Session` does) and the number skipped."""
+def clean_records(records: Iterable[RunRecord | BadRecord]) -> tuple[list[RunRecord], int]:
+    """The good records in time order and the number skipped, reading ``records`` once and
+    keeping only the good ones (memory in the run's length, never in its damage): a bad record
+    is counted, not kept, and so is a record whose time does not advance past the previous one
+    (as :class:`engine.run.session.Session` skips it). For an NMEA log the damaged lines it
+    counted without returning them (:attr:`~engine.io.nmea_epochs.NmeaStats.bad_unlisted`)
+    are in the count too."""
     out: list[RunRecord] = []
     skipped = 0
     for r in records:
@@ -249,6 +254,8 @@ def _clean(records: Iterable[RunRecord | BadRecord]) -> tuple[list[RunRecord], i
             skipped += 1
             continue
         out.append(r)
+    if isinstance(records, NmeaLog):
+        skipped += records.stats.bad_unlisted
     return out, skipped
 
 
@@ -338,6 +345,7 @@ def denied_experiment(
     truth: Reference | None = None,
     hide_heading_speed: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    skipped: int = 0,
 ) -> DeniedReport:
     """Run the GPS-denied experiment (module docstring) on ``records`` with ``config`` and the
     data files ``data`` = (datums, chains) of :func:`engine.run.session.load_data`.
@@ -350,11 +358,14 @@ def denied_experiment(
     ``truth`` replaces the hidden fixes as the reference (WGS84 degrees by record time).
     ``progress(done, total)`` is called after each window. Every record is processed
     (``demo.delta_t_s`` is not applied) and records that do not advance in time are skipped.
+    ``records`` is read once and only its good records are kept (:func:`clean_records`; a
+    caller that cleaned them already passes the count it skipped as ``skipped``).
     """
     datums, chains = data
     check_config(config, datums, chains)
     ctx = build_context(config, datums, chains)
-    recs, skipped = _clean(records)
+    recs, n_skipped = clean_records(records)
+    skipped += n_skipped
     lengths = tuple(sorted({float(v) for v in window_lengths_s}))
     times = [r.time for r in recs]
     has_hs = any(r.heading_deg is not None for r in recs) and any(

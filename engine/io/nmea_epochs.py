@@ -66,6 +66,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, date, datetime, timedelta
 
 from engine.errors import InputError
+from engine.geodesy.magvar import MODEL, MODEL_END, MODEL_FIRST, declination_deg, model_covers
 from engine.io.nmea_sentences import NmeaValues, SentenceSkip, SkipKind, parse_nmea_line
 from engine.io.runfile import (
     MAX_SOG_KN,
@@ -101,6 +102,16 @@ MAX_EVENTS = 50
 MAX_BAD_PER_KIND = 20
 """Damaged lines returned as :class:`BadRecord` per skip kind (the ``.OUT`` log's ``BAD``
 lines); the rest are counted in :class:`NmeaStats` only, so a noisy log keeps the log small."""
+VARIATION_CELL_DEG = 0.1
+"""The model's variation is computed once per cell of this size [deg of latitude and longitude]
+and day, at the cell's centre (within 0.05° of the fix: the variation changes by a few
+hundredths of a degree over such a distance outside polar waters)."""
+VARIATION_CACHE = 4096
+"""Cells kept (a run that crosses more starts the cache afresh)."""
+MAX_TYPES_COUNTED = 100
+"""Distinct unused sentence types counted by name; further types are counted together as
+:data:`OTHER_TYPES` (a log of random junk addresses keeps the counts small)."""
+OTHER_TYPES = "other types"
 MAX_INTERVAL_S = 3600
 MAX_HDOP = 99.99
 """Largest HDOP the ``.RUN`` ``hdop=`` token takes (written with two decimals)."""
@@ -184,6 +195,45 @@ class NmeaOptions:
             raise InputError("Date must be YYYY-MM-DD !", field="nmea.date", text=str(self.date))
 
 
+def _east_text(deg: float) -> str:
+    """A variation as the chart says it: ``1.2°E``, ``3.4°W``."""
+    return f"{abs(deg):.1f}°{'W' if deg < -0.05 else 'E'}"
+
+
+@dataclass
+class VariationUse:
+    """Magnetic headings made true with one source of variation (the model, or the log's own
+    from RMC/HDG): how many, the range of the variation [deg, east positive] and, for the
+    model, the first position (WGS84 degrees) and UTC date it was computed for."""
+
+    source: str
+    count: int = 0
+    min_deg: float = math.inf
+    max_deg: float = -math.inf
+    first: tuple[float, float, float, date] | None = None
+    """(variation deg, latitude deg, longitude deg, date) of the first heading made true."""
+
+    def add(self, var_deg: float, where: tuple[float, float, date] | None = None) -> None:
+        """One heading made true with ``var_deg`` (at ``where`` for the model)."""
+        self.count += 1
+        self.min_deg = min(self.min_deg, var_deg)
+        self.max_deg = max(self.max_deg, var_deg)
+        if self.first is None and where is not None:
+            self.first = (var_deg, *where)
+
+    def line(self) -> str:
+        """The report line (``magnetic headings without variation: 11093 made true with …``)."""
+        span = (f" ({_east_text(self.min_deg)} to {_east_text(self.max_deg)} over the log)"
+                if self.max_deg - self.min_deg >= 0.05 else "")
+        text = f"magnetic headings without variation: {self.count} made true with "
+        if self.first is not None:
+            var, lat, lon, day = self.first
+            return (text + f"the {self.source} variation {_east_text(var)} at "
+                    f"{abs(lat):.2f}°{'S' if lat < 0 else 'N'} {abs(lon):.2f}°"
+                    f"{'W' if lon < 0 else 'E'} on {day.isoformat()}{span}")
+        return text + f"{self.source} {_east_text(self.min_deg)}{span}"
+
+
 @dataclass
 class NmeaStats:
     """What an NMEA log gave: counts per sentence type used, per skip kind, events with
@@ -197,9 +247,17 @@ class NmeaStats:
     """Lines skipped, per kind (:class:`~engine.io.nmea_sentences.SkipKind`, ``no date yet``,
     ``time went backwards``)."""
     skipped_types: Counter[str] = field(default_factory=Counter)
-    """Unknown/unused sentence types, per type (``GSV`` …)."""
+    """Unknown/unused sentence types, per type (``GSV`` …; at most :data:`MAX_TYPES_COUNTED`
+    names, the rest under :data:`OTHER_TYPES`)."""
+    bad_unlisted: int = 0
+    """Damaged lines beyond the first :data:`MAX_BAD_PER_KIND` of their kind: counted here
+    and in :attr:`skipped`, not returned as :class:`~engine.io.runfile.BadRecord` (so not
+    ``BAD`` lines of the ``.OUT`` log)."""
     notes: Counter[str] = field(default_factory=Counter)
     """Parts of sentences not used and why (``HDG without variation: not used`` …)."""
+    variation: dict[str, VariationUse] = field(default_factory=dict)
+    """Magnetic headings without a variation of their own made true, per source of the
+    variation (the model :data:`~engine.geodesy.magvar.MODEL`, the log's RMC/HDG)."""
     events: list[str] = field(default_factory=list)
     """The first :data:`MAX_EVENTS` events as ``file:line: message``."""
     events_dropped: int = 0
@@ -219,6 +277,11 @@ class NmeaStats:
         else:
             self.events_dropped += 1
 
+    def variation_lines(self) -> list[str]:
+        """Where the variation of magnetic headings came from, one line per source (empty
+        when the log has no magnetic heading without its own variation)."""
+        return [use.line() for use in self.variation.values()]
+
     def missing_sensors(self) -> list[str]:
         """One sentence per sensor the log never gave (e.g. ``no heading (HDT/HDG/VHW) in the
         log``)."""
@@ -231,10 +294,14 @@ class NmeaStats:
         if self.skipped:
             out.append("skipped: " + ", ".join(
                 f"{k} {n}" for k, n in sorted(self.skipped.items())))
+        if self.bad_unlisted:
+            out.append(f"damaged lines: {self.bad_unlisted} more than the first "
+                       f"{MAX_BAD_PER_KIND} of each kind listed one by one")
         if self.skipped_types:
             out.append("unused sentence types: " + ", ".join(
                 f"{k} {n}" for k, n in sorted(self.skipped_types.items())))
         out += [f"{k} ({n}x)" for k, n in sorted(self.notes.items())]
+        out += self.variation_lines()
         out += self.events
         if self.events_dropped:
             out.append(f"… {self.events_dropped} more events")
@@ -290,6 +357,10 @@ class EpochBuilder:
         self._last_line = 0
         self._no_date_reported = False
         self._had_fix = False
+        self._log_variation: tuple[float, str] | None = None
+        """The latest variation the log gave (deg east, sentence type)."""
+        self._variation_cells: dict[tuple[int, int, date], float | None] = {}
+        """The model's variation per cell and day (:data:`VARIATION_CELL_DEG`)."""
         self._fix_used: float | None = None
         """Time stamp of the last fix put into an epoch (not repeated in the next ones)."""
         o = self.options
@@ -344,6 +415,18 @@ class EpochBuilder:
         return out
 
     # ------------------------------------------------------------------ skips
+    def damaged(self, line_no: int, raw: str, kind: str, message: str
+                ) -> list[RunRecord | BadRecord]:
+        """A line the reader found damaged before it could be fed (too long): counted as a
+        line and a skip of ``kind``, returned as a bad record while fewer than
+        :data:`MAX_BAD_PER_KIND` of its kind were."""
+        self._last_line = line_no
+        self.stats.lines += 1
+        self.stats.skipped[kind] += 1
+        out: list[RunRecord | BadRecord] = []
+        self._bad(kind, line_no, raw, message, out)
+        return out
+
     def _bad(self, kind: str, line_no: int, raw: str, message: str,
              out: list[RunRecord | BadRecord]) -> None:
         if self._bad_kept[kind] < MAX_BAD_PER_KIND:
@@ -352,12 +435,16 @@ class EpochBuilder:
             shown = text[:80] + ("…" if len(text) > 80 else "")
             out.append(BadRecord(line_no, shown, InputError(
                 message, file=self.source, line=line_no, field=kind)))
+        else:
+            self.stats.bad_unlisted += 1
 
     def _skip(self, skip: SentenceSkip, line_no: int, raw: str,
               out: list[RunRecord | BadRecord]) -> None:
         self.stats.skipped[skip.kind] += 1
         if skip.kind == SkipKind.UNKNOWN and skip.sentence_type:
-            self.stats.skipped_types[skip.sentence_type] += 1
+            types = self.stats.skipped_types
+            name = skip.sentence_type
+            types[name if name in types or len(types) < MAX_TYPES_COUNTED else OTHER_TYPES] += 1
         if skip.kind in SkipKind.REPORTED:
             self._bad(skip.kind, line_no, raw, skip.message, out)
 
@@ -545,6 +632,12 @@ class EpochBuilder:
         return False
 
     def _store_used(self, v: NmeaValues, t: float | None) -> None:
+        """Keep a used sentence's values at time ``t`` (the clock when None), a magnetic
+        heading made true first (:meth:`_true_heading`)."""
+        if v.variation_deg is not None:
+            self._log_variation = (v.variation_deg, v.sentence_type)
+        if v.magnetic_deg is not None:
+            v = self._true_heading(v, t if t is not None else self._clock)
         self.stats.used[v.sentence_type] += 1
         for note in v.notes:
             self.stats.notes[note] += 1
@@ -561,6 +654,50 @@ class EpochBuilder:
         if jump is not None and self._clock is not None:
             return f"CLOCK JUMP? {jump.first - self._clock:+.0f} s, {len(jump.held)} held"
         return ""
+
+    # ------------------------------------------------------------------ variation
+    def _true_heading(self, v: NmeaValues, t: float | None) -> NmeaValues:
+        """A magnetic heading without a variation of its own (and none configured) made true
+        with the log's latest variation (RMC/HDG), else the model's at the latest fix on the
+        log's date (docs/NMEA.md "Magnetic headings"); without either it is not used (noted).
+        """
+        assert v.magnetic_deg is not None
+        what = f"{v.sentence_type} magnetic heading without variation"
+        if self._log_variation is not None:
+            var, kind = self._log_variation
+            key = f"the log's own variation ({kind})"
+            self.stats.variation.setdefault(key, VariationUse(key)).add(var)
+        else:
+            pos = self._latest.pos
+            day = (datetime.fromtimestamp(t, UTC).date() if t is not None and math.isfinite(t)
+                   else self._date)
+            if pos is None or day is None:
+                return dataclasses.replace(v, magnetic_deg=None, notes=(
+                    *v.notes, f"{what} before the first fix: not used (no position for the "
+                    f"{MODEL} variation)"))
+            if not model_covers(day):
+                return dataclasses.replace(v, magnetic_deg=None, notes=(
+                    *v.notes, f"{what} outside {MODEL} ({MODEL_FIRST.year}–"
+                    f"{MODEL_END.year - 1}): not used"))
+            cell = VARIATION_CELL_DEG
+            key_cell = (round(pos[1] / cell), round(pos[2] / cell), day)
+            if key_cell not in self._variation_cells:
+                if len(self._variation_cells) >= VARIATION_CACHE:
+                    self._variation_cells.clear()
+                try:
+                    self._variation_cells[key_cell] = declination_deg(
+                        key_cell[0] * cell, key_cell[1] * cell, day)
+                except ImportError:  # the model's package is missing from this install
+                    self._variation_cells[key_cell] = None
+            var_or_none = self._variation_cells[key_cell]
+            if var_or_none is None:
+                return dataclasses.replace(v, magnetic_deg=None, notes=(
+                    *v.notes, f"{what}: not used ({MODEL} not available: ppigrf missing)"))
+            var = var_or_none
+            self.stats.variation.setdefault(MODEL, VariationUse(MODEL)).add(
+                var, (pos[1], pos[2], day))
+        heading = (v.magnetic_deg + var) % 360.0
+        return dataclasses.replace(v, heading_deg=heading, magnetic_deg=None)
 
     def _advance(self, t: float, line_no: int, raw: str,
                  out: list[RunRecord | BadRecord]) -> bool:

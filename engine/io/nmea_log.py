@@ -1,53 +1,167 @@
 """NMEA 0183 log files as run input (docs/NMEA.md): sniffing, streaming, ``.RUN`` or NMEA.
 
-:func:`is_nmea_file` decides by content, not by suffix; :class:`NmeaLog` streams a log through
-:class:`~engine.io.nmea_epochs.EpochBuilder` one line at a time (constant memory, lines over
-:data:`MAX_LINE_CHARS` characters are damage, not read whole); :func:`open_records` gives the
-record iterator of either kind of run file.
+:func:`sniff_log` decides by content, not by suffix, and says what a file that is no log is;
+:class:`NmeaLog` streams a log through :class:`~engine.io.nmea_epochs.EpochBuilder` one line at
+a time (constant memory, lines over :data:`MAX_LINE_CHARS` characters are damage, not read
+whole), with any line end (LF, CR LF, CR) and through gzip when the file is compressed
+(:func:`open_log_text`); :func:`open_records` gives the record iterator of either kind of run
+file.
 """
 
 from __future__ import annotations
 
+import gzip
+import io
 import os
 import re
 import stat
+import zlib
 from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import BinaryIO, TextIO
 
-from engine.errors import InputError
 from engine.io.nmea_epochs import EpochBuilder, NmeaOptions, NmeaStats
 from engine.io.nmea_sentences import SkipKind
 from engine.io.runfile import BadRecord, RunRecord, check_input_file, iter_run_file
 
-__all__ = ["NmeaLog", "is_nmea_file", "open_records", "scan_nmea_log"]
+__all__ = ["LogSniff", "NmeaLog", "is_nmea_file", "not_nmea_message", "open_log_text",
+           "open_records", "scan_nmea_log", "sniff_log"]
 
-SNIFF_BYTES = 1 << 16
-"""Bytes read to decide whether a file is an NMEA log."""
 SNIFF_LINES = 10
 """Non-empty lines looked at (at most) to decide."""
+SNIFF_MAX_CHARS = 1 << 24
+"""Characters read at most to find those lines (an over-long first line is skipped over)."""
 MAX_LINE_CHARS = 1024
 """Longest log line read (a sentence is at most 82 characters); longer ones are damage."""
-_SENTENCE_RE = re.compile(r"[$!][A-Z0-9]{5},[\x20-\x7e]*\*[0-9A-Fa-f]{2}\Z")
+GZIP_MAGIC = b"\x1f\x8b"
+"""First bytes of a gzip file (RFC 1952): a log rotated by its logger (``.nmea.gz``)."""
+_SENTENCE_RE = re.compile(
+    r"[$!](?:[A-Z0-9]{5}|P[A-Z0-9]{3,9}),[\x20-\x7e]*\*[0-9A-Fa-f]{2}\Z")
+_NOT_TEXT_RE = re.compile(r"[^\t\x20-\x7e]")
+"""A character that is not printable ASCII or a tab (bytes outside ASCII read as U+FFFD)."""
+_NOT_TEXT_MAGIC = (
+    (b"\xff\xfe\x00\x00", "UTF-32 text, byte-order mark FF FE 00 00, not ASCII"),
+    (b"\x00\x00\xfe\xff", "UTF-32 text, byte-order mark 00 00 FE FF, not ASCII"),
+    (b"\xff\xfe", "UTF-16 text, byte-order mark FF FE, not ASCII"),
+    (b"\xfe\xff", "UTF-16 text, byte-order mark FE FF, not ASCII"),
+    (b"PK\x03\x04", "a ZIP archive: unpack it first"),
+    (b"BZh", "bzip2-compressed data: only gzip is read, decompress it first"),
+    (b"\xfd7zXZ\x00", "xz-compressed data: only gzip is read, decompress it first"),
+    (b"\x28\xb5\x2f\xfd", "zstd-compressed data: only gzip is read, decompress it first"),
+)
+"""Leading bytes of files that are not ASCII text, and what they are (for the message)."""
+_GZIP_ERRORS = (EOFError, zlib.error, gzip.BadGzipFile)
+"""What a damaged or cut gzip file raises while it is read."""
 
 
-def is_nmea_file(path: str | os.PathLike[str]) -> bool:
-    """True when the first non-empty lines of a regular file are mostly NMEA sentences
-    (``$``/``!``, five characters, fields, ``*hh``): at least 2 of the first
-    :data:`SNIFF_LINES` (or the only one) and more than half of them. False for anything
-    unreadable (its reader then reports why)."""
+@dataclass(frozen=True)
+class LogSniff:
+    """What :func:`sniff_log` found: ``nmea`` (an NMEA 0183 log), ``text`` (plain text lines,
+    which a ``.RUN`` file may be), ``gzip`` (read through gzip) and ``what`` the file is, for a
+    message (``"an empty file"``, ``"UTF-16 text …"``, ``"text: 0 of 10 lines are NMEA
+    sentences"`` …)."""
+
+    nmea: bool
+    text: bool
+    gzip: bool
+    what: str
+
+
+def open_log_text(name: str) -> TextIO:
+    """A log file as text lines: gzip-compressed or not (by its first bytes), any line end
+    (LF, CR LF or CR alone: universal newlines, each read as ``\\n``), bytes outside ASCII
+    as U+FFFD (so such a line is noise, never a crash). Raises ``OSError`` as ``open`` does."""
+    with open(name, "rb") as fh:
+        compressed = fh.read(2) == GZIP_MAGIC
+    binary: BinaryIO = gzip.open(name, "rb") if compressed else open(name, "rb")  # noqa: SIM115
+    try:
+        return io.TextIOWrapper(binary, encoding="ascii", errors="replace", newline=None)
+    except BaseException:
+        binary.close()
+        raise
+
+
+def _head_lines(fh: TextIO) -> tuple[list[str], int]:
+    """The first :data:`SNIFF_LINES` non-empty lines (stripped; an over-long line is one
+    line ``"\\x1a"``, never a sentence) and how many lines were over-long."""
+    lines: list[str] = []
+    long = 0
+    total = 0
+    while len(lines) < SNIFF_LINES and total < SNIFF_MAX_CHARS:
+        data = fh.readline(MAX_LINE_CHARS + 1)
+        if not data:
+            break
+        total += len(data)
+        if len(data) > MAX_LINE_CHARS and not data.endswith("\n"):
+            while data and not data.endswith("\n") and total < SNIFF_MAX_CHARS:
+                data = fh.readline(1 << 16)
+                total += len(data)
+            lines.append("\x1a")
+            long += 1
+        elif data.strip():
+            lines.append(data.strip())
+    return lines, long
+
+
+def sniff_log(path: str | os.PathLike[str]) -> LogSniff:
+    """Whether a regular file is an NMEA 0183 log, and if not what it is (:class:`LogSniff`).
+
+    A log: the first non-empty lines are mostly NMEA sentences (``$``/``!``, the address,
+    fields, ``*hh``): at least 2 of the first :data:`SNIFF_LINES` (or the only one) and more
+    than half of them; lines may end in LF, CR LF or CR; the file may be gzip-compressed; an
+    over-long line counts as one line that is not a sentence. Anything unreadable is not a
+    log (its reader then reports why)."""
     try:
         name = os.fspath(path)
         if "\0" in name or not stat.S_ISREG(os.stat(name).st_mode):
-            return False
+            return LogSniff(False, False, False, "not a regular file")
         with open(name, "rb") as fh:
-            head = fh.read(SNIFF_BYTES)
+            head = fh.read(8)
     except (OSError, ValueError):
-        return False
-    lines = [ln.strip() for ln in head.decode("ascii", "replace").splitlines() if ln.strip()]
-    if len(head) == SNIFF_BYTES and len(lines) > 1:
-        lines = lines[:-1]  # the last line may be cut by the read
-    lines = lines[:SNIFF_LINES]
+        return LogSniff(False, False, False, "not readable")
+    if not head:
+        return LogSniff(False, False, False, "an empty file")
+    for magic, what in _NOT_TEXT_MAGIC:
+        if head.startswith(magic):
+            return LogSniff(False, False, False, what)
+    compressed = head.startswith(GZIP_MAGIC)
+    prefix = "gzip-compressed " if compressed else ""
+    try:
+        with open_log_text(name) as text:
+            lines, long = _head_lines(text)
+    except _GZIP_ERRORS as exc:
+        return LogSniff(False, False, True, f"gzip-compressed data that cannot be read: {exc}")
+    except OSError:
+        return LogSniff(False, False, compressed, "not readable")
+    if not lines:
+        what = "an empty file" if compressed else "a file of blank lines only"
+        return LogSniff(False, False, compressed, prefix + what)
     good = sum(1 for ln in lines if _SENTENCE_RE.match(ln))
-    return good >= min(2, len(lines)) and good * 2 > len(lines)
+    if good >= min(2, len(lines)) and good * 2 > len(lines):
+        return LogSniff(True, True, compressed, prefix + "NMEA 0183 log")
+    if any("\x00" in ln for ln in lines):
+        return LogSniff(False, False, compressed, prefix + "binary data with NUL bytes: not "
+                        "text, or UTF-16 text without a byte-order mark")
+    noisy = sum(1 for ln in lines if ln != "\x1a" and _NOT_TEXT_RE.search(ln))
+    if noisy * 2 > len(lines):
+        return LogSniff(False, False, compressed,
+                        prefix + f"binary data: {noisy} of the first {len(lines)} lines are "
+                        "not printable ASCII")
+    return LogSniff(False, not compressed, compressed,
+                    prefix + f"text: {good} of its first {len(lines)} non-empty lines are NMEA "
+                    f"0183 sentences $TTSSS,…*hh"
+                    + (f", {long} longer than {MAX_LINE_CHARS} characters" if long else ""))
+
+
+def is_nmea_file(path: str | os.PathLike[str]) -> bool:
+    """True when the file is an NMEA 0183 log (:func:`sniff_log`). False for anything
+    unreadable (its reader then reports why)."""
+    return sniff_log(path).nmea
+
+
+def not_nmea_message(sniff: LogSniff) -> str:
+    """The message for a file that is not a log: ``Not an NMEA 0183 log (what it is) !``."""
+    return f"Not an NMEA 0183 log ({sniff.what}) !"
 
 
 CONVERTED_RUN_MARK = "* UVNAV .RUN converted from the NMEA 0183 log"
@@ -101,20 +215,28 @@ class NmeaLog:
 
     def _stream(self) -> Iterator[RunRecord | BadRecord]:
         builder = self._builder
-        with open(self.name, "rb") as fh:
+        with open_log_text(self.name) as fh:
             line_no = 0
-            while data := fh.readline(MAX_LINE_CHARS + 1):
-                line_no += 1
-                if len(data) > MAX_LINE_CHARS and not data.endswith(b"\n"):
-                    while data and not data.endswith(b"\n"):
+            while True:
+                try:
+                    data = fh.readline(MAX_LINE_CHARS + 1)
+                    too_long = len(data) > MAX_LINE_CHARS and not data.endswith("\n")
+                    while data and not data.endswith("\n") and too_long:
                         data = fh.readline(1 << 16)
-                    builder.stats.lines += 1
-                    builder.stats.skipped[SkipKind.MALFORMED] += 1
-                    yield BadRecord(line_no, "", InputError(
-                        f"Line too long (more than {MAX_LINE_CHARS} characters) !",
-                        file=self.name, line=line_no, field=SkipKind.MALFORMED))
+                except _GZIP_ERRORS as exc:  # a cut or damaged .gz: what came before is used
+                    yield from builder.damaged(
+                        line_no + 1, "", SkipKind.MALFORMED,
+                        f"gzip data damaged ({exc}): the rest of the log cannot be read !")
+                    break
+                if not data and not too_long:
+                    break
+                line_no += 1
+                if too_long:
+                    yield from builder.damaged(
+                        line_no, "", SkipKind.MALFORMED,
+                        f"Line too long (more than {MAX_LINE_CHARS} characters) !")
                     continue
-                yield from builder.feed(data.decode("ascii", "replace"), line_no)
+                yield from builder.feed(data, line_no)
             yield from builder.finish()
 
 

@@ -15,9 +15,11 @@ Sentences used and what they give (units: degrees, knots, metres, seconds of the
 * GLL: time and position; status ``V`` or mode ``N``/``E``/``M``/``S`` is *not a fix*.
 * ZDA: time and date (time only when the date fields are all empty).
 * HDT: true heading. HDG: magnetic sensor heading + deviation + variation = true heading
-  (without a variation, ``variation_deg`` is used, else the heading is not used).
-* VHW: heading (true, else magnetic + variation) and speed through the water (knots, else
-  km/h converted). VBW: longitudinal speed through the water when its status is ``A``.
+  (without a variation, ``variation_deg`` is used, else the magnetic heading is returned for
+  the epoch builder to make true). RMC's magnetic variation is returned too.
+* VHW: heading (true, else magnetic + variation, else magnetic for the epoch builder) and
+  speed through the water (knots, else km/h converted). VBW: longitudinal speed through the
+  water when its status is ``A``.
 * VTG: true course and speed over ground (knots, else km/h); FAA mode ``N`` is not valid.
 * DBT: depth below the transducer (metres, else feet, else fathoms); DPT: depth below the
   transducer (its offset is not applied).
@@ -108,6 +110,12 @@ class NmeaValues:
     cog_deg: float | None = None
     sog_kn: float | None = None
     depth_m: float | None = None
+    magnetic_deg: float | None = None
+    """A magnetic heading (sensor + deviation) the sentence gave without a variation and none
+    was configured: the epoch builder makes it true with the log's or the model's variation
+    (docs/NMEA.md "Magnetic headings")."""
+    variation_deg: float | None = None
+    """The magnetic variation [deg, east positive] the sentence carries (HDG, RMC)."""
     notes: tuple[str, ...] = field(default=())
     """Parts of the sentence that were not used and why (e.g. ``HDG without variation: not
     used``)."""
@@ -118,6 +126,10 @@ _TIME_RE = re.compile(r"(\d\d)(\d\d)(\d\d)(\.\d*)?\Z")
 _LAT_RE = re.compile(r"(\d\d)(\d\d(?:\.\d*)?)\Z")
 _LON_RE = re.compile(r"(\d\d\d)(\d\d(?:\.\d*)?)\Z")
 _FRAME_RE = re.compile(r"\$[A-Z0-9]{5},[\x20-\x7e]*\*[0-9A-Fa-f]{2}\Z")
+_PROPRIETARY_RE = re.compile(r"\$(P[A-Z0-9]{3,9})[,*]")
+"""A proprietary sentence: its address field is ``P``, the maker's three-character mnemonic
+and the maker's own sentence type (``PGRMZ``, ``PNCTR``, ``PMTK001``); kept whole (up to 10
+characters) to name it in the counts."""
 NOT_FIX_MODES = frozenset("NEMS")
 """FAA mode indicators that are not a fix: not valid, estimated (DR), manual, simulator."""
 FIX_QUALITIES = frozenset({1, 2, 3, 4, 5})
@@ -278,8 +290,14 @@ def _rmc(msg: Any, talker: str) -> NmeaValues:
     lat, lon = _position(msg, "RMC", "lat", "lat_dir", "lon", "lon_dir")
     sog = _speed(_num(_f(msg, "spd_over_grnd"), "RMC speed over ground"), "RMC SOG")
     cog = _angle(_num(_f(msg, "true_course"), "RMC course"), "RMC course")
+    notes: tuple[str, ...] = ()
+    try:  # the receiver's variation: a bad one costs the variation, not the fix
+        var = _east(_num(_f(msg, "mag_variation"), "RMC variation"), _f(msg, "mag_var_dir"),
+                    "RMC variation")
+    except _Bad:
+        var, notes = None, ("RMC variation malformed: not used",)
     return NmeaValues("RMC", talker, time_s=time_s, date=day, lat_deg=lat, lon_deg=lon,
-                      sog_kn=sog, cog_deg=cog)
+                      sog_kn=sog, cog_deg=cog, variation_deg=var, notes=notes)
 
 
 def _gll(msg: Any, talker: str) -> NmeaValues:
@@ -322,32 +340,36 @@ def _hdg(msg: Any, talker: str, variation_deg: float | None) -> NmeaValues:
     if sensor is None:
         raise _Bad(SkipKind.EMPTY, "HDG: no heading")
     dev = _east(_num(_f(msg, "deviation"), "HDG deviation"), _f(msg, "dev_dir"), "HDG deviation")
-    var = _east(_num(_f(msg, "variation"), "HDG variation"), _f(msg, "var_dir"), "HDG variation")
-    if var is None:
-        var = variation_deg
-    if var is None:
-        return NmeaValues("HDG", talker, notes=("HDG without variation: not used",))
-    return NmeaValues("HDG", talker, heading_deg=(sensor + (dev or 0.0) + var) % 360.0)
+    own = _east(_num(_f(msg, "variation"), "HDG variation"), _f(msg, "var_dir"), "HDG variation")
+    var = own if own is not None else variation_deg
+    if var is None:  # made true by the epoch builder (the log's or the model's variation)
+        return NmeaValues("HDG", talker, magnetic_deg=(sensor + (dev or 0.0)) % 360.0)
+    notes = () if own is not None else ("HDG made true with [nmea] variation_deg",)
+    return NmeaValues("HDG", talker, heading_deg=(sensor + (dev or 0.0) + var) % 360.0,
+                      variation_deg=own, notes=notes)
 
 
 def _vhw(msg: Any, talker: str, variation_deg: float | None) -> NmeaValues:
-    notes: list[str] = []
+    magnetic: float | None = None
+    notes: tuple[str, ...] = ()
     hdg = _angle(_num(_f(msg, "heading_true"), "VHW true heading"), "VHW true heading")
     if hdg is None:
         mag = _angle(_num(_f(msg, "heading_magnetic"), "VHW magnetic heading"),
                      "VHW magnetic heading")
         if mag is not None:
-            if variation_deg is None:
-                notes.append("VHW magnetic heading without variation: not used")
+            if variation_deg is None:  # made true by the epoch builder
+                magnetic = mag
             else:
                 hdg = (mag + variation_deg) % 360.0
+                notes = ("VHW magnetic heading made true with [nmea] variation_deg",)
     stw = _speed(_num(_f(msg, "water_speed_knots"), "VHW speed"), "VHW speed")
     if stw is None:
         kmh = _speed(_num(_f(msg, "water_speed_km"), "VHW speed km/h"), "VHW speed")
         stw = None if kmh is None else kmh * KMH_TO_KN
-    if hdg is None and stw is None and not notes:
+    if hdg is None and stw is None and magnetic is None:
         raise _Bad(SkipKind.EMPTY, "VHW: no heading and no speed")
-    return NmeaValues("VHW", talker, heading_deg=hdg, stw_kn=stw, notes=tuple(notes))
+    return NmeaValues("VHW", talker, heading_deg=hdg, stw_kn=stw, magnetic_deg=magnetic,
+                      notes=notes)
 
 
 def _vbw(msg: Any, talker: str) -> NmeaValues:
@@ -463,12 +485,13 @@ def parse_nmea_line(
         return SentenceSkip(SkipKind.BAD_CHECKSUM,
                             f"checksum {text[star + 1:].upper()} != {_checksum(text[1:star]):02X}",
                             text[3:6] if len(text) >= 6 else None)
+    if text[1] == "P" and (m := _PROPRIETARY_RE.match(text)):
+        # proprietary: $PGRMC is Garmin's, not an RMC; its whole address names it (PMTK001)
+        return SentenceSkip(SkipKind.UNKNOWN, f"{m.group(1)}: proprietary sentence not used",
+                            m.group(1))
     if not _FRAME_RE.match(text):
         return SentenceSkip(SkipKind.MALFORMED, "not $TTSSS,…*hh")
     talker, kind = text[1:3], text[3:6]
-    if talker[0] == "P":  # proprietary ($PGRMC is Garmin's, not an RMC)
-        return SentenceSkip(SkipKind.UNKNOWN, f"P{text[2:5]}: proprietary sentence not used",
-                            "P" + text[2:5])
     if kind not in USED_TYPES:
         return SentenceSkip(SkipKind.UNKNOWN, f"{kind}: sentence type not used", kind)
     import pynmea2  # on first use: a replay of a .RUN file never parses NMEA (start-up)
@@ -488,7 +511,7 @@ def parse_nmea_line(
     if values is None:  # pragma: no cover - USED_TYPES and _values agree
         return SentenceSkip(SkipKind.UNKNOWN, f"{kind}: sentence type not used", kind)
     for v in (values.hdop, values.heading_deg, values.stw_kn, values.cog_deg, values.sog_kn,
-              values.depth_m):
+              values.depth_m, values.magnetic_deg, values.variation_deg):
         if v is not None and not math.isfinite(v):
             return SentenceSkip(SkipKind.MALFORMED, f"{kind}: not a finite number", kind)
     return values

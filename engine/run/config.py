@@ -950,7 +950,8 @@ NmeaConfig.KEYS = (
         "docs/NMEA.md", _iso_date),
     Key("variation_deg", "variation_deg", "float_none", "deg",
         'magnetic variation (east positive) for HDG/VHW magnetic headings without one; "none" '
-        "= such headings are not used", "docs/NMEA.md", _none_or(_between(-180.0, 180.0))),
+        "= the log's own (RMC), else the IGRF-14 model's at the fix", "docs/NMEA.md",
+        _none_or(_between(-180.0, 180.0))),
     Key("accept_no_checksum", "accept_no_checksum", "bool", "—",
         "use sentences without a *hh checksum (default: skipped, counted as \"no checksum\")",
         "docs/NMEA.md"),

@@ -86,6 +86,8 @@ class RunSummary:
     fixes: int
     rejected_lops: int
     skipped_records: int
+    """Bad records and damaged lines skipped: for an NMEA log also those beyond the first of
+    each kind that are ``BAD`` lines (:attr:`engine.io.nmea_epochs.NmeaStats.bad_unlisted`)."""
     last: CycleResult | None
     out_path: Path | None
     jsonl_path: Path | None
@@ -503,7 +505,8 @@ class Session:
             epochs=len(self.history) if self.last is None else self.last.n,
             fixes=self.fixes,
             rejected_lops=self.rejected_lops,
-            skipped_records=self.skipped_records,
+            skipped_records=self.skipped_records + (
+                0 if self.nmea_stats is None else self.nmea_stats.bad_unlisted),
             last=self.last,
             out_path=self.out_path,
             jsonl_path=self.jsonl_path,

@@ -157,3 +157,48 @@ def test_cli_prints_the_table_and_rejects_bad_input(capsys: pytest.CaptureFixtur
     assert "no window fits" in capsys.readouterr().err
     assert main(["denied", str(DATA / "nope.RUN")]) == 2
     assert "nope.RUN" in capsys.readouterr().err
+
+
+def test_denied_reads_a_junk_log_in_bounded_memory(tmp_path, capsys) -> None:
+    """30,000 junk ``$`` lines (no log, no .RUN): every one is a bad record, counted and not
+    kept (the whole list was kept: 2.9 kB a line, 1.28 GB for 500,000 lines)."""
+    import random
+    import tracemalloc
+
+    from tests.cli.test_replay_nmea import write_config
+
+    rnd = random.Random(7)
+    junk = tmp_path / "junk.nmea"
+    junk.write_text("".join(
+        "$" + "".join(rnd.choice("ABCDEFGHIJ0123456789,.*") for _ in range(rnd.randint(5, 70)))
+        + "\n" for _ in range(30_000)))
+    write_config(tmp_path / "junk.toml", "junk.nmea")
+    small = tmp_path / "small.nmea"  # a first run loads every module outside the measurement
+    small.write_text("$junk\n")
+    write_config(tmp_path / "small.toml", "small.nmea")
+    assert main(["denied", str(small)]) == 3
+    tracemalloc.start()
+    try:
+        rc = main(["denied", str(junk)])
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert rc == 3
+    assert "0 records , skipped 30000" in capsys.readouterr().out
+    assert peak < 20e6  # bytes; the list of bad records alone was ~87 MB
+
+
+def test_denied_counts_every_damaged_line_of_a_log(tmp_path, capsys) -> None:
+    """231 damaged lines in an NMEA log: 'skipped 231' (it said 20: the bad records returned)."""
+    from tests.cli.test_replay_nmea import write_config, write_log
+    from tests.nmea_lines import nmea
+
+    log = tmp_path / "trip.nmea"
+    write_log(log, n=30)
+    with open(log, "a") as fh:
+        fh.write((nmea("HEHDT,12.0,T")[:-2] + "00\n") * 231)
+    write_config(tmp_path / "trip.toml", "trip.nmea")
+    assert main(["denied", str(log), "--window", "10", "--warmup", "5",
+                 "--checkpoint", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "30 records " in out and ", skipped 231" in out

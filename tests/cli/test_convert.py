@@ -90,3 +90,35 @@ def test_convert_refuses_a_run_file_and_bad_options(tmp_path: Path,
     assert main(["convert", str(log), "--out", str(tmp_path / "y.RUN"), "--date", "2026-13-01"]) \
         == 2
     assert not (tmp_path / "y.RUN").exists()
+
+
+def test_convert_reads_cr_only_and_gzip_logs(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """A log with CR alone as line end gave a header-only .RUN and exit 3; a rotated
+    ``.nmea.gz`` was not a log at all. Both give the records of the plain LF log."""
+    import gzip
+
+    lines = voyage(20)
+    plain = tmp_path / "lf.nmea"
+    plain.write_text("\n".join(lines) + "\n")
+    assert main(["convert", str(plain), "--out", str(tmp_path / "lf.RUN")]) == 0
+    want = [r.raw for r in iter_run_file(tmp_path / "lf.RUN") if isinstance(r, RunRecord)]
+    assert len(want) == 20
+    cr = tmp_path / "cr.nmea"
+    cr.write_bytes(("\r".join(lines) + "\r").encode())
+    gz = tmp_path / "v.nmea.gz"
+    gz.write_bytes(gzip.compress(plain.read_bytes()))
+    for log in (cr, gz):
+        out = tmp_path / f"{log.name}.RUN"
+        assert main(["convert", str(log), "--out", str(out)]) == 0
+        assert "wrote 20 records" in capsys.readouterr().out
+        assert [r.raw for r in iter_run_file(out) if isinstance(r, RunRecord)] == want
+
+
+def test_convert_names_what_a_non_log_is(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    empty = tmp_path / "e.nmea"
+    empty.write_bytes(b"")
+    assert main(["convert", str(empty), "--out", str(tmp_path / "e.RUN")]) == 2
+    assert f"{empty}: Not an NMEA 0183 log (an empty file) !" in capsys.readouterr().err
+    assert not (tmp_path / "e.RUN").exists()

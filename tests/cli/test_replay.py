@@ -351,6 +351,25 @@ def test_count_lines_matches_the_text_reader(tmp_path: Path) -> None:
     assert count_lines(DATA / "DEMO.RUN") == 7200
 
 
+def test_count_lines_counts_cr_line_ends_and_gzip_content(tmp_path: Path) -> None:
+    """The progress bar's total for an NMEA log with CR line ends or in gzip (the log reader
+    reads both): the lines the reader counts, not 0 or the compressed bytes' newlines."""
+    import gzip
+
+    from uvnav_tui.cli.replay import count_lines
+
+    for body in ("a\rb\rc", "a\r\nb\r\n", "a\rb\nc\r\n\r", "\r" * 5):
+        p = tmp_path / "L.nmea"
+        p.write_text(body, newline="")
+        assert count_lines(p) == len(body.splitlines()), repr(body)
+        z = tmp_path / "L.nmea.gz"
+        z.write_bytes(gzip.compress(body.encode()))
+        assert count_lines(z) == len(body.splitlines()), repr(body)
+    big = tmp_path / "big.nmea"  # a CR LF split between two 1 MiB chunks counts once
+    big.write_bytes(b"x" * ((1 << 20) - 1) + b"\r\ny\r\n")
+    assert count_lines(big) == 2
+
+
 @pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs a pseudo-terminal")
 def test_progress_bar_on_a_terminal_shows_the_total(tmp_path: Path) -> None:
     import pty

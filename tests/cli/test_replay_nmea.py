@@ -113,3 +113,42 @@ def test_log_without_date_needs_date_option(tmp_path: Path,
     assert "epochs 9  fixes 5" in text
     assert "final MPP (" in text and "10:00:08Z" in text
     assert "config: sensors: gyro n/a, log on, echo sounder n/a" in text
+
+
+def test_skipped_count_covers_every_damaged_line(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """231 bad-checksum lines: 'skipped records 231' (it said 20, the BAD lines written)."""
+    log = tmp_path / "trip.nmea"
+    write_log(log, n=30)
+    bad_line = nmea("HEHDT,12.0,T")[:-2] + "00"
+    with open(log, "a") as fh:
+        fh.write((bad_line + "\n") * 231)
+    write_config(tmp_path / "trip.toml", "trip.nmea")
+    out = tmp_path / "trip.OUT"
+    assert main(["replay", str(log), "--out", str(out)]) == 0
+    text = capsys.readouterr()
+    assert "skipped records 231" in text.out
+    assert "nmea: skipped: bad checksum 231" in text.out
+    assert len(read_out_log(out).bad_records) == 20  # the first of the kind, one by one
+    assert "all counted per kind in the nmea: lines" in text.err
+
+
+@pytest.mark.parametrize(("data", "what"), [
+    (b"", "an empty file"),
+    ("$GPGGA,1*00\n".encode("utf-16"), "UTF-16 text"),
+    (b"\x1f\x8b\x08\x00\x00\x00\x00\x00\x00\x03\xcbH\xcd\xc9\xc9\xe7\x02\x00 0:6\x06\x00\x00\x00",
+     "gzip-compressed text: 0 of its first 1"),
+], ids=["empty", "utf16", "gzip-text"])
+def test_replay_names_a_file_that_is_no_log(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                            data: bytes, what: str) -> None:
+    """Without a configuration, a file that is neither a log nor a .RUN is named for what it
+    is, not met with a message about a missing NAME.toml."""
+    run = tmp_path / "log.nmea"
+    run.write_bytes(data)
+    assert main(["replay", str(run), "--no-out"]) == 2
+    err = capsys.readouterr().err
+    assert f"{run}: Not an NMEA 0183 log ({what}" in err
+    assert "log.toml" not in err
+    assert main(["denied", str(run)]) == 2
+    err = capsys.readouterr().err
+    assert f"{run}: Not an NMEA 0183 log ({what}" in err and "log.toml" not in err

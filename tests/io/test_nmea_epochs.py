@@ -272,8 +272,53 @@ def test_hdg_with_variation_from_options_in_a_record() -> None:
     recs, _, b = run([rmc(43200), nmea("HCHDG,100.0,1.0,W,,"), rmc(43201)],
                      NmeaOptions(variation_deg=2.5))
     assert recs[0].heading_deg == 101.5
+    assert b.stats.notes["HDG made true with [nmea] variation_deg"] == 1
+    assert b.stats.variation == {}  # the configured variation overrides the model
+
+
+def test_magnetic_heading_without_variation_made_true_with_igrf() -> None:
+    """HDG 100.0 magnetic, deviation 1.0 W, no variation anywhere: the heading is used with
+    the IGRF-14 variation at the fix (it was dropped: 'HDG without variation: not used').
+    Off the Dutch coast on 2026-12-02 the variation is about 2.7°E (the Markermeer log's
+    receiver gave 0.9°E in 2016; it grows ~0.2°/year there); its value from the model is
+    tested against NOAA in tests/geodesy/test_magvar.py."""
+    from engine.geodesy.magvar import declination_deg
+
     recs, _, b = run([rmc(43200), nmea("HCHDG,100.0,1.0,W,,"), rmc(43201)])
-    assert recs[0].heading_deg is None and b.stats.notes["HDG without variation: not used"] == 1
+    var = declination_deg(52.8, 4.5, date(2026, 12, 2))  # the 0.1° cell of 52°50'N 4°30'E
+    assert var is not None and 2.0 < var < 3.5
+    assert recs[0].heading_deg == pytest.approx(round(99.0 + var, 1), abs=1e-9)
+    assert "heading" in b.stats.sensors
+    (line,) = b.stats.variation_lines()
+    assert line.startswith("magnetic headings without variation: 1 made true with the "
+                           f"IGRF-14 variation {var:.1f}°E at 52.83°N 4.50°E on 2026-12-02")
+    assert line in b.stats.summary_lines()
+
+
+def test_magnetic_heading_uses_the_logs_own_variation_first() -> None:
+    """An RMC's variation (the receiver's) makes a VHW magnetic heading true before the
+    model is asked; the source is said."""
+    r = nmea("GPRMC,120000.00,A,5250.0000,N,00430.0000,E,6.0,45.0,021226,0.9,E,A")
+    recs, _, b = run([r, nmea("VWVHW,,T,80.0,M,4.4,N,,K"), rmc(43201)])
+    assert recs[0].heading_deg == pytest.approx(80.9)
+    assert list(b.stats.variation) == ["the log's own variation (RMC)"]
+    assert b.stats.variation_lines() == [
+        "magnetic headings without variation: 1 made true with the log's own variation "
+        "(RMC) 0.9°E"]
+
+
+def test_magnetic_heading_before_any_fix_or_outside_the_model_is_not_used() -> None:
+    recs, _, b = run([nmea("GPZDA,120000.00,02,12,2026,00,00"), nmea("HCHDG,100.0,,,,"),
+                      nmea("GPZDA,120001.00,02,12,2026,00,00")])
+    assert all(r.heading_deg is None for r in recs)
+    assert b.stats.notes["HDG magnetic heading without variation before the first fix: not "
+                         "used (no position for the IGRF-14 variation)"] == 1
+    recs, _, b = run([rmc(43200, "021289"), nmea("HCHDG,100.0,,,,"), rmc(43201, "021289")])
+    assert recs[0].heading_deg is not None  # 1989: inside IGRF (since 1900)
+    recs, _, b = run([rmc(43200, "020131"), nmea("HCHDG,100.0,,,,"), rmc(43201, "020131")])
+    assert recs[0].heading_deg is None  # 2031: after the model's span
+    assert b.stats.notes["HDG magnetic heading without variation outside IGRF-14 "
+                         "(1900–2029): not used"] == 1
 
 
 def gga_lost(t_s: int) -> str:

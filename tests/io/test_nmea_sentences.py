@@ -71,7 +71,22 @@ def test_headings() -> None:
     assert _values(nmea("HCHDG,100.0,2.0,W,,"), variation_deg=1.5).heading_deg == \
         pytest.approx(99.5)
     no_var = _values(nmea("HCHDG,100.0,2.0,W,,"))
-    assert no_var.heading_deg is None and no_var.notes == ("HDG without variation: not used",)
+    # none at all: the magnetic heading (100 - 2 = 98) for the epoch builder to make true
+    assert (no_var.heading_deg, no_var.magnetic_deg, no_var.variation_deg) == (None, 98.0, None)
+    # the sentence's own variation is handed on (a VHW without one may use it)
+    assert _values(nmea("HCHDG,100.0,2.0,E,3.5,W")).variation_deg == -3.5
+    vhw = _values(nmea("VWVHW,,T,10.0,M,5.1,N,,K"))
+    assert (vhw.heading_deg, vhw.magnetic_deg, vhw.stw_kn) == (None, 10.0, 5.1)
+
+
+def test_rmc_variation_is_read_and_a_bad_one_costs_only_itself() -> None:
+    rmc = "GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,230394,{},A"
+    assert _values(nmea(rmc.format("003.1,W"))).variation_deg == -3.1
+    assert _values(nmea(rmc.format("1.5,E"))).variation_deg == 1.5
+    assert _values(nmea(rmc.format(","))).variation_deg is None
+    bad = _values(nmea(rmc.format("3.1,X")))
+    assert bad.lat_deg is not None and bad.variation_deg is None
+    assert bad.notes == ("RMC variation malformed: not used",)
 
 
 def test_empty_heading_is_no_heading_not_zero() -> None:
@@ -120,7 +135,16 @@ def test_unknown_and_proprietary_types_are_counted_by_type() -> None:
     s = _skip(nmea("GPGSV,3,1,11,03,03,111,00"))
     assert (s.kind, s.sentence_type) == (SkipKind.UNKNOWN, "GSV")
     p = _skip(nmea("PGRMC,A,1"))  # Garmin's PGRMC is not an RMC
-    assert (p.kind, p.sentence_type) == (SkipKind.UNKNOWN, "PGRM")
+    assert (p.kind, p.sentence_type) == (SkipKind.UNKNOWN, "PGRMC")
+
+
+@pytest.mark.parametrize("address", ["PNCTR", "PGRMZ", "PMTK001", "PSRFTXT"])
+def test_proprietary_type_is_named_whole(address: str) -> None:
+    """The whole address field names a proprietary sentence (PNCTR was counted as PNCT), also
+    when it is longer than five characters (PMTK001 was malformed)."""
+    p = _skip(nmea(f"{address},1,2"))
+    assert (p.kind, p.sentence_type) == (SkipKind.UNKNOWN, address)
+    assert p.message.startswith(f"{address}: ")
 
 
 def test_missing_checksum_accepted_on_request() -> None:

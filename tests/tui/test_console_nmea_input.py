@@ -55,3 +55,29 @@ def test_init_dialog_runs_an_nmea_log(data_dir: Path) -> None:
         assert not any("no depth" in t for t in texts)
 
     drive(app, script)
+
+
+def test_console_says_where_the_variation_of_compass_headings_came_from(data_dir: Path) -> None:
+    """A yacht log with a magnetic HDG and no variation: the heading is used with the IGRF-14
+    variation and the console says so (model and value) when the run starts."""
+    from tests.nmea_lines import nmea
+
+    lines = [nmea("HCHDG,44.0,,,,") if ln[3:6] == "HDT" else ln
+             for ln in voyage(10, damage=False)]
+    (data_dir / "yacht.nmea").write_text("\n".join(lines) + "\n")
+    app = make_app(data_dir)
+
+    async def script(pilot: Pilot[None]) -> None:
+        await wait_for(pilot, lambda: isinstance(app.screen, InitDialog)
+                       and app.screen.is_mounted, "Parameter Initialization")
+        field = await _paste(pilot, "init-run", "yacht.nmea")
+        assert field.error is None
+        await start(pilot, cycles=3)
+        texts = [e.text for e in app.message_log.since(0)[1]]
+        said = [t for t in texts if "made true with the IGRF-14 variation" in t]
+        assert len(said) == 1 and said[0].startswith(
+            "NMEA log: magnetic headings without variation: ")
+        assert "°E at 52.83°N 4.50°E on 2026-12-02" in said[0]
+        assert not any("no heading" in t for t in texts)
+
+    drive(app, script)

@@ -29,10 +29,11 @@ from engine.api import (
     NmeaOptions,
     OutputFile,
     OutputGuard,
-    is_nmea_file,
     load_config,
+    not_nmea_message,
     read_error,
     remove_created,
+    sniff_log,
 )
 
 EXIT_OK = 0
@@ -41,7 +42,6 @@ EXIT_BAD_INPUT = 2
 EXIT_NO_EPOCH = 3
 BAD_SHOWN = 10
 """Damaged lines printed on stderr (all are counted in the report)."""
-NOT_NMEA_MESSAGE = "Not an NMEA 0183 log ($…*hh sentences) !"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -87,8 +87,9 @@ def _check_log(log: Path) -> None:
             pass
     except OSError as exc:
         raise read_error(exc, str(log)) from None
-    if not is_nmea_file(log):
-        raise InputError(NOT_NMEA_MESSAGE, file=str(log))
+    sniff = sniff_log(log)
+    if not sniff.nmea:
+        raise InputError(not_nmea_message(sniff), file=str(log))
 
 
 def run_convert(argv: list[str]) -> int:

@@ -25,15 +25,16 @@ from engine.api import (
     DeniedReport,
     InputError,
     NmeaLog,
-    RunRecord,
+    clean_records,
     denied_experiment,
     derive_nmea_config,
-    is_nmea_file,
     load_data,
     load_run_config,
+    not_nmea_message,
     read_error,
     read_truth,
     run_records,
+    sniff_log,
     truth_reference,
 )
 from uvnav_tui.cli.replay import bundled_data_dir
@@ -186,22 +187,25 @@ def run_denied(argv: list[str]) -> int:
         if args.config or config_path.exists():
             cfg, data = load_run_config(config_path)
             cfg = cfg.replace(run_file=str(run.resolve()))
-        elif is_nmea_file(run):
+        elif (sniff := sniff_log(run)).nmea:
             cfg, _scan = derive_nmea_config(run, bundled_data_dir())
             data = load_data(cfg)
+        elif not sniff.text:  # neither a log nor a .RUN: say what it is
+            raise InputError(not_nmea_message(sniff), file=str(run))
         else:
             raise InputError(NO_CONFIG_MESSAGE, file=str(config_path), field="configuration")
         if args.cog_sog:
             cfg = cfg.replace(sensors=dataclasses.replace(cfg.sensors, cog_sog="standin"))
         reader = run_records(cfg)
-        records = list(reader)
-        first = next((r.time for r in records if isinstance(r, RunRecord)), None)
+        records, skipped = clean_records(reader)  # bad records counted, never kept
+        first = records[0].time if records else None
         starts = None if not args.start else [parse_start(s, first) for s in args.start]
         truth = None
         if args.truth:
             truth = truth_reference(read_truth(args.truth), data[0])
         rep = denied_experiment(cfg, data, records, windows, starts=starts, every_s=args.every,
-                                warmup_s=args.warmup, checkpoints_s=checkpoints, truth=truth)
+                                warmup_s=args.warmup, checkpoints_s=checkpoints, truth=truth,
+                                skipped=skipped)
     except InputError as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

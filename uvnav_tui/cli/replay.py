@@ -32,9 +32,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import gzip
 import json
 import os
 import sys
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -57,15 +59,16 @@ from engine.api import (
     derived_config_lines,
     format_lat_dms,
     format_lon_dms,
-    is_nmea_file,
     load_data,
     load_run_config,
+    not_nmea_message,
     open_nmea_sender,
     parse_nmea_destination,
     position_json,
     read_error,
     remove_created,
     run_inputs,
+    sniff_log,
 )
 from uvnav_tui.cli.stdout import unfiltered_stderr
 
@@ -174,7 +177,10 @@ def _config_for(
     for a configuration derived from an NMEA log (none given, none beside it), what the log
     gave. ``date`` (``--date``) overrides ``nmea.date``."""
     if config_path is None:
-        if not is_nmea_file(run):
+        sniff = sniff_log(run)
+        if not sniff.nmea and not sniff.text:  # neither a log nor a .RUN: say what it is
+            raise InputError(not_nmea_message(sniff), file=str(run))
+        if not sniff.nmea:
             raise InputError(NO_CONFIG_MESSAGE, file=str(run.with_suffix(".toml")),
                              field="configuration")
         cfg, stats = derive_nmea_config(run, bundled_data_dir(), _with_date(NmeaConfig(), date))
@@ -211,14 +217,23 @@ def _guard_outputs(run: Path, config_path: Path | None, cfg: RunConfig, force: b
 
 
 def count_lines(path: Path) -> int:
-    """Number of lines of a file by a byte scan (a last line without newline counts)."""
+    """Number of lines of a file by a byte scan (a last line without newline counts), as the
+    log reader counts them: LF, CR LF and CR alone each end a line; a gzip file's content."""
     n = 0
     last = b"\n"
-    with open(path, "rb") as fh:
-        while chunk := fh.read(1 << 20):
-            n += chunk.count(b"\n")
-            last = chunk[-1:]
-    return n + (last != b"\n")
+    prev_cr = False
+    with open(path, "rb") as raw:
+        packed = raw.read(2) == b"\x1f\x8b"
+    with (gzip.open(path, "rb") if packed else open(path, "rb")) as fh:
+        try:
+            while chunk := fh.read(1 << 20):
+                n += chunk.count(b"\n") + chunk.count(b"\r") - chunk.count(b"\r\n")
+                n -= prev_cr and chunk[:1] == b"\n"  # a CR LF split between two chunks
+                prev_cr = chunk[-1:] == b"\r"
+                last = chunk[-1:]
+        except (EOFError, OSError, zlib.error):  # a cut .gz: the reader reports it
+            pass
+    return n + (last not in (b"\n", b"\r"))
 
 
 def _failed_fixes_line(s: RunSummary) -> str:
@@ -290,12 +305,16 @@ def _cannot_write(exc: OSError, run: Path) -> int:
     return EXIT_CANNOT_WRITE
 
 
-def _more_skipped(summary: RunSummary, shown: int) -> None:
+def _more_skipped(summary: RunSummary, shown: int, nmea: bool = False) -> None:
     """One line for the bad records beyond the first ones kept in memory (session.py)."""
     more = summary.skipped_records - shown
     if more > 0:
         where = (f"every one is a BAD line of {summary.out_path}" if summary.out_path is not None
                  else "not shown: no .OUT log (--no-out)")
+        if nmea:  # beyond the first of each kind, a log's damaged lines are counted only
+            where = ("all counted per kind in the nmea: lines; the first of each kind are BAD "
+                     f"lines of {summary.out_path}" if summary.out_path is not None else
+                     "all counted per kind in the nmea: lines")
         print(f"skipped: … and {more} more ({where})", file=sys.stderr)
 
 
@@ -412,7 +431,7 @@ def run_replay(argv: list[str]) -> int:
             print(f"nmea: {line}")
     for bad in session.bad_records:
         print(f"skipped: {bad.error}", file=sys.stderr)
-    _more_skipped(summary, len(session.bad_records))
+    _more_skipped(summary, len(session.bad_records), session.nmea_stats is not None)
     if summary.epochs == 0:
         print(f"uvnav replay: {run}: no record could be processed "
               f"({summary.skipped_records} skipped) !", file=sys.stderr)
