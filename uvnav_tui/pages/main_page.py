@@ -29,6 +29,7 @@ from engine.api import (
     format_speed_kn,
     format_zone_lane,
 )
+from uvnav_tui.widgets.status_column import fix_age_text
 
 if TYPE_CHECKING:
     from engine.api import CycleResult, PositionEstimate
@@ -186,9 +187,10 @@ class MainPage(Widget):
             self.query_one(f"#{box}", Static).update(text, layout=False)
 
     def show(self, r: CycleResult | None, cfg: RunConfig,
-             cycle_cfg: RunConfig | None = None) -> None:
+             cycle_cfg: RunConfig | None = None, *, fix_age_s: float | None = None) -> None:
         """Render the cycle ``r`` (None before the first cycle) with the run's settings
-        (``cycle_cfg``: those ``r`` was computed with, where they label its values)."""
+        (``cycle_cfg``: those ``r`` was computed with, where they label its values); the MPP
+        box's lower edge names its source and the age of the last fix (``fix_age_s``)."""
         level = cfg.lsq.conf_region_pct / 100.0
         datum = r.datum if r is not None else cfg.datum
         mpp = r.mpp if r is not None else None
@@ -198,7 +200,8 @@ class MainPage(Widget):
         self._set("box-lse", "\n".join(position_box_lines(
             lse, datum, rms if lse is not None else None, level)))
         mpp_box = self.query_one("#box-mpp", Static)
-        mpp_box.border_subtitle = mpp.source if mpp is not None else ""
+        mpp_box.border_subtitle = (f"{mpp.source}  {fix_age_text(fix_age_s)}"
+                                   if mpp is not None else "")
         self._set("sensor-strip", sensor_strip(r, cfg))
         self._set("box-gps", "\n".join(gps_box_lines(r, cfg)))
         self._set("box-decca", "\n".join(decca_box_lines(r, cfg, cycle_cfg)))
