@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from engine import api
-from engine.api import DatumFile, DeccaChain, InputError, RunConfig, pace_factor
+from engine.api import DatumFile, DeccaChain, InputError, RunConfig, format_time_z, pace_factor
 from uvnav_tui.widgets.message_log import MessageLog
 
 if TYPE_CHECKING:
@@ -133,6 +133,9 @@ class RunController:
         self.alarm_acked = False
         """The operator acknowledged the present source-lost alarm (:meth:`acknowledge`)."""
         self._bell_mono = -math.inf
+        name = self.live.url if self.live is not None else Path(session.config.run_file).name
+        self.log.mark(f"Run started {datetime.now(UTC):%H:%M:%S} UTC: {name}")
+        self._closed = False
 
     # ------------------------------------------------------------------ state
     @property
@@ -503,8 +506,15 @@ class RunController:
             return self.session.apply(cmd)
 
     def close(self) -> None:
-        """Close the session's logs (and a live source: its thread joined, its raw log)."""
+        """Close the session's logs (and a live source: its thread joined, its raw log); the
+        end of the run is marked in the message log."""
         if self.live is not None:
             self.live.feed.close()  # not under the lock: a receive in progress ends first
         with self.lock:
             self.session.close()
+        if not self._closed:
+            self._closed = True
+            last = (f", last record {format_time_z(self.latest.time)}"
+                    if self.latest is not None else "")
+            self.log.mark(f"Run ended {datetime.now(UTC):%H:%M:%S} UTC: {self.cycles} cycles"
+                          f"{last}")

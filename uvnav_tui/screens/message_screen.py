@@ -1,8 +1,10 @@
 """Statistics ▸ Messages (F2): the whole message log, scrollable, closed with Esc.
 
 Every message of the engine (per cycle, with the cycle's record time), the data checks (bad
-``.RUN`` records) and the console (commands, hardcopies) since the console started; the run is
-interrupted while it is open, as for any menu or dialog. ↑ ↓ PgUp PgDn Home End scroll.
+``.RUN`` records) and the console (commands, hardcopies) since the console started, grouped
+(alarm, warning, information; repeats as ``×37 in 10 min``; what to do under each; the start and
+end of each run marked); the run is interrupted while it is open, as for any menu or dialog.
+↑ ↓ PgUp PgDn Home End scroll.
 """
 
 from __future__ import annotations
@@ -35,9 +37,9 @@ class MessageScreen(ModalScreen[None]):
         """Frame, log view and a key line."""
         with Vertical(id="message-frame") as frame:
             frame.border_title = "Statistics ▸ Messages"
-            yield MessageLogView(id="message-log")
-            yield Static(f"{len(self.log_data)} messages (the last {LOG_LIMIT} are kept)   "
-                         "↑ ↓ PgUp PgDn Home End scroll   Esc closes",
+            yield MessageLogView(id="message-log", grouped=True)
+            yield Static(f"{len(self.log_data)} messages (the last {LOG_LIMIT} are kept), "
+                         "repeats grouped   ↑ ↓ PgUp PgDn Home End scroll   Esc closes",
                          id="message-keys", markup=False)
 
     def on_mount(self) -> None:
