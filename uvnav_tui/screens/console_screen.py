@@ -19,6 +19,7 @@ from engine.api import RunConfig, format_time_z
 from uvnav_tui.host import ConsoleHost
 from uvnav_tui.keys_help import menu_key_bindings
 from uvnav_tui.menus import visible_bar
+from uvnav_tui.pages.input_kind import RUN_FILE, input_kind
 from uvnav_tui.pages.main_page import MainPage
 from uvnav_tui.pages.page_frame import PageFrame
 from uvnav_tui.run_control import RunController
@@ -112,9 +113,11 @@ class ConsoleScreen(Screen[None]):
         line.page = host.page
         self.query_one(MenuBar).dev_mode = host.dev_mode
         if host.page == 100:
+            kind = (input_kind(run.session, run.live.nmea_stats if run.live else None)
+                    if run is not None else RUN_FILE)
             self.query_one(MainPage).show(dr or r, config,
                                           run.session.cycle_config if run is not None else None,
-                                          fix_age_s=fix_age)
+                                          fix_age_s=fix_age, kind=kind)
             if panel:
                 self.query_one(MessagePanel).sync(host.message_log)
         else:
