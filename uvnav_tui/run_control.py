@@ -134,7 +134,7 @@ class RunController:
         """The operator acknowledged the present source-lost alarm (:meth:`acknowledge`)."""
         self._bell_mono = -math.inf
         name = self.live.url if self.live is not None else Path(session.config.run_file).name
-        self.log.mark(f"Run started {datetime.now(UTC):%H:%M:%S} UTC: {name}")
+        self.log.mark(f"Run started: {name}")
         self._closed = False
 
     # ------------------------------------------------------------------ state
@@ -516,5 +516,4 @@ class RunController:
             self._closed = True
             last = (f", last record {format_time_z(self.latest.time)}"
                     if self.latest is not None else "")
-            self.log.mark(f"Run ended {datetime.now(UTC):%H:%M:%S} UTC: {self.cycles} cycles"
-                          f"{last}")
+            self.log.mark(f"Run ended: {self.cycles} cycles{last}")

@@ -67,7 +67,7 @@ def test_panel_and_f2_show_groups_advice_and_run_marks(data_dir: Path) -> None:
         panel = app.screen.query_one(MessagePanel)
         assert panel.display
         shown = text_of(app)
-        assert "──── Run started" in shown and "920917_1.RUN ────" in shown
+        assert "──── Run started: 920917_1.RUN ────" in shown
         assert shown.count("Fix fails the innovation test") == 1
         assert "WARN  Fix fails the innovation test: T = 3.29" in shown
         assert "×30 in 8 min" in shown
@@ -78,12 +78,12 @@ def test_panel_and_f2_show_groups_advice_and_run_marks(data_dir: Path) -> None:
         await wait_for(pilot, lambda: isinstance(app.screen, MessageScreen), "F2")
         await pilot.pause()
         log_text = text_of(app)
-        assert "──── Run started" in log_text and "×30 in 8 min" in log_text
+        assert "──── Run started: 920917_1.RUN (20" in log_text and "×30 in 8 min" in log_text
         assert "⤷ the fix's VCV is scaled by S²" in log_text
         await pilot.press("escape")
         app.stop_run()
         marks = [g.line() for g in app.message_log.recent_groups(100) if g.is_mark]
         assert marks[0].startswith("──── Run started") and marks[-1].startswith(
-            "──── Run ended") and " cycles, last record 08:35:" in marks[-1]
+            "──── Run ended: ") and " cycles, last record 08:35:" in marks[-1]
 
     drive(app, script, size=(160, 50))

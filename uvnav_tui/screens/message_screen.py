@@ -37,7 +37,7 @@ class MessageScreen(ModalScreen[None]):
         """Frame, log view and a key line."""
         with Vertical(id="message-frame") as frame:
             frame.border_title = "Statistics ▸ Messages"
-            yield MessageLogView(id="message-log", grouped=True)
+            yield MessageLogView(id="message-log", grouped=True, mark_times=True)
             yield Static(f"{len(self.log_data)} messages (the last {LOG_LIMIT} are kept), "
                          "repeats grouped   ↑ ↓ PgUp PgDn Home End scroll   Esc closes",
                          id="message-keys", markup=False)

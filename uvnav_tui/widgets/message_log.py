@@ -17,7 +17,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import UTC, datetime
 
 from engine.api import format_time_z
 
@@ -39,6 +39,8 @@ LEVEL_TAGS = {ALARM: "ALARM", WARNING: "WARN ", INFO: "     "}
 reverse video, warnings in bold)."""
 RUN_MARK = "run"
 """The kind of the run start and end marks (never grouped)."""
+MARK_SOURCE = "mark"
+"""The source of a run mark's entry (not a message: the message line does not show it)."""
 
 CATALOG: tuple[tuple[str, str, str, str], ...] = (
     # (pattern at the start of the text, level, kind, what to do)
@@ -166,11 +168,13 @@ class MessageGroup:
         minutes = max(1, math.ceil((self.last.seconds() - self.first.seconds()) / 60.0))
         return f"×{self.count} in {minutes} min"
 
-    def line(self) -> str:
+    def line(self, wall_time: bool = False) -> str:
         """``HH:MM:SSZ WARN  text  ×37 in 10 min`` (the last message's time and text);
-        a run mark as ``──── text ────``."""
+        a run mark as ``──── text ────`` (``wall_time``: with the wall-clock UTC time)."""
         if self.is_mark:
-            return f"──── {self.last.text} ────"
+            when = (f" ({datetime.fromtimestamp(self.last.wall_s, UTC):%Y-%m-%d %H:%M:%S} UTC)"
+                    if wall_time else "")
+            return f"──── {self.last.text}{when} ────"
         repeat = self.repeat_text()
         return (f"{self.last.stamp} {LEVEL_TAGS[self.level]} {self.last.text}"
                 + (f"  {repeat}" if repeat else ""))
@@ -212,7 +216,7 @@ class MessageLog:
     def mark(self, text: str) -> LogEntry:
         """A run start or end mark (``Run started …``): a line of its own that ends every
         group (the next run's messages start new ones)."""
-        entry = LogEntry(time.time(), None, "console", text)
+        entry = LogEntry(time.time(), None, MARK_SOURCE, text)
         with self._lock:
             self._entries.append(entry)
             self.total += 1
@@ -270,9 +274,12 @@ class MessageLog:
             return len(self._groups)
 
     def newest(self) -> LogEntry | None:
-        """The last entry, or None."""
+        """The last entry that is a message (not a run mark), or None."""
         with self._lock:
-            return self._entries[-1] if self._entries else None
+            for entry in reversed(self._entries):
+                if entry.source != MARK_SOURCE:
+                    return entry
+            return None
 
     def since(self, index: int) -> tuple[int, list[LogEntry]]:
         """Entries numbered ``index`` and later that are still kept, and the number of the

@@ -29,12 +29,13 @@ ADVICE_INDENT = " " * 10
 """What to do is indented under the group's text (past ``HH:MM:SSZ``)."""
 
 
-def group_texts(group: MessageGroup, advice: bool) -> list[Text]:
-    """The lines of a group: its line, styled by level, and (``advice``) what to do."""
+def group_texts(group: MessageGroup, advice: bool, wall_time: bool = False) -> list[Text]:
+    """The lines of a group: its line, styled by level, and (``advice``) what to do;
+    ``wall_time``: a run mark with its wall-clock time."""
     style = "reverse" if group.level == ALARM else "bold" if group.level == WARNING else ""
     if group.is_mark:
         style = "bold"
-    out = [Text(group.line(), style=style)]
+    out = [Text(group.line(wall_time), style=style)]
     if advice and group.advice:
         out.append(Text(f"{ADVICE_INDENT}⤷ {group.advice}"))
     return out
@@ -45,7 +46,8 @@ class MessageLogView(RichLog):
 
     def __init__(self, *, id: str | None = None, classes: str | None = None,
                  grouped: bool = False, max_groups: int | None = None,
-                 advice_levels: tuple[str, ...] = ("alarm", "warning", "info")) -> None:
+                 advice_levels: tuple[str, ...] = ("alarm", "warning", "info"),
+                 mark_times: bool = False) -> None:
         super().__init__(id=id, classes=classes, max_lines=LOG_LIMIT, auto_scroll=True,
                          wrap=True, markup=False, highlight=False, min_width=20)
         self.grouped = grouped
@@ -54,6 +56,8 @@ class MessageLogView(RichLog):
         """At most this many groups drawn (the newest; None: all kept)."""
         self.advice_levels = advice_levels
         """The levels whose groups show what to do."""
+        self.mark_times = mark_times
+        """Run marks with their wall-clock time (the log screen)."""
         self._serial = 0
         self._next_group = 0
         self._next = 0
@@ -124,7 +128,7 @@ class MessageLogView(RichLog):
         self._next_group = changed[-1].number + 1
         texts: list[Text] = []
         for g in changed:
-            texts += group_texts(g, g.level in self.advice_levels)
+            texts += group_texts(g, g.level in self.advice_levels, self.mark_times)
         return texts
 
     def on_resize(self, event: Resize) -> None:
