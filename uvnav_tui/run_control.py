@@ -133,6 +133,10 @@ class RunController:
         self.alarm_acked = False
         """The operator acknowledged the present source-lost alarm (:meth:`acknowledge`)."""
         self._bell_mono = -math.inf
+        if self.live is not None:  # Pg 620 labels the heading by the stream's sentences
+            from uvnav_tui.pages.input_kind import LIVE_STATS
+
+            LIVE_STATS[session] = self.live.nmea_stats
         name = self.live.url if self.live is not None else Path(session.config.run_file).name
         self.log.mark(f"Run started: {name}")
         self._closed = False
@@ -162,7 +166,7 @@ class RunController:
 
     @property
     def live_text(self) -> str:
-        """``LIVE udp://0.0.0.0:10110 receiving`` / ``(no data for 5 s) udp://…`` while lost
+        """``LIVE receiving udp://0.0.0.0:10110`` / ``(no data for 5 s) udp://…`` while lost
         (the alarm, :attr:`alarm_text`, says ``SOURCE LOST 12 s``) for the state line ("" for a
         run file)."""
         if self.live is None:
@@ -172,10 +176,8 @@ class RunController:
             why = f"({state.detail}) " if state.detail else ""
             again = "reconnecting " if state.status == "reconnecting" else ""
             return f"{why}{again}{self.live.url}"
-        if state.detail:  # a connection that keeps failing: the reason before the URL, so a
-            # long URL cut at 80 columns cannot hide it (seen in tmux with an unknown host)
-            return f"LIVE {state.describe()} {self.live.url}"
-        return f"LIVE {self.live.url} {state.describe()}"
+        # the state before the URL, so that a long URL cut at 80 columns cannot hide it
+        return f"LIVE {state.describe()} {self.live.url}"
 
     @property
     def source_lost(self) -> bool:

@@ -536,6 +536,12 @@ class Session:
             out.append(filter_estimate("KF", grid, s))
         return out
 
+    @property
+    def source_name(self) -> str:
+        """The run's source as the ``.OUT`` header names it: the run file's path, or a live
+        source's URL."""
+        return self._run_name
+
     def dead_reckon(self, elapsed_s: float) -> PositionEstimate | None:
         """The MPP dead-reckoned ``elapsed_s`` seconds past the last cycle without a
         measurement (a live source lost: the wall clock runs on while no record comes). The

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
+from weakref import WeakKeyDictionary
 
 if TYPE_CHECKING:
     from engine.api import NmeaStats, Session
@@ -54,15 +55,20 @@ def heading_kind(used: Mapping[str, int]) -> str:
     return "heading"
 
 
+LIVE_STATS: WeakKeyDictionary[Session, NmeaStats] = WeakKeyDictionary()
+"""The sentences a live stream gave so far, per session of a live run (the run controller
+registers them: a page has the session, and a log's are its ``nmea_scan``)."""
+
+
 def input_kind(session: Session | None, stats: NmeaStats | None = None) -> InputKind:
     """The kind of ``session``'s input; ``stats``: the sentences a live stream gave so far
-    (a log's are the session's ``nmea_scan``)."""
+    (else :data:`LIVE_STATS`; a log's are the session's ``nmea_scan``)."""
     if session is None:
         return RUN_FILE
     from engine.api import is_source_url  # the live-source module: not at start-up
 
-    scan = stats if stats is not None else session.nmea_scan
-    if scan is None and not is_source_url(session.config.run_file):
+    scan = stats if stats is not None else LIVE_STATS.get(session, session.nmea_scan)
+    if scan is None and not is_source_url(session.source_name):
         return RUN_FILE
     heading = heading_kind(scan.used) if scan is not None else "heading"
     variation = ""

@@ -11,6 +11,7 @@ operator has scrolled up.
 
 from __future__ import annotations
 
+import textwrap
 from typing import Self
 
 from rich.text import Text
@@ -29,15 +30,29 @@ ADVICE_INDENT = " " * 10
 """What to do is indented under the group's text (past ``HH:MM:SSZ``)."""
 
 
-def group_texts(group: MessageGroup, advice: bool, wall_time: bool = False) -> list[Text]:
+HANGING_INDENT = " " * 16
+"""A group's wrapped text continues under its text (past ``HH:MM:SSZ WARN  ``)."""
+
+
+def group_texts(group: MessageGroup, advice: bool, wall_time: bool = False,
+                width: int = 0) -> list[Text]:
     """The lines of a group: its line, styled by level, and (``advice``) what to do;
-    ``wall_time``: a run mark with its wall-clock time."""
+    ``wall_time``: a run mark with its wall-clock time; ``width`` > 0: wrapped to it with
+    hanging indents (literal text: wrapped as words, never read as markup)."""
     style = "reverse" if group.level == ALARM else "bold" if group.level == WARNING else ""
     if group.is_mark:
         style = "bold"
-    out = [Text(group.line(wall_time), style=style)]
+    line = group.line(wall_time)
+    lines = (textwrap.wrap(line, width, subsequent_indent=HANGING_INDENT, break_on_hyphens=False)
+             if width > len(HANGING_INDENT) + 10 and not group.is_mark else [line])
+    out = [Text("\n".join(lines or [line]), style=style)]
     if advice and group.advice:
-        out.append(Text(f"{ADVICE_INDENT}⤷ {group.advice}"))
+        first = f"{ADVICE_INDENT}⤷ "
+        more = " " * len(first)
+        tip = (textwrap.wrap(first + group.advice, width, subsequent_indent=more,
+                             break_on_hyphens=False)
+               if width > len(first) + 10 else [first + group.advice])
+        out.append(Text("\n".join(tip)))
     return out
 
 
@@ -126,9 +141,11 @@ class MessageLogView(RichLog):
         if not changed:
             return None
         self._next_group = changed[-1].number + 1
+        # one column spare: a scroll bar may appear under lines already written
+        width = self.scrollable_content_region.width - 1 if self._size_known else 0
         texts: list[Text] = []
         for g in changed:
-            texts += group_texts(g, g.level in self.advice_levels, self.mark_times)
+            texts += group_texts(g, g.level in self.advice_levels, self.mark_times, width)
         return texts
 
     def on_resize(self, event: Resize) -> None:
