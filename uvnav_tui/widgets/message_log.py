@@ -162,21 +162,23 @@ class MessageGroup:
         return self.kind == RUN_MARK
 
     def repeat_text(self) -> str:
-        """``×37 in 10 min`` (minutes from the first to the last, at least 1), or ""."""
+        """``×37 in 10 min, last 10:09:52Z`` (minutes from the first to the last, at least 1),
+        or ""."""
         if self.count < 2:
             return ""
         minutes = max(1, math.ceil((self.last.seconds() - self.first.seconds()) / 60.0))
-        return f"×{self.count} in {minutes} min"
+        return f"×{self.count} in {minutes} min, last {self.last.stamp}"
 
     def line(self, wall_time: bool = False) -> str:
-        """``HH:MM:SSZ WARN  text  ×37 in 10 min`` (the last message's time and text);
+        """``HH:MM:SSZ WARN  text  ×37 in 10 min, last HH:MM:SSZ`` (the first message's time,
+        so groups stand in time order, and the last one's text);
         a run mark as ``──── text ────`` (``wall_time``: with the wall-clock UTC time)."""
         if self.is_mark:
             when = (f" ({datetime.fromtimestamp(self.last.wall_s, UTC):%Y-%m-%d %H:%M:%S} UTC)"
                     if wall_time else "")
             return f"──── {self.last.text}{when} ────"
         repeat = self.repeat_text()
-        return (f"{self.last.stamp} {LEVEL_TAGS[self.level]} {self.last.text}"
+        return (f"{self.first.stamp} {LEVEL_TAGS[self.level]} {self.last.text}"
                 + (f"  {repeat}" if repeat else ""))
 
 

@@ -75,6 +75,9 @@ class MessageLogView(RichLog):
         """Run marks with their wall-clock time (the log screen)."""
         self._serial = 0
         self._next_group = 0
+        self._render_width: int | None = None
+        """The width grouped lines are rendered at (they are wrapped here: RichLog measures
+        a line against the console's width, 80 columns in a headless run), None: RichLog's."""
         self._next = 0
         self._log: MessageLog | None = None
         self._wrap_width = 0
@@ -104,12 +107,12 @@ class MessageLogView(RichLog):
             self._wrap_width = self.scrollable_content_region.width
         if not self._size_known or len(texts) == 1:
             for text in texts:  # the first writes wait for the size (RichLog defers them)
-                self.write(text)
+                self.write(text, width=self._render_width)
             return
         self._batch = []
         try:
             for text in texts:
-                self.write(text, scroll_end=False)
+                self.write(text, scroll_end=False, width=self._render_width)
         finally:
             layout = any(self._batch)
             self._batch = None
@@ -143,6 +146,7 @@ class MessageLogView(RichLog):
         self._next_group = changed[-1].number + 1
         # one column spare: a scroll bar may appear under lines already written
         width = self.scrollable_content_region.width - 1 if self._size_known else 0
+        self._render_width = width if width > 0 else None
         texts: list[Text] = []
         for g in changed:
             texts += group_texts(g, g.level in self.advice_levels, self.mark_times, width)
@@ -151,16 +155,29 @@ class MessageLogView(RichLog):
     def on_resize(self, event: Resize) -> None:
         """RichLog wraps a line once, when it is written: after a change of width (the panel
         shown on a terminal grown from 80×24, where it was hidden and its lines wrapped at 20
-        columns) every line is written again at the new width."""
+        columns) every line is written again at the new width. Grouped lines, wrapped here
+        with hanging indents, are also written again once the first size is known, after the
+        layout (the content width is known only then)."""
         first = not self._size_known
         super().on_resize(event)
         width = self.scrollable_content_region.width
-        if first:
+        if self.grouped and self._log is not None and (self._serial or not first):
+            self.call_after_refresh(self._rewrap)
+        elif first:
             self._wrap_width = width
         elif width and width != self._wrap_width and self._log is not None:
             self.clear()
             self._next = self._serial = self._next_group = 0
             self.sync(self._log)
+
+    def _rewrap(self) -> None:
+        """Write every line again at the width laid out now (grouped view)."""
+        width = self.scrollable_content_region.width
+        if self._log is None or not width or width == self._wrap_width:
+            return
+        self.clear()
+        self._next = self._serial = self._next_group = 0
+        self.sync(self._log)
 
     def refresh(self, *regions: Region, repaint: bool = True, layout: bool = False,
                 recompose: bool = False) -> Self:
