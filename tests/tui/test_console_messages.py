@@ -11,6 +11,7 @@ from textual.pilot import Pilot
 
 from tests.tui.test_console_support import drive, make_app, start, text_of, wait_for
 from uvnav_tui.screens.message_screen import MessageScreen
+from uvnav_tui.widgets.message_line import MessageLine
 from uvnav_tui.widgets.message_log import ALARM, INFO, WARNING, MessageLog, classify
 from uvnav_tui.widgets.message_panel import MessagePanel, group_texts
 
@@ -89,7 +90,20 @@ def test_panel_and_f2_show_groups_advice_and_run_marks(data_dir: Path) -> None:
             return lines[at + 1].startswith("│" + " " * 12) and lines[at + 1][13] != " "
 
         await wait_for(pilot, hanging, "the advice wrapped with a hanging indent", 10.0)
+        # W: only alarms and warnings (the run marks stay); A: everything again
+        await pilot.press("w")
+        await wait_for(pilot, lambda: "advice: scale" not in text_of(app), "W filter")
+        assert "WARN  Fix fails the innovation test" in text_of(app)
+        assert "──── Run started" in text_of(app)
+        await pilot.press("a")
+        await wait_for(pilot, lambda: "advice: scale" in text_of(app), "A: all")
         await pilot.press("escape")
+        # an alarm on the message line is in reverse video
+        app.message_log.add("Source lost: udp://127.0.0.1:1 (no data for 5 s)", r.time, "data")
+        app.refresh_display()
+        await pilot.pause()
+        line = app.screen.query_one(MessageLine)
+        assert "Source lost" in line.text and "reverse" in str(line.render().spans)
         app.stop_run()
         marks = [g.line() for g in app.message_log.recent_groups(100) if g.is_mark]
         assert marks[0].startswith("──── Run started") and marks[-1].startswith(

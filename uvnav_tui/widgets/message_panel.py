@@ -73,6 +73,8 @@ class MessageLogView(RichLog):
         """The levels whose groups show what to do."""
         self.mark_times = mark_times
         """Run marks with their wall-clock time (the log screen)."""
+        self.levels: frozenset[str] | None = None
+        """Only groups of these levels are shown (run marks always); None: all."""
         self._serial = 0
         self._next_group = 0
         self._render_width: int | None = None
@@ -149,6 +151,8 @@ class MessageLogView(RichLog):
         self._render_width = width if width > 0 else None
         texts: list[Text] = []
         for g in changed:
+            if self.levels is not None and not g.is_mark and g.level not in self.levels:
+                continue
             texts += group_texts(g, g.level in self.advice_levels, self.mark_times, width)
         return texts
 
@@ -166,6 +170,16 @@ class MessageLogView(RichLog):
         elif first:
             self._wrap_width = width
         elif width and width != self._wrap_width and self._log is not None:
+            self.clear()
+            self._next = self._serial = self._next_group = 0
+            self.sync(self._log)
+
+    def show_levels(self, levels: frozenset[str] | None) -> None:
+        """Show only groups of ``levels`` (None: all) from now on: every line written again."""
+        if levels == self.levels:
+            return
+        self.levels = levels
+        if self._log is not None:
             self.clear()
             self._next = self._serial = self._next_group = 0
             self.sync(self._log)
