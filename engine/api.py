@@ -101,6 +101,7 @@ if TYPE_CHECKING:
         run_records,
         truth_reference,
     )
+    from engine.filter.explain import added_process_noise, update_matrices
     from engine.filter.kalman import (
         IDEPS,
         IDPSI,
@@ -174,6 +175,7 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     "engine.filter.kalman": ("IDEPS", "IDPSI", "IDV", "STATE_LABELS", "FilterState",
                              "UpdateResult", "sensor_measurement"),
     "engine.filter.poe": ("PoeSample", "drms", "poe_states"),
+    "engine.filter.explain": ("added_process_noise", "update_matrices"),
     "engine.io.nmea_epochs": ("NmeaOptions", "NmeaStats"),
     "engine.io.nmea_log": ("CONVERTED_RUN_MARK", "LogSniff", "NmeaLog", "is_nmea_file",
                            "not_nmea_message", "sniff_log"),
@@ -284,6 +286,7 @@ __all__ = [
     "ManualObservation",
     "PoeSample",
     "UpdateResult",
+    "added_process_noise",
     "drms",
     "error_ellipsoid",
     "knots_to_ms",
@@ -292,6 +295,7 @@ __all__ = [
     "slots_of",
     "lop_name",
     "poe_states",
+    "update_matrices",
     "sensor_measurement",
     "w_critical",
     "GpsWeight",

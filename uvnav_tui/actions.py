@@ -385,13 +385,18 @@ class MenuActions:
         what = api.lop_name(slot, system=row.system if row is not None else "GPS",
                         manual=result.manual)
         w = f" (w = {row.w:.2f})" if row is not None and row.w == row.w else ""
-        question = f"The w-test rejects LOP {what}{w}.\nDiscard LOP {what}?"
+        v = f"\nIts residual v = {row.v_m:.1f} m (Pg 631)." if row is not None \
+            and row.v_m == row.v_m else ""
+        question = f"The w-test rejects LOP {what}{w}.{v}\nDiscard LOP {what}?"
         if host.lop_policy in ("yes", "no"):
             self._lop_answer(slot, what, host.lop_policy == "yes")
             return
         # Raised by a cycle, not asked for: keys typed ahead must not answer it.
+        # Not over the row it asks about: at the bottom under the LOP rows of Pg 631/633; on
+        # Pg 100 at the top, over the position boxes, under the newest messages of the panel.
         host.push_screen(ConfirmDialog("LOP rejection", question, default=True,
-                                       arm_s=LOP_QUESTION_ARM_S),
+                                       arm_s=LOP_QUESTION_ARM_S,
+                                       place="top" if host.page == 100 else "bottom"),
                          callback=lambda yes: self._lop_answer(slot, what, bool(yes)))
 
     def _lop_answer(self, slot: int, what: str, discard: bool) -> None:

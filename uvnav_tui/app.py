@@ -153,6 +153,7 @@ class UVNAVApp(App[None]):
         Binding("ctrl+q", "quit", "Quit", show=False, priority=True),
         Binding("ctrl+c", "quit", "Quit", show=False),
         Binding("f1", "help", "Help", show=False),
+        Binding("f3", "acknowledge", "Acknowledge alarm", show=False, priority=True),
     ]
 
     def __init__(
@@ -487,6 +488,12 @@ class UVNAVApp(App[None]):
         """F1 or ``?``: the help screen (not twice)."""
         if not isinstance(self.screen, HelpScreen):
             self.push_screen(HelpScreen())
+
+    def action_acknowledge(self) -> None:
+        """F3, anywhere: acknowledge the source-lost alarm (the bell stops; the alarm stays on
+        the state line, steady, until the source receives again)."""
+        if self.control is not None and self.control.acknowledge():
+            self.refresh_display()
 
     def exit(self, result: None = None, return_code: int = 0,
              message: RenderableType | None = None) -> None:

@@ -180,6 +180,7 @@ def help_text() -> str:
             ("← ↑ ↓ →  Home / End", "Scroll a page larger than the screen"),
             ("Ctrl+P", "Command palette: every menu item and every page by title"),
             ("F2", "The message log (Statistics ▸ Messages); Esc closes it"),
+            ("F3", "Acknowledge an alarm (a live source lost): the bell stops"),
             ("Ctrl+Q or Ctrl+C", "Quit (asks for confirmation)"),
         ]),
         "",

@@ -17,12 +17,13 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from engine import api
-from engine.api import DatumFile, DeccaChain, InputError, RunConfig, pace_factor
+from engine.api import DatumFile, DeccaChain, InputError, RunConfig, format_time_z, pace_factor
 from uvnav_tui.widgets.message_log import MessageLog
 
 if TYPE_CHECKING:
@@ -46,6 +47,10 @@ LIVE_LOST_AFTER_S = 5.0
 """Seconds without data before a live source shows ``SOURCE LOST`` (docs/LIVE.md)."""
 LIVE_TICK_S = 1.0
 """While a live source is lost, the state line is repainted this often (its counter) [s]."""
+ALARM_BELL_REPEAT_S = 30.0
+"""An unacknowledged alarm rings the terminal bell again after this many seconds [s]: a bridge
+alarm sounds until it is acknowledged (IMO MSC.302(87), bridge alert management; IEC 62923-1),
+and a terminal bell is a single beep."""
 
 
 def bad_record_text(error: InputError, line_no: int) -> str:
@@ -123,6 +128,18 @@ class RunController:
         self.worker_active = False
         self._worker_lock = threading.Lock()
         self._last_step = -math.inf
+        self.last_fix_time: datetime | None = None
+        """Record time of the last cycle with a position fix (LSE), or None."""
+        self.alarm_acked = False
+        """The operator acknowledged the present source-lost alarm (:meth:`acknowledge`)."""
+        self._bell_mono = -math.inf
+        if self.live is not None:  # Pg 620 labels the heading by the stream's sentences
+            from uvnav_tui.pages.input_kind import LIVE_STATS
+
+            LIVE_STATS[session] = self.live.nmea_stats
+        name = self.live.url if self.live is not None else Path(session.config.run_file).name
+        self.log.mark(f"Run started: {name}")
+        self._closed = False
 
     # ------------------------------------------------------------------ state
     @property
@@ -149,20 +166,85 @@ class RunController:
 
     @property
     def live_text(self) -> str:
-        """``LIVE udp://0.0.0.0:10110 receiving`` / ``SOURCE LOST 12 s (…)`` for the state
-        line ("" for a run file)."""
+        """``LIVE receiving udp://0.0.0.0:10110`` / ``(no data for 5 s) udp://…`` while lost
+        (the alarm, :attr:`alarm_text`, says ``SOURCE LOST 12 s``) for the state line ("" for a
+        run file)."""
         if self.live is None:
             return ""
         state = self.live.state
         if state.is_lost:
-            return f"{state.describe()} {self.live.url}"
+            why = f"({state.detail}) " if state.detail else ""
+            again = "reconnecting " if state.status == "reconnecting" else ""
+            return f"{why}{again}{self.live.url}"
         trouble = state.trouble()
         if trouble:  # drops or a stalled clock first: a long URL cut at 80 columns cannot hide
             return f"{trouble[2:]} {self.live.url}"  # them
-        if state.detail:  # a connection that keeps failing: the reason before the URL, so a
-            # long URL cut at 80 columns cannot hide it (seen in tmux with an unknown host)
-            return f"LIVE {state.describe()} {self.live.url}"
-        return f"LIVE {self.live.url} {state.describe()}"
+        # the state before the URL, so that a long URL cut at 80 columns cannot hide it
+        return f"LIVE {state.describe()} {self.live.url}"
+
+    @property
+    def source_lost(self) -> bool:
+        """True while the live source is lost (never for a run file)."""
+        return self.live is not None and self.live.state.is_lost
+
+    @property
+    def alarm_text(self) -> str:
+        """``SOURCE LOST 12 s`` while the live source is lost, else ""."""
+        if not self.source_lost:
+            return ""
+        assert self.live is not None
+        lost_s = max(0.0, time.monotonic() - self.live.state.since_mono_s)
+        return f"SOURCE LOST {lost_s:.0f} s"
+
+    def acknowledge(self) -> bool:
+        """The operator acknowledges the source-lost alarm: the bell stops (the alarm stays
+        shown until the source receives again). False if there is no unacknowledged alarm."""
+        if not self.source_lost or self.alarm_acked:
+            return False
+        self.alarm_acked = True
+        assert self.live is not None
+        self.log.add(f"Alarm acknowledged: source lost {self.live.url}",
+                     self.latest.time if self.latest is not None else None, "console")
+        return True
+
+    def bell_due(self, now_mono_s: float | None = None) -> bool:
+        """True when the bell should ring now: an unacknowledged alarm, at its onset and every
+        :data:`ALARM_BELL_REPEAT_S` after (the call counts as the ring)."""
+        if not self.source_lost or self.alarm_acked:
+            return False
+        now = time.monotonic() if now_mono_s is None else now_mono_s
+        if now - self._bell_mono < ALARM_BELL_REPEAT_S:
+            return False
+        self._bell_mono = now
+        return True
+
+    def fix_age_s(self) -> float | None:
+        """Seconds since the last position fix: record time from that fix to the latest
+        cycle, plus on a live source the wall-clock seconds since that cycle (no record comes
+        while the source is lost). None before the first fix."""
+        if self.last_fix_time is None or self.latest is None:
+            return None
+        age = (self.latest.time - self.last_fix_time).total_seconds()
+        if self.live is not None:
+            age += self.wall_since_cycle_s()
+        return max(age, 0.0)
+
+    def wall_since_cycle_s(self) -> float:
+        """Wall-clock seconds since the last cycle was computed (0 before the first)."""
+        if self._last_step == -math.inf:
+            return 0.0
+        return max(0.0, time.monotonic() - self._last_step)
+
+    def dead_reckoned(self) -> CycleResult | None:
+        """While the live source is lost: the latest cycle with its MPP dead-reckoned to the
+        wall clock (:meth:`Session.dead_reckon`: last heading, speed and current carried on,
+        the ellipse grown), else None."""
+        r = self.latest
+        if not self.source_lost or r is None:
+            return None
+        with self.lock:
+            mpp = self.session.dead_reckon(self.wall_since_cycle_s())
+        return replace(r, mpp=mpp) if mpp is not None else None
 
     @property
     def status_note(self) -> str:
@@ -339,6 +421,8 @@ class RunController:
         if self.budget is not None:
             self.budget -= 1
         self.latest = result
+        if result.fix is not None and result.fix.ok:
+            self.last_fix_time = result.time
         self._log_messages(result)
         if self.on_cycle is not None:
             self.on_cycle(result)
@@ -352,6 +436,8 @@ class RunController:
         when = self.latest.time if self.latest is not None else None
         was_lost = self._logged_state is not None and self._logged_state.is_lost
         if state.status == "lost" and not was_lost:
+            self.alarm_acked = False
+            self._bell_mono = -math.inf
             self.log.add(f"Source lost: {self.live.url} ({state.detail})", when, "data")
         elif state.status == "receiving":
             again = "again " if was_lost else ""
@@ -425,8 +511,14 @@ class RunController:
             return self.session.apply(cmd)
 
     def close(self) -> None:
-        """Close the session's logs (and a live source: its thread joined, its raw log)."""
+        """Close the session's logs (and a live source: its thread joined, its raw log); the
+        end of the run is marked in the message log."""
         if self.live is not None:
             self.live.feed.close()  # not under the lock: a receive in progress ends first
         with self.lock:
             self.session.close()
+        if not self._closed:
+            self._closed = True
+            last = (f", last record {format_time_z(self.latest.time)}"
+                    if self.latest is not None else "")
+            self.log.mark(f"Run ended: {self.cycles} cycles{last}")

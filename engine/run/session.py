@@ -153,6 +153,11 @@ def _logged_config(cfg: RunConfig) -> RunConfig:
     return cfg.replace(run_file=str(cfg.run_path), data_dir_text=str(cfg.data_dir))
 
 
+DR_STEP_S = 10.0
+"""Longest prediction step of :meth:`Session.dead_reckon` [s] (the filter's own cycle is the
+sample interval, 1–10 s; a longer step would linearise the turn of the heading state over it)."""
+
+
 class Session:
     """One run: configuration, context, navigation state, logs and a bounded history."""
 
@@ -549,6 +554,26 @@ class Session:
         for s in predict_horizon(fs, horizon_s, step_s, self.context.filter_params):
             out.append(filter_estimate("KF", grid, s))
         return out
+
+    @property
+    def source_name(self) -> str:
+        """The run's source as the ``.OUT`` header names it: the run file's path, or a live
+        source's URL."""
+        return self._run_name
+
+    def dead_reckon(self, elapsed_s: float) -> PositionEstimate | None:
+        """The MPP dead-reckoned ``elapsed_s`` seconds past the last cycle without a
+        measurement (a live source lost: the wall clock runs on while no record comes). The
+        filter's own prediction (THEORY §8.15, as Kalman ▸ Predict) from its last state: the
+        last heading, speed and current carried on, its covariance grown by the process noise;
+        steps of at most :data:`DR_STEP_S`. Source ``DR``; None without a filter state; the
+        session is not changed."""
+        fs = self.nav.filter
+        if fs is None or self.nav.cm_deg is None or not elapsed_s > 0.0:
+            return None
+        grid = self.context.grid(self.nav.cm_deg)
+        states = predict_horizon(fs, elapsed_s, DR_STEP_S, self.context.filter_params)
+        return filter_estimate("DR", grid, states[-1])
 
     def smooth(self) -> list[PositionEstimate]:
         """Kalman ▸ Smoothing: RTS-smoothed positions of the collected span (oldest first, on

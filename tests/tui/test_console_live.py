@@ -55,7 +55,7 @@ def test_console_runs_on_a_udp_source(tmp_path: Path, monkeypatch: pytest.Monkey
         await wait_for(pilot, lambda: control.cycles >= 9, "9 cycles")
         first.join()
         app.refresh_display()
-        await wait_for(pilot, lambda: f"LIVE {url} receiving" in state_text(),
+        await wait_for(pilot, lambda: f"LIVE receiving {url}" in state_text(),
                        "the state line to show the live source")
         assert "Pace live" in state_text()
         await wait_for(pilot, lambda: "SOURCE LOST" in state_text(), "SOURCE LOST")

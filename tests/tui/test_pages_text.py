@@ -359,7 +359,7 @@ def test_data_kalman_pages(sample: tuple[Session, CycleResult]) -> None:
     phi = r.smoother_link[2]
     assert compact(float(phi[0, 4]), 6).strip() in text
     text = mod(853).render(r, session)
-    assert f"{u.K[0, 0]:.5f}" in text and "H    : n/a" in text
+    assert f"{u.K[0, 0]:.5f}" in text and "H (rows: measurement rows" in text
 
 
 def test_810_stations_and_readings(sample: tuple[Session, CycleResult]) -> None:

@@ -33,10 +33,12 @@ class ConfirmDialog(ModalScreen[bool]):
     ]
 
     def __init__(self, title: str, question: str, *, default: bool = False, arm_s: float = 0.0,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, place: str = "center") -> None:
         """``arm_s``: seconds after it is shown during which no key, button or click answers
-        it (``clock``: the seconds it is measured on)."""
-        super().__init__()
+        it (``clock``: the seconds it is measured on); ``place``: ``center``, or ``top`` /
+        ``bottom`` of the screen for a question about what the page shows in its middle (the
+        LOP question: the LOP's rows stay visible)."""
+        super().__init__(classes=f"-{place}" if place != "center" else None)
         self.title_text = title
         self.question = question
         self.default = default

@@ -29,6 +29,8 @@ from engine.api import (
     format_speed_kn,
     format_zone_lane,
 )
+from uvnav_tui.pages.input_kind import RUN_FILE, InputKind
+from uvnav_tui.widgets.status_column import fix_age_text
 
 if TYPE_CHECKING:
     from engine.api import CycleResult, PositionEstimate
@@ -49,14 +51,32 @@ def _ellipse_text(p: PositionEstimate | None, level: float) -> tuple[str, str]:
             format_angle_deg(p.ellipse.az_deg))
 
 
+SECOND_M = 1852.0 / 60.0
+"""One second of latitude on the ground [m] (a nautical mile is one minute)."""
+
+
+def seconds_decimals(p: PositionEstimate | None) -> int:
+    """Decimals of the seconds of arc a position deserves: the coarsest last digit no larger
+    than its 95 % semi-major axis a (0.1″ ≈ 3 m for a GNSS fix of a = 4–30 m, whole seconds
+    for a Decca fix of ±100 m), at most 3 (0.001″ ≈ 3 cm, the thesis' format; also without an
+    ellipse)."""
+    if p is None or p.ellipse is None:
+        return 3
+    a = p.ellipse.scaled(0.95)[0]
+    if not (math.isfinite(a) and a > 0.0):
+        return 3
+    return max(0, min(3, math.ceil(math.log10(SECOND_M / a))))
+
+
 def position_box_lines(p: PositionEstimate | None, datum: str, rms_m: float | None,
-                       level: float) -> list[str]:
-    """The five lines of the MPP or LSE box (blank values when there is no estimate)."""
+                       level: float, decimals: int = 3) -> list[str]:
+    """The five lines of the MPP or LSE box (blank values when there is no estimate);
+    ``decimals`` of the seconds of arc (the thesis: 3)."""
     if p is None:
         lat = lon = hg = ""
     else:
-        lat = format_lat_dms(p.lat_deg)
-        lon = format_lon_dms(p.lon_deg)
+        lat = format_lat_dms(p.lat_deg, decimals=decimals)
+        lon = format_lon_dms(p.lon_deg, decimals=decimals)
         hg = format_metres(-p.depth_m, decimals=1)
     rms = (format_metres(rms_m, space=False)
            if rms_m is not None and math.isfinite(rms_m) else PLACEHOLDER)
@@ -71,6 +91,8 @@ def position_box_lines(p: PositionEstimate | None, datum: str, rms_m: float | No
 
 
 def _sensor_value(r: CycleResult, index: int) -> str:
+    """The strip's value of sensor ``index`` (``OFF``, ``N/A``, a value, ``COG …`` for a
+    stand-in)."""
     s = r.sensors
     status = s.status[index]
     if s.standin and index in (0, 1):  # COG/SOG stand in (docs/GNSS_WEIGHTS.md)
@@ -92,22 +114,44 @@ def _sensor_value(r: CycleResult, index: int) -> str:
     return format_angle_deg(value)
 
 
-def sensor_strip(r: CycleResult | None, cfg: RunConfig) -> str:
-    """``GYRO 232.3°  LOG 12.7kts  RUDR OFF  INCL N/A  PRESS OFF  ECHO N/A``."""
+NMEA_SENSORS = (0, 1, 5)
+"""The sensors NMEA 0183 input can have: heading, water speed, echo sounder (docs/NMEA.md)."""
+
+
+def sensor_strip(r: CycleResult | None, cfg: RunConfig, kind: InputKind = RUN_FILE) -> str:
+    """``GYRO 232.3°  LOG 12.7kts  RUDR OFF  INCL N/A  PRESS OFF  ECHO N/A`` for a ``.RUN``;
+    for NMEA input the heading named by its source (``GYRO``, ``COMPASS``), no rudder,
+    inclinometer or pressure, and the record's COG/SOG when it has them:
+    ``COMPASS 72.5°  LOG 4.7kts  ECHO 3.9m  COG 81.7° SOG 4.3kts``."""
     parts = []
     for label, i in SENSOR_LABELS:
+        if kind.nmea and i not in NMEA_SENSORS:
+            continue
+        if kind.nmea and i == 0:
+            label = kind.heading_short
         if r is None:
             name = ("gyro", "log", "rudder", "inclinometer", "pressure", "echosounder")[i]
             state = cfg.sensors.status(name)
             value = {0: "OFF", 1: "---", 2: "N/A"}[state]
         else:
             value = _sensor_value(r, i)
+        if kind.nmea and i == 5 and value == "N/A":
+            continue  # no echo sounder in this stream
         parts.append(f"{label} {value}")
+    if kind.nmea and r is not None and not r.sensors.standin:
+        rec = api.run_record(r)
+        if rec is not None and rec.cog_deg is not None:
+            parts.append(f"COG {format_angle_deg(rec.cog_deg)}")
+        if rec is not None and rec.sog_kn is not None:
+            parts.append(f"SOG {format_speed_kn(rec.sog_kn)}")
     return "  ".join(parts)
 
 
-def gps_box_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
-    """WGS84 ECEF and the raw WGS84 fix (``X 3848703.06 … Lat 52°50.50' N``)."""
+def gps_box_lines(r: CycleResult | None, cfg: RunConfig,
+                  kind: InputKind = RUN_FILE) -> list[str]:
+    """WGS84 ECEF and the raw WGS84 fix (``X 3848703.06 … Lat 52°50.50' N``); for NMEA input
+    the receiver's fix as it gives it: latitude, longitude (minutes to 4 decimals, 0.2 m, as
+    GGA carries them), fix quality, HDOP and satellites."""
     if not cfg.gps.on:
         return ["off", "", ""]
     if r is None or r.gps is None:
@@ -118,6 +162,12 @@ def gps_box_lines(r: CycleResult | None, cfg: RunConfig) -> list[str]:
     extra = ""
     if w is not None and w.hdop is not None:  # NMEA GGA only: a 1993 box is unchanged
         extra = f"{api.quality_name(w.quality)} HDOP {w.hdop:.1f}"
+    if kind.nmea:
+        rec = api.run_record(r)
+        sats = f"  {rec.gps_sats} sats" if rec is not None and rec.gps_sats is not None else ""
+        return [f"Lat {format_lat_dm(g.wgs84_lat_deg, space=True, decimals=4)}",
+                f"Lon {format_lon_dm(g.wgs84_lon_deg, space=True, decimals=4)}",
+                (extra + sats).strip() or "WGS84"]
     return [
         f"X {x:.2f}".ljust(15) + f"Lat {format_lat_dm(g.wgs84_lat_deg, space=True)}",
         f"Y {y:.2f}".ljust(15) + f"Lon {format_lon_dm(g.wgs84_lon_deg, space=True)}",
@@ -186,19 +236,26 @@ class MainPage(Widget):
             self.query_one(f"#{box}", Static).update(text, layout=False)
 
     def show(self, r: CycleResult | None, cfg: RunConfig,
-             cycle_cfg: RunConfig | None = None) -> None:
+             cycle_cfg: RunConfig | None = None, *, fix_age_s: float | None = None,
+             kind: InputKind = RUN_FILE) -> None:
         """Render the cycle ``r`` (None before the first cycle) with the run's settings
-        (``cycle_cfg``: those ``r`` was computed with, where they label its values)."""
+        (``cycle_cfg``: those ``r`` was computed with, where they label its values); the MPP
+        box's lower edge names its source and the age of the last fix (``fix_age_s``);
+        ``kind``: the input (NMEA: readings labelled by their source, positions to the
+        precision of the fix)."""
         level = cfg.lsq.conf_region_pct / 100.0
         datum = r.datum if r is not None else cfg.datum
         mpp = r.mpp if r is not None else None
         lse = api.lse_estimate(r) if r is not None else None
         rms = mpp_rms(r) if r is not None else None
-        self._set("box-mpp", "\n".join(position_box_lines(mpp, datum, rms, level)))
+        nd = seconds_decimals(mpp) if kind.nmea else 3
+        self._set("box-mpp", "\n".join(position_box_lines(mpp, datum, rms, level, nd)))
+        nd = seconds_decimals(lse) if kind.nmea else 3
         self._set("box-lse", "\n".join(position_box_lines(
-            lse, datum, rms if lse is not None else None, level)))
+            lse, datum, rms if lse is not None else None, level, nd)))
         mpp_box = self.query_one("#box-mpp", Static)
-        mpp_box.border_subtitle = mpp.source if mpp is not None else ""
-        self._set("sensor-strip", sensor_strip(r, cfg))
-        self._set("box-gps", "\n".join(gps_box_lines(r, cfg)))
+        mpp_box.border_subtitle = (f"{mpp.source}  {fix_age_text(fix_age_s)}"
+                                   if mpp is not None else "")
+        self._set("sensor-strip", sensor_strip(r, cfg, kind))
+        self._set("box-gps", "\n".join(gps_box_lines(r, cfg, kind)))
         self._set("box-decca", "\n".join(decca_box_lines(r, cfg, cycle_cfg)))

@@ -18,6 +18,7 @@ from engine.api import (
     SENSOR_STATUS_WORD,
     CycleResult,
     FilterState,
+    RunRecord,
     Session,
     format_angle_deg,
     format_speed_kn,
@@ -25,6 +26,7 @@ from engine.api import (
     run_record,
     sensor_measurement,
 )
+from uvnav_tui.pages.input_kind import InputKind, input_kind
 from uvnav_tui.pages.page_text import MISSING, TextPage, num
 from uvnav_tui.pages.registry import register_page
 
@@ -80,6 +82,7 @@ def render(r: CycleResult, session: Session) -> str:
     s = r.sensors
     rec = run_record(r)
     fs = r.filter_state
+    kind = input_kind(session)
     sig = sensor_sigmas(r, session)
     st = s.status
     out = [TITLE, "",
@@ -99,8 +102,8 @@ def render(r: CycleResult, session: Session) -> str:
     standin = s.standin
     heading_raw = (MISSING if s.heading_true_deg is None else f"{s.heading_true_deg:.1f}°"
                    ) if standin else raw(rec and rec.heading_deg, "{:.1f}°")
-    out.append(_line("COG*" if standin else "Gyro", 1 if standin else st[0], heading_raw,
-                     grid, sigma, f"Δψ {b}", sd))
+    out.append(_line("COG*" if standin else kind.heading_name, 1 if standin else st[0],
+                     heading_raw, grid, sigma, f"Δψ {b}", sd))
     # Log: raw knots, converted m/s; bias Δv.
     conv = MISSING if s.speed_kn is None else f"{num(knots_to_ms(s.speed_kn), 3)} m/s"
     speed_raw = s.speed_kn if standin else (None if rec is None else rec.speed_kn)
@@ -109,6 +112,8 @@ def render(r: CycleResult, session: Session) -> str:
     sigma = f"{num(sig['v_m'], 3)} m/s" if "v_m" in sig else MISSING
     out.append(_line("SOG*" if standin else "Log", 1 if standin else st[1], raw_kn, conv, sigma,
                      f"Δv {b}", sd))
+    if kind.nmea:  # NMEA 0183 input has no rudder, inclinometer or pressure sensor
+        return _nmea_tail(out, r, rec, kind, st, standin, fs)
     # Rudder: displayed only.
     conv = MISSING if s.rudder_deg is None else format_angle_deg(s.rudder_deg)
     out.append(_line("Rudder", st[2], raw(rec and rec.rudder_deg, "{:.1f}°"), conv, "", "", ""))
@@ -136,6 +141,38 @@ def render(r: CycleResult, session: Session) -> str:
                 "  is only what the fixes show beyond COG/SOG."]
     elif s.reference == "none":
         out.append("No gyro heading or log speed in this record: no dead reckoning (LSE only).")
+    if fs is None:
+        out.append("The filter has not started: no estimates yet.")
+    return "\n".join(out)
+
+
+def _nmea_tail(out: list[str], r: CycleResult, rec: RunRecord | None, kind: InputKind,
+               st: tuple[int, ...], standin: bool, fs: FilterState | None) -> str:
+    """The rest of Pg 620 for NMEA input: the echo sounder and COG/SOG rows (as received) and
+    the notes; no rudder, inclinometer or pressure rows (NMEA 0183 has none)."""
+    s = r.sensors
+    if st[5] != 2:
+        conv = MISSING if s.echo_m is None else f"{num(s.echo_m, 2)} m"
+        raw = MISSING if rec is None or rec.echo_m is None else f"{rec.echo_m:.2f} m"
+        out.append(_line("Echo", st[5], raw, conv, "", "", ""))
+    if rec is not None and not standin and (rec.cog_deg is not None or rec.sog_kn is not None):
+        cog = MISSING if rec.cog_deg is None else f"{rec.cog_deg:.1f}°"
+        sog = MISSING if rec.sog_kn is None else format_speed_kn(rec.sog_kn)
+        out.append(_line("COG", 1, cog, "(GNSS)", "", "", ""))
+        out.append(_line("SOG", 1, sog, "(GNSS)", "", "", ""))
+    out += ["",
+            "σ: the sensor's a priori σ in the filter (R).  Δψ, Δv: the filter's",
+            "estimates of the systematic errors (states 9, 8), σ = √P."]
+    if kind.heading == "compass":
+        out.append(f"Compass: HDG magnetic heading + {kind.variation}.")
+    elif kind.heading == "gyro":
+        out.append("Gyro: true heading (HDT).")
+    out.append("NMEA input: no rudder, inclinometer or pressure sensor.")
+    if standin:
+        out += ["* COG/SOG stand in for the missing heading/log (sensors.cog_sog): dead",
+                "  reckoning over ground with their larger σ."]
+    elif s.reference == "none":
+        out.append("No heading or log speed in this record: no dead reckoning (LSE only).")
     if fs is None:
         out.append("The filter has not started: no estimates yet.")
     return "\n".join(out)

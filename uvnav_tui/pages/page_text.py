@@ -102,12 +102,15 @@ def corr_text(x: float, width: int) -> str:
 
 def compact_matrix_lines(m: np.ndarray, width: int, labels: Sequence[str], label_width: int,
                          max_width: int = 80,
-                         fmt: Callable[[float, int], str] = compact) -> list[str]:
+                         fmt: Callable[[float, int], str] = compact, *,
+                         col_labels: Sequence[str] | None = None) -> list[str]:
     """A wide matrix in ``fmt`` entries (default :func:`compact`) of ``width`` columns each
     (one space between),
-    with a header row of the column labels; split into blocks of columns (separated by a blank
-    line) if it would be wider than ``max_width``."""
+    with a header row of the column labels (``col_labels``, else ``labels``: a square matrix);
+    split into blocks of columns (separated by a blank line) if it would be wider than
+    ``max_width``."""
     rows = np.atleast_2d(np.asarray(m, dtype=float))
+    heads = labels if col_labels is None else col_labels
     per_block = max(1, (max_width - label_width) // width)
     out: list[str] = []
     for start in range(0, rows.shape[1], per_block):
@@ -115,7 +118,7 @@ def compact_matrix_lines(m: np.ndarray, width: int, labels: Sequence[str], label
         if start:
             out.append("")
         out.append((" " * label_width
-                    + "".join(short_label(labels[j], width - 1).rjust(width) for j in cols))
+                    + "".join(short_label(heads[j], width - 1).rjust(width) for j in cols))
                    .rstrip())
         for i, row in enumerate(rows):
             out.append((labels[i][:label_width - 1].ljust(label_width)

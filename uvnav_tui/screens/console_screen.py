@@ -19,6 +19,7 @@ from engine.api import RunConfig, format_time_z
 from uvnav_tui.host import ConsoleHost
 from uvnav_tui.keys_help import menu_key_bindings
 from uvnav_tui.menus import visible_bar
+from uvnav_tui.pages.input_kind import RUN_FILE, input_kind
 from uvnav_tui.pages.main_page import MainPage
 from uvnav_tui.pages.page_frame import PageFrame
 from uvnav_tui.run_control import RunController
@@ -97,7 +98,13 @@ class ConsoleScreen(Screen[None]):
         Pg 100 too)."""
         host = self.uvnav
         r = run.latest if run is not None else None
+        dr = run.dead_reckoned() if run is not None else None
+        fix_age = run.fix_age_s() if run is not None else None
         line = self.query_one(StateLine)
+        line.alarm = run.alarm_text if run is not None else ""
+        line.alarm_acked = run.alarm_acked if run is not None else False
+        if run is not None and run.bell_due():
+            self.app.bell()
         line.state_word = state_word
         line.time_text = format_time_z(r.time) if r is not None else "--:--:--Z"
         line.pace = run.pace if run is not None else ""
@@ -106,12 +113,17 @@ class ConsoleScreen(Screen[None]):
         line.page = host.page
         self.query_one(MenuBar).dev_mode = host.dev_mode
         if host.page == 100:
-            self.query_one(MainPage).show(r, config,
-                                          run.session.cycle_config if run is not None else None)
+            kind = (input_kind(run.session, run.live.nmea_stats if run.live else None)
+                    if run is not None else RUN_FILE)
+            self.query_one(MainPage).show(dr or r, config,
+                                          run.session.cycle_config if run is not None else None,
+                                          fix_age_s=fix_age, kind=kind)
             if panel:
                 self.query_one(MessagePanel).sync(host.message_log)
         else:
-            self.query_one(StatusColumn).bad_records = run.bad_records if run else 0
+            column = self.query_one(StatusColumn)
+            column.bad_records = run.bad_records if run else 0
+            column.fix_age_s, column.dead_reckoned = fix_age, dr
             self.query_one(PageFrame).show(r, run.session if run is not None else None)
         self.query_one(MessageLine).show(host.message_log,
                                          since_s=run.started_wall_s if run is not None else None)

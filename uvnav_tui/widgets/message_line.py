@@ -13,7 +13,7 @@ from rich.cells import cell_len
 from textual.content import Content
 from textual.widget import Widget
 
-from uvnav_tui.widgets.message_log import LogEntry, MessageLog
+from uvnav_tui.widgets.message_log import ALARM, LogEntry, MessageLog, classify
 
 MESSAGE_TTL_S = 30.0
 """Wall-clock seconds a message stays on the message line."""
@@ -67,10 +67,14 @@ class MessageLine(Widget):
             self.refresh(layout=not same)
 
     def render(self) -> Content:
-        """The text as literal content, wrapped; cut with an ellipsis past three lines."""
+        """The text as literal content, wrapped; cut with an ellipsis past three lines; an
+        alarm (:func:`~uvnav_tui.widgets.message_log.classify`) in reverse video."""
         width = self.content_region.width or self.size.width
         text = self._text
         limit = width * MESSAGE_LINES_MAX
         if width > 1 and len(text) > limit:
             text = text[: limit - 1] + "…"
+        e = self._entry
+        if text and e is not None and classify(e.text)[0] == ALARM:
+            return Content.styled(text, "reverse")
         return Content(text)
