@@ -176,7 +176,8 @@ def summary_markdown(cols: Mapping[str, Sequence[Any]], *, name: str, spec_path:
     wall = float(np.nansum(np.asarray(cols["wall_s"], dtype=float))) if n else 0.0
     cpu = float(np.nansum(np.asarray(cols["cpu_s"], dtype=float))) if n else 0.0
     lines = [f"# Campaign {_md(name)}", "",
-             f"Spec {_md(spec_path)}: {n} of {planned} runs recorded, {ok} ok, {n - ok} failed; "
+             f"Spec `{spec_path.replace('`', '')}`: {n} of {planned} runs recorded, {ok} ok, "
+             f"{n - ok} failed; "
              f"run time summed over runs {wall:.1f} s wall, {cpu:.1f} s CPU.", ""]
     if n < planned:
         lines += ["**Incomplete**: rerun the same command to finish the remaining runs.", ""]
