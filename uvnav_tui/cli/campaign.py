@@ -260,6 +260,9 @@ def run_campaign(argv: list[str]) -> int:
     store = CampaignStore(args.out)
     try:
         n_workers = _workers(args.workers)
+        if args.scheduler is not None and args.workers is not None:
+            raise InputError("Only for the local cluster: the scheduler's workers are those "
+                             "started with 'dask worker' !", field="--workers", text=args.workers)
         spec = load_campaign(args.spec)
         store.open(spec, restart=args.restart, resume=args.resume)
         done = store.finished() & {t.key for t in spec.tasks}
