@@ -150,33 +150,40 @@ class _Progress:
                 Progress,
                 TextColumn,
                 TimeElapsedColumn,
-                TimeRemainingColumn,
             )
 
             self._bar = Progress(
                 TextColumn("campaign"), BarColumn(), MofNCompleteColumn(),
                 TextColumn("runs  failed {task.fields[failed]}  {task.fields[rate]} runs/s"),
-                TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                TimeElapsedColumn(), TextColumn("ETA {task.fields[eta]}"),
                 console=Console(file=unfiltered_stderr()), transient=True)
             self._bar.start()
-            self._task = self._bar.add_task("campaign", total=total, failed=0, rate="–")
+            self._task = self._bar.add_task("campaign", total=total, failed=0, rate="–",
+                                            eta="–")
 
     @property
     def rate(self) -> float:
         dt = time.perf_counter() - self.t0
         return self.done / dt if dt > 0 else 0.0
 
+    @property
+    def eta(self) -> str:
+        """Time left at the mean rate so far (h:mm:ss)."""
+        if not self.rate:
+            return "–"
+        left = int(round((self.total - self.done) / self.rate))
+        return f"{left // 3600}:{left // 60 % 60:02d}:{left % 60:02d}"
+
     def add(self, ok: bool) -> None:
         self.done += 1
         self.failed += not ok
         if self._bar is not None:
             self._bar.update(self._task, completed=self.done, failed=self.failed,
-                             rate=f"{self.rate:.2f}")
+                             rate=f"{self.rate:.2f}", eta=self.eta)
         elif self.total and self.done >= self._next_line * self.total:
             self._next_line = (int(10 * self.done / self.total) + 1) / 10
-            left = (self.total - self.done) / self.rate if self.rate else 0.0
             print(f"{PROG}: {self.done}/{self.total} runs, {self.failed} failed, "
-                  f"{self.rate:.2f} runs/s, ETA {left:.0f} s", file=sys.stderr, flush=True)
+                  f"{self.rate:.2f} runs/s, ETA {self.eta}", file=sys.stderr, flush=True)
 
     def stop(self) -> None:
         if self._bar is not None:

@@ -103,7 +103,7 @@ def error_since_fix_svg(cols: Mapping[str, Sequence[Any]], title: str) -> str:
         return _LEFT + pw * (i + 0.5) / len(names)
 
     body = [f'<text x="{_LEFT}" y="18" font-size="13">{_esc(title)}: MPP RMS error (m) '
-            "against minutes since the last LSE (median, 5–95 % of runs)</text>",
+            "by time since the last LSE (median, 5–95 % of runs)</text>",
             f'<rect x="{_LEFT}" y="{_TOP}" width="{pw}" height="{ph}" fill="none" '
             'stroke="#9ca3af"/>']
     for d in range(lo_dec, hi_dec + 1):
