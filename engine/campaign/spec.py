@@ -268,10 +268,9 @@ class _Raw:
 
 
 def _parse_top(data: Mapping[str, Any], base: Path, default_name: str) -> _Raw:
-    for k, v in data.items():
+    for k in data:
         if k not in TOP_KEYS:
             raise InputError(UNKNOWN_KEY_MESSAGE, field=k, text=k)
-        del v
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name.strip():
         raise InputError("Must be a non-empty string !", field="name", text=str(name))
@@ -324,8 +323,8 @@ def _load_scenario(entry: _Entry, spec_file: str, line: int | None) -> ScenarioI
     missing file is located at the spec's line that names it)."""
     for p, what in ((entry.scenario, "scenario"), (entry.config, "configuration")):
         if not p.is_file():
-            raise InputError(f"The {what} {p} is not found !" if p.exists() is False else
-                             f"The {what} {p} is not a file !", file=spec_file, line=line,
+            problem = "is not a file" if p.exists() else "is not found"
+            raise InputError(f"The {what} {p} {problem} !", file=spec_file, line=line,
                              field="scenarios", text=entry.text)
     scen_text = read_text(entry.scenario)
     cfg_text = read_text(entry.config)

@@ -73,6 +73,20 @@ def test_one_and_two_workers_give_the_plain_loops_table(tmp_path: Path) -> None:
     assert _comparable(_table(tmp_path / "w2")) == want
 
 
+def test_an_external_scheduler_gives_the_same_table(tmp_path: Path) -> None:
+    """``--scheduler ADDRESS``: a cluster the campaign did not start (here a LocalCluster of this
+    test, as ``dask scheduler`` + ``dask worker`` would be) runs the same table."""
+    from distributed import LocalCluster
+
+    spec = _spec(tmp_path, "4")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        out = tmp_path / "ext"
+        assert cli.run_campaign([str(spec), "--out", str(out), "--scheduler",
+                                 cluster.scheduler_address]) == 0
+    assert _comparable(_table(out)) == _reference(spec)
+
+
 @pytest.fixture(scope="module")
 def troubled(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, int]:
     """A 2-worker campaign in which one worker process dies mid-run (the test hook) and one
@@ -181,6 +195,9 @@ def test_bad_input_exits_2_before_any_run(tmp_path: Path, monkeypatch: pytest.Mo
     assert f"{bad}:3: seeds: Bad seed range" in capsys.readouterr().err
     assert cli.run_campaign([str(spec), "--out", str(tmp_path / "o2"), "--workers", "0"]) == 2
     assert "--workers" in capsys.readouterr().err
+    assert cli.run_campaign([str(spec), "--out", str(tmp_path / "o2"), "--workers", "2",
+                             "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    assert "--workers: Only for the local cluster" in capsys.readouterr().err
     monkeypatch.setattr(cli, "CONNECT_TIMEOUT_S", 2)
     rc = cli.run_campaign([str(spec), "--out", str(tmp_path / "o3"), "--scheduler",
                            "tcp://127.0.0.1:9"])
