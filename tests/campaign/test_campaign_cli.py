@@ -163,6 +163,7 @@ def test_interrupted_and_killed_clients_resume_to_the_same_table(tmp_path: Path)
     proc.communicate(timeout=60)
     before = sum(p.read_bytes().count(b"\n") for p in (out / "parts").glob("*.jsonl"))
     assert before < 16
+    assert len(_table(out)) >= len(partial)  # the last table written is whole
     proc2 = subprocess.run([*cmd, "--resume"], cwd=ROOT, capture_output=True, text=True,
                            timeout=300)
     assert proc2.returncode == 0, proc2.stderr

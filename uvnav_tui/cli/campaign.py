@@ -10,7 +10,8 @@ dask.distributed cluster: by default a ``LocalCluster`` of ``--workers`` single-
 processes (default: one per core); ``--scheduler tcp://HOST:PORT`` uses a running cluster
 (``dask scheduler`` / ``dask worker``). Every input a run needs is shipped with the tasks, so
 workers need no shared files. Each finished run is recorded at once (``DIR/parts/``); the table
-``DIR/runs.parquet`` is written at the end, every two minutes and after Ctrl-C, with
+``DIR/runs.parquet`` is rewritten as runs finish (every 10 s or more), at the end and after
+Ctrl-C, with
 ``DIR/summary.md`` and the plots ``DIR/coverage.svg`` and ``DIR/error_since_fix.svg``.
 
 A second call on the same ``--out`` skips the runs already recorded (``--resume`` insists that
@@ -61,8 +62,11 @@ every failure of a run, so this covers only the task machinery itself)."""
 WINDOW_PER_WORKER = 4
 """Tasks in flight per worker thread: the client and scheduler hold this many, not the whole
 campaign (memory bounded whatever the number of runs)."""
-TABLE_EVERY_S = 120.0
-"""Seconds between rewrites of ``runs.parquet`` during a campaign."""
+TABLE_EVERY_S = 10.0
+"""Least seconds between rewrites of ``runs.parquet`` during a campaign; the interval is at
+least :data:`TABLE_COST_FACTOR` times the last rewrite's own time, so rewriting costs the client
+at most 5 % of its time whatever the table's size."""
+TABLE_COST_FACTOR = 20.0
 CONNECT_TIMEOUT_S = 10
 CRASH_ONCE_ENV = "UVNAV_CAMPAIGN_TEST_CRASH_ONCE"
 """Test hook (tests/campaign): a worker that finds this variable set to a path it can create
@@ -224,6 +228,7 @@ def _run_all(client: Client, spec: CampaignSpec, todo: list[RunTask], store: Cam
     for _ in range(WINDOW_PER_WORKER * nthreads):
         submit_next()
     last_table = time.monotonic()
+    table_every = TABLE_EVERY_S
     for future in ac:
         task = pending.pop(future.key)
         try:
@@ -234,9 +239,11 @@ def _run_all(client: Client, spec: CampaignSpec, todo: list[RunTask], store: Cam
         store.append(row)
         progress.add(row["status"] == "ok")
         submit_next()
-        if time.monotonic() - last_table > TABLE_EVERY_S:
+        if time.monotonic() - last_table > table_every:
+            t0 = time.monotonic()
             store.write_table(spec)
             last_table = time.monotonic()
+            table_every = max(TABLE_EVERY_S, TABLE_COST_FACTOR * (last_table - t0))
 
 
 def write_results(spec: CampaignSpec, store: CampaignStore) -> tuple[int, list[Path]]:
