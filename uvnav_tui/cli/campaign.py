@@ -21,7 +21,8 @@ is refused unless ``--restart``. A worker that dies mid-run has its task run aga
 
 Exit status: 0 every run of the spec is in the table (failed runs included); 2 bad input (spec,
 scenarios, data files, arguments, an unreachable scheduler, a changed spec), nothing run; 1 an
-output cannot be written; 130 interrupted (the table holds every run finished before it).
+output cannot be written; 3 the cluster was lost mid-campaign (the scheduler went away: the
+table holds every run finished before it, rerun to finish); 130 interrupted (likewise).
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ PROG = "uvnav campaign"
 EXIT_OK = 0
 EXIT_CANNOT_WRITE = 1
 EXIT_BAD_INPUT = 2
+EXIT_LOST_CLUSTER = 3
 RETRIES = 2
 """Dask ``retries`` of a task that raises on the worker (the run function returns a row for
 every failure of a run, so this covers only the task machinery itself)."""
@@ -195,6 +197,19 @@ class _Progress:
             self._bar = None
 
 
+class LostCluster(Exception):
+    """The scheduler went away (or cancelled the tasks) mid-campaign: not a failure of a run,
+    so nothing is recorded for the runs in flight; the campaign stops and can be resumed."""
+
+
+def _cancelled(exc: BaseException) -> bool:
+    import asyncio
+    import concurrent.futures
+
+    return isinstance(exc, asyncio.CancelledError | concurrent.futures.CancelledError) or (
+        type(exc).__name__ in ("CancelledError", "FutureCancelledError"))
+
+
 def _failed_row(task: RunTask, exc: BaseException) -> dict[str, Any]:
     row = blank_row(task)
     name = type(exc).__name__
@@ -234,6 +249,8 @@ def _run_all(client: Client, spec: CampaignSpec, todo: list[RunTask], store: Cam
         try:
             row = future.result()
         except Exception as exc:  # the task machinery failed: a failed row all the same
+            if _cancelled(exc):
+                raise LostCluster(f"{type(exc).__name__}: {exc}") from None
             row = _failed_row(task, exc)
         future.release()
         store.append(row)
@@ -293,6 +310,7 @@ def run_campaign(argv: list[str]) -> int:
     progress = _Progress(len(todo), len(done))
     t0 = time.perf_counter()
     interrupted = False
+    stopped: str | None = None
     try:
         if client is not None:
             where = (args.scheduler if args.scheduler else
@@ -303,6 +321,10 @@ def run_campaign(argv: list[str]) -> int:
             _run_all(client, spec, todo, store, progress, tracks_dir)
     except KeyboardInterrupt:
         interrupted = True
+    except LostCluster as exc:
+        stopped = f"lost the cluster mid-campaign ({exc})"
+    except OSError as exc:  # a part file cannot be written: stop, keep what is recorded
+        stopped = f"{exc.filename or args.out}: cannot write: {exc.strerror or exc} !"
     finally:
         progress.stop()
         store.close()
@@ -318,10 +340,14 @@ def run_campaign(argv: list[str]) -> int:
         print(f"{PROG}: {exc.filename or args.out}: cannot write: {exc.strerror or exc} !",
               file=sys.stderr)
         return EXIT_CANNOT_WRITE
-    if interrupted:
+    if interrupted or stopped:
+        if stopped:
+            print(f"{PROG}: {stopped}", file=sys.stderr)
         print(f"{PROG}: {store.table_path} holds the {n} runs finished so far; run the same "
               "command again to finish", file=sys.stderr)
-        raise KeyboardInterrupt
+        if interrupted:
+            raise KeyboardInterrupt
+        return EXIT_LOST_CLUSTER if stopped.startswith("lost") else EXIT_CANNOT_WRITE
     seconds = time.perf_counter() - t0
     print(f"{PROG}: {n} runs in the table ({progress.done} run now, {progress.failed} failed; "
           f"{len(done)} recorded before) in {seconds:.1f} s")
