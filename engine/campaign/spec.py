@@ -20,6 +20,7 @@ in the scenario/configuration file it names, raised before any run starts.
 from __future__ import annotations
 
 import copy
+import functools
 import hashlib
 import json
 import os
@@ -57,8 +58,9 @@ KEY_VERSION = 1
 """Part of every run key: raised when a run's row changes meaning, so old rows are not reused."""
 DEFAULT_VARIANT = "default"
 """The one variant of a spec without ``[[variants]]``: no overrides beyond ``[config]``."""
-MAX_RUNS = 10_000_000
-"""Most runs one spec may ask for (a typo such as ``"1-1000000000"`` is refused, not queued)."""
+MAX_RUNS = 1_000_000
+"""Most runs one spec may ask for (a typo such as ``"1-1000000000"`` is refused, not queued):
+the client keeps each run's identity and key, about 0.4 KB a run."""
 TOP_KEYS = ("name", "scenarios", "seeds", "config", "variants", "tracks")
 SCENARIO_KEYS = ("scenario", "config")
 SCENARIO_SUFFIX = ".scenario.toml"
@@ -82,7 +84,7 @@ class ScenarioInputs:
     sim_data: tuple[tuple[str, bytes], ...]
     run_data: tuple[tuple[str, bytes], ...]
 
-    @property
+    @functools.cached_property
     def digest(self) -> str:
         """Hash of every input of this scenario (texts and data files)."""
         parts = [_sha(self.scenario_text), _sha(self.config_text)]

@@ -68,6 +68,7 @@ def test_seeds(text: object, expected: tuple[int, ...]) -> None:
     (f'scenarios = ["{SHORT}"]\nseeds = "5-1"\n', 2, "seeds", "end is below the start"),
     (f'scenarios = ["{SHORT}"]\nseeds = "1-x"\n', 2, "seeds", "Bad seed range"),
     (f'scenarios = ["{SHORT}"]\nseeds = [1, 1]\n', 2, "seeds", "twice"),
+    (f'scenarios = ["{SHORT}"]\nseeds = "1-2000000"\n', 2, "seeds", "Too many"),
     ('scenarios = [\n  "nowhere/X.scenario.toml",\n]\nseeds = "1"\n', 2, "scenarios",
      "not found"),
     (f'scenarios = ["{SHORT}"]\nseeds = "1"\n[config]\nfilter = {{ presett = "thesis" }}\n', 4,
