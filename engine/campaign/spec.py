@@ -320,6 +320,20 @@ def _entry_line(index: SourceIndex, entry: _Entry) -> int | None:
     return None if found is None else found[0]
 
 
+def _array_line(index: SourceIndex, key: str, text: str | None) -> int | None:
+    """The line of an entry of the array ``key`` (its entries are not indexed): the first line
+    from the key's own that holds ``text``, else the key's line."""
+    found = index.where.get(key)
+    if found is None:
+        return None
+    start = found[0]
+    if text:
+        for number in range(start, len(index.lines) + 1):
+            if text in index.lines[number - 1]:
+                return number
+    return start
+
+
 def _load_scenario(entry: _Entry, spec_file: str, line: int | None) -> ScenarioInputs:
     """Read and check one scenario and its configuration (errors located in those files; a
     missing file is located at the spec's line that names it)."""
@@ -375,7 +389,10 @@ def load_campaign(path: str | os.PathLike[str]) -> CampaignSpec:
     try:
         raw = _parse_top(data, file.parent, file.name.removesuffix(".toml"))
     except InputError as err:
-        raise index.locate(err, spec_file) from None
+        located = index.locate(err, spec_file)
+        if located.line is None and (err.field or "").startswith("scenarios["):
+            located = located.located(line=_array_line(index, "scenarios", err.text))
+        raise located from None
     scenarios: list[ScenarioInputs] = []
     for entry in raw.entries:
         inputs = _load_scenario(entry, spec_file, _entry_line(index, entry))

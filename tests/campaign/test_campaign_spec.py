@@ -108,3 +108,19 @@ def test_console_and_replay_do_not_import_dask() -> None:
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                          text=True, timeout=120, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_a_scenario_with_its_configuration_named(tmp_path: Path) -> None:
+    """``{ scenario = ..., config = ... }``: the configuration need not sit beside it; the
+    label is the scenario's; the run key is that of the same two files named the short way."""
+    cfg = SHORT.parent / "SHORT_DIVE.toml"
+    p = _spec(tmp_path, f'scenarios = [{{ scenario = "{SHORT}", config = "{cfg}" }}]\n'
+              'seeds = "1"\n')
+    spec = load_campaign(p)
+    short = load_campaign(_spec(tmp_path, f'scenarios = ["{SHORT}"]\nseeds = "1"\n', "s.toml"))
+    assert spec.tasks[0].scenario == "SHORT_DIVE"
+    assert spec.tasks[0].key == short.tasks[0].key
+    bad = _spec(tmp_path, f'scenarios = [{{ scenario = "{SHORT}", confg = "{cfg}" }}]\n'
+                'seeds = "1"\n', "b.toml")
+    err = _error(bad)
+    assert (err.line, err.field) == (1, "scenarios[1].confg"), str(err)
