@@ -195,9 +195,11 @@ def parse_seeds(value: Any, field: str = "seeds") -> tuple[int, ...]:
                          field=field, text=str(value))
     if not seeds:
         raise InputError("No seeds !", field=field)
-    if len(set(seeds)) != len(seeds):
-        dup = next(s for i, s in enumerate(seeds) if s in seeds[:i])
-        raise InputError("Seed listed twice !", field=field, text=str(dup))
+    seen: set[int] = set()
+    for s in seeds:
+        if s in seen:
+            raise InputError("Seed listed twice !", field=field, text=str(s))
+        seen.add(s)
     return tuple(seeds)
 
 

@@ -69,6 +69,8 @@ def test_seeds(text: object, expected: tuple[int, ...]) -> None:
     (f'scenarios = ["{SHORT}"]\nseeds = "1-x"\n', 2, "seeds", "Bad seed range"),
     (f'scenarios = ["{SHORT}"]\nseeds = [1, 1]\n', 2, "seeds", "twice"),
     (f'scenarios = ["{SHORT}"]\nseeds = "1-2000000"\n', 2, "seeds", "Too many"),
+    # a duplicate at the end of a long list (found in one pass: a quadratic search hung)
+    (f'scenarios = ["{SHORT}"]\nseeds = "1-400000,400000"\n', 2, "seeds", "twice"),
     ('scenarios = [\n  "nowhere/X.scenario.toml",\n]\nseeds = "1"\n', 2, "scenarios",
      "not found"),
     (f'scenarios = ["{SHORT}"]\nseeds = "1"\n[config]\nfilter = {{ presett = "thesis" }}\n', 4,
