@@ -28,9 +28,10 @@ from uvnav_tui.cli import campaign as cli
 SHORT = DATA / "campaigns" / "scenarios" / "SHORT_DIVE.scenario.toml"
 
 
-def _spec(tmp_path: Path, seeds: str, extra: str = "", name: str = "c.toml") -> Path:
+def _spec(tmp_path: Path, seeds: str, extra: str = "", name: str = "c.toml",
+          top: str = "") -> Path:
     p = tmp_path / name
-    p.write_text(f'name = "test"\nscenarios = ["{SHORT}"{extra}]\nseeds = "{seeds}"\n'
+    p.write_text(f'name = "test"\n{top}scenarios = ["{SHORT}"{extra}]\nseeds = "{seeds}"\n'
                  '[[variants]]\nname = "default"\n[[variants]]\nname = "thesis"\n'
                  'filter = { preset = "thesis", model = "thesis", p0 = "thesis" }\n',
                  encoding="utf-8")
@@ -77,16 +78,20 @@ def test_one_and_two_workers_give_the_plain_loops_table(
 
 def test_an_external_scheduler_gives_the_same_table(tmp_path: Path) -> None:
     """``--scheduler ADDRESS``: a cluster the campaign did not start (here a LocalCluster of this
-    test, as ``dask scheduler`` + ``dask worker`` would be) runs the same table."""
+    test, as ``dask scheduler`` + ``dask worker`` would be) runs the same table; with
+    ``tracks = true`` each run's ``.OUT`` is kept as ``tracks/KEY.OUT``."""
     from distributed import LocalCluster
 
-    spec = _spec(tmp_path, "4")
+    spec = _spec(tmp_path, "4", top="tracks = true\n")
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:
         out = tmp_path / "ext"
         assert cli.run_campaign([str(spec), "--out", str(out), "--scheduler",
                                  cluster.scheduler_address]) == 0
     assert _comparable(_table(out)) == _reference(spec)
+    keys = sorted(t.key for t in load_campaign(spec).tasks)
+    assert sorted(p.stem for p in (out / "tracks").glob("*.OUT")) == keys
+    assert all((out / "tracks" / f"{k}.OUT").read_text().count("CYCLE") >= 300 for k in keys)
 
 
 @pytest.fixture(scope="module")
