@@ -101,6 +101,23 @@ if TYPE_CHECKING:
         run_records,
         truth_reference,
     )
+    from engine.campaign import (
+        CHANGED_SPEC_MESSAGE,
+        COLUMNS,
+        SINCE_FIX_BINS_MIN,
+        SUMMARY_COLUMNS,
+        TIMING_COLUMNS,
+        CampaignSpec,
+        CampaignStore,
+        RunTask,
+        blank_row,
+        load_campaign,
+        read_table,
+        run_one,
+        since_fix_column,
+        summary_markdown,
+        variant_arrays,
+    )
     from engine.filter.explain import added_process_noise, update_matrices
     from engine.filter.kalman import (
         IDEPS,
@@ -214,6 +231,11 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     "engine.io.export_read": ("align_smoothed", "logged_datum_file", "read_export_log",
                               "read_smoothed"),
     "engine.io.export_write": ("csv_text", "geojson_text", "gpx_text", "kml_text"),
+    # uvnav campaign (docs/CAMPAIGN.md)
+    "engine.campaign": ("CHANGED_SPEC_MESSAGE", "COLUMNS", "SINCE_FIX_BINS_MIN",
+                        "SUMMARY_COLUMNS", "TIMING_COLUMNS", "CampaignSpec", "CampaignStore",
+                        "RunTask", "blank_row", "load_campaign", "read_table", "run_one",
+                        "since_fix_column", "summary_markdown", "variant_arrays"),
 }
 """The modules whose names are imported on first use (:func:`__getattr__`), with those names:
 everything a cycle computes (NumPy and the numeric engine) and the headless commands. The
@@ -396,6 +418,22 @@ __all__ = [
     "denied_experiment",
     "run_records",
     "truth_reference",
+    # campaigns (uvnav campaign, docs/CAMPAIGN.md), imported on first use
+    "CHANGED_SPEC_MESSAGE",
+    "COLUMNS",
+    "SINCE_FIX_BINS_MIN",
+    "SUMMARY_COLUMNS",
+    "TIMING_COLUMNS",
+    "CampaignSpec",
+    "CampaignStore",
+    "RunTask",
+    "blank_row",
+    "load_campaign",
+    "read_table",
+    "run_one",
+    "since_fix_column",
+    "summary_markdown",
+    "variant_arrays",
 ]
 
 

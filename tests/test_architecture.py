@@ -68,6 +68,7 @@ ENGINE_LAYERS: tuple[tuple[str, ...], ...] = (
     ("engine.filter",),
     ("engine.run",),
     ("engine.sim", "engine.assess"),
+    ("engine.campaign",),
     ("engine.api",),
 )
 """Rank (index) of each engine package; see the comment above."""

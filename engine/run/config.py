@@ -1169,7 +1169,19 @@ def parse_config_text(
     """
     return parse_located(
         text, filename,
-        lambda data: _with_names(_build(data, Path(base_dir)), known_datums, known_chains))
+        lambda data: config_from_data(data, Path(base_dir), known_datums, known_chains))
+
+
+def config_from_data(
+    data: Mapping[str, Any],
+    base_dir: Path = Path("."),
+    known_datums: Iterable[str] | None = None,
+    known_chains: Iterable[str] | None = None,
+) -> RunConfig:
+    """A RunConfig from an already parsed TOML document (e.g. a configuration with a
+    campaign's overrides merged in), checked as :func:`parse_config_text` checks a file;
+    InputErrors carry the ``field`` but no file or line."""
+    return _with_names(_build(data, Path(base_dir)), known_datums, known_chains)
 
 
 def load_config(

@@ -4,7 +4,8 @@
 ``simulate`` (generate a .RUN from a scenario), ``script`` (scripted console tour),
 ``assess`` (accuracy against truth), ``convert`` (an NMEA 0183 log to its .RUN
 equivalent), ``export`` (GPX, GeoJSON, CSV, KML), ``denied`` (GPS-denied experiment),
-``live`` (headless run on a live NMEA source).  Ctrl-C in a sub-command prints one line and
+``live`` (headless run on a live NMEA source), ``campaign`` (many simulate → replay → assess
+runs on Dask).  Ctrl-C in a sub-command prints one line and
 exits 130 (a replay's logs keep every completed cycle; a simulation writes nothing).  Each
 sub-command lives in its own module and is imported only when used, so ``uvnav replay`` never
 loads Textual.
@@ -42,6 +43,7 @@ SUBCOMMANDS = {
     "export": ("uvnav_tui.cli.export", "run_export"),
     "denied": ("uvnav_tui.cli.denied", "run_denied"),
     "live": ("uvnav_tui.cli.live", "run_live"),
+    "campaign": ("uvnav_tui.cli.campaign", "run_campaign"),
 }
 
 EXIT_INTERRUPTED = 130
@@ -52,6 +54,7 @@ INTERRUPTED_NOTE = {
     "convert": "; the .RUN keeps the records written before it",
     "live": "; the logs keep every cycle completed and every line received before it",
     "export": "; the file being written may be incomplete",
+    "campaign": "; runs.parquet holds every run finished before it (rerun to finish)",
 }
 """What is left on disk after Ctrl-C, per sub-command."""
 
@@ -75,6 +78,8 @@ USAGE = """usage: uvnav --version                                    version and
        uvnav live URL [--config TOML] [--out FILE.OUT | --no-out] [--jsonl FILE] [--force]
                       [--cycles N] [--seconds S] [--learn S] [--quiet]   (URL: udp://0.0.0.0:10110,
                       tcp://HOST:10110, gpsd://HOST:2947, serial:///dev/ttyUSB0?baud=4800)
+       uvnav campaign SPEC.toml --out DIR [--workers N] [--scheduler tcp://HOST:8786]
+                      [--resume | --restart]   (many simulate/replay/assess runs on Dask)
 """
 
 
