@@ -21,9 +21,10 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from textual import on
+from textual import events, on
 from textual.app import App, SystemCommand
 from textual.binding import Binding
+from textual.driver import Driver
 from textual.message import Message
 from textual.screen import Screen
 from textual.theme import Theme
@@ -38,6 +39,7 @@ from uvnav_tui.run_control import RunController, open_session
 from uvnav_tui.screens.console_screen import ConsoleScreen
 from uvnav_tui.screens.help_screen import HelpScreen
 from uvnav_tui.screens.table_screen import TableScreen
+from uvnav_tui.typeahead import KeyHandled, TypeAhead
 from uvnav_tui.widgets.menu_bar import MenuBar
 from uvnav_tui.widgets.message_log import MessageLog
 from uvnav_tui.widgets.pulldown import PulldownScreen
@@ -153,6 +155,8 @@ class UVNAVApp(App[None]):
         Binding("ctrl+q", "quit", "Quit", show=False, priority=True),
         Binding("ctrl+c", "quit", "Quit", show=False),
         Binding("f1", "help", "Help", show=False),
+        Binding("ctrl+z", "suspend_process", "Suspend to the shell", show=False, priority=True),
+        Binding("ctrl+l", "repaint", "Repaint", show=False, priority=True),
     ]
 
     def __init__(
@@ -202,11 +206,35 @@ class UVNAVApp(App[None]):
         self._last_panel_sync = -1.0
         self.actions = MenuActions(self)
         """The handlers of the menu actions."""
+        self.repaints = 0
+        """Whole-screen repaints asked for (Ctrl+L, back from Ctrl+Z)."""
+        self.typeahead = TypeAhead(self)
+        """Keys typed ahead, handed on one at a time (:mod:`uvnav_tui.typeahead`)."""
+
+    # ------------------------------------------------------------------ keys
+    async def on_event(self, event: events.Event) -> None:
+        """Keys read from the terminal go through the type-ahead queue
+        (:class:`uvnav_tui.typeahead.TypeAhead`); everything else as Textual does."""
+        if isinstance(event, events.Key) and not event.is_forwarded:
+            await self.typeahead.key(event)
+            return
+        await super().on_event(event)
+
+    @on(KeyHandled)
+    def _key_handled(self, message: KeyHandled) -> None:
+        self.typeahead.handled(message)
 
     # ------------------------------------------------------------------ set-up
     def get_default_screen(self) -> Screen[Any]:
         """The console screen (menu bar, state line, pages)."""
         return ConsoleScreen()
+
+    def get_driver_class(self) -> type[Driver]:
+        """Textual's terminal driver with the console's key parser and clean exit
+        (:mod:`uvnav_tui.terminal`)."""
+        from uvnav_tui.terminal import console_driver
+
+        return console_driver(super().get_driver_class())
 
     def _use_theme(self, theme: Theme) -> None:
         """Start with ``theme``: what setting :attr:`theme` does (Textual 8.2's ``_watch_theme``:
@@ -224,7 +252,9 @@ class UVNAVApp(App[None]):
         self.stylesheet.set_variables(self.get_css_variables())
 
     def on_mount(self) -> None:
-        """The Parameter Initialization dialog over the main page."""
+        """The Parameter Initialization dialog over the main page; the whole screen drawn
+        again when the console comes back from Ctrl+Z (``fg``)."""
+        self.app_resume_signal.subscribe(self, lambda _app: self.action_repaint())
         self.refresh_display()
         if self.show_init:
             self.actions.parameter_initialization()
@@ -485,6 +515,19 @@ class UVNAVApp(App[None]):
         """F1 or ``?``: the help screen (not twice)."""
         if not isinstance(self.screen, HelpScreen):
             self.push_screen(HelpScreen())
+
+    def action_repaint(self) -> None:
+        """Ctrl+L, and back from Ctrl+Z: lay out and draw the whole screen again, every cell
+        (the terminal may have been cleared or written over meanwhile)."""
+        self.repaints += 1
+        self.refresh(layout=True)
+        self.call_after_refresh(self._draw_whole_screen)
+
+    def _draw_whole_screen(self) -> None:
+        screen = self.screen
+        update = screen._compositor.render_update(  # noqa: SLF001 - no public full redraw
+            full=True, screen_stack=self._background_screens)  # noqa: SLF001
+        self._display(screen, update)  # noqa: SLF001
 
     def exit(self, result: None = None, return_code: int = 0,
              message: RenderableType | None = None) -> None:
