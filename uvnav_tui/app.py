@@ -154,7 +154,7 @@ class UVNAVApp(App[None]):
     BINDINGS = [
         Binding("ctrl+q", "quit", "Quit", show=False, priority=True),
         Binding("ctrl+c", "quit", "Quit", show=False),
-        Binding("f1", "help", "Help", show=False),
+        Binding("f1", "help", "Help", show=False, priority=True),
         Binding("ctrl+z", "suspend_process", "Suspend to the shell", show=False, priority=True),
         Binding("ctrl+l", "repaint", "Repaint", show=False, priority=True),
     ]
@@ -512,9 +512,15 @@ class UVNAVApp(App[None]):
         yield SystemCommand("Help", "Keys, menus and the page map (F1)", self.action_help)
 
     def action_help(self) -> None:
-        """F1 or ``?``: the help screen (not twice)."""
-        if not isinstance(self.screen, HelpScreen):
-            self.push_screen(HelpScreen())
+        """F1 anywhere, ``?`` where it types nothing: the help screen, starting with the help on
+        the screen on top (its ``help_topic()``: a dialog's fields, a menu item, a table, the
+        page); F1 in the help closes it."""
+        screen = self.screen
+        if isinstance(screen, HelpScreen):
+            screen.dismiss(None)
+            return
+        topic = getattr(screen, "help_topic", None)
+        self.push_screen(HelpScreen(topic() if callable(topic) else None))
 
     def action_repaint(self) -> None:
         """Ctrl+L, and back from Ctrl+Z: lay out and draw the whole screen again, every cell

@@ -23,6 +23,13 @@ from uvnav_tui.widgets.validated_field import ValidatedField
 
 T = TypeVar("T")
 
+POSITION_HELP = (
+    "latitude then longitude, degrees minutes seconds with N/S and E/W, e.g. "
+    "52 50 00 N 004 30 00 E, 52 50.0 N 4 30.0 E or 52.8 N 4.5 E (spaces or commas); no signs.")
+"""How a position is typed (the six thesis forms, docs/CONSOLE.md), for the dialogs' help."""
+NUMBER_HELP = "Numbers are plain decimals: 12, 12.5, .5 (no sign, no exponent such as 1e3)."
+"""How a number is typed in the navigation dialogs (not the parameter tables)."""
+
 
 class Dialog(ModalScreen[T | None], Generic[T]):
     """A modal dialog; dismissed with the collected result, or None on Cancel/Esc."""
@@ -35,6 +42,8 @@ class Dialog(ModalScreen[T | None], Generic[T]):
     ]
 
     TITLE = "Dialog"
+    HELP = ""
+    """What the dialog's fields mean and accept (F1 shows it above the general help)."""
     OK_LABEL = "OK"
     CANCEL_IF_UNCHANGED = True
     """OK with nothing edited closes like Cancel: no command is sent, so nothing changes (not
@@ -50,6 +59,20 @@ class Dialog(ModalScreen[T | None], Generic[T]):
             with Horizontal(classes="dialog-buttons"):
                 yield Button(self.OK_LABEL, id="ok", compact=True)
                 yield Button("Cancel", id="cancel", compact=True)
+
+    def help_topic(self) -> str:
+        """F1 in this dialog: its title, the field the cursor is in, and :attr:`HELP`."""
+        here = ""
+        for field in self.query(ValidatedField):
+            if field.has_focus_within:
+                here = f"The cursor is in: {field.label}\n\n"
+        keys = ("Tab / Shift+Tab move between fields, Enter is OK, Esc cancels (nothing is "
+                "changed).")
+        return f"{self.TITLE}\n\n{here}{self.field_help()}\n\n{keys}".replace("\n\n\n", "\n\n")
+
+    def field_help(self) -> str:
+        """:attr:`HELP` (a dialog whose fields vary overrides this)."""
+        return self.HELP.strip()
 
     def compose_body(self) -> ComposeResult:
         """The dialog's fields (override)."""

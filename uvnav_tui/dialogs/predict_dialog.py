@@ -7,7 +7,7 @@ from textual.app import ComposeResult
 from textual.widgets import Static
 
 from engine.api import InputError
-from uvnav_tui.dialogs.dialog import Dialog
+from uvnav_tui.dialogs.dialog import NUMBER_HELP, Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField
 
 INTERVAL_MESSAGE = "Wrong time interval input !"
@@ -47,6 +47,12 @@ class PredictDialog(Dialog[tuple[float, float]]):
     CANCEL_IF_UNCHANGED = False
 
     TITLE = "Kalman ▸ Predict."
+    HELP = f"""
+Predicts the position and its error ellipse from the last filter state; the run is not changed.
+Time interval (min): more than 0, at most 1440 (24 h).
+Step size (s): at least 1, at most the interval, at most 2000 steps.
+{NUMBER_HELP}
+"""
     OK_LABEL = "Predict"
 
     def compose_body(self) -> ComposeResult:

@@ -80,6 +80,15 @@ class ConsoleScreen(Screen[None]):
                 return
         raise SkipAction()
 
+    def help_topic(self) -> str:
+        """F1 or ? over a page: its number, title and how it is reached."""
+        from uvnav_tui.keys_help import page_map_lines
+
+        number = self.uvnav.page
+        line = next((ln for ln in page_map_lines() if ln.startswith(f"Pg {number} ")), "")
+        return (f"{' '.join(line.split())}\n\nType another page's number to go there, "
+                "F10 or Alt+letter for the menus, Ctrl+P to search every command.")
+
     def select_page(self, number: int) -> None:
         """Switch to page ``number`` (100 = main page) and focus its body."""
         switcher = self.query_one("#pages", ContentSwitcher)
