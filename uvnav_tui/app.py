@@ -172,6 +172,8 @@ class UVNAVApp(App[None]):
         lop_policy: str = "ask",
         data: tuple[DatumFile, dict[str, DeccaChain]] | None = None,
         nmea_sender: NmeaSender | None = None,
+        config_path: Path | None = None,
+        out_dir: Path | None = None,
     ) -> None:
         super().__init__()
         self._use_theme(MONOCHROME)
@@ -186,6 +188,11 @@ class UVNAVApp(App[None]):
         self.launch_dev_mode = dev_mode
         self.dev_mode = dev_mode
         self.hardcopy_dir = hardcopy_dir if hardcopy_dir is not None else Path("hardcopy")
+        self.config_path = config_path
+        """The configuration file the console was started with (named at start), or None."""
+        self.out_dir = out_dir
+        """Where the runs' ``.OUT`` logs go (None: beside the run file when that folder is
+        writable, else the current directory; :func:`uvnav_tui.run_control.out_folder`)."""
         self.pace_override = pace_override
         self.show_init = show_init
         self.write_logs = write_logs
@@ -256,6 +263,8 @@ class UVNAVApp(App[None]):
         again when the console comes back from Ctrl+Z (``fg``)."""
         self.app_resume_signal.subscribe(self, lambda _app: self.action_repaint())
         self.refresh_display()
+        if self.config_path is not None:
+            self.say(f"Configuration {self.config_path}")
         if self.show_init:
             self.actions.parameter_initialization()
 
@@ -319,7 +328,7 @@ class UVNAVApp(App[None]):
         """Open a session for ``cfg`` (the .OUT goes next to the .RUN file under a free name;
         a live-source URL as run file: docs/LIVE.md); returns an error message instead if it
         cannot be opened."""
-        session = open_session(cfg, self.data, write_out=self.write_logs)
+        session = open_session(cfg, self.data, write_out=self.write_logs, out_dir=self.out_dir)
         if isinstance(session, str):
             return session
         self.stop_run()
@@ -342,6 +351,9 @@ class UVNAVApp(App[None]):
         self.refresh_display()
         for warning in self.control.session.data_warnings:  # a modified data file (DATAFILES.md)
             self.say(f"Warning: {warning}")
+        out_path = self.control.session.out_path
+        if out_path is not None:
+            self.say(f"Run log {out_path}")
         scan = self.control.session.nmea_scan
         if scan is not None:  # an NMEA log without heading, log … (docs/NMEA.md)
             for missing in scan.missing_sensors():
