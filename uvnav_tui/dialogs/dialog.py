@@ -1,7 +1,9 @@
 """Base of every console dialog ("cadre"): a framed box over the page with OK and Cancel.
 
 Keyboard-first: Tab/Shift+Tab move between fields, Return is OK from any field (on a focused
-button it presses that button), Esc cancels. Subclasses build the body in
+button it presses that button), Esc cancels.  On a terminal too small for the whole box (its
+buttons would be cut off) the dialog says so instead, with the size it needs; what was typed
+stays, and the box comes back when the terminal is large enough. Subclasses build the body in
 :meth:`Dialog.compose_body` and return the dialog's result from :meth:`Dialog.collect`, or
 None when a field is invalid (the field keeps the typed text and shows its message).
 """
@@ -59,6 +61,7 @@ class Dialog(ModalScreen[T | None], Generic[T]):
             with Horizontal(classes="dialog-buttons"):
                 yield Button(self.OK_LABEL, id="ok", compact=True)
                 yield Button("Cancel", id="cancel", compact=True)
+        yield Static("", id="dialog-too-small", markup=False)
 
     def help_topic(self) -> str:
         """F1 in this dialog: its title, the field the cursor is in, and :attr:`HELP`."""
@@ -73,6 +76,35 @@ class Dialog(ModalScreen[T | None], Generic[T]):
     def field_help(self) -> str:
         """:attr:`HELP` (a dialog whose fields vary overrides this)."""
         return self.HELP.strip()
+
+    _needed: tuple[int, int] | None = None
+    """Columns and rows the whole box needs (measured while it is shown)."""
+
+    def on_resize(self) -> None:
+        """Check, once laid out at the new size, that the whole box fits."""
+        self.call_after_refresh(self.check_fits)
+
+    def check_fits(self) -> bool:
+        """Show the box if the terminal holds all of it (its buttons too), else the note that
+        the terminal is too small; True if it fits."""
+        frame = self.query_one("#dialog-frame", Vertical)
+        note = self.query_one("#dialog-too-small", Static)
+        if not note.display:
+            rows = sum(c.outer_size.height for c in frame.children if c.display)
+            self._needed = (frame.outer_size.width, rows + frame.styles.gutter.height)
+        if self._needed is None:
+            return True
+        width, height = self.size
+        need_w, need_h = self._needed
+        fits = width >= need_w and height >= need_h
+        if not fits:
+            note.update(f"The terminal is too small for {self.TITLE}: {width}×{height}, it "
+                        f"needs {need_w}×{need_h}. Enlarge the window, or press Esc to close "
+                        "it (what was typed is kept while it is open).")
+        # the note covers the box (a layer above it): the field with the cursor keeps it, and
+        # keys typed meanwhile land there
+        note.display = not fits
+        return fits
 
     def compose_body(self) -> ComposeResult:
         """The dialog's fields (override)."""
