@@ -189,7 +189,8 @@ class UVNAVApp(App[None]):
         self.dev_mode = dev_mode
         self.hardcopy_dir = hardcopy_dir if hardcopy_dir is not None else Path("hardcopy")
         self.config_path = config_path
-        """The configuration file the console was started with (named at start), or None."""
+        """The configuration file ``uvnav`` started the console with, or None (scripts, tests):
+        when given, the message line names it at start and each run's log when it starts."""
         self.out_dir = out_dir
         """Where the runs' ``.OUT`` logs go (None: beside the run file when that folder is
         writable, else the current directory; :func:`uvnav_tui.run_control.out_folder`)."""
@@ -352,7 +353,7 @@ class UVNAVApp(App[None]):
         for warning in self.control.session.data_warnings:  # a modified data file (DATAFILES.md)
             self.say(f"Warning: {warning}")
         out_path = self.control.session.out_path
-        if out_path is not None:
+        if out_path is not None and self.config_path is not None:  # started by ``uvnav``
             self.say(f"Run log {out_path}")
         scan = self.control.session.nmea_scan
         if scan is not None:  # an NMEA log without heading, log … (docs/NMEA.md)

@@ -260,9 +260,9 @@ def help_text() -> str:
 
 def wrap_help(text: str, width: int) -> str:
     """``text`` with every line longer than ``width`` columns wrapped, its continuation lines
-    indented under the line's description (the column after the first run of two or more
-    blanks, e.g. a key's meaning) or, if none, two columns deeper than the line: the help reads
-    without horizontal scrolling at 80 columns."""
+    indented under the line's description (the column after the last run of two or more
+    blanks in the left half, e.g. a key's meaning) or, if none, two columns deeper than the
+    line: the help reads without horizontal scrolling at 80 columns."""
     width = max(width, 20)
     out: list[str] = []
     for line in text.split("\n"):
@@ -270,10 +270,9 @@ def wrap_help(text: str, width: int) -> str:
             out.append(line)
             continue
         lead = len(line) - len(line.lstrip(" "))
-        gap = re.search(r"\S( {2,})\S", line[lead:])
-        hang = lead + gap.end() - 1 if gap is not None else lead + 2
-        if hang > width // 2:
-            hang = lead + 2
+        columns = [lead + gap.end() - 1 for gap in re.finditer(r"\S( {2,})(?=\S)", line[lead:])]
+        columns = [c + 1 for c in columns if c + 1 <= width // 2]
+        hang = columns[-1] if columns else lead + 2
         out.extend(textwrap.wrap(line, width, subsequent_indent=" " * hang,
                                  break_on_hyphens=False) or [""])
     return "\n".join(out)

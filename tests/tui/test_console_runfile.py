@@ -157,3 +157,14 @@ def test_ctrl_o_picks_the_run_file_in_a_folder_tree(data_dir: Path, tmp_path: Pa
         assert app.control is not None and app.control.session.config.run_path == log.resolve()
 
     drive(app, script)
+
+
+def test_key_lines_of_the_run_file_keep_quit_at_80_columns() -> None:
+    """Parameter Initialization names Ctrl+O after Ctrl+Q; the picker its own keys; both keep
+    ``Ctrl+Q Quit`` at 80 columns."""
+    from uvnav_tui.keys_help import key_line
+    from uvnav_tui.screens.file_picker import PICKER_KEYS
+
+    assert "Ctrl+Q Quit" in key_line(InitDialog.KEY_HINTS, 80)
+    assert "Ctrl+O Open file" in key_line(InitDialog.KEY_HINTS, 100)
+    assert "Ctrl+Q Quit" in key_line(PICKER_KEYS, 80)

@@ -177,7 +177,7 @@ class DemoPage(ThrottledTextPage):
     def help_text(self) -> str:
         """F1 on this page: every row with its meaning (the page may have no room for them)."""
         r, session = self._shown
-        return "\n".join(self.page_lines(r, session, 100, 10_000))
+        return "\n".join(self.page_lines(r, session, 10_000, 10_000))  # wrapped by the help
 
     def page_key(self, r: CycleResult | None, session: Session | None) -> tuple[object, ...]:
         """The text depends on the configuration in force and the menu mode only."""
