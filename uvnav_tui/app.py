@@ -214,16 +214,14 @@ class UVNAVApp(App[None]):
         self._last_panel_sync = -1.0
         self.actions = MenuActions(self)
         """The handlers of the menu actions."""
-        self.repaints = 0
-        """Whole-screen repaints asked for (Ctrl+L, back from Ctrl+Z)."""
         self.typeahead = TypeAhead(self)
         """Keys typed ahead, handed on one at a time (:mod:`uvnav_tui.typeahead`)."""
 
     # ------------------------------------------------------------------ keys
     async def on_event(self, event: events.Event) -> None:
-        """Keys read from the terminal go through the type-ahead queue
+        """Keys and pasted text read from the terminal go through the type-ahead queue
         (:class:`uvnav_tui.typeahead.TypeAhead`); everything else as Textual does."""
-        if isinstance(event, events.Key) and not event.is_forwarded:
+        if isinstance(event, (events.Key, events.Paste)) and not event.is_forwarded:
             await self.typeahead.key(event)
             return
         await super().on_event(event)
@@ -326,9 +324,10 @@ class UVNAVApp(App[None]):
 
     # ------------------------------------------------------------------ runs
     def start_run(self, cfg: RunConfig) -> str | None:
-        """Open a session for ``cfg`` (the .OUT goes next to the .RUN file under a free name;
-        a live-source URL as run file: docs/LIVE.md); returns an error message instead if it
-        cannot be opened."""
+        """Open a session for ``cfg`` (the .OUT under a free name in
+        :func:`uvnav_tui.run_control.out_folder`: :attr:`out_dir`, else beside the run file when
+        writable, else the current directory; a live-source URL as run file: docs/LIVE.md);
+        returns an error message instead if it cannot be opened."""
         session = open_session(cfg, self.data, write_out=self.write_logs, out_dir=self.out_dir)
         if isinstance(session, str):
             return session
@@ -538,7 +537,6 @@ class UVNAVApp(App[None]):
     def action_repaint(self) -> None:
         """Ctrl+L, and back from Ctrl+Z: lay out and draw the whole screen again, every cell
         (the terminal may have been cleared or written over meanwhile)."""
-        self.repaints += 1
         self.refresh(layout=True)
         self.call_after_refresh(self._draw_whole_screen)
 

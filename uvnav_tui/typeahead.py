@@ -11,7 +11,8 @@ yet: ``Alt+O r ABC Tab 52 35 30 N …`` typed at speed put everything into the s
 hands it on only when that one has *settled*: the key (and everything it bubbled up to) has
 been handled, a screen it opened is mounted with its focus set, and the focus has stopped
 moving.  The wait is bounded (:data:`SETTLE_S`), so a key is never held for long, whatever
-goes wrong.  A single key arriving on a settled console is handled at once, as before.
+goes wrong.  A single key arriving on a settled console is handled at once, as before.  Pasted
+text (a terminal's bracketed paste) takes its turn in the same queue.
 """
 
 from __future__ import annotations
@@ -57,14 +58,15 @@ class TypeAhead:
 
     def __init__(self, app: App[object]) -> None:
         self.app = app
-        self.held: deque[events.Key] = deque()
+        self.held: deque[events.Key | events.Paste] = deque()
         """Keys read while the one before them had not settled, oldest first."""
         self.busy = False
         """True from a key handed on until it has settled."""
         self._task: asyncio.Task[None] | None = None
 
-    async def key(self, event: events.Key) -> None:
-        """A key read from the terminal: handled now if the console is settled, else held."""
+    async def key(self, event: events.Key | events.Paste) -> None:
+        """A key (or pasted text) read from the terminal: handled now if the console is
+        settled, else held."""
         if self.busy:
             self.held.append(event)
             return
@@ -75,16 +77,20 @@ class TypeAhead:
         message.stop()
         message.done.set()
 
-    async def _deliver(self, event: events.Key) -> None:
-        """Hand ``event`` on as Textual does (``App.on_event``, 8.2: priority bindings from the
-        app down, else the focused widget or the screen), then wait for it to settle."""
+    async def _deliver(self, event: events.Key | events.Paste) -> None:
+        """Hand ``event`` on as Textual does (``App.on_event``, 8.2: a key to the priority
+        bindings from the app down, else to the focused widget or the screen; pasted text to
+        the focused widget or the screen), then wait for it to settle."""
         self.busy = True
         app = self.app
         target: MessagePump | None = None
         done: asyncio.Event | None = None
         try:
-            app.app_focus = True
             screen = app.screen
+            if isinstance(event, events.Paste):
+                (app.focused or screen)._forward_event(event)  # noqa: SLF001
+                return
+            app.app_focus = True
             if (screen.maximized is not None and event.key == "escape"
                     and app.escape_to_minimize):
                 screen.minimize()

@@ -151,3 +151,22 @@ def test_alt_letter_and_esc_typed_fast_are_read_as_typed() -> None:
     textual_keys = parsed_keys(XTermParser(), *chunks)
     assert textual_keys[:6] == ["circumflex_accent", "o", "r", "A",
                                 "inverted_exclamation_mark", "0"]
+
+
+def test_pasted_text_takes_its_turn(data_dir: Path) -> None:
+    """Text pasted right behind ``Alt+O r`` (a terminal's bracketed paste) goes into the
+    station name, and the keys typed after it into the next field: the paste waits for the
+    dialog as a key does.  Before, the paste went to the page, before the dialog existed."""
+    app = make_app(data_dir)
+
+    async def script(pilot: Pilot[None]) -> None:
+        await start(pilot, 2)
+        type_ahead(app, "alt+o", "r")
+        app.post_message(events.Paste("Heiloo"))
+        type_ahead(app, "tab", *keys_of("52 35 N 4 40 E"))
+        await wait_for(pilot, lambda: isinstance(app.screen, ObsDialog) and app.screen.is_mounted
+                       and field_text(app, "obs-position") == "52 35 N 4 40 E",
+                       "the position typed", TYPED_S)
+        assert field_text(app, "obs-station") == "Heiloo"
+
+    drive(app, script)
