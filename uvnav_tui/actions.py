@@ -41,11 +41,28 @@ if TYPE_CHECKING:
         SetSensor,
     )
 
+NM_M = 1852.0
+"""Metres in a nautical mile (exact; the Obs dialogs' unit)."""
 NOT_CONNECTED = "System not connected !"
 NO_RUN = "No run: Run ▸ Start opens Parameter Initialization"
 LOP_QUESTION_ARM_S = 0.5
 """Seconds after the LOP rejection question opens during which no key answers it: it opens
 unasked, between keys typed for something else (a Return typed ahead used to discard the LOP)."""
+
+
+def shown_text(cmd: Command, logged: str) -> str:
+    """The message line's text of an applied command: the engine's log text (the ``.OUT``'s
+    ASCII ``ACT`` line, ``Setup > Params > Datum ED50``) with the menus' ``▸``; a manual
+    observation with its unit, a distance in the nautical miles it was typed in
+    (``Obs ▸ distance Heiloo 16.70 nm (radar)``)."""
+    if isinstance(cmd, api.AddObservation):
+        parts = []
+        for o in cmd.observations:
+            value = (f"{o.value / NM_M:.2f} nm" if o.kind == "distance"
+                     else f"{o.value:.2f}°")
+            parts.append(f"{o.kind} {o.station} {value} ({o.sensor or o.kind})")
+        return "Obs ▸ " + "; ".join(parts)
+    return logged.replace(" > ", " ▸ ")
 
 
 class MenuActions:
@@ -80,7 +97,7 @@ class MenuActions:
         texts = []
         try:
             for cmd in commands:
-                texts.append(run.apply(cmd))
+                texts.append(shown_text(cmd, run.apply(cmd)))
         except (InputError, ValueError) as exc:
             self.host.say(exc.message if isinstance(exc, InputError) else str(exc))
             return False

@@ -21,9 +21,10 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from textual import on
+from textual import events, on
 from textual.app import App, SystemCommand
 from textual.binding import Binding
+from textual.driver import Driver
 from textual.message import Message
 from textual.screen import Screen
 from textual.theme import Theme
@@ -38,6 +39,7 @@ from uvnav_tui.run_control import RunController, open_session
 from uvnav_tui.screens.console_screen import ConsoleScreen
 from uvnav_tui.screens.help_screen import HelpScreen
 from uvnav_tui.screens.table_screen import TableScreen
+from uvnav_tui.typeahead import KeyHandled, TypeAhead
 from uvnav_tui.widgets.menu_bar import MenuBar
 from uvnav_tui.widgets.message_log import MessageLog
 from uvnav_tui.widgets.pulldown import PulldownScreen
@@ -152,7 +154,9 @@ class UVNAVApp(App[None]):
     BINDINGS = [
         Binding("ctrl+q", "quit", "Quit", show=False, priority=True),
         Binding("ctrl+c", "quit", "Quit", show=False),
-        Binding("f1", "help", "Help", show=False),
+        Binding("f1", "help", "Help", show=False, priority=True),
+        Binding("ctrl+z", "suspend_process", "Suspend to the shell", show=False, priority=True),
+        Binding("ctrl+l", "repaint", "Repaint", show=False, priority=True),
         Binding("f3", "acknowledge", "Acknowledge alarm", show=False, priority=True),
     ]
 
@@ -169,6 +173,8 @@ class UVNAVApp(App[None]):
         lop_policy: str = "ask",
         data: tuple[DatumFile, dict[str, DeccaChain]] | None = None,
         nmea_sender: NmeaSender | None = None,
+        config_path: Path | None = None,
+        out_dir: Path | None = None,
     ) -> None:
         super().__init__()
         self._use_theme(MONOCHROME)
@@ -183,6 +189,12 @@ class UVNAVApp(App[None]):
         self.launch_dev_mode = dev_mode
         self.dev_mode = dev_mode
         self.hardcopy_dir = hardcopy_dir if hardcopy_dir is not None else Path("hardcopy")
+        self.config_path = config_path
+        """The configuration file ``uvnav`` started the console with, or None (scripts, tests):
+        when given, the message line names it at start and each run's log when it starts."""
+        self.out_dir = out_dir
+        """Where the runs' ``.OUT`` logs go (None: beside the run file when that folder is
+        writable, else the current directory; :func:`uvnav_tui.run_control.out_folder`)."""
         self.pace_override = pace_override
         self.show_init = show_init
         self.write_logs = write_logs
@@ -203,11 +215,33 @@ class UVNAVApp(App[None]):
         self._last_panel_sync = -1.0
         self.actions = MenuActions(self)
         """The handlers of the menu actions."""
+        self.typeahead = TypeAhead(self)
+        """Keys typed ahead, handed on one at a time (:mod:`uvnav_tui.typeahead`)."""
+
+    # ------------------------------------------------------------------ keys
+    async def on_event(self, event: events.Event) -> None:
+        """Keys and pasted text read from the terminal go through the type-ahead queue
+        (:class:`uvnav_tui.typeahead.TypeAhead`); everything else as Textual does."""
+        if isinstance(event, (events.Key, events.Paste)) and not event.is_forwarded:
+            await self.typeahead.key(event)
+            return
+        await super().on_event(event)
+
+    @on(KeyHandled)
+    def _key_handled(self, message: KeyHandled) -> None:
+        self.typeahead.handled(message)
 
     # ------------------------------------------------------------------ set-up
     def get_default_screen(self) -> Screen[Any]:
         """The console screen (menu bar, state line, pages)."""
         return ConsoleScreen()
+
+    def get_driver_class(self) -> type[Driver]:
+        """Textual's terminal driver with the console's key parser and clean exit
+        (:mod:`uvnav_tui.terminal`)."""
+        from uvnav_tui.terminal import console_driver
+
+        return console_driver(super().get_driver_class())
 
     def _use_theme(self, theme: Theme) -> None:
         """Start with ``theme``: what setting :attr:`theme` does (Textual 8.2's ``_watch_theme``:
@@ -225,8 +259,12 @@ class UVNAVApp(App[None]):
         self.stylesheet.set_variables(self.get_css_variables())
 
     def on_mount(self) -> None:
-        """The Parameter Initialization dialog over the main page."""
+        """The Parameter Initialization dialog over the main page; the whole screen drawn
+        again when the console comes back from Ctrl+Z (``fg``)."""
+        self.app_resume_signal.subscribe(self, lambda _app: self.action_repaint())
         self.refresh_display()
+        if self.config_path is not None:
+            self.say(f"Configuration {self.config_path}")
         if self.show_init:
             self.actions.parameter_initialization()
 
@@ -287,10 +325,11 @@ class UVNAVApp(App[None]):
 
     # ------------------------------------------------------------------ runs
     def start_run(self, cfg: RunConfig) -> str | None:
-        """Open a session for ``cfg`` (the .OUT goes next to the .RUN file under a free name;
-        a live-source URL as run file: docs/LIVE.md); returns an error message instead if it
-        cannot be opened."""
-        session = open_session(cfg, self.data, write_out=self.write_logs)
+        """Open a session for ``cfg`` (the .OUT under a free name in
+        :func:`uvnav_tui.run_control.out_folder`: :attr:`out_dir`, else beside the run file when
+        writable, else the current directory; a live-source URL as run file: docs/LIVE.md);
+        returns an error message instead if it cannot be opened."""
+        session = open_session(cfg, self.data, write_out=self.write_logs, out_dir=self.out_dir)
         if isinstance(session, str):
             return session
         self.stop_run()
@@ -313,6 +352,9 @@ class UVNAVApp(App[None]):
         self.refresh_display()
         for warning in self.control.session.data_warnings:  # a modified data file (DATAFILES.md)
             self.say(f"Warning: {warning}")
+        out_path = self.control.session.out_path
+        if out_path is not None and self.config_path is not None:  # started by ``uvnav``
+            self.say(f"Run log {out_path}")
         scan = self.control.session.nmea_scan
         if scan is not None:  # an NMEA log without heading, log … (docs/NMEA.md)
             for missing in scan.missing_sensors():
@@ -485,9 +527,27 @@ class UVNAVApp(App[None]):
         yield SystemCommand("Help", "Keys, menus and the page map (F1)", self.action_help)
 
     def action_help(self) -> None:
-        """F1 or ``?``: the help screen (not twice)."""
-        if not isinstance(self.screen, HelpScreen):
-            self.push_screen(HelpScreen())
+        """F1 anywhere, ``?`` where it types nothing: the help screen, starting with the help on
+        the screen on top (its ``help_topic()``: a dialog's fields, a menu item, a table, the
+        page); F1 in the help closes it."""
+        screen = self.screen
+        if isinstance(screen, HelpScreen):
+            screen.dismiss(None)
+            return
+        topic = getattr(screen, "help_topic", None)
+        self.push_screen(HelpScreen(topic() if callable(topic) else None))
+
+    def action_repaint(self) -> None:
+        """Ctrl+L, and back from Ctrl+Z: lay out and draw the whole screen again, every cell
+        (the terminal may have been cleared or written over meanwhile)."""
+        self.refresh(layout=True)
+        self.call_after_refresh(self._draw_whole_screen)
+
+    def _draw_whole_screen(self) -> None:
+        screen = self.screen
+        update = screen._compositor.render_update(  # noqa: SLF001 - no public full redraw
+            full=True, screen_stack=self._background_screens)  # noqa: SLF001
+        self._display(screen, update)  # noqa: SLF001
 
     def action_acknowledge(self) -> None:
         """F3, anywhere: acknowledge the source-lost alarm (the bell stops; the alarm stays on

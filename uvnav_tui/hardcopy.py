@@ -4,7 +4,8 @@ Files are named ``UVNAV_<run>_<time>_Pg<nnn>.svg`` / ``.txt`` after the run name
 of the last cycle (``HHMMSS``, not the wall clock) and the page number, or after the table shown
 (``…_Predict``, ``…_Smoothing``); a second hardcopy of the same cycle and page gets ``_2``,
 ``_3`` … appended. Nothing is ever overwritten. The text file of a table (a screen with a
-``full_text()``: Predict, Smoothing) is the whole table, not the part the terminal shows.
+``full_text()``: Predict, Smoothing) is the whole table, and that of a page other than Pg 100
+the page's whole text with a heading and the status column, not the part the terminal shows.
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ def write_hardcopy(app: App[object], directory: Path, run_name: str, time_hhmmss
     svg = directory / f"{stem}.svg"
     txt = directory / f"{stem}.txt"
     full_text = getattr(app.screen, "full_text", None)
-    txt.write_text(full_text() if callable(full_text) else screen_text(app), encoding="utf-8")
+    text = full_text() if callable(full_text) else None
+    txt.write_text(text if text is not None else screen_text(app), encoding="utf-8")
     app.save_screenshot(filename=svg.name, path=str(directory))
     return svg, txt

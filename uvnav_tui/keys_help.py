@@ -9,6 +9,9 @@ THEORY §12.7).
 
 from __future__ import annotations
 
+import re
+import textwrap
+
 from textual.binding import Binding
 
 from uvnav_tui.menus import MENU_BAR, MenuItem
@@ -165,6 +168,35 @@ def _hint_lines(hints: tuple[KeyHint, ...] | list[KeyHint]) -> list[str]:
     return [f"  {key.ljust(24)} {what}" for key, what in hints]
 
 
+TOPICS: tuple[tuple[str, str], ...] = (
+    ("MPP", "Most Probable Position: the console's best position. With Kalman filtering on it "
+     "is the filter's estimate (fix and dead reckoning combined); without a filter state it is "
+     "the LSE or the dead reckoning. The MPP box's lower edge names the source (KF, LSE, DR); "
+     "a / b are the semi-axes of its error ellipse at the ConfRegion level (Demo ▸ Page), Az "
+     "the azimuth of a, RMS the root mean square of the two."),
+    ("LSE", "Least-Squares Estimate: the fix computed from this cycle's lines of position "
+     "alone (GPS Lat/Lon, the Decca patterns in use, Obs-menu observations), tested with "
+     "Baarda's w-test; an LOP that fails may be discarded (LOPReject). Pg 631 lists the LOPs, "
+     "Pg 633 the tests."),
+    ("999.99", "A statistic that was not computed this cycle: with as many LOPs as unknowns "
+     "there is no redundancy, so no w-test, τ or σ of a residual; an ellipse that does not "
+     "exist prints 999.99 too. '---' is a value that is missing (a sensor off, no fix)."),
+    ("Opening an NMEA log or a live source", "Run ▸ Start (or the start-up dialog), field Run "
+     "file: type a .RUN name, or the path of an NMEA 0183 log (nmea/trip.nmea, ~/logs/a.log, "
+     "/data/b.nmea), or a live source's URL (udp://0.0.0.0:10110, tcp://HOST:10110, "
+     "serial:///dev/ttyUSB0?baud=4800). Tab completes a path, Ctrl+O opens a file picker. From "
+     "the shell: uvnav --live URL, or uvnav replay LOG for a run without the console."),
+    ("Where files go", "Each run writes a .OUT log (every cycle, every operator action) beside "
+     "its run file when that folder is writable, otherwise in the current directory; the "
+     "bundled demo's always in the current directory; uvnav --out-dir DIR chooses. A name in "
+     "use is never overwritten (NAME_1.OUT …). A live run writes live-<UTC time>.OUT and the "
+     "raw log beside it. Edit ▸ Hardcopy writes UVNAV_<run>_<time>_Pg<nnn>.svg and .txt "
+     "(the page's whole text) in ./hardcopy (uvnav --hardcopy-dir DIR). The message line "
+     "names each file written; the configuration in use is named at start."),
+)
+"""The help screen's topics: (title, text)."""
+
+
 def help_text() -> str:
     """The whole help screen (F1 or ``?``) as plain text."""
     lines = [
@@ -182,6 +214,8 @@ def help_text() -> str:
             ("F2", "The message log (Statistics ▸ Messages); Esc closes it"),
             ("F3", "Acknowledge an alarm (a live source lost): the bell stops"),
             ("Ctrl+Q or Ctrl+C", "Quit (asks for confirmation)"),
+            ("Ctrl+Z", "Suspend to the shell (fg brings the console back)"),
+            ("Ctrl+L", "Draw the whole screen again"),
         ]),
         "",
         "Keys in a menu",
@@ -200,6 +234,7 @@ def help_text() -> str:
             ("Esc", "Cancel: nothing is changed"),
             ("Space", "Toggle a check box; ← / → choose a radio button"),
             ("Y / N", "Answer a Yes/No question"),
+            ("F1", "Help on this dialog's fields (? types a ? in a field)"),
         ]),
         "",
         "Keys in a table (Kalman ▸ Predict., Kalman ▸ Smoothing)",
@@ -208,6 +243,9 @@ def help_text() -> str:
             ("Esc or Enter", "Close the table"),
             ("F10, Alt+letter", "Menus (Alt+E ▸ Hardcopy saves the table)"),
         ]),
+        "",
+        "Topics",
+        *[line for title, text in TOPICS for line in ("", f"  {title}", f"    {text}")],
         "",
         "Menus and hot-keys (underlined letters)",
         *["  " + line for line in _menu_lines(MENU_BAR, 0)],
@@ -219,3 +257,23 @@ def help_text() -> str:
         "run resumes when it closes), Suspended... (Run ▸ Suspend; Run ▸ Continue resumes).",
     ]
     return "\n".join(lines) + "\n"
+
+
+def wrap_help(text: str, width: int) -> str:
+    """``text`` with every line longer than ``width`` columns wrapped, its continuation lines
+    indented under the line's description (the column after the last run of two or more
+    blanks in the left half, e.g. a key's meaning) or, if none, two columns deeper than the
+    line: the help reads without horizontal scrolling at 80 columns."""
+    width = max(width, 20)
+    out: list[str] = []
+    for line in text.split("\n"):
+        if len(line) <= width:
+            out.append(line)
+            continue
+        lead = len(line) - len(line.lstrip(" "))
+        columns = [lead + gap.end() - 1 for gap in re.finditer(r"\S( {2,})(?=\S)", line[lead:])]
+        columns = [c + 1 for c in columns if c + 1 <= width // 2]
+        hang = columns[-1] if columns else lead + 2
+        out.extend(textwrap.wrap(line, width, subsequent_indent=" " * hang,
+                                 break_on_hyphens=False) or [""])
+    return "\n".join(out)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import os
 import threading
 import time
 from collections import deque
@@ -63,24 +64,34 @@ def bad_record_text(error: InputError, line_no: int) -> str:
     return f"Bad record skipped: {where}{field} {error.message}{got}"
 
 
+def out_folder(folder: Path, out_dir: Path | None) -> Path:
+    """Where a run's ``.OUT`` goes: ``out_dir`` if given, else ``folder`` (the run file's)
+    when it is writable, else the current directory."""
+    if out_dir is not None:
+        return out_dir
+    return folder if os.access(folder, os.W_OK) else Path.cwd()
+
+
 def open_session(cfg: RunConfig, data: tuple[DatumFile, dict[str, DeccaChain]], *,
-                 write_out: bool) -> Session | LiveRun | str:
-    """A session for ``cfg`` (its ``.OUT`` next to the ``.RUN`` file under a free name if
-    ``write_out``), or the message saying why it cannot be opened. A ``run_file`` that is a
-    live-source URL (``udp://…``, ``tcp://…``, ``serial://…``) opens a live run instead: its
-    ``.OUT`` ``live-YYYYMMDDTHHMMSSZ.OUT`` and the raw log beside it go to the configuration's
-    directory (docs/LIVE.md)."""
+                 write_out: bool, out_dir: Path | None = None) -> Session | LiveRun | str:
+    """A session for ``cfg`` (if ``write_out``, its ``.OUT`` under a free name in
+    :func:`out_folder` of the run file's folder), or the message saying why it cannot be
+    opened. A ``run_file`` that is a live-source URL (``udp://…``, ``tcp://…``,
+    ``serial://…``) opens a live run instead: its ``.OUT`` ``live-YYYYMMDDTHHMMSSZ.OUT`` and the
+    raw log beside it go to :func:`out_folder` of the configuration's directory
+    (docs/LIVE.md)."""
     from engine.api import is_source_url
 
     try:
         if is_source_url(cfg.run_file):
             from engine.api import open_live_run
 
-            out = (cfg.config_dir / f"live-{datetime.now(UTC):%Y%m%dT%H%M%SZ}.OUT"
-                   if write_out else None)
+            out = (out_folder(cfg.config_dir, out_dir)
+                   / f"live-{datetime.now(UTC):%Y%m%dT%H%M%SZ}.OUT" if write_out else None)
             return open_live_run(cfg.run_file, cfg, data, out_path=out, collect_smoother=True,
                                  lost_after_s=LIVE_LOST_AFTER_S)
-        out = cfg.run_path.with_suffix(".OUT") if write_out else None
+        out = (out_folder(cfg.run_path.parent, out_dir) / cfg.run_path.with_suffix(".OUT").name
+               if write_out else None)
         return api.Session(cfg, out_path=out, collect_smoother=True, data=data)
     except InputError as exc:
         return exc.message if exc.field is None or not exc.field.startswith("source") else (

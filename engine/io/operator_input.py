@@ -220,6 +220,12 @@ def _plain_number(text: str, message: str, field: str) -> float:
     return value
 
 
+def parse_plain_number(text: str, message: str, *, field: str) -> float:
+    """An unsigned decimal number as the dialogs take it (``12``, ``12.5``, ``.5``; no sign,
+    exponent, ``inf`` or ``nan``); anything else is ``InputError(message)``."""
+    return _plain_number(text, message, field)
+
+
 def _parse_angle(text: str, message: str, field: str) -> float:
     """Degrees in [0, 360] clockwise from north; 360 is returned as 0."""
     value = _plain_number(text, message, field)

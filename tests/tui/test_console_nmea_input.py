@@ -10,7 +10,7 @@ from textual.pilot import Pilot
 from textual.widgets import Static
 
 from tests.nmea_lines import voyage
-from uvnav_tui.dialogs.init_dialog import InitDialog, _shown_run_name
+from uvnav_tui.dialogs.init_dialog import NOT_A_RUN_FILE_MESSAGE, InitDialog, _shown_run_name
 from uvnav_tui.widgets.validated_field import ValidatedField
 
 
@@ -40,7 +40,7 @@ def test_init_dialog_runs_an_nmea_log(data_dir: Path) -> None:
                        and app.screen.is_mounted, "Parameter Initialization")
         field = await _paste(pilot, "init-run", "notes.txt")
         message = str(field.query_one(".field-message", Static).render()).strip()
-        assert message == "File not found !" and field.error is not None
+        assert message == NOT_A_RUN_FILE_MESSAGE and field.error is not None
         field = await _paste(pilot, "init-run", "trip.nmea")
         assert field.error is None and field.parsed == "trip.nmea"
         await start(pilot, cycles=3)

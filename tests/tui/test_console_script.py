@@ -83,7 +83,7 @@ def test_headless_script_writes_hardcopies(data_dir: Path, tmp_path: Path,
         "UVNAV_920917_1_083541_Pg641.svg", "UVNAV_920917_1_083541_Pg641.txt",
         "UVNAV_920917_1_083547_Pg100.svg", "UVNAV_920917_1_083547_Pg100.txt"]
     dr = (out / "UVNAV_920917_1_083541_Pg100.txt").read_text(encoding="utf-8")
-    assert "Setup > Systems > GPS off" in dr and "│ off" in dr
+    assert "Setup ▸ Systems ▸ GPS off" in dr and "│ off" in dr
     end = (out / "UVNAV_920917_1_083547_Pg100.txt").read_text(encoding="utf-8")
     assert "Suspended..." in end and "End of data file" in end
     side = (out / "UVNAV_920917_1_083541_Pg641.txt").read_text(encoding="utf-8")

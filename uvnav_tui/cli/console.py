@@ -5,9 +5,12 @@ navigation console.
 (docs/LIVE.md). ``--nmea-out`` sends the MPP of every cycle as NMEA 0183 to a UDP port
 (docs/NMEA_OUT.md), e.g. to OpenCPN on the same machine: ``--nmea-out udp://127.0.0.1:10110``.
 
-Without ``--config`` the bundled demo ``data/DEMO.toml`` is used: first the one in the ``data``
-directory next to the installed package (the repository checkout), then ``./data/DEMO.toml``.
-Bad input is reported with file, line and field and exit status 2, never a traceback.
+Without ``--config`` the demo ``data/DEMO.toml`` is used: first ``./data/DEMO.toml`` of the
+current directory, then the one bundled next to the installed package. The console names the
+configuration it uses on its message line at start. Each run's ``.OUT`` goes to ``--out-dir``
+if given, else beside the run file when that folder is writable, else to the current directory;
+the bundled demo's always to the current directory (never into the install tree). Bad input is
+reported with file, line and field and exit status 2, never a traceback.
 """
 
 from __future__ import annotations
@@ -28,15 +31,33 @@ from engine.api import (
 DEFAULT_CONFIG_NAME = "DEMO.toml"
 
 
+BUNDLED_DATA = Path(__file__).resolve().parents[2] / "data"
+"""The ``data`` directory next to the installed package (the repository checkout's)."""
+
+
 def default_config_path() -> Path | None:
-    """The bundled demo configuration, or None if it cannot be found."""
+    """The demo configuration: ``./data/DEMO.toml`` of the current directory, else the bundled
+    one; None if neither exists."""
     candidates = [
-        Path(__file__).resolve().parents[2] / "data" / DEFAULT_CONFIG_NAME,
         Path.cwd() / "data" / DEFAULT_CONFIG_NAME,
+        BUNDLED_DATA / DEFAULT_CONFIG_NAME,
     ]
     for path in candidates:
         if path.is_file():
-            return path
+            return path.resolve()
+    return None
+
+
+def console_out_dir(config_path: Path | None, out_dir: str | None) -> Path | None:
+    """Where the console writes the ``.OUT`` logs: ``--out-dir`` if given; the current
+    directory for the bundled demo used from outside the checkout it belongs to (never the
+    install tree); else None, beside each run file when its folder is writable
+    (:func:`uvnav_tui.run_control.out_folder`)."""
+    if out_dir is not None:
+        return Path(out_dir)
+    if config_path is not None and config_path.parent == BUNDLED_DATA \
+            and Path.cwd().resolve() != BUNDLED_DATA.parent:
+        return Path.cwd()
     return None
 
 
@@ -51,6 +72,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "(docs/LIVE.md)")
     p.add_argument("--hardcopy-dir", default="hardcopy",
                    help="directory for Edit ▸ Hardcopy files (default: ./hardcopy)")
+    p.add_argument("--out-dir", metavar="DIR",
+                   help="directory for the runs' .OUT logs (default: beside the run file when "
+                   "that folder is writable, else the current directory; the bundled demo's: "
+                   "the current directory)")
     p.add_argument("--nmea-out", metavar="udp://HOST:PORT",
                    help="send the MPP of every cycle as NMEA 0183 (GGA, RMC, GST, HDT on "
                    "WGS84) to this UDP port, e.g. a chart plotter on udp://127.0.0.1:10110")
@@ -77,7 +102,12 @@ def run_console(argv: list[str]) -> int:
     """Open the console; returns the exit status."""
     args = build_parser().parse_args(argv)
     sender = None
+    config_path = Path(args.config).resolve() if args.config is not None \
+        else default_config_path()
+    out_dir = console_out_dir(config_path, args.out_dir)
     try:
+        if out_dir is not None and not out_dir.is_dir():
+            raise InputError("Not a directory !", field="--out-dir", text=str(out_dir))
         cfg, data = resolve_config(args.config)
         if args.live is not None:
             from engine.api import parse_source_url  # only when asked for (start-up time)
@@ -99,7 +129,8 @@ def run_console(argv: list[str]) -> int:
         from uvnav_tui.app import UVNAVApp
 
         app = UVNAVApp(cfg, dev_mode=args.dev, hardcopy_dir=Path(args.hardcopy_dir),
-                       data=data, nmea_sender=sender)
+                       data=data, nmea_sender=sender, config_path=config_path,
+                       out_dir=out_dir)
     except BaseException:
         if collector_on:
             gc.enable()

@@ -60,6 +60,11 @@ class ConfirmDialog(ModalScreen[bool]):
         self._shown_s = self._clock()
         self.query_one("#yes" if self.default else "#no", Button).focus()
 
+    def help_topic(self) -> str:
+        """F1 here: the question and how to answer it."""
+        return (f"{self.title_text}\n\n{self.question}\n\nY answers Yes, N or Esc No; Tab moves "
+                "between the buttons and Enter presses the focused one.")
+
     @property
     def armed(self) -> bool:
         """True once ``arm_s`` has passed since the question was shown."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 from textual.app import ComposeResult
 
 from engine.api import parse_direction_deg, parse_speed_kn
-from uvnav_tui.dialogs.dialog import Dialog
+from uvnav_tui.dialogs.dialog import NUMBER_HELP, Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField, number_text
 
 
@@ -13,6 +13,11 @@ class CurrentDialog(Dialog[tuple[float, float]]):
     """Dismissed with (set in degrees, speed in knots)."""
 
     TITLE = "Setup ▸ Params ▸ Current"
+    HELP = f"""
+The current the dead reckoning assumes.
+Current speed (kn): 0 to 60.   Current direction (°): the set, towards which the water flows, \
+0 to 360 (360 is 0). {NUMBER_HELP}
+"""
 
     def __init__(self, set_deg: float, speed_kn: float) -> None:
         super().__init__()

@@ -17,6 +17,10 @@ class DatumDialog(Dialog[str]):
     """Type a datum name (with completion) or pick it from the list; dismissed with the name."""
 
     TITLE = "Setup ▸ Params ▸ Datum"
+    HELP = """
+The working datum: positions are shown and typed on it. Type a name of TO_WGS84.DAT (any case; \
+→ completes the suggestion) or pick one from the list with ↑ ↓.
+"""
 
     def __init__(self, names: list[str], current: str) -> None:
         super().__init__()

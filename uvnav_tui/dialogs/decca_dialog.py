@@ -39,6 +39,13 @@ class DeccaDialog(Dialog["SetDecca"]):
     """Dismissed with the :class:`SetDecca` command."""
 
     TITLE = "Setup ▸ Systems ▸ Decca"
+    HELP = """
+Decca on: Space toggles. Chain: a chain of DECCA.CHN (← → choose).
+Red / Green / Purple zone/lane: the zone letter and whole lane the receiver is in, e.g. B20, \
+F34, A51 (lanes: Red 0-23, Green 30-47, Purple 50-79).
+Use for fixing: the patterns the least-squares fix uses (Space toggles).
+Changing the chain or a lane restarts the lane tracking.
+"""
 
     def __init__(self, decca: DeccaConfig, chains: list[str]) -> None:
         super().__init__()

@@ -13,6 +13,10 @@ class FilteringDialog(Dialog[bool]):
     """Dismissed with the new on/off state."""
 
     TITLE = "Kalman ▸ Filtering"
+    HELP = """
+Kalman filtering on (Space toggles): the MPP is the filter's estimate; off, it is the \
+least-squares fix (LSE) or the dead reckoning.
+"""
 
     def __init__(self, on: bool) -> None:
         super().__init__()

@@ -23,6 +23,10 @@ class GpsDialog(Dialog["SetGps"]):
     """Space toggles, ←/→ choose the receiver; dismissed with the :class:`SetGps` command."""
 
     TITLE = "Setup ▸ Systems ▸ GPS"
+    HELP = """
+GPS on (Space toggles) and the receiver: C/A code or P code (← → choose); the receiver sets the \
+a priori σ of the GPS LOPs.
+"""
 
     def __init__(self, gps: GpsConfig) -> None:
         super().__init__()

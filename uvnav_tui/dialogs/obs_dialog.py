@@ -16,7 +16,7 @@ from textual.widgets import Label, RadioSet
 
 from engine import api
 from engine.api import InputError, LsqConfig, parse_bearing_deg, parse_distance_nm, parse_position
-from uvnav_tui.dialogs.dialog import Dialog
+from uvnav_tui.dialogs.dialog import NUMBER_HELP, POSITION_HELP, Dialog
 from uvnav_tui.widgets.toggles import GlyphRadioButton
 from uvnav_tui.widgets.validated_field import ValidatedField
 
@@ -59,6 +59,25 @@ class ObsDialog(Dialog["AddObservation"]):
         self.kind = kind
         self.lsq = lsq
         self.TITLE = f"Obs ▸ {kind.capitalize()}"
+
+    def field_help(self) -> str:
+        """What the fields of this kind of observation mean and accept."""
+        lines = [
+            "A manual observation to a charted station, used in the next cycle only.",
+            "Station name: any text (shown in messages and on the position plot).",
+            "Station position: the station's charted position on the working datum; "
+            + POSITION_HELP,
+        ]
+        if self.kind in ("bearing", "radar"):
+            lines.append("Bearing (° true): 0 (north) clockwise to 360.")
+        if self.kind in ("distance", "radar"):
+            lines.append("Distance (nm): nautical miles (1 nm = 1852 m), more than 0, at most "
+                         "10800 (half the Earth's circumference).")
+        if self.kind == "bearing":
+            lines.append("Taken with: compass repeater, periscope or radar (← → choose); the "
+                         "sensor sets the bearing's σ ([lsq] sigma_*).")
+        lines.append(NUMBER_HELP)
+        return "\n".join(lines)
 
     def compose_body(self) -> ComposeResult:
         """Station, coordinates, then the observed value(s) and the sensor."""

@@ -185,6 +185,14 @@ class ParametersDialog(Dialog["SetParameters"]):
             extra = " (" + ", ".join(f"{c} {n}" for c, (n, _v) in DECCA_CF_CONDITIONS.items()) + ")"
         return f"[{self.table_name}] {key.key}: {key.doc}{extra}"
 
+    def field_help(self) -> str:
+        """Every field: its label, TOML key and meaning (the line under the list shows the
+        focused one's)."""
+        head = ("Each value is checked as typed by the configuration's own rules; numbers are "
+                "written as in the TOML file (12, 0.5, 1e-05). OK sends the changed keys.")
+        return "\n".join([head, ""] + [f"{key_label(k)}: {self.help_text(k)}"
+                                        for k in self.keys])
+
     def on_descendant_focus(self, event: events.DescendantFocus) -> None:
         """Explain the focused field in the help line."""
         node: Any = event.widget

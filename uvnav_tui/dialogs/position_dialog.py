@@ -6,7 +6,7 @@ from textual.app import ComposeResult
 from textual.widgets import Static
 
 from engine.api import parse_position
-from uvnav_tui.dialogs.dialog import Dialog
+from uvnav_tui.dialogs.dialog import POSITION_HELP, Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField
 
 
@@ -14,6 +14,11 @@ class PositionDialog(Dialog[tuple[float, float]]):
     """Dismissed with (lat, lon) in degrees on the working datum."""
 
     TITLE = "Setup ▸ Params ▸ DR Pos"
+    HELP = f"""
+A new dead-reckoning position on the working datum; the filter restarts from it.
+DR position: {POSITION_HELP}
+OK with the pre-filled MPP unchanged changes nothing.
+"""
 
     def __init__(self, current: str) -> None:
         super().__init__()

@@ -6,8 +6,8 @@ from __future__ import annotations
 from textual.app import ComposeResult
 from textual.widgets import Static
 
-from engine.api import InputError
-from uvnav_tui.dialogs.dialog import Dialog
+from engine.api import InputError, parse_plain_number
+from uvnav_tui.dialogs.dialog import NUMBER_HELP, Dialog
 from uvnav_tui.widgets.validated_field import ValidatedField
 
 INTERVAL_MESSAGE = "Wrong time interval input !"
@@ -16,20 +16,20 @@ MAX_INTERVAL_MIN = 24 * 60.0
 MAX_ROWS = 2000
 
 
-def _positive(text: str, message: str, limit: float, least: float = 0.0) -> float:
-    """A number in (0, limit], and at least ``least`` when that is above 0."""
-    try:
-        value = float(text.strip())
-    except ValueError:
-        raise InputError(message, text=text) from None
+def _positive(text: str, message: str, limit: float, least: float = 0.0, *,
+              field: str) -> float:
+    """A plain decimal number (as in every navigation dialog: no exponent, so ``1e3`` is
+    refused here as in Obs ▸ Distance) in (0, limit], and at least ``least`` when that is
+    above 0."""
+    value = parse_plain_number(text, message, field=field)
     if not (0.0 < value <= limit and value >= least):
-        raise InputError(message, text=text)
+        raise InputError(message, field=field, text=text)
     return value
 
 
 def parse_interval_min(text: str) -> float:
     """Prediction interval in minutes, 0 < t ≤ 24 h."""
-    return _positive(text, INTERVAL_MESSAGE, MAX_INTERVAL_MIN)
+    return _positive(text, INTERVAL_MESSAGE, MAX_INTERVAL_MIN, field="time interval")
 
 
 MIN_STEP_S = 1.0
@@ -38,7 +38,8 @@ MIN_STEP_S = 1.0
 
 def parse_step_s(text: str) -> float:
     """Step size in seconds, 1 s ≤ s ≤ 24 h."""
-    return _positive(text, STEP_MESSAGE, MAX_INTERVAL_MIN * 60.0, MIN_STEP_S)
+    return _positive(text, STEP_MESSAGE, MAX_INTERVAL_MIN * 60.0, MIN_STEP_S,
+                     field="step size")
 
 
 class PredictDialog(Dialog[tuple[float, float]]):
@@ -47,6 +48,12 @@ class PredictDialog(Dialog[tuple[float, float]]):
     CANCEL_IF_UNCHANGED = False
 
     TITLE = "Kalman ▸ Predict."
+    HELP = f"""
+Predicts the position and its error ellipse from the last filter state; the run is not changed.
+Time interval (min): more than 0, at most 1440 (24 h).
+Step size (s): at least 1, at most the interval, at most 2000 steps.
+{NUMBER_HELP}
+"""
     OK_LABEL = "Predict"
 
     def compose_body(self) -> ComposeResult:

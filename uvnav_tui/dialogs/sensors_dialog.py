@@ -37,6 +37,10 @@ class SensorsDialog(Dialog["tuple[SetSensor, ...]"]):
     """Dismissed with one :class:`SetSensor` per changed sensor."""
 
     TITLE = "Setup ▸ Sensors"
+    HELP = """
+The bounded sensors on or off (Space toggles): gyro, log, rudder, inclinometer, pressure, \
+echo sounder; "not connected" ones cannot be switched. Gyro and log must stay on.
+"""
 
     def __init__(self, sensors: SensorsConfig) -> None:
         super().__init__()

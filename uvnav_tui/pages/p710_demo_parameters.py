@@ -10,6 +10,8 @@ the engine uses.  Editing is the console's Demo-menu dialogs' business, not this
 
 from __future__ import annotations
 
+import textwrap
+
 from engine.api import (
     CorrectionsConfig,
     CycleResult,
@@ -96,13 +98,25 @@ def _shown(attr: str, value: object, unit: str) -> str:
     return text
 
 
-def _rows(table: object, cls: type, rows: tuple[tuple[str, str], ...], width: int) -> list[str]:
+MEANINGS_NOTE = "(what each means: F1, a larger terminal or Edit ▸ Hardcopy)"
+"""Shown when the navigator's rows fit the page only without their meanings."""
+
+
+def _rows(table: object, cls: type, rows: tuple[tuple[str, str], ...], width: int,
+          describe: bool = True) -> list[str]:
+    """One row per key: label, value with unit, and (``describe``) its meaning, wrapped under
+    the meaning's column when longer than ``width`` (cut at the edge before)."""
     out = []
+    indent = 2 + LABEL_W + VALUE_W + 1
     for attr, label in rows:
         key = _key(cls, attr)
         line = (f"  {label:<{LABEL_W}}{_shown(attr, getattr(table, attr), key.unit):<{VALUE_W}}"
-                f" {DOC_OVERRIDES.get(attr, key.doc)}")
-        out.append(line[:width].rstrip())
+                f" {DOC_OVERRIDES.get(attr, key.doc) if describe else ''}").rstrip()
+        if len(line) <= width or width < indent + 12:
+            out.append(line[:width].rstrip())
+        else:
+            out.extend(textwrap.wrap(line, width, subsequent_indent=" " * indent,
+                                     break_on_hyphens=False))
     return out
 
 
@@ -135,7 +149,11 @@ def demo_page_lines(cfg: RunConfig | None, dev_mode: bool, width: int,
     if cfg is None:
         return ["Demo parameters", "", "no run"]
     out = ["Demo parameters in force (read-only)"[:width], ""]
-    out += _rows(cfg.demo, DemoConfig, NAVIGATOR_ROWS, width)
+    nav = _rows(cfg.demo, DemoConfig, NAVIGATOR_ROWS, width)
+    if height is not None and len(out) + len(nav) + 2 > height:
+        nav = _rows(cfg.demo, DemoConfig, NAVIGATOR_ROWS, width, describe=False)
+        nav.append(MEANINGS_NOTE[:width])
+    out += nav
     if not dev_mode:
         out += ["", "Corrections and LS/filter parameters: developer mode"[:width]]
         return out
@@ -155,6 +173,11 @@ class DemoPage(ThrottledTextPage):
 
     def _dev_mode(self) -> bool:
         return bool(getattr(self.app, "dev_mode", False))
+
+    def help_text(self) -> str:
+        """F1 on this page: every row with its meaning (the page may have no room for them)."""
+        r, session = self._shown
+        return "\n".join(self.page_lines(r, session, 10_000, 10_000))  # wrapped by the help
 
     def page_key(self, r: CycleResult | None, session: Session | None) -> tuple[object, ...]:
         """The text depends on the configuration in force and the menu mode only."""

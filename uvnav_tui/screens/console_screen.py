@@ -30,6 +30,14 @@ from uvnav_tui.widgets.message_panel import MessagePanel, PanelArea
 from uvnav_tui.widgets.state_line import StateLine
 from uvnav_tui.widgets.status_column import StatusColumn
 
+HARDCOPY_WIDTH = 132
+"""Columns a page drawn to the screen's size (710) gets in a text hardcopy at least: a line
+printer's width, so no description is cut."""
+
+
+HARDCOPY_ROWS = 66
+"""Rows such a page gets at least: a line printer's page (Pg 710 then shows every meaning)."""
+
 
 class ConsoleScreen(Screen[None]):
     """Menu bar, state line, Pg 100 or a framed page, message line, key hints."""
@@ -80,6 +88,49 @@ class ConsoleScreen(Screen[None]):
                 self.action_open_menu(i)
                 return
         raise SkipAction()
+
+    def help_topic(self) -> str:
+        """F1 or ? over a page: its number, title and how it is reached."""
+        from uvnav_tui.keys_help import page_map_lines
+
+        number = self.uvnav.page
+        line = next((ln for ln in page_map_lines() if ln.startswith(f"Pg {number} ")), "")
+        body = self.query_one(PageFrame).body if number != 100 else None
+        own = getattr(body, "help_text", None)
+        extra = f"\n\n{own()}" if callable(own) else ""
+        return (f"{' '.join(line.split())}{extra}\n\nType another page's number to go there, "
+                "F10 or Alt+letter for the menus, Ctrl+P to search every command.")
+
+    def full_text(self) -> str | None:
+        """Edit ▸ Hardcopy's text of a page other than Pg 100: a heading (page, title, record
+        time, run state), the page's whole text however much of it the terminal shows, then
+        the status column; None for Pg 100 (its boxes are the screen)."""
+        from uvnav_tui.pages.page_text import TextPage
+        from uvnav_tui.pages.registry import page_titles
+        from uvnav_tui.pages.throttled_page import ThrottledTextPage
+        from uvnav_tui.widgets.status_column import status_lines
+
+        host = self.uvnav
+        body = self.query_one(PageFrame).body if host.page != 100 else None
+        if body is None:
+            return None
+        run = host.control
+        r = run.latest if run is not None else None
+        session = run.session if run is not None else None
+        if isinstance(body, TextPage):
+            text = body.text
+        elif isinstance(body, ThrottledTextPage):
+            width, height = body.content_size
+            text = "\n".join(body.page_lines(r, session, max(width, HARDCOPY_WIDTH),
+                                              max(height, HARDCOPY_ROWS)))
+        else:
+            return None
+        when = format_time_z(r.time) if r is not None else "--:--:--Z"
+        # the run's own state: the menu that asked for the hardcopy interrupts it for a moment
+        state = "no run" if run is None else "Suspended..." if run.suspended else "Working..."
+        heading = f"UVNAV  Pg {host.page} {page_titles().get(host.page, '')}  Time {when}  {state}"
+        status = status_lines(r, host.config, run.bad_records if run is not None else 0)
+        return "\n".join([heading, "", text.rstrip("\n"), "", *status]).rstrip() + "\n"
 
     def select_page(self, number: int) -> None:
         """Switch to page ``number`` (100 = main page) and focus its body."""

@@ -41,6 +41,7 @@ class TableScreen(ModalScreen[None]):
     BINDINGS = [
         Binding("escape", "close", "Close", show=False, priority=True),
         Binding("enter", "close", "Close", show=False, priority=True),
+        Binding("question_mark", "app.help", "Help", show=False, priority=True),
         *menu_key_bindings(),
     ]
 
@@ -86,6 +87,12 @@ class TableScreen(ModalScreen[None]):
         return "\n".join([self.title_text, self.note, "", line(self.columns),
                           line(["-" * w for w in widths]), *(line(r) for r in self.rows)]) + "\n"
 
+    def help_topic(self) -> str:
+        """F1 or ? over the table: what it shows, its columns and keys."""
+        return (f"{self.title_text}\n\n{self.note}\n\n{TABLE_COLUMNS_HELP}\n\n"
+                "↑ ↓ PgUp PgDn scroll, Esc or Enter closes, F10 or Alt+letter opens the menus "
+                "(Alt+E H: a hardcopy of the whole table).")
+
     def action_open_menu(self, index: int) -> None:
         """F10: the menu bar over the table."""
         app = cast(ConsoleHost, self.app)
@@ -106,6 +113,11 @@ class TableScreen(ModalScreen[None]):
 
 
 PREDICT_COLUMNS = ("t", "Time", "Lat", "Lon", "a", "b", "Az")
+TABLE_COLUMNS_HELP = (
+    "Columns: t, the time after the last cycle (min:s) or # (the cycle); Time (UTC, record time); "
+    "Lat, Lon on the working datum; a, b the error ellipse's semi-axes (m) at the ConfRegion "
+    "level; Az the azimuth of a (°). 999.99: no ellipse (no filter state).")
+"""The columns of both tables, for their help."""
 SMOOTH_COLUMNS = ("#", "Time", "Lat", "Lon", "a", "b", "Az")
 
 

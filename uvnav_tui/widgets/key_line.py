@@ -22,7 +22,11 @@ SYNC_S = 0.5
 
 
 def context_hints(screen: Screen[Any], page: int, scrollable: bool) -> list[kh.KeyHint]:
-    """The key hints for the screen on top (``page`` and ``scrollable`` for the console)."""
+    """The key hints for the screen on top (``page`` and ``scrollable`` for the console); a
+    screen with its own ``KEY_HINTS`` names them."""
+    own = getattr(screen, "KEY_HINTS", None)
+    if own:
+        return list(own)
     if isinstance(screen, PulldownScreen):
         return list(kh.MENU_KEYS)
     if isinstance(screen, ConfirmDialog):

@@ -45,6 +45,7 @@ class PulldownScreen(ModalScreen[str | None]):
           for letter in ascii_lowercase],
         *[Binding(f"alt+{letter}", f"bar('{letter}')", "Menu", show=False, priority=True)
           for letter in ascii_lowercase],
+        Binding("question_mark", "app.help", "Help", show=False, priority=True),
     ]
 
     BOX_TOP = 2
@@ -76,6 +77,17 @@ class PulldownScreen(ModalScreen[str | None]):
     def current(self) -> MenuItem:
         """The highlighted item of the deepest open level."""
         return self.level_items(len(self.path) - 1)[self.path[-1]]
+
+    def help_topic(self) -> str:
+        """F1 or ? in a menu: the highlighted item, its menu path and what it does."""
+        names = [self.bar[self.menu_index].label]
+        names += [self.level_items(level)[i].label for level, i in enumerate(self.path)]
+        item = self.current
+        what = item.help or ("opens a sub-menu (→ or Enter)" if item.children else "")
+        needs = "  (needs a run: Run ▸ Start)" if item.needs_run else ""
+        return (f"Menu: {' ▸ '.join(names)}\n\n{item.label}: {what}{needs}\n\n"
+                "↑ ↓ move, Enter or → opens, ← closes a sub-menu, a letter picks the item with "
+                "that underlined letter, Esc closes one level, F10 the whole menu.")
 
     # ------------------------------------------------------------------ layout
     def compose(self) -> ComposeResult:

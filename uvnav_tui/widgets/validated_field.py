@@ -10,7 +10,9 @@ from collections.abc import Callable
 from typing import Any
 
 from textual import on
+from textual.actions import SkipAction
 from textual.app import ComposeResult
+from textual.binding import Binding
 from textual.containers import Horizontal
 from textual.suggester import Suggester
 from textual.widget import Widget
@@ -19,6 +21,27 @@ from textual.widgets import Input, Label, Static
 from engine.api import InputError
 
 Parser = Callable[[str], Any]
+Completer = Callable[[str], "str | None"]
+"""The text completed (Tab), or None if nothing can be added."""
+
+
+class CompletingInput(Input):
+    """An input where Tab completes the text (:attr:`completer`); with nothing to complete,
+    Tab moves to the next field as usual."""
+
+    BINDINGS = [Binding("tab", "complete", "Complete", show=False)]
+
+    def __init__(self, value: str, completer: Completer, **kwargs: Any) -> None:
+        super().__init__(value, **kwargs)
+        self.completer = completer
+
+    def action_complete(self) -> None:
+        """Tab: the completed text, cursor at its end (else on to the next field)."""
+        completed = self.completer(self.value)
+        if completed is None or completed == self.value:
+            raise SkipAction()
+        self.value = completed
+        self.cursor_position = len(completed)
 
 
 def number_text(value: float | int) -> str:
@@ -49,6 +72,7 @@ class ValidatedField(Widget):
         id: str,
         suggester: Suggester | None = None,
         hint: Callable[[str], str] | None = None,
+        completer: Completer | None = None,
     ) -> None:
         super().__init__(id=id, classes="validated-field")
         self.label = label
@@ -56,6 +80,7 @@ class ValidatedField(Widget):
         self._initial = value
         self._suggester = suggester
         self._hint = hint
+        self._completer = completer
         self.parsed: Any = None
         self.error: str | None = None
         self.show_errors = bool(value)
@@ -64,8 +89,12 @@ class ValidatedField(Widget):
         """Label and input side by side, the message below."""
         with Horizontal(classes="field-row"):
             yield Label(self.label, classes="field-label", markup=False)
-            yield Input(self._initial, id=f"{self.id}-input", compact=True,
-                        suggester=self._suggester)
+            if self._completer is not None:
+                yield CompletingInput(self._initial, self._completer, id=f"{self.id}-input",
+                                      compact=True, suggester=self._suggester)
+            else:
+                yield Input(self._initial, id=f"{self.id}-input", compact=True,
+                            suggester=self._suggester)
         yield Static("", classes="field-message", markup=False)
 
     def on_mount(self) -> None:
