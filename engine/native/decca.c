@@ -24,8 +24,8 @@
  * Functions given arguments of other types than the Python fast path sees (not floats, not
  * tuples/lists of the expected lengths) return NotImplemented: the caller then runs its Python.
  */
-#include "uvn_blas.h" /* the BLAS typedefs (PY_SSIZE_T_CLEAN, Python.h) */
-#include "uvn_numpy.h" /* numpy arrays' fields without numpy's headers (write_block) */
+#include "uvn_numpy.h" /* numpy arrays through numpy's C API (PY_SSIZE_T_CLEAN, Python.h) */
+#include "uvn_linalg.h" /* small-matrix products (lane_sigma) */
 #include <math.h>
 #include <errno.h>
 #include <string.h>
@@ -840,11 +840,11 @@ static int write_block(PyObject *cl, Py_ssize_t s0, double out[3][3])
     if (np_layout < 0 && np_ready() < 0)
         PyErr_Clear();
     f = np_direct(cl, 2);
-    if (f != NULL && (f->flags & NP_WRITEABLE) && s0 >= 0 && s0 + 3 <= f->dimensions[0]
-        && s0 + 3 <= f->dimensions[1]) {
+    if (f != NULL && (PyArray_FLAGS(f) & NP_WRITEABLE) && s0 >= 0 && s0 + 3 <= PyArray_DIMS(f)[0]
+        && s0 + 3 <= PyArray_DIMS(f)[1]) {
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
-                *(double *)(f->data + (s0 + i) * f->strides[0] + (s0 + j) * f->strides[1]) =
+                *(double *)(PyArray_BYTES(f) + (s0 + i) * PyArray_STRIDES(f)[0] + (s0 + j) * PyArray_STRIDES(f)[1]) =
                     out[i][j];
         return 0;
     }
@@ -956,8 +956,8 @@ static PyObject *py_gps_rows(PyObject *m, PyObject *const *args, Py_ssize_t narg
         PyErr_Clear();
     f = np_direct(args[2], 2);
     n = PyList_GET_SIZE(b);
-    if (f == NULL || !(f->flags & NP_WRITEABLE) || s0 + 2 > f->dimensions[0]
-        || s0 + 2 > f->dimensions[1] || 2 * (s0 + 2) > PyList_GET_SIZE(A) || s0 + 2 > n)
+    if (f == NULL || !(PyArray_FLAGS(f) & NP_WRITEABLE) || s0 + 2 > PyArray_DIMS(f)[0]
+        || s0 + 2 > PyArray_DIMS(f)[1] || 2 * (s0 + 2) > PyList_GET_SIZE(A) || s0 + 2 > n)
         Py_RETURN_NOTIMPLEMENTED;
     v[0] = PyFloat_FromDouble(0.0);
     v[1] = PyFloat_FromDouble(1.0);
@@ -975,8 +975,8 @@ static PyObject *py_gps_rows(PyObject *m, PyObject *const *args, Py_ssize_t narg
         Py_XSETREF(PyList_GET_ITEM(A, 2 * s0 + i), v[i]);
     Py_XSETREF(PyList_GET_ITEM(b, s0), v[4]);
     Py_XSETREF(PyList_GET_ITEM(b, s0 + 1), v[5]);
-    *(double *)(f->data + s0 * f->strides[0] + s0 * f->strides[1]) = var;
-    *(double *)(f->data + (s0 + 1) * f->strides[0] + (s0 + 1) * f->strides[1]) = var;
+    *(double *)(PyArray_BYTES(f) + s0 * PyArray_STRIDES(f)[0] + s0 * PyArray_STRIDES(f)[1]) = var;
+    *(double *)(PyArray_BYTES(f) + (s0 + 1) * PyArray_STRIDES(f)[0] + (s0 + 1) * PyArray_STRIDES(f)[1]) = var;
     Py_RETURN_NONE;
 }
 
@@ -1067,8 +1067,8 @@ static PyObject *py_vcv_m2(PyObject *m, PyObject *args)
 }
 
 /* ------------------------------------------------------------------ lane_sigma */
-static uvn_dgemv_t p_dgemv = NULL;
-static uvn_ddot_t p_ddot = NULL;
+#define p_dgemv uvn_dgemv
+#define p_ddot uvn_ddot
 
 /* A C-contiguous native float64 buffer of ndim dims with these shape entries, else 1. */
 static int f64_buffer(PyObject *o, Py_buffer *v, int ndim, const Py_ssize_t *shape)
@@ -1099,7 +1099,7 @@ static PyObject *py_lane_sigma(PyObject *m, PyObject *const *args, Py_ssize_t na
     static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
     Py_buffer vr, vc;
     double y[2], sum, q;
-    if (nargs != 2 || p_dgemv == NULL || p_ddot == NULL)
+    if (nargs != 2)
         Py_RETURN_NOTIMPLEMENTED;
     if (f64_buffer(args[0], &vr, 1, s1))
         Py_RETURN_NOTIMPLEMENTED;
@@ -1124,7 +1124,7 @@ static int sigma_of(PyObject *row, PyObject *cov, double *out)
     static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
     Py_buffer vr, vc;
     double y[2], sum;
-    if (p_dgemv == NULL || p_ddot == NULL || f64_buffer(row, &vr, 1, s1))
+    if (f64_buffer(row, &vr, 1, s1))
         return 1;
     if (f64_buffer(cov, &vc, 2, s2)) {
         PyBuffer_Release(&vr);
@@ -1284,8 +1284,7 @@ static PyObject *py_tracked(PyObject *m, PyObject *const *args, Py_ssize_t nargs
         Py_RETURN_NOTIMPLEMENTED;
     has_gps = args[7] != Py_None;
     if (has_gps) {
-        if (arg_float(args[7], &gx) || arg_float(args[8], &gy) || arg_float(args[9], &gvar)
-            || p_dgemv == NULL || p_ddot == NULL)
+        if (arg_float(args[7], &gx) || arg_float(args[8], &gy) || arg_float(args[9], &gvar))
             Py_RETURN_NOTIMPLEMENTED;
         /* _EYE2 * var, numpy's elementwise products */
         cov[0] = 1.0 * gvar;
@@ -1421,11 +1420,7 @@ static int two_addresses(PyObject *args, const char *fmt, void **pa, void **pb)
 /* _bind_blas(cblas_dgemv address, cblas_ddot address): numpy's (ILP64) routines. */
 static PyObject *py_bind_blas(PyObject *m, PyObject *args)
 {
-    void *pa, *pb;
-    if (two_addresses(args, "OO:_bind_blas", &pa, &pb) < 0)
-        return NULL;
-    p_dgemv = (uvn_dgemv_t)pa;
-    p_ddot = (uvn_ddot_t)pb;
+    (void)args; /* kept for callers: the products are the kernel's own (uvn_linalg.h) */
     Py_RETURN_NONE;
 }
 
@@ -1471,7 +1466,7 @@ static PyObject *py_page(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
     }
     fn = np_direct(args[0], 1);
     fa = np_direct(args[1], 1);
-    if (fn == NULL || fa == NULL || fn->dimensions[0] != 3 || fa->dimensions[0] != 3)
+    if (fn == NULL || fa == NULL || PyArray_DIMS(fn)[0] != 3 || PyArray_DIMS(fa)[0] != 3)
         Py_RETURN_NOTIMPLEMENTED;
     raw = args[2];
     corr = args[3];
@@ -1485,8 +1480,8 @@ static PyObject *py_page(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
         int rc;
         if (r == Py_None)
             continue;
-        nc = *(double *)(fn->data + i * fn->strides[0]);
-        az = *(double *)(fa->data + i * fa->strides[0]);
+        nc = *(double *)(PyArray_BYTES(fn) + i * PyArray_STRIDES(fn)[0]);
+        az = *(double *)(PyArray_BYTES(fa) + i * PyArray_STRIDES(fa)[0]);
         a[0] = PyLong_FromSsize_t(i);
         a[1] = args[5];
         a[2] = PyTuple_GET_ITEM(names, i);
@@ -1527,7 +1522,7 @@ static PyObject *py_nearest(PyObject *m, PyObject *const *args, Py_ssize_t nargs
     }
     fs = np_direct(args[1], 1);
     used = args[2];
-    if (fs == NULL || fs->dimensions[0] != 3 || PySequence_Fast_GET_SIZE(used) < 3)
+    if (fs == NULL || PyArray_DIMS(fs)[0] != 3 || PySequence_Fast_GET_SIZE(used) < 3)
         Py_RETURN_NOTIMPLEMENTED;
     dm = PyFloat_AS_DOUBLE(args[0]);
     for (Py_ssize_t i = 0; i < 3; i++) {
@@ -1535,7 +1530,7 @@ static PyObject *py_nearest(PyObject *m, PyObject *const *args, Py_ssize_t nargs
         if (t < 0)
             return NULL;
         if (t) {
-            double ds = *(double *)(fs->data + i * fs->strides[0]), cur = near;
+            double ds = *(double *)(PyArray_BYTES(fs) + i * PyArray_STRIDES(fs)[0]), cur = near;
             if (dm < cur)
                 cur = dm;
             if (ds < cur)
@@ -1596,6 +1591,7 @@ fail:
 }
 
 static PyMethodDef methods[] = {
+    UVN_PROBE_METHOD,
     {"lane_model", (PyCFunction)(void (*)(void))py_lane_model, METH_FASTCALL,
      "decca._lane_model: (dist, n_calc, row_x, row_y)."},
     {"lef", (PyCFunction)py_lef, METH_O, "decca._lef: 1/sin(gamma/2) per pattern."},

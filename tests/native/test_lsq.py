@@ -29,6 +29,7 @@ from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
 from engine.lsq.statistics import delta0
 from tests.native.replay import replay_patched
+from tests.tolerance import close
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -42,16 +43,11 @@ ELL_FIELDS = ("a_m", "b_m", "az_deg", "eigenvalues", "eigenvectors", "phi_deg")
 
 
 def same(a: Any, b: Any) -> bool:
-    """Equal to the bit: arrays by bytes, shape and dtype; floats by ``float.hex``."""
+    """Equal to the tolerance contract (tests.tolerance): arrays by shape, dtype and values
+    within it; floats within it; everything else identical."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        a, b = np.asarray(a), np.asarray(b)
-        return (a.shape == b.shape and a.dtype == b.dtype
-                and np.ascontiguousarray(a).tobytes() == np.ascontiguousarray(b).tobytes())
-    if isinstance(a, float) and isinstance(b, float):
-        return a.hex() == b.hex()
-    if isinstance(a, tuple) and isinstance(b, tuple):
-        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
-    return type(a) is type(b) and a == b
+        return not close(np.asarray(a), np.asarray(b))
+    return not close(a, b)
 
 
 class _Run(adj._Run):
