@@ -9,8 +9,9 @@ The kernels use only public interfaces: CPython's C API and numpy's C API throug
 headers (``numpy.get_include()``; numpy is a build requirement in pyproject.toml). Flags:
 ``-ffp-contract=off`` and no ``-ffast-math`` keep each operation the one written (no fused
 multiply-add, no reassociation), so results stay close to the Python's. Each module is built
-with ``UVN_SOURCE_DIGEST``, the BLAKE2b of its source and the headers beside it; :func:`engine.native.kernel` refuses a module whose
-digest is not that of the sources in the tree (a stale build after an edit).
+with ``UVN_SOURCE_DIGEST``, the BLAKE2b of its source and the headers beside it;
+:func:`engine.native.kernel` refuses a module whose digest is not that of the sources in the
+tree (a stale build after an edit).
 """
 
 from __future__ import annotations
