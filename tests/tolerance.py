@@ -135,6 +135,32 @@ def close(got: Any, want: Any, atol: float = ATOL_DEFAULT, path: str = "",
     return [] if got == want else [f"{where}: {got!r} vs {want!r}"]
 
 
+class Near:
+    """A value that equals another to the tolerance contract (:func:`close`; ``atol``: one
+    floor, or one per element of a tuple, e.g. (1e-9, 1e-9, 1e-6) for lat°, lon°, h m), so the
+    tests written as ``a == b`` compare to the contract."""
+
+    def __init__(self, v: Any, atol: float | tuple[float, ...] = ATOL_DEFAULT) -> None:
+        self.v = v
+        self.atol = atol
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Near):
+            return NotImplemented
+        if isinstance(self.atol, tuple):
+            if not (isinstance(self.v, tuple | list) and isinstance(other.v, tuple | list)
+                    and len(self.v) == len(other.v) == len(self.atol)):
+                return False
+            return all(not close(a, b, t) for a, b, t in zip(self.v, other.v, self.atol,
+                                                            strict=True))
+        return not close(self.v, other.v, self.atol)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"Near({self.v!r})"
+
+
 def assert_close(got: Any, want: Any, atol: float = ATOL_DEFAULT) -> None:
     """Fail with the first differences when ``got`` and ``want`` break the contract."""
     diffs = close(got, want, atol)
