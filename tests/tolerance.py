@@ -218,7 +218,9 @@ def split_fields(line: str) -> list[str]:
 def compare_lines(got: list[str], want: list[str], name: str = "log") -> list[str]:
     """Differences between two logs' lines (compiled, reference): the same number of lines,
     each with the same fields in the same order; ``key=value`` values compared by
-    :func:`_values_agree`, every other token (record words, keys, texts) identical."""
+    :func:`_values_agree` (an ellipse's ``az`` by :func:`ellipse_az_tolerance`; a LOP's
+    residual ``v`` and ``sd`` in lanes for Decca, in metres for other systems), every other
+    token (record words, keys, texts) identical."""
     diffs: list[str] = []
     if len(got) != len(want):
         diffs.append(f"{name}: {len(got)} lines, the reference has {len(want)}")
@@ -230,12 +232,15 @@ def compare_lines(got: list[str], want: list[str], name: str = "log") -> list[st
             diffs.append(f"{name}:{no}: {len(tg)} fields vs {len(tw)}:\n  {g}\n  {w}")
             continue
         fields = dict(t.split("=", 1) for t in tw if "=" in t)
+        metres_lop = tw[0] == "LOP" and fields.get("sys") not in (None, "Decca")
         for a, b in zip(tg, tw, strict=True):
             ka, _, va = a.partition("=")
             kb, _, vb = b.partition("=")
             if a == b:
                 continue
             atol = ellipse_az_tolerance(fields) if ka == "az" else None
+            if metres_lop and ka in ("v", "sd"):  # a GPS (or other metric) LOP: metres
+                atol = ATOL_METRES
             if ka != kb or "=" not in a or "=" not in b or not _values_agree(va, vb, ka, atol):
                 diffs.append(f"{name}:{no}: {a!r} vs {b!r}")
         if len(diffs) > 20:

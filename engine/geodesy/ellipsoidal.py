@@ -668,11 +668,11 @@ class GeodesicSolver:
         return GeodesicSolver, (self.ellipsoid,)
 
     def native(self) -> Any:
-        """The compiled geodesic (``engine.native.decca.Geodesic``: PROJ's ``geod_geodesic``
-        initialised by ``geod_init`` with the ellipsoid's a and f, as pyproj's Geod does), or
-        None where the kernel is not available or fails the bit check on
-        :data:`_PROBE_POINTS` against PROJ's ``geod_inverse`` called as pyproj calls it
-        (:func:`_geod_reference`). Resolved on first use."""
+        """The compiled geodesic (``engine.native.decca.Geodesic`` of the ellipsoid's a and f:
+        Vincenty's inverse, pyproj's where that is not used), or None where the kernel is not
+        available or its azimuths on :data:`_PROBE_POINTS` differ from PROJ's ``geod_inverse``
+        called as pyproj calls it (:func:`_geod_reference`) by more than the tolerance contract
+        (1e-9 relative or 1e-9°). Resolved on first use."""
         g = self._native
         if g is _UNSET:
             g = None
@@ -681,8 +681,10 @@ class GeodesicSolver:
             reference = None if k is None else _geod_reference(a, f)
             if k is not None and reference is not None:
                 cand = k.Geodesic(a, f)
-                if all(list(map(float.hex, cand.inverse_point(*q)))
-                       == list(map(float.hex, reference(*q))) for q in _PROBE_POINTS):
+                own = [(cand.own_point(*q), q) for q in _PROBE_POINTS]  # None: pyproj's line
+                if all(abs(g1 - w1) <= max(1e-9 * abs(w1), 1e-9)  # the tolerance contract
+                       for got, q in own if got is not None
+                       for g1, w1 in zip(got[:2], reference(*q)[:2], strict=True)):
                     g = cand
             self._native = g
         return g

@@ -11,6 +11,7 @@ and without the kernel. The pure path is the one taken with ``UVNAV_PURE=1``.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -29,7 +30,7 @@ from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
 from engine.lsq.statistics import delta0
 from tests.native.replay import replay_patched
-from tests.tolerance import close
+from tests.tolerance import RTOL, close
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -42,12 +43,26 @@ ADJ_FIELDS = ("ok", "reason", "x", "cov_x", "cov_x_apriori", "n_used", "redundan
 ELL_FIELDS = ("a_m", "b_m", "az_deg", "eigenvalues", "eigenvectors", "phi_deg")
 
 
-def same(a: Any, b: Any) -> bool:
+def same(a: Any, b: Any, rtol: float = RTOL) -> bool:
     """Equal to the tolerance contract (tests.tolerance): arrays by shape, dtype and values
-    within it; floats within it; everything else identical."""
+    within it; floats within it; everything else identical (``rtol`` widened for an
+    ill-conditioned problem)."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return not close(np.asarray(a), np.asarray(b))
-    return not close(a, b)
+        return not close(np.asarray(a), np.asarray(b), rtol=rtol)
+    return not close(a, b, rtol=rtol)
+
+
+def adjustment_rtol(adj: Any) -> float:
+    """The contract's 1e-9, or cond(N)·1e-16 for an adjustment whose normal matrix N has a
+    condition number beyond 1e7 (two correct solutions differ by up to cond(N) units in the
+    last place): the number its failure reason states, else N = AᵀWA of the rows it used."""
+    hit = re.search(r"condition number ([0-9.e+-]+)", str(getattr(adj, "reason", "")))
+    cond = float(hit.group(1)) if hit else 0.0
+    A, W = getattr(adj, "A_used", None), getattr(adj, "W_used", None)
+    if not hit and isinstance(A, np.ndarray) and isinstance(W, np.ndarray) and A.size:
+        N = A.T @ W @ A
+        cond = float(np.linalg.cond(N)) if np.all(np.isfinite(N)) else 0.0
+    return max(RTOL, cond * 1e-16)
 
 
 class _Run(adj._Run):
@@ -88,8 +103,9 @@ def check_finish(sol: adj._Solution, x: np.ndarray, used: np.ndarray, scale_vcv:
     if res is None:
         return False
     got = adj._adjustment(run, sol, 1.0, scale_vcv, 0.05, 0.80, None)
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
     return True
 
 
@@ -410,8 +426,9 @@ def test_gauss_newton_with_and_without_the_kernel(seed: int, n: int, scale: bool
     lin = _bearings(stations, obs, sig, rng.uniform(-0.5, 0.5))
     x0 = truth + rng.normal(0, 300, 2)
     got, want = _both(lin, x0, used, scale_vcv=scale)
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
 
 
 @needs_kernel
@@ -435,8 +452,9 @@ def test_data_snooping_with_and_without_the_kernel(seed: int, estimator: str,
     for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
                  "not_identifiable", "variance_test", "messages"):
         assert same(getattr(want, name), getattr(got, name)), name
+    rtol = adjustment_rtol(want.adjustment)
     for name in ADJ_FIELDS:
-        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name), rtol), name
 
 
 @needs_kernel
@@ -462,8 +480,9 @@ def test_quiet_fixes_with_and_without_the_kernel(seed: int, policy: str, noise: 
                  "robust"):
         assert same(getattr(want, name), getattr(got, name)), name
     assert list(vars(got)) == list(vars(want))
+    rtol = adjustment_rtol(want.adjustment)
     for name in ADJ_FIELDS:
-        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name), rtol), name
 
 
 def _both_snoop(*args: Any, **kw: Any) -> Iterator[Any]:
@@ -485,8 +504,9 @@ def test_an_untestable_slot_goes_to_python() -> None:
     assert K.finish(sol, np.ones(4, bool), False, 2.8) is None
     got, want = _both(lambda x: lin0, np.zeros(2), np.ones(4, bool))
     assert math.isinf(got.sigma_d[0]) and math.isnan(got.w[0])
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
 
 
 # ------------------------------------------------------------------------------------------
