@@ -140,9 +140,11 @@ class Near:
     floor, or one per element of a tuple, e.g. (1e-9, 1e-9, 1e-6) for lat°, lon°, h m), so the
     tests written as ``a == b`` compare to the contract."""
 
-    def __init__(self, v: Any, atol: float | tuple[float, ...] = ATOL_DEFAULT) -> None:
+    def __init__(self, v: Any, atol: float | tuple[float, ...] = ATOL_DEFAULT,
+                 rtol: float = RTOL) -> None:
         self.v = v
         self.atol = atol
+        self.rtol = rtol
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Near):
@@ -151,9 +153,9 @@ class Near:
             if not (isinstance(self.v, tuple | list) and isinstance(other.v, tuple | list)
                     and len(self.v) == len(other.v) == len(self.atol)):
                 return False
-            return all(not close(a, b, t) for a, b, t in zip(self.v, other.v, self.atol,
-                                                            strict=True))
-        return not close(self.v, other.v, self.atol)
+            return all(not close(a, b, t, rtol=max(self.rtol, other.rtol))
+                       for a, b, t in zip(self.v, other.v, self.atol, strict=True))
+        return not close(self.v, other.v, self.atol, rtol=max(self.rtol, other.rtol))
 
     __hash__ = None  # type: ignore[assignment]
 
