@@ -475,10 +475,17 @@ def test_quiet_fixes_with_and_without_the_kernel(seed: int, policy: str, noise: 
     model = _RowsModel(lin) if rows else lin
     x0 = truth + rng.normal(0, 300, 2)
     got, want = _both_snoop(model, x0, np.ones(n, bool), policy=policy)
-    for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
-                 "not_identifiable", "variance_test", "messages", "policy", "estimator",
-                 "robust"):
+    for name in ("rejected", "candidate", "candidate_w", "monitor", "not_identifiable",
+                 "variance_test", "messages", "policy", "estimator", "robust"):
         assert same(getattr(want, name), getattr(got, name)), name
+    if not same(want.flagged, got.flagged):
+        # A tie: with redundancy 1 every |w| is the same number, and which slot is "the
+        # largest" is the last bit's choice (the outlier is then not identifiable). Any slot
+        # whose |w| is the largest within the contract is the same answer.
+        w = np.abs(want.adjustment.stats_block[1])
+        ties = {int(i) for i in np.flatnonzero(w >= w.max() * (1 - 1e-9))}
+        assert len(ties) > 1 and set(got.flagged) <= ties and len(got.flagged) == len(
+            want.flagged), ("flagged", got.flagged, want.flagged)
     assert list(vars(got)) == list(vars(want))
     rtol = adjustment_rtol(want.adjustment)
     for name in ADJ_FIELDS:
