@@ -30,7 +30,7 @@ from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
 from engine.lsq.statistics import delta0
 from tests.native.replay import replay_patched
-from tests.tolerance import RTOL, close
+from tests.tolerance import ATOL_METRES, RTOL, close
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -46,16 +46,22 @@ ELL_FIELDS = ("a_m", "b_m", "az_deg", "eigenvalues", "eigenvectors", "phi_deg")
 def same(a: Any, b: Any, rtol: float = RTOL) -> bool:
     """Equal to the tolerance contract (tests.tolerance): arrays by shape, dtype and values
     within it; floats within it; everything else identical (``rtol`` widened for an
-    ill-conditioned problem)."""
+    ill-conditioned problem). The fix's numbers are metres and test statistics in σ: the
+    contract's floor for both is 1e-6 (a residual of a fix without redundancy is rounding
+    noise of ~1e-9 m)."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return not close(np.asarray(a), np.asarray(b), rtol=rtol)
-    return not close(a, b, rtol=rtol)
+        return not close(np.asarray(a), np.asarray(b), ATOL_METRES, rtol=rtol)
+    return not close(a, b, ATOL_METRES, rtol=rtol)
 
 
 def adjustment_rtol(adj: Any) -> float:
     """The contract's 1e-9, or cond(N)·1e-16 for an adjustment whose normal matrix N has a
     condition number beyond 1e7 (two correct solutions differ by up to cond(N) units in the
-    last place): the number its failure reason states, else N = AᵀWA of the rows it used."""
+    last place): the number its failure reason states, else N = AᵀWA of the rows it used; 1e-5
+    for a Gauss–Newton that did not converge (its numbers are a failed fix's, never logged as a
+    position; its reason, iterations and counts are still compared exactly)."""
+    if getattr(adj, "reason", None) == "no convergence":
+        return 1e-5  # a failed fix's last iterate: the iteration magnifies the last bits
     hit = re.search(r"condition number ([0-9.e+-]+)", str(getattr(adj, "reason", "")))
     cond = float(hit.group(1)) if hit else 0.0
     A, W = getattr(adj, "A_used", None), getattr(adj, "W_used", None)
