@@ -334,15 +334,16 @@ _SHIFT_PROBES: tuple[tuple[float, float, float], ...] = (
     (89.99999, -179.9, -5000.0), (-90.0, 0.0, 0.0), (0.0, 180.0, 10000.0),
     (-45.0, -180.0, -10000.0), (10.0, -45.0, 1e-9),
 )
-"""(lat, lon degrees, h m) on which the compiled datum shift must give libproj's bits before it
+"""(lat, lon degrees, h m) on which the compiled datum shift must agree with libproj before it
 replaces the PROJ call: near the chart's area, poles, ±180°, heights ±10 km."""
 
 
 def _compiled_point(proj: _ProjPoint, src: Datum, dst: Datum, pipeline: str) -> Any:
-    """The point call of :class:`DatumShift`: ``engine.native.datum.Shift`` (PROJ 9.5.1's
-    arithmetic for :func:`helmert_pipeline`'s steps, compiled; it hands what it does not cover
+    """The point call of :class:`DatumShift`: ``engine.native.datum.Shift`` (the textbook
+    formulas of :func:`helmert_pipeline`'s steps, compiled; it hands what it does not cover
     to ``proj.point``) where the kernel is built and PROJ runs the pipeline as written
-    (:meth:`_ProjPoint.definition`) and the kernel gives PROJ's bits on :data:`_SHIFT_PROBES`;
+    (:meth:`_ProjPoint.definition`) and the kernel agrees with PROJ on :data:`_SHIFT_PROBES`
+    (1e-9 relative, or 1e-9° and 1e-6 m);
     else ``proj.point`` itself (``UVNAV_PURE=1``, no kernel, a pipeline PROJ simplified)."""
     from engine import native
 
@@ -366,10 +367,14 @@ def _compiled_point(proj: _ProjPoint, src: Datum, dst: Datum, pipeline: str) -> 
                         helmert(dst))
     except (TypeError, ValueError):
         return proj.point
-    for q in _SHIFT_PROBES:
+    for q in _SHIFT_PROBES:  # the engine's tolerance contract (docs/PERFORMANCE.md)
         got = shift.forward(*q)
+        if got is None:  # declined there: the PROJ call answers that point
+            continue
         want = proj.point(*q, None, PJ_FWD, False, False)
-        if got is None or list(map(float.hex, got)) != list(map(float.hex, want)):
+        if any(not abs(g - w) <= max(1e-9 * abs(w), floor)
+                              for g, w, floor in zip(got, want, (1e-9, 1e-9, 1e-6),
+                                                     strict=True)):
             return proj.point
     return shift
 
@@ -663,11 +668,11 @@ class GeodesicSolver:
         return GeodesicSolver, (self.ellipsoid,)
 
     def native(self) -> Any:
-        """The compiled geodesic (``engine.native.decca.Geodesic``: PROJ's ``geod_geodesic``
-        initialised by ``geod_init`` with the ellipsoid's a and f, as pyproj's Geod does), or
-        None where the kernel is not available or fails the bit check on
-        :data:`_PROBE_POINTS` against PROJ's ``geod_inverse`` called as pyproj calls it
-        (:func:`_geod_reference`). Resolved on first use."""
+        """The compiled geodesic (``engine.native.decca.Geodesic`` of the ellipsoid's a and f:
+        Vincenty's inverse, pyproj's where that is not used), or None where the kernel is not
+        available or its azimuths on :data:`_PROBE_POINTS` differ from PROJ's ``geod_inverse``
+        called as pyproj calls it (:func:`_geod_reference`) by more than the tolerance contract
+        (1e-9 relative or 1e-9°). Resolved on first use."""
         g = self._native
         if g is _UNSET:
             g = None
@@ -676,8 +681,10 @@ class GeodesicSolver:
             reference = None if k is None else _geod_reference(a, f)
             if k is not None and reference is not None:
                 cand = k.Geodesic(a, f)
-                if all(list(map(float.hex, cand.inverse_point(*q)))
-                       == list(map(float.hex, reference(*q))) for q in _PROBE_POINTS):
+                own = [(cand.own_point(*q), q) for q in _PROBE_POINTS]  # None: pyproj's line
+                if all(abs(g1 - w1) <= max(1e-9 * abs(w1), 1e-9)  # the tolerance contract
+                       for got, q in own if got is not None
+                       for g1, w1 in zip(got[:2], reference(*q)[:2], strict=True)):
                     g = cand
             self._native = g
         return g

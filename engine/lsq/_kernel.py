@@ -1,14 +1,9 @@
-"""The compiled LSQ kernel (``engine/native/lsq.c``), bound to numpy's BLAS/LAPACK on first use.
+"""The compiled LSQ kernel (``engine/native/lsq.c``), bound to its Python objects on first use.
 
-:func:`kernel` returns the module ready to call, or None: not built, stale, ``UVNAV_PURE=1``,
-or numpy not on its bundled OpenBLAS. The statistics block's ``np.power(q, -0.5)`` and
-``np.hypot`` are numpy's own ufuncs called from the kernel, so a CPU where numpy runs its
-AVX-512 (SVML) loop for ``power`` (whose last bit differs from libm's ``pow``) gets the
-Python's bits too (``hypot`` is libm's there, but goes through numpy all the same); until
-2026-12-04 the kernel called libm and was refused on such CPUs. The binding
-(:mod:`engine.native.blas`, which finds numpy's OpenBLAS through ctypes)
-happens on the first call, not at import, so start-up does not pay for it; only numpy's
-routines are needed (dgemm, dgemv, ddot, LAPACK dgesv), so SciPy's OpenBLAS is not loaded.
+:func:`kernel` returns the module ready to call, or None: not built, stale, ``UVNAV_PURE=1``.
+The statistics block's ``np.power(q, -0.5)`` and ``np.hypot`` are numpy's own ufuncs called
+from the kernel; its small-matrix code is its own (engine/native/uvn_linalg.h). The binding
+happens on the first call, not at import, so start-up does not pay for it.
 """
 
 from __future__ import annotations
@@ -71,27 +66,7 @@ def _resolve() -> ModuleType | None:
 
 
 def _bind(mod: ModuleType) -> ModuleType | None:
-    """Give ``mod`` its routine addresses and Python objects; None if it cannot be exact."""
-    from engine.native import blas
-
-    cblas, lapack = blas.numpy_cblas(), blas.numpy_lapack()
-    if cblas is None or lapack is None:
-        return None
-    addresses = {**{f"np_{k}": v for k, v in cblas.items()},
-                 **{f"npl_{k}": v for k, v in lapack.items()}}  # SciPy's library not needed
-    mod._bind(addresses, math.hypot, _CLASSES["solution"], _CLASSES["ellipse"], np.power,
+    """Give ``mod`` its Python objects (its first argument, once routine addresses, is unused)."""
+    mod._bind(None, math.hypot, _CLASSES["solution"], _CLASSES["ellipse"], np.power,
               np.hypot)
     return mod
-
-
-def unused_reason() -> str | None:
-    """Why the built lsq kernel is not used on this machine, or None (used, or not built:
-    :func:`engine.native.status` says why then). The same conditions as :func:`_bind`, checked
-    without binding, for ``uvnav --version``."""
-    if native.kernel("lsq") is None:
-        return None
-    from engine.native import blas
-
-    if blas.numpy_cblas() is None or blas.numpy_lapack() is None:
-        return "numpy's bundled OpenBLAS routines not found"
-    return None

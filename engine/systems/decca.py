@@ -587,17 +587,9 @@ _SIGMA: Any = _UNSET
 
 
 def _sigma_kernel() -> Any:
-    """Bind numpy's ``cblas_dgemv``/``cblas_ddot`` (engine.native.blas) to the kernel once;
-    its ``lane_sigma``, or None (no kernel, numpy not on its bundled OpenBLAS)."""
+    """The kernel's ``lane_sigma`` (resolved once), or None (no kernel)."""
     global _SIGMA
-    k = None
-    if _K is not None:
-        from engine.native import blas
-
-        addresses = blas.numpy_cblas()
-        if addresses is not None:
-            _K._bind_blas(addresses["dgemv"], addresses["ddot"])
-            k = _K.lane_sigma
+    k = None if _K is None else _K.lane_sigma
     _SIGMA = k
     return k
 

