@@ -177,11 +177,10 @@ def position_kernel(estimate_cls: type) -> Any:
     compiled TM inverse and error ellipse that ``TMGrid.inverse`` and ``error_ellipse`` call;
     None when any of the three kernels is not there (the Python makes it). Resolved and bound
     on each call: the one caller holds the answer (``engine.run.cycle._POSITION_K``)."""
-    from engine.geodesy import tmgrid
     from engine.lsq import _kernel as lsq_kernel
 
     k = _K if _K is not _UNRESOLVED else _kernel()
-    tm = tmgrid._K
+    tm = native.kernel("tmgrid")
     lsq = lsq_kernel.kernel()
     if k is None or tm is None or lsq is None or not hasattr(k, "position"):
         return None

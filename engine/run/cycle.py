@@ -63,6 +63,7 @@ from engine.lsq.fix import (
 )
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig, resolve_vessel
+from engine.run.parts import REFERENCE, CycleParts
 from engine.systems import registry
 from engine.systems.base import (
     CycleInputs,
@@ -178,6 +179,8 @@ class RunContext:
     filter_params_gnss: FilterParams | None = None
     """The filter parameters for a fix whose GPS is receiver-weighted (HDOP × UERE): "auto"
     τ and fraction of a modern receiver (docs/GNSS_WEIGHTS.md); None: as ``filter_params``."""
+    parts: CycleParts = REFERENCE
+    """The collaborators the cycle does its hot work with (chosen by the run loop)."""
     _grids: dict[float, TMGrid] = field(default_factory=dict)
     _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
     _derived: _ConfigDerived | None = field(default=None, repr=False, compare=False)
@@ -195,7 +198,7 @@ class RunContext:
         """The TM grid of the working datum at central meridian ``cm_deg``."""
         g = self._grids.get(cm_deg)
         if g is None:
-            g = TMGrid(self.working.ellipsoid, cm_deg)
+            g = self.parts.grid(self.working.ellipsoid, cm_deg)
             self._grids[cm_deg] = g
         return g
 
@@ -214,9 +217,11 @@ class RunContext:
         return placed
 
 
-def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain]) -> RunContext:
-    """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain);
-    ``filter.vessel = "auto"`` is resolved for the run file (:func:`resolve_vessel`)."""
+def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain],
+                  parts: CycleParts = REFERENCE) -> RunContext:
+    """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain)
+    with the collaborators ``parts``; ``filter.vessel = "auto"`` is resolved for the run file
+    (:func:`resolve_vessel`)."""
     cfg = resolve_vessel(cfg)
     working = datums.datum(cfg.datum)
     gps_datum = datums.datum(cfg.run_gps_datum) if cfg.run_gps_datum.upper() != "WGS84" else WGS84
@@ -241,6 +246,7 @@ def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChai
         lsq=lsq_settings_from_config(cfg),
         zone_lane=(zl[0], zl[1], zl[2]),
         filter_params_gnss=filter_params_from_config(cfg, gnss_receiver=True),
+        parts=parts,
     )
 
 
@@ -462,7 +468,7 @@ def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstim
     """The horizontal position of a filter state as an estimate (grid ``grid``)."""
     k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
     if k is not None:  # the whole estimate in one compiled call (the same floats and arrays)
-        est = k.position(source, grid._packed, fs.x, fs.P)  # type: ignore[attr-defined]
+        est = k.position(source, getattr(grid, "_packed", None), fs.x, fs.P)  # type: ignore[attr-defined]
         if est is not None:
             return est  # type: ignore[no-any-return]
     # The state's position, depth and horizontal VCV as FilterState.east_north_m, depth_m and
@@ -734,7 +740,8 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         pred_state, phi = predict_step(fstate, dt, params)
         est = None
     else:
-        pred_state, phi, est = predict_step_position(fstate, dt, params, "KF", grid._packed)
+        pred_state, phi, est = predict_step_position(fstate, dt, params, "KF",
+                                                     getattr(grid, "_packed", None))
     if est is None:
         est = filter_estimate("KF", grid, pred_state)
     # _Prediction(...) positionally, every field (its slots set in one compiled call)

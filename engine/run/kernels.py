@@ -16,7 +16,13 @@ NOT_USED = "compiled, not used here: {reason}; the Python runs instead (same res
 
 
 def unused_reason(name: str) -> str | None:
-    """Why built kernel ``name`` is not used on this machine, or None."""
+    """Why built kernel ``name`` is not used on this machine, or None: a part of
+    :mod:`engine.fast` on it that declined (its first-use probe), or its stage's own check."""
+    from engine import fast
+
+    probe = [why for _part, kernel, why in fast.declined() if kernel == name]
+    if probe:
+        return probe[0]
     if name == "lsq":
         from engine.lsq import _kernel
 

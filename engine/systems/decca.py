@@ -18,7 +18,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from engine import native
-from engine.geodesy import tmgrid as _tmgrid
 from engine.geodesy.ellipsoidal import (
     DatumShift,
     GeodesicSolver,
@@ -891,8 +890,8 @@ def _tracked_totals(placed: ChainOnGrid, geodesic: GeodesicSolver,
         kg = _geodesic_kernel(geodesic)
         if kg is None:
             return None
-    tm = _tmgrid._K
-    packed = placed.grid._packed
+    tm = native.kernel("tmgrid")
+    packed = getattr(placed.grid, "_packed", None)
     sigma = _SIGMA
     if sigma is _UNSET:
         sigma = _sigma_kernel()
@@ -965,10 +964,11 @@ class DeccaObservations:
         if kg is not None and decca_vcv_m2 is _DECCA_VCV_M2:
             placed = self.reading.placed
             grid = placed.grid
-            tm = _tmgrid._K
-            if tm is not None and grid._packed is not None:
+            tm = native.kernel("tmgrid")
+            packed = getattr(grid, "_packed", None)
+            if tm is not None and packed is not None:
                 # p.latlon (the tmgrid kernel's inverse, set on p) and the rows in one call
-                r = _K.linearise_at(placed._scalars, kg, tm.inverse, grid._packed, grid, p,
+                r = _K.linearise_at(placed._scalars, kg, tm.inverse, packed, grid, p,
                                     self.observed, slot0, A, b, Cl, self.reading.cf)
                 if r is None:
                     return

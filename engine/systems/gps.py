@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from engine import native
-from engine.geodesy import tmgrid as _tmgrid
 from engine.geodesy.ellipsoid import WGS84
 from engine.io.runfile import RunRecord
 from engine.systems.base import (
@@ -153,7 +152,7 @@ def gps_input(inputs: CycleInputs) -> GpsInput | None:
     ctx, rec = inputs.context, inputs.record
     if not inputs.config.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
         return None
-    k = _tmgrid._K
+    k = native.kernel("tmgrid")
     if k is not None:
         shift, to_wgs = ctx.gps_shift, ctx.gps_to_wgs84
         sa = _shift_args

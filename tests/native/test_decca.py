@@ -23,8 +23,8 @@ from hypothesis import strategies as st
 
 import engine.systems.decca as decca
 from engine import native
+from engine.fast.geodesy import FastTMGrid
 from engine.geodesy.ellipsoidal import GeodesicSolver
-from engine.geodesy.tmgrid import TMGrid
 from engine.io.datumfile import read_datum_file
 from engine.io.deccafile import read_chain_file
 from engine.systems.base import Point
@@ -35,7 +35,7 @@ K = native.kernel("decca")
 pytestmark = pytest.mark.skipif(K is None, reason=f"decca kernel: {native.status('decca')}")
 
 ED50 = read_datum_file(DATA / "TO_WGS84.DAT").datum("ED50")
-GRID = TMGrid(ED50.ellipsoid, 5.0)
+GRID = FastTMGrid(ED50.ellipsoid, 5.0)
 PLACED = decca.place_chain(read_chain_file(DATA / "DECCA.CHN")["9B"], GRID)
 SC = PLACED._scalars
 MX, MY = SC.xy[0]

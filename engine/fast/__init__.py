@@ -1,0 +1,90 @@
+"""The compiled path of a run, in one room: the reference's hot parts on ``engine.native``.
+
+The navigation modules (geodesy, io, systems, lsq, filter and the cycle) are the reference: pure
+Python that reads like the thesis and knows nothing of this package. Here are subclasses and
+functions that do the same work through the compiled kernels of :mod:`engine.native`, and
+:func:`parts`, which the run loop asks once per run (``engine.run.parts.choose``) for the
+collaborators its cycle is built with. A part is offered only when its kernel is built and
+current, ``UVNAV_PURE`` is not set, and its first-use probe (a few points computed both ways,
+agreeing within the tolerance contract of docs/PERFORMANCE.md) passes; otherwise the run keeps
+the reference's part and :func:`declined` says why.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import cache
+from typing import Any
+
+from engine import native
+
+REL_TOL = 1e-9
+"""Relative agreement a probe asks of a kernel's numbers (docs/PERFORMANCE.md)."""
+
+
+def _close(a: float, b: float, abs_tol: float) -> bool:
+    return math.isclose(a, b, rel_tol=REL_TOL, abs_tol=abs_tol)
+
+
+def _probe_grid() -> str | None:
+    """Why the compiled TM grid is not used (None: it is): not built, or a point off."""
+    from engine.fast import geodesy
+    from engine.geodesy.ellipsoid import WGS84
+    from engine.geodesy.tmgrid import TMGrid
+
+    if geodesy.KERNEL is None:
+        return native.status("tmgrid")
+    fast, ref = geodesy.FastTMGrid(WGS84.ellipsoid, 3.0), TMGrid(WGS84.ellipsoid, 3.0)
+    for lat, lon in ((52.0, 3.4), (-33.5, 2.1), (60.25, 3.5)):
+        x, y, g, k = fast.forward_full(lat, lon)
+        xr, yr, gr, kr = ref.forward_full(lat, lon)
+        la, lo = fast.inverse(x, y)
+        lar, lor = ref.inverse(xr, yr)
+        if not (_close(x, xr, 1e-6) and _close(y, yr, 1e-6) and _close(g, gr, 1e-9)
+                and _close(k, kr, 1e-12) and _close(la, lar, 1e-9) and _close(lo, lor, 1e-9)):
+            return f"first-use probe failed at ({lat}, {lon})"
+    return None
+
+
+_PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
+    "grid": ("tmgrid", _probe_grid),
+}
+"""Part of the cycle → (its kernel, its probe)."""
+
+
+@cache
+def _verdict(part: str) -> str | None:
+    """Why ``part`` runs the reference (None: compiled); probed once per process."""
+    kernel, probe = _PROBES[part]
+    if native.pure_requested():
+        return native.status(kernel)
+    try:
+        return probe()
+    except Exception as exc:  # a kernel that fails its probe declines, whatever the failure
+        return f"first-use probe raised {type(exc).__name__}: {exc}"
+
+
+def _factory(part: str) -> Any:
+    """The compiled object of ``part`` (called only when its verdict is None)."""
+    if part == "grid":
+        from engine.fast.geodesy import FastTMGrid
+
+        return FastTMGrid
+    raise KeyError(part)
+
+
+def parts() -> dict[str, Any]:
+    """The compiled parts of a run that pass (name → object, the fields of
+    :class:`engine.run.parts.CycleParts`); the others are left to the reference."""
+    return {p: _factory(p) for p in _PROBES if _verdict(p) is None}
+
+
+def declined() -> list[tuple[str, str, str]]:
+    """(part, kernel, why) of each part that runs the reference in this process."""
+    out = []
+    for part, (kernel, _probe) in _PROBES.items():
+        why = _verdict(part)
+        if why is not None:
+            out.append((part, kernel, why))
+    return out

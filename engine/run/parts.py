@@ -1,0 +1,35 @@
+"""The collaborators a run's cycle does its hot work with, chosen once per run.
+
+:data:`REFERENCE` holds the navigation modules' own objects (pure Python, the reference of every
+number the engine logs). :func:`choose` asks :mod:`engine.fast` which of them it offers on the
+compiled kernels for this run and takes those; the cycle calls whichever it is given and never
+knows which it is (the model is passed in, as FilterPy's filters take theirs).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from engine.geodesy.ellipsoid import Ellipsoid
+from engine.geodesy.tmgrid import TMGrid
+
+
+@dataclass(frozen=True)
+class CycleParts:
+    """The cycle's collaborators: each field a reference object by default."""
+
+    grid: Callable[[Ellipsoid, float], TMGrid] = TMGrid
+    """The TM grid class of the run (ellipsoid, central meridian degrees)."""
+
+
+REFERENCE = CycleParts()
+"""The pure-Python parts: what runs with ``UVNAV_PURE=1`` or without the kernels."""
+
+
+def choose() -> CycleParts:
+    """The parts of a run: the compiled one (:func:`engine.fast.parts`) of each part that has
+    one built, current and passing its probe, the reference's otherwise."""
+    from engine import fast
+
+    return CycleParts(**fast.parts())

@@ -1,0 +1,104 @@
+"""The run's collaborators are chosen once per run: engine.fast's where it offers them, the
+reference's where a kernel is missing, ``UVNAV_PURE=1`` is set, or a first-use probe fails."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+import engine.fast as fast
+from engine import native
+from engine.fast.geodesy import KERNEL as TM_KERNEL
+from engine.fast.geodesy import FastTMGrid
+from engine.geodesy.tmgrid import TMGrid
+from engine.run.commands import SetDatum
+from engine.run.config import load_config
+from engine.run.parts import REFERENCE, CycleParts, choose
+from engine.run.session import Session
+from tests.native.replay import replay
+from tests.paths import DATA
+
+needs_tmgrid = pytest.mark.skipif(TM_KERNEL is None, reason="engine.native.tmgrid not built")
+
+
+@pytest.fixture
+def fresh_verdicts() -> Iterator[None]:
+    """Forget the probes' verdicts before and after (they are kept per process)."""
+    fast._verdict.cache_clear()
+    yield
+    fast._verdict.cache_clear()
+
+
+def test_reference_parts_are_the_navigation_modules_own() -> None:
+    assert REFERENCE == CycleParts()
+    assert REFERENCE.grid is TMGrid
+
+
+@needs_tmgrid
+def test_a_run_takes_the_compiled_grid(fresh_verdicts: None) -> None:
+    """With the kernel built, a session's cycle runs on FastTMGrid (its grids are one)."""
+    assert choose().grid is FastTMGrid
+    session = replay(5)
+    assert session.parts.grid is FastTMGrid
+    assert all(type(g) is FastTMGrid for g in session.context._grids.values())
+
+
+def test_pure_env_chooses_the_reference(monkeypatch: pytest.MonkeyPatch,
+                                        fresh_verdicts: None) -> None:
+    monkeypatch.setenv(native.PURE_ENV, "1")
+    assert choose() == REFERENCE
+    assert ("grid", "tmgrid", f"pure ({native.PURE_ENV}=1)") in fast.declined()
+
+
+@needs_tmgrid
+def test_a_failing_probe_declines_for_the_run(monkeypatch: pytest.MonkeyPatch,
+                                              fresh_verdicts: None) -> None:
+    """A kernel whose numbers are off (here: the convergence shifted by 1e-6°) is not used:
+    the run keeps the reference grid, and the kernel report says why."""
+    real = FastTMGrid.forward_full
+
+    def off(self: FastTMGrid, lat: float, lon: float) -> tuple[float, float, float, float]:
+        x, y, g, k = real(self, lat, lon)
+        return x, y, g + 1e-6, k
+
+    monkeypatch.setattr(FastTMGrid, "forward_full", off)
+    assert choose().grid is TMGrid
+    why = [w for part, _k, w in fast.declined() if part == "grid"]
+    assert why and why[0].startswith("first-use probe failed")
+    from engine.run.kernels import kernel_report
+
+    assert dict(kernel_report())["tmgrid"].startswith("compiled, not used here: first-use probe")
+
+
+@needs_tmgrid
+def test_a_raising_probe_declines(monkeypatch: pytest.MonkeyPatch,
+                                  fresh_verdicts: None) -> None:
+    def boom(self: FastTMGrid, lat: float, lon: float) -> tuple[float, float]:
+        raise SystemError("kernel broken")
+
+    monkeypatch.setattr(FastTMGrid, "forward_full", boom)
+    assert choose().grid is TMGrid
+    assert any("SystemError" in w for _p, _k, w in fast.declined())
+
+
+def test_session_keeps_its_parts_across_a_setup_change(tmp_path: Path) -> None:
+    """A set-up change rebuilds the context with the run's parts (chosen once per run), and
+    a run built with the reference's parts stays on them."""
+    for parts in (None, REFERENCE):
+        session = Session(load_config(DATA / "DEMO.toml"), out_path=tmp_path / "R.OUT",
+                          force=True, history=1)
+        if parts is not None:
+            session.parts = parts
+            session.context = replace(session.context, parts=parts)
+        try:
+            session.run(max_cycles=3)
+            session.apply(SetDatum("WGS84"))
+            session.run(max_cycles=6)
+        finally:
+            session.close()
+        assert session.context.parts is session.parts
+        assert session.context.working.name == "WGS84"
+        assert {type(g) for g in session.context._grids.values()} == {session.parts.grid}
