@@ -293,6 +293,7 @@ def test_the_checks_find_a_cycle_and_a_layer_breach() -> None:
 
 
 SEAM_CLEAN = (
+    "engine.geodesy.ellipsoidal",
     "engine.geodesy.tmgrid",
 )
 """The navigation modules whose compiled path has moved to ``engine.fast``: they are the

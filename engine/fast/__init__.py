@@ -47,8 +47,47 @@ def _probe_grid() -> str | None:
     return None
 
 
+_ED50 = ("ED50", 6378388.0, 297.0, -87.0, -98.0, -121.0)
+"""A datum for the probes (International 1924, the demo's ED50 shift to WGS84)."""
+
+
+def _probe_datum_shift() -> str | None:
+    """Why the compiled datum shift is not used (None: it is)."""
+    from engine.fast import geodesy
+    from engine.geodesy.ellipsoid import WGS84, Datum, Ellipsoid
+    from engine.geodesy.ellipsoidal import DatumShift
+
+    if geodesy.DATUM is None:
+        return native.status("datum")
+    name, a, rf, dx, dy, dz = _ED50
+    ed50 = Datum(name, Ellipsoid("INTERNATIONAL", a, rf), dx, dy, dz)
+    fast, ref = geodesy.FastDatumShift(WGS84, ed50), DatumShift(WGS84, ed50)
+    for q in ((52.0, 3.4, 0.0), (57.7, -1.25, -45.5), (-33.9, 151.2, 100.0)):
+        got, want = fast.transform(*q), ref.transform(*q)
+        if not (_close(got[0], want[0], 1e-9) and _close(got[1], want[1], 1e-9)
+                and _close(got[2], want[2], 1e-6)):
+            return f"first-use probe failed at {q}"
+    return None
+
+
+def _probe_geodesic() -> str | None:
+    """Why the compiled geodesic azimuths are not used (None: they are). The check is the
+    solver's own (:meth:`FastGeodesicSolver.native`: PROJ's ``geod_inverse`` through ctypes
+    on :data:`engine.fast.geodesy.GEOD_PROBES`), so pyproj is not imported for it."""
+    from engine.fast import geodesy
+    from engine.geodesy.ellipsoid import WGS84
+
+    if geodesy.DECCA is None:
+        return native.status("decca")
+    if geodesy.FastGeodesicSolver(WGS84.ellipsoid).native() is None:
+        return "first-use probe failed (geodesic azimuths, or PROJ's geod_inverse not found)"
+    return None
+
+
 _PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
     "grid": ("tmgrid", _probe_grid),
+    "datum_shift": ("datum", _probe_datum_shift),
+    "geodesic": ("decca", _probe_geodesic),
 }
 """Part of the cycle → (its kernel, its probe)."""
 
@@ -67,10 +106,14 @@ def _verdict(part: str) -> str | None:
 
 def _factory(part: str) -> Any:
     """The compiled object of ``part`` (called only when its verdict is None)."""
-    if part == "grid":
-        from engine.fast.geodesy import FastTMGrid
+    from engine.fast import geodesy
 
-        return FastTMGrid
+    if part == "grid":
+        return geodesy.FastTMGrid
+    if part == "datum_shift":
+        return geodesy.fast_datum_shift
+    if part == "geodesic":
+        return geodesy.FastGeodesicSolver
     raise KeyError(part)
 
 

@@ -211,7 +211,8 @@ class RunContext:
         if chain is not None:
             shift = None
             if chain.datum_name.upper() != self.working.name.upper():
-                shift = datum_shift(self.datums.datum(chain.datum_name), self.working)
+                shift = self.parts.datum_shift(self.datums.datum(chain.datum_name),
+                                               self.working)
             placed = place_chain_on_datum(chain, self.grid(cm_deg), shift)
         self._placed[cm_deg] = placed
         return placed
@@ -225,10 +226,10 @@ def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChai
     cfg = resolve_vessel(cfg)
     working = datums.datum(cfg.datum)
     gps_datum = datums.datum(cfg.run_gps_datum) if cfg.run_gps_datum.upper() != "WGS84" else WGS84
-    shift = None if gps_datum.name.upper() == working.name.upper() else datum_shift(
+    shift = None if gps_datum.name.upper() == working.name.upper() else parts.datum_shift(
         gps_datum, working
     )
-    to_wgs = None if gps_datum is WGS84 else datum_shift(gps_datum, WGS84)
+    to_wgs = None if gps_datum is WGS84 else parts.datum_shift(gps_datum, WGS84)
     d = cfg.decca
     zl = tuple(
         parse_zone_lane(text, pattern) if text else None
@@ -241,7 +242,7 @@ def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChai
         working=working,
         gps_shift=shift,
         gps_to_wgs84=to_wgs,
-        geodesic=GeodesicSolver(working.ellipsoid),
+        geodesic=parts.geodesic(working.ellipsoid),
         filter_params=filter_params_from_config(cfg),
         lsq=lsq_settings_from_config(cfg),
         zone_lane=(zl[0], zl[1], zl[2]),

@@ -11,7 +11,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from engine.geodesy.ellipsoid import Ellipsoid
+from engine.geodesy.ellipsoid import Datum, Ellipsoid
+from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
 from engine.geodesy.tmgrid import TMGrid
 
 
@@ -21,6 +22,10 @@ class CycleParts:
 
     grid: Callable[[Ellipsoid, float], TMGrid] = TMGrid
     """The TM grid class of the run (ellipsoid, central meridian degrees)."""
+    datum_shift: Callable[[Datum, Datum], DatumShift] = datum_shift
+    """The datum shifts of the run (source datum, destination datum)."""
+    geodesic: Callable[[Ellipsoid], GeodesicSolver] = GeodesicSolver
+    """The geodesic solver of the run's working ellipsoid."""
 
 
 REFERENCE = CycleParts()

@@ -1,7 +1,7 @@
 """The compiled datum shift (engine/native/datum.c) gives libproj's bits (issue 14).
 
-``DatumShift._point`` is ``engine.native.datum.Shift`` where the kernel is built: PROJ 9.5.1's
-arithmetic for :func:`helmert_pipeline`'s steps, handing what it does not cover to the PROJ
+``FastDatumShift._point`` (engine.fast) is ``engine.native.datum.Shift`` where the kernel is
+built: PROJ 9.5.1's arithmetic for :func:`helmert_pipeline`'s steps, handing what it does not cover to the PROJ
 call it was made with (``_ProjPoint.point``, ``DatumShift._proj``). Every comparison here is
 exact (``float.hex``, so the sign of a zero counts), against ``_ProjPoint.point`` and pyproj's
 ``Transformer`` of the same pipeline: on the points a short demo replay shifts, for every datum
@@ -22,6 +22,8 @@ from hypothesis import strategies as st
 
 import engine.geodesy.ellipsoidal as ellipsoidal
 from engine import native
+from engine.fast import geodesy as fast_geodesy
+from engine.fast.geodesy import FastDatumShift
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import PJ_FWD, DatumShift
 from engine.io.datumfile import read_datum_file
@@ -46,7 +48,7 @@ def _same_steps(a: Any, b: Any) -> bool:
 
 
 PAIRS = [(s, d) for s in DATUMS for d in DATUMS if s != d]
-SHIFTS = {pair: DatumShift(DATUMS[pair[0]], DATUMS[pair[1]]) for pair in PAIRS}
+SHIFTS = {pair: FastDatumShift(DATUMS[pair[0]], DATUMS[pair[1]]) for pair in PAIRS}
 COMPILED = [pair for pair in PAIRS if not _same_steps(DATUMS[pair[0]], DATUMS[pair[1]])]
 
 
@@ -88,17 +90,15 @@ def test_every_pair_the_engine_builds_is_compiled() -> None:
 
 @needs_proj
 def test_pure_path(monkeypatch: pytest.MonkeyPatch) -> None:
-    """UVNAV_PURE=1, or no kernel: the PROJ call itself, the same bits."""
+    """The reference, or no kernel: the PROJ call itself, the same bits."""
     src, dst = _FILE.datum("ED50"), WGS84
-    compiled = DatumShift(dst, src)
-    monkeypatch.setenv(native.PURE_ENV, "1")
+    compiled = FastDatumShift(dst, src)
     pure = DatumShift(dst, src)
     assert pure._point == pure._proj.point
-    monkeypatch.delenv(native.PURE_ENV)
-    monkeypatch.setattr(native, "kernel", lambda name: None)
-    missing = DatumShift(dst, src)
+    monkeypatch.setattr(fast_geodesy, "DATUM", None)
+    missing = FastDatumShift(dst, src)
     assert missing._point == missing._proj.point
-    for q in ellipsoidal._SHIFT_PROBES + ((52.1234, 3.4567, 0.0), (-0.0, -0.0, -0.0)):
+    for q in fast_geodesy.SHIFT_PROBES + ((52.1234, 3.4567, 0.0), (-0.0, -0.0, -0.0)):
         assert _point(pure, *q) == _point(missing, *q) == _point(compiled, *q)
         assert pure.transform(*q) == compiled.transform(*q)
 
@@ -107,8 +107,8 @@ def test_pure_path(monkeypatch: pytest.MonkeyPatch) -> None:
 @needs_proj
 def test_a_probe_mismatch_keeps_proj(monkeypatch: pytest.MonkeyPatch) -> None:
     """A kernel that would not give libproj's bits on the probe points is not used."""
-    monkeypatch.setattr(ellipsoidal, "_SHIFT_PROBES", ((52.0, 3.0, 0.0), (math.nan, 0.0, 0.0)))
-    shift = DatumShift(WGS84, _FILE.datum("ED50"))  # the kernel declines NaN: not PROJ's answer
+    monkeypatch.setattr(fast_geodesy, "SHIFT_PROBES", ((52.0, 3.0, 0.0), (math.nan, 0.0, 0.0)))
+    shift = FastDatumShift(WGS84, _FILE.datum("ED50"))  # the kernel declines NaN: not PROJ's answer
     assert shift._point == shift._proj.point
 
 
@@ -118,7 +118,7 @@ def replayed() -> list[tuple[DatumShift, Any, tuple[Any, ...]]]:
     """(shift, its point call, the call's arguments) of every datum shift of the first 150 demo
     epochs (the tmgrid kernel's gps_input and the Python both call ``DatumShift._point``)."""
     seen: list[tuple[DatumShift, Any, tuple[Any, ...]]] = []
-    real_init = DatumShift.__init__
+    real_init = FastDatumShift.__init__
 
     def init(self: DatumShift, src: Any, dst: Any) -> None:
         real_init(self, src, dst)
@@ -130,7 +130,7 @@ def replayed() -> list[tuple[DatumShift, Any, tuple[Any, ...]]]:
 
         self._point = record
 
-    replay_patched([(DatumShift, "__init__", init)], 150)
+    replay_patched([(FastDatumShift, "__init__", init)], 150)
     return seen
 
 
@@ -286,7 +286,7 @@ def _datums(draw: Any) -> Any:
 def test_any_seven_parameters(src: Any, dst: Any, lat: float, lon: float, h: float) -> None:
     """Datums beyond the file's (three rotations, scale of either sign, spheres): compiled
     wherever PROJ runs the pipeline as written, and libproj's bits."""
-    shift = DatumShift(src, dst)
+    shift = FastDatumShift(src, dst)
     written = " ".join(w.lstrip("+") for w in shift.pipeline.split())
     assert (type(shift._point) is KERNEL.Shift) == (shift._proj.definition() == written)
     if type(shift._point) is KERNEL.Shift:
