@@ -3,10 +3,11 @@
 ``FastDatumShift._point`` (engine.fast) is ``engine.native.datum.Shift`` where the kernel is
 built: PROJ 9.5.1's arithmetic for :func:`helmert_pipeline`'s steps, handing what it does not
 cover to the PROJ call it was made with (``_ProjPoint.point``, ``DatumShift._proj``). Every
-comparison here is exact (``float.hex``, so the sign of a zero counts), against ``_ProjPoint.point`` and pyproj's
-``Transformer`` of the same pipeline: on the points a short demo replay shifts, for every datum
-pair of data/TO_WGS84.DAT (and WGS84) over the whole globe (poles, ±180°, heights ±10 km,
-hypothesis and a fixed sweep), and on the edges where PROJ clamps, wraps or fails.
+comparison here is exact (``float.hex``, so the sign of a zero counts), against
+``_ProjPoint.point`` and pyproj's ``Transformer`` of the same pipeline: on the points a short
+demo replay shifts, for every datum pair of data/TO_WGS84.DAT (and WGS84) over the whole globe
+(poles, ±180°, heights ±10 km, hypothesis and a fixed sweep), and on the edges where PROJ
+clamps, wraps or fails.
 """
 
 from __future__ import annotations
