@@ -294,6 +294,10 @@ def test_the_checks_find_a_cycle_and_a_layer_breach() -> None:
 
 SEAM_CLEAN = (
     "engine.geodesy.ellipsoidal",
+    "engine.systems.decca",
+    "engine.systems.gps",
+    "engine.systems.manual",
+    "engine.systems.registry",
     "engine.geodesy.tmgrid",
 )
 """The navigation modules whose compiled path has moved to ``engine.fast``: they are the

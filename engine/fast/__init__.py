@@ -84,10 +84,24 @@ def _probe_geodesic() -> str | None:
     return None
 
 
+def _probe_systems() -> str | None:
+    """Why the compiled Decca and GPS systems are not used (None: they are): the kernels
+    are checked on the first epochs of the thesis sample against the reference (the lane
+    totals, the fix, the page rows), by :func:`engine.fast.probe.systems`."""
+    from engine.fast import decca, gps
+
+    if decca.KERNEL is None or decca.TMGRID is None:
+        return native.status("decca" if decca.KERNEL is None else "tmgrid")
+    from engine.fast.probe import systems
+
+    return systems(decca.FAST_DECCA, gps.FAST_GPS)
+
+
 _PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
     "grid": ("tmgrid", _probe_grid),
     "datum_shift": ("datum", _probe_datum_shift),
     "geodesic": ("decca", _probe_geodesic),
+    "systems": ("decca", _probe_systems),
 }
 """Part of the cycle → (its kernel, its probe)."""
 
@@ -114,6 +128,12 @@ def _factory(part: str) -> Any:
         return geodesy.fast_datum_shift
     if part == "geodesic":
         return geodesy.FastGeodesicSolver
+    if part == "systems":
+        from engine.fast import decca, gps
+        from engine.systems.decca import DECCA
+        from engine.systems.gps import GPS
+
+        return {DECCA: decca.FAST_DECCA, GPS: gps.FAST_GPS}
     raise KeyError(part)
 
 

@@ -48,6 +48,7 @@ from engine.systems import registry
 from engine.systems.base import (
     EVAL_ERRORS,
     LopReading,
+    NavSystem,
     ObservationError,
     ObservationSet,
     Point,
@@ -285,18 +286,22 @@ def _gather(
     values: Mapping[str, Any],
     prior: PositionPrior | None,
     excluded_slots: Sequence[int],
+    systems: tuple[NavSystem, ...] | None = None,
 ) -> _Problem:
     """Every system's observations of ``values`` at the provisional point ``p0``; the filter's
     ``prior`` takes the GPS slots when GPS is absent and fewer than two LOPs are available
-    (table 5.1 category I, THEORY §4.6). Raises ObservationError (with the texts so far)."""
-    layout = registry.layout()
+    (table 5.1 category I, THEORY §4.6). ``systems``: the run's (default the registry's).
+    Raises ObservationError (with the texts so far)."""
+    if systems is None:
+        systems = registry.SYSTEMS
+    layout = registry.layout(systems)
     sets: dict[str, ObservationSet] = {}
     memo = _N_SLOTS
     if memo[0] is layout:  # the layout is the registry's (cached per SYSTEMS)
         n_slots, order, spans = memo[1], memo[2], memo[3]
     else:
         n_slots = sum(len(r) for r in layout.values())
-        order = tuple((s, s.name, layout[s.name].start) for s in registry.SYSTEMS)
+        order = tuple((s, s.name, layout[s.name].start) for s in systems)
         spans = {name: (r.start, r.stop) for name, r in layout.items()}
         memo[:] = [layout, n_slots, order, spans]
     used = [False] * n_slots
@@ -322,7 +327,7 @@ def _gather(
             used[slot] = True
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
-        sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
+        sets = {s.name: sets[s.name] for s in systems if s.name in sets}
         return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans)
     return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans, tuple(parts))
 
@@ -339,11 +344,13 @@ def compute_fix(
     settings: LsqSettings = LsqSettings(),
     excluded_slots: Sequence[int] = (),
     readings: Mapping[str, Any] | None = None,
+    systems: tuple[NavSystem, ...] | None = None,
 ) -> FixResult:
     """Compute the LSE from the available LOPs, starting at provisional grid point ``x0`` (m).
 
     ``gps``, ``decca``, ``manual`` and ``readings`` (any system's reading by registry name,
-    docs/SYSTEMS.md) are the systems' inputs. The rejection policy, tests and estimator follow
+    docs/SYSTEMS.md) are the systems' inputs (``systems``: the run's, default the registry's,
+    :data:`engine.systems.registry.SYSTEMS`). The rejection policy, tests and estimator follow
     ``settings`` (THEORY §6; with a robust estimator nothing is rejected and there is no
     candidate); ``excluded_slots`` are slots the operator discarded (LOPReject 'A'). ``prior``
     (the filter's prediction) is used as two position LOPs only when GPS is absent (table 5.1
@@ -363,7 +370,8 @@ def compute_fix(
     if not (math.isfinite(x0[0]) and math.isfinite(x0[1])):
         return _no_fix(grid, x0, "provisional position not finite", 0)
     try:
-        problem = _gather(Point(grid, geodesic, x0[0], x0[1]), values, prior, excluded_slots)
+        problem = _gather(Point(grid, geodesic, x0[0], x0[1]), values, prior, excluded_slots,
+                          systems)
     except ObservationError as exc:
         return _no_fix(grid, x0, exc.reason, 0, messages=exc.messages)
     messages = problem.messages

@@ -67,6 +67,7 @@ from engine.run.parts import REFERENCE, CycleParts
 from engine.systems import registry
 from engine.systems.base import (
     CycleInputs,
+    NavSystem,
     SystemReading,
     runparse_function,
     slots_maker,
@@ -149,12 +150,15 @@ class _ConfigDerived:
     systems_string: str
     sensor_status: tuple[int, ...]
     fix_source: tuple[object, ...]
+    run_systems: tuple[NavSystem, ...]
+    """The systems the run reads the registry's with (:meth:`CycleParts.run_systems`)."""
 
     @classmethod
-    def of(cls, cfg: RunConfig) -> _ConfigDerived:
+    def of(cls, cfg: RunConfig, parts: CycleParts) -> _ConfigDerived:
         """The values of ``cfg`` under the registry as it is now."""
         return cls(cfg, registry.SYSTEMS, systems_string(cfg),
-                   tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg))
+                   tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg),
+                   parts.run_systems(registry.SYSTEMS))
 
 
 @dataclass
@@ -191,7 +195,7 @@ class RunContext:
         is computed again; so is it when a test registers another system)."""
         d = self._derived
         if d is None or d.config is not self.config or d.systems is not registry.SYSTEMS:
-            d = self._derived = _ConfigDerived.of(self.config)
+            d = self._derived = _ConfigDerived.of(self.config, self.parts)
         return d
 
     def grid(self, cm_deg: float) -> TMGrid:
@@ -798,7 +802,7 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
     extend = messages.extend
     make = _new_inputs  # CycleInputs(...) positionally (its slots set in one compiled call)
     config = ctx.config
-    for system in registry.SYSTEMS:
+    for system in ctx.derived().run_systems:
         reading = system.read(make(config, ctx, nav, rec, grid, cm, x_start, prior,
                                    dict(readings)))
         if reading.messages:
@@ -839,7 +843,8 @@ def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, flo
     if not observes:
         return None
     fix = compute_fix(grid, ctx.geodesic, x_start, prior=prior, settings=ctx.lsq,
-                      excluded_slots=excluded_slots, readings=values)
+                      excluded_slots=excluded_slots, readings=values,
+                      systems=ctx.derived().run_systems)
     if fix.candidate_slot is not None:
         name = lop_name(fix.candidate_slot, system="KF" if fix.uses_prior else "GPS",
                         manual=nav.pending_obs)

@@ -8,12 +8,13 @@ knows which it is (the model is passed in, as FilterPy's filters take theirs).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 
 from engine.geodesy.ellipsoid import Datum, Ellipsoid
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
 from engine.geodesy.tmgrid import TMGrid
+from engine.systems.base import NavSystem
 
 
 @dataclass(frozen=True)
@@ -26,6 +27,12 @@ class CycleParts:
     """The datum shifts of the run (source datum, destination datum)."""
     geodesic: Callable[[Ellipsoid], GeodesicSolver] = GeodesicSolver
     """The geodesic solver of the run's working ellipsoid."""
+    systems: Mapping[NavSystem, NavSystem] = field(default_factory=dict)
+    """Registry system → the system the run reads it with (the registry's own where none)."""
+
+    def run_systems(self, registered: tuple[NavSystem, ...]) -> tuple[NavSystem, ...]:
+        """The run's systems, in the order of ``registered`` (the registry's)."""
+        return tuple(self.systems.get(s, s) for s in registered)
 
 
 REFERENCE = CycleParts()

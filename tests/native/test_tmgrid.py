@@ -27,10 +27,11 @@ from hypothesis import strategies as st
 import engine.systems.gps as gps
 from engine import native
 from engine.fast import geodesy as fast_geodesy
-from engine.fast.geodesy import FastTMGrid
+from engine.fast import gps as fast_gps
+from engine.fast.geodesy import FastTMGrid, fast_datum_shift
+from engine.fast.gps import FAST_GPS, FastGpsSystem
 from engine.geodesy.ellipsoid import WGS84 as WGS84_DATUM
 from engine.geodesy.ellipsoid import WGS84_ELLIPSOID, Ellipsoid
-from engine.geodesy.ellipsoidal import datum_shift
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.datumfile import read_datum_file
 from tests.native.replay import replay_patched
@@ -102,7 +103,7 @@ def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
     # The GPS input through its Python, whose grid.forward is recorded here (the kernel's
     # gps_input does the forward itself: test_gps_input_* below).
     replay_patched([*((FastTMGrid, name, recorder(name)) for name in calls),
-                    (gps, "gps_input", gps._gps_input_py)], 200)
+                    (FastGpsSystem, "gps_input", gps.GpsSystem.gps_input)], 200)
     return calls
 
 
@@ -245,19 +246,19 @@ def _gps_outcome(fn: Callable[..., Any], inputs: Any) -> Any:
 def gps_inputs() -> list[Any]:
     """The CycleInputs of GPS's reading in the first 150 demo epochs."""
     seen: list[Any] = []
-    real = gps.gps_input
+    real = FastGpsSystem.gps_input
 
-    def record(inputs: Any) -> Any:
+    def record(self: Any, inputs: Any) -> Any:
         seen.append(inputs)
-        return real(inputs)
+        return real(self, inputs)
 
-    replay_patched([(gps, "gps_input", record)], 150)
+    replay_patched([(FastGpsSystem, "gps_input", record)], 150)
     return seen
 
 
 @needs_kernel
 def test_gps_input_on_the_replay(gps_inputs: list[Any]) -> None:
-    """The kernel's gps_input (datum shift, ECEF, grid, record) == _gps_input_py, and it takes
+    """The kernel's gps_input (datum shift, ECEF, grid, record) == the reference, and it takes
     every record of the replay."""
     assert len(gps_inputs) >= 140
     for inputs in gps_inputs:
@@ -265,13 +266,13 @@ def test_gps_input_on_the_replay(gps_inputs: list[Any]) -> None:
         ctx = inputs.context
         assert KERNEL.gps_input(inputs.grid._packed, ctx.gps_shift._point, None,
                                 ctx.gps_shift._forward, rec.gps_lat_deg, rec.gps_lon_deg,
-                                gps._WGS84_A, gps._WGS84_E2, gps._new_input,
+                                gps._WGS84_A, gps._WGS84_E2, fast_gps._new_input,
                                 gps.gps_weight(inputs.config, rec)) is not None
-        assert _gps_bits(gps.gps_input(inputs)) == _gps_bits(gps._gps_input_py(inputs))
+        assert _gps_bits(FAST_GPS.gps_input(inputs)) == _gps_bits(gps.gps_input(inputs))
 
 
 _DATUMS = read_datum_file(DATA / "TO_WGS84.DAT")
-_SHIFTS = {pair: None if pair[0] == pair[1] else datum_shift(
+_SHIFTS = {pair: None if pair[0] == pair[1] else fast_datum_shift(
     WGS84_DATUM if pair[0] == "WGS84" else _DATUMS.datum(pair[0]),
     WGS84_DATUM if pair[1] == "WGS84" else _DATUMS.datum(pair[1]))
     for pair in (("WGS84", "ED50"), ("ED50", "WGS84"), ("ED50", "ED50"), ("WGS84", "WGS84"))}
@@ -293,7 +294,7 @@ def test_gps_input_anywhere(gps_inputs: list[Any], k: int, gps_datum: str, worki
                           gps_to_wgs84=_SHIFTS[(gps_datum, "WGS84")])
     rec = replace(base.record, gps_lat_deg=lat, gps_lon_deg=lon)
     inputs = replace(base, context=ctx, record=rec, grid=GRIDS[("INTERNATIONAL", cm)])
-    assert _gps_outcome(gps.gps_input, inputs) == _gps_outcome(gps._gps_input_py, inputs)
+    assert _gps_outcome(FAST_GPS.gps_input, inputs) == _gps_outcome(gps.gps_input, inputs)
 
 
 # --------------------------------------------------------------------------- the pure path
