@@ -299,6 +299,13 @@ SEAM_CLEAN = (
     "engine.systems.manual",
     "engine.systems.registry",
     "engine.geodesy.tmgrid",
+    "engine.lsq.adjustment",
+    "engine.lsq.chi2_table",
+    "engine.lsq.confidence",
+    "engine.lsq.fix",
+    "engine.lsq.robust",
+    "engine.lsq.snooping",
+    "engine.lsq.statistics",
 )
 """The navigation modules whose compiled path has moved to ``engine.fast``: they are the
 reference and know of no fast path (the list grows as modules are moved)."""

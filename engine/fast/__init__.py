@@ -97,11 +97,24 @@ def _probe_systems() -> str | None:
     return systems(decca.FAST_DECCA, gps.FAST_GPS)
 
 
+def _probe_fix() -> str | None:
+    """Why the compiled fix is not used (None: it is): a GPS + Decca fix both ways
+    (:func:`engine.fast.probe.fix`)."""
+    from engine.fast import lsq
+
+    if lsq.kernel() is None:
+        return lsq.unused_reason() or native.status("lsq")
+    from engine.fast.probe import fix
+
+    return fix(lsq.compute_fix)
+
+
 _PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
     "grid": ("tmgrid", _probe_grid),
     "datum_shift": ("datum", _probe_datum_shift),
     "geodesic": ("decca", _probe_geodesic),
     "systems": ("decca", _probe_systems),
+    "compute_fix": ("lsq", _probe_fix),
 }
 """Part of the cycle → (its kernel, its probe)."""
 
@@ -134,6 +147,10 @@ def _factory(part: str) -> Any:
         from engine.systems.gps import GPS
 
         return {DECCA: decca.FAST_DECCA, GPS: gps.FAST_GPS}
+    if part == "compute_fix":
+        from engine.fast import lsq
+
+        return lsq.compute_fix
     raise KeyError(part)
 
 

@@ -138,3 +138,47 @@ def decca_gps_reference(fix: GpsFix) -> Any:
     from engine.systems.gps import GPS
 
     return GPS.observations(fix, None)  # type: ignore[arg-type]
+
+
+def fix(fast_compute_fix: Any) -> str | None:
+    """Why the compiled fix is not used (None: a GPS + Decca fix agrees with the reference's:
+    position, VCV, S², and every LOP row's numbers and verdict)."""
+    from engine.fast.decca import FAST_DECCA
+    from engine.fast.geodesy import FastGeodesicSolver, FastTMGrid, geod_reference
+    from engine.fast.gps import FAST_GPS
+    from engine.lsq.fix import compute_fix
+    from engine.systems.gps import GPS
+    from engine.systems.manual import MANUAL
+
+    ref = geod_reference(_INTL.a_m, _INTL.f)
+    if ref is None:
+        return "PROJ's geod_inverse not found"
+    grids = FastTMGrid(_INTL, 7.0), TMGrid(_INTL, 7.0)
+    geods = FastGeodesicSolver(_INTL), _ProjGeodesic(_INTL, ref)
+    placed = [decca.place_chain(_CHAIN, g) for g in grids]
+    mx, my = placed[1].station_xy_m[0].tolist()
+    systems = ((FAST_GPS, FAST_DECCA, MANUAL), (GPS, decca.DECCA, MANUAL))
+    for dx, dy in _OFFSETS:
+        x, y = mx + dx, my + dy
+        n = decca.decca_geometry(placed[1], x + 30.0, y - 45.0, geods[1]).n_calc.tolist()
+        totals = (n[0] + 0.02, n[1] - 0.01, n[2] + 0.005)
+        fixes = []
+        for i in (0, 1):
+            reading = decca.DeccaReading(placed[i], tuple(t % 1.0 for t in totals), (None,) * 3,
+                                         (True,) * 3, (0.0, 0.0, 0.0), 64.0, totals)
+            gps = GpsFix(52.5, 5.0, x + 20.0, y - 40.0, 2500.0, 0.0, 0.0)
+            f = (fast_compute_fix, compute_fix)[i]
+            fixes.append(f(grids[i], geods[i], (x, y), gps=gps, decca=reading,
+                           systems=systems[i]))
+        a, b = fixes
+        if (a.ok, a.reason, a.category, a.n_used, len(a.lops)) != \
+                (b.ok, b.reason, b.category, b.n_used, len(b.lops)):
+            return "first-use probe failed (fix: outcome)"
+        if not _same([a.x_m, a.y_m, a.rms_m, a.s2], [b.x_m, b.y_m, b.rms_m, b.s2]) or \
+                not _same(a.cov, b.cov):
+            return "first-use probe failed (fix: position)"
+        for ra, rb in zip(a.lops, b.lops, strict=True):
+            if (ra.slot, ra.used, ra.verdict) != (rb.slot, rb.used, rb.verdict) or not _same(
+                    [ra.v_m, ra.w, ra.sigma_d, ra.calc], [rb.v_m, rb.w, rb.sigma_d, rb.calc]):
+                return "first-use probe failed (fix: LOP rows)"
+    return None

@@ -57,7 +57,6 @@ from engine.lsq.fix import (
     LsqSettings,
     ManualObservation,
     PositionPrior,
-    compute_fix,
     lop_name,
     slots_of,
 )
@@ -842,7 +841,7 @@ def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, flo
             observes = True
     if not observes:
         return None
-    fix = compute_fix(grid, ctx.geodesic, x_start, prior=prior, settings=ctx.lsq,
+    fix = ctx.parts.compute_fix(grid, ctx.geodesic, x_start, prior=prior, settings=ctx.lsq,
                       excluded_slots=excluded_slots, readings=values,
                       systems=ctx.derived().run_systems)
     if fix.candidate_slot is not None:
@@ -1150,12 +1149,12 @@ def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
 _UNSET = object()
 _POSITION_K: object = _UNSET
 """The compiled estimate of :func:`filter_estimate` (``position_kernel``), once resolved: the
-one place it is held (``engine.filter.state.position_kernel`` resolves and binds, no cache)."""
+one place it is held (``engine.fast.filter.position_kernel`` resolves and binds, no cache)."""
 
 
 def _position_kernel() -> object:
     """:data:`_POSITION_K`, resolved on first use (None: the Python makes the estimate)."""
-    from engine.filter.state import position_kernel
+    from engine.fast.filter import position_kernel
 
     global _POSITION_K
     _POSITION_K = position_kernel(PositionEstimate)

@@ -24,9 +24,9 @@ def unused_reason(name: str) -> str | None:
     if probe:
         return probe[0]
     if name == "lsq":
-        from engine.lsq import _kernel
+        from engine.fast import lsq
 
-        return _kernel.unused_reason()
+        return lsq.unused_reason()
     if name in ("kalman_predict", "kalman_update") and native.bound_kernel(name) is None:
         return "numpy's and SciPy's bundled OpenBLAS routines not found (the updates)"
     return None

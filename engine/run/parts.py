@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from engine.geodesy.ellipsoid import Datum, Ellipsoid
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
 from engine.geodesy.tmgrid import TMGrid
+from engine.lsq.fix import FixResult, compute_fix
 from engine.systems.base import NavSystem
 
 
@@ -29,6 +30,9 @@ class CycleParts:
     """The geodesic solver of the run's working ellipsoid."""
     systems: Mapping[NavSystem, NavSystem] = field(default_factory=dict)
     """Registry system → the system the run reads it with (the registry's own where none)."""
+
+    compute_fix: Callable[..., FixResult] = compute_fix
+    """The fix of a cycle (:func:`engine.lsq.fix.compute_fix`'s arguments)."""
 
     def run_systems(self, registered: tuple[NavSystem, ...]) -> tuple[NavSystem, ...]:
         """The run's systems, in the order of ``registered`` (the registry's)."""

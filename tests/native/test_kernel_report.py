@@ -4,10 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-import engine.lsq.adjustment  # noqa: F401  (registers the lsq kernel's result classes)
-import engine.lsq.confidence  # noqa: F401
 from engine import native
-from engine.lsq import _kernel
+from engine.fast import lsq as fast_lsq
 from engine.run import kernels
 from uvnav_tui.cli.main import version_text
 
@@ -16,11 +14,7 @@ needs_lsq = pytest.mark.skipif(native.kernel("lsq") is None, reason="lsq kernel 
 
 @needs_lsq
 def test_lsq_reported_as_used_exactly_when_the_fix_uses_it() -> None:
-    _kernel.reset()
-    try:
-        used = _kernel.kernel() is not None
-    finally:
-        _kernel.reset()
+    used = fast_lsq.kernel() is not None
     line = dict(kernels.kernel_report())["lsq"]
     assert (line == "compiled") == used
     assert line.startswith("compiled")
@@ -28,9 +22,9 @@ def test_lsq_reported_as_used_exactly_when_the_fix_uses_it() -> None:
 
 @needs_lsq
 def test_lsq_without_numpys_openblas_is_reported_unused(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Where numpy's bundled OpenBLAS routines are not found the lsq kernel is refused (_bind):
-    the report says so. (An AVX-512 CPU no longer is a reason: since 2026-12-04 the kernel calls
-    numpy's own power and hypot, tests/native/test_lsq.py.)"""
+    """Where numpy's bundled OpenBLAS routines are not found the lsq kernel is refused
+    (engine.fast.lsq.kernel): the report says so. (An AVX-512 CPU no longer is a reason:
+    since 2026-12-04 the kernel calls numpy's own power and hypot, tests/native/test_lsq.py.)"""
     from engine.native import blas
 
     monkeypatch.setattr(blas, "numpy_cblas", lambda: None)
