@@ -433,8 +433,8 @@ def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
 @needs_kernel
 def test_replay_tail_is_the_python(replay: dict[str, list[Any]]) -> None:
     """``tail`` gives the reference _tail's rows (to the bit) on every call of the replay's
-    fixes and their variants (GPS + Decca, Decca alone, blunders), and declines (None) what the Python
-    must say: beyond the linear range (a huge λ1), a check without λ1, a system raising."""
+    fixes and their variants (GPS + Decca, Decca alone, blunders), and declines (None) what the
+    Python must say: beyond the linear range (a huge λ1), a check without λ1, a system raising."""
     calls = _tail_calls(replay)
     assert len(calls) > 150
     n_rows = 0
