@@ -293,12 +293,12 @@ def test_the_checks_find_a_cycle_and_a_layer_breach() -> None:
 
 
 SEAM_CLEAN = (
+    "engine.geodesy",
+    "engine.geodesy.angles",
+    "engine.geodesy.ellipsoid",
     "engine.geodesy.ellipsoidal",
-    "engine.systems.decca",
-    "engine.systems.gps",
-    "engine.systems.manual",
-    "engine.systems.registry",
     "engine.geodesy.tmgrid",
+    "engine.lsq",
     "engine.lsq.adjustment",
     "engine.lsq.chi2_table",
     "engine.lsq.confidence",
@@ -306,6 +306,13 @@ SEAM_CLEAN = (
     "engine.lsq.robust",
     "engine.lsq.snooping",
     "engine.lsq.statistics",
+    "engine.systems",
+    "engine.systems.base",
+    "engine.systems.decca",
+    "engine.systems.gps",
+    "engine.systems.manual",
+    "engine.systems.registry",
+    "engine.systems.sensors",
 )
 """The navigation modules whose compiled path has moved to ``engine.fast``: they are the
 reference and know of no fast path (the list grows as modules are moved)."""

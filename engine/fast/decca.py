@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from functools import cache, partial
+from functools import cache
 from typing import Any
 
 import numpy as np
 
 from engine import native
 from engine.fast.geodesy import FastGeodesicSolver
+from engine.fast.make import slots_maker as maker
 from engine.systems import decca
 from engine.systems.base import CycleInputs, LopReading, Point
 from engine.systems.decca import (
@@ -38,19 +39,6 @@ KERNEL: Any = native.kernel("decca")
 """``engine.native.decca``, or None."""
 TMGRID: Any = native.kernel("tmgrid")
 """``engine.native.tmgrid`` (its ``inverse``, which the lane kernels call), or None."""
-
-
-def maker(cls: type) -> Any:
-    """A constructor of the frozen slots dataclass ``cls`` from every field positionally:
-    ``engine.native.runparse.make`` bound to it (the same instance as the class makes, without
-    its ``__init__``'s per-field ``object.__setattr__``), or the class where that kernel is not
-    built."""
-    from dataclasses import fields
-
-    k = native.kernel("runparse")
-    if k is None:
-        return cls
-    return partial(k.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
 
 
 _new_geometry = maker(DeccaGeometry)

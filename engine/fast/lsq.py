@@ -111,6 +111,13 @@ _QUICK: list[Any] = [None, None]
 """[the LsqSettings :func:`quick_settings` saw last (None: none yet), its values]."""
 
 
+def spec(model: ref._Model) -> tuple[Any, ...]:
+    """What the kernel's ``adjust`` takes of the fix's model: what ``_Model.rows`` uses (each
+    system's first slot and observations, the Point class, grid, geodesic, the identity C_l
+    starts as), so it does what ``rows`` does (each system's ``linearise`` in order) itself."""
+    return (model.parts, Point, model.grid, model.geodesic, model._eye)
+
+
 def first_adjustment(state: dict[str, Any], alpha: float, s02: float) -> Adjustment:
     """The Adjustment of the compiled ``adjust``'s fields (``state``, variance_test None, as
     ``gauss_newton`` leaves it) with its unit-variance test (α, σ0² of the settings)."""
@@ -192,7 +199,7 @@ def compute_fix(
     first = tested = None
     if quick is not None and policy in ("Y", "N", "A"):
         alpha, eps, max_iter, s02, scale_vcv, d0, k_alpha = quick
-        state = k.adjust_tested(model.spec, x0, problem.used, eps, max_iter, COND_MAX,
+        state = k.adjust_tested(spec(model), x0, problem.used, eps, max_iter, COND_MAX,
                                 MAX_AXIS_RATIO, scale_vcv, d0, alpha, s02, k_alpha,
                                 REJECT_BOUND, policy, estimator)
         if type(state) is dict:  # the kernel left the tests to the Python

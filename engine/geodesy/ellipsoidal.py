@@ -145,7 +145,7 @@ def helmert_pipeline(src: Datum, dst: Datum) -> str:
 
 
 PJ_FWD = 1
-"""PROJ's ``PJ_FWD``: the direction :attr:`DatumShift._point` takes (the kernels pass it on)."""
+"""PROJ's ``PJ_FWD``: the direction :attr:`DatumShift._point` takes."""
 
 
 @cache
@@ -333,14 +333,12 @@ class DatumShift:
     """Geodetic transformation ``src`` → ``dst`` through a pinned PROJ pipeline.
 
     Build once per datum pair; coordinates are latitude and longitude in degrees and
-    ellipsoidal height in metres. The per-point call (:meth:`transform`, and the kernels
-    through ``_point``) goes to PROJ's ``proj_trans`` in pyproj's libproj through ctypes
-    (:class:`_ProjPoint`), without importing pyproj (start-up time), or, where it is built, to
-    :mod:`engine.fast`'s compiled twin of it; pyproj's ``Transformer`` of the same pipeline is
-    made on first use
-    by the array and inverse calls, and serves every call where libproj cannot be loaded that
-    way. Not thread-safe (PROJ objects should
-    not be shared between threads).
+    ellipsoidal height in metres. The per-point call (:meth:`transform`, through ``_point``)
+    goes to PROJ's ``proj_trans`` in pyproj's libproj through ctypes (:class:`_ProjPoint`),
+    without importing pyproj (start-up time); pyproj's ``Transformer`` of the same pipeline is
+    made on first use by the array and inverse calls, and serves every call where libproj
+    cannot be loaded that way. Not thread-safe (PROJ objects should not be shared between
+    threads).
     """
 
     __slots__ = ("src", "dst", "pipeline", "_tr_obj", "_proj", "_point", "_forward")

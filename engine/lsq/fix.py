@@ -205,7 +205,7 @@ class _Model:
     """The linearisation callback for the adjustment core (A5.9–A5.27): each system writes the
     rows of its slots."""
 
-    __slots__ = ("_eye", "geodesic", "grid", "n_slots", "parts", "spec")
+    __slots__ = ("_eye", "geodesic", "grid", "n_slots", "parts")
 
     def __init__(self, grid: TMGrid, geodesic: GeodesicSolver,
                  sets: Mapping[str, ObservationSet],
@@ -220,11 +220,7 @@ class _Model:
             parts = tuple([(slots[name].start, obs) for name, obs in sets.items()])
         self.parts = parts
         self.n_slots = sum(len(r) for r in slots.values()) if n_slots is None else n_slots
-        eye = self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
-        self.spec = (parts, Point, grid, geodesic, eye)
-        """What :meth:`rows` uses, for the compiled ``adjust``, which does what :meth:`rows`
-        does with it (the lists, the copy of the identity, the Point, each system's
-        ``linearise`` in order) without the frame."""
+        self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
 
     def __call__(self, x: np.ndarray) -> Linearisation:
         """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N)."""
@@ -240,8 +236,7 @@ class _Model:
 
     def rows(self, x: np.ndarray) -> tuple[list[float], list[float], np.ndarray]:
         """:meth:`arrays` before the conversion: A as a row-major list of 2n floats (∂/∂x,
-        ∂/∂y of each slot), b (m) as a list of n floats and C_l (m²) as an (n, n) array (the
-        compiled adjustment takes the used rows from the lists, ``gauss_newton``).
+        ∂/∂y of each slot), b (m) as a list of n floats and C_l (m²) as an (n, n) array.
 
         C_l starts as the identity (unused slots: variance 1, Pg 821) with the system blocks
         written in.

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from engine.fast.make import runparse_function, slots_maker
 from engine.filter.kalman import (
     FilterParams,
     FilterState,
@@ -68,8 +69,6 @@ from engine.systems.base import (
     CycleInputs,
     NavSystem,
     SystemReading,
-    runparse_function,
-    slots_maker,
 )
 from engine.systems.decca import (
     DECCA,

@@ -27,6 +27,7 @@ from hypothesis import strategies as st
 import engine.systems.decca as decca
 from engine import native
 from engine.fast import decca as fast_decca
+from engine.fast import make as fast_make
 from engine.fast.decca import FAST_DECCA, FastDeccaObservations
 from engine.geodesy.tmgrid import TMGrid
 from engine.systems import base
@@ -132,8 +133,8 @@ def test_readings_made_in_one_call_are_the_dataclass_instances() -> None:
         assert not hasattr(r, "__dict__")
         with pytest.raises(FrozenInstanceError):
             r.value = 1  # type: ignore[misc]
-    make = base.slots_maker(CycleInputs)
-    plain = base.attrs_maker(_PlainInputs)
+    make = fast_make.slots_maker(CycleInputs)
+    plain = fast_make.attrs_maker(_PlainInputs)
     if native.kernel("runparse") is None:
         assert make is CycleInputs and plain is None
         return
@@ -154,8 +155,8 @@ def test_readings_made_in_one_call_are_the_dataclass_instances() -> None:
 def test_pure_path_makes_readings_in_python(monkeypatch: pytest.MonkeyPatch) -> None:
     """Without the runparse kernel (UVNAV_PURE=1) the makers are the Python ones."""
     monkeypatch.setattr(native, "kernel", lambda name: None)
-    assert base.attrs_maker(_PlainInputs) is None
-    assert base.slots_maker(SystemReading) is SystemReading
+    assert fast_make.attrs_maker(_PlainInputs) is None
+    assert fast_make.slots_maker(SystemReading) is SystemReading
     assert fast_decca.maker(SystemReading) is SystemReading
 
 

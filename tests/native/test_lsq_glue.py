@@ -225,7 +225,7 @@ def test_replay_adjust_of_the_model_spec_is_adjust_of_rows(
         for x0 in (np.array(a[2], dtype=float), np.array(a[2], dtype=float) + 3e5):
             for used in (np.array([True] * 5 + [False] * (n - 5)),
                          np.array([True, False, True, True, True] + [False] * (n - 5))):
-                want, got = _adjust(model.rows, x0, used), _adjust(model.spec, x0, used)
+                want, got = _adjust(model.rows, x0, used), _adjust(fast_lsq.spec(model), x0, used)
                 assert type(got) is type(want)
                 if type(want) is dict:
                     assert list(got) == list(want)
@@ -240,12 +240,12 @@ def test_replay_adjust_of_the_model_spec_is_adjust_of_rows(
         def linearise(self, *a: Any) -> None:
             raise ValueError("boom")
 
-    bad = ((model.spec[0][0], (2, Boom())), *model.spec[1:])
+    sp = fast_lsq.spec(model)
+    bad = ((sp[0][0], (2, Boom())), *sp[1:])
     assert _adjust(bad, x0, used) is None
     assert _adjust(lambda x: model.rows(x) and Boom().linearise(), x0, used) is None
-    for spec in (model.spec[:4], (list(model.spec[0]), *model.spec[1:]),
-                 (*model.spec[:4], np.eye(model.n_slots + 1)),
-                 (*model.spec[:4], np.asfortranarray(np.eye(model.n_slots))[:, ::-1])):
+    for spec in (sp[:4], (list(sp[0]), *sp[1:]), (*sp[:4], np.eye(model.n_slots + 1)),
+                 (*sp[:4], np.asfortranarray(np.eye(model.n_slots))[:, ::-1])):
         assert _adjust(spec, x0, used) is None
 
 
@@ -501,11 +501,12 @@ def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> Non
                      np.array([True, True, False, True, False] + [False] * (n - 5)),
                      np.array([True, False, True, True, True] + [False] * (n - 5))):
             for alpha, s02 in ((0.05, 1.0), (0.01, 1e-3), (0.1, 50.0), (0.05, 0.2)):
-                base = (model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8)
+                base = (fast_lsq.spec(model), x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO,
+                        False, 2.8)
                 kw = (fix.w_critical(alpha), fix.REJECT_BOUND, "A", "lsq")
                 got = K.adjust_tested(*base, alpha, s02, *kw)
                 # x0 as compute_fix's tuple, used as its list: the arrays made by the kernel
-                lists = K.adjust_tested(model.spec, tuple(x0.tolist()), used.tolist(),
+                lists = K.adjust_tested(fast_lsq.spec(model), tuple(x0.tolist()), used.tolist(),
                                         *base[3:], alpha, s02, *kw)
                 assert type(lists) is type(got) and same(lists, got)
                 adj_l = lists if type(lists) is Adjustment else lists.adjustment
@@ -532,8 +533,9 @@ def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> Non
     model = replay["models"][0]
     x0 = np.array(replay["calls"][0][0][2], dtype=float)
     used = np.array([True] + [False] * (model.n_slots - 1))
-    assert K.adjust_tested(model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8,
-                           0.05, 1.0, 1.96, 2.576, "A", "lsq") is None  # m < 2: adjust's None
+    assert K.adjust_tested(fast_lsq.spec(model), x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO,
+                           False, 2.8, 0.05, 1.0, 1.96, 2.576, "A",
+                           "lsq") is None  # m < 2: adjust's None
     assert type(Adjustment) is type and type(TestedAdjustment) is type
     with pytest.raises(TypeError):
         K._bind_fix(LopRow, TestedAdjustment, Adjustment, fast_lsq._variance_bounds)  # slotted

@@ -204,10 +204,11 @@ def test_make_builds_the_dataclass_instance() -> None:
 
 def test_slots_maker_is_the_class_without_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
     from engine.fast.decca import maker
+    from engine.fast.make import slots_maker
     from engine.run import cycle as cycle_mod
     from engine.systems import decca as decca_mod
     from engine.systems import gps as gps_mod
-    from engine.systems.base import CycleInputs, slots_maker
+    from engine.systems.base import CycleInputs
 
     monkeypatch.setattr(native, "kernel", lambda name: None)
     assert maker(gps_mod.GpsFix) is gps_mod.GpsFix
