@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -102,3 +103,58 @@ def test_session_keeps_its_parts_across_a_setup_change(tmp_path: Path) -> None:
         assert session.context.parts is session.parts
         assert session.context.working.name == "WGS84"
         assert {type(g) for g in session.context._grids.values()} == {session.parts.grid}
+
+
+def _off(real: Any, scale: float = 1.0 + 1e-6) -> Any:
+    """``real`` with every float of its result (nested lists and tuples) scaled: a kernel whose
+    numbers are off by more than the tolerance contract."""
+    def scaled(v: Any) -> Any:
+        if isinstance(v, float):
+            return v * scale
+        if isinstance(v, list | tuple) and not hasattr(v, "_fields"):
+            return type(v)(scaled(x) for x in v)
+        return v
+
+    def call(*a: Any, **k: Any) -> Any:
+        return scaled(real(*a, **k))
+    return call
+
+
+@needs_tmgrid
+@pytest.mark.parametrize(("part", "target", "name"), [
+    ("systems", "engine.fast.decca.FastDeccaObservations", "nearest_station_m"),
+    ("systems", "engine.fast.gps.FastGpsObservations", "linearise"),
+    ("compute_fix", "engine.fast.lsq", "compute_fix"),
+    ("datum_shift", "engine.fast.geodesy.FastDatumShift", "transform"),
+])
+def test_each_part_declines_when_its_probe_sees_other_numbers(
+        monkeypatch: pytest.MonkeyPatch, fresh_verdicts: None, part: str, target: str,
+        name: str) -> None:
+    """A compiled part whose numbers are off is not offered; the run takes the reference's."""
+    import importlib
+
+    mod_name, _, cls_name = target.rpartition(".")
+    if cls_name == "lsq":
+        owner: Any = importlib.import_module(target)
+    else:
+        owner = getattr(importlib.import_module(mod_name), cls_name)
+    real = getattr(owner, name)
+    if name == "linearise":
+        def off_rows(self: Any, p: Any, slot0: int, A: list[float], b: list[float],
+                     Cl: Any) -> None:
+            real(self, p, slot0, A, b, Cl)
+            b[slot0] *= 1.0 + 1e-6
+        monkeypatch.setattr(owner, name, off_rows)
+    elif name == "compute_fix":
+        def off_fix(*a: Any, **k: Any) -> Any:
+            from dataclasses import replace
+            f = real(*a, **k)
+            return replace(f, x_m=f.x_m + 1e-3)
+        monkeypatch.setattr(owner, name, off_fix)
+    else:
+        monkeypatch.setattr(owner, name, _off(real))
+    assert part not in fast.parts()
+    why = {p: w for p, _k, w in fast.declined()}
+    assert why[part].startswith("first-use probe failed"), why
+    ref = getattr(REFERENCE, part)
+    assert getattr(choose(), part) == ref
