@@ -63,7 +63,7 @@ from engine.lsq.fix import (
 )
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig, resolve_vessel
-from engine.run.parts import REFERENCE, CycleParts
+from engine.run.parts import REFERENCE, CycleParts, choose
 from engine.systems import registry
 from engine.systems.base import (
     CycleInputs,
@@ -221,10 +221,12 @@ class RunContext:
 
 
 def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain],
-                  parts: CycleParts = REFERENCE) -> RunContext:
+                  parts: CycleParts | None = None) -> RunContext:
     """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain)
-    with the collaborators ``parts``; ``filter.vessel = "auto"`` is resolved for the run file
-    (:func:`resolve_vessel`)."""
+    with the collaborators ``parts`` (None: the run's choice, :func:`engine.run.parts.choose`);
+    ``filter.vessel = "auto"`` is resolved for the run file (:func:`resolve_vessel`)."""
+    if parts is None:
+        parts = choose()
     cfg = resolve_vessel(cfg)
     working = datums.datum(cfg.datum)
     gps_datum = datums.datum(cfg.run_gps_datum) if cfg.run_gps_datum.upper() != "WGS84" else WGS84

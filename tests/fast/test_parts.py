@@ -158,3 +158,15 @@ def test_each_part_declines_when_its_probe_sees_other_numbers(
     assert why[part].startswith("first-use probe failed"), why
     ref = getattr(REFERENCE, part)
     assert getattr(choose(), part) == ref
+
+
+def test_a_context_built_without_parts_takes_the_runs_choice() -> None:
+    """build_context (as ``uvnav denied`` calls it) without parts: the run's choice, not the
+    reference (a silent slow path)."""
+    from engine.run.cycle import build_context
+    from engine.run.setup import load_data
+
+    cfg = load_config(DATA / "DEMO.toml")
+    ctx = build_context(cfg, *load_data(cfg))
+    assert ctx.parts == choose()
+    assert build_context(cfg, *load_data(cfg), REFERENCE).parts is REFERENCE
