@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from engine import native
+from engine.fast.geodesy import _UNSET as _UNSET_GEODESIC
 from engine.fast.geodesy import FastGeodesicSolver
 from engine.fast.make import slots_maker as maker
 from engine.systems import decca
@@ -47,10 +48,14 @@ _new_lop = maker(LopReading)
 
 def geodesic_kernel(geodesic: Any) -> Any:
     """The solver's compiled geodesic (:meth:`FastGeodesicSolver.native`), or None (the
-    reference solver, or one whose kernel declined)."""
-    if KERNEL is None or not isinstance(geodesic, FastGeodesicSolver):
+    reference solver, or one whose kernel declined). Several times a cycle: its resolved
+    geodesic read first."""
+    g = getattr(geodesic, "_native", None)
+    if g is None or KERNEL is None:
         return None
-    return geodesic.native()
+    if g is _UNSET_GEODESIC:
+        g = geodesic.native() if isinstance(geodesic, FastGeodesicSolver) else None
+    return g
 
 
 @cache
@@ -144,7 +149,8 @@ class FastDeccaObservations(DeccaObservations):
 
     def readings(self, p: Point) -> list[LopReading]:
         """The page rows in one compiled call (``page``)."""
-        geom = self.geometry_at(p)
+        at = self._at  # self.geometry_at(p), its computed case looked up here
+        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
         if KERNEL is not None:
             rows = KERNEL.page(geom.n_calc, geom.lop_azimuth_rad, self.raw,
                                self.reading.corrections_lanes, DECCA_PATTERN_NAMES, "Decca",
@@ -155,7 +161,8 @@ class FastDeccaObservations(DeccaObservations):
 
     def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
         """The nearest station in one compiled call (``nearest``)."""
-        geom = self.geometry_at(p)
+        at = self._at  # self.geometry_at(p), its computed case looked up here
+        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
         if KERNEL is not None:
             near = KERNEL.nearest(geom.d_master_m, geom.d_slave_m, used)
             if near is not NotImplemented:

@@ -15,8 +15,16 @@ import numpy as np
 from engine import native
 from engine.fast.decca import maker
 from engine.systems import gps as ref
-from engine.systems.base import CycleInputs, Point
-from engine.systems.gps import GpsFix, GpsInput, GpsSystem, _GpsObservations, gps_weight
+from engine.systems.base import CycleInputs, LopReading, Point
+from engine.systems.gps import (
+    ROW_LAT,
+    ROW_LON,
+    GpsFix,
+    GpsInput,
+    GpsSystem,
+    _GpsObservations,
+    gps_weight,
+)
 
 TMGRID: Any = native.kernel("tmgrid")
 """``engine.native.tmgrid`` (its ``gps_input``), or None."""
@@ -24,6 +32,7 @@ DECCA: Any = native.kernel("decca")
 """``engine.native.decca`` (its ``gps_rows``), or None."""
 
 _new_input = maker(GpsInput)
+_new_lop = maker(LopReading)
 
 
 class _ShiftArgs:
@@ -58,6 +67,13 @@ class FastGpsObservations(_GpsObservations):
         if DECCA.gps_rows(A, b, Cl, slot0, north, east, p.x, p.y, self.gps.var_m2) is None:
             return
         super().linearise(p, slot0, A, b, Cl)
+
+    def readings(self, p: Point) -> list[LopReading]:
+        """The reference's "Lat"/"Lon" page rows, each made in one compiled call."""
+        g = self.gps
+        lat_hat, lon_hat = p.latlon
+        return [_new_lop(ROW_LAT, "GPS", "Lat", g.lat_deg, g.corr_north_m, lat_hat, 90.0),
+                _new_lop(ROW_LON, "GPS", "Lon", g.lon_deg, g.corr_east_m, lon_hat, 180.0)]
 
 
 class FastGpsSystem(GpsSystem):
