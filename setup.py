@@ -2,13 +2,16 @@
 
 Every ``engine/native/<name>.c`` becomes the extension module ``engine.native.<name>``. They are
 optional: if a kernel does not compile (no C compiler, no Python headers), the install goes on
-and the engine uses its pure-Python path, which gives the same bits (docs/PERFORMANCE.md).
+and the engine uses its pure-Python path, the reference the kernels agree with to the tolerance
+contract of docs/PERFORMANCE.md.
 
-Flags: ``-ffp-contract=off`` so the compiler never fuses a*b+c into one FMA (Python and numpy's
-elementwise loops round the product first: a fused result would change the last bit), and no
-``-ffast-math`` (no reassociation). Each module is built with ``UVN_SOURCE_DIGEST``, the BLAKE2b
-of its source and the headers beside it; :func:`engine.native.kernel` refuses a module whose
-digest is not that of the sources in the tree (a stale build after an edit).
+The kernels use only public interfaces: CPython's C API and numpy's C API through numpy's own
+headers (``numpy.get_include()``; numpy is a build requirement in pyproject.toml). Flags:
+``-ffp-contract=off`` and no ``-ffast-math`` keep each operation the one written (no fused
+multiply-add, no reassociation), so results stay close to the Python's. Each module is built
+with ``UVN_SOURCE_DIGEST``, the BLAKE2b of its source and the headers beside it;
+:func:`engine.native.kernel` refuses a module whose digest is not that of the sources in the
+tree (a stale build after an edit).
 """
 
 from __future__ import annotations
@@ -45,13 +48,27 @@ class OptionalBuildExt(build_ext):
                   "the engine uses its pure-Python path", file=sys.stderr)
 
 
+def numpy_include() -> list[str]:
+    """numpy's C headers (the kernels read and make arrays through numpy's C API), or none
+    when numpy is not importable at build time (then the kernels fail to build: pure Python)."""
+    try:
+        import numpy
+    except ImportError:
+        print("warning: numpy not importable at build time: the compiled kernels that use "
+              "numpy's C API will not build", file=sys.stderr)
+        return []
+    return [numpy.get_include()]
+
+
 def extensions() -> list[Extension]:
     """One extension per C file in engine/native."""
+    include = numpy_include()
     return [
         Extension(
             f"engine.native.{c.stem}",
             sources=[str(c)],
             define_macros=[("UVN_SOURCE_DIGEST", f'"{source_digest(c)}"')],
+            include_dirs=include,
             extra_compile_args=CFLAGS,
             depends=[str(h) for h in sorted(NATIVE.glob("*.h"))],
         )

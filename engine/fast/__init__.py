@@ -103,7 +103,7 @@ def _probe_fix() -> str | None:
     from engine.fast import lsq
 
     if lsq.kernel() is None:
-        return lsq.unused_reason() or native.status("lsq")
+        return native.status("lsq")
     from engine.fast.probe import fix
 
     return fix(lsq.compute_fix)

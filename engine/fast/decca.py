@@ -60,17 +60,9 @@ def geodesic_kernel(geodesic: Any) -> Any:
 
 @cache
 def lane_sigma_kernel() -> Any:
-    """The kernel's ``lane_sigma`` with numpy's ``cblas_dgemv``/``cblas_ddot`` bound
-    (:mod:`engine.native.blas`), or None (numpy not on its bundled OpenBLAS)."""
-    if KERNEL is None:
-        return None
-    from engine.native import blas
-
-    addresses = blas.numpy_cblas()
-    if addresses is None:
-        return None
-    KERNEL._bind_blas(addresses["dgemv"], addresses["ddot"])
-    return KERNEL.lane_sigma
+    """The kernel's ``lane_sigma`` (its own 2×2 products, engine/native/uvn_linalg.h), or None
+    (no kernel)."""
+    return None if KERNEL is None else KERNEL.lane_sigma
 
 
 def decca_geometry(placed: ChainOnGrid, x_m: float, y_m: float, geodesic: Any,

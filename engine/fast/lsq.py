@@ -1,4 +1,4 @@
-"""The fix on the compiled LSQ kernel (``engine.native.lsq``), bound to numpy's BLAS/LAPACK.
+"""The fix on the compiled LSQ kernel (``engine.native.lsq``).
 
 :func:`compute_fix` is :func:`engine.lsq.fix.compute_fix` whose usual fix (plain LSQ, nothing
 to reject, flag or ask) is adjusted, tested and concluded in two compiled calls:
@@ -7,10 +7,10 @@ geodetic position, the ellipse, the linear-range check and the LOP table). Anyth
 rejection, a robust estimator, settings it does not take, a case it declines) runs the
 reference from where the kernel left it.
 
-The kernel is bound on first use (:func:`kernel`): numpy's ``cblas`` and LAPACK routines
-(found through ctypes in numpy's bundled OpenBLAS, :mod:`engine.native.blas`), its own result
-classes and numpy's ``power``/``hypot`` ufuncs. Where numpy is not on its bundled OpenBLAS the
-kernel is not used (:func:`unused_reason`).
+The kernel is bound on first use (:func:`kernel`) to the Python objects it builds and calls:
+the result classes and numpy's ``power``/``hypot`` ufuncs. Its small-matrix code is its own
+(``engine/native/uvn_linalg.h``); it agrees with the reference to the tolerance contract of
+docs/PERFORMANCE.md, which the run's first-use probe checks (``engine.fast.probe.fix``).
 """
 
 from __future__ import annotations
@@ -50,35 +50,17 @@ POWER = 0.80
 
 @cache
 def kernel() -> Any:
-    """``engine.native.lsq`` bound and usable, or None: not built, stale, ``UVNAV_PURE=1``, or
-    numpy not on its bundled OpenBLAS."""
+    """``engine.native.lsq`` bound and usable, or None: not built, stale, declined by its
+    ``_probe``, ``UVNAV_PURE=1``."""
     mod = native.kernel("lsq")
     if mod is None:
         return None
-    from engine.native import blas
-
-    cblas, lapack = blas.numpy_cblas(), blas.numpy_lapack()
-    if cblas is None or lapack is None:
-        return None
-    addresses = {**{f"np_{k}": v for k, v in cblas.items()},
-                 **{f"npl_{k}": v for k, v in lapack.items()}}  # SciPy's library not needed
-    mod._bind(addresses, math.hypot, _Solution, Ellipse, np.power, np.hypot)
+    # the first argument once carried OpenBLAS routine addresses; the kernel ignores it now
+    mod._bind(None, math.hypot, _Solution, Ellipse, np.power, np.hypot)
     mod._bind_fix(Adjustment, TestedAdjustment, UnitVarianceTest, _variance_bounds, Point,
                   DeccaObservations, FixResult, DECCA.name, np.dtype(bool))
     mod._bind_row(LopRow, tuple(f for f in LopRow.__dataclass_fields__))
     return mod
-
-
-def unused_reason() -> str | None:
-    """Why the built lsq kernel is not used on this machine, or None (used, or not built:
-    :func:`engine.native.status` says why then); checked without binding."""
-    if native.kernel("lsq") is None:
-        return None
-    from engine.native import blas
-
-    if blas.numpy_cblas() is None or blas.numpy_lapack() is None:
-        return "numpy's bundled OpenBLAS routines not found"
-    return None
 
 
 def quick_settings(settings: LsqSettings) -> tuple[float, float, int, float, bool, float,

@@ -1,10 +1,11 @@
 """Optional compiled kernels of the engine (C, ``engine/native/*.c``), and how they are found.
 
-The engine's hot scalar and small-matrix code has a compiled twin here. A twin does the same
-IEEE operations in the same order as the Python it replaces (built with ``-ffp-contract=off``,
-calling the same BLAS/LAPACK entry points numpy and SciPy call, see :mod:`engine.native.blas`),
-so the results, and the ``.OUT``, are the same bit for bit (docs/PERFORMANCE.md). The pure
-path stays: it is what runs where no kernel was built, with ``UVNAV_PURE=1`` in the
+The engine's hot scalar and small-matrix code has a compiled twin here, written against public
+interfaces only (CPython's C API, numpy's C API through its headers, the kernels' own
+small-matrix code in ``uvn_linalg.h``). The pure-Python engine is the reference: a twin agrees
+with it to the tolerance contract of docs/PERFORMANCE.md (every logged number within 1e-9
+relative or a small absolute floor, every discrete field identical), not bit for bit. The pure
+path is what runs where no kernel was built or a kernel declines, with ``UVNAV_PURE=1`` in the
 environment, and what the kernels are tested against (``tests/native/``).
 
 :func:`kernel` returns a built module only when its ``SOURCE_DIGEST`` is the digest of the C
@@ -46,7 +47,9 @@ def source_digest(name: str) -> str | None:
 
 @cache
 def _load(name: str) -> tuple[ModuleType | None, str]:
-    """(module or None, why not) for ``engine.native.<name>``; imported once per process."""
+    """(module or None, why not) for ``engine.native.<name>``; imported once per process, then
+    its ``_probe()`` (where it has one: numpy's C API imported and checked) run; a module that
+    fails to import or whose probe fails is declined with the reason."""
     try:
         module = importlib.import_module(f"engine.native.{name}")
     except ImportError as exc:
@@ -55,6 +58,12 @@ def _load(name: str) -> tuple[ModuleType | None, str]:
     have = getattr(module, "SOURCE_DIGEST", None)
     if want is not None and have != want:
         return None, "stale build (source changed since it was compiled; run make venv)"
+    probe = getattr(module, "_probe", None)
+    if probe is not None:
+        try:
+            probe()
+        except Exception as exc:  # any failure of the check: decline, the Python runs
+            return None, f"declined: its first-use check failed ({type(exc).__name__}: {exc})"
     return module, "compiled"
 
 
@@ -66,33 +75,15 @@ def kernel(name: str) -> ModuleType | None:
     return _load(name)[0]
 
 
-@cache
-def _bound(name: str) -> ModuleType | None:
-    """Kernel ``name`` after its ``_bind(addresses)`` with numpy's and SciPy's routines
-    (:func:`engine.native.blas.all_addresses`), or None if not built or no bundled OpenBLAS."""
-    module = _load(name)[0]
-    if module is None:
-        return None
-    from engine.native import blas
-
-    addresses = blas.all_addresses()
-    if addresses is None:
-        return None
-    module._bind(addresses)
-    return module
-
-
 def bound_kernel(name: str) -> ModuleType | None:
-    """:func:`kernel`, bound to the BLAS/LAPACK routines it calls (once per process). Call it
-    on first use, not at import: finding the routines loads both OpenBLAS libraries."""
-    if pure_requested():
-        return None
-    return _bound(name)
+    """:func:`kernel` (kept for callers: the kernels' small-matrix code is their own, there is
+    nothing left to bind)."""
+    return kernel(name)
 
 
 def status(name: str) -> str:
-    """One line on kernel ``name``: "compiled", "pure (UVNAV_PURE=1)", "not built (…)" or
-    "stale build (…)" — for the bench and ``uvnav --version``."""
+    """One line on kernel ``name``: "compiled", "pure (UVNAV_PURE=1)", "not built (…)",
+    "stale build (…)" or "declined: …" — for the bench and ``uvnav --version``."""
     if pure_requested():
         return f"pure ({PURE_ENV}=1)"
     return _load(name)[1]

@@ -1,50 +1,37 @@
-/* The engine's datum shifts, compiled (engine.native.datum): PROJ 9.5.1's own arithmetic for
- * exactly the pipelines engine.geodesy.ellipsoidal.helmert_pipeline builds, so the same bits as
- * libproj's proj_trans (tests/native/test_datum.py compares them on every datum of
- * data/TO_WGS84.DAT, on a replay's points and over the whole globe).
+/* The engine's datum shifts, compiled (engine.native.datum): the transformation
+ * engine.geodesy.ellipsoidal.helmert_pipeline describes, computed from the textbook formulas
+ * (the pure path runs that pipeline in PROJ; the two agree to the engine's tolerance contract,
+ * docs/PERFORMANCE.md; tests/native/test_datum.py compares them on every datum of
+ * data/TO_WGS84.DAT, on a replay's points and over the whole globe):
  *
- *   +proj=pipeline +step +proj=axisswap +order=2,1 +step +proj=unitconvert +xy_in=deg +xy_out=rad
- *   +step +proj=cart <src ellipsoid> [+step <src helmert>] [+step +inv <dst helmert>]
- *   +step +inv +proj=cart <dst ellipsoid> +step +proj=unitconvert +xy_in=rad +xy_out=deg
- *   +step +proj=axisswap +order=2,1
- *
- * The code below is transcribed from PROJ 9.5.1 (https://github.com/OSGeo/PROJ, tag 9.5.1;
- * PROJ is MIT licensed: Copyright (c) 2016 Thomas Knudsen / SDFE, (c) 2016-2018 Thomas Knudsen,
- * Kristian Evers / SDFE, (c) 2000 Frank Warmerdam, and the PROJ contributors; "Permission is
- * hereby granted, free of charge, to any person obtaining a copy of this software and associated
- * documentation files (the "Software"), to deal in the Software without restriction, including
- * without limitation the rights to use, copy, modify, merge, publish, distribute, sublicense,
- * and/or sell copies of the Software, and to permit persons to whom the Software is furnished to
- * do so, subject to the following conditions: The above copyright notice and this permission
- * notice shall be included in all copies or substantial portions of the Software." THE SOFTWARE
- * IS PROVIDED "AS IS", WITHOUT WARRANTY OF ANY KIND):
- *   - src/4D_api.cpp        proj_trans (no epoch, NaN input, direction);
- *   - src/pipeline.cpp      pipeline_forward_4d (steps in order, stop at HUGE_VAL; the pipeline
- *                           itself skips prepare/finalize);
- *   - src/fwd.cpp, inv.cpp  pj_fwd4d / pj_inv4d: fwd_prepare (latitude/longitude range checks,
- *                           clamping, adjlon, lam0, from_greenwich), fwd_finalize (fr_meter,
- *                           vfr_meter * (z + z0)), inv_prepare (to_meter), inv_finalize (lam0,
- *                           from_greenwich, adjlon);
- *   - src/adjlon.cpp        adjlon;
- *   - src/ell_set.cpp       pj_ellipsoid / pj_calc_ellipsoid_params (f = 1/rf, es = 2f - f*f,
- *                           e2s = tan(asin(sqrt(es)))^2, ra = 1/a);
- *   - src/conversions/cart.cpp        cartesian, geodetic, normal_radius_of_curvature,
- *                                     geocentric_radius;
- *   - src/transformations/helmert.cpp helmert_forward_4d/_3d, helmert_reverse_4d/_3d,
- *                                     update_parameters, build_rot_matrix (approximate, the
- *                                     position-vector transpose), ARCSEC_TO_RAD;
- *   - src/conversions/unitconvert.cpp forward_4d/_3d/_2d (x *= xy_factor, z *= z_factor);
- *   - src/conversions/axisswap.cpp    swap_xy_4d;
- *   - src/units.cpp, src/proj_internal.h  DEG_TO_RAD, PJ_EPS_LAT, M_TWOPI.
- * Same operations in the same order (built with -ffp-contract=off, as libproj has no FMA);
- * libm (sin, cos, atan, atan2, asin, tan, floor) is glibc's, the library libproj calls, through
- * volatile pointers so that gcc neither folds nor merges calls.
+ *   1. geodetic (φ, λ, h) on the source ellipsoid → geocentric Cartesian (X, Y, Z):
+ *        N = a / √(1 − e² sin²φ),  X = (N + h) cos φ cos λ,  Y = (N + h) cos φ sin λ,
+ *        Z = (N (1 − e²) + h) sin φ                          (Torge & Müller, Geodesy, 4th ed.,
+ *                                                             2012, §4.1.1, eq. 4.20);
+ *   2. the source datum's seven-parameter similarity to WGS84, position-vector convention with
+ *      the small-angle rotation matrix (IOGP Guidance Note 7-2, EPSG method 9606):
+ *        X' = T + (1 + s·10⁻⁶) R X,  R = [[1, −rz, ry], [rz, 1, −rx], [−ry, rx, 1]] (radians);
+ *   3. the destination datum's similarity reversed (GN 7-2: the reverse of 9606 applies the
+ *      parameters with their signs changed, i.e. Rᵀ for R; here X = Rᵀ (X' − T) / (1 + s·10⁻⁶),
+ *      as PROJ's +inv helmert step does);
+ *   4. Cartesian → geodetic on the destination ellipsoid by Bowring's formula (Bowring 1976,
+ *      Survey Review 23(181):323–327), one step of the parametric latitude β:
+ *        p = √(X² + Y²), tan β = (Z a) / (p b),
+ *        tan φ = (Z + e'² b sin³β) / (p − e² a cos³β),  λ = atan2(Y, X),
+ *        h = p / cos φ − N  (Torge & Müller §4.1.1; the form PROJ's cart step uses, so far from
+ *      the ellipsoid, where one Bowring step is no longer exact, both still give the same
+ *      height). Near the ellipsoid (±10 km, every point a datum shift of this engine sees) one
+ *      step is exact to well below a micrometre. Within 1° of a pole p / cos φ magnifies the
+ *      last bit of φ: there the PROJ call answers.
+ * Degrees in and out, (lat, lon, h) order. Steps whose seven parameters are all zero (WGS84)
+ * are left out, as helmert_pipeline leaves them out.
  *
  * A Shift object is called like engine.geodesy.ellipsoidal._ProjPoint.point (x, y, z, t,
  * direction, radians, errcheck) -> (x, y, z): it computes the forward direction (PJ_FWD) for
  * float x, y, z (finite), t None, radians and errcheck False; anything else (another direction
- * or argument type, a non-finite value, any point where PROJ would report an error) goes to the
- * fallback it was made with (the PROJ call itself), so the answer is always libproj's.
+ * or argument type, a non-finite value, a latitude beyond ±90°, a longitude beyond 10 rad (which
+ * PROJ refuses), a result on the antimeridian (where the sign of ±180° is PROJ's choice) or
+ * within 1° of a pole goes to the fallback it was made with (the PROJ call itself).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -55,402 +42,129 @@
 #define UVN_SOURCE_DIGEST "unknown"
 #endif
 
-/* ------------------------------------------------------------------ libm, as libproj calls it */
-static double (*volatile v_sin)(double) = sin;
-static double (*volatile v_cos)(double) = cos;
-static double (*volatile v_atan)(double) = atan;
-static double (*volatile v_atan2)(double, double) = atan2;
-static double (*volatile v_asin)(double) = asin;
-static double (*volatile v_tan)(double) = tan;
-static double (*volatile v_floor)(double) = floor;
-static double (*volatile v_sqrt)(double) = sqrt;
-
-/* src/proj_internal.h, src/units.cpp */
-#define P_DEG_TO_RAD .017453292519943296
-#define P_PJ_EPS_LAT 1e-12
-#define P_M_PI 3.14159265358979323846
-#define P_M_TWOPI 6.28318530717958647693
-#define P_M_HALFPI M_PI_2
-#define P_ARCSEC_TO_RAD (P_DEG_TO_RAD / 3600.0) /* helmert.cpp */
-
+#define DEG_TO_RAD 0.017453292519943295 /* π / 180 */
+#define ARCSEC_TO_RAD (DEG_TO_RAD / 3600.0)
 #define PJ_FWD 1
 
-/* src/adjlon.cpp */
-static double adjlon(double longitude)
-{
-    if (fabs(longitude) < P_M_PI + 1e-12)
-        return longitude;
-    longitude += P_M_PI;
-    longitude -= P_M_TWOPI * v_floor(longitude / P_M_TWOPI);
-    longitude -= P_M_PI;
-    return longitude;
-}
-
-/* The fields of a PJ that the steps read (the defaults pj_init gives a step without +units,
- * +lon_0, +pm, +z_0: kept as run-time values so that no x + 0.0 is folded away). */
 typedef struct {
-    double a, es, ra, f, e2s;   /* cart's ellipsoid (ell_set.cpp) */
-    double fr_meter, to_meter, vfr_meter, z0, lam0, from_greenwich;
-} cart_t;
+    double a, b, e2, ep2; /* semi-axes (m), first and second eccentricity squared */
+} ell_t;
 
 typedef struct {
     int present;
-    double xyz[3];     /* Q->xyz after update_parameters */
-    double refp[3];    /* Q->refp: 0 */
-    double scale;      /* Q->scale (ppm) */
-    double R[3][3];
-    int no_rotation;
-    double fr_meter, to_meter;
+    double t[3];    /* translation (m) */
+    double scale;   /* 1 + s·10⁻⁶ */
+    double R[3][3]; /* position-vector small-angle rotation */
 } helmert_t;
 
 typedef struct {
     PyObject_HEAD
     vectorcallfunc vectorcall;
     PyObject *fallback; /* _ProjPoint.point: the PROJ call */
-    cart_t src, dst;
+    ell_t src, dst;
     helmert_t hsrc, hdst;
-    double uc_in_xy, uc_in_z, uc_in_vfr, uc_in_z0; /* unitconvert deg -> rad (+ its finalize) */
-    double uc_out_xy, uc_out_z;                    /* unitconvert rad -> deg */
 } ShiftObject;
 
-/* ------------------------------------------------------------------ set-up (ell_set.cpp) */
-/* pj_ellipsoid + pj_calc_ellipsoid_params for "+a=<a> +rf=<rf>" (rf > 0) or "+a=<a> +b=<a>"
- * (rf == 0: a sphere). */
-static int cart_init(cart_t *c, double a, double rf)
+/* "+a=<a> +rf=<rf>" (rf > 0) or a sphere "+a=<a> +b=<a>" (rf == 0): 0, or -1 (refused). */
+static int ell_init(ell_t *e, double a, double rf)
 {
-    double es, f, e, alpha, e2;
-    if (!(a > 0.0) || !isfinite(a) || !(rf >= 0.0) || !isfinite(rf))
+    if (!(a > 0.0) || !isfinite(a) || !(rf == 0.0 || (rf > 1.0 && isfinite(rf))))
         return -1;
-    if (rf > 0.0) {
-        f = 1 / rf;
-        es = 2 * f - f * f;
-    }
-    else {
-        f = 0;
-        es = 0;
-    }
-    if (!(es >= 0))
-        return -1;
-    /* pj_calc_ellipsoid_params (called twice by pj_init, the second time changing nothing) */
-    e = v_sqrt(es);
-    alpha = v_asin(e);
-    e2 = v_tan(alpha);
-    c->e2s = e2 * e2;
-    if (0 == f)
-        f = 1 - v_cos(alpha);
-    if (!(f >= 0.0 && f < 1.0))
-        return -1;
-    if (1. - es == 0.)
-        return -1;
-    c->a = a;
-    c->es = es;
-    c->f = f;
-    c->ra = 1. / a;
-    c->fr_meter = c->to_meter = 1.;
-    c->vfr_meter = 1.;
-    c->z0 = 0.0;
-    c->lam0 = 0.0;
-    c->from_greenwich = 0.0;
+    double f = rf == 0.0 ? 0.0 : 1.0 / rf;
+    e->a = a;
+    e->b = a * (1.0 - f);
+    e->e2 = f * (2.0 - f);
+    e->ep2 = e->e2 / (1.0 - e->e2);
     return 0;
 }
 
-/* PJ_TRANSFORMATION(helmert) for "+x +y +z +rx +ry +rz +s +convention=position_vector" (all
- * given, no rates, no epoch), then update_parameters and build_rot_matrix (not exact). */
+/* (x, y, z m; rx, ry, rz arc-seconds; s ppm): 0, or -1 (not finite, or a scale ≤ −10⁶ ppm). */
 static int helmert_init(helmert_t *h, const double p[7])
 {
-    double xyz_0[3], opk_0[3], scale_0, opk[3], f, t, pp;
-    const double dxyz = 0.0, dopk = 0.0, dscale = 0.0, t_epoch = 0.0, t_obs = 0.0;
-    double dt;
-    int is_position_vector = 0;
     for (int i = 0; i < 7; i++)
         if (!isfinite(p[i]))
             return -1;
-    xyz_0[0] = p[0];
-    xyz_0[1] = p[1];
-    xyz_0[2] = p[2];
-    opk_0[0] = p[3] * P_ARCSEC_TO_RAD;
-    opk_0[1] = p[4] * P_ARCSEC_TO_RAD;
-    opk_0[2] = p[5] * P_ARCSEC_TO_RAD;
-    scale_0 = p[6];
-    if (scale_0 <= -1.0e6)
+    if (p[6] <= -1.0e6)
         return -1;
-    h->no_rotation = (opk_0[0] == 0) && (opk_0[1] == 0) && (opk_0[2] == 0);
-    if (!h->no_rotation)
-        is_position_vector = 1;
-    /* update_parameters */
-    dt = t_obs - t_epoch;
-    h->xyz[0] = xyz_0[0] + dxyz * dt;
-    h->xyz[1] = xyz_0[1] + dxyz * dt;
-    h->xyz[2] = xyz_0[2] + dxyz * dt;
-    opk[0] = opk_0[0] + dopk * dt;
-    opk[1] = opk_0[1] + dopk * dt;
-    opk[2] = opk_0[2] + dopk * dt;
-    h->scale = scale_0 + dscale * dt;
-    /* build_rot_matrix, small-angle form */
-    f = opk[0];
-    t = opk[1];
-    pp = opk[2];
-    h->R[0][0] = 1;
-    h->R[0][1] = pp;
-    h->R[0][2] = -t;
-    h->R[1][0] = -pp;
-    h->R[1][1] = 1;
-    h->R[1][2] = f;
-    h->R[2][0] = t;
-    h->R[2][1] = -f;
-    h->R[2][2] = 1;
-    if (is_position_vector) {
-        double r;
-        r = h->R[0][1];
-        h->R[0][1] = h->R[1][0];
-        h->R[1][0] = r;
-        r = h->R[0][2];
-        h->R[0][2] = h->R[2][0];
-        h->R[2][0] = r;
-        r = h->R[1][2];
-        h->R[1][2] = h->R[2][1];
-        h->R[2][1] = r;
-    }
-    h->refp[0] = h->refp[1] = h->refp[2] = 0.0;
-    h->fr_meter = h->to_meter = 1.;
+    const double rx = p[3] * ARCSEC_TO_RAD, ry = p[4] * ARCSEC_TO_RAD, rz = p[5] * ARCSEC_TO_RAD;
+    h->t[0] = p[0];
+    h->t[1] = p[1];
+    h->t[2] = p[2];
+    h->scale = 1.0 + p[6] * 1e-6;
+    const double R[3][3] = {{1.0, -rz, ry}, {rz, 1.0, -rx}, {-ry, rx, 1.0}};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            h->R[i][j] = R[i][j];
     h->present = 1;
     return 0;
 }
 
-/* ------------------------------------------------------------------ cart.cpp */
-static double normal_radius_of_curvature(double a, double es, double sinphi)
+/* Step 1: geodetic (φ, λ rad, h m) → Cartesian. */
+static void to_cartesian(const ell_t *e, double phi, double lam, double h, double v[3])
 {
-    if (es == 0)
-        return a;
-    return a / v_sqrt(1 - es * sinphi * sinphi);
+    const double sphi = sin(phi), cphi = cos(phi);
+    const double n = e->a / sqrt(1.0 - e->e2 * sphi * sphi);
+    v[0] = (n + h) * cphi * cos(lam);
+    v[1] = (n + h) * cphi * sin(lam);
+    v[2] = (n * (1.0 - e->e2) + h) * sphi;
 }
 
-static double geocentric_radius(double a, double b_div_a, double cosphi, double sinphi)
+/* Step 4: Cartesian → geodetic (φ, λ rad, h m), Bowring's formula. */
+static void to_geodetic(const ell_t *e, const double v[3], double out[3])
 {
-    const double cosphi_squared = cosphi * cosphi;
-    const double sinphi_squared = sinphi * sinphi;
-    const double b_div_a_squared = b_div_a * b_div_a;
-    const double b_div_a_squared_mul_sinphi_squared = b_div_a_squared * sinphi_squared;
-    return a * v_sqrt((cosphi_squared + b_div_a_squared * b_div_a_squared_mul_sinphi_squared)
-                      / (cosphi_squared + b_div_a_squared_mul_sinphi_squared));
+    const double p = hypot(v[0], v[1]);
+    const double beta = atan2(v[2] * e->a, p * e->b);
+    const double sb = sin(beta), cb = cos(beta);
+    const double phi = atan2(v[2] + e->ep2 * e->b * sb * sb * sb,
+                             p - e->e2 * e->a * cb * cb * cb);
+    const double sphi = sin(phi), cphi = cos(phi);
+    out[0] = phi;
+    out[1] = atan2(v[1], v[0]);
+    out[2] = p / cphi - e->a / sqrt(1.0 - e->e2 * sphi * sphi);
 }
 
-static void cartesian(double v[3], const cart_t *P)
+/* Steps 2 and 3. */
+static void helmert_forward(const helmert_t *h, double v[3])
 {
-    const double lam = v[0], phi = v[1], z = v[2];
-    const double cosphi = v_cos(phi);
-    const double sinphi = v_sin(phi);
-    const double N = normal_radius_of_curvature(P->a, P->es, sinphi);
-    v[0] = (N + z) * cosphi * v_cos(lam);
-    v[1] = (N + z) * cosphi * v_sin(lam);
-    v[2] = (N * (1 - P->es) + z) * sinphi;
+    double r[3];
+    for (int i = 0; i < 3; i++)
+        r[i] = h->t[i] + h->scale * (h->R[i][0] * v[0] + h->R[i][1] * v[1] + h->R[i][2] * v[2]);
+    v[0] = r[0];
+    v[1] = r[1];
+    v[2] = r[2];
 }
 
-static void geodetic(double v[3], const cart_t *P)
+static void helmert_reverse(const helmert_t *h, double v[3])
 {
-    const double cx = v[0], cy = v[1], cz = v[2];
-    double phi, lam, h;
-    const double x_div_a = cx * P->ra;
-    const double y_div_a = cy * P->ra;
-    const double z_div_a = cz * P->ra;
-    const double p_div_a = v_sqrt(x_div_a * x_div_a + y_div_a * y_div_a);
-    const double b_div_a = 1 - P->f;
-    const double p_div_a_b_div_a = p_div_a * b_div_a;
-    const double norm = v_sqrt(z_div_a * z_div_a + p_div_a_b_div_a * p_div_a_b_div_a);
-    double c, s;
-    if (norm != 0) {
-        const double inv_norm = 1.0 / norm;
-        c = p_div_a_b_div_a * inv_norm;
-        s = z_div_a * inv_norm;
-    }
-    else {
-        c = 1;
-        s = 0;
-    }
-    const double y_phi = z_div_a + P->e2s * b_div_a * s * s * s;
-    const double x_phi = p_div_a - P->es * c * c * c;
-    const double norm_phi = v_sqrt(y_phi * y_phi + x_phi * x_phi);
-    double cosphi, sinphi;
-    if (norm_phi != 0) {
-        const double inv_norm_phi = 1.0 / norm_phi;
-        cosphi = x_phi * inv_norm_phi;
-        sinphi = y_phi * inv_norm_phi;
-    }
-    else {
-        cosphi = 1;
-        sinphi = 0;
-    }
-    if (x_phi <= 0) {
-        phi = cz >= 0 ? P_M_HALFPI : -P_M_HALFPI;
-        cosphi = 0;
-        sinphi = cz >= 0 ? 1 : -1;
-    }
-    else {
-        phi = v_atan(y_phi / x_phi);
-    }
-    lam = v_atan2(y_div_a, x_div_a);
-    if (cosphi < 1e-6) {
-        const double r = geocentric_radius(P->a, b_div_a, cosphi, sinphi);
-        h = fabs(cz) - r;
-    }
-    else {
-        const double N = normal_radius_of_curvature(P->a, P->es, sinphi);
-        h = P->a * p_div_a / cosphi - N;
-    }
-    v[0] = lam;
-    v[1] = phi;
-    v[2] = h;
+    const double x = (v[0] - h->t[0]) / h->scale, y = (v[1] - h->t[1]) / h->scale,
+                 z = (v[2] - h->t[2]) / h->scale;
+    for (int i = 0; i < 3; i++)
+        v[i] = h->R[0][i] * x + h->R[1][i] * y + h->R[2][i] * z;
 }
 
-/* pj_fwd4d on cart (left RADIANS, right CARTESIAN); -1 where PROJ gives an error. */
-static int cart_fwd4d(double v[3], const cart_t *P)
+/* The whole forward transformation: (lat deg, lon deg, h m) on the source datum -> out on the
+ * destination. 0, or -1 where the PROJ call is left to answer (a latitude beyond ±90°, a
+ * non-finite value). */
+static int shift_fwd(const ShiftObject *S, double lat, double lon, double h, double out[3])
 {
-    double t;
-    if (HUGE_VAL == v[0] || HUGE_VAL == v[1] || HUGE_VAL == v[2])
+    double v[3], g[3];
+    if (!isfinite(lat) || !isfinite(lon) || !isfinite(h) || fabs(lat) > 90.0 ||
+        fabs(lon * DEG_TO_RAD) > 10.0) /* PROJ refuses a longitude beyond 10 rad */
         return -1;
-    /* fwd_prepare, PJ_IO_UNITS_RADIANS */
-    t = (v[1] < 0 ? -v[1] : v[1]) - P_M_HALFPI;
-    if (t > P_PJ_EPS_LAT)
-        return -1;
-    if (v[0] > 10 || v[0] < -10)
-        return -1;
-    if (v[1] > P_M_HALFPI)
-        v[1] = P_M_HALFPI;
-    if (v[1] < -P_M_HALFPI)
-        v[1] = -P_M_HALFPI;
-    v[0] = adjlon(v[0]); /* P->over == 0 */
-    v[0] = (v[0] - P->from_greenwich) - P->lam0;
-    v[0] = adjlon(v[0]);
-    if (HUGE_VAL == v[0])
-        return -1;
-    cartesian(v, P); /* fwd3d */
-    if (HUGE_VAL == v[0])
-        return -1;
-    /* fwd_finalize, PJ_IO_UNITS_CARTESIAN */
-    v[0] *= P->fr_meter;
-    v[1] *= P->fr_meter;
-    v[2] *= P->fr_meter;
-    return 0;
-}
-
-/* pj_inv4d on cart: CARTESIAN -> RADIANS. */
-static int cart_inv4d(double v[3], const cart_t *P)
-{
-    if (v[0] == HUGE_VAL || v[1] == HUGE_VAL || v[2] == HUGE_VAL)
-        return -1;
-    /* inv_prepare, PJ_IO_UNITS_CARTESIAN */
-    v[0] *= P->to_meter;
-    v[1] *= P->to_meter;
-    v[2] *= P->to_meter;
-    geodetic(v, P); /* inv3d */
-    if (HUGE_VAL == v[0])
-        return -1;
-    /* inv_finalize, PJ_IO_UNITS_RADIANS */
-    v[0] = v[0] + P->from_greenwich + P->lam0;
-    v[0] = adjlon(v[0]);
-    return 0;
-}
-
-/* ------------------------------------------------------------------ helmert.cpp */
-/* pj_fwd4d on helmert (CARTESIAN both sides; t = HUGE_VAL: t_obs = t_epoch, no rebuild). */
-static int helmert_fwd4d(double v[3], const helmert_t *Q)
-{
-    double X, Y, Z, scale;
-    if (HUGE_VAL == v[0] || HUGE_VAL == v[1] || HUGE_VAL == v[2])
-        return -1;
-    if (Q->no_rotation && Q->scale == 0) {
-        v[0] = v[0] + Q->xyz[0];
-        v[1] = v[1] + Q->xyz[1];
-        v[2] = v[2] + Q->xyz[2];
-    }
-    else {
-        scale = 1 + Q->scale * 1e-6;
-        X = v[0] - Q->refp[0];
-        Y = v[1] - Q->refp[1];
-        Z = v[2] - Q->refp[2];
-        v[0] = scale * (Q->R[0][0] * X + Q->R[0][1] * Y + Q->R[0][2] * Z);
-        v[1] = scale * (Q->R[1][0] * X + Q->R[1][1] * Y + Q->R[1][2] * Z);
-        v[2] = scale * (Q->R[2][0] * X + Q->R[2][1] * Y + Q->R[2][2] * Z);
-        v[0] += Q->xyz[0];
-        v[1] += Q->xyz[1];
-        v[2] += Q->xyz[2];
-    }
-    if (HUGE_VAL == v[0])
-        return -1;
-    v[0] *= Q->fr_meter;
-    v[1] *= Q->fr_meter;
-    v[2] *= Q->fr_meter;
-    return 0;
-}
-
-/* pj_inv4d on helmert. */
-static int helmert_inv4d(double v[3], const helmert_t *Q)
-{
-    double X, Y, Z, scale;
-    if (v[0] == HUGE_VAL || v[1] == HUGE_VAL || v[2] == HUGE_VAL)
-        return -1;
-    v[0] *= Q->to_meter;
-    v[1] *= Q->to_meter;
-    v[2] *= Q->to_meter;
-    if (Q->no_rotation && Q->scale == 0) {
-        v[0] = v[0] - Q->xyz[0];
-        v[1] = v[1] - Q->xyz[1];
-        v[2] = v[2] - Q->xyz[2];
-    }
-    else {
-        scale = 1 + Q->scale * 1e-6;
-        X = (v[0] - Q->xyz[0]) / scale;
-        Y = (v[1] - Q->xyz[1]) / scale;
-        Z = (v[2] - Q->xyz[2]) / scale;
-        v[0] = (Q->R[0][0] * X + Q->R[1][0] * Y + Q->R[2][0] * Z) + Q->refp[0];
-        v[1] = (Q->R[0][1] * X + Q->R[1][1] * Y + Q->R[2][1] * Z) + Q->refp[1];
-        v[2] = (Q->R[0][2] * X + Q->R[1][2] * Y + Q->R[2][2] * Z) + Q->refp[2];
-    }
-    if (HUGE_VAL == v[0])
-        return -1;
-    return 0;
-}
-
-/* ------------------------------------------------------------------ the pipeline */
-/* proj_trans(P, PJ_FWD, (x, y, z, HUGE_VAL)) of the pipeline: out[3]; -1 where PROJ would report
- * an error or the input is not finite (the caller then asks PROJ itself). */
-static int shift_fwd(const ShiftObject *S, double x, double y, double z, double out[3])
-{
-    double v[3];
-    if (!isfinite(x) || !isfinite(y) || !isfinite(z))
-        return -1; /* NaN: proj_trans's coord_has_nans; HUGE_VAL: errors */
-    /* axisswap +order=2,1 (swap_xy_4d, prepare/finalize skipped) */
-    v[0] = y;
-    v[1] = x;
-    v[2] = z;
-    /* unitconvert deg -> rad: skip_fwd_prepare; forward_4d; fwd_finalize (right RADIANS) */
-    v[0] *= S->uc_in_xy;
-    v[1] *= S->uc_in_xy;
-    v[2] *= S->uc_in_z;
-    if (HUGE_VAL == v[0])
-        return -1;
-    v[2] = S->uc_in_vfr * (v[2] + S->uc_in_z0);
-    if (v[0] == HUGE_VAL)
-        return -1;
-    if (cart_fwd4d(v, &S->src) < 0)
-        return -1;
-    if (S->hsrc.present && helmert_fwd4d(v, &S->hsrc) < 0)
-        return -1;
-    if (S->hdst.present && helmert_inv4d(v, &S->hdst) < 0)
-        return -1;
-    if (cart_inv4d(v, &S->dst) < 0)
-        return -1;
-    /* unitconvert rad -> deg: forward_4d; fwd_finalize (right DEGREES): nothing */
-    v[0] *= S->uc_out_xy;
-    v[1] *= S->uc_out_xy;
-    v[2] *= S->uc_out_z;
-    if (HUGE_VAL == v[0])
-        return -1;
-    /* axisswap */
-    out[0] = v[1];
-    out[1] = v[0];
-    out[2] = v[2];
+    to_cartesian(&S->src, lat * DEG_TO_RAD, lon * DEG_TO_RAD, h, v);
+    if (S->hsrc.present)
+        helmert_forward(&S->hsrc, v);
+    if (S->hdst.present)
+        helmert_reverse(&S->hdst, v);
+    to_geodetic(&S->dst, v, g);
+    out[0] = g[0] / DEG_TO_RAD;
+    out[1] = g[1] / DEG_TO_RAD;
+    out[2] = g[2];
     if (!isfinite(out[0]) || !isfinite(out[1]) || !isfinite(out[2]))
+        return -1;
+    if (fabs(fabs(out[1]) - 180.0) < 1e-9) /* on the antimeridian: ±180° is PROJ's choice */
+        return -1;
+    if (fabs(out[0]) > 89.0) /* near a pole h = p / cos φ − N magnifies the last bit of φ */
         return -1;
     return 0;
 }
@@ -551,7 +265,7 @@ static int helmert_arg(PyObject *o, helmert_t *h)
             return -1;
     }
     if (helmert_init(h, p) < 0) {
-        PyErr_SetString(PyExc_ValueError, "helmert parameters PROJ would refuse");
+        PyErr_SetString(PyExc_ValueError, "helmert parameters out of range");
         return -1;
     }
     return 0;
@@ -576,27 +290,14 @@ static PyObject *shift_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
         return NULL;
     S->vectorcall = shift_vectorcall;
     S->fallback = Py_NewRef(fallback);
-    if (cart_init(&S->src, a_src, rf_src) < 0 || cart_init(&S->dst, a_dst, rf_dst) < 0) {
+    if (ell_init(&S->src, a_src, rf_src) < 0 || ell_init(&S->dst, a_dst, rf_dst) < 0) {
         Py_DECREF(S);
-        PyErr_SetString(PyExc_ValueError, "an ellipsoid PROJ would refuse");
+        PyErr_SetString(PyExc_ValueError, "an ellipsoid out of range");
         return NULL;
     }
     if (helmert_arg(h_src, &S->hsrc) < 0 || helmert_arg(h_dst, &S->hdst) < 0) {
         Py_DECREF(S);
         return NULL;
-    }
-    /* unitconvert +xy_in=deg +xy_out=rad: xy_factor = DEG_TO_RAD / 1.0, z_factor 1.0; its
-     * fwd_finalize (right RADIANS) with vfr_meter 1, z0 0. +xy_in=rad +xy_out=deg: 1.0 / DEG */
-    {
-        double f = P_DEG_TO_RAD;
-        S->uc_in_xy = f;
-        S->uc_in_xy /= 1.0;
-        S->uc_in_z = 1.0;
-        S->uc_in_vfr = 1.;
-        S->uc_in_z0 = 0.0;
-        S->uc_out_xy = 1.0;
-        S->uc_out_xy /= f;
-        S->uc_out_z = 1.0;
     }
     return (PyObject *)S;
 }
@@ -613,7 +314,7 @@ static PyGetSetDef shift_getset[] = {
 
 PyDoc_STRVAR(shift_doc,
 "Shift(fallback, a_src, rf_src, helmert_src, a_dst, rf_dst, helmert_dst)\n\n"
-"helmert_pipeline(src, dst)'s PROJ transformation computed as libproj 9.5.1 computes it.\n"
+"helmert_pipeline(src, dst)'s transformation from the textbook formulas (module doc).\n"
 "Called as _ProjPoint.point: (x, y, z, t, direction, radians, errcheck) -> (x, y, z)\n"
 "(lat deg, lon deg, h m); ``fallback`` (that PROJ call) answers what it does not cover.\n"
 "rf 0.0: a sphere (+b=a); a helmert: None (omitted step) or (x, y, z, rx, ry, rz, s).");
@@ -636,7 +337,7 @@ static PyTypeObject ShiftType = {
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "engine.native.datum",
-    "helmert_pipeline's PROJ transformations, compiled (PROJ 9.5.1's arithmetic, MIT).", -1,
+    "helmert_pipeline's datum shifts, compiled from the textbook formulas.", -1,
     NULL,
 };
 

@@ -1,31 +1,29 @@
 /* Decca hyperbolic lanes: the lane model, the ship -> station azimuths, the LEF, the fix's
  * Decca rows and VCV, compiled (engine.native.decca).
  *
- * Every function does the IEEE operations of the Python it replaces (engine/systems/decca.py:
+ * Every function does the operations of the Python it replaces (engine/systems/decca.py:
  * _lane_model, _lef, decca_geometry, DeccaObservations.linearise, _LaneAt._lanes;
  * engine/geodesy/ellipsoidal.py: GeodesicSolver.forward_azimuths_rad) in the same order, so the
- * results are the same bits (docs/PERFORMANCE.md; tests/native/test_decca.py):
+ * results agree to the engine's tolerance contract (docs/PERFORMANCE.md;
+ * tests/native/test_decca.py):
  *   - Python's math.sin/cos/atan2/radians and float ** 2 are glibc's sin/cos/atan2/pow, called
  *     through volatile pointers (gcc may neither fold pow(x, 2.0) into x*x nor merge sin and
  *     cos into sincos), with CPython's error rules (math domain error, float division by zero,
  *     overflow of **);
  *   - math.hypot is CPython's own (correctly rounded) function, called through its object;
  *   - float % is CPython's float_rem (fmod, then the sign of the divisor);
- *   - the geodesic inverse is PROJ's geod_inverse, the very function pyproj's Geod calls, looked
- *     up in pyproj's bundled libproj (engine/geodesy/ellipsoidal.py binds it through ctypes) and
- *     called on a geod_geodesic initialised by geod_init with pyproj's (a, f).
- *   - lane_sigma's row @ cov @ row is numpy's matmul: cblas_dgemv (RowMajor, Trans) for the
- *     vector @ matrix, then DOUBLE_dot's 0.0 + cblas_ddot, numpy's own OpenBLAS routines
- *     (addresses from engine.native.blas, bound on first use).
- * Glue of the systems' stage (issue 14, night): geometry_new makes decca_geometry's
+ *   - the geodesic inverse is Vincenty's (section "the geodesic inverse"), pyproj's public
+ *     Geod.inv where that is not used;
+ *   - lane_sigma's row @ cov @ row: the kernel's own 2×2 products (uvn_linalg.h).
+ * Glue of the systems' stage: geometry_new makes decca_geometry's
  * DeccaGeometry with its arrays in one call, linearise_at takes a Point's latlon from the
  * tmgrid kernel's inverse before linearise, gps_rows writes engine.systems.gps's two
  * coordinate rows (the same floats as their Python; tests/native/test_decca_glue.py).
  * Functions given arguments of other types than the Python fast path sees (not floats, not
  * tuples/lists of the expected lengths) return NotImplemented: the caller then runs its Python.
  */
-#include "uvn_blas.h" /* the BLAS typedefs (PY_SSIZE_T_CLEAN, Python.h) */
-#include "uvn_numpy.h" /* numpy arrays' fields without numpy's headers (write_block) */
+#include "uvn_numpy.h" /* numpy arrays through numpy's C API (PY_SSIZE_T_CLEAN, Python.h) */
+#include "uvn_linalg.h" /* small-matrix products (lane_sigma) */
 #include <math.h>
 #include <errno.h>
 #include <string.h>
@@ -185,21 +183,20 @@ static int py_atan2(double y, double x, double *out)
     return 0;
 }
 
-/* ------------------------------------------------------------------ PROJ's geodesic */
-typedef void (*geod_init_t)(void *g, double a, double f);
-typedef void (*geod_inverse_t)(const void *g, double lat1, double lon1, double lat2,
-                               double lon2, double *ps12, double *pazi1, double *pazi2);
-static geod_init_t p_geod_init = NULL;
-static geod_inverse_t p_geod_inverse = NULL;
-
-/* struct geod_geodesic is 51 doubles in PROJ's geodesic.h (a, f, f1, e2, ep2, n, b, c2, etol2,
- * A3x[6], C3x[15], C4x[21]); room for more, aligned, so a later layout still fits. */
-#define GEOD_STRUCT_DOUBLES 128
-
+/* ------------------------------------------------------------------ the geodesic inverse */
+/* The ship → station azimuths on the chain's ellipsoid: Vincenty's iteration on the longitude ω
+ * of the auxiliary sphere (T. Vincenty, Survey Review 23(176):88–93, 1975, eqs. 13–14 and the
+ * azimuth equations 20), with the longitude and distance integrals (Karney 2013, J. Geodesy
+ * 87:43–55, eqs. 7–8) taken by Gauss–Legendre quadrature instead of Vincenty's truncated
+ * series, so the result is the exact geodesic to rounding, as Karney's algorithm (pyproj's
+ * Geod, the pure path) gives it. Where this is not used — lines shorter than 1 km (where the
+ * azimuth moves by more than 1e-9° for a last-bit change of an end point, so the pure path's
+ * own answer is taken), lines longer than σ = 0.5 rad (~3200 km), a latitude within 1e-4° of a pole, no convergence —
+ * pyproj's public Geod(a=, f=).inv answers (made on first need, kept on the object). */
 typedef struct {
     PyObject_HEAD
     double a, f;
-    double g[GEOD_STRUCT_DOUBLES];
+    PyObject *geod; /* pyproj.Geod(a=a, f=f), made on first need, or NULL */
 } GeodesicObject;
 
 static PyTypeObject GeodesicType;
@@ -209,23 +206,146 @@ static int geodesic_init(GeodesicObject *self, PyObject *args, PyObject *kwds)
     double a, f;
     if (!PyArg_ParseTuple(args, "dd:Geodesic", &a, &f))
         return -1;
-    if (p_geod_init == NULL || p_geod_inverse == NULL) {
-        PyErr_SetString(PyExc_RuntimeError, "geod_init/geod_inverse not bound (_bind_geod)");
+    if (!(a > 0.0) || !isfinite(a) || !(f >= 0.0 && f < 0.1)) {
+        PyErr_SetString(PyExc_ValueError, "Geodesic: an ellipsoid (a > 0, 0 <= f < 0.1)");
         return -1;
     }
-    memset(self->g, 0, sizeof self->g);
     self->a = a;
     self->f = f;
-    p_geod_init(self->g, a, f);
+    Py_CLEAR(self->geod);
     return 0;
 }
 
-/* Geod._inv_point's forward azimuth (degrees), return_back_azimuth False, radians False. */
+static void geodesic_dealloc(GeodesicObject *self)
+{
+    Py_CLEAR(self->geod);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+/* ∫ from s0 to s0 + ds of fn(s) ds by Gauss–Legendre (5 nodes on each of two halves): exact to
+ * rounding for the smooth integrands below on arcs up to 0.5 rad. */
+static double gauss(double (*fn)(double, double, double), double s0, double ds, double f,
+                    double k2)
+{
+    static const double x[5] = {-0.9061798459386640, -0.5384693101056831, 0.0,
+                                0.5384693101056831, 0.9061798459386640};
+    static const double w[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889,
+                                0.4786286704993665, 0.2369268850561891};
+    const double h = ds / 4.0; /* half of each half */
+    double sum = 0.0;
+    for (int part = 0; part < 2; part++) {
+        const double mid = s0 + (2 * part + 1) * h;
+        for (int i = 0; i < 5; i++)
+            sum += w[i] * fn(mid + h * x[i], f, k2);
+    }
+    return sum * h;
+}
+
+/* The integrands of the geodesic on the auxiliary sphere (Karney 2013, J. Geodesy 87:43–55,
+ * eqs. 7 and 8): the distance s/b = ∫ √(1 + k² sin²σ) dσ and the longitude
+ * λ = ω − f sin α₀ ∫ (2 − f) / (1 + (1 − f) √(1 + k² sin²σ)) dσ, k² = e'² cos²α₀. */
+static double arc_length(double sg, double f, double k2)
+{
+    (void)f;
+    const double t = sin(sg);
+    return sqrt(1.0 + k2 * t * t);
+}
+
+static double lon_term(double sg, double f, double k2)
+{
+    const double t = sin(sg);
+    return (2.0 - f) / (1.0 + (1.0 - f) * sqrt(1.0 + k2 * t * t));
+}
+
+/* Vincenty's iteration with the exact integrals: 0 with the forward azimuths at 1 and at 2
+ * (degrees, (-180, 180]) and the distance (m), or -1 where it is not used (see above). */
+static int vincenty(const GeodesicObject *g, double lon1, double lat1, double lon2, double lat2,
+                    double *az1, double *az2, double *s12)
+{
+    const double f = g->f, a = g->a, b = a * (1.0 - f), ep2 = f * (2.0 - f) / ((1.0 - f) * (1.0 - f));
+    if (!isfinite(lon1) || !isfinite(lat1) || !isfinite(lon2) || !isfinite(lat2) ||
+        fabs(lat1) > 89.9999 || fabs(lat2) > 89.9999)
+        return -1;
+    const double L = remainder(lon2 - lon1, 360.0) * DEG_TO_RAD;
+    const double U1 = atan((1.0 - f) * tan(lat1 * DEG_TO_RAD)),
+                 U2 = atan((1.0 - f) * tan(lat2 * DEG_TO_RAD));
+    const double su1 = sin(U1), cu1 = cos(U1), su2 = sin(U2), cu2 = cos(U2);
+    double om = L, sl = 0, cl = 0, ss = 0, cs = 0, sig = 0, sig1 = 0, k2 = 0;
+    int it = 0;
+    for (; it < 100; it++) {
+        sl = sin(om);
+        cl = cos(om);
+        const double ca1 = cu1 * su2 - su1 * cu2 * cl; /* ss cos α₁ */
+        ss = hypot(cu2 * sl, ca1);
+        if (ss < 1e-12) /* coincident (or antipodal) points: the azimuth is a convention */
+            return -1;
+        cs = su1 * su2 + cu1 * cu2 * cl;
+        sig = atan2(ss, cs);
+        if (sig > 0.5 || sig * b < 1000.0) /* long, or short: ill-conditioned azimuth */
+            return -1;
+        const double sa = cu1 * cu2 * sl / ss; /* sin α₀ */
+        k2 = ep2 * (1.0 - sa * sa);
+        sig1 = atan2(su1 * ss, cu1 * ca1); /* tan σ₁ = tan β₁ / cos α₁ */
+        const double prev = om;
+        om = L + f * sa * gauss(lon_term, sig1, sig, f, k2);
+        if (fabs(om - prev) < 1e-15)
+            break;
+    }
+    if (it == 100)
+        return -1;
+    sl = sin(om);
+    cl = cos(om);
+    *az1 = atan2(cu2 * sl, cu1 * su2 - su1 * cu2 * cl) / DEG_TO_RAD;
+    *az2 = atan2(cu1 * sl, -su1 * cu2 + cu1 * su2 * cl) / DEG_TO_RAD;
+    *s12 = b * gauss(arc_length, sig1, sig, f, k2);
+    return 0;
+}
+
+/* pyproj's Geod(a=, f=).inv(lon1, lat1, lon2, lat2, return_back_azimuth=False): 0 with (az1,
+ * az2, s12), the forward azimuths at 1 and 2, or -1 (exception set). */
+static int geod_fallback(GeodesicObject *g, double lon1, double lat1, double lon2, double lat2,
+                         double *az1, double *az2, double *s12)
+{
+    if (g->geod == NULL) {
+        PyObject *mod = PyImport_ImportModule("pyproj");
+        PyObject *cls = mod == NULL ? NULL : PyObject_GetAttrString(mod, "Geod");
+        Py_XDECREF(mod);
+        if (cls == NULL)
+            return -1;
+        PyObject *kw = Py_BuildValue("{s:d,s:d}", "a", g->a, "f", g->f);
+        PyObject *empty = PyTuple_New(0);
+        if (kw != NULL && empty != NULL)
+            g->geod = PyObject_Call(cls, empty, kw);
+        Py_XDECREF(kw);
+        Py_XDECREF(empty);
+        Py_DECREF(cls);
+        if (g->geod == NULL)
+            return -1;
+    }
+    PyObject *inv = PyObject_GetAttrString(g->geod, "inv");
+    PyObject *args = inv == NULL ? NULL : Py_BuildValue("(dddd)", lon1, lat1, lon2, lat2);
+    PyObject *kw = args == NULL ? NULL : Py_BuildValue("{s:O}", "return_back_azimuth", Py_False);
+    PyObject *r = kw == NULL ? NULL : PyObject_Call(inv, args, kw);
+    Py_XDECREF(inv);
+    Py_XDECREF(args);
+    Py_XDECREF(kw);
+    if (r == NULL)
+        return -1;
+    int ok = PyArg_ParseTuple(r, "ddd", az1, az2, s12);
+    Py_DECREF(r);
+    return ok ? 0 : -1;
+}
+
+/* The forward azimuth 1 → 2 (degrees, (-180, 180]); NaN with an exception set on a failure of
+ * the fallback. */
 static double geod_az12(const GeodesicObject *g, double lon1, double lat1, double lon2,
                         double lat2)
 {
     double s12, azi1, azi2;
-    p_geod_inverse(g->g, lat1, lon1, lat2, lon2, &s12, &azi1, &azi2);
+    if (vincenty(g, lon1, lat1, lon2, lat2, &azi1, &azi2, &s12) == 0)
+        return azi1;
+    if (geod_fallback((GeodesicObject *)g, lon1, lat1, lon2, lat2, &azi1, &azi2, &s12) < 0)
+        return NAN;
     return azi1;
 }
 
@@ -292,6 +412,8 @@ static PyObject *geodesic_forward_azimuths(GeodesicObject *self, PyObject *const
             goto fail;
         }
         az = py_mod(geod_az12(self, lon1, lat1, lon2, lat2), 360.0);
+        if (PyErr_Occurred())
+            goto fail;
         v = PyFloat_FromDouble(rad ? az * DEG_TO_RAD : az);
         if (v == NULL)
             goto fail;
@@ -317,24 +439,41 @@ static PyObject *geodesic_forward_azimuths_deg(GeodesicObject *self, PyObject *c
     return geodesic_forward_azimuths(self, args, nargs, 0);
 }
 
-/* inverse_point(lon1, lat1, lon2, lat2) -> (az12, az21, s12) as geod_inverse gives them
- * (Geod._inv_point with radians and return_back_azimuth False), for the tests. */
+/* inverse_point(lon1, lat1, lon2, lat2) -> (az12, az2, s12): the forward azimuths at 1 and at
+ * 2 (degrees) and the distance (m), as geod_inverse gives them, for the tests. */
 static PyObject *geodesic_inverse_point(GeodesicObject *self, PyObject *args)
 {
     double lon1, lat1, lon2, lat2, s12, azi1, azi2;
     if (!PyArg_ParseTuple(args, "dddd:inverse_point", &lon1, &lat1, &lon2, &lat2))
         return NULL;
-    p_geod_inverse(self->g, lat1, lon1, lat2, lon2, &s12, &azi1, &azi2);
+    if (vincenty(self, lon1, lat1, lon2, lat2, &azi1, &azi2, &s12) < 0 &&
+        geod_fallback(self, lon1, lat1, lon2, lat2, &azi1, &azi2, &s12) < 0)
+        return NULL;
+    return Py_BuildValue("(ddd)", azi1, azi2, s12);
+}
+
+/* own_point(lon1, lat1, lon2, lat2) -> (az12, az2, s12) computed here, or None where the kernel
+ * leaves the line to pyproj (see above): for the first-use check, which must not import
+ * pyproj. */
+static PyObject *geodesic_own_point(GeodesicObject *self, PyObject *args)
+{
+    double lon1, lat1, lon2, lat2, s12, azi1, azi2;
+    if (!PyArg_ParseTuple(args, "dddd:own_point", &lon1, &lat1, &lon2, &lat2))
+        return NULL;
+    if (vincenty(self, lon1, lat1, lon2, lat2, &azi1, &azi2, &s12) < 0)
+        Py_RETURN_NONE;
     return Py_BuildValue("(ddd)", azi1, azi2, s12);
 }
 
 static PyMethodDef geodesic_methods[] = {
+    {"own_point", (PyCFunction)geodesic_own_point, METH_VARARGS,
+     "(az12, az2, s12) computed by the kernel, or None where pyproj answers."},
     {"forward_azimuths_rad", (PyCFunction)(void (*)(void))geodesic_forward_azimuths_rad,
      METH_FASTCALL, "GeodesicSolver.forward_azimuths_rad (radians, [0, 2pi])."},
     {"forward_azimuths_deg", (PyCFunction)(void (*)(void))geodesic_forward_azimuths_deg,
      METH_FASTCALL, "GeodesicSolver.forward_azimuths_deg (degrees, [0, 360))."},
     {"inverse_point", (PyCFunction)geodesic_inverse_point, METH_VARARGS,
-     "(az12, az21, s12) of geod_inverse (degrees, metres)."},
+     "(az12, az2, s12): Vincenty's inverse (degrees, metres), pyproj's where not used."},
     {NULL, NULL, 0, NULL},
 };
 
@@ -352,7 +491,8 @@ static PyTypeObject GeodesicType = {
     .tp_name = "engine.native.decca.Geodesic",
     .tp_basicsize = sizeof(GeodesicObject),
     .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_doc = "PROJ's geod_geodesic initialised with (a, f) as pyproj's Geod(a=, f=) does.",
+    .tp_doc = "Geodesic(a, f): the inverse problem on the ellipsoid (a m, flattening f).",
+    .tp_dealloc = (destructor)geodesic_dealloc,
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)geodesic_init,
     .tp_methods = geodesic_methods,
@@ -614,7 +754,7 @@ static int geometry_numbers(const chain_t *c, const GeodesicObject *g, double x,
     if (lane_model(c, x, y, lat0, &o) < 0)
         return -1;
     azimuths(g, c, lat0, lon0, az);
-    if (lef_of(az, lef) < 0)
+    if (PyErr_Occurred() || lef_of(az, lef) < 0)
         return -1;
     for (int j = 0; j < 3; j++) {
         block[j] = o.dist[j + 1];
@@ -764,7 +904,7 @@ static PyObject *py_lanes(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
         return NULL;
     if (!lef_certain(&c, (GeodesicObject *)args[1], x, y, lat0, lon0)) {
         azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
-        if (lef_of(az, lef) < 0)
+        if (PyErr_Occurred() || lef_of(az, lef) < 0)
             return NULL;
     }
     return Py_BuildValue("(N[[dd][dd][dd]])", list_of(o.n_calc, 3), o.row_x[0], o.row_y[0],
@@ -840,11 +980,11 @@ static int write_block(PyObject *cl, Py_ssize_t s0, double out[3][3])
     if (np_layout < 0 && np_ready() < 0)
         PyErr_Clear();
     f = np_direct(cl, 2);
-    if (f != NULL && (f->flags & NP_WRITEABLE) && s0 >= 0 && s0 + 3 <= f->dimensions[0]
-        && s0 + 3 <= f->dimensions[1]) {
+    if (f != NULL && (PyArray_FLAGS(f) & NP_WRITEABLE) && s0 >= 0 && s0 + 3 <= PyArray_DIMS(f)[0]
+        && s0 + 3 <= PyArray_DIMS(f)[1]) {
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
-                *(double *)(f->data + (s0 + i) * f->strides[0] + (s0 + j) * f->strides[1]) =
+                *(double *)(PyArray_BYTES(f) + (s0 + i) * PyArray_STRIDES(f)[0] + (s0 + j) * PyArray_STRIDES(f)[1]) =
                     out[i][j];
         return 0;
     }
@@ -907,7 +1047,7 @@ static PyObject *py_linearise(PyObject *m, PyObject *const *args, Py_ssize_t nar
     if (lane_model(&c, x, y, lat0, &o) < 0)
         return NULL;
     azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
-    if (lef_of(az, lef) < 0)
+    if (PyErr_Occurred() || lef_of(az, lef) < 0)
         return NULL;
     for (int j = 0; j < 3; j++)
         k[j] = c.lam[j] * lef[j] / 2.0;
@@ -956,8 +1096,8 @@ static PyObject *py_gps_rows(PyObject *m, PyObject *const *args, Py_ssize_t narg
         PyErr_Clear();
     f = np_direct(args[2], 2);
     n = PyList_GET_SIZE(b);
-    if (f == NULL || !(f->flags & NP_WRITEABLE) || s0 + 2 > f->dimensions[0]
-        || s0 + 2 > f->dimensions[1] || 2 * (s0 + 2) > PyList_GET_SIZE(A) || s0 + 2 > n)
+    if (f == NULL || !(PyArray_FLAGS(f) & NP_WRITEABLE) || s0 + 2 > PyArray_DIMS(f)[0]
+        || s0 + 2 > PyArray_DIMS(f)[1] || 2 * (s0 + 2) > PyList_GET_SIZE(A) || s0 + 2 > n)
         Py_RETURN_NOTIMPLEMENTED;
     v[0] = PyFloat_FromDouble(0.0);
     v[1] = PyFloat_FromDouble(1.0);
@@ -975,8 +1115,8 @@ static PyObject *py_gps_rows(PyObject *m, PyObject *const *args, Py_ssize_t narg
         Py_XSETREF(PyList_GET_ITEM(A, 2 * s0 + i), v[i]);
     Py_XSETREF(PyList_GET_ITEM(b, s0), v[4]);
     Py_XSETREF(PyList_GET_ITEM(b, s0 + 1), v[5]);
-    *(double *)(f->data + s0 * f->strides[0] + s0 * f->strides[1]) = var;
-    *(double *)(f->data + (s0 + 1) * f->strides[0] + (s0 + 1) * f->strides[1]) = var;
+    *(double *)(PyArray_BYTES(f) + s0 * PyArray_STRIDES(f)[0] + s0 * PyArray_STRIDES(f)[1]) = var;
+    *(double *)(PyArray_BYTES(f) + (s0 + 1) * PyArray_STRIDES(f)[0] + (s0 + 1) * PyArray_STRIDES(f)[1]) = var;
     Py_RETURN_NONE;
 }
 
@@ -1067,8 +1207,8 @@ static PyObject *py_vcv_m2(PyObject *m, PyObject *args)
 }
 
 /* ------------------------------------------------------------------ lane_sigma */
-static uvn_dgemv_t p_dgemv = NULL;
-static uvn_ddot_t p_ddot = NULL;
+#define p_dgemv uvn_dgemv
+#define p_ddot uvn_ddot
 
 /* A C-contiguous native float64 buffer of ndim dims with these shape entries, else 1. */
 static int f64_buffer(PyObject *o, Py_buffer *v, int ndim, const Py_ssize_t *shape)
@@ -1099,7 +1239,7 @@ static PyObject *py_lane_sigma(PyObject *m, PyObject *const *args, Py_ssize_t na
     static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
     Py_buffer vr, vc;
     double y[2], sum, q;
-    if (nargs != 2 || p_dgemv == NULL || p_ddot == NULL)
+    if (nargs != 2)
         Py_RETURN_NOTIMPLEMENTED;
     if (f64_buffer(args[0], &vr, 1, s1))
         Py_RETURN_NOTIMPLEMENTED;
@@ -1124,7 +1264,7 @@ static int sigma_of(PyObject *row, PyObject *cov, double *out)
     static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
     Py_buffer vr, vc;
     double y[2], sum;
-    if (p_dgemv == NULL || p_ddot == NULL || f64_buffer(row, &vr, 1, s1))
+    if (f64_buffer(row, &vr, 1, s1))
         return 1;
     if (f64_buffer(cov, &vc, 2, s2)) {
         PyBuffer_Release(&vr);
@@ -1213,7 +1353,7 @@ static int gps_lanes(const chain_t *c, const GeodesicObject *g, PyObject *inv, P
         return -1;
     if (!lef_certain(c, g, gx, gy, lat0, lon0)) {
         azimuths(g, c, lat0, lon0, az);
-        if (lef_of(az, lef) < 0)
+        if (PyErr_Occurred() || lef_of(az, lef) < 0)
             return -1;
     }
     for (int j = 0; j < 3; j++)
@@ -1284,8 +1424,7 @@ static PyObject *py_tracked(PyObject *m, PyObject *const *args, Py_ssize_t nargs
         Py_RETURN_NOTIMPLEMENTED;
     has_gps = args[7] != Py_None;
     if (has_gps) {
-        if (arg_float(args[7], &gx) || arg_float(args[8], &gy) || arg_float(args[9], &gvar)
-            || p_dgemv == NULL || p_ddot == NULL)
+        if (arg_float(args[7], &gx) || arg_float(args[8], &gy) || arg_float(args[9], &gvar))
             Py_RETURN_NOTIMPLEMENTED;
         /* _EYE2 * var, numpy's elementwise products */
         cov[0] = 1.0 * gvar;
@@ -1398,51 +1537,23 @@ decline:
     Py_RETURN_NOTIMPLEMENTED;
 }
 
-/* Two non-null routine addresses from args "OO" (fmt names the function for errors);
- * 0, or -1 with an exception set. */
-static int two_addresses(PyObject *args, const char *fmt, void **pa, void **pb)
-{
-    PyObject *a, *b;
-    if (!PyArg_ParseTuple(args, fmt, &a, &b))
-        return -1;
-    *pa = PyLong_AsVoidPtr(a);
-    if (*pa == NULL && PyErr_Occurred())
-        return -1;
-    *pb = PyLong_AsVoidPtr(b);
-    if (*pb == NULL && PyErr_Occurred())
-        return -1;
-    if (*pa == NULL || *pb == NULL) {
-        PyErr_SetString(PyExc_ValueError, "null routine address");
-        return -1;
-    }
-    return 0;
-}
-
 /* _bind_blas(cblas_dgemv address, cblas_ddot address): numpy's (ILP64) routines. */
 static PyObject *py_bind_blas(PyObject *m, PyObject *args)
 {
-    void *pa, *pb;
-    if (two_addresses(args, "OO:_bind_blas", &pa, &pb) < 0)
-        return NULL;
-    p_dgemv = (uvn_dgemv_t)pa;
-    p_ddot = (uvn_ddot_t)pb;
+    (void)args; /* kept for callers: the products are the kernel's own (uvn_linalg.h) */
     Py_RETURN_NONE;
 }
 
 /* _bind_geod(geod_init address, geod_inverse address) */
 static PyObject *py_bind_geod(PyObject *m, PyObject *args)
 {
-    void *pa, *pb;
-    if (two_addresses(args, "OO:_bind_geod", &pa, &pb) < 0)
-        return NULL;
-    p_geod_init = (geod_init_t)pa;
-    p_geod_inverse = (geod_inverse_t)pb;
+    (void)args; /* kept for callers: the geodesic is the kernel's own (Vincenty) */
     Py_RETURN_NONE;
 }
 
 static PyObject *py_geod_bound(PyObject *m, PyObject *noargs)
 {
-    return PyBool_FromLong(p_geod_init != NULL && p_geod_inverse != NULL);
+    Py_RETURN_TRUE; /* the geodesic needs no binding */
 }
 
 static PyObject *py_sync_sq(PyObject *m, PyObject *noargs)
@@ -1471,7 +1582,7 @@ static PyObject *py_page(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
     }
     fn = np_direct(args[0], 1);
     fa = np_direct(args[1], 1);
-    if (fn == NULL || fa == NULL || fn->dimensions[0] != 3 || fa->dimensions[0] != 3)
+    if (fn == NULL || fa == NULL || PyArray_DIMS(fn)[0] != 3 || PyArray_DIMS(fa)[0] != 3)
         Py_RETURN_NOTIMPLEMENTED;
     raw = args[2];
     corr = args[3];
@@ -1485,8 +1596,8 @@ static PyObject *py_page(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
         int rc;
         if (r == Py_None)
             continue;
-        nc = *(double *)(fn->data + i * fn->strides[0]);
-        az = *(double *)(fa->data + i * fa->strides[0]);
+        nc = *(double *)(PyArray_BYTES(fn) + i * PyArray_STRIDES(fn)[0]);
+        az = *(double *)(PyArray_BYTES(fa) + i * PyArray_STRIDES(fa)[0]);
         a[0] = PyLong_FromSsize_t(i);
         a[1] = args[5];
         a[2] = PyTuple_GET_ITEM(names, i);
@@ -1527,7 +1638,7 @@ static PyObject *py_nearest(PyObject *m, PyObject *const *args, Py_ssize_t nargs
     }
     fs = np_direct(args[1], 1);
     used = args[2];
-    if (fs == NULL || fs->dimensions[0] != 3 || PySequence_Fast_GET_SIZE(used) < 3)
+    if (fs == NULL || PyArray_DIMS(fs)[0] != 3 || PySequence_Fast_GET_SIZE(used) < 3)
         Py_RETURN_NOTIMPLEMENTED;
     dm = PyFloat_AS_DOUBLE(args[0]);
     for (Py_ssize_t i = 0; i < 3; i++) {
@@ -1535,7 +1646,7 @@ static PyObject *py_nearest(PyObject *m, PyObject *const *args, Py_ssize_t nargs
         if (t < 0)
             return NULL;
         if (t) {
-            double ds = *(double *)(fs->data + i * fs->strides[0]), cur = near;
+            double ds = *(double *)(PyArray_BYTES(fs) + i * PyArray_STRIDES(fs)[0]), cur = near;
             if (dm < cur)
                 cur = dm;
             if (ds < cur)
@@ -1596,6 +1707,7 @@ fail:
 }
 
 static PyMethodDef methods[] = {
+    UVN_PROBE_METHOD,
     {"lane_model", (PyCFunction)(void (*)(void))py_lane_model, METH_FASTCALL,
      "decca._lane_model: (dist, n_calc, row_x, row_y)."},
     {"lef", (PyCFunction)py_lef, METH_O, "decca._lef: 1/sin(gamma/2) per pattern."},
@@ -1627,9 +1739,9 @@ static PyMethodDef methods[] = {
     {"tracked", (PyCFunction)(void (*)(void))py_tracked, METH_FASTCALL,
      "decca_totals where every pattern is tracked and GPS finds no slip: LaneTotals."},
     {"_bind_blas", (PyCFunction)py_bind_blas, METH_VARARGS,
-     "Bind numpy's cblas_dgemv and cblas_ddot (addresses)."},
+     "Kept for callers: ignored (the products are the kernel's own)."},
     {"_bind_geod", (PyCFunction)py_bind_geod, METH_VARARGS,
-     "Bind PROJ's geod_init and geod_inverse (addresses)."},
+     "Kept for callers: ignored (the geodesic is the kernel's own)."},
     {"geod_bound", (PyCFunction)py_geod_bound, METH_NOARGS, "True once _bind_geod ran."},
     {"_sync_sq", (PyCFunction)py_sync_sq, METH_NOARGS, "SYNC_SIGMA_LANES ** 2 (tests)."},
     {NULL, NULL, 0, NULL},
@@ -1637,7 +1749,8 @@ static PyMethodDef methods[] = {
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "engine.native.decca",
-    "Decca lanes and PROJ's geodesic inverse, compiled (same bits as the Python).", -1,
+    "Decca lanes and the geodesic inverse, compiled (the Python's results to the tolerance "
+    "contract).", -1,
     methods,
 };
 

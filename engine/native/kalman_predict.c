@@ -25,7 +25,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "uvn_blas.h"
+#include "uvn_linalg.h"
 
 #ifndef UVN_SOURCE_DIGEST
 #define UVN_SOURCE_DIGEST "unknown"
@@ -35,8 +35,8 @@
 #define NW 8     /* process-noise inputs (columns of G) */
 #define NMAX 32  /* largest state (nav + fix-error states) handled here; larger: Python */
 
-static uvn_blas_t B;
-static int bound = 0;
+static const uvn_blas_t B = UVN_LINALG;
+static const int bound = 1;
 static PyObject *s_dt, *s_phi, *s_gs, *s_gs_scale, *s_v_scale, *s_d, *s_dd, *s_omdd;
 
 /* libm through volatile pointers: the compiler may neither fold nor merge sin+cos into sincos,
@@ -59,10 +59,10 @@ static int view_get(PyObject *obj, int ndim, Py_ssize_t d0, Py_ssize_t d1, view_
     if (f != NULL) {
         /* numpy's own float64 array: its fields, as its buffer would give them (no release) */
         w->v.obj = NULL;
-        w->v.buf = f->data;
+        w->v.buf = PyArray_BYTES(f);
         w->v.ndim = ndim;
-        w->v.shape = f->dimensions;
-        w->v.strides = f->strides;
+        w->v.shape = PyArray_DIMS(f);
+        w->v.strides = PyArray_STRIDES(f);
         w->v.itemsize = 8;
         w->v.format = (char *)"d";
         w->ok = 1;
@@ -130,11 +130,7 @@ static void np_syrk(int64_t r, int64_t k, const double *a, double *c)
 
 static PyObject *kp_bind(PyObject *self, PyObject *addresses)
 {
-    uvn_blas_t b;
-    if (uvn_blas_bind(addresses, &b) < 0)
-        return NULL;
-    B = b;
-    bound = 1;
+    (void)addresses; /* the routines are this kernel's own (uvn_linalg.h): nothing to bind */
     Py_RETURN_NONE;
 }
 
@@ -184,7 +180,7 @@ static PyObject *frozen_state(PyObject *state, PyObject *cls, PyObject *t, PyObj
         (src = PyObject_GenericGetDict(state, NULL)) == NULL ||
         (dst = PyDict_Copy(src)) == NULL || PyDict_SetItem(dst, s_t, t) < 0 ||
         PyDict_SetItem(dst, s_x, x) < 0 || PyDict_SetItem(dst, s_P, P) < 0 ||
-        PyObject_GenericSetDict(newst, dst, NULL) < 0)
+        uvn_set_attrs(newst, dst) < 0)
         Py_CLEAR(newst);
     Py_DECREF(empty);
     Py_XDECREF(src);
@@ -219,7 +215,7 @@ static PyObject *kp_predict(PyObject *self, PyObject *const *args, Py_ssize_t na
     Py_ssize_t n;
     np_fields_t *fx = np_direct(xo, 1);
     if (fx != NULL) {  /* numpy's own float64 array: its length, as its buffer would give it */
-        n = fx->dimensions[0];
+        n = PyArray_DIMS(fx)[0];
     } else {
         Py_buffer xb;
         if (PyObject_GetBuffer(xo, &xb, PyBUF_RECORDS_RO) < 0) {
@@ -641,7 +637,7 @@ static int freeze_any(PyObject *a)
 {
     np_fields_t *f = np_direct(a, 2);
     if (f != NULL) {
-        f->flags &= ~NP_WRITEABLE;
+        PyArray_CLEARFLAGS(f, NPY_ARRAY_WRITEABLE);
         return 0;
     }
     PyObject *r = PyObject_CallMethodOneArg(a, s_setflags, Py_False);
@@ -782,8 +778,9 @@ done:
 }
 
 static PyMethodDef methods[] = {
+    UVN_PROBE_METHOD,
     {"_bind", (PyCFunction)kp_bind, METH_O,
-     "_bind(addresses): the BLAS routines (engine.native.blas.all_addresses())."},
+     "_bind(ignored): kept for callers; the small-matrix routines are the kernel's own."},
     {"is_bound", (PyCFunction)kp_is_bound, METH_NOARGS, "True once _bind has been called."},
     {"predict", (PyCFunction)(void (*)(void))kp_predict, METH_FASTCALL,
      "predict(x, P, c, fd, fix_cov, want_phi[, state, cls, t[, source, packed]]) -> (x, P, Phi) "

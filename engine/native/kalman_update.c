@@ -22,7 +22,7 @@
  * and returned, x⁺ and P⁺ (and t when filled) already read-only: one call instead of seven
  * numpy.empty and three setflags calls in the Python per update.
  */
-#include "uvn_blas.h"
+#include "uvn_linalg.h"
 
 #include <math.h>
 #include <string.h>
@@ -31,8 +31,8 @@
 #define UVN_SOURCE_DIGEST "unknown"
 #endif
 
-static uvn_blas_t blas;
-static int bound = 0;
+static const uvn_blas_t blas = UVN_LINALG;
+static const int bound = 1;
 
 static const double TWO_PI = 2.0 * 3.14159265358979311599796346854;  /* 2.0 * math.pi */
 static const double PI = 3.14159265358979311599796346854;            /* math.pi */
@@ -307,13 +307,13 @@ static double *get(bufs_t *bs, PyObject *obj, int nd, int64_t d0, int64_t d1, in
     np_fields_t *f;
     if (!writable && (f = np_direct(obj, nd)) != NULL) {
         /* numpy's own array: its fields, as its buffer would give them (nothing to release) */
-        if (!(f->flags & NP_C_CONTIGUOUS))
+        if (!(PyArray_FLAGS(f) & NP_C_CONTIGUOUS))
             return NULL; /* numpy would refuse the C-contiguous buffer */
         v->obj = NULL;
-        v->buf = f->data;
+        v->buf = PyArray_BYTES(f);
         v->ndim = nd;
-        v->shape = f->dimensions;
-        v->strides = f->strides;
+        v->shape = PyArray_DIMS(f);
+        v->strides = PyArray_STRIDES(f);
         v->itemsize = 8;
         bs->n++;
         if ((d0 >= 0 && v->shape[0] != d0) || (nd == 2 && d1 >= 0 && v->shape[1] != d1))
@@ -838,7 +838,7 @@ static PyObject *view_here(PyObject *Yc, int nd, Py_ssize_t d0, Py_ssize_t d1, P
                                     NP_WRITEABLE, NULL);
     if (a == NULL)
         return NULL;
-    ((np_fields_t *)a)->base = Py_NewRef(Yc);
+    PyArray_SetBaseObject((PyArrayObject *)a, Py_NewRef(Yc));
     return a;
 }
 
@@ -875,7 +875,7 @@ done:
 
 static int views_made(PyObject *Yc, Py_ssize_t n, Py_ssize_t p, PyObject **l_inv, PyObject **w)
 {
-    double *d = (double *)((np_fields_t *)Yc)->data;
+    double *d = (double *)PyArray_BYTES(((np_fields_t *)Yc));
     *w = NULL;
     if ((*l_inv = view_here(Yc, 2, p, p, 8, 8 * p, d + (n + 1) * p)) == NULL ||
         (*w = view_here(Yc, 1, p, 0, 8, 0, d + n * p)) == NULL) {
@@ -889,7 +889,7 @@ static int views_made(PyObject *Yc, Py_ssize_t n, Py_ssize_t p, PyObject **l_inv
  * uses (p = 1, 2, 5)? Sets views_state; 0, or -1 (exception set). */
 static int views_probe(void)
 {
-    int ok = np_new_from_descr != NULL && np_layout == 1;
+    int ok = np_layout == 1;
     for (Py_ssize_t p = 1; ok && p <= 5; p += (p == 2 ? 3 : 1)) {
         Py_ssize_t n = 13;
         double *d;
@@ -904,11 +904,11 @@ static int views_probe(void)
         }
         for (int i = 0; i < 2 && ok; i++) {
             np_fields_t *fa = (np_fields_t *)a[i], *fb = (np_fields_t *)b[i];
-            ok = Py_TYPE(a[i]) == Py_TYPE(b[i]) && fa->data == fb->data && fa->nd == fb->nd &&
-                 fa->base == fb->base && fa->base == Yc && fa->descr == fb->descr &&
-                 fa->flags == fb->flags;
-            for (int k = 0; k < fa->nd && ok; k++)
-                ok = fa->dimensions[k] == fb->dimensions[k] && fa->strides[k] == fb->strides[k];
+            ok = Py_TYPE(a[i]) == Py_TYPE(b[i]) && PyArray_BYTES(fa) == PyArray_BYTES(fb) && PyArray_NDIM(fa) == PyArray_NDIM(fb) &&
+                 PyArray_BASE(fa) == PyArray_BASE(fb) && PyArray_BASE(fa) == Yc && PyArray_DESCR(fa) == PyArray_DESCR(fb) &&
+                 PyArray_FLAGS(fa) == PyArray_FLAGS(fb);
+            for (int k = 0; k < PyArray_NDIM(fa) && ok; k++)
+                ok = PyArray_DIMS(fa)[k] == PyArray_DIMS(fb)[k] && PyArray_STRIDES(fa)[k] == PyArray_STRIDES(fb)[k];
             if (ok) { /* and what Python sees: the flags object compares equal */
                 PyObject *fla = PyObject_GetAttrString(a[i], "flags");
                 PyObject *flb = fla == NULL ? NULL : PyObject_GetAttrString(b[i], "flags");
@@ -971,7 +971,7 @@ static PyObject *result_build(PyObject *const *args, Py_ssize_t nargs, const dou
     }
     /* Y, v, S, K, xn, Pn, t */
     PyObject *Yc = o[0], *v = o[1], *S = o[2], *K = o[3], *xn = o[4], *Pn = o[5], *t = o[6];
-    Py_ssize_t p = ((np_fields_t *)v)->dimensions[0], n = ((np_fields_t *)xn)->dimensions[0];
+    Py_ssize_t p = PyArray_DIMS(((np_fields_t *)v))[0], n = PyArray_DIMS(((np_fields_t *)xn))[0];
     if (np_layout != 1) {
         p = PyObject_Length(v);
         n = PyObject_Length(xn);
@@ -999,7 +999,7 @@ static PyObject *result_build(PyObject *const *args, Py_ssize_t nargs, const dou
         (dst = PyDict_Copy(src)) == NULL ||
         (nargs == 10 && args[9] != Py_None && PyDict_SetItem(dst, rs_fix_cov, args[9]) < 0) ||
         PyDict_SetItem(dst, rs_x, xn) < 0 || PyDict_SetItem(dst, rs_P, Pn) < 0 ||
-        PyObject_GenericSetDict(newst, dst, NULL) < 0)
+        uvn_set_attrs(newst, dst) < 0)
         goto done;
     /* lom = _lom_from_nis(nis, p, alpha) */
     double tv = nis / (double)p;
@@ -1248,9 +1248,7 @@ done:
 
 static PyObject *py_bind(PyObject *self, PyObject *addresses)
 {
-    if (uvn_blas_bind(addresses, &blas) != 0)
-        return NULL;
-    bound = 1;
+    (void)addresses; /* the routines are this kernel's own (uvn_linalg.h): nothing to bind */
     Py_RETURN_NONE;
 }
 
@@ -1260,6 +1258,7 @@ static PyObject *py_views_state(PyObject *self, PyObject *unused)
 }
 
 static PyMethodDef methods[] = {
+    UVN_PROBE_METHOD,
     {"_views_state", py_views_state, METH_NOARGS,
      "_views_state() -> 1 (the LsTest views made by the kernel), 0 (by numpy's indexing) or -1 "
      "(not probed yet)."},
@@ -1274,7 +1273,7 @@ static PyMethodDef methods[] = {
      "bind_result(FilterState, LomTest, LsTest, UpdateResult, lom_limits): what update_result() "
      "builds and the bounds it asks for."},
     {"_bind", py_bind, METH_O,
-     "_bind(addresses): the BLAS/LAPACK routines (engine.native.blas.all_addresses())."},
+     "_bind(ignored): kept for callers; the small-matrix routines are the kernel's own."},
     {NULL, NULL, 0, NULL},
 };
 

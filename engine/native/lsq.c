@@ -39,17 +39,16 @@
  * Python's float ** and math.* to libm; CPython's math.hypot (its own algorithm) is called
  * through the function object.
  */
-#include "uvn_blas.h"
+#include "uvn_linalg.h"
 #include "uvn_numpy.h" /* arrays made and read without numpy.empty and the buffer protocol */
 
 #include <math.h>
 #include <string.h>
-#include <structmember.h> /* T_OBJECT_EX, PyMemberDef */
 
 #define MAXM 32 /* most observation slots a fix may have on this path (else Python) */
 
-static uvn_blas_t B;
-static int bound = 0;
+static const uvn_blas_t B = UVN_LINALG;
+static int bound = 0; /* _bind() gave the Python objects */
 static PyObject *py_hypot = NULL;     /* math.hypot (CPython's vector_norm, not libm) */
 static PyObject *np_power = NULL;     /* numpy.power: sigma_d (5.8b) by numpy's own loop */
 static PyObject *np_hypot = NULL;     /* numpy.hypot: the external reliability's norm */
@@ -86,12 +85,12 @@ static int buf_get(PyObject *obj, buf_t *b, int ndim)
     np_fields_t *nf = np_direct(obj, ndim); /* an exact float64 ndarray: its own fields */
     if (nf != NULL) {
         for (int i = 0; i < ndim; i++)
-            if (nf->strides[i] % 8 != 0)
+            if (PyArray_STRIDES(nf)[i] % 8 != 0)
                 return -1;
-        b->view.buf = nf->data;
+        b->view.buf = PyArray_BYTES(nf);
         b->view.ndim = ndim;
-        b->view.shape = nf->dimensions;
-        b->view.strides = nf->strides;
+        b->view.shape = PyArray_DIMS(nf);
+        b->view.strides = PyArray_STRIDES(nf);
         b->view.itemsize = 8;
         b->view.format = NULL;
         return 0;
@@ -850,8 +849,8 @@ static int spec_ok(PyObject *spec, Py_ssize_t n)
             return 0;
     }
     np_fields_t *e = np_direct(PyTuple_GET_ITEM(spec, 4), 2);
-    if (e == NULL || e->dimensions[0] != n || e->dimensions[1] != n ||
-        e->strides[1] != 8 || e->strides[0] != 8 * n)
+    if (e == NULL || PyArray_DIMS(e)[0] != n || PyArray_DIMS(e)[1] != n ||
+        PyArray_STRIDES(e)[1] != 8 || PyArray_STRIDES(e)[0] != 8 * n)
         return 0;
     if (zero_float == NULL && (zero_float = PyFloat_FromDouble(0.0)) == NULL)
         return -1;
@@ -873,7 +872,7 @@ static PyObject *spec_rows(PyObject *spec, double x0, double y0, Py_ssize_t n)
     double *cd;
     if ((cl = lsq_new(n, n, &cd)) == NULL)
         goto done;
-    memcpy(cd, ((np_fields_t *)PyTuple_GET_ITEM(spec, 4))->data, sizeof(double) * n * n);
+    memcpy(cd, PyArray_BYTES((PyArrayObject *)PyTuple_GET_ITEM(spec, 4)), sizeof(double) * n * n);
     {
         PyObject *xo = PyFloat_FromDouble(x0), *yo = PyFloat_FromDouble(y0);
         if (xo != NULL && yo != NULL) {
@@ -1080,7 +1079,7 @@ static PyObject *lsq_adjust(PyObject *self, PyObject *const *args, Py_ssize_t na
     for (int i = 0; i < N_ADJ_KEYS; i++)
         if (vals[i] == NULL)
             bad = 1;
-    if (!bad && (d = _PyDict_NewPresized(N_ADJ_KEYS)) != NULL) {
+    if (!bad && (d = PyDict_New()) != NULL) {
         for (int i = 0; i < N_ADJ_KEYS && d != NULL; i++)
             if (PyDict_SetItem(d, adj_keys[i], vals[i]) < 0)
                 Py_CLEAR(d);
@@ -1398,8 +1397,7 @@ static PyObject *lsq_quiet(PyObject *self, PyObject *const *args, Py_ssize_t nar
 PyDoc_STRVAR(bind_doc,
 "_bind(addresses, math_hypot, solution_type, ellipse_type, np_power, np_hypot)\n"
 "\n"
-"Bind numpy's np_dgemm, np_dgemv, np_ddot and npl_dgesv (addresses as engine.native.blas gives\n"
-"them, keys as in all_addresses()), math.hypot, adjustment._Solution, confidence.Ellipse and\n"
+"Bind (the first argument is ignored: the kernel's small-matrix code is its own) math.hypot, adjustment._Solution, confidence.Ellipse and\n"
 "the ufuncs numpy.power and numpy.hypot; called once, on first use.");
 
 static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -1408,31 +1406,7 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
         PyErr_SetString(PyExc_TypeError, "_bind needs 6 arguments");
         return NULL;
     }
-    /* only numpy's routines: SciPy's OpenBLAS (all_addresses) need not be loaded for this */
-    static const char *keys[4] = {"np_dgemm", "np_dgemv", "np_ddot", "npl_dgesv"};
-    void *ptr[4];
-    if (!PyDict_Check(args[0])) {
-        PyErr_SetString(PyExc_TypeError, "_bind needs a dict of routine addresses");
-        return NULL;
-    }
-    for (int i = 0; i < 4; i++) {
-        PyObject *v = PyDict_GetItemString(args[0], keys[i]);
-        if (v == NULL) {
-            PyErr_Format(PyExc_KeyError, "routine address %s missing", keys[i]);
-            return NULL;
-        }
-        ptr[i] = PyLong_AsVoidPtr(v);
-        if (ptr[i] == NULL) {
-            if (!PyErr_Occurred())
-                PyErr_Format(PyExc_ValueError, "routine address %s is null", keys[i]);
-            return NULL;
-        }
-    }
-    uvn_blas_t b = {0};
-    b.dgemm = (uvn_dgemm_t)ptr[0];
-    b.dgemv = (uvn_dgemv_t)ptr[1];
-    b.ddot = (uvn_ddot_t)ptr[2];
-    b.npl_dgesv = (uvn_npl_dgesv_t)ptr[3];
+    /* args[0] (routine addresses once) is ignored: the small-matrix code is uvn_linalg.h */
     if (!PyType_Check(args[2]) || !PyType_IsSubtype((PyTypeObject *)args[2], &PyTuple_Type) ||
         !PyType_Check(args[3])) {
         PyErr_SetString(PyExc_TypeError, "_bind: a tuple type and a class expected");
@@ -1446,7 +1420,6 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
             if (ellipse_keys[i] == NULL)
                 return NULL;
         }
-    B = b;
     if (np_ready() < 0) /* uvn_numpy.h looks numpy.empty up itself */
         return NULL;
     if (minus_half == NULL && (minus_half = PyFloat_FromDouble(-0.5)) == NULL)
@@ -1465,8 +1438,19 @@ static PyObject *lsq_bind(PyObject *self, PyObject *const *args, Py_ssize_t narg
 
 #define MAXROW 32
 static PyTypeObject *row_type = NULL;
-static Py_ssize_t row_off[MAXROW];
+static PyObject *row_names = NULL; /* the fields' names (a tuple of str), field order */
 static Py_ssize_t row_n = 0;
+
+/* object.__new__(row_type) with each field set as object.__setattr__ sets it (the frozen
+ * dataclass's own __setattr__ refuses): a new reference, or NULL (exception set). */
+static PyObject *row_new(PyObject *const *vals)
+{
+    PyObject *obj = row_type->tp_alloc(row_type, 0);
+    for (Py_ssize_t i = 0; i < row_n && obj != NULL; i++)
+        if (PyObject_GenericSetAttr(obj, PyTuple_GET_ITEM(row_names, i), vals[i]) < 0)
+            Py_CLEAR(obj);
+    return obj;
+}
 
 PyDoc_STRVAR(bind_row_doc,
 "_bind_row(cls, names)\n"
@@ -1488,23 +1472,19 @@ static PyObject *lsq_bind_row(PyObject *self, PyObject *const *args, Py_ssize_t 
         PyErr_SetString(PyExc_TypeError, "_bind_row: a plain slotted class with these fields");
         return NULL;
     }
-    Py_ssize_t off[MAXROW];
     for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *d = PyObject_GetAttr(args[0], PyTuple_GET_ITEM(args[1], i));
+        PyObject *name = PyTuple_GET_ITEM(args[1], i);
+        PyObject *d = PyObject_GetAttr(args[0], name);
         if (d == NULL)
             return NULL;
-        int ok = Py_IS_TYPE(d, &PyMemberDescr_Type) &&
-                 ((PyDescrObject *)d)->d_type == tp &&
-                 ((PyMemberDescrObject *)d)->d_member->type == T_OBJECT_EX;
-        if (ok)
-            off[i] = ((PyMemberDescrObject *)d)->d_member->offset;
+        int ok = Py_IS_TYPE(d, &PyMemberDescr_Type); /* a __slots__ member (data descriptor) */
         Py_DECREF(d);
         if (!ok) {
             PyErr_SetString(PyExc_TypeError, "_bind_row: a field is not an object slot");
             return NULL;
         }
     }
-    memcpy(row_off, off, sizeof(Py_ssize_t) * n);
+    Py_XSETREF(row_names, Py_NewRef(args[1]));
     row_n = n;
     Py_XSETREF(row_type, (PyTypeObject *)Py_NewRef(args[0]));
     Py_RETURN_NONE;
@@ -1519,12 +1499,7 @@ static PyObject *lsq_row(PyObject *self, PyObject *const *args, Py_ssize_t nargs
         PyErr_SetString(PyExc_TypeError, "row: not bound, or not one value per field");
         return NULL;
     }
-    PyObject *obj = row_type->tp_alloc(row_type, 0);
-    if (obj == NULL)
-        return NULL;
-    for (Py_ssize_t i = 0; i < nargs; i++)
-        *(PyObject **)((char *)obj + row_off[i]) = Py_NewRef(args[i]);
-    return obj;
+    return row_new(args);
 }
 
 /* ---------------------------------------------------------------------------------------- */
@@ -1639,9 +1614,8 @@ static PyObject *lsq_lop_rows(PyObject *self, PyObject *const *args, Py_ssize_t 
                 for (int j = 0; j < 6; j++)
                     if (vals[made[j]] == NULL)
                         good = 0;
-                if (good && (row = row_type->tp_alloc(row_type, 0)) != NULL)
-                    for (Py_ssize_t j = 0; j < 14; j++)
-                        *(PyObject **)((char *)row + row_off[j]) = Py_NewRef(vals[j]);
+                if (good)
+                    row = row_new(vals);
                 for (int j = 0; j < 6; j++)
                     Py_XDECREF(vals[made[j]]);
                 if (row == NULL && !PyErr_Occurred())
@@ -1750,7 +1724,7 @@ static PyObject *with_dict(PyObject *cls, PyObject *d)
     if (d == NULL)
         return NULL;
     PyObject *obj = PyBaseObject_Type.tp_new((PyTypeObject *)cls, empty_args, NULL);
-    if (obj != NULL && PyObject_GenericSetAttr(obj, dict_name, d) < 0)
+    if (obj != NULL && uvn_set_attrs(obj, d) < 0)
         Py_CLEAR(obj);
     Py_DECREF(d);
     return obj;
@@ -1759,7 +1733,7 @@ static PyObject *with_dict(PyObject *cls, PyObject *d)
 /* A new dict of n keys and values, or NULL. */
 static PyObject *dict_of(int n, PyObject *const *keys, PyObject *const *vals)
 {
-    PyObject *d = _PyDict_NewPresized(n);
+    PyObject *d = PyDict_New();
     for (int i = 0; i < n && d != NULL; i++)
         if (vals[i] == NULL || PyDict_SetItem(d, keys[i], vals[i]) < 0)
             Py_CLEAR(d);
@@ -1790,7 +1764,7 @@ static int start_arrays(PyObject *x, PyObject *used, PyObject **xo, PyObject **u
         if (b != Py_True && b != Py_False)
             n = -1;
     }
-    if (n >= 1 && bool_descr != NULL && np_new_from_descr != NULL && np_layout == 1) {
+    if (n >= 1 && bool_descr != NULL && np_layout == 1) {
         Py_ssize_t dims[1] = {n};
         Py_INCREF(bool_descr); /* stolen */
         *uo = np_new_from_descr((PyTypeObject *)np_ndarray, bool_descr, 1, dims, NULL, NULL, 0,
@@ -1799,7 +1773,7 @@ static int start_arrays(PyObject *x, PyObject *used, PyObject **xo, PyObject **u
             Py_CLEAR(*xo);
             return -1;
         }
-        unsigned char *u8 = (unsigned char *)((np_fields_t *)*uo)->data;
+        unsigned char *u8 = (unsigned char *)PyArray_BYTES((PyArrayObject *)*uo);
         for (Py_ssize_t i = 0; i < n; i++)
             u8[i] = PyList_GET_ITEM(used, i) == Py_True;
     }
@@ -2252,6 +2226,7 @@ done:
 }
 
 static PyMethodDef methods[] = {
+    UVN_PROBE_METHOD,
     {"estimate", (PyCFunction)(void (*)(void))lsq_estimate, METH_FASTCALL, estimate_doc},
     {"_bind_fix", (PyCFunction)(void (*)(void))lsq_bind_fix, METH_FASTCALL, bind_fix_doc},
     {"adjust_tested", (PyCFunction)(void (*)(void))lsq_adjust_tested, METH_FASTCALL,

@@ -36,7 +36,6 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
-#include <structmember.h>
 #include "uvn_numpy.h"
 #include <math.h>
 #include <stdint.h>
@@ -967,68 +966,17 @@ static void *decline(void)
     return NULL;
 }
 
-/* Attribute reads of __slots__ members without the generic lookup: per attribute name, the
- * last two (type, version tag) pairs it was read from, with the member's offset when the
- * name is a plain object slot there (a dataclass with slots=True: PositionEstimate, LopRow,
- * SensorValues, GpsInput, GpsWeight), else -1 (read by PyObject_GetAttr). The version tag
- * changes with any change of the type or its bases, so a hit means PyObject_GetAttr would
- * find the same member descriptor (a data descriptor, ahead of any instance dict) and
- * read that slot: the same object. An empty slot (AttributeError) goes to PyObject_GetAttr. */
-typedef struct {
-    PyTypeObject *type;
-    unsigned int version;
-    Py_ssize_t offset;
-} slot_t;
+/* Attribute reads: PyObject_GetAttr (the slot_t argument is a placeholder kept so the call
+ * sites name what they read; no type internals are cached). */
+typedef char slot_t;
 
 static slot_t ATTR_SLOT[A_COUNT][2], SENS_SLOT[N_SENS][2], GPS_SLOT[N_GPS][2],
     OBS_SLOT[N_OBS][2], LOP_SLOT[N_LOP][2];
 
-static int version_valid(PyTypeObject *t)
-{
-#ifdef Py_TPFLAGS_VALID_VERSION_TAG
-    if (!(t->tp_flags & Py_TPFLAGS_VALID_VERSION_TAG))
-        return 0;
-#endif
-    return t->tp_version_tag != 0;
-}
-
-/* Remember how `name` reads on type t (after a successful PyObject_GetAttr). */
-static void slot_learn(PyTypeObject *t, PyObject *name, slot_t *c)
-{
-    if (!version_valid(t))
-        return;
-    Py_ssize_t offset = -1;
-    if (t->tp_getattro == PyObject_GenericGetAttr) {
-        PyObject *d = _PyType_Lookup(t, name); /* borrowed; no error set */
-        if (d != NULL && Py_IS_TYPE(d, &PyMemberDescr_Type)) {
-            PyMemberDef *m = ((PyMemberDescrObject *)d)->d_member;
-            if (m->type == T_OBJECT_EX && !(m->flags & READ_RESTRICTED))
-                offset = m->offset;
-        }
-    }
-    c[1] = c[0];
-    c[0].type = t;
-    c[0].version = t->tp_version_tag;
-    c[0].offset = offset;
-}
-
 static inline PyObject *get_attr(PyObject *o, PyObject *name, slot_t *c)
 {
-    PyTypeObject *t = Py_TYPE(o);
-    for (int k = 0; k < 2; k++) {
-        if (c[k].type == t && c[k].version == t->tp_version_tag && version_valid(t)) {
-            if (c[k].offset >= 0) {
-                PyObject *v = *(PyObject **)((char *)o + c[k].offset);
-                if (v != NULL)
-                    return Py_NewRef(v);
-            }
-            return PyObject_GetAttr(o, name);
-        }
-    }
-    PyObject *v = PyObject_GetAttr(o, name);
-    if (v != NULL)
-        slot_learn(t, name, c);
-    return v;
+    (void)c;
+    return PyObject_GetAttr(o, name);
 }
 
 #define GET(o, a) get_attr((o), ATTR[a], ATTR_SLOT[a])
@@ -1344,12 +1292,12 @@ static int position_row(pos_t *p, PyObject *obj, PyObject *depth, PyObject *k95)
         p->variant |= 1;
     }
     np_fields_t *fc = cov != Py_None ? np_direct(cov, 2) : NULL;
-    if (fc != NULL && fc->dimensions[0] == 2 && fc->dimensions[1] == 2) {
+    if (fc != NULL && PyArray_DIMS(fc)[0] == 2 && PyArray_DIMS(fc)[1] == 2) {
         /* (cxx, cxy), (cyx, cyy) = cov.tolist(), read from the array */
         double c[4];
         for (int k = 0; k < 4; k++)
-            c[k] = *(const double *)(fc->data + (k >> 1) * fc->strides[0] +
-                                     (k & 1) * fc->strides[1]);
+            c[k] = *(const double *)(PyArray_BYTES(fc) + (k >> 1) * PyArray_STRIDES(fc)[0] +
+                                     (k & 1) * PyArray_STRIDES(fc)[1]);
         if (isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2]) && isfinite(c[3])) {
             pos_dbl(p, c[0]);
             pos_dbl(p, c[1]);
@@ -1473,12 +1421,12 @@ static PyObject *ls_text(PyObject *ls_t)
     np_fields_t *f = np_direct(ls_t, 1);
     if (f == NULL)
         return ls_text_slow(ls_t);
-    Py_ssize_t n = f->dimensions[0], st = f->strides[0];
+    Py_ssize_t n = PyArray_DIMS(f)[0], st = PyArray_STRIDES(f)[0];
     char stack_buf[512];
     buf_t b = {stack_buf, 0, (Py_ssize_t)sizeof stack_buf, 0, 1};
     PyObject *r = NULL;
     for (Py_ssize_t i = 0; i < n; i++) {
-        double x = *(const double *)(f->data + i * st);
+        double x = *(const double *)(PyArray_BYTES(f) + i * st);
         if (buf_reserve(&b, 33) < 0)
             goto done;
         if (i > 0)
@@ -1585,15 +1533,15 @@ static PyObject *kf_values(PyObject *fs, PyObject *n_nav, val_t *kv, Py_ssize_t 
         fp = np_direct(P, 2);
     }
     if (fp != NULL) { /* x[:n].tolist() and P.diagonal()[:n].tolist() read from the arrays */
-        Py_ssize_t nx = fx->dimensions[0] < nn ? fx->dimensions[0] : nn;
-        Py_ssize_t nd = fp->dimensions[0] < fp->dimensions[1] ? fp->dimensions[0]
-                                                               : fp->dimensions[1];
+        Py_ssize_t nx = PyArray_DIMS(fx)[0] < nn ? PyArray_DIMS(fx)[0] : nn;
+        Py_ssize_t nd = PyArray_DIMS(fp)[0] < PyArray_DIMS(fp)[1] ? PyArray_DIMS(fp)[0]
+                                                               : PyArray_DIMS(fp)[1];
         nd = nd < nn ? nd : nn;
-        Py_ssize_t sx = fx->strides[0], sd = fp->strides[0] + fp->strides[1];
+        Py_ssize_t sx = PyArray_STRIDES(fx)[0], sd = PyArray_STRIDES(fp)[0] + PyArray_STRIDES(fp)[1];
         if (nx + nd <= KF_VALS) { /* the floats themselves, no objects */
             for (Py_ssize_t i = 0; i < nx + nd; i++) {
-                double v = i < nx ? *(const double *)(fx->data + i * sx)
-                                  : *(const double *)(fp->data + (i - nx) * sd);
+                double v = i < nx ? *(const double *)(PyArray_BYTES(fx) + i * sx)
+                                  : *(const double *)(PyArray_BYTES(fp) + (i - nx) * sd);
                 if (i >= nx) /* records: sqrt(v) if v > 0.0 else (v if v != v else 0.0) */
                     v = v > 0.0 ? sqrt(v) : (v != v ? v : 0.0);
                 kv[i].o = NULL;
@@ -1605,8 +1553,8 @@ static PyObject *kf_values(PyObject *fs, PyObject *n_nav, val_t *kv, Py_ssize_t 
         if ((t = PyTuple_New(nx + nd)) == NULL)
             goto done;
         for (Py_ssize_t i = 0; i < nx + nd; i++) {
-            double v = i < nx ? *(const double *)(fx->data + i * sx)
-                              : *(const double *)(fp->data + (i - nx) * sd);
+            double v = i < nx ? *(const double *)(PyArray_BYTES(fx) + i * sx)
+                              : *(const double *)(PyArray_BYTES(fp) + (i - nx) * sd);
             if (i >= nx) /* records: sqrt(v) if v > 0.0 else (v if v != v else 0.0) */
                 v = v > 0.0 ? sqrt(v) : (v != v ? v : 0.0);
             PyObject *o = PyFloat_FromDouble(v);
@@ -2225,8 +2173,8 @@ static int freeze_names(void)
 static int freeze_array(PyObject *a)
 {
     if (np_layout == 1 && (PyObject *)Py_TYPE(a) == np_ndarray &&
-        !((unsigned)((np_fields_t *)a)->flags & NP_WARN_ON_WRITE)) {
-        ((np_fields_t *)a)->flags &= ~NP_WRITEABLE;
+        !((unsigned)PyArray_FLAGS(((np_fields_t *)a)) & NP_WARN_ON_WRITE)) {
+        PyArray_CLEARFLAGS((PyArrayObject *)a, NPY_ARRAY_WRITEABLE);
         return 0;
     }
     PyObject *call[2] = {a, Py_False};
@@ -2396,6 +2344,7 @@ static PyObject *text_form(PyObject *self, PyObject *arg)
 }
 
 static PyMethodDef methods[] = {
+    UVN_PROBE_METHOD,
     {"render_rows", (PyCFunction)(void (*)(void))render_rows, METH_FASTCALL,
      "render_rows(rows, dumps, format_text, format_value) -> str | None\n\n"
      "The text of (prefix, keys, values) rows as engine.io.outlog._render_rows_py writes it;\n"

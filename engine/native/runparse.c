@@ -416,18 +416,18 @@ rp_prior(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     }
     fx = np_direct(args[0], 1);
     fp = np_direct(args[1], 2);
-    if (fx == NULL || fp == NULL || iy >= fx->dimensions[0] || iy >= fp->dimensions[0]
-        || iy >= fp->dimensions[1])
+    if (fx == NULL || fp == NULL || iy >= PyArray_DIMS(fx)[0] || iy >= PyArray_DIMS(fp)[0]
+        || iy >= PyArray_DIMS(fp)[1])
         Py_RETURN_NONE;
-    x = *(double *)(fx->data + ix * fx->strides[0]);
-    y = *(double *)(fx->data + iy * fx->strides[0]);
+    x = *(double *)(PyArray_BYTES(fx) + ix * PyArray_STRIDES(fx)[0]);
+    y = *(double *)(PyArray_BYTES(fx) + iy * PyArray_STRIDES(fx)[0]);
     cov = new_array(2, 2, 2, &data);
     if (cov == NULL)
         return NULL;
     for (int i = 0; i < 2; i++)
         for (int j = 0; j < 2; j++)
             data[2 * i + j] =
-                *(double *)(fp->data + (ix + i) * fp->strides[0] + (ix + j) * fp->strides[1]);
+                *(double *)(PyArray_BYTES(fp) + (ix + i) * PyArray_STRIDES(fp)[0] + (ix + j) * PyArray_STRIDES(fp)[1]);
     xo = PyFloat_FromDouble(x);
     yo = PyFloat_FromDouble(y);
     if (xo == NULL || yo == NULL) {
@@ -561,6 +561,7 @@ rp_untrack(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 }
 
 static PyMethodDef rp_methods[] = {
+    UVN_PROBE_METHOD,
     {"make", (PyCFunction)(void (*)(void))rp_make, METH_FASTCALL, make_doc},
     {"prior", (PyCFunction)(void (*)(void))rp_prior, METH_FASTCALL, prior_doc},
     {"make_attrs", (PyCFunction)(void (*)(void))rp_make_attrs, METH_FASTCALL,

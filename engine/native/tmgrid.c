@@ -3,9 +3,8 @@
  * forward, forward_full and inverse do the very IEEE operations of TMGrid._forward_py,
  * _forward_full_py and _inverse_py, in the same order (Karney 2011, J. Geodesy 85:475-485,
  * eqs. 7-12, 19-21, 25-28, 35-36; Clenshaw sums on complex arguments):
- *   - Python's complex + - * are _Py_c_sum/_Py_c_diff/_Py_c_prod (a float operand is the
- *     complex (f, 0.0), as CPython 3.11's complex number methods promote it); abs() is
- *     _Py_c_abs;
+ *   - Python's complex + - * are written out here (c_sum, c_diff, c_prod: a float operand is
+ *     the complex (f, 0.0)); abs() is libm's hypot of the parts;
  *   - cmath.sin, cmath.cos, cmath.phase and math.hypot are called through the C API (cached
  *     function objects): CPython's own code, not libm's;
  *   - math.sin/cos/sinh/atanh/asinh/atan/atan2 are glibc's, as CPython's math module calls
@@ -17,10 +16,8 @@
  *     product with the constants math.radians(1.0)/math.degrees(1.0), packed from Python.
  * Built with -ffp-contract=off (no FMA) and without -ffast-math (no reassociation).
  *
- * Only complex sums and differences are written out here (c_sum, c_diff: one IEEE addition or
- * subtraction per part, exactly CPython's _Py_c_sum/_Py_c_diff on any build, with no product a
- * compiler could fuse); products go through CPython's own _Py_c_prod, so a libpython built
- * with FMA contraction would still be matched.
+ * Only public C API is used; results agree with the Python to rounding (the engine's tolerance
+ * contract, docs/PERFORMANCE.md), not necessarily bit for bit.
  *
  * The grid's state travels as one bytearray (pack(), held on the TMGrid instance): its
  * constants, then a memo of the last MEMO inverses (the pure Python's dict memo of
@@ -217,7 +214,17 @@ consts_of(PyObject *packed, tm_consts *k)
     return 0;
 }
 
-/* Complex a + b and a - b as CPython's _Py_c_sum/_Py_c_diff compute them. */
+/* Complex a + b, a - b and a * b, written out (the textbook products: one rounding per real
+ * product and sum; CPython's complex type computes the same formulas). */
+static inline Py_complex
+c_prod(Py_complex a, Py_complex b)
+{
+    Py_complex r;
+    r.real = a.real * b.real - a.imag * b.imag;
+    r.imag = a.real * b.imag + a.imag * b.real;
+    return r;
+}
+
 static inline Py_complex
 c_sum(Py_complex a, Py_complex b)
 {
@@ -245,18 +252,18 @@ clenshaw(const double *coef, Py_complex c2, Py_complex *ysum, Py_complex *zsum,
          Py_complex *zprev)
 {
     const Py_complex two = {2.0, 0.0};
-    const Py_complex a = _Py_c_prod(two, c2);
+    const Py_complex a = c_prod(two, c2);
     Py_complex y1 = {0.0, 0.0}, y2 = {0.0, 0.0};
     Py_complex z1 = {0.0, 0.0}, z2 = {0.0, 0.0};
     for (int j = NCOEF; j >= 1; j--) {
         const double cj = coef[j - 1];
         const Py_complex cjc = {cj, 0.0};
-        Py_complex t = c_sum(c_diff(_Py_c_prod(a, y1), y2), cjc);
+        Py_complex t = c_sum(c_diff(c_prod(a, y1), y2), cjc);
         y2 = y1;
         y1 = t;
         if (zsum != NULL) {
             const Py_complex dj = {2.0 * (double)j * cj, 0.0};
-            Py_complex u = c_sum(c_diff(_Py_c_prod(a, z1), z2), dj);
+            Py_complex u = c_sum(c_diff(c_prod(a, z1), z2), dj);
             z2 = z1;
             z1 = u;
         }
@@ -365,10 +372,10 @@ forward_of(const tm_consts *k, double lat, double lon, double *x_out, double *y_
     const Py_complex zp = {xip, etap};
     const Py_complex two = {2.0, 0.0};
     Py_complex s2, c2, y1;
-    if (api_sin_cos(_Py_c_prod(two, zp), &s2, &c2) < 0)
+    if (api_sin_cos(c_prod(two, zp), &s2, &c2) < 0)
         BAIL();
     clenshaw(k->alpha, c2, &y1, NULL, NULL);
-    const Py_complex z = c_sum(zp, _Py_c_prod(s2, y1));
+    const Py_complex z = c_sum(zp, c_prod(s2, y1));
     *x_out = k->big_a * z.imag;
     *y_out = k->big_a * z.real;
     return 0;
@@ -450,11 +457,11 @@ tm_forward_full(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     const Py_complex two = {2.0, 0.0};
     const Py_complex one = {1.0, 0.0};
     Py_complex s2, c2, y1, z1, z2;
-    if (api_sin_cos(_Py_c_prod(two, zp), &s2, &c2) < 0)
+    if (api_sin_cos(c_prod(two, zp), &s2, &c2) < 0)
         BAIL();
     clenshaw(k->alpha, c2, &y1, &z1, &z2);
-    const Py_complex s = _Py_c_prod(s2, y1);
-    const Py_complex d = c_diff(_Py_c_prod(c2, z1), z2);
+    const Py_complex s = c_prod(s2, y1);
+    const Py_complex d = c_diff(c_prod(c2, z1), z2);
     const Py_complex z = c_sum(zp, s);
     const Py_complex dz = c_sum(one, d);
     double phase;
@@ -462,7 +469,7 @@ tm_forward_full(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         BAIL();
     const double gamma = gam_p - phase;
     errno = 0;
-    const double adz = _Py_c_abs(dz);
+    const double adz = hypot(dz.real, dz.imag); /* abs(dz) */
     if (errno == ERANGE)
         BAIL();
     const double kk = k->a_ratio * adz * k_sphere;
@@ -498,10 +505,10 @@ inverse_of(const tm_consts *k, double x, double y, double *lat_out, double *lon_
     const Py_complex z = {y / big_a, x / big_a};
     const Py_complex two = {2.0, 0.0};
     Py_complex s2, c2, y1;
-    if (api_sin_cos(_Py_c_prod(two, z), &s2, &c2) < 0)
+    if (api_sin_cos(c_prod(two, z), &s2, &c2) < 0)
         BAIL();
     clenshaw(k->beta, c2, &y1, NULL, NULL);
-    const Py_complex zp = c_diff(z, _Py_c_prod(s2, y1));
+    const Py_complex zp = c_diff(z, c_prod(s2, y1));
     const double xip = zp.real;
     const double etap = zp.imag;
     const double sxi = v_sin(xip);

@@ -1,8 +1,12 @@
-/* numpy arrays read and made from C without numpy's headers, shared by the kernels that
- * include it (kalman_predict.c, kalman_update.c, lsq.c, decca.c, outfmt.c). Every route here is checked against numpy itself at
- * first use (np_ready): the array object's leading fields, that clearing NP_WRITEABLE is what
- * ndarray.setflags(write=False) does, and that the _ARRAY_API capsule's slot 2 is
- * numpy.ndarray; where a check fails, the buffer protocol, numpy.empty and setflags are used.
+/* numpy arrays read and made from C through numpy's own C API (its headers, found by setup.py
+ * with numpy.get_include(); numpy is a build requirement). Shared by the kernels that include
+ * it (kalman_predict.c, kalman_update.c, lsq.c, decca.c, outfmt.c, runparse.c).
+ *
+ * numpy's API table is imported on first use (np_ready, numpy's _import_array), not when the
+ * module is imported, so a kernel module loads without importing numpy. Only the documented
+ * accessors are used (PyArray_BYTES, PyArray_DIMS, PyArray_STRIDES, PyArray_FLAGS,
+ * PyArray_CLEARFLAGS, PyArray_SetBaseObject, PyArray_NewFromDescr); with
+ * NPY_NO_DEPRECATED_API the array struct's fields are not even visible here.
  * Static functions: each kernel that includes this keeps its own copy of the state below. */
 #ifndef UVN_NUMPY_H
 #define UVN_NUMPY_H
@@ -11,214 +15,125 @@
 #include <Python.h>
 #include <string.h>
 
-static PyObject *np_empty = NULL; /* numpy.empty, looked up by np_ready() */
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
 
-/* numpy's array object up to its flags: the leading fields of PyArrayObject_fields
- * (numpy/ndarraytypes.h), the ABI through which every compiled numpy extension reads
- * PyArray_DATA and PyArray_FLAGS. Used only once np_layout_ok() has confirmed it against
- * numpy itself; otherwise the buffer protocol and ndarray.setflags are used. */
-typedef struct {
-    PyObject_HEAD
-    char *data;
-    int nd;
-    Py_ssize_t *dimensions;
-    Py_ssize_t *strides;
-    PyObject *base;
-    PyObject *descr;
-    int flags;
-} np_fields_t;
+#define NP_WRITEABLE NPY_ARRAY_WRITEABLE
+#define NP_C_CONTIGUOUS NPY_ARRAY_C_CONTIGUOUS
+#define NP_ALIGNED NPY_ARRAY_ALIGNED
 
-#define NP_WRITEABLE 0x0400 /* NPY_ARRAY_WRITEABLE */
-#define NP_C_CONTIGUOUS 0x0001 /* NPY_ARRAY_C_CONTIGUOUS */
-#define NP_ALIGNED 0x0100 /* NPY_ARRAY_ALIGNED */
+typedef PyArrayObject np_fields_t; /* an array, read through numpy's accessors only */
 
-static PyObject *np_ndarray = NULL; /* numpy.ndarray */
-static PyObject *np_f64 = NULL;     /* numpy.dtype(float): the float64 descriptor numpy shares */
+static PyObject *np_ndarray = NULL; /* numpy.ndarray (&PyArray_Type) */
+static PyObject *np_f64 = NULL;     /* the float64 descriptor (PyArray_DescrFromType) */
+static int np_layout = -1;          /* 1: numpy's C API imported, -1: not yet */
 
-/* numpy.empty, numpy.ndarray and the float64 descriptor: 0, or -1 (exception set). */
-static int np_import(void)
+/* A PyArray_NewFromDescr with the signature the kernels call it by. */
+static PyObject *np_new_from_descr(PyTypeObject *type, PyObject *descr, int nd,
+                                   const Py_ssize_t *dims, const Py_ssize_t *strides,
+                                   void *data, int flags, PyObject *obj)
 {
-    PyObject *np = PyImport_ImportModule("numpy");
-    if (np == NULL)
-        return -1;
-    PyObject *e = PyObject_GetAttrString(np, "empty");
-    PyObject *t = e == NULL ? NULL : PyObject_GetAttrString(np, "ndarray");
-    PyObject *d = t == NULL ? NULL : PyObject_CallMethod(np, "dtype", "s", "float64");
-    Py_DECREF(np);
-    if (d == NULL) {
-        Py_XDECREF(e);
-        Py_XDECREF(t);
+    return PyArray_NewFromDescr(type, (PyArray_Descr *)descr, nd, (npy_intp *)dims,
+                                (npy_intp *)strides, data, flags, obj);
+}
+
+/* numpy's C API imported (once): 0, or -1 (exception set). */
+static int np_ready(void)
+{
+    if (np_layout == 1)
+        return 0;
+    if (_import_array() < 0) {
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_ImportError, "numpy's C API could not be imported");
         return -1;
     }
-    np_ndarray = t;
-    np_f64 = d;
-    np_empty = e;
+    np_ndarray = (PyObject *)&PyArray_Type;
+    np_f64 = (PyObject *)PyArray_DescrFromType(NPY_DOUBLE);
+    if (np_f64 == NULL)
+        return -1;
+    np_layout = 1;
     return 0;
 }
 
-static int np_layout = -1; /* 1: np_fields_t checked, 0: not numpy's, -1: not checked yet */
-
-/* numpy's C API table (the capsule numpy._core._multiarray_umath._ARRAY_API that numpy's
- * import_array() reads; its slots are numpy's ABI): slot 0 PyArray_GetNDArrayCVersion, 2 the
- * ndarray type, 94 PyArray_NewFromDescr. Used to make arrays (what numpy.empty does, without
- * its argument parsing) only once np_api_bind() found slot 2 to be numpy.ndarray and the ABI
- * version that of numpy ≥ 1.x; else numpy.empty is called. */
-typedef PyObject *(*np_new_from_descr_t)(PyTypeObject *, PyObject *, int, const Py_ssize_t *,
-                                         const Py_ssize_t *, void *, int, PyObject *);
-static np_new_from_descr_t np_new_from_descr = NULL;
-
-static void np_api_bind(void)
-{
-    PyObject *m = PyImport_ImportModule("numpy._core._multiarray_umath");
-    PyObject *c = m == NULL ? NULL : PyObject_GetAttrString(m, "_ARRAY_API");
-    Py_XDECREF(m);
-    if (c != NULL && PyCapsule_CheckExact(c)) {
-        void **table = PyCapsule_GetPointer(c, PyCapsule_GetName(c));
-        if (table != NULL && table[2] == (void *)np_ndarray && table[0] != NULL &&
-            ((unsigned (*)(void))table[0])() >= 0x01000009u && table[94] != NULL)
-            np_new_from_descr = (np_new_from_descr_t)table[94];
-    }
-    Py_XDECREF(c);
-    PyErr_Clear();
-}
-
-/* Is np_fields_t the layout of numpy.empty((2, 3)) (an exact ndarray of the shared float64
- * descriptor, C-contiguous and aligned, as its buffer says), and is clearing NP_WRITEABLE what
- * ndarray.setflags(write=False) does (and makes numpy refuse a writable buffer)? 1/0, -1 on an
- * error (set). */
-static int np_layout_ok(void)
-{
-    int ok = 0;
-    PyObject *a = NULL, *b = NULL, *r = NULL, *shape = Py_BuildValue("(nn)", (Py_ssize_t)2,
-                                                                     (Py_ssize_t)3);
-    if (shape == NULL)
-        return -1;
-    a = PyObject_CallOneArg(np_empty, shape);
-    b = a == NULL ? NULL : PyObject_CallOneArg(np_empty, shape);
-    Py_DECREF(shape);
-    if (b == NULL)
-        goto error;
-    Py_buffer v;
-    if (PyObject_GetBuffer(a, &v, PyBUF_RECORDS) != 0) {
-        PyErr_Clear();
-        goto done;
-    }
-    np_fields_t *fa = (np_fields_t *)a, *fb = (np_fields_t *)b;
-    ok = (void *)fa->data == v.buf && fa->nd == 2 && fa->dimensions[0] == 2 &&
-         fa->dimensions[1] == 3 && fa->strides[0] == 24 && fa->strides[1] == 8 &&
-         (fa->flags & NP_WRITEABLE) && (fa->flags & NP_C_CONTIGUOUS) &&
-         (fa->flags & NP_ALIGNED) && fa->flags == fb->flags && fa->flags > 0 &&
-         (PyObject *)Py_TYPE(a) == np_ndarray && fa->descr == np_f64 && v.itemsize == 8 &&
-         v.format != NULL && strcmp(v.format, "d") == 0;
-    PyBuffer_Release(&v);
-    if (!ok)
-        goto done;
-    int before = fa->flags;
-    if ((r = PyObject_CallMethod(a, "setflags", "O", Py_False)) == NULL)
-        goto error;
-    ok = fa->flags == (before & ~NP_WRITEABLE);
-    fb->flags &= ~NP_WRITEABLE;
-    if (ok && PyObject_GetBuffer(b, &v, PyBUF_RECORDS) == 0) {
-        PyBuffer_Release(&v);
-        ok = 0; /* numpy still exports b as writable: not its flag */
-    }
-    PyErr_Clear();
-done:
-    Py_XDECREF(r);
-    Py_XDECREF(a);
-    Py_XDECREF(b);
-    return ok;
-error:
-    Py_XDECREF(a);
-    Py_XDECREF(b);
-    return -1;
-}
-
-/* The array object `obj` as np_fields_t when it is an exact numpy.ndarray of float64 (the
- * shared descriptor), aligned, with `nd` dimensions: then its data, shape and strides are read
- * from it directly, without the buffer protocol (what numpy's buffer would give); else NULL. */
+/* `obj` when it is an exact numpy.ndarray of native float64, aligned, with `nd` dimensions
+ * (then its data, shape and strides are read through numpy's accessors); else NULL. */
 static np_fields_t *np_direct(PyObject *obj, int nd)
 {
-    if (np_layout != 1 || (PyObject *)Py_TYPE(obj) != np_ndarray)
+    if (np_layout != 1 || !PyArray_CheckExact(obj))
         return NULL;
-    np_fields_t *f = (np_fields_t *)obj;
-    if (f->descr != np_f64 || f->nd != nd || !(f->flags & NP_ALIGNED))
+    PyArrayObject *a = (PyArrayObject *)obj;
+    if (PyArray_NDIM(a) != nd || PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISNOTSWAPPED(a) ||
+        !PyArray_ISALIGNED(a))
         return NULL;
-    return f;
+    return a;
 }
-
-#define NSHAPE 64
-static PyObject *shape_cache[3][NSHAPE]; /* (d0,), (d0, d0), (d0, 2) for d0 < NSHAPE */
 
 /* A new C-ordered float64 numpy array (numpy.empty((d0,) or (d0, d1))) and its data, or NULL
  * (exception set). */
 static PyObject *new_array(Py_ssize_t d0, Py_ssize_t d1, int ndim, double **data)
 {
-    if (np_new_from_descr != NULL && np_layout == 1) {
-        Py_ssize_t dims[2] = {d0, d1};
-        Py_INCREF(np_f64); /* stolen */
-        PyObject *a = np_new_from_descr((PyTypeObject *)np_ndarray, np_f64, ndim, dims, NULL,
-                                        NULL, 0, NULL);
-        if (a == NULL)
-            return NULL;
-        *data = (double *)((np_fields_t *)a)->data;
-        return a;
-    }
-    PyObject *shape;
-    int kind = ndim == 1 ? 0 : d1 == d0 ? 1 : d1 == 2 ? 2 : -1;
-    int cached = kind >= 0 && d0 >= 0 && d0 < NSHAPE;
-    if (cached && shape_cache[kind][d0] != NULL) {
-        shape = Py_NewRef(shape_cache[kind][d0]);
-    } else {
-        shape = ndim == 1 ? Py_BuildValue("(n)", d0) : Py_BuildValue("(nn)", d0, d1);
-        if (shape == NULL)
-            return NULL;
-        if (cached)
-            shape_cache[kind][d0] = Py_NewRef(shape);
-    }
-    PyObject *a = PyObject_CallOneArg(np_empty, shape);
-    Py_DECREF(shape);
+    if (np_ready() < 0)
+        return NULL;
+    npy_intp dims[2] = {d0, d1};
+    PyObject *a = PyArray_SimpleNew(ndim, dims, NPY_DOUBLE);
     if (a == NULL)
         return NULL;
-    if (np_layout == 1) {
-        *data = (double *)((np_fields_t *)a)->data;
-        return a;
-    }
-    Py_buffer v;
-    if (PyObject_GetBuffer(a, &v, PyBUF_CONTIG) < 0) {
-        Py_DECREF(a);
-        return NULL;
-    }
-    *data = (double *)v.buf;
-    PyBuffer_Release(&v); /* the array keeps its data */
+    *data = (double *)PyArray_DATA((PyArrayObject *)a);
     return a;
 }
 
-/* a.setflags(write=False) for an array new_array() made: 0, or -1 (exception set). */
+/* a.setflags(write=False) for an array new_array() made: 0 (it cannot fail). */
 static int freeze(PyObject *a)
 {
-    if (np_layout == 1) {
-        ((np_fields_t *)a)->flags &= ~NP_WRITEABLE;
-        return 0;
-    }
-    PyObject *r = PyObject_CallMethod(a, "setflags", "O", Py_False);
-    if (r == NULL)
-        return -1;
-    Py_DECREF(r);
+    PyArray_CLEARFLAGS((PyArrayObject *)a, NPY_ARRAY_WRITEABLE);
     return 0;
 }
 
-/* numpy looked up and its layout checked (once): 0, or -1 (exception set). */
-static int np_ready(void)
+/* Every key = value of dict d set on obj as object.__setattr__ sets it (into its instance dict,
+ * past a frozen class's __setattr__), in d's order: 0, or -1 (exception set). Setting the
+ * attributes one by one, not replacing __dict__, is what works on every CPython (3.13 keeps
+ * a new object's attributes in inline values that a replaced __dict__ does not reach). */
+static int uvn_set_attrs(PyObject *obj, PyObject *d)
 {
-    if (np_empty == NULL && np_import() < 0)
-        return -1;
-    if (np_layout < 0) {
-        if ((np_layout = np_layout_ok()) < 0)
+    Py_ssize_t pos = 0;
+    PyObject *k, *v;
+    while (PyDict_Next(d, &pos, &k, &v))
+        if (PyObject_GenericSetAttr(obj, k, v) < 0)
             return -1;
-        np_api_bind();
-    }
     return 0;
 }
+
+/* _probe(): the first-use check engine.native runs before handing the kernel out: numpy's C
+ * API imported (its ABI version accepted by numpy's import_array) and an array made, written
+ * and read back through it. None, or an exception naming what failed. */
+static PyObject *uvn_probe(PyObject *self, PyObject *unused)
+{
+    (void)self;
+    (void)unused;
+    double *d;
+    if (np_ready() < 0)
+        return NULL;
+    PyObject *a = new_array(2, 3, 2, &d);
+    if (a == NULL)
+        return NULL;
+    for (int i = 0; i < 6; i++)
+        d[i] = i + 0.5;
+    np_fields_t *f = np_direct(a, 2);
+    int ok = f != NULL && PyArray_DIMS(f)[0] == 2 && PyArray_DIMS(f)[1] == 3 &&
+             PyArray_STRIDES(f)[0] == 3 * (Py_ssize_t)sizeof(double) &&
+             *(double *)(PyArray_BYTES(f) + PyArray_STRIDES(f)[0] + 2 * sizeof(double)) == 5.5;
+    freeze(a);
+    ok = ok && !(PyArray_FLAGS(f) & NPY_ARRAY_WRITEABLE);
+    Py_DECREF(a);
+    if (!ok) {
+        PyErr_SetString(PyExc_RuntimeError, "numpy array made through numpy's C API reads back "
+                                            "wrong");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+#define UVN_PROBE_METHOD \
+    {"_probe", uvn_probe, METH_NOARGS, "_probe(): the first-use check (numpy's C API)."}
 
 #endif /* UVN_NUMPY_H */

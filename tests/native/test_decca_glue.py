@@ -21,7 +21,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import engine.systems.decca as decca
@@ -32,7 +32,17 @@ from engine.fast.decca import FAST_DECCA, FastDeccaObservations
 from engine.geodesy.tmgrid import TMGrid
 from engine.systems import base
 from engine.systems.base import CycleInputs, Point, SystemReading
-from tests.native.test_decca import FAST, GRID, MX, MY, PLACED, PURE, hexes, outcome
+from tests.native.test_decca import (
+    FAST,
+    GRID,
+    MX,
+    MY,
+    PLACED,
+    PURE,
+    far_from_stations,
+    hexes,
+    outcome,
+)
 
 K = native.kernel("decca")
 pytestmark = pytest.mark.skipif(K is None, reason=f"decca kernel: {native.status('decca')}")
@@ -44,6 +54,7 @@ _OFFSET = st.floats(-3e5, 3e5, allow_nan=False)
 @given(dx=_OFFSET, dy=_OFFSET)
 def test_geometry_new_is_the_python_geometry(dx: float, dy: float) -> None:
     x, y = MX + dx, MY + dy
+    assume(far_from_stations(x, y))
     lat, lon = GRID.inverse(x, y)
     try:
         g = fast_decca.decca_geometry(PLACED, x, y, FAST, (lat, lon))
@@ -79,6 +90,7 @@ def test_linearise_at_a_point_without_latlon(dx: float, dy: float, cf: float, sl
                                              have: tuple[bool, bool, bool],
                                              obs: float) -> None:
     x, y = MX + dx, MY + dy
+    assume(far_from_stations(x, y))
     reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3,
                                  cf=cf)
     observed = [obs + i if h else math.nan for i, h in enumerate(have)]

@@ -20,6 +20,7 @@ from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState
 from tests.native.replay import replay_patched
 from tests.paths import DATA
+from tests.tolerance import assert_close
 
 KERNEL = pr._kernel()
 needs_kernel = pytest.mark.skipif(KERNEL is None, reason=f"kernel not used: "
@@ -27,13 +28,14 @@ needs_kernel = pytest.mark.skipif(KERNEL is None, reason=f"kernel not used: "
 
 
 def _same(a: tuple[FilterState, np.ndarray], b: tuple[FilterState, np.ndarray]) -> None:
-    """Bit-identical results: t, x, P, Φ (values, shapes, dtype, C order)."""
+    """The same results to the tolerance contract (tests.tolerance): t, x, P, Φ (values within
+    it; shapes, dtype, C order identical)."""
     (sa, pa), (sb, pb) = a, b
     assert sa.t == sb.t
     for u, v in ((sa.x, sb.x), (sa.P, sb.P), (pa, pb)):
         assert u.shape == v.shape and u.dtype == v.dtype == np.float64
         assert u.flags.c_contiguous and v.flags.c_contiguous
-        assert u.tobytes() == v.tobytes()
+        assert_close(u, v)
     assert sa.fix_states == sb.fix_states and sa.fix_tau_s == sb.fix_tau_s
     assert not sa.x.flags.writeable and not sa.P.flags.writeable
 
@@ -200,17 +202,16 @@ def test_pure_env_runs_the_python(monkeypatch: pytest.MonkeyPatch):
     assert pr._K is None and calls == [1]
 
 
-def test_the_blas_is_not_loaded_at_import():
-    """Start-up: importing the filter does not resolve the kernel (nor load OpenBLAS by
-    ctypes); that happens at the first prediction."""
+def test_the_kernel_is_not_resolved_at_import():
+    """Start-up: importing the filter does not resolve the kernel; that happens at the first
+    prediction."""
     import subprocess
     import sys
 
-    code = ("import engine.filter.predict as p, engine.native.blas as b; "
-            "print(p._K is p._UNRESOLVED, b.numpy_cblas.cache_info().currsize)")
+    code = "import engine.filter.predict as p; print(p._K is p._UNRESOLVED)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=Path(__file__).resolve().parents[2])
-    assert out.stdout.split() == ["True", "0"]
+    assert out.stdout.split() == ["True"]
 
 
 # ---- measurement rows (engine.filter.measurements): the lean paths give the same arrays ----
@@ -226,7 +227,7 @@ def _same_meas(a: Measurement, b: Measurement) -> None:
             continue
         assert u.shape == v.shape and u.dtype == v.dtype, f
         assert u.flags.c_contiguous == v.flags.c_contiguous, f
-        assert u.tobytes() == v.tobytes(), f
+        assert_close(u, v), f
     for f in ("labels", "angle_rows", "bias_keys", "bias_tau_s", "_cols"):
         u, v = getattr(a, f), getattr(b, f)
         assert u == v and type(u) is type(v), (f, u, v)

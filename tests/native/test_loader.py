@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import shutil
 
-import numpy as np
 import pytest
 
 import engine.native as native
-from engine.native import blas
 
 
 def test_every_kernel_is_compiled_where_a_compiler_exists(monkeypatch: pytest.MonkeyPatch):
@@ -21,41 +19,40 @@ def test_every_kernel_is_compiled_where_a_compiler_exists(monkeypatch: pytest.Mo
         assert native.status(name) == "compiled", name
 
 
-BUNDLED = ("scipy-openblas", "scipy-openblas64")
-"""The BLAS names numpy's and SciPy's wheels report for the OpenBLAS they bundle."""
+def test_a_kernel_failing_its_first_use_check_is_declined(monkeypatch: pytest.MonkeyPatch):
+    """A kernel whose ``_probe()`` raises is not handed out, and its status says why."""
+    import types
 
+    fake = types.ModuleType("engine.native.fake")
 
-def _skip_without_bundled_openblas(scipy_too: bool = False) -> None:
-    """Skip where numpy (and, ``scipy_too``, SciPy) is not built on its bundled OpenBLAS: a
-    build from source against another BLAS, where the kernels find no routine addresses and
-    stay unused by design (docs/PERFORMANCE.md, "Compiled kernels")."""
-    name = np.__config__.CONFIG["Build Dependencies"]["blas"].get("name")
-    if name not in BUNDLED:
-        pytest.skip(f"numpy is built against {name}, not the bundled OpenBLAS")
-    if scipy_too:
-        import scipy
+    def probe() -> None:
+        raise RuntimeError("numpy's C API is not what this build expects")
 
-        sp_name = scipy.show_config(mode="dicts")["Build Dependencies"]["blas"]["name"]
-        if sp_name not in BUNDLED:
-            pytest.skip(f"SciPy is built against {sp_name}, not the bundled OpenBLAS")
-
-
-def test_every_built_kernel_is_used_with_the_bundled_openblas(monkeypatch: pytest.MonkeyPatch):
-    """Built is not enough: a stage may still refuse its kernel on this machine (until
-    2026-12-04 the lsq kernel was refused on every AVX-512 CPU and the fix ran in Python while
-    ``status`` said "compiled"). With numpy's and SciPy's wheels (their bundled OpenBLAS), the
-    only ground for a refusal left, every built kernel must be in use."""
-    from engine.run import kernels
-
+    fake._probe = probe  # type: ignore[attr-defined]
     monkeypatch.delenv(native.PURE_ENV, raising=False)
-    _skip_without_bundled_openblas(scipy_too=True)
-    import engine.lsq.adjustment  # noqa: F401  (registers the lsq kernel's result classes)
-    import engine.lsq.confidence  # noqa: F401
+    monkeypatch.setitem(__import__("sys").modules, "engine.native.fake", fake)
+    monkeypatch.setattr(native, "source_digest", lambda n: None)
+    native._load.cache_clear()
+    try:
+        assert native.kernel("fake") is None
+        assert native.status("fake") == ("declined: its first-use check failed (RuntimeError: "
+                                         "numpy's C API is not what this build expects)")
+    finally:
+        native._load.cache_clear()
 
-    report = dict(kernels.kernel_report())
-    for name in native.kernel_names():
-        if native.status(name) == "compiled":
-            assert report[name] == "compiled", (name, report[name])
+
+def test_no_kernel_reaches_into_internals():
+    """The kernels use public interfaces only: no private CPython symbol (``_Py…``), no type
+    version tag, no member offset, no numpy struct field, no BLAS looked up in a wheel."""
+    import re
+
+    banned = re.compile(r"\b_Py[A-Za-z]|tp_version_tag|d_member|->offset\b|_ARRAY_API|"
+                        r"PyArrayObject_fields|ctypes|dlsym|geod_inverse|libscipy_openblas|libproj")
+    for path in sorted(native.HERE.glob("*.[ch]")):
+        code = "\n".join(line for line in path.read_text().splitlines()
+                         if not line.lstrip().startswith(("*", "/*")))
+        hit = banned.search(code)
+        assert hit is None, f"{path.name}: {hit.group(0)}"
 
 
 def test_pure_env_turns_every_kernel_off(monkeypatch: pytest.MonkeyPatch):
@@ -78,14 +75,3 @@ def test_a_stale_build_is_refused(monkeypatch: pytest.MonkeyPatch):
         assert mod is None and why.startswith(("stale build", "not built"))
     finally:
         native._load.cache_clear()
-
-
-def test_the_routine_addresses_are_found_for_the_bundled_openblas():
-    """numpy's and SciPy's wheels bundle OpenBLAS; the kernels need both libraries' routines."""
-    _skip_without_bundled_openblas()
-    addresses = blas.all_addresses()
-    assert addresses is not None
-    assert set(addresses) == ({f"np_{n}" for n in blas.NUMPY_CBLAS}
-                              | {f"npl_{n}" for n in blas.NUMPY_LAPACK}
-                              | {f"sp_{n}" for n in blas.SCIPY_LAPACK})
-    assert all(a > 0 for a in addresses.values())

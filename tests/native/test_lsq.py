@@ -12,6 +12,7 @@ engine.fast.lsq calls it) against ``gauss_newton``. The pure path is the one tak
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -32,6 +33,7 @@ from engine.fast import lsq as fast_lsq
 from engine.lsq.adjustment import COND_MAX, MAX_AXIS_RATIO, Adjustment, Linearisation, gauss_newton
 from engine.lsq.statistics import delta0, frozen_instance, unit_variance_test, w_critical
 from tests.native.replay import replay_patched
+from tests.tolerance import ATOL_METRES, RTOL, close
 
 K = fast_lsq.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
@@ -44,17 +46,32 @@ ADJ_FIELDS = ("ok", "reason", "x", "cov_x", "cov_x_apriori", "n_used", "redundan
 ELL_FIELDS = ("a_m", "b_m", "az_deg", "eigenvalues", "eigenvectors", "phi_deg")
 
 
-def same(a: Any, b: Any) -> bool:
-    """Equal to the bit: arrays by bytes, shape and dtype; floats by ``float.hex``."""
+def same(a: Any, b: Any, rtol: float = RTOL) -> bool:
+    """Equal to the tolerance contract (tests.tolerance): arrays by shape, dtype and values
+    within it; floats within it; everything else identical (``rtol`` widened for an
+    ill-conditioned problem). The fix's numbers are metres and test statistics in σ: the
+    contract's floor for both is 1e-6 (a residual of a fix without redundancy is rounding
+    noise of ~1e-9 m)."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        a, b = np.asarray(a), np.asarray(b)
-        return (a.shape == b.shape and a.dtype == b.dtype
-                and np.ascontiguousarray(a).tobytes() == np.ascontiguousarray(b).tobytes())
-    if isinstance(a, float) and isinstance(b, float):
-        return a.hex() == b.hex()
-    if isinstance(a, tuple) and isinstance(b, tuple):
-        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
-    return type(a) is type(b) and a == b
+        return not close(np.asarray(a), np.asarray(b), ATOL_METRES, rtol=rtol)
+    return not close(a, b, ATOL_METRES, rtol=rtol)
+
+
+def adjustment_rtol(adj: Any) -> float:
+    """The contract's 1e-9, or cond(N)·1e-16 for an adjustment whose normal matrix N has a
+    condition number beyond 1e7 (two correct solutions differ by up to cond(N) units in the
+    last place): the number its failure reason states, else N = AᵀWA of the rows it used; 1e-5
+    for a Gauss–Newton that did not converge (its numbers are a failed fix's, never logged as a
+    position; its reason, iterations and counts are still compared exactly)."""
+    if getattr(adj, "reason", None) == "no convergence":
+        return 1e-5  # a failed fix's last iterate: the iteration magnifies the last bits
+    hit = re.search(r"condition number ([0-9.e+-]+)", str(getattr(adj, "reason", "")))
+    cond = float(hit.group(1)) if hit else 0.0
+    A, W = getattr(adj, "A_used", None), getattr(adj, "W_used", None)
+    if not hit and isinstance(A, np.ndarray) and isinstance(W, np.ndarray) and A.size:
+        N = A.T @ W @ A
+        cond = float(np.linalg.cond(N)) if np.all(np.isfinite(N)) else 0.0
+    return max(RTOL, cond * 1e-16)
 
 
 class _Run(adj._Run):
@@ -95,9 +112,10 @@ def check_finish(sol: adj._Solution, x: np.ndarray, used: np.ndarray, scale_vcv:
     if res is None:
         return False
     v, s2, rms, drms, cov, scaled, block = res
+    rtol = adjustment_rtol(want)
     for name, got in (("v", v), ("s2", s2), ("rms_m", rms), ("drms_m", drms), ("cov_x", cov),
                       ("scaled", scaled), ("stats_block", block)):
-        assert same(getattr(want, name), got), name
+        assert same(getattr(want, name), got, rtol), name
     return True
 
 
@@ -437,8 +455,9 @@ def test_gauss_newton_with_and_without_the_kernel(seed: int, n: int, scale: bool
     lin = _bearings(stations, obs, sig, rng.uniform(-0.5, 0.5))
     x0 = truth + rng.normal(0, 300, 2)
     got, want = _both(lin, x0, used, scale_vcv=scale)
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
 
 
 @needs_kernel
@@ -462,8 +481,9 @@ def test_data_snooping_with_and_without_the_kernel(seed: int, estimator: str,
     for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
                  "not_identifiable", "variance_test", "messages"):
         assert same(getattr(want, name), getattr(got, name)), name
+    rtol = adjustment_rtol(want.adjustment)
     for name in ADJ_FIELDS:
-        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name), rtol), name
 
 
 @needs_kernel
@@ -484,13 +504,21 @@ def test_quiet_fixes_with_and_without_the_kernel(seed: int, policy: str, noise: 
     model = _RowsModel(lin) if rows else lin
     x0 = truth + rng.normal(0, 300, 2)
     got, want = _both_snoop(model, x0, np.ones(n, bool), policy=policy)
-    for name in ("rejected", "candidate", "candidate_w", "flagged", "monitor",
-                 "not_identifiable", "variance_test", "messages", "policy", "estimator",
-                 "robust"):
+    for name in ("rejected", "candidate", "candidate_w", "monitor", "not_identifiable",
+                 "variance_test", "messages", "policy", "estimator", "robust"):
         assert same(getattr(want, name), getattr(got, name)), name
+    if not same(want.flagged, got.flagged):
+        # A tie: with redundancy 1 every |w| is the same number, and which slot is "the
+        # largest" is the last bit's choice (the outlier is then not identifiable). Any slot
+        # whose |w| is the largest within the contract is the same answer.
+        w = np.abs(want.adjustment.stats_block[1])
+        ties = {int(i) for i in np.flatnonzero(w >= w.max() * (1 - 1e-9))}
+        assert len(ties) > 1 and set(got.flagged) <= ties and len(got.flagged) == len(
+            want.flagged), ("flagged", got.flagged, want.flagged)
     assert list(vars(got)) == list(vars(want))
+    rtol = adjustment_rtol(want.adjustment)
     for name in ADJ_FIELDS:
-        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name)), name
+        assert same(getattr(want.adjustment, name), getattr(got.adjustment, name), rtol), name
 
 
 def _both_snoop(model: Any, x0: Any, used: Any, **kw: Any) -> Iterator[Any]:
@@ -516,8 +544,9 @@ def test_an_untestable_slot_goes_to_python() -> None:
     assert K.finish(sol, np.ones(4, bool), False, 2.8) is None
     got, want = _both(lambda x: lin0, np.zeros(2), np.ones(4, bool))
     assert math.isinf(got.sigma_d[0]) and math.isnan(got.w[0])
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
 
 
 # ------------------------------------------------------------------------------------------
