@@ -1407,7 +1407,7 @@ static PyObject *py_tracked(PyObject *m, PyObject *const *args, Py_ssize_t nargs
     const GeodesicObject *g;
     PyObject *track, *fractions, *time, *last_time = NULL, *obj, *tot = NULL, *trk = NULL;
     double gx = 0.0, gy = 0.0, gvar = 0.0, gap, smax, last_s = 0.0, totals[3];
-    double cov[4] __attribute__((aligned(16)));
+    double cov[4] __attribute__((aligned(16))) = {0.0, 0.0, 0.0, 0.0};
     int has_gps, gps_state = -2, has[3];
     lanes_t gl;
     PyTypeObject *cls;

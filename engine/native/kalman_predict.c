@@ -35,7 +35,7 @@
 #define NW 8     /* process-noise inputs (columns of G) */
 #define NMAX 32  /* largest state (nav + fix-error states) handled here; larger: Python */
 
-static const uvn_blas_t B = UVN_LINALG;
+static const uvn_linalg_t B = UVN_LINALG;
 static const int bound = 1;
 static PyObject *s_dt, *s_phi, *s_gs, *s_gs_scale, *s_v_scale, *s_d, *s_dd, *s_omdd;
 

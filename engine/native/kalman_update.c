@@ -31,7 +31,7 @@
 #define UVN_SOURCE_DIGEST "unknown"
 #endif
 
-static const uvn_blas_t blas = UVN_LINALG;
+static const uvn_linalg_t blas = UVN_LINALG;
 static const int bound = 1;
 
 static const double TWO_PI = 2.0 * 3.14159265358979311599796346854;  /* 2.0 * math.pi */

@@ -47,7 +47,7 @@
 
 #define MAXM 32 /* most observation slots a fix may have on this path (else Python) */
 
-static const uvn_blas_t B = UVN_LINALG;
+static const uvn_linalg_t B = UVN_LINALG;
 static int bound = 0; /* _bind() gave the Python objects */
 static PyObject *py_hypot = NULL;     /* math.hypot (CPython's vector_norm, not libm) */
 static PyObject *np_power = NULL;     /* numpy.power: sigma_d (5.8b) by numpy's own loop */

@@ -211,7 +211,7 @@ typedef struct {
     void (*dtrsm)(const char *, const char *, const char *, const char *, const int *,
                   const int *, const double *, const double *, const int *, double *,
                   const int *);
-} uvn_blas_t;
+} uvn_linalg_t;
 
 #define UVN_LINALG {uvn_dgemm, uvn_dgemv, uvn_ddot, uvn_dsyrk, uvn_daxpy, uvn_dgesv, \
                     uvn_dpotrf, uvn_dtrsm}
