@@ -122,3 +122,20 @@ def test_a_missing_line_or_field_fails() -> None:
     assert compare_lines(SAMPLE_LINES[:-1], SAMPLE_LINES)
     assert compare_lines(_with(2, " ok=1", ""), SAMPLE_LINES)
     assert compare_lines(_with(3, "lom=0.1941318592672007", "lom=nan"), SAMPLE_LINES)
+
+
+def test_json_lines_are_compared_value_by_value(tmp_path: Path) -> None:
+    """compare_jsonl: numbers to the contract (metres' floor), everything else exactly."""
+    from tests.tolerance import compare_jsonl
+
+    want = tmp_path / "want.jsonl"
+    want.write_text('{"t": 1, "x": 5857285.321221022, "flag": "ok"}\n', encoding="utf-8")
+    near = tmp_path / "near.jsonl"
+    near.write_text('{"t": 1, "x": 5857285.321221023, "flag": "ok"}\n', encoding="utf-8")
+    assert compare_jsonl(near, want) == []
+    for text in ('{"t": 1, "x": 5857285.331, "flag": "ok"}\n',  # 1.7e-9 relative
+                 '{"t": 1, "x": 5857285.321221022, "flag": "no"}\n',
+                 '{"t": 2, "x": 5857285.321221022, "flag": "ok"}\n', ""):
+        far = tmp_path / "far.jsonl"
+        far.write_text(text, encoding="utf-8")
+        assert compare_jsonl(far, want), text
