@@ -1,11 +1,12 @@
-"""The compiled Decca kernel (engine/native/decca.c) gives the pure Python's bits exactly.
+"""The compiled Decca kernel (engine/native/decca.c), as engine.fast calls it, agrees with the
+reference.
 
-The Python it replaces (engine.systems.decca ``_lane_model_py``, ``_lef_py``,
-``_decca_geometry_py``, ``DeccaObservations._linearise_py``, ``_LaneAt._lanes``;
-``GeodesicSolver._forward_azimuths_*_py``) is the reference: every float is compared by its
-bits (``float.hex``, ``ndarray.tobytes``) on the values a short demo replay really produces,
-on hypothesis-generated points around them, and PROJ's geodesic called from C is compared
-with pyproj's own on points all over the ellipsoid.
+The reference is engine.systems.decca (``_lane_model``, ``_lef``, ``decca_geometry``,
+``DeccaObservations.linearise``, ``_LaneAt._lanes``) and ``GeodesicSolver``'s azimuths; the
+compiled path is engine.fast.decca and engine.fast.geodesy. Every float is compared to the
+tolerance contract (tests.tolerance: ``hexes`` makes a ``Near``) on the values a short demo
+replay really produces and on hypothesis-generated points around them, and the kernel's own
+geodesic is compared with pyproj's on points all over the ellipsoid.
 """
 
 from __future__ import annotations
