@@ -58,16 +58,19 @@ N_EPOCHS = 1500
 REPEATS = 5
 TARGET_EPOCHS_S = 10_000
 STAGES = {
-    "geodesy (GPS datum shift, grid)": ("engine.systems.gps:gps_input",),
+    "geodesy (GPS datum shift, grid)": ("engine.systems.gps:GpsSystem.gps_input",
+                                        "engine.fast.gps:FastGpsSystem.gps_input"),
     "Decca lane tracking": ("engine.systems.decca:decca_totals",
-                            "engine.systems.decca:_tracked_totals"),
-    "LSQ fix + tests": ("compute_fix",),
+                            "engine.fast.decca:tracked_totals"),
+    "LSQ fix + tests": ("engine.lsq.fix:compute_fix", "engine.fast.lsq:compute_fix"),
     "filter (predict, updates)": (
         "predict_step", "predict_step_position", "update", "sensor_rows", "depth_sensor_rows",
         "update_rows", "update_rows_two_gated", "lse_measurement", "stack_measurements",
         "innovation_distance"),
 }
-"""Stage → the functions of ``engine.run.cycle`` (as ``step`` calls them) whose time it is."""
+"""Stage → the functions whose time it is: ``module:function`` or ``module:Class.method`` (the
+run's parts: the reference's and engine.fast's), or a function of ``engine.run.cycle`` (as
+``step`` calls it)."""
 BASELINE_REVS = {"f81acd7": "when issue 14 was filed", "7aa241a": "before the bit-exact speed work"}
 """The engines the same-run comparison measures this tree against: the one issue 14's figures
 were taken on, and ``main`` just before the 2026-12-02 speed work (the engine whose ``.OUT``
@@ -126,10 +129,13 @@ def _instrumented(acc: dict[str, float]) -> Iterator[None]:
     """Timers on the stage functions, the cycle and the session's .OUT path (restored after)."""
     patches: list[tuple[object, str, object]] = []
     for stage, names in STAGES.items():
-        for name in names:  # "module:function", or a function of engine.run.cycle
+        for name in names:  # "module:function", "module:Class.method", or a cycle function
             mod_name, _, attr = name.rpartition(":")
-            mod = importlib.import_module(mod_name) if mod_name else cycle_mod
-            patches.append((mod, attr, _timed(getattr(mod, attr), acc, stage)))
+            target: object = importlib.import_module(mod_name) if mod_name else cycle_mod
+            owner, _, attr = attr.rpartition(".")
+            if owner:
+                target = getattr(target, owner)
+            patches.append((target, attr, _timed(getattr(target, attr), acc, stage)))
     # session.step calls engine.run.cycle.step through its own imported name.
     patches.append((session_mod, "step", _timed(session_mod.step, acc, CYCLE)))
     # The session writes the block by the compiled writer (OutLogWriter.write_direct: text

@@ -56,6 +56,8 @@ def test_every_config_key_is_documented() -> None:
 # The engine's rooms, lowest first (docs/ARCHITECTURE.md). A module may import its own package
 # and any package of a lower rank; packages that share a rank are independent of each other
 # (sim and assess). The filter sits above the fix: it takes the χ² bounds of lsq.statistics.
+# ``engine.fast`` (the compiled path: the navigation modules' hot parts on engine.native) sits
+# above every module it speeds up and below the run loop, which chooses it once per run.
 # ``engine.api`` is the face, the top. The package root
 # ``engine`` (its ``__init__``: the version only) is matched exactly and sits at the bottom.
 ENGINE_ROOT = "engine"
@@ -66,6 +68,7 @@ ENGINE_LAYERS: tuple[tuple[str, ...], ...] = (
     ("engine.systems",),
     ("engine.lsq",),
     ("engine.filter",),
+    ("engine.fast",),
     ("engine.run",),
     ("engine.sim", "engine.assess"),
     ("engine.campaign",),
@@ -289,3 +292,58 @@ def test_the_checks_find_a_cycle_and_a_layer_breach() -> None:
     assert sim is not None and assess is not None and sim[0] == assess[0]  # independent rooms
     lsq, flt = _layer_of("engine.lsq.fix"), _layer_of("engine.filter.kalman")
     assert lsq is not None and flt is not None and lsq[0] < flt[0]
+
+
+SEAM_CLEAN = (
+    "engine.geodesy",
+    "engine.geodesy.angles",
+    "engine.geodesy.ellipsoid",
+    "engine.geodesy.ellipsoidal",
+    "engine.geodesy.tmgrid",
+    "engine.lsq",
+    "engine.lsq.adjustment",
+    "engine.lsq.chi2_table",
+    "engine.lsq.confidence",
+    "engine.lsq.fix",
+    "engine.lsq.robust",
+    "engine.lsq.snooping",
+    "engine.lsq.statistics",
+    "engine.systems",
+    "engine.systems.base",
+    "engine.systems.decca",
+    "engine.systems.gps",
+    "engine.systems.manual",
+    "engine.systems.registry",
+    "engine.systems.sensors",
+)
+"""The navigation modules whose compiled path has moved to ``engine.fast``: they are the
+reference and know of no fast path (the list grows as modules are moved)."""
+
+
+def _seam_breaches(name: str, graph: dict[str, dict[str, int]],
+                   modules: dict[str, pathlib.Path]) -> list[str]:
+    """What in module ``name`` knows of the compiled path: an import of engine.native or
+    engine.fast, or a function or method named ``*_py`` (a pure twin of a kernel call)."""
+    found = [f"{_where(modules, name, line)}: imports {target}"
+             for target, line in sorted(graph[name].items())
+             if target.startswith(("engine.native", "engine.fast"))]
+    tree = ast.parse(modules[name].read_text(encoding="utf-8"))
+    found += [f"{_where(modules, name, node.lineno)}: {node.name} (a pure twin)"
+              for node in ast.walk(tree)
+              if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+              and node.name.endswith("_py")]
+    return found
+
+
+def test_navigation_modules_know_no_fast_path() -> None:
+    """The cleaned navigation modules (:data:`SEAM_CLEAN`) import nothing of engine.native or
+    engine.fast and have no ``_py`` twins: one reference, the compiled path in one room."""
+    graph, modules = _import_graph()
+    found = [b for name in SEAM_CLEAN for b in _seam_breaches(name, graph, modules)]
+    assert found == [], "\n  ".join(["the compiled path outside engine.fast:", *found])
+
+
+def test_the_seam_check_finds_a_breach() -> None:
+    """The seam check is not vacuous: a module still dispatching to a kernel is found."""
+    graph, modules = _import_graph()
+    assert _seam_breaches("engine.run.kernels", graph, modules)  # reports on engine.native

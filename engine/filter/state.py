@@ -171,24 +171,6 @@ def estimate_parts(fs: FilterState) -> tuple[float, float, float, np.ndarray, bo
     return _estimate_parts_py(fs)
 
 
-def position_kernel(estimate_cls: type) -> Any:
-    """The kernel whose ``position(source, grid._packed, x, P)`` makes the whole estimate of a
-    state as an ``estimate_cls`` (``engine.run.cycle.PositionEstimate``), bound here to the
-    compiled TM inverse and error ellipse that ``TMGrid.inverse`` and ``error_ellipse`` call;
-    None when any of the three kernels is not there (the Python makes it). Resolved and bound
-    on each call: the one caller holds the answer (``engine.run.cycle._POSITION_K``)."""
-    from engine.geodesy import tmgrid
-    from engine.lsq import _kernel as lsq_kernel
-
-    k = _K if _K is not _UNRESOLVED else _kernel()
-    tm = tmgrid._K
-    lsq = lsq_kernel.kernel()
-    if k is None or tm is None or lsq is None or not hasattr(k, "position"):
-        return None
-    k.bind_position(tm.inverse, lsq.ellipse, estimate_cls)  # type: ignore[attr-defined]
-    return k
-
-
 def _estimate_parts_py(fs: FilterState) -> tuple[float, float, float, np.ndarray, bool]:
     """:func:`estimate_parts` in numpy: the values of :attr:`FilterState.east_north_m`,
     :attr:`FilterState.depth_m` and :attr:`FilterState.position_cov_m2` (one tolist() instead

@@ -8,10 +8,10 @@
 * geodesic inverse (pyproj/Karney), first-order Andoyer–Lambert distance (THEORY §2.5);
 * line scale factor and spheroidal distance from grid coordinates (A5.10, A5.13, THEORY §2.4).
 
-Angles are degrees unless a name says otherwise; lengths are metres. The per-point calls of a
-run (:meth:`DatumShift.transform`, the compiled geodesic of :class:`GeodesicSolver`) go to
-pyproj's libproj without importing pyproj (start-up time); pyproj itself is imported by the calls
-that need it (arrays, inverses, the pure path), on first use.
+Angles are degrees unless a name says otherwise; lengths are metres. The per-point datum shift of a
+run (:meth:`DatumShift.transform`) goes to pyproj's libproj without importing pyproj (start-up
+time); pyproj itself is imported by the calls that need it (arrays, inverses, geodesics), on
+first use.
 """
 
 from __future__ import annotations
@@ -145,7 +145,7 @@ def helmert_pipeline(src: Datum, dst: Datum) -> str:
 
 
 PJ_FWD = 1
-"""PROJ's ``PJ_FWD``: the direction :attr:`DatumShift._point` takes (the kernels pass it on)."""
+"""PROJ's ``PJ_FWD``: the direction :attr:`DatumShift._point` takes."""
 
 
 @cache
@@ -329,68 +329,16 @@ class _ProjPoint:
             lib.proj_context_destroy(self._ctx)
 
 
-_SHIFT_PROBES: tuple[tuple[float, float, float], ...] = (
-    (52.0, 3.0, 0.0), (57.7, -1.25, -45.5), (-33.9, 151.2, 100.0), (0.0, 0.0, 0.0),
-    (89.99999, -179.9, -5000.0), (-90.0, 0.0, 0.0), (0.0, 180.0, 10000.0),
-    (-45.0, -180.0, -10000.0), (10.0, -45.0, 1e-9),
-)
-"""(lat, lon degrees, h m) on which the compiled datum shift must agree with libproj before it
-replaces the PROJ call: near the chart's area, poles, ±180°, heights ±10 km."""
-
-
-def _compiled_point(proj: _ProjPoint, src: Datum, dst: Datum, pipeline: str) -> Any:
-    """The point call of :class:`DatumShift`: ``engine.native.datum.Shift`` (the textbook
-    formulas of :func:`helmert_pipeline`'s steps, compiled; it hands what it does not cover
-    to ``proj.point``) where the kernel is built and PROJ runs the pipeline as written
-    (:meth:`_ProjPoint.definition`) and the kernel agrees with PROJ on :data:`_SHIFT_PROBES`
-    (1e-9 relative, or 1e-9° and 1e-6 m);
-    else ``proj.point`` itself (``UVNAV_PURE=1``, no kernel, a pipeline PROJ simplified)."""
-    from engine import native
-
-    k = native.kernel("datum")
-    if k is None or proj._deg_in or proj._deg_out:
-        return proj.point
-    if proj.definition() != " ".join(word.lstrip("+") for word in pipeline.split()):
-        return proj.point
-
-    def ell(e: Ellipsoid) -> tuple[float, float]:  # as _ell_args writes it: rf 0.0 for +b=a
-        return float(e.a_m), 0.0 if e.f == 0.0 else float(e.inv_f)
-
-    def helmert(d: Datum) -> tuple[float, ...] | None:  # as _helmert_args writes it
-        if _is_identity(d):
-            return None
-        return (float(d.dx_m), float(d.dy_m), float(d.dz_m), float(d.rx_arcsec),
-                float(d.ry_arcsec), float(d.rz_arcsec), float(d.scale_ppm))
-
-    try:
-        shift = k.Shift(proj.point, *ell(src.ellipsoid), helmert(src), *ell(dst.ellipsoid),
-                        helmert(dst))
-    except (TypeError, ValueError):
-        return proj.point
-    for q in _SHIFT_PROBES:  # the engine's tolerance contract (docs/PERFORMANCE.md)
-        got = shift.forward(*q)
-        if got is None:  # declined there: the PROJ call answers that point
-            continue
-        want = proj.point(*q, None, PJ_FWD, False, False)
-        if any(not abs(g - w) <= max(1e-9 * abs(w), floor)
-                              for g, w, floor in zip(got, want, (1e-9, 1e-9, 1e-6),
-                                                     strict=True)):
-            return proj.point
-    return shift
-
-
 class DatumShift:
     """Geodetic transformation ``src`` → ``dst`` through a pinned PROJ pipeline.
 
     Build once per datum pair; coordinates are latitude and longitude in degrees and
-    ellipsoidal height in metres. The per-point call (:meth:`transform`, and the kernels
-    through ``_point``) goes to PROJ's ``proj_trans`` in pyproj's libproj through ctypes
-    (:class:`_ProjPoint`), without importing pyproj (start-up time), or, where it is built, to
-    its compiled twin ``engine.native.datum`` (PROJ's arithmetic, the same bits:
-    :func:`_compiled_point`); pyproj's ``Transformer`` of the same pipeline is made on first use
-    by the array and inverse calls, and serves every call where libproj cannot be loaded that
-    way. Not thread-safe (PROJ objects should
-    not be shared between threads).
+    ellipsoidal height in metres. The per-point call (:meth:`transform`, through ``_point``)
+    goes to PROJ's ``proj_trans`` in pyproj's libproj through ctypes (:class:`_ProjPoint`),
+    without importing pyproj (start-up time); pyproj's ``Transformer`` of the same pipeline is
+    made on first use by the array and inverse calls, and serves every call where libproj
+    cannot be loaded that way. Not thread-safe (PROJ objects should not be shared between
+    threads).
     """
 
     __slots__ = ("src", "dst", "pipeline", "_tr_obj", "_proj", "_point", "_forward")
@@ -406,7 +354,7 @@ class DatumShift:
         except (OSError, ValueError):  # pyproj's Transformer then (and its error, if any)
             self._proj = None
         if self._proj is not None:
-            self._point: Any = _compiled_point(self._proj, src, dst, self.pipeline)
+            self._point: Any = self._proj.point
             self._forward: Any = PJ_FWD
         else:
             from pyproj.enums import TransformDirection
@@ -552,94 +500,20 @@ def wgs84_fix_ecef(lat_deg: float, lon_deg: float, h_datum_m: float) -> tuple[fl
 
 
 # --------------------------------------------------------------------------- geodesics
-_UNSET: Any = object()
-"""A :class:`GeodesicSolver`'s compiled geodesic before it is resolved (first use)."""
-
-_PROBE_POINTS: tuple[tuple[float, float, float, float], ...] = (
-    (3.1, 53.2, 4.9, 52.4), (-1.25, 57.7, 2.0, 58.9), (5.0, 0.0, 5.0, 0.0),
-    (0.0, 0.0, 179.5, 0.5), (-179.9, 89.9, 179.9, -89.9), (10.0, -45.0, -170.0, 45.0),
-    (0.0, 90.0, 33.0, 10.0), (1e-9, 52.0, -1e-9, 52.0), (120.0, -33.8, 151.2, -33.9),
-)
-"""(lon1, lat1, lon2, lat2) degrees on which the compiled geodesic must give pyproj's bits:
-near and far lines, a zero-length line, near-antipodal and polar ones."""
-
-
-@cache
-def _geod_kernel() -> Any:
-    """``engine.native.decca`` with PROJ's ``geod_init``/``geod_inverse`` bound (looked up
-    through ctypes in pyproj's bundled libproj, the library pyproj's Geod calls:
-    :func:`_proj_library`), or None: the kernel is not built, ``UVNAV_PURE=1``, or pyproj is
-    not a wheel with its own libproj."""
-    from engine import native
-
-    k = native.kernel("decca")
-    if k is None:
-        return None
-    if not k.geod_bound():
-        import ctypes
-
-        lib = _proj_library()
-        if lib is None:
-            return None
-        try:
-            init = ctypes.cast(lib.geod_init, ctypes.c_void_p).value
-            inverse = ctypes.cast(lib.geod_inverse, ctypes.c_void_p).value
-        except AttributeError:
-            return None
-        if not init or not inverse:
-            return None
-        k._bind_geod(init, inverse)
-    return k
-
-
-def _geod_reference(a: float, f: float) -> Any:
-    """PROJ's ``geod_inverse`` on a ``geod_geodesic`` that ``geod_init(a, f)`` made, called
-    through ctypes as pyproj's ``Geod._inv_point`` calls it (degrees, no back azimuth, no
-    radians): ``(lon1, lat1, lon2, lat2) → (azi1, azi2, s12)``; None where libproj cannot be
-    loaded. What :meth:`GeodesicSolver.native` checks the compiled geodesic against."""
-    import ctypes
-
-    lib = _proj_library()
-    if lib is None:
-        return None
-    d, pd = ctypes.c_double, ctypes.POINTER(ctypes.c_double)
-    try:
-        lib.geod_init.restype = None
-        lib.geod_init.argtypes = [ctypes.c_void_p, d, d]
-        lib.geod_inverse.restype = None
-        lib.geod_inverse.argtypes = [ctypes.c_void_p, d, d, d, d, pd, pd, pd]
-    except AttributeError:
-        return None
-    g = (d * 64)()  # struct geod_geodesic: 51 doubles
-    lib.geod_init(g, a, f)
-
-    def inverse_point(lon1: float, lat1: float, lon2: float, lat2: float
-                      ) -> tuple[float, float, float]:
-        s12, azi1, azi2 = d(), d(), d()
-        lib.geod_inverse(g, lat1, lon1, lat2, lon2, s12, azi1, azi2)
-        return azi1.value, azi2.value, s12.value
-
-    return inverse_point
-
-
 class GeodesicSolver:
     """Exact geodesic problems on one ellipsoid (Karney's algorithm through ``pyproj.Geod``).
 
     Build once per ellipsoid; :meth:`inverse` is then cheap. The per-epoch azimuths
-    (:meth:`forward_azimuths_rad`) call PROJ's ``geod_inverse`` from the compiled
-    ``engine.native.decca`` where it is built (:meth:`native`; the same C function on the same
-    ``geod_geodesic``, so the same bits), else pyproj's scalar inverse. pyproj's ``Geod`` is
-    made (and pyproj imported) on first use of a call that needs it, not by the compiled path
-    (start-up time).
+    (:meth:`forward_azimuths_rad`) take pyproj's scalar inverse (PROJ's ``geod_inverse``).
+    pyproj's ``Geod`` is made (and pyproj imported) on first use of a call that needs it.
     """
 
-    __slots__ = ("ellipsoid", "_geod_obj", "_inv", "_native")
+    __slots__ = ("ellipsoid", "_geod_obj", "_inv")
 
     def __init__(self, ell: Ellipsoid) -> None:
         self.ellipsoid = ell
         self._geod_obj: Any = None
         self._inv: Any = None
-        self._native: Any = _UNSET
 
     @property
     def _geod(self) -> Any:
@@ -663,31 +537,8 @@ class GeodesicSolver:
         return inv
 
     def __reduce__(self) -> tuple[Any, tuple[Ellipsoid]]:
-        """Pickled (and copied) as its ellipsoid: a copy builds its own Geod and resolves its
-        own compiled geodesic."""
-        return GeodesicSolver, (self.ellipsoid,)
-
-    def native(self) -> Any:
-        """The compiled geodesic (``engine.native.decca.Geodesic`` of the ellipsoid's a and f:
-        Vincenty's inverse, pyproj's where that is not used), or None where the kernel is not
-        available or its azimuths on :data:`_PROBE_POINTS` differ from PROJ's ``geod_inverse``
-        called as pyproj calls it (:func:`_geod_reference`) by more than the tolerance contract
-        (1e-9 relative or 1e-9°). Resolved on first use."""
-        g = self._native
-        if g is _UNSET:
-            g = None
-            k = _geod_kernel()
-            a, f = float(self.ellipsoid.a_m), float(self.ellipsoid.f)
-            reference = None if k is None else _geod_reference(a, f)
-            if k is not None and reference is not None:
-                cand = k.Geodesic(a, f)
-                own = [(cand.own_point(*q), q) for q in _PROBE_POINTS]  # None: pyproj's line
-                if all(abs(g1 - w1) <= max(1e-9 * abs(w1), 1e-9)  # the tolerance contract
-                       for got, q in own if got is not None
-                       for g1, w1 in zip(got[:2], reference(*q)[:2], strict=True)):
-                    g = cand
-            self._native = g
-        return g
+        """Pickled (and copied) as its ellipsoid: a copy builds its own Geod."""
+        return type(self), (self.ellipsoid,)
 
     def _inv_fallback(self, lon1: float, lat1: float, lon2: float, lat2: float,
                       radians: bool, back: bool) -> tuple[float, float, float]:
@@ -720,18 +571,7 @@ class GeodesicSolver:
     ) -> list[float]:
         """Forward azimuths (degrees, [0, 360)) from one point to each (lat, lon) of ``points``
         (degrees): :meth:`azimuth_distance`'s azimuths in one call (the Decca geometry's ship →
-        station azimuths, four per evaluation); compiled where :meth:`native` is."""
-        g = self._native
-        if g is _UNSET:
-            g = self.native()
-        if g is not None:
-            return g.forward_azimuths_deg(lat1_deg, lon1_deg, points)  # type: ignore[no-any-return]
-        return self._forward_azimuths_deg_py(lat1_deg, lon1_deg, points)
-
-    def _forward_azimuths_deg_py(
-        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
-    ) -> list[float]:
-        """:meth:`forward_azimuths_deg` through pyproj's scalar inverse (the pure path)."""
+        station azimuths, four per evaluation), through pyproj's scalar inverse."""
         inv = self._inv_point
         return [inv(lon1_deg, lat1_deg, lon2, lat2, False, False)[0] % 360.0
                 for lat2, lon2 in points]
@@ -739,19 +579,7 @@ class GeodesicSolver:
     def forward_azimuths_rad(
         self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
     ) -> list[float]:
-        """:meth:`forward_azimuths_deg` in radians (``math.radians`` of each, [0, 2π]);
-        compiled where :meth:`native` is."""
-        g = self._native
-        if g is _UNSET:
-            g = self.native()
-        if g is not None:
-            return g.forward_azimuths_rad(lat1_deg, lon1_deg, points)  # type: ignore[no-any-return]
-        return self._forward_azimuths_rad_py(lat1_deg, lon1_deg, points)
-
-    def _forward_azimuths_rad_py(
-        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
-    ) -> list[float]:
-        """:meth:`forward_azimuths_rad` through pyproj's scalar inverse (the pure path)."""
+        """:meth:`forward_azimuths_deg` in radians (``math.radians`` of each, [0, 2π])."""
         inv = self._inv_point
         radians = math.radians
         return [radians(inv(lon1_deg, lat1_deg, lon2, lat2, False, False)[0] % 360.0)

@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from engine import native
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import Ellipsoid
 
@@ -34,10 +33,6 @@ FloatArray = npt.NDArray[np.float64]
 
 _INVERSE_MEMO = 8
 """How many recently inverted grid points a :class:`TMGrid` remembers (a cycle inverts ~6)."""
-
-_K = native.kernel("tmgrid")
-"""The compiled twin of the scalar forward/forward_full/inverse (``engine/native/tmgrid.c``:
-the same IEEE operations in the same order), or None: the pure Python methods ``_*_py``."""
 
 # Karney (2011) eq. (35): α_j as polynomials in n, lowest power first; the entry for j holds the
 # coefficients of n^j, n^(j+1), ..., n^6.
@@ -127,7 +122,6 @@ class TMGrid:
     _beta: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _inverted: dict[tuple[float, float], tuple[float, float]] = field(
         init=False, repr=False, compare=False)
-    _packed: bytearray | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         f = self.ellipsoid.f
@@ -142,25 +136,6 @@ class TMGrid:
         object.__setattr__(self, "_alpha", _series(_ALPHA, n))
         object.__setattr__(self, "_beta", _series(_BETA, n))
         object.__setattr__(self, "_inverted", {})
-        object.__setattr__(self, "_packed", self._pack())
-
-    def _pack(self) -> bytearray | None:
-        """The compiled kernel's state (:func:`engine.native.tmgrid.pack`: the constants and an
-        empty memo of inverses), or None without the kernel. Each constant is the very float
-        the pure Python computes: ``self._e**2``, the pole scale, ``A/a`` (the first product
-        of ``k``), the factors of :func:`math.radians`/:func:`math.degrees`. A central
-        meridian that is not a float or an int (whose arithmetic may differ) gets None too."""
-        if _K is None or not isinstance(self.cm_deg, (float, int)):
-            return None
-        try:
-            cm = float(self.cm_deg)
-        except OverflowError:  # an int beyond floats: the Python raises where it is used
-            return None
-        e, e2m = self._e, self._e2m
-        k_pole = e2m**0.5 * math.exp(e * math.atanh(e))
-        return _K.pack((cm, e, e2m, self._A, self._A / self.ellipsoid.a_m,
-                        e**2, k_pole, math.radians(1.0), math.degrees(1.0),
-                        *self._alpha, *self._beta))
 
     @classmethod
     def for_longitude(cls, ellipsoid: Ellipsoid, lon_deg: float) -> TMGrid:
@@ -175,20 +150,8 @@ class TMGrid:
         sig = math.sinh(e * math.atanh(e * tau / tau1))
         return tau * math.hypot(1.0, sig) - sig * tau1
 
-    def _forward_full(self, lat_deg: float, lon_deg: float) -> tuple[float, float, float, float]:
-        """(x m, y m, γ deg, k) for geodetic (lat, lon) in degrees: the compiled kernel, or
-        :meth:`_forward_full_py` where it is not built or declines (non-float input, error)."""
-        k = _K
-        if k is not None:
-            out = k.forward_full(self._packed, lat_deg, lon_deg)
-            if out is not None:
-                return out  # type: ignore[no-any-return]
-        return self._forward_full_py(lat_deg, lon_deg)
-
-    def _forward_full_py(
-        self, lat_deg: float, lon_deg: float
-    ) -> tuple[float, float, float, float]:
-        """:meth:`_forward_full` in pure Python (the reference of the kernel)."""
+    def forward_full(self, lat_deg: float, lon_deg: float) -> tuple[float, float, float, float]:
+        """Geodetic (degrees) → (x m, y m, convergence γ degrees, point scale k) in one pass."""
         lam = math.radians(wrap_180_deg(lon_deg - self.cm_deg))
         phi = math.radians(lat_deg)
         sphi = math.sin(phi)
@@ -222,19 +185,8 @@ class TMGrid:
         return self._A * z.imag, self._A * z.real, math.degrees(gamma), k
 
     def forward(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
-        """Geodetic (degrees, on this ellipsoid) → grid (x easting m, y northing m).
-
-        The compiled kernel, or :meth:`_forward_py` where it is not built or declines.
-        """
-        k = _K
-        if k is not None:
-            out = k.forward(self._packed, lat_deg, lon_deg)
-            if out is not None:
-                return out  # type: ignore[no-any-return]
-        return self._forward_py(lat_deg, lon_deg)
-
-    def _forward_py(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
-        """:meth:`forward` in pure Python, with :func:`wrap_180_deg`, :meth:`_taup` and
+        """Geodetic (degrees, on this ellipsoid) → grid (x easting m, y northing m):
+        :meth:`forward_full`'s position, with :func:`wrap_180_deg`, :meth:`_taup` and
         :func:`_clenshaw_sum` written out (the same operations: this runs every cycle)."""
         w = math.remainder(lon_deg - self.cm_deg, 360.0)  # wrap_180_deg
         lam = math.radians(180.0 if w == -180.0 else w + 0.0)
@@ -270,26 +222,15 @@ class TMGrid:
         remembered: within one cycle the same point is inverted more than once (the filter's
         prediction is the fix's provisional point), and the inverse is a pure function of
         (x, y). Only Python floats other than zero are looked up (0.0 == −0.0 as a key, but the
-        sign of a zero northing reaches the latitude's). The compiled kernel keeps its own
-        memo (a ring in ``_packed``, same rule); :meth:`_inverse_memo_py` where it is not built
-        or declines.
+        sign of a zero northing reaches the latitude's).
         """
-        k = _K
-        if k is not None:
-            out = k.inverse(self._packed, x_m, y_m)
-            if out is not None:
-                return out  # type: ignore[no-any-return]
-        return self._inverse_memo_py(x_m, y_m)
-
-    def _inverse_memo_py(self, x_m: float, y_m: float) -> tuple[float, float]:
-        """:meth:`inverse` in pure Python: the dict memo ``_inverted``, else :meth:`_inverse_py`."""
         if type(x_m) is float and type(y_m) is float and x_m and y_m:
             memo = self._inverted
             key = (x_m, y_m)
             hit = memo.get(key)
             if hit is not None:
                 return hit
-            out = self._inverse_py(x_m, y_m)
+            out = self._inverse(x_m, y_m)
             if len(memo) >= _INVERSE_MEMO:
                 try:  # forget the oldest (insertion order)
                     del memo[next(iter(memo))]
@@ -297,20 +238,10 @@ class TMGrid:
                     memo.clear()
             memo[key] = out
             return out
-        return self._inverse_py(x_m, y_m)
+        return self._inverse(x_m, y_m)
 
     def _inverse(self, x_m: float, y_m: float) -> tuple[float, float]:
-        """:meth:`inverse` computed, without the memo: the compiled kernel, or
-        :meth:`_inverse_py` where it is not built or declines (non-float input, math error)."""
-        k = _K
-        if k is not None:
-            out = k.inverse(self._packed, x_m, y_m, False)
-            if out is not None:
-                return out  # type: ignore[no-any-return]
-        return self._inverse_py(x_m, y_m)
-
-    def _inverse_py(self, x_m: float, y_m: float) -> tuple[float, float]:
-        """:meth:`inverse` computed in pure Python (Karney 2011 eqs. 11, 19–21, 36), with
+        """:meth:`inverse` computed, without the memo (Karney 2011 eqs. 11, 19–21, 36), with
         :func:`_clenshaw_sum`, :meth:`_tau_from_taup` and :func:`wrap_180_deg` written out (the
         same operations: this runs several times a cycle)."""
         big_a = self._A
@@ -370,22 +301,12 @@ class TMGrid:
         """Grid convergence γ (degrees) at a geodetic point (degrees), Karney eq. (26)–(28).
 
         ψ_grid = ψ_true − γ; γ ≈ (λ − CM)·sin φ, positive east of the CM in the north.
-        :meth:`_forward_full`'s γ, its kernel called here directly (once a cycle).
         """
-        k = _K
-        if k is not None:
-            out = k.forward_full(self._packed, lat_deg, lon_deg)
-            if out is not None:
-                return out[2]  # type: ignore[no-any-return]
-        return self._forward_full_py(lat_deg, lon_deg)[2]
+        return self.forward_full(lat_deg, lon_deg)[2]
 
     def point_scale(self, lat_deg: float, lon_deg: float) -> float:
         """Point scale factor k (grid length / ellipsoid length) at a geodetic point (degrees)."""
-        return self._forward_full(lat_deg, lon_deg)[3]
-
-    def forward_full(self, lat_deg: float, lon_deg: float) -> tuple[float, float, float, float]:
-        """Geodetic (degrees) → (x m, y m, convergence γ degrees, point scale k) in one pass."""
-        return self._forward_full(lat_deg, lon_deg)
+        return self.forward_full(lat_deg, lon_deg)[3]
 
     # ---------------------------------------------------------------- arrays (numpy)
     def _taup_array(self, tau: FloatArray) -> FloatArray:

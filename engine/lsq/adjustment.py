@@ -22,7 +22,6 @@ try:  # the gufunc behind numpy.linalg.inv: the same LAPACK call without the wra
 except ImportError:  # pragma: no cover - another numpy layout: the public function
     _ULA = None
 
-from engine.lsq import _kernel
 from engine.lsq.statistics import (
     SlotStatistics,
     UnitVarianceTest,
@@ -255,9 +254,7 @@ def gauss_newton(
 
     A ``linearise`` object may also offer ``linearise.arrays(x) -> (A, b, C_l)``: the same
     numbers as float64 ndarrays in a tuple, without the Linearisation (the fix's model does);
-    it is then called instead. With ``arrays`` it may offer ``linearise.rows(x)``: A as a
-    row-major list of n·u floats, b as a list of n floats, C_l as ``arrays`` gives it, the
-    same numbers; the compiled kernel then takes the used rows from the lists.
+    it is then called instead.
 
     Stops when every |δx̂_j| < ``epsilon`` (thesis ε, default 1 m, in the parameters' units), at
     most ``max_iter`` iterations. Statistics come from the last linearisation. ``alpha``/``power``
@@ -281,23 +278,8 @@ def gauss_newton(
     x = np.array(x0, dtype=float)
     used_b = np.array(used, dtype=bool)
     arrays = getattr(linearise, "arrays", None)
-    rows = None if arrays is None else getattr(linearise, "rows", None)
-    state = None
-    if rows is not None and damping is None:
-        k = _kernel.kernel()
-        if k is not None and _fast_settings(epsilon, max_iter, cond_max, max_axis_ratio):
-            # the whole adjustment in one compiled call (same bits), or where to go on
-            state = k.adjust(rows, x, used_b, epsilon, max_iter, cond_max, max_axis_ratio,
-                             scale_vcv, delta0(alpha, power))
-            if type(state) is dict:
-                s2, r = state["s2"], state["redundancy"]
-                if s2 is not None:
-                    state["variance_test"] = unit_variance_test(s2, r, alpha, s02)
-                return frozen_instance(Adjustment, state)
     run = _Run(x if x.ndim == 1 else x.reshape(-1),
-               used_b if used_b.ndim == 1 else used_b.reshape(-1), arrays, rows)
-    if state is not None:  # the kernel's iterations up to a rare branch: go on from there
-        run.it, run.x, run.steps = state
+               used_b if used_b.ndim == 1 else used_b.reshape(-1), arrays)
     u = run.x.size
     sq = None if damping is None else _damping_roots(damping, run.idx, run.used.size)
     try:
@@ -314,14 +296,6 @@ def gauss_newton(
     return _adjustment(run, sol, s02, scale_vcv, alpha, power, damping)
 
 
-def _fast_settings(epsilon: float, max_iter: int, cond_max: float,
-                   max_axis_ratio: float | None) -> bool:
-    """Settings the compiled ``adjust`` compares as Python does: floats (its C doubles) and
-    an int ``max_iter``; the axis-ratio guard on."""
-    return (type(epsilon) is float and type(max_iter) is int and type(cond_max) is float
-            and type(max_axis_ratio) is float)
-
-
 class _Stop(Exception):
     """Internal: the adjustment cannot go on; ``reason`` becomes Adjustment.reason."""
 
@@ -334,15 +308,11 @@ class _Run:
     """Internal progress of :func:`gauss_newton`: the current x, the used slots, the iteration
     count, the step lengths [m] and whether it converged."""
 
-    __slots__ = ("x", "used", "idx", "slots", "block", "it", "steps", "converged", "arrays",
-                 "rows")
+    __slots__ = ("x", "used", "idx", "slots", "block", "it", "steps", "converged", "arrays")
 
     def __init__(self, x: np.ndarray, used: np.ndarray,
-                 arrays: Callable[[np.ndarray], tuple[np.ndarray, ...]] | None = None,
-                 rows: Callable[[np.ndarray], tuple[list[float], list[float], np.ndarray]]
-                 | None = None) -> None:
+                 arrays: Callable[[np.ndarray], tuple[np.ndarray, ...]] | None = None) -> None:
         self.arrays = arrays
-        self.rows = rows  # the model's lists (gauss_newton), used with the compiled kernel
         self.x = x
         self.used = used
         self.idx = used.nonzero()[0]
@@ -389,68 +359,11 @@ def _iterate(
     cond_max: float,
 ) -> _Solution:
     """The Gauss–Newton loop (5.1c–d): re-linearise, solve, step, until converged or
-    ``max_iter``; returns the last solution (``run`` holds x, the count and the steps).
-
-    Each solve and step runs in the compiled kernel (``engine/native/lsq.c``, same bits) when
-    there is one; an iteration it declines (a rare branch: failure reasons, u ≠ 2) and a run
-    without it take the Python of :func:`_iterate_py`."""
-    k = _kernel.kernel()
-    if k is None:
-        return _iterate_py(linearise, run, sq, epsilon, max_iter, cond_max)
-    step = k.step
-    rows = run.rows if sq is None else None
-    if rows is not None:
-        step_rows = k.step_rows
-        idx = run.slots
-        light = epsilon if type(epsilon) is float else math.inf  # the kernel's C comparison
-    while True:
-        run.it += 1
-        if rows is None:
-            Au, bu, Clu = _evaluate(linearise, run, sq)
-            res = step(Au, bu, Clu, cond_max, run.x)
-        else:  # the used rows gathered from the model's lists in the kernel (no slicing)
-            try:
-                A, b, Cl = rows(run.x)
-            except _MODEL_ERRORS as exc:
-                raise _Stop(f"model evaluation failed: {exc}") from None
-            # a step not below ε before the last iteration is not kept: no arrays for it
-            got = step_rows(A, b, Cl, idx, cond_max, run.x,
-                            light if run.it < max_iter else math.inf)
-            if got is None:  # lists it does not take: the arrays as ``arrays`` converts them
-                try:
-                    arr = np.array(A).reshape(len(b), run.x.size), np.array(b), Cl
-                except _MODEL_ERRORS as exc:
-                    raise _Stop(f"model evaluation failed: {exc}") from None
-                Au, bu, Clu = _used_rows(run, *arr, None)
-                res = step(Au, bu, Clu, cond_max, run.x)
-            else:
-                Au, bu, Clu, res = got
-        if res is None:
-            sol = _solve(Au, bu, Clu, cond_max)
-            big = _step_py(run, sol)
-        else:
-            sol, run.x, length, big = res
-            run.steps.append(length)
-        if big < epsilon:
-            run.converged = True
-            return sol
-        if run.it >= max_iter:
-            return sol
-
-
-def _iterate_py(
-    linearise: Callable[[np.ndarray], Linearisation],
-    run: _Run,
-    sq: np.ndarray | None,
-    epsilon: float,
-    max_iter: int,
-    cond_max: float,
-) -> _Solution:
-    """:func:`_iterate` in pure Python (no compiled kernel)."""
+    ``max_iter``; returns the last solution (``run`` holds x, the count and the steps)."""
     while True:
         run.it += 1
         sol = _solve(*_evaluate(linearise, run, sq), cond_max)
-        big = _step_py(run, sol)
+        big = _step(run, sol)
         if big < epsilon:
             run.converged = True
             return sol
@@ -458,7 +371,7 @@ def _iterate_py(
             return sol
 
 
-def _step_py(run: _Run, sol: _Solution) -> float:
+def _step(run: _Run, sol: _Solution) -> float:
     """x ← x + δx̂ (5.1d) and its length |δx̂| [m] noted; returns max |δx̂_j| (_Stop when it is
     not finite)."""
     dxl = sol.dx.tolist()
@@ -564,56 +477,7 @@ def _adjustment(
     damping: np.ndarray | None,
 ) -> Adjustment:
     """The Adjustment of the last solution: residuals (5.1f), S² (5.13), the per-slot
-    statistics and the unit-variance test; the numbers from the compiled kernel when there is
-    one and it takes the case (same bits), else :func:`_adjustment_py`."""
-    k = _kernel.kernel()
-    res = None if k is None else k.finish(sol, run.used, scale_vcv, delta0(alpha, power))
-    if res is None:
-        return _adjustment_py(run, sol, s02, scale_vcv, alpha, power, damping)
-    v, s2, rms, drms, cov, scaled, block = res
-    m = run.idx.size
-    u = run.x.size
-    r = m - u
-    return frozen_instance(Adjustment, {
-        "ok": run.converged,
-        "reason": None if run.converged else "no convergence",
-        "x": run.x,
-        "cov_x": cov,
-        "cov_x_apriori": sol.cx,
-        "used": run.used,
-        "n_used": m,
-        "u": u,
-        "redundancy": r,
-        "category": category(m, u),
-        "iterations": run.it,
-        "converged": run.converged,
-        "steps": tuple(run.steps),
-        "dx": sol.dx,
-        "v": v,
-        "s2": s2,
-        "rms_m": rms,
-        "drms_m": drms,
-        "stats_block": block,
-        "A_used": sol.Au,
-        "b_used": sol.bu,
-        "Cl_used": sol.Clu,
-        "W_used": sol.Wu,
-        "variance_test": unit_variance_test(s2, r, alpha, s02) if s2 is not None else None,
-        "scaled": scaled,
-        "damping": None if damping is None else np.asarray(damping, dtype=float).copy(),
-    })
-
-
-def _adjustment_py(
-    run: _Run,
-    sol: _Solution,
-    s02: float,
-    scale_vcv: bool,
-    alpha: float,
-    power: float,
-    damping: np.ndarray | None,
-) -> Adjustment:
-    """:func:`_adjustment` in pure Python."""
+    statistics and the unit-variance test."""
     Au, bu, Wu, cx = sol.Au, sol.bu, sol.Wu, sol.cx
     idx, n, u = run.idx, run.used.size, run.x.size
     m = idx.size
@@ -846,4 +710,3 @@ def _failed(
         damping=None if damping is None else np.asarray(damping, dtype=float).copy(),
     )
 
-_kernel.provide(solution=_Solution)

@@ -13,7 +13,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from engine.lsq import _kernel
 from engine.lsq.statistics import chi2_quantile, frozen_instance
 
 _F64 = np.dtype(np.float64)
@@ -65,18 +64,6 @@ def eigenvalues_2x2(sxx: float, sxy: float, syy: float) -> tuple[float, float]:
 
 
 def error_ellipse(C2: np.ndarray) -> Ellipse:
-    """Error ellipse of a 2×2 VCV [[σx², σxy], [σxy, σy²]] (x East, y North) [m²], closed form:
-    :func:`_error_ellipse_py`, run by the compiled kernel (``engine/native/lsq.c``, same bits)
-    when there is one and the input is a float64 2×2 array of finite numbers."""
-    k = _kernel.kernel()
-    if k is not None:
-        ell = k.ellipse(C2)
-        if ell is not None:
-            return ell  # type: ignore[no-any-return]
-    return _error_ellipse_py(C2)
-
-
-def _error_ellipse_py(C2: np.ndarray) -> Ellipse:
     """Error ellipse of a 2×2 VCV [[σx², σxy], [σxy, σy²]] (x East, y North) [m²], closed form.
 
     λ1,2 = ½(σx²+σy²) ± ½·sqrt((σx²−σy²)² + 4σxy²) (5.22–5.23); the major eigenvector's sign is
@@ -184,4 +171,3 @@ def two_drms(C: np.ndarray) -> float:
     """2drms = 2·d_rms [m] (eq. 5.30); sample 63.6 m."""
     return 2.0 * drms(C)
 
-_kernel.provide(ellipse=Ellipse)

@@ -15,39 +15,31 @@ This module only assembles: each system yields its rows and page data behind one
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from engine.geodesy.ellipsoidal import GeodesicSolver
 from engine.geodesy.tmgrid import TMGrid
-from engine.lsq import _kernel
 from engine.lsq.adjustment import (
-    COND_MAX,
-    MAX_AXIS_RATIO,
     Adjustment,
     Linearisation,
-    _fast_settings,
-    _settings_ok,
 )
 from engine.lsq.confidence import Ellipse, eigenvalues_2x2, error_ellipse
-from engine.lsq.snooping import TestedAdjustment, _quiet, adjust_with_testing
+from engine.lsq.snooping import TestedAdjustment, adjust_with_testing
 from engine.lsq.statistics import (
     REJECT_BOUND,
-    UnitVarianceTest,
-    _variance_bounds,
-    delta0,
     frozen_instance,
-    unit_variance_test,
     w_critical,
 )
 from engine.systems import registry
 from engine.systems.base import (
     EVAL_ERRORS,
     LopReading,
+    NavSystem,
     ObservationError,
     ObservationSet,
     Point,
@@ -67,8 +59,6 @@ from engine.systems.registry import N_SLOTS, owner_of, slots_of
 SLOT_GPS_LAT, SLOT_GPS_LON = slots_of(GPS.name)
 SLOT_DECCA = tuple(slots_of(DECCA.name))
 SLOT_BRR0 = slots_of(MANUAL.name).start
-_POWER = 0.80
-"""The power of the MDB's δ0 (``gauss_newton``'s default, which adjust_with_testing keeps)."""
 
 
 def lop_name(slot: int, *, system: str = "GPS",
@@ -215,7 +205,7 @@ class _Model:
     """The linearisation callback for the adjustment core (A5.9–A5.27): each system writes the
     rows of its slots."""
 
-    __slots__ = ("_eye", "geodesic", "grid", "n_slots", "parts", "spec")
+    __slots__ = ("_eye", "geodesic", "grid", "n_slots", "parts")
 
     def __init__(self, grid: TMGrid, geodesic: GeodesicSolver,
                  sets: Mapping[str, ObservationSet],
@@ -230,11 +220,7 @@ class _Model:
             parts = tuple([(slots[name].start, obs) for name, obs in sets.items()])
         self.parts = parts
         self.n_slots = sum(len(r) for r in slots.values()) if n_slots is None else n_slots
-        eye = self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
-        self.spec = (parts, Point, grid, geodesic, eye)
-        """What :meth:`rows` uses, for the compiled ``adjust``, which does what :meth:`rows`
-        does with it (the lists, the copy of the identity, the Point, each system's
-        ``linearise`` in order) without the frame."""
+        self._eye = _eye(self.n_slots)  # copied per linearisation (cheaper than np.eye)
 
     def __call__(self, x: np.ndarray) -> Linearisation:
         """Design matrix, O − C (m) and a priori VCV (m²) at grid point ``x`` = (E, N)."""
@@ -250,8 +236,7 @@ class _Model:
 
     def rows(self, x: np.ndarray) -> tuple[list[float], list[float], np.ndarray]:
         """:meth:`arrays` before the conversion: A as a row-major list of 2n floats (∂/∂x,
-        ∂/∂y of each slot), b (m) as a list of n floats and C_l (m²) as an (n, n) array (the
-        compiled adjustment takes the used rows from the lists, ``gauss_newton``).
+        ∂/∂y of each slot), b (m) as a list of n floats and C_l (m²) as an (n, n) array.
 
         C_l starts as the identity (unused slots: variance 1, Pg 821) with the system blocks
         written in.
@@ -285,18 +270,22 @@ def _gather(
     values: Mapping[str, Any],
     prior: PositionPrior | None,
     excluded_slots: Sequence[int],
+    systems: tuple[NavSystem, ...] | None = None,
 ) -> _Problem:
     """Every system's observations of ``values`` at the provisional point ``p0``; the filter's
     ``prior`` takes the GPS slots when GPS is absent and fewer than two LOPs are available
-    (table 5.1 category I, THEORY §4.6). Raises ObservationError (with the texts so far)."""
-    layout = registry.layout()
+    (table 5.1 category I, THEORY §4.6). ``systems``: the run's (default the registry's).
+    Raises ObservationError (with the texts so far)."""
+    if systems is None:
+        systems = registry.SYSTEMS
+    layout = registry.layout(systems)
     sets: dict[str, ObservationSet] = {}
     memo = _N_SLOTS
     if memo[0] is layout:  # the layout is the registry's (cached per SYSTEMS)
         n_slots, order, spans = memo[1], memo[2], memo[3]
     else:
         n_slots = sum(len(r) for r in layout.values())
-        order = tuple((s, s.name, layout[s.name].start) for s in registry.SYSTEMS)
+        order = tuple((s, s.name, layout[s.name].start) for s in systems)
         spans = {name: (r.start, r.stop) for name, r in layout.items()}
         memo[:] = [layout, n_slots, order, spans]
     used = [False] * n_slots
@@ -322,7 +311,7 @@ def _gather(
             used[slot] = True
         sets[GPS.name] = PriorObservations(prior)
         uses_prior = True
-        sets = {s.name: sets[s.name] for s in registry.SYSTEMS if s.name in sets}
+        sets = {s.name: sets[s.name] for s in systems if s.name in sets}
         return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans)
     return _Problem(sets, used, uses_prior, messages, layout, n_slots, spans, tuple(parts))
 
@@ -339,11 +328,13 @@ def compute_fix(
     settings: LsqSettings = LsqSettings(),
     excluded_slots: Sequence[int] = (),
     readings: Mapping[str, Any] | None = None,
+    systems: tuple[NavSystem, ...] | None = None,
 ) -> FixResult:
     """Compute the LSE from the available LOPs, starting at provisional grid point ``x0`` (m).
 
     ``gps``, ``decca``, ``manual`` and ``readings`` (any system's reading by registry name,
-    docs/SYSTEMS.md) are the systems' inputs. The rejection policy, tests and estimator follow
+    docs/SYSTEMS.md) are the systems' inputs (``systems``: the run's, default the registry's,
+    :data:`engine.systems.registry.SYSTEMS`). The rejection policy, tests and estimator follow
     ``settings`` (THEORY §6; with a robust estimator nothing is rejected and there is no
     candidate); ``excluded_slots`` are slots the operator discarded (LOPReject 'A'). ``prior``
     (the filter's prediction) is used as two position LOPs only when GPS is absent (table 5.1
@@ -359,135 +350,76 @@ def compute_fix(
     filter linearises itself). ValueError only for invalid ``settings`` (programming errors).
     """
     values = {GPS.name: gps, DECCA.name: decca, MANUAL.name: manual, **(readings or {})}
+    setup = _setup(grid, geodesic, x0, values, prior, settings, excluded_slots, systems)
+    if type(setup) is not _Setup:
+        return setup
+    problem, model, policy, estimator, manual = setup
+    x_start = np.array(x0, dtype=float)
+    uses_prior = problem.uses_prior
+    tested = adjust_with_testing(
+        model,
+        x_start,
+        problem.used,
+        policy=policy,
+        alpha=settings.reliab_interval / 100.0,
+        epsilon=settings.epsilon_m,
+        max_iter=settings.max_iter,
+        s02=settings.s02,
+        scale_vcv=settings.scale_vcv,
+        estimator=estimator,
+        lop_name=lambda slot: lop_name(slot, system="KF" if uses_prior else "GPS",
+                                       manual=manual),
+    )
+    return _conclude(grid, geodesic, x0, x_start, problem, model, tested, settings)
+
+
+class _Setup(NamedTuple):
+    """What :func:`compute_fix` adjusts: the gathered problem, its model, the rejection policy
+    and estimator in force, and the manual observations taken (at most :data:`MAX_BRR`)."""
+
+    problem: _Problem
+    model: _Model
+    policy: str
+    estimator: str
+    manual: tuple[ManualObservation, ...]
+
+
+def _setup(grid: TMGrid, geodesic: GeodesicSolver, x0: tuple[float, float],
+           values: dict[str, Any], prior: PositionPrior | None, settings: LsqSettings,
+           excluded_slots: Sequence[int],
+           systems: tuple[NavSystem, ...] | None) -> _Setup | FixResult:
+    """:func:`compute_fix` up to the adjustment: the systems' observations gathered at ``x0``
+    and the model, or the failed fix (no finite start, observations that cannot be formed,
+    fewer than two LOPs)."""
     manual = values[MANUAL.name] = tuple(values[MANUAL.name] or ())[:MAX_BRR]
     if not (math.isfinite(x0[0]) and math.isfinite(x0[1])):
         return _no_fix(grid, x0, "provisional position not finite", 0)
     try:
-        problem = _gather(Point(grid, geodesic, x0[0], x0[1]), values, prior, excluded_slots)
+        problem = _gather(Point(grid, geodesic, x0[0], x0[1]), values, prior, excluded_slots,
+                          systems)
     except ObservationError as exc:
         return _no_fix(grid, x0, exc.reason, 0, messages=exc.messages)
-    messages = problem.messages
     n_avail = sum(problem.used)
     if n_avail < 2:
         return _no_fix(grid, x0, f"Not enough LOPs for a fix ! ({n_avail})", n_avail,
-                       messages=messages)
+                       messages=problem.messages)
     model = _Model(grid, geodesic, problem.sets, problem.layout, problem.n_slots, problem.parts)
-    x_start: np.ndarray | None = None  # np.array(x0, dtype=float) where the Python needs it
     uses_prior = problem.uses_prior
-    policy = "N" if uses_prior else settings.lop_reject
-    estimator = "lsq" if uses_prior else settings.estimator
-    first = tested = None
-    k = _kernel.kernel()
-    quick = None if k is None or estimator != "lsq" else _quick_settings(settings)
-    if quick is not None and policy in ("Y", "N", "A"):
-        # adjust_with_testing's plain LSQ path in one compiled call (gauss_newton's ``adjust``,
-        # on x0 and the used slots made arrays as np.array makes them), with its tests and,
-        # with nothing to reject, its result built by the kernel (_first_py, _tested_py)
-        alpha, eps, max_iter, s02, scale_vcv, d0, k_alpha = quick
-        if _FIX_BOUND[0] is not k:
-            _bind_fix(k)
-        state = k.adjust_tested(model.spec, x0, problem.used, eps, max_iter, COND_MAX,
-                                MAX_AXIS_RATIO, scale_vcv, d0, alpha, s02, k_alpha,
-                                REJECT_BOUND, policy, estimator)
-        if type(state) is dict:  # the kernel left the tests to the Python
-            state = _first_py(state, alpha, s02)
-        if type(state) is Adjustment:
-            first = state
-            tested = _tested_py(first, k_alpha, policy, estimator, k)
-        elif type(state) is TestedAdjustment:
-            first, tested = state.adjustment, state
-    if tested is None:  # everything else (and the pure path): the layers as they are
-        x_start = np.array(x0, dtype=float)
-        tested = adjust_with_testing(
-            model,
-            x_start,
-            problem.used,
-            policy=policy,
-            alpha=settings.reliab_interval / 100.0,
-            epsilon=settings.epsilon_m,
-            max_iter=settings.max_iter,
-            s02=settings.s02,
-            scale_vcv=settings.scale_vcv,
-            estimator=estimator,
-            lop_name=lambda slot: lop_name(slot, system="KF" if uses_prior else "GPS",
-                                           manual=manual),
-            first=first,
-        )
+    return _Setup(problem, model, "N" if uses_prior else settings.lop_reject,
+                  "lsq" if uses_prior else settings.estimator, manual)
+
+
+def _conclude(grid: TMGrid, geodesic: GeodesicSolver, x0: tuple[float, float],
+              x_start: np.ndarray, problem: _Problem, model: _Model, tested: TestedAdjustment,
+              settings: LsqSettings) -> FixResult:
+    """:func:`compute_fix` after the adjustment: the failed fix, or the fix at the estimate
+    (:func:`_at_estimate`)."""
+    messages = problem.messages
     messages.extend(tested.messages)
     adj = tested.adjustment
     if not adj.ok:
         return _no_fix(grid, x0, adj.reason or "no fix", adj.n_used, tested, messages)
-    if adj is first and not uses_prior and _ROW_MAKER[0] is k:
-        # _at_estimate in one compiled call (its used slots: the list); None: the Python
-        fix = k.estimate(grid, geodesic, tested, problem.sets, problem.spans, problem.used,
-                         messages, quick[6], REJECT_BOUND)  # type: ignore[index]
-        if fix is not None:
-            return fix  # type: ignore[no-any-return]
-    if x_start is None:
-        x_start = np.array(x0, dtype=float)
-    return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings,
-                        problem.used if adj is first else None)  # its used slots as a list
-
-
-def _first_py(state: dict[str, Any], alpha: float, s02: float) -> Adjustment:
-    """The Adjustment of the compiled ``adjust``'s fields (``state``, variance_test None, as
-    ``gauss_newton`` leaves it) with its unit-variance test (α, σ0² of the settings)."""
-    s2 = state["s2"]
-    if s2 is not None:
-        state["variance_test"] = unit_variance_test(s2, state["redundancy"], alpha, s02)
-    return frozen_instance(Adjustment, state)
-
-
-def _tested_py(first: Adjustment, k_alpha: float, policy: str, estimator: str,
-               k: Any) -> TestedAdjustment | None:
-    """adjust_with_testing's result for a fix with nothing to reject, flag or ask (the
-    kernel's ``quiet`` finds the monitor band, :func:`engine.lsq.snooping._quiet` builds it);
-    None when the layers have more to do."""
-    if first.ok and first.redundancy >= 1:
-        monitor = k.quiet(first.stats_block, k_alpha, REJECT_BOUND)
-        if monitor is not None:
-            return _quiet(first, monitor, policy, estimator)
-    return None
-
-
-_FIX_BOUND: list[Any] = [None]
-"""[the lsq kernel module :func:`_bind_fix` bound (None: none yet)]."""
-
-
-def _bind_fix(k: Any) -> None:
-    """Give the kernel the classes, the bounds function and the Decca system's name that
-    ``adjust_tested`` and ``estimate`` use."""
-    k._bind_fix(Adjustment, TestedAdjustment, UnitVarianceTest, _variance_bounds, Point,
-                DeccaObservations, FixResult, DECCA.name, np.dtype(bool))
-    _FIX_BOUND[0] = k
-
-
-_QUICK: list[Any] = [None, None]
-"""[the LsqSettings :func:`_quick_settings` saw last (None: none yet), its values]; the
-settings are frozen, so checked once per settings object."""
-
-
-def _quick_settings(settings: LsqSettings) -> tuple[float, float, int, float, bool, float,
-                                                    float] | None:
-    """(α, ε, max_iter, σ0², ScaleVCV, δ0, k_α) of ``settings`` for compute_fix's one-call
-    path: settings ``gauss_newton`` accepts (:func:`engine.lsq.adjustment._settings_ok`, the
-    default COND_MAX, MAX_AXIS_RATIO and power) and hands to the compiled ``adjust``
-    (``_fast_settings``); None otherwise (the layers then say what is wrong)."""
-    memo = _QUICK
-    if memo[0] is settings:
-        return memo[1]  # type: ignore[no-any-return]
-    alpha = settings.reliab_interval / 100.0
-    eps, max_iter, s02 = settings.epsilon_m, settings.max_iter, settings.s02
-    try:
-        _settings_ok(eps, max_iter, s02, COND_MAX, MAX_AXIS_RATIO, alpha, _POWER)
-        ok = _fast_settings(eps, max_iter, COND_MAX, MAX_AXIS_RATIO)
-        hash((alpha, s02))  # unit_variance_test's bounds are remembered by them
-        quick = ((alpha, eps, max_iter, s02, settings.scale_vcv, delta0(alpha, _POWER),
-                  w_critical(alpha)) if ok else None)
-    except Exception:  # noqa: BLE001 - the layers raise it again, with their message
-        quick = None
-    memo[:] = [settings, quick]
-    return quick
+    return _at_estimate(grid, geodesic, x0, x_start, problem, model, tested, settings)
 
 
 def _at_estimate(
@@ -512,10 +444,7 @@ def _at_estimate(
         p_hat = Point(grid, geodesic, xe, yn, (lat, lon))
         decca = problem.sets.get(DECCA.name)
         geom = decca.geometry_at(p_hat) if isinstance(decca, DeccaObservations) else None
-        k = _kernel.kernel()  # error_ellipse's kernel call, made here (one call fewer)
-        ellipse = None if k is None else k.ellipse(adj.cov_x)
-        if ellipse is None:
-            ellipse = error_ellipse(adj.cov_x)
+        ellipse = error_ellipse(adj.cov_x)
         if used is None:
             used = adj.used.tolist()
         # the ellipse of C_x̂ as displayed is that of the a priori one unless scaled by S²
@@ -527,15 +456,10 @@ def _at_estimate(
         else:
             raw = None
             check = True
-        # the check and the table in one compiled call; None: its twin _tail_py (a string:
-        # beyond the linear range, the reason)
-        lops = None if k is None or _ROW_MAKER[0] is not k else k.tail(
-            problem.sets, problem.spans, p_hat, used, check, l1, adj.stats_block, adj.v,
-            adj.used, w_critical(alpha), REJECT_BOUND)
-        if lops is None:
-            lops = _tail_py(adj, problem, p_hat, used, check, l1, alpha)
-            if type(lops) is str:
-                return _no_fix(grid, x0, lops, adj.n_used, tested, messages)
+        # the linear-range check, then the table (a string: beyond the range, the reason)
+        lops = _tail(adj, problem, p_hat, used, check, l1, alpha)
+        if type(lops) is str:
+            return _no_fix(grid, x0, lops, adj.n_used, tested, messages)
     except EVAL_ERRORS as exc:
         return _no_fix(grid, x0, f"model evaluation failed at the estimate: {exc}", adj.n_used,
                        tested, messages)
@@ -646,13 +570,10 @@ def _no_fix(
     )
 
 
-def _tail_py(adj: Adjustment, problem: _Problem, p_hat: Point, used: list[bool],
-             check: bool, l1: float | None, alpha: float) -> tuple[LopRow, ...] | str:
-    """The compiled ``tail``'s twin, and :func:`_at_estimate`'s own where ``tail`` declines:
-    with ``check``, :func:`_beyond_linear_range`'s reason (returned as the string) when there
-    is one; then :func:`_lop_rows` of the systems' readings at ``p_hat`` as a tuple (the
-    compiled ``lop_rows`` where the kernel takes it, e.g. a check without ``l1`` (ScaleVCV),
-    which ``tail`` declines; else :func:`_lop_rows_py`)."""
+def _tail(adj: Adjustment, problem: _Problem, p_hat: Point, used: list[bool],
+          check: bool, l1: float | None, alpha: float) -> tuple[LopRow, ...] | str:
+    """With ``check``, :func:`_beyond_linear_range`'s reason (returned as the string) when
+    there is one; then :func:`_lop_rows` of the systems' readings at ``p_hat`` as a tuple."""
     if check:
         reason = _beyond_linear_range(adj, problem.sets, p_hat, used, problem.layout, l1)
         if reason is not None:
@@ -664,27 +585,10 @@ def _lop_rows(adj: Adjustment, sets: Mapping[str, ObservationSet], p_hat: Point,
               alpha: float, used: list[bool] | None = None,
               layout: Mapping[str, range] | None = None) -> list[LopRow]:
     """The Pg 631/633 table rows: each system's page data with the final adjustment's tests
-    (``used``/``layout`` as in :func:`_beyond_linear_range`); the table made in one call by
-    the compiled kernel (``lop_rows``, the same rows) when there is one, else
-    :func:`_lop_rows_py`."""
+    (``used``/``layout`` as in :func:`_beyond_linear_range`)."""
     if layout is None:
         layout = registry.layout()
     groups = [(layout[name].start, obs.readings(p_hat)) for name, obs in sets.items()]
-    make = _row_maker()
-    k = _kernel.kernel()
-    if k is not None and make is not LopRow:
-        rows = k.lop_rows(groups, adj.stats_block, adj.v, adj.used, w_critical(alpha),
-                          REJECT_BOUND)
-        if rows is not None:
-            return rows  # type: ignore[no-any-return]
-    return _lop_rows_py(adj, groups, alpha, used, make)
-
-
-def _lop_rows_py(adj: Adjustment, groups: list[tuple[int, Sequence[LopReading]]],
-                 alpha: float, used: list[bool] | None,
-                 make: Callable[..., LopRow]) -> list[LopRow]:
-    """:func:`_lop_rows` in pure Python: ``groups`` holds each system's first slot and its
-    readings at the estimate, in registry order."""
     sigma_d, w_all, tau, vf = adj.stats_block[:4].tolist()
     if used is None:
         used = adj.used.tolist()
@@ -701,30 +605,10 @@ def _lop_rows_py(adj: Adjustment, groups: list[tuple[int, Sequence[LopReading]]]
                 aw = abs(w)
                 verdict = ("reject" if aw > REJECT_BOUND
                            else ("monitor" if aw > k else "accept"))
-            rows.append(make(slot, r.system, r.pattern, r.read, r.correction, r.calc, v[slot],
-                             r.az_deg, used[slot], sigma_d[slot], w, tau[slot], vf[slot],
-                             verdict))
+            rows.append(LopRow(slot, r.system, r.pattern, r.read, r.correction, r.calc,
+                               v[slot], r.az_deg, used[slot], sigma_d[slot], w, tau[slot],
+                               vf[slot], verdict))
     return rows
-
-
-_LOPROW_FIELDS = tuple(f.name for f in fields(LopRow))
-_ROW_MAKER: list[Any] = [None, LopRow]
-"""[the lsq kernel module the maker was taken from (None: none yet), the maker]."""
-
-
-def _row_maker() -> Callable[..., LopRow]:
-    """``LopRow`` itself, or the compiled lsq kernel's ``row`` (the same instance made without
-    the generated ``__init__``'s ``object.__setattr__`` per field, several rows per fix) while
-    that kernel is in use (not with ``UVNAV_PURE=1``); bound on first use."""
-    k = _kernel.kernel()
-    if k is _ROW_MAKER[0]:
-        return _ROW_MAKER[1]  # type: ignore[no-any-return]
-    maker: Callable[..., LopRow] = LopRow
-    if k is not None and not hasattr(LopRow, "__post_init__"):  # row() sets the fields only
-        k._bind_row(LopRow, _LOPROW_FIELDS)
-        maker = k.row
-    _ROW_MAKER[:] = [k, maker]
-    return maker
 
 
 def _verdict(w: float, k: float, bound: float = REJECT_BOUND) -> str:

@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from engine.lsq import _kernel
 from engine.lsq.adjustment import Adjustment, Linearisation, gauss_newton
 from engine.lsq.robust import RobustAdjustment, robust_adjust
 from engine.lsq.statistics import (
@@ -53,29 +52,14 @@ class TestedAdjustment:
     robust: object | None = None
 
 
-def _worst(adj: Adjustment) -> tuple[int, float]:
-    """Slot and value of the largest |w| among the used slots (w is NaN elsewhere): the
-    compiled kernel's (same comparisons) when there is one, else :func:`_worst_py`."""
-    k = _kernel.kernel()
-    res = None if k is None else k.worst(adj.w)
-    return _worst_py(adj) if res is None else res  # type: ignore[no-any-return]
-
-
 def _monitor(w: np.ndarray, k: float, bound: float) -> tuple[int, ...]:
     """The slots with k_α < |w| ≤ ``bound`` (NaN compares False: unused slots are never in
-    the band); the compiled kernel's when there is one, else :func:`_monitor_py`."""
-    kern = _kernel.kernel()
-    res = None if kern is None else kern.monitor(w, k, bound)
-    return _monitor_py(w, k, bound) if res is None else res  # type: ignore[no-any-return]
-
-
-def _monitor_py(w: np.ndarray, k: float, bound: float) -> tuple[int, ...]:
-    """:func:`_monitor` in pure Python."""
+    the band)."""
     return tuple(i for i, wi in enumerate(w.tolist()) if k < abs(wi) <= bound)
 
 
-def _worst_py(adj: Adjustment) -> tuple[int, float]:
-    """:func:`_worst` in pure Python."""
+def _worst(adj: Adjustment) -> tuple[int, float]:
+    """Slot and value of the largest |w| among the used slots (w is NaN elsewhere)."""
     w = adj.w.tolist()
     k, best = 0, -1.0
     for i, wi in enumerate(w):
@@ -130,12 +114,6 @@ def adjust_with_testing(
     if estimator == "lsq":
         adj = (gauss_newton(linearise, x0, cur, **kw)  # type: ignore[arg-type]
                if first is None else first)
-        if adj.ok and adj.redundancy >= 1 and not thesis_dof:
-            k = _kernel.kernel()
-            monitor = (None if k is None
-                       else k.quiet(adj.stats_block, w_critical(alpha), reject_bound))
-            if monitor is not None:  # nothing to reject: _snoop does nothing, _finish is this
-                return _quiet(adj, monitor, policy, estimator)
         prog = _Progress(adj, [])
     else:
         prog = _robust_start(linearise, x0, cur, estimator, kw, lop_name)
@@ -143,41 +121,6 @@ def adjust_with_testing(
             return _finish(prog, policy, estimator, alpha, reject_bound, s02, thesis_dof)
     _snoop(linearise, prog, cur, policy, reject_bound, kw, lop_name)
     return _finish(prog, policy, estimator, alpha, reject_bound, s02, thesis_dof)
-
-
-def _quiet(adj: Adjustment, monitor: tuple[int, ...], policy: str,
-           estimator: str) -> TestedAdjustment:
-    """:func:`_finish` of a plain LSQ fix whose largest |w| is within the bound (nothing
-    rejected, flagged or asked; ``monitor`` the band as the kernel's ``quiet`` found it)."""
-    messages: list[str] = []
-    vt = adj.variance_test
-    if vt is not None and not vt.accepted:
-        messages.append(
-            f"unit variance rejected: S² = {adj.s2:.3f} outside "
-            f"({vt.lower:.4f}, {vt.upper:.3f})"
-        )
-        if adj.category == "IV":
-            messages.append("advice: scale the a priori VCV by S²")
-    res = _NEW(TestedAdjustment)
-    _SET(res, "__dict__", {  # frozen_instance written out (every quiet fix)
-        "adjustment": adj,
-        "rejected": (),
-        "candidate": None,
-        "candidate_w": None,
-        "flagged": (),
-        "monitor": monitor,
-        "not_identifiable": False,
-        "variance_test": vt,
-        "messages": tuple(messages),
-        "policy": policy,
-        "estimator": estimator,
-        "robust": None,
-    })
-    return res
-
-
-_NEW = object.__new__
-_SET = object.__setattr__
 
 
 @dataclass(eq=False)

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from engine.fast.make import runparse_function, slots_maker
 from engine.filter.kalman import (
     FilterParams,
     FilterState,
@@ -57,18 +58,17 @@ from engine.lsq.fix import (
     LsqSettings,
     ManualObservation,
     PositionPrior,
-    compute_fix,
     lop_name,
     slots_of,
 )
 from engine.lsq.statistics import REJECT_BOUND, CumulativeVariance
 from engine.run.config import RunConfig, resolve_vessel
+from engine.run.parts import REFERENCE, CycleParts, choose
 from engine.systems import registry
 from engine.systems.base import (
     CycleInputs,
+    NavSystem,
     SystemReading,
-    runparse_function,
-    slots_maker,
 )
 from engine.systems.decca import (
     DECCA,
@@ -148,12 +148,15 @@ class _ConfigDerived:
     systems_string: str
     sensor_status: tuple[int, ...]
     fix_source: tuple[object, ...]
+    run_systems: tuple[NavSystem, ...]
+    """The systems the run reads the registry's with (:meth:`CycleParts.run_systems`)."""
 
     @classmethod
-    def of(cls, cfg: RunConfig) -> _ConfigDerived:
+    def of(cls, cfg: RunConfig, parts: CycleParts) -> _ConfigDerived:
         """The values of ``cfg`` under the registry as it is now."""
         return cls(cfg, registry.SYSTEMS, systems_string(cfg),
-                   tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg))
+                   tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg),
+                   parts.run_systems(registry.SYSTEMS))
 
 
 @dataclass
@@ -178,6 +181,8 @@ class RunContext:
     filter_params_gnss: FilterParams | None = None
     """The filter parameters for a fix whose GPS is receiver-weighted (HDOP × UERE): "auto"
     τ and fraction of a modern receiver (docs/GNSS_WEIGHTS.md); None: as ``filter_params``."""
+    parts: CycleParts = REFERENCE
+    """The collaborators the cycle does its hot work with (chosen by the run loop)."""
     _grids: dict[float, TMGrid] = field(default_factory=dict)
     _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
     _derived: _ConfigDerived | None = field(default=None, repr=False, compare=False)
@@ -188,14 +193,14 @@ class RunContext:
         is computed again; so is it when a test registers another system)."""
         d = self._derived
         if d is None or d.config is not self.config or d.systems is not registry.SYSTEMS:
-            d = self._derived = _ConfigDerived.of(self.config)
+            d = self._derived = _ConfigDerived.of(self.config, self.parts)
         return d
 
     def grid(self, cm_deg: float) -> TMGrid:
         """The TM grid of the working datum at central meridian ``cm_deg``."""
         g = self._grids.get(cm_deg)
         if g is None:
-            g = TMGrid(self.working.ellipsoid, cm_deg)
+            g = self.parts.grid(self.working.ellipsoid, cm_deg)
             self._grids[cm_deg] = g
         return g
 
@@ -208,22 +213,27 @@ class RunContext:
         if chain is not None:
             shift = None
             if chain.datum_name.upper() != self.working.name.upper():
-                shift = datum_shift(self.datums.datum(chain.datum_name), self.working)
+                shift = self.parts.datum_shift(self.datums.datum(chain.datum_name),
+                                               self.working)
             placed = place_chain_on_datum(chain, self.grid(cm_deg), shift)
         self._placed[cm_deg] = placed
         return placed
 
 
-def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain]) -> RunContext:
-    """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain);
+def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChain],
+                  parts: CycleParts | None = None) -> RunContext:
+    """Build the run context for ``cfg`` (raises InputError for an unknown datum or chain)
+    with the collaborators ``parts`` (None: the run's choice, :func:`engine.run.parts.choose`);
     ``filter.vessel = "auto"`` is resolved for the run file (:func:`resolve_vessel`)."""
+    if parts is None:
+        parts = choose()
     cfg = resolve_vessel(cfg)
     working = datums.datum(cfg.datum)
     gps_datum = datums.datum(cfg.run_gps_datum) if cfg.run_gps_datum.upper() != "WGS84" else WGS84
-    shift = None if gps_datum.name.upper() == working.name.upper() else datum_shift(
+    shift = None if gps_datum.name.upper() == working.name.upper() else parts.datum_shift(
         gps_datum, working
     )
-    to_wgs = None if gps_datum is WGS84 else datum_shift(gps_datum, WGS84)
+    to_wgs = None if gps_datum is WGS84 else parts.datum_shift(gps_datum, WGS84)
     d = cfg.decca
     zl = tuple(
         parse_zone_lane(text, pattern) if text else None
@@ -236,11 +246,12 @@ def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChai
         working=working,
         gps_shift=shift,
         gps_to_wgs84=to_wgs,
-        geodesic=GeodesicSolver(working.ellipsoid),
+        geodesic=parts.geodesic(working.ellipsoid),
         filter_params=filter_params_from_config(cfg),
         lsq=lsq_settings_from_config(cfg),
         zone_lane=(zl[0], zl[1], zl[2]),
         filter_params_gnss=filter_params_from_config(cfg, gnss_receiver=True),
+        parts=parts,
     )
 
 
@@ -462,7 +473,7 @@ def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstim
     """The horizontal position of a filter state as an estimate (grid ``grid``)."""
     k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
     if k is not None:  # the whole estimate in one compiled call (the same floats and arrays)
-        est = k.position(source, grid._packed, fs.x, fs.P)  # type: ignore[attr-defined]
+        est = k.position(source, getattr(grid, "_packed", None), fs.x, fs.P)  # type: ignore[attr-defined]
         if est is not None:
             return est  # type: ignore[no-any-return]
     # The state's position, depth and horizontal VCV as FilterState.east_north_m, depth_m and
@@ -734,7 +745,8 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         pred_state, phi = predict_step(fstate, dt, params)
         est = None
     else:
-        pred_state, phi, est = predict_step_position(fstate, dt, params, "KF", grid._packed)
+        pred_state, phi, est = predict_step_position(fstate, dt, params, "KF",
+                                                     getattr(grid, "_packed", None))
     if est is None:
         est = filter_estimate("KF", grid, pred_state)
     # _Prediction(...) positionally, every field (its slots set in one compiled call)
@@ -790,7 +802,7 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
     extend = messages.extend
     make = _new_inputs  # CycleInputs(...) positionally (its slots set in one compiled call)
     config = ctx.config
-    for system in registry.SYSTEMS:
+    for system in ctx.derived().run_systems:
         reading = system.read(make(config, ctx, nav, rec, grid, cm, x_start, prior,
                                    dict(readings)))
         if reading.messages:
@@ -830,8 +842,9 @@ def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, flo
             observes = True
     if not observes:
         return None
-    fix = compute_fix(grid, ctx.geodesic, x_start, prior=prior, settings=ctx.lsq,
-                      excluded_slots=excluded_slots, readings=values)
+    fix = ctx.parts.compute_fix(grid, ctx.geodesic, x_start, prior=prior, settings=ctx.lsq,
+                      excluded_slots=excluded_slots, readings=values,
+                      systems=ctx.derived().run_systems)
     if fix.candidate_slot is not None:
         name = lop_name(fix.candidate_slot, system="KF" if fix.uses_prior else "GPS",
                         manual=nav.pending_obs)
@@ -1137,12 +1150,12 @@ def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
 _UNSET = object()
 _POSITION_K: object = _UNSET
 """The compiled estimate of :func:`filter_estimate` (``position_kernel``), once resolved: the
-one place it is held (``engine.filter.state.position_kernel`` resolves and binds, no cache)."""
+one place it is held (``engine.fast.filter.position_kernel`` resolves and binds, no cache)."""
 
 
 def _position_kernel() -> object:
     """:data:`_POSITION_K`, resolved on first use (None: the Python makes the estimate)."""
-    from engine.filter.state import position_kernel
+    from engine.fast.filter import position_kernel
 
     global _POSITION_K
     _POSITION_K = position_kernel(PositionEstimate)

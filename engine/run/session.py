@@ -64,6 +64,8 @@ from engine.run.cycle import (
     reproject_state,
     step,
 )
+from engine.run.parts import CycleParts
+from engine.run.parts import choose as choose_parts
 from engine.run.records import cycle_block, cycle_json, cycle_text, cycle_writer
 from engine.run.retained import UNTRACK_MIN_HISTORY, untrack
 from engine.run.setup import (
@@ -186,7 +188,9 @@ class Session:
         else:
             check_config(config, *data)
         self.datums, self.chains = data
-        self.context: RunContext = build_context(config, self.datums, self.chains)
+        self.parts: CycleParts = choose_parts()
+        """The cycle's collaborators for this run: compiled where engine.fast offers them."""
+        self.context: RunContext = build_context(config, self.datums, self.chains, self.parts)
         self.nav: NavState = initial_state(config)
         self.history: deque[CycleResult] = deque(maxlen=max(1, history))
         self._untrack = untrack if history >= UNTRACK_MIN_HISTORY else None
@@ -530,7 +534,7 @@ class Session:
         if cfg is not self.context.config:
             check_config(cfg, self.datums, self.chains)
             old = self.context
-            new = build_context(cfg, self.datums, self.chains)
+            new = build_context(cfg, self.datums, self.chains, self.parts)
             if isinstance(cmd, SetDatum):
                 nav = rebase_state(nav, old, new)
             self.context = new

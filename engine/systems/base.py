@@ -18,10 +18,9 @@ order (``slot_labels`` says how many and their short names).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, fields
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from datetime import datetime
-from functools import partial
 from typing import Any, Protocol
 
 import numpy as np
@@ -160,60 +159,6 @@ class SystemReading:
     detail: Any = None
     observes: bool = False
     """Whether ``value`` holds an observation: the cycle computes a fix when any system's does."""
-
-
-def _new_reading_py(value: Any, messages: tuple[str, ...], detail: Any,
-                    observes: bool) -> SystemReading:
-    """``SystemReading(value, messages, detail, observes)``: the pure path of
-    :data:`new_reading` (the class's own ``__init__``; a slots dataclass, so the compiled
-    ``make`` sets the same four slots)."""
-    return SystemReading(value, messages, detail, observes)
-
-
-def slots_maker(cls: type) -> Callable[..., Any]:
-    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
-    ``engine.native.runparse.make`` bound to it (the same instance, without the dataclass
-    ``__init__``'s per-field ``object.__setattr__``), or ``cls`` itself (the pure path)."""
-    from engine import native
-
-    kernel = native.kernel("runparse")
-    if kernel is None:
-        return cls
-    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
-
-
-def attrs_maker(cls: type) -> Callable[..., Any] | None:
-    """``engine.native.runparse.make_attrs`` bound to the plain frozen dataclass ``cls`` and
-    its field names: ``cls`` from every field positionally, the same instance as
-    ``object.__new__`` plus its ``__dict__`` filled makes, in one compiled call; None where
-    the kernel is not in use (``UVNAV_PURE=1``)."""
-    from engine import native
-
-    kernel = native.kernel("runparse")
-    if kernel is None or not hasattr(kernel, "make_attrs"):
-        return None
-    return partial(kernel.make_attrs, cls, tuple(f.name for f in fields(cls)))
-
-
-def runparse_function(name: str) -> Any:
-    """The function ``name`` of the compiled ``engine.native.runparse`` (None: the kernel not
-    in use, ``UVNAV_PURE=1``, or a build without it)."""
-    from engine import native
-
-    return getattr(native.kernel("runparse"), name, None)
-
-
-def _reading_maker() -> Callable[..., SystemReading]:
-    """:func:`slots_maker` of :class:`SystemReading`, or :func:`_new_reading_py` on the pure
-    path (where ``slots_maker`` gives the class itself)."""
-    make = slots_maker(SystemReading)
-    return _new_reading_py if make is SystemReading else make
-
-
-new_reading: Callable[..., SystemReading] = _reading_maker()
-"""``new_reading(value, messages, detail, observes)``: a :class:`SystemReading` made without
-its generated ``__init__`` (``engine.native.runparse.make`` setting its slots, else
-:func:`_new_reading_py`)."""
 
 
 class NavSystem(Protocol):

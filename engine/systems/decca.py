@@ -17,8 +17,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from engine import native
-from engine.geodesy import tmgrid as _tmgrid
 from engine.geodesy.ellipsoidal import (
     DatumShift,
     GeodesicSolver,
@@ -34,17 +32,7 @@ from engine.systems.base import (
     ObservationError,
     Point,
     SystemReading,
-    new_reading,
-    slots_maker,
 )
-
-_K: Any = native.kernel("decca")
-"""The compiled lane model (``engine/native/decca.c``: the same operations, the same bits) or
-None (not built, stale, ``UVNAV_PURE=1``): then the ``_..._py`` functions below run. Its
-functions return NotImplemented for arguments the fast path does not take (then the Python
-runs as well)."""
-
-_KGeodesic: Any = None if _K is None else _K.Geodesic
 
 PATTERNS: tuple[str, str, str] = ("red", "green", "purple")
 """Pattern order used everywhere (slots 3–5 of the LS observation vector)."""
@@ -207,17 +195,6 @@ class DeccaGeometry:
 def _lane_model(
     sc: _ChainScalars, x_m: float, y_m: float, lat0: float
 ) -> tuple[list[float], list[float], list[float], list[float]]:
-    """:func:`_lane_model_py`, compiled where the kernel is (the same bits)."""
-    if _K is not None:
-        r = _K.lane_model(sc, x_m, y_m, lat0)
-        if r is not NotImplemented:
-            return r  # type: ignore[no-any-return]
-    return _lane_model_py(sc, x_m, y_m, lat0)
-
-
-def _lane_model_py(
-    sc: _ChainScalars, x_m: float, y_m: float, lat0: float
-) -> tuple[list[float], list[float], list[float], list[float]]:
     """(D per station (m), N_calc per pattern (lanes), ∂N/∂x and ∂N/∂y per pattern (lanes/m))
     at grid point (x, y) of geodetic latitude ``lat0`` (degrees); stations master, red, green,
     purple, patterns red, green, purple.
@@ -275,29 +252,8 @@ def _azimuths_rad(
 
 
 def _lef(az: list[float]) -> list[float]:
-    """Lane expansion factor 1/sin(γ/2) per pattern, γ the angle master–ship–slave (eq. 4.12);
-    :func:`_lef_py`, compiled where the kernel is."""
-    if _K is not None:
-        r = _K.lef(az)
-        if r is not NotImplemented:
-            return r  # type: ignore[no-any-return]
-    return _lef_py(az)
-
-
-def _geodesic_kernel(geodesic: GeodesicSolver) -> Any:
-    """The solver's compiled geodesic (:meth:`GeodesicSolver.native`) while the lane kernel is
-    in use, else None (a solver without one: the Python path)."""
-    if _K is None:
-        return None
-    g = getattr(geodesic, "_native", None)
-    if g is None or type(g) is _KGeodesic:
-        return g
-    native_of = getattr(geodesic, "native", None)  # not resolved yet (or not a solver)
-    return None if native_of is None else native_of()
-
-
-def _lef_py(az: list[float]) -> list[float]:
-    """:func:`_lef` in Python (the pure path)."""
+    """Lane expansion factor 1/sin(γ/2) per pattern, γ the angle master–ship–slave
+    (eq. 4.12)."""
     out = []
     az0 = az[0]
     for s in (1, 2, 3):
@@ -309,30 +265,6 @@ def _lef_py(az: list[float]) -> list[float]:
 
 
 def decca_geometry(
-    placed: ChainOnGrid,
-    x_m: float,
-    y_m: float,
-    geodesic: GeodesicSolver,
-    latlon_deg: tuple[float, float] | None = None,
-) -> DeccaGeometry:
-    """:func:`_decca_geometry_py` (lane counts, partials, LEF and LOP azimuths at grid point
-    (x, y), eq. 4.9, A5.9–12), its numbers computed in one compiled call where the kernel is."""
-    kg = getattr(geodesic, "_native", None)
-    if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
-        kg = _geodesic_kernel(geodesic)
-    if kg is not None:
-        lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
-        # DeccaGeometry(d_master_m, az_master_rad, d_slave_m, az_slave_rad, baseline_m, lef,
-        # metres_per_lane, lop_azimuth_rad, n_calc, row) made in the kernel's one call, its
-        # arrays filled with the numbers of the Python's block
-        r = _K.geometry_new(placed._scalars, kg, x_m, y_m, lat0, lon0, _new_geometry,
-                            placed.baseline_m)
-        if r is not NotImplemented:
-            return r  # type: ignore[no-any-return]
-    return _decca_geometry_py(placed, x_m, y_m, geodesic, latlon_deg)
-
-
-def _decca_geometry_py(
     placed: ChainOnGrid,
     x_m: float,
     y_m: float,
@@ -581,35 +513,9 @@ class ZoneLaneResolver:
         return self.resolve(i, zone_lane, fraction)
 
 
-_UNSET: Any = object()
-_SIGMA: Any = _UNSET
-"""The kernel's ``lane_sigma`` with numpy's dgemv/ddot bound (resolved on first use), or None."""
-
-
-def _sigma_kernel() -> Any:
-    """The kernel's ``lane_sigma`` (resolved once), or None (no kernel)."""
-    global _SIGMA
-    k = None if _K is None else _K.lane_sigma
-    _SIGMA = k
-    return k
-
-
 def lane_sigma(row: np.ndarray, cov: np.ndarray) -> float:
     """1σ (lanes) along a lane gradient ``row`` (lanes/m, ∂N/∂(x, y)) of a position whose 2×2
-    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ). :func:`_lane_sigma_py`, through numpy's
-    matmul routines from C where the kernel is (float64 contiguous arrays)."""
-    k = _SIGMA
-    if k is _UNSET:
-        k = _sigma_kernel()
-    if k is not None and _K is not None:
-        r = k(row, cov)
-        if r is not NotImplemented:
-            return r  # type: ignore[no-any-return]
-    return _lane_sigma_py(row, cov)
-
-
-def _lane_sigma_py(row: np.ndarray, cov: np.ndarray) -> float:
-    """:func:`lane_sigma` through numpy (the pure path)."""
+    VCV is ``cov`` (m², grid x/y): √(row·C·rowᵀ)."""
     r = np.asarray(row, dtype=float)
     return math.sqrt(max(float(r @ np.asarray(cov, dtype=float) @ r), 0.0))
 
@@ -636,29 +542,6 @@ class _LaneAt:
         self.cache: dict[str, tuple[list[float], np.ndarray] | None] = {}
 
     def _lanes(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
-        """:meth:`_lanes_py`, the lane model in one compiled call where the kernel is (which
-        skips the LEF's four geodesics where the grid geometry shows the LEF cannot raise:
-        ``_lef_certain`` in ``engine/native/decca.c``; the numbers returned are the same)."""
-        kg = getattr(self.geodesic, "_native", None)
-        if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
-            kg = _geodesic_kernel(self.geodesic)
-        if kg is None:
-            return self._lanes_py(src)
-        placed = self.placed
-        try:
-            lat0, lon0 = placed.grid.inverse(src.x_m, src.y_m)
-            r = _K.lanes(placed._scalars, kg, src.x_m, src.y_m, lat0, lon0)
-        except (ValueError, ArithmeticError):
-            return None
-        if r is NotImplemented:
-            return self._lanes_py(src)
-        n_calc, rows = r
-        isfinite = math.isfinite
-        if not (isfinite(n_calc[0]) and isfinite(n_calc[1]) and isfinite(n_calc[2])):
-            return None
-        return n_calc, np.array(rows)
-
-    def _lanes_py(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
         """(N_calc per pattern, 3×2 gradients) at ``src``: :func:`decca_geometry`'s numbers
         without its page data (None where it raises or N_calc is not finite)."""
         placed = self.placed
@@ -733,24 +616,6 @@ def _identify_after_gap(at: _LaneAt, i: int, frac: float, sources: Sequence[Lane
     return None, False
 
 
-def _gps_lane_check(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSource,
-                    notes: list[str]) -> tuple[float, int]:
-    """:func:`_gps_lane_check_py`, its numbers (σ along the gradient, the lane, the slip) in
-    one compiled call where the kernel is."""
-    if _K is not None and _SIGMA is not None:
-        g = at.lanes_at(gps)
-        if g is None:
-            return total, 0
-        r = _K.lane_check(g[0][i], g[1][i], gps.cov, frac, total, LANE_SIGMA_MAX)
-        if r is not NotImplemented:
-            expected, slip = r
-            if slip == 0:
-                return total, 0
-            notes.append(_slip_note(i, slip, total, expected))
-            return expected, 1
-    return _gps_lane_check_py(at, i, frac, total, gps, notes)
-
-
 def _slip_note(i: int, slip: int, total: float, expected: float) -> str:
     """The operator note of a lane slip of pattern ``i`` corrected from GPS."""
     return (f"Decca {PATTERNS[i]}: lane slip of {slip:+d} lane"
@@ -758,7 +623,7 @@ def _slip_note(i: int, slip: int, total: float, expected: float) -> str:
             f"({total:.2f} → {expected:.2f})")
 
 
-def _gps_lane_check_py(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSource,
+def _gps_lane_check(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSource,
                        notes: list[str]) -> tuple[float, int]:
     """``total`` checked against GPS's lane when GPS settles it: (total, 1) corrected to GPS's
     lane with a note for a slip of a whole lane or more, else (total, 0)."""
@@ -808,7 +673,6 @@ def decca_totals(
     # of the two datetimes).
     last_time: datetime | None = None
     last_s = 0.0
-    gps_lanes: Any = _UNSET
     for i in range(3):
         frac = fractions[i]
         if frac is None:
@@ -840,64 +704,12 @@ def decca_totals(
             if lanes.warning is not None:  # more than half a zone from N_calc (THEORY D7)
                 notes.append(lanes.warning)
         if gps is not None and not checked:
-            # _gps_lane_check(at, i, frac, total, gps, notes), its kernel path written out
-            # with GPS's lanes looked up once (_LaneAt caches them per source anyway).
-            if _K is not None and _SIGMA is not None:
-                if gps_lanes is _UNSET:
-                    gps_lanes = at.lanes_at(gps)
-                if gps_lanes is None:
-                    r = None
-                else:
-                    r = _K.lane_check(gps_lanes[0][i], gps_lanes[1][i], gps.cov, frac, total,
-                                      LANE_SIGMA_MAX)
-                    if r is not NotImplemented and r[1] != 0:
-                        expected, slip = r
-                        notes.append(_slip_note(i, slip, total, expected))
-                        total = expected
-                        slips += 1
-                if r is NotImplemented:
-                    total, slipped = _gps_lane_check_py(at, i, frac, total, gps, notes)
-                    slips += slipped
-            else:
-                total, slipped = _gps_lane_check_py(at, i, frac, total, gps, notes)
-                slips += slipped
+            total, slipped = _gps_lane_check(at, i, frac, total, gps, notes)
+            slips += slipped
         totals[i] = total
         new_track[i] = (total, time)
-    # LaneTotals(...) positionally (_new_totals: its slots set in one compiled call)
-    return _new_totals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes),
+    return LaneTotals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes),
                        slips)
-
-
-def _tracked_totals(placed: ChainOnGrid, geodesic: GeodesicSolver,
-                    track: Sequence[tuple[float, datetime] | None],
-                    fractions: Sequence[float | None], time: datetime,
-                    gps: Any) -> LaneTotals | None:
-    """:func:`decca_totals` in one compiled call (``tracked`` in ``engine/native/decca.c``)
-    for the usual record: every pattern read is tracked (its last total within
-    :data:`DECCA_TRACK_GAP_S`) and GPS (the :class:`engine.systems.gps.GpsFix` ``gps``, its
-    corrections added, VCV ``_EYE2 * var_m2``; None: no GPS) finds no lane slip. None for
-    anything else (a first reading, a gap, a slip, no kernel): then the caller runs
-    :func:`decca_totals`, which gives the same :class:`LaneTotals` here (the tests compare)."""
-    kg = getattr(geodesic, "_native", None)
-    if type(kg) is not _KGeodesic:
-        kg = _geodesic_kernel(geodesic)
-        if kg is None:
-            return None
-    tm = _tmgrid._K
-    packed = placed.grid._packed
-    sigma = _SIGMA
-    if sigma is _UNSET:
-        sigma = _sigma_kernel()
-    if tm is None or packed is None or sigma is None or _K is None:
-        return None
-    if gps is None:
-        r = _K.tracked(placed._scalars, kg, tm.inverse, packed, track, fractions, time, None,
-                       None, None, DECCA_TRACK_GAP_S, LANE_SIGMA_MAX, LaneTotals)
-    else:
-        r = _K.tracked(placed._scalars, kg, tm.inverse, packed, track, fractions, time,
-                       gps.x_m + gps.corr_east_m, gps.y_m + gps.corr_north_m, gps.var_m2,
-                       DECCA_TRACK_GAP_S, LANE_SIGMA_MAX, LaneTotals)
-    return None if r is NotImplemented else r  # type: ignore[no-any-return]
 
 
 # --------------------------------------------------------------------------------------------
@@ -949,38 +761,6 @@ class DeccaObservations:
 
     def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
                   Cl: np.ndarray) -> None:
-        """:meth:`_linearise_py` in one compiled call where the kernel is (and the model's own
-        :func:`decca_vcv_m2` is in place)."""
-        kg = getattr(p.geodesic, "_native", None)
-        if type(kg) is not _KGeodesic or _K is None:  # else what _geodesic_kernel returns
-            kg = _geodesic_kernel(p.geodesic)
-        if kg is not None and decca_vcv_m2 is _DECCA_VCV_M2:
-            placed = self.reading.placed
-            grid = placed.grid
-            tm = _tmgrid._K
-            if tm is not None and grid._packed is not None:
-                # p.latlon (the tmgrid kernel's inverse, set on p) and the rows in one call
-                r = _K.linearise_at(placed._scalars, kg, tm.inverse, grid._packed, grid, p,
-                                    self.observed, slot0, A, b, Cl, self.reading.cf)
-                if r is None:
-                    return
-                if r is not NotImplemented:  # Cl is not a float64 buffer: numpy assigns it
-                    s = slice(slot0, slot0 + len(PATTERNS))
-                    Cl[s, s] = r
-                    return
-            lat0, lon0 = p.latlon if p.grid is grid else grid.inverse(p.x, p.y)
-            r = _K.linearise(placed._scalars, kg, p.x, p.y, lat0, lon0, self.observed, slot0,
-                             A, b, Cl, self.reading.cf)
-            if r is None:
-                return
-            if r is not NotImplemented:  # Cl is not a float64 buffer: numpy assigns the block
-                s = slice(slot0, slot0 + len(PATTERNS))
-                Cl[s, s] = r
-                return
-        self._linearise_py(p, slot0, A, b, Cl)
-
-    def _linearise_py(self, p: Point, slot0: int, A: list[float], b: list[float],
-                      Cl: np.ndarray) -> None:
         """:func:`decca_geometry`'s rows at ``p`` without its page data: lane model, LEF and
         the VCV as Python floats (the same operations; ``p.latlon`` where ``p`` is on the
         chain's grid, as :meth:`geometry_at`)."""
@@ -1015,43 +795,20 @@ class DeccaObservations:
         return self._at[1]
 
     def readings(self, p: Point) -> list[LopReading]:
-        """The page rows of the patterns read (:meth:`_readings_py`; the list made in one
-        compiled call, ``page`` in engine/native/decca.c, where the kernel is)."""
-        at = self._at  # self.geometry_at(p), its computed case looked up here
-        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
-        page = _PAGE
-        if page is not None:
-            rows = page(geom.n_calc, geom.lop_azimuth_rad, self.raw,
-                        self.reading.corrections_lanes, DECCA_PATTERN_NAMES, "Decca", _new_lop)
-            if rows is not NotImplemented:
-                return rows  # type: ignore[no-any-return]
-        return self._readings_py(geom)
-
-    def _readings_py(self, geom: DeccaGeometry) -> list[LopReading]:
-        """:meth:`readings` at the geometry ``geom`` of its point, in Python."""
+        """The page rows of the patterns read: read and computed lane counts, the LOP's
+        azimuth in degrees."""
+        geom = self.geometry_at(p)
         n_calc = geom.n_calc.tolist()
         lop_az = geom.lop_azimuth_rad.tolist()
         corrections = self.reading.corrections_lanes
-        new_lop = _new_lop  # LopReading(...) positionally
-        return [new_lop(i, "Decca", DECCA_PATTERN_NAMES[i], raw, corrections[i], n_calc[i],
-                        math.degrees(lop_az[i]))
+        return [LopReading(i, "Decca", DECCA_PATTERN_NAMES[i], raw, corrections[i], n_calc[i],
+                           math.degrees(lop_az[i]))
                 for i, raw in enumerate(self.raw) if raw is not None]
 
     def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
-        """A used pattern's hyperbola has the master and its slave as foci (:meth:`_nearest_py`;
-        in one compiled call, ``nearest`` in engine/native/decca.c, where the kernel is)."""
-        at = self._at  # self.geometry_at(p), its computed case looked up here
-        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
-        nearest = _NEAREST
-        if nearest is not None:
-            near = nearest(geom.d_master_m, geom.d_slave_m, used)
-            if near is not NotImplemented:
-                return near  # type: ignore[no-any-return]
-        return self._nearest_py(geom, used)
-
-    @staticmethod
-    def _nearest_py(geom: DeccaGeometry, used: Sequence[bool]) -> float:
-        """:meth:`nearest_station_m` at the geometry ``geom`` of its point, in Python."""
+        """The nearest station of a used pattern (its hyperbola has the master and its slave
+        as foci), metres."""
+        geom = self.geometry_at(p)
         d_slave = geom.d_slave_m.tolist()
         near = math.inf
         for i in range(len(PATTERNS)):
@@ -1068,6 +825,8 @@ class DeccaSystem:
     letter = "D"
     column: int | None = 4
     slot_labels = DECCA_PATTERN_NAMES
+    observations_class: type[DeccaObservations] = DeccaObservations
+    """What :meth:`observations` makes of a reading."""
 
     def is_on(self, config: Any) -> bool:
         return bool(config.decca.on)
@@ -1088,21 +847,9 @@ class DeccaSystem:
         placed = pl[cm] if cm in pl else ctx.placed_chain(cm)
         if placed is None:
             return SystemReading(messages=(f"Decca chain {cfg.decca.chain} not in the chain file",))
-        x_start, prior = inputs.x_start, inputs.prior
         gps_reading = inputs.earlier.get("gps")
         g = None if gps_reading is None else gps_reading.value
-        lanes = None if _K is None else _tracked_totals(placed, ctx.geodesic,
-                                                         inputs.nav.decca_track, rec.decca,
-                                                         rec.time, g)
-        if lanes is None:
-            new_source = _new_source
-            lanes = decca_totals(
-                placed, ctx.geodesic, ctx.zone_lane, inputs.nav.decca_track, rec.decca,
-                rec.time, x_start,
-                None if prior is None else new_source("the DR position", *x_start, prior.cov),
-                None if g is None else new_source("GPS", g.x_m + g.corr_east_m,
-                                                  g.y_m + g.corr_north_m,
-                                                  self._gps_cov(g.var_m2)))
+        lanes = self.lane_totals(inputs, placed, g)
         per = self._per_config
         if per is None or per[0] is not cfg:
             select = cfg.decca.select
@@ -1111,9 +858,23 @@ class DeccaSystem:
                 cfg, (PATTERNS[0] in select, PATTERNS[1] in select, PATTERNS[2] in select),
                 (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes))
         totals = lanes.totals
-        reading = _new_reading(placed, rec.decca, ctx.zone_lane, per[1], per[2],
+        reading = DeccaReading(placed, rec.decca, ctx.zone_lane, per[1], per[2],
                                cfg.lsq.decca_cf, totals)
-        return new_reading(reading, lanes.notes, lanes, totals != (None, None, None))
+        return SystemReading(reading, lanes.notes, lanes, totals != (None, None, None))
+
+    def lane_totals(self, inputs: CycleInputs, placed: ChainOnGrid, gps: Any) -> LaneTotals:
+        """The record's lane counts tracked from the last cycle's (:func:`decca_totals`),
+        checked against ``gps`` (the cycle's :class:`engine.systems.gps.GpsFix`, None: no GPS)
+        and, after a gap, against the filter's prediction."""
+        ctx, rec = inputs.context, inputs.record
+        x_start, prior = inputs.x_start, inputs.prior
+        return decca_totals(
+            placed, ctx.geodesic, ctx.zone_lane, inputs.nav.decca_track, rec.decca, rec.time,
+            x_start,
+            None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
+            None if gps is None else LaneSource("GPS", gps.x_m + gps.corr_east_m,
+                                                gps.y_m + gps.corr_north_m,
+                                                self._gps_cov(gps.var_m2)))
 
     _per_config: tuple[Any, tuple[bool, bool, bool], tuple[float, float, float]] | None = None
     """(configuration, selected patterns, corrections "C-O" in lanes) of the last configuration
@@ -1139,12 +900,6 @@ class DeccaSystem:
             return None
         totals = value.totals
         if totals is not None:
-            observed_of = _OBSERVED
-            if observed_of is not None:  # the loop below in one compiled call (same lists)
-                lists = observed_of(totals, value.fractions, value.corrections_lanes,
-                                    value.selected, math.nan)
-                if lists is not NotImplemented:
-                    return DeccaObservations(value, *lists, [])
             # the loop below for tracked totals, without its resolver and messages
             fr = value.fractions
             corr = value.corrections_lanes
@@ -1158,7 +913,7 @@ class DeccaSystem:
                     r = t_raw[i] = float(t)
                     t_obs[i] = r + corr[i]
                     t_av[i] = sel[i]
-            return DeccaObservations(value, t_obs, t_raw, t_av, [])
+            return self.observations_class(value, t_obs, t_raw, t_av, [])
         observed = [math.nan] * 3
         raw: list[float | None] = [None, None, None]
         available = [False] * 3
@@ -1185,30 +940,11 @@ class DeccaSystem:
             raw[i] = total
             observed[i] = total + value.corrections_lanes[i]
             available[i] = value.selected[i]
-        return DeccaObservations(value, observed, raw, available, messages)
+        return self.observations_class(value, observed, raw, available, messages)
 
     def row_name(self, index: int, value: Any) -> str | None:
         """``Decca Red``/``Grn``/``Prp``."""
         return f"Decca {DECCA_PATTERN_NAMES[index]}"
 
-
-_new_source = slots_maker(LaneSource)
-_new_reading = slots_maker(DeccaReading)
-_new_geometry = slots_maker(DeccaGeometry)
-_new_lop = slots_maker(LopReading)
-_new_totals = slots_maker(LaneTotals)
-_OBSERVED: Any = getattr(_K, "observed", None)
-"""``engine/native/decca.c``'s ``observed``: :meth:`DeccaSystem.observations`' lists of
-tracked totals in one call (None: the kernel not in use; NotImplemented for what it does not
-read: the Python loop runs)."""
-_PAGE: Any = getattr(_K, "page", None)
-_NEAREST: Any = getattr(_K, "nearest", None)
-"""``engine/native/decca.c``'s ``page`` and ``nearest``: :meth:`DeccaObservations.readings`
-and :meth:`DeccaObservations.nearest_station_m` after the geometry, each in one call (None:
-the kernel not in use; NotImplemented for arrays or sequences they do not read: the Python
-runs)."""
-""":class:`LaneSource`, :class:`DeccaReading`, :class:`DeccaGeometry`,
-:class:`engine.systems.base.LopReading` and :class:`LaneTotals` from every field,
-positionally."""
 
 DECCA = DeccaSystem()

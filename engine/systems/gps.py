@@ -18,8 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from engine import native
-from engine.geodesy import tmgrid as _tmgrid
 from engine.geodesy.ellipsoid import WGS84
 from engine.io.runfile import RunRecord
 from engine.systems.base import (
@@ -28,9 +26,7 @@ from engine.systems.base import (
     Point,
     PositionPrior,
     SystemReading,
-    new_reading,
     set_row,
-    slots_maker,
 )
 
 GPS_VAR_CA_M2 = 2500.0
@@ -125,11 +121,6 @@ class GpsInput:
     """The σ of its coordinates and where it came from (None only for a hand-built input)."""
 
 
-_new_input = slots_maker(GpsInput)
-_new_fix = slots_maker(GpsFix)
-_new_lop = slots_maker(LopReading)
-
-
 GRID_MAX_DLON_DEG = 6.0
 """Farthest a GPS position may lie from the cycle's central meridian (degrees of longitude) to
 be taken into the fix. The grid follows the MPP to the whole degree (THEORY §2.3), so a real
@@ -147,55 +138,7 @@ remainder = math.remainder
 
 def gps_input(inputs: CycleInputs) -> GpsInput | None:
     """The record's GPS position on WGS84, the working datum and the grid (None: GPS off or no
-    position in the record): :func:`_gps_input_py`, its datum shifts, ECEF, grid position and
-    record made in one compiled call where the grid's kernel is (``gps_input`` in
-    ``engine/native/tmgrid.c``; the same operations, so the same floats)."""
-    ctx, rec = inputs.context, inputs.record
-    if not inputs.config.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
-        return None
-    k = _tmgrid._K
-    if k is not None:
-        shift, to_wgs = ctx.gps_shift, ctx.gps_to_wgs84
-        sa = _shift_args
-        if sa is None or sa[0] is not shift or sa[1] is not to_wgs:
-            sa = _kernel_shifts(shift, to_wgs)
-        if sa[2]:
-            # gps_weight(config, rec), its 1993 record's weight looked up here
-            config = inputs.config
-            pc = _per_config
-            if (pc is not None and pc.config is config and rec.gps_hdop is None
-                    and rec.gps_sats is None and rec.gps_quality is None):
-                weight = pc.fixed_weight
-            else:
-                weight = gps_weight(config, rec)
-            out = k.gps_input(getattr(inputs.grid, "_packed", None), sa[3], sa[4], sa[5],
-                              rec.gps_lat_deg, rec.gps_lon_deg, _WGS84_A, _WGS84_E2,
-                              _new_input, weight)
-            if out is not None:
-                return out  # type: ignore[no-any-return]
-    return _gps_input_py(inputs)
-
-
-_shift_args: tuple[Any, Any, bool, Any, Any, Any] | None = None
-"""(datum shift, shift to WGS84, the kernel may run, their point calls, the direction) of the
-last shifts seen (:func:`_kernel_shifts`; a run has one pair)."""
-
-
-def _kernel_shifts(shift: Any, to_wgs: Any) -> tuple[Any, Any, bool, Any, Any, Any]:
-    """What the kernel's gps_input needs of the run's datum shifts (``None``: no shift): each
-    one's point call (:meth:`DatumShift.transform` calls it; without it that takes the public
-    call, and so does the Python here) and its direction, remembered in :data:`_shift_args`."""
-    global _shift_args
-    s_point = None if shift is None else getattr(shift, "_point", None)
-    w_point = None if to_wgs is None else getattr(to_wgs, "_point", None)
-    ok = (shift is None or s_point is not None) and (to_wgs is None or w_point is not None)
-    direction = getattr(shift if shift is not None else to_wgs, "_forward", None)
-    sa = _shift_args = (shift, to_wgs, ok, s_point, w_point, direction)
-    return sa
-
-
-def _gps_input_py(inputs: CycleInputs) -> GpsInput | None:
-    """:func:`gps_input` in Python (the pure path, and where the kernel declines)."""
+    position in the record)."""
     ctx, rec = inputs.context, inputs.record
     if not inputs.config.gps.on or rec.gps_lat_deg is None or rec.gps_lon_deg is None:
         return None
@@ -219,8 +162,8 @@ def _gps_input_py(inputs: CycleInputs) -> GpsInput | None:
     r = (nu + hg) * cphi
     ecef = (r * cos(lam), r * sin(lam), (nu * (1.0 - _WGS84_E2) + hg) * sphi)
     x, y = inputs.grid.forward(lat, lon)
-    return _new_input(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y,
-                      gps_weight(inputs.config, rec))
+    return GpsInput(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y,
+                    gps_weight(inputs.config, rec))
 
 
 def gps_variance_m2(config: Any) -> float:
@@ -279,34 +222,20 @@ def gps_weight(config: Any, record: RunRecord) -> GpsWeight:
                      se_sf=config.lsq.gps_se_sf, receiver=g.receiver)
 
 
-_ROWS: Any = getattr(native.kernel("decca"), "gps_rows", None)
-"""``engine/native/decca.c``'s ``gps_rows``: :meth:`_GpsObservations.linearise` in one call
-(None: not built, stale, ``UVNAV_PURE=1``; it returns NotImplemented for a C_l it does not
-write, then the Python runs)."""
-
-
 class _GpsObservations:
     """The two coordinate rows of a GPS fix (thesis ch. 5, table 5.1 category I)."""
 
     messages: tuple[str, ...] = ()
-    __slots__ = ("_north_east", "gps")
+    __slots__ = ("gps",)
 
     def __init__(self, gps: GpsFix) -> None:
         self.gps = gps
-        self._north_east = (gps.y_m + gps.corr_north_m, gps.x_m + gps.corr_east_m)
-        """The corrected grid position (northing, easting; m), the minuends of O − C."""
 
     def available(self) -> list[bool]:
         return [True, True]
 
     def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
                   Cl: np.ndarray) -> None:
-        k = _ROWS
-        if k is not None:
-            # the rows below in one compiled call (the same floats; None: written)
-            north, east = self._north_east
-            if k(A, b, Cl, slot0, north, east, p.x, p.y, self.gps.var_m2) is None:
-                return
         g = self.gps
         lat, lon = slot0 + ROW_LAT, slot0 + ROW_LON
         # set_row(A, lat, 0.0, 1.0) and set_row(A, lon, 1.0, 0.0), written out
@@ -362,8 +291,8 @@ def _position_rows(system: str, lat: float, lon: float, corr_n: float, corr_e: f
                    p: Point) -> list[LopReading]:
     """The "Lat"/"Lon" page rows: read and computed in degrees, corrections in metres."""
     lat_hat, lon_hat = p.latlon
-    return [_new_lop(ROW_LAT, system, "Lat", lat, corr_n, lat_hat, 90.0),
-            _new_lop(ROW_LON, system, "Lon", lon, corr_e, lon_hat, 180.0)]
+    return [LopReading(ROW_LAT, system, "Lat", lat, corr_n, lat_hat, 90.0),
+            LopReading(ROW_LON, system, "Lon", lon, corr_e, lon_hat, 180.0)]
 
 
 class GpsSystem:
@@ -373,6 +302,8 @@ class GpsSystem:
     letter = "G"
     column: int | None = 0
     slot_labels = ("Lat", "Lon")
+    observations_class: type[_GpsObservations] = _GpsObservations
+    """What :meth:`observations` makes of a fix."""
 
     def is_on(self, config: Any) -> bool:
         return bool(config.gps.on)
@@ -383,7 +314,7 @@ class GpsSystem:
 
     def read(self, inputs: CycleInputs) -> SystemReading:
         """The record's GPS position as a :class:`GpsFix` (``detail``: the :class:`GpsInput`)."""
-        gps = gps_input(inputs)
+        gps = self.gps_input(inputs)
         if gps is None:
             return SystemReading()
         wr = remainder(gps.lon_deg - inputs.cm_deg, 360.0)  # wrap_180_deg, written out
@@ -402,12 +333,16 @@ class GpsSystem:
                    else _of_config(inputs.config)).variance_m2
         else:
             var = w.sigma_m**2
-        fix = _new_fix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
-                       c.gps_east_m, w)
-        return new_reading(fix, (), gps, True)
+        fix = GpsFix(gps.lat_deg, gps.lon_deg, gps.x_m, gps.y_m, var, c.gps_north_m,
+                     c.gps_east_m, w)
+        return SystemReading(fix, (), gps, True)
+
+    def gps_input(self, inputs: CycleInputs) -> GpsInput | None:
+        """The record's GPS position (:func:`gps_input`)."""
+        return gps_input(inputs)
 
     def observations(self, value: GpsFix | None, p0: Point) -> _GpsObservations | None:
-        return None if value is None else _GpsObservations(value)
+        return None if value is None else self.observations_class(value)
 
     def row_name(self, index: int, value: Any) -> str | None:
         """``GPS Lat``/``GPS Lon``; ``value`` is the label ("KF" when the prediction stands in)."""

@@ -26,7 +26,6 @@ from engine.systems.base import (
     Point,
     SystemReading,
     lop_azimuth_deg,
-    new_reading,
     set_row,
 )
 
@@ -140,7 +139,7 @@ class ManualSystem:
         obs = tuple(inputs.nav.pending_obs)
         if not obs:
             return _NOTHING  # the usual cycle: the one (immutable) reading of nothing
-        return new_reading(obs, (), None, True)
+        return SystemReading(obs, (), None, True)
 
     def observations(self, value: Sequence[ManualObservation] | None,
                      p0: Point) -> _ManualObservations | None:

@@ -29,10 +29,10 @@ def _layout(systems: tuple[NavSystem, ...]) -> dict[str, range]:
     return slots
 
 
-def layout() -> dict[str, range]:
-    """The slots of each system in the observation vector, by system name (of the registry as
-    it is now: a test may register a system of its own)."""
-    return _layout(SYSTEMS)
+def layout(systems: tuple[NavSystem, ...] | None = None) -> dict[str, range]:
+    """The slots of each system in the observation vector, by system name (of ``systems``, by
+    default the registry as it is now: a test may register a system of its own)."""
+    return _layout(SYSTEMS if systems is None else systems)
 
 
 def slots_of(name: str) -> range:

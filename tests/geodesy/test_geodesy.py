@@ -212,19 +212,21 @@ def test_point_call_is_pyprojs_bit_for_bit(src: Datum, dst: Datum) -> None:
 _NO_PYPROJ = """
 import sys
 from engine.geodesy.ellipsoid import WGS84, Datum, Ellipsoid
-from engine.geodesy.ellipsoidal import GeodesicSolver, datum_shift
+from engine.run.parts import choose
+parts = choose()
 ed50 = Datum("ED50", Ellipsoid("INTERNATIONAL", 6378388.0, 297.0), -87.0, -98.0, -121.0)
-s = GeodesicSolver(ed50.ellipsoid)
+s = parts.geodesic(ed50.ellipsoid)
 s.native()
 s.forward_azimuths_rad(52.0, 4.0, [(53.0, 5.0)])
-datum_shift(WGS84, ed50).transform(52.0, 4.0, 0.0)
+parts.datum_shift(WGS84, ed50).transform(52.0, 4.0, 0.0)
 print("pyproj" in sys.modules, s.native() is not None)
 """
 
 
 def test_a_run_does_not_import_pyproj() -> None:
-    """A run's shifts and compiled geodesic reach PROJ without importing pyproj (~0.1 s of
-    start-up); pyproj's own calls (inverse, arrays, the pure path) import it on first use."""
+    """A run's shifts and compiled geodesic (the parts a run chooses) reach PROJ without
+    importing pyproj (~0.1 s of start-up); pyproj's own calls (inverse, arrays, the reference
+    geodesic) import it on first use."""
     out = subprocess.run([sys.executable, "-c", _NO_PYPROJ], cwd=ROOT, capture_output=True,
                          text=True, check=True,
                          env={k: v for k, v in os.environ.items() if k != "UVNAV_PURE"})

@@ -1,13 +1,13 @@
 """The compiled datum shift (engine/native/datum.c) agrees with libproj's (the reference).
 
-``DatumShift._point`` is ``engine.native.datum.Shift`` where the kernel is built: the textbook
-formulas for :func:`helmert_pipeline`'s steps, handing what it does not cover to the PROJ
-call it was made with (``_ProjPoint.point``, ``DatumShift._proj``). Every comparison here is
-to the tolerance contract (tests.tolerance: 1e-9 relative, or 1e-9° and 1e-6 m), against
-``_ProjPoint.point`` and pyproj's
-``Transformer`` of the same pipeline: on the points a short demo replay shifts, for every datum
-pair of data/TO_WGS84.DAT (and WGS84) over the whole globe (poles, ±180°, heights ±10 km,
-hypothesis and a fixed sweep), and on the edges where PROJ clamps, wraps or fails.
+``FastDatumShift._point`` (engine.fast) is ``engine.native.datum.Shift`` where the kernel is
+built: the textbook formulas for :func:`helmert_pipeline`'s steps, handing what it does not
+cover to the PROJ call it was made with (``_ProjPoint.point``, ``DatumShift._proj``). Every
+comparison here is to the tolerance contract (tests.tolerance: 1e-9 relative, or 1e-9° and
+1e-6 m), against ``_ProjPoint.point`` and pyproj's ``Transformer`` of the same pipeline: on the
+points a short demo replay shifts, for every datum pair of data/TO_WGS84.DAT (and WGS84) over
+the whole globe (poles, ±180°, heights ±10 km, hypothesis and a fixed sweep), and on the edges
+where PROJ clamps, wraps or fails.
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ from hypothesis import strategies as st
 
 import engine.geodesy.ellipsoidal as ellipsoidal
 from engine import native
+from engine.fast import geodesy as fast_geodesy
+from engine.fast.geodesy import FastDatumShift
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.ellipsoidal import PJ_FWD, DatumShift
 from engine.io.datumfile import read_datum_file
@@ -48,7 +50,7 @@ def _same_steps(a: Any, b: Any) -> bool:
 
 
 PAIRS = [(s, d) for s in DATUMS for d in DATUMS if s != d]
-SHIFTS = {pair: DatumShift(DATUMS[pair[0]], DATUMS[pair[1]]) for pair in PAIRS}
+SHIFTS = {pair: FastDatumShift(DATUMS[pair[0]], DATUMS[pair[1]]) for pair in PAIRS}
 COMPILED = [pair for pair in PAIRS if not _same_steps(DATUMS[pair[0]], DATUMS[pair[1]])]
 
 
@@ -91,17 +93,15 @@ def test_every_pair_the_engine_builds_is_compiled() -> None:
 
 @needs_proj
 def test_pure_path(monkeypatch: pytest.MonkeyPatch) -> None:
-    """UVNAV_PURE=1, or no kernel: the PROJ call itself."""
+    """The reference, or no kernel: the PROJ call itself."""
     src, dst = _FILE.datum("ED50"), WGS84
-    compiled = DatumShift(dst, src)
-    monkeypatch.setenv(native.PURE_ENV, "1")
+    compiled = FastDatumShift(dst, src)
     pure = DatumShift(dst, src)
     assert pure._point == pure._proj.point
-    monkeypatch.delenv(native.PURE_ENV)
-    monkeypatch.setattr(native, "kernel", lambda name: None)
-    missing = DatumShift(dst, src)
+    monkeypatch.setattr(fast_geodesy, "DATUM", None)
+    missing = FastDatumShift(dst, src)
     assert missing._point == missing._proj.point
-    for q in ellipsoidal._SHIFT_PROBES + ((52.1234, 3.4567, 0.0), (-0.0, -0.0, -0.0)):
+    for q in fast_geodesy.SHIFT_PROBES + ((52.1234, 3.4567, 0.0), (-0.0, -0.0, -0.0)):
         assert _point(pure, *q) == _point(missing, *q) == _point(compiled, *q)
         assert _bits(pure.transform(*q)) == _bits(compiled.transform(*q))
 
@@ -111,7 +111,7 @@ def test_pure_path(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_a_probe_mismatch_keeps_proj(monkeypatch: pytest.MonkeyPatch) -> None:
     """A kernel that does not agree with libproj on the probe points (here: one 2e-6 m off in
     height) is not used; one that declines a probe point (NaN) still is."""
-    real = native.kernel("datum")
+    real = fast_geodesy.DATUM
 
     class Off:
         def __init__(self, *args: Any) -> None:
@@ -121,11 +121,11 @@ def test_a_probe_mismatch_keeps_proj(monkeypatch: pytest.MonkeyPatch) -> None:
             got = self.shift.forward(*q)
             return None if got is None else (got[0], got[1], got[2] + 2e-6)
 
-    monkeypatch.setattr(ellipsoidal, "_SHIFT_PROBES", ((52.0, 3.0, 0.0), (math.nan, 0.0, 0.0)))
-    shift = DatumShift(WGS84, _FILE.datum("ED50"))
+    monkeypatch.setattr(fast_geodesy, "SHIFT_PROBES", ((52.0, 3.0, 0.0), (math.nan, 0.0, 0.0)))
+    shift = FastDatumShift(WGS84, _FILE.datum("ED50"))
     assert type(shift._point) is real.Shift
-    monkeypatch.setattr(native, "kernel", lambda name: type("M", (), {"Shift": Off}))
-    shift = DatumShift(WGS84, _FILE.datum("ED50"))
+    monkeypatch.setattr(fast_geodesy, "DATUM", type("M", (), {"Shift": Off}))
+    shift = FastDatumShift(WGS84, _FILE.datum("ED50"))
     assert shift._point == shift._proj.point
 
 
@@ -135,7 +135,7 @@ def replayed() -> list[tuple[DatumShift, Any, tuple[Any, ...]]]:
     """(shift, its point call, the call's arguments) of every datum shift of the first 150 demo
     epochs (the tmgrid kernel's gps_input and the Python both call ``DatumShift._point``)."""
     seen: list[tuple[DatumShift, Any, tuple[Any, ...]]] = []
-    real_init = DatumShift.__init__
+    real_init = FastDatumShift.__init__
 
     def init(self: DatumShift, src: Any, dst: Any) -> None:
         real_init(self, src, dst)
@@ -147,7 +147,7 @@ def replayed() -> list[tuple[DatumShift, Any, tuple[Any, ...]]]:
 
         self._point = record
 
-    replay_patched([(DatumShift, "__init__", init)], 150)
+    replay_patched([(FastDatumShift, "__init__", init)], 150)
     return seen
 
 
@@ -307,7 +307,7 @@ def _datums(draw: Any) -> Any:
 def test_any_seven_parameters(src: Any, dst: Any, lat: float, lon: float, h: float) -> None:
     """Datums beyond the file's (three rotations, scale of either sign, spheres): compiled
     wherever PROJ runs the pipeline as written, and libproj's bits."""
-    shift = DatumShift(src, dst)
+    shift = FastDatumShift(src, dst)
     written = " ".join(w.lstrip("+") for w in shift.pipeline.split())
     assert (type(shift._point) is KERNEL.Shift) == (shift._proj.definition() == written)
     if type(shift._point) is KERNEL.Shift and abs(lat) < 88.9 and abs(abs(lon) - 180.0) > 1e-3:

@@ -1,11 +1,12 @@
-"""The compiled Decca kernel (engine/native/decca.c) gives the pure Python's bits exactly.
+"""The compiled Decca kernel (engine/native/decca.c), as engine.fast calls it, agrees with the
+reference.
 
-The Python it replaces (engine.systems.decca ``_lane_model_py``, ``_lef_py``,
-``_decca_geometry_py``, ``DeccaObservations._linearise_py``, ``_LaneAt._lanes_py``;
-``GeodesicSolver._forward_azimuths_*_py``) is the reference: every float is compared by its
-bits (``float.hex``, ``ndarray.tobytes``) on the values a short demo replay really produces,
-on hypothesis-generated points around them, and PROJ's geodesic called from C is compared
-with pyproj's own on points all over the ellipsoid.
+The reference is engine.systems.decca (``_lane_model``, ``_lef``, ``decca_geometry``,
+``DeccaObservations.linearise``, ``_LaneAt._lanes``) and ``GeodesicSolver``'s azimuths; the
+compiled path is engine.fast.decca and engine.fast.geodesy. Every float is compared to the
+tolerance contract (tests.tolerance: ``hexes`` makes a ``Near``) on the values a short demo
+replay really produces and on hypothesis-generated points around them, and the kernel's own
+geodesic is compared with pyproj's on points all over the ellipsoid.
 """
 
 from __future__ import annotations
@@ -23,8 +24,10 @@ from hypothesis import strategies as st
 
 import engine.systems.decca as decca
 from engine import native
+from engine.fast import decca as fast_decca
+from engine.fast.decca import FastDeccaObservations
+from engine.fast.geodesy import FastGeodesicSolver, FastTMGrid
 from engine.geodesy.ellipsoidal import GeodesicSolver
-from engine.geodesy.tmgrid import TMGrid
 from engine.io.datumfile import read_datum_file
 from engine.io.deccafile import read_chain_file
 from engine.systems.base import Point
@@ -36,7 +39,7 @@ K = native.kernel("decca")
 pytestmark = pytest.mark.skipif(K is None, reason=f"decca kernel: {native.status('decca')}")
 
 ED50 = read_datum_file(DATA / "TO_WGS84.DAT").datum("ED50")
-GRID = TMGrid(ED50.ellipsoid, 5.0)
+GRID = FastTMGrid(ED50.ellipsoid, 5.0)
 PLACED = decca.place_chain(read_chain_file(DATA / "DECCA.CHN")["9B"], GRID)
 SC = PLACED._scalars
 MX, MY = SC.xy[0]
@@ -44,9 +47,8 @@ MX, MY = SC.xy[0]
 
 def solvers() -> tuple[GeodesicSolver, GeodesicSolver]:
     """(compiled, pure) solvers on the demo's ellipsoid."""
-    fast = GeodesicSolver(ED50.ellipsoid)
+    fast = FastGeodesicSolver(ED50.ellipsoid)
     pure = GeodesicSolver(ED50.ellipsoid)
-    pure._native = None
     assert fast.native() is not None
     return fast, pure
 
@@ -80,14 +82,35 @@ def directions(v: Any, unit: float = 1.0) -> Near:
 
 
 class _Pure:
-    """Context: the module's kernel switched off (the pure path)."""
+    """Context of a reference call (the reference has no kernel to switch off)."""
 
     def __enter__(self) -> None:
-        self.saved = decca._K
-        decca._K = None
+        pass
 
     def __exit__(self, *exc: object) -> None:
-        decca._K = self.saved
+        pass
+
+
+def _kernel_lanes(placed: Any, src: Any) -> Any:
+    """``K.lanes`` as a lane source's (N_calc, 3×2 gradients) of ``_LaneAt._lanes`` (None where
+    the lane model cannot be evaluated; the reference where the kernel declines)."""
+    try:
+        lat0, lon0 = placed.grid.inverse(src.x_m, src.y_m)
+        r = K.lanes(placed._scalars, FAST.native(), src.x_m, src.y_m, lat0, lon0)
+    except (ValueError, ArithmeticError):
+        return None
+    if r is NotImplemented:
+        return decca._LaneAt(placed, PURE)._lanes(src)
+    n_calc, rows = r
+    if not all(math.isfinite(n) for n in n_calc):
+        return None
+    return n_calc, np.array(rows)
+
+
+def _kernel_sigma(row: Any, cov: Any) -> Any:
+    """``K.lane_sigma`` (numpy's dgemv/ddot bound), the reference where it declines."""
+    r = fast_decca.lane_sigma_kernel()(row, cov)
+    return decca.lane_sigma(row, cov) if r is NotImplemented else r
 
 
 def outcome(f: Any, *args: Any) -> Any:
@@ -105,7 +128,7 @@ def outcome(f: Any, *args: Any) -> Any:
 def replay_values() -> dict[str, list[Any]]:
     """Arguments of the Decca work in the first 120 demo epochs (linearise, _LaneAt._lanes)."""
     got: dict[str, list[Any]] = {"lin": [], "lanes": [], "totals": []}
-    orig_lin = decca.DeccaObservations.linearise
+    orig_lin = FastDeccaObservations.linearise
     orig_lanes = decca._LaneAt._lanes
     orig_totals = decca.decca_totals
 
@@ -121,11 +144,11 @@ def replay_values() -> dict[str, list[Any]]:
         got["lanes"].append((self.placed, src))
         return orig_lanes(self, src)
 
-    replay_patched([(decca.DeccaObservations, "linearise", lin),
+    replay_patched([(FastDeccaObservations, "linearise", lin),
                     (decca._LaneAt, "_lanes", lanes),
                     (decca, "decca_totals", totals),
                     # every record through decca_totals, recorded
-                    (decca, "_tracked_totals", lambda *a: None)], 120)
+                    (fast_decca, "tracked_totals", lambda *a: None)], 120)
     assert len(got["lin"]) > 100 and len(got["lanes"]) > 100
     return got
 
@@ -140,8 +163,7 @@ def _linearise_both(obs: decca.DeccaObservations, x: float, y: float,
         Cl = np.full(shape, 0.75)
         p = Point(obs.reading.placed.grid, solver, x, y, latlon)  # type: ignore[arg-type]
         if pure:
-            with _Pure():
-                r = outcome(obs._linearise_py, p, slot0, A, b, Cl)
+            r = outcome(decca.DeccaObservations.linearise, obs, p, slot0, A, b, Cl)
         else:
             r = outcome(obs.linearise, p, slot0, A, b, Cl)
         out.append((r, hexes(A), hexes(b), hexes(Cl)))
@@ -158,22 +180,22 @@ def test_geometry_and_lane_model_on_the_replay(replay_values: dict[str, list[Any
     for obs, x, y, (lat, lon), *_ in replay_values["lin"]:
         placed = obs.reading.placed
         sc = placed._scalars
-        assert hexes(K.lane_model(sc, x, y, lat)) == hexes(decca._lane_model_py(sc, x, y, lat))
-        g = decca.decca_geometry(placed, x, y, FAST, (lat, lon))
+        assert hexes(K.lane_model(sc, x, y, lat)) == hexes(decca._lane_model(sc, x, y, lat))
+        g = fast_decca.decca_geometry(placed, x, y, FAST, (lat, lon))
         with _Pure():
-            h = decca._decca_geometry_py(placed, x, y, PURE, (lat, lon))
+            h = decca.decca_geometry(placed, x, y, PURE, (lat, lon))
         for name in decca.DeccaGeometry.__slots__:
             assert hexes(getattr(g, name)) == hexes(getattr(h, name)), name
         az = FAST.forward_azimuths_rad(lat, lon, sc.latlon)
         assert hexes(az) == hexes(PURE.forward_azimuths_rad(lat, lon, sc.latlon))
-        assert hexes(K.lef(az)) == hexes(decca._lef_py(az))
+        assert hexes(K.lef(az)) == hexes(decca._lef(az))
 
 
 def test_lanes_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
     for placed, src in replay_values["lanes"]:
-        fast = decca._LaneAt(placed, FAST)._lanes(src)
+        fast = _kernel_lanes(placed, src)
         with _Pure():
-            pure = decca._LaneAt(placed, PURE)._lanes_py(src)
+            pure = decca._LaneAt(placed, PURE)._lanes(src)
         assert hexes(fast) == hexes(pure)
         for i in range(3):
             got = decca._LaneAt(placed, FAST)(src, i)
@@ -203,7 +225,7 @@ def _tracked_is_python(placed: Any, zone_lane: Any, track: Any, fractions: Any, 
         assert hexes(gps.cov) == hexes(np.eye(2) * var)  # the VCV the kernel forms
         fix = SimpleNamespace(x_m=gps.x_m, y_m=gps.y_m, corr_east_m=0.0, corr_north_m=0.0,
                               var_m2=var)
-    got = decca._tracked_totals(placed, FAST, track, fractions, time, fix)
+    got = fast_decca.tracked_totals(placed, FAST, track, fractions, time, fix)
     with _Pure():
         try:
             want = decca.decca_totals(placed, PURE, zone_lane, track, fractions, time, x_start,
@@ -287,18 +309,21 @@ class _At:
 def test_gps_lane_check_anywhere(n: float, frac: float, off: float, var: float,
                                  grad: tuple[float, float], i: int) -> None:
     """The lane check's σ, lane and slip (round half to even) and its note, as the Python."""
-    decca.lane_sigma(np.zeros(2), np.eye(2))  # the BLAS bound
+    assert fast_decca.lane_sigma_kernel() is not None  # the BLAS bound
     rows = np.zeros((3, 2))
     rows[i] = grad
     at = _At([n, n + 1.0, n - 1.0], rows)
     total = decca.identify_lane(at.g[0][i], frac) + off
     gps = decca.LaneSource("GPS", 0.0, 0.0, np.eye(2) * var)
     notes: list[str] = []
-    got = decca._gps_lane_check(at, i, frac, total, gps, notes)  # type: ignore[arg-type]
-    with _Pure():
-        want_notes: list[str] = []
-        want = decca._gps_lane_check_py(at, i, frac, total, gps,  # type: ignore[arg-type]
-                                        want_notes)
+    expected, slip = K.lane_check(at.g[0][i], at.g[1][i], gps.cov, frac, total,
+                                  decca.LANE_SIGMA_MAX)
+    got = (total, 0) if slip == 0 else (expected, 1)
+    if slip:
+        notes.append(decca._slip_note(i, slip, total, expected))
+    want_notes: list[str] = []
+    want = decca._gps_lane_check(at, i, frac, total, gps,  # type: ignore[arg-type]
+                                 want_notes)
     assert (hexes(got[0]), got[1], notes) == (hexes(want[0]), want[1], want_notes)
     assert type(got[1]) is int
 
@@ -319,7 +344,7 @@ def test_linearise_anywhere(dx: float, dy: float, cf: float, slot0: int,
     reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3,
                                  cf=cf)
     observed = [obs + i if h else math.nan for i, h in enumerate(have)]
-    o = decca.DeccaObservations(reading, observed, [None] * 3, list(have), [])
+    o = FastDeccaObservations(reading, observed, [None] * 3, list(have), [])
     fast, pure = _linearise_both(o, x, y, GRID.inverse(x, y), slot0, 2 * (slot0 + 3),
                                  slot0 + 3, (slot0 + 3, slot0 + 3))
     assert fast == pure
@@ -330,9 +355,9 @@ def test_linearise_anywhere(dx: float, dy: float, cf: float, slot0: int,
 def test_geometry_anywhere(dx: float, dy: float) -> None:
     x, y = MX + dx, MY + dy
     lat, lon = GRID.inverse(x, y)
-    g = outcome(decca.decca_geometry, PLACED, x, y, FAST, (lat, lon))
+    g = outcome(fast_decca.decca_geometry, PLACED, x, y, FAST, (lat, lon))
     with _Pure():
-        h = outcome(decca._decca_geometry_py, PLACED, x, y, PURE, (lat, lon))
+        h = outcome(decca.decca_geometry, PLACED, x, y, PURE, (lat, lon))
     assert g == h
 
 
@@ -342,12 +367,12 @@ def test_at_a_station_both_raise_alike(station: int) -> None:
     _LaneAt)."""
     x, y = SC.xy[station]
     lat, lon = GRID.inverse(x, y)
-    assert outcome(K.lane_model, SC, x, y, lat) == outcome(decca._lane_model_py, SC, x, y, lat)
+    assert outcome(K.lane_model, SC, x, y, lat) == outcome(decca._lane_model, SC, x, y, lat)
     with _Pure():
-        pure = outcome(decca._decca_geometry_py, PLACED, x, y, PURE, (lat, lon))
-    assert outcome(decca.decca_geometry, PLACED, x, y, FAST, (lat, lon)) == pure
+        pure = outcome(decca.decca_geometry, PLACED, x, y, PURE, (lat, lon))
+    assert outcome(fast_decca.decca_geometry, PLACED, x, y, FAST, (lat, lon)) == pure
     src = decca.LaneSource("GPS", x, y, np.eye(2))
-    assert decca._LaneAt(PLACED, FAST)._lanes(src) is None
+    assert _kernel_lanes(PLACED, src) is None
 
 
 def _lef_skip_holds(x: float, y: float) -> bool:
@@ -362,9 +387,9 @@ def _lef_skip_holds(x: float, y: float) -> bool:
             gamma = abs(az[s] - az[0]) % (2 * math.pi)
             assert min(gamma, 2 * math.pi - gamma) > 0.015
     src = decca.LaneSource("GPS", x, y, np.eye(2))
-    fast = outcome(decca._LaneAt(PLACED, FAST)._lanes, src)
+    fast = outcome(_kernel_lanes, PLACED, src)
     with _Pure():
-        pure = outcome(decca._LaneAt(PLACED, PURE)._lanes_py, src)
+        pure = outcome(decca._LaneAt(PLACED, PURE)._lanes, src)
     assert fast == pure
     return bool(certain)
 
@@ -397,7 +422,7 @@ def test_lanes_near_the_baseline_extensions() -> None:
                                                              math.inf, math.nan]),
                    min_size=4, max_size=4))
 def test_lef_anywhere(az: list[float]) -> None:
-    assert outcome(K.lef, az) == outcome(decca._lef_py, az)
+    assert outcome(K.lef, az) == outcome(decca._lef, az)
 
 
 @settings(max_examples=200, deadline=None)
@@ -426,8 +451,8 @@ def test_lane_sigma_anywhere(row: tuple[float, float], c: tuple[float, ...], sym
     r = rows[pick]
     with _Pure():
         want = outcome(decca.lane_sigma, r, cov)
-    assert outcome(decca.lane_sigma, r, cov) == want
-    assert decca._SIGMA is not None
+    assert outcome(_kernel_sigma, r, cov) == want
+    assert fast_decca.lane_sigma_kernel() is not None
 
 
 def test_lane_sigma_of_other_types_is_numpys() -> None:
@@ -437,7 +462,7 @@ def test_lane_sigma_of_other_types_is_numpys() -> None:
                      (np.array([1e-3, 2e-3]), np.asfortranarray([[4.0, 1.0], [2.0, 9.0]]))):
         with _Pure():
             want = outcome(decca.lane_sigma, row, cov)
-        assert outcome(decca.lane_sigma, row, cov) == want
+        assert outcome(_kernel_sigma, row, cov) == want
 
 
 def test_sync_constants_are_pythons() -> None:
@@ -468,7 +493,7 @@ def test_geod_on_a_grid_of_points_and_other_ellipsoids() -> None:
     spheroids = read_datum_file(DATA / "TO_WGS84.DAT").spheroids.values()
     assert len(spheroids) > 3
     for ell in spheroids:
-        s = GeodesicSolver(ell)
+        s = FastGeodesicSolver(ell)
         g = s.native()
         assert g is not None and (g.a, g.f) == (s._geod.a, s._geod.f)
         pts = rng.uniform([-90, -180, -90, -180], [90, 180, 90, 180], (1000, 4)).tolist()
@@ -495,27 +520,28 @@ def test_geod_argument_types_as_pyproj() -> None:
 def test_pure_env_takes_the_python(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(native.PURE_ENV, "1")
     assert native.kernel("decca") is None
-    from engine.geodesy import ellipsoidal
+    from engine.fast import geodesy
 
-    ellipsoidal._geod_kernel.cache_clear()
+    monkeypatch.setattr(geodesy, "DECCA", None)
+    geodesy.geod_kernel.cache_clear()
     try:
-        s = GeodesicSolver(ED50.ellipsoid)
+        s = geodesy.FastGeodesicSolver(ED50.ellipsoid)
         assert s.native() is None
         lat, lon = GRID.inverse(MX + 1e4, MY - 2e4)
         assert hexes(s.forward_azimuths_rad(lat, lon, SC.latlon)) == hexes(
             FAST.forward_azimuths_rad(lat, lon, SC.latlon))
     finally:
-        ellipsoidal._geod_kernel.cache_clear()
+        geodesy.geod_kernel.cache_clear()
 
 
 def test_kernel_none_takes_the_python(monkeypatch: pytest.MonkeyPatch) -> None:
     calls: list[str] = []
-    real = decca._lane_model_py
-    monkeypatch.setattr(decca, "_K", None)
-    monkeypatch.setattr(decca, "_lane_model_py",
+    real = decca._lane_model
+    monkeypatch.setattr(fast_decca, "KERNEL", None)
+    monkeypatch.setattr(decca, "_lane_model",
                         lambda *a: calls.append("lane") or real(*a))  # type: ignore[func-returns-value]
     x, y = MX + 5e4, MY + 5e4
-    g = decca.decca_geometry(PLACED, x, y, FAST)
+    g = fast_decca.decca_geometry(PLACED, x, y, FAST)
     assert calls == ["lane"] and np.isfinite(g.n_calc).all()
 
 
@@ -526,8 +552,10 @@ def test_not_the_fast_path_types_fall_back() -> None:
     assert K.lane_model(SC, int(MX), MY + 1e4, lat) is NotImplemented
     assert K.lane_model(tuple(SC)[:8], MX, MY + 1e4, lat) is NotImplemented
     assert K.lef((1, 2, 3, 4)) is NotImplemented
-    assert hexes(decca._lane_model(SC, np.float64(MX), MY + 1e4, lat)) == hexes(
-        decca._lane_model_py(SC, np.float64(MX), MY + 1e4, lat))
+    got = fast_decca.decca_geometry(PLACED, np.float64(MX), MY + 1e4, FAST)
+    want = decca.decca_geometry(PLACED, np.float64(MX), MY + 1e4, PURE)
+    for name in decca.DeccaGeometry.__slots__:
+        assert hexes(getattr(got, name)) == hexes(getattr(want, name)), name
 
 
 def test_a_solver_pickles_and_copies() -> None:

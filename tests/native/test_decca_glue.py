@@ -2,10 +2,11 @@
 the Decca kernel give the same values, bit for bit, as the Python they stand for.
 
 * ``decca.geometry_new``: ``decca_geometry``'s :class:`DeccaGeometry` made in one call, each
-  array the numbers of the pure ``_decca_geometry_py`` (same dtype, shape, bits);
+  array the numbers of the reference ``decca_geometry`` (same dtype, shape, bits);
 * ``decca.linearise_at``: ``DeccaObservations.linearise`` at a :class:`Point` without its
-  latitude/longitude yet: the rows, misclosures and VCV block of ``_linearise_py``, and the
-  point's ``latlon`` set to what ``TMGrid.inverse`` gives (as ``Point.latlon`` sets it);
+  latitude/longitude yet: the rows, misclosures and VCV block of the reference
+  ``DeccaObservations.linearise``, and the point's ``latlon`` set to what ``TMGrid.inverse``
+  gives (as ``Point.latlon`` sets it);
   another grid is declined and the Python runs;
 * ``runparse.make``: ``SystemReading`` and ``CycleInputs`` (slots dataclasses) equal to the
   instances their ``__init__`` makes; ``runparse.make_attrs`` the same for a plain frozen
@@ -25,6 +26,9 @@ from hypothesis import strategies as st
 
 import engine.systems.decca as decca
 from engine import native
+from engine.fast import decca as fast_decca
+from engine.fast import make as fast_make
+from engine.fast.decca import FAST_DECCA, FastDeccaObservations
 from engine.geodesy.tmgrid import TMGrid
 from engine.systems import base
 from engine.systems.base import CycleInputs, Point, SystemReading
@@ -35,7 +39,6 @@ from tests.native.test_decca import (
     MY,
     PLACED,
     PURE,
-    _Pure,
     far_from_stations,
     hexes,
     outcome,
@@ -54,13 +57,12 @@ def test_geometry_new_is_the_python_geometry(dx: float, dy: float) -> None:
     assume(far_from_stations(x, y))
     lat, lon = GRID.inverse(x, y)
     try:
-        g = decca.decca_geometry(PLACED, x, y, FAST, (lat, lon))
+        g = fast_decca.decca_geometry(PLACED, x, y, FAST, (lat, lon))
     except (ValueError, ArithmeticError) as exc:
-        with _Pure(), pytest.raises(type(exc)):
-            decca._decca_geometry_py(PLACED, x, y, PURE, (lat, lon))
+        with pytest.raises(type(exc)):
+            decca.decca_geometry(PLACED, x, y, PURE, (lat, lon))
         return
-    with _Pure():
-        h = decca._decca_geometry_py(PLACED, x, y, PURE, (lat, lon))
+    h = decca.decca_geometry(PLACED, x, y, PURE, (lat, lon))
     assert type(g) is decca.DeccaGeometry
     for name in decca.DeccaGeometry.__slots__:
         a, b = getattr(g, name), getattr(h, name)
@@ -74,8 +76,7 @@ def _rows(obs: decca.DeccaObservations, p: Point, slot0: int, pure: bool) -> obj
     n = slot0 + 3
     A, b, Cl = [0.25] * (2 * n), [0.5] * n, np.full((n, n), 0.75)
     if pure:
-        with _Pure():
-            r = outcome(obs._linearise_py, p, slot0, A, b, Cl)
+        r = outcome(decca.DeccaObservations.linearise, obs, p, slot0, A, b, Cl)
     else:
         r = outcome(obs.linearise, p, slot0, A, b, Cl)
     return r, hexes(A), hexes(b), hexes(Cl)
@@ -93,12 +94,12 @@ def test_linearise_at_a_point_without_latlon(dx: float, dy: float, cf: float, sl
     reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3,
                                  cf=cf)
     observed = [obs + i if h else math.nan for i, h in enumerate(have)]
-    o = decca.DeccaObservations(reading, observed, [None] * 3, list(have), [])
+    o = FastDeccaObservations(reading, observed, [None] * 3, list(have), [])
     p_fast = Point(GRID, FAST, x, y)
     p_pure = Point(GRID, PURE, x, y)
     assert _rows(o, p_fast, slot0, False) == _rows(o, p_pure, slot0, True)
     assert p_fast._latlon is not None
-    assert hexes(p_fast._latlon) == hexes(GRID._inverse_py(x, y))
+    assert hexes(p_fast._latlon) == hexes(TMGrid(GRID.ellipsoid, GRID.cm_deg)._inverse(x, y))
     assert hexes(p_fast.latlon) == hexes(p_pure.latlon)
 
 
@@ -107,7 +108,7 @@ def test_linearise_at_declines_another_grid() -> None:
     grid and leaves the point's latlon alone (as before)."""
     other = TMGrid(GRID.ellipsoid, GRID.cm_deg)
     reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3)
-    o = decca.DeccaObservations(reading, [1.0, 2.0, 3.0], [None] * 3, [True] * 3, [])
+    o = FastDeccaObservations(reading, [1.0, 2.0, 3.0], [None] * 3, [True] * 3, [])
     args = (PLACED._scalars, FAST.native(), native.kernel("tmgrid").inverse, GRID._packed, GRID,
             Point(other, FAST, MX + 1e4, MY + 2e4), o.observed, 0, [0.0] * 6, [0.0] * 3,
             np.eye(3), 64.0)
@@ -136,16 +137,16 @@ class _PlainInputs:
 def test_readings_made_in_one_call_are_the_dataclass_instances() -> None:
     value = object()
     for args in ((value, ("a", "b"), None, True), (None, (), 3.5, False)):
-        r = base.new_reading(*args)
-        q = base._new_reading_py(*args)
+        r = fast_decca.maker(SystemReading)(*args)
+        q = SystemReading(*args)
         assert type(r) is SystemReading and r == q == SystemReading(*args)
         for f in fields(SystemReading):
             assert getattr(r, f.name) is getattr(q, f.name)
         assert not hasattr(r, "__dict__")
         with pytest.raises(FrozenInstanceError):
             r.value = 1  # type: ignore[misc]
-    make = base.slots_maker(CycleInputs)
-    plain = base.attrs_maker(_PlainInputs)
+    make = fast_make.slots_maker(CycleInputs)
+    plain = fast_make.attrs_maker(_PlainInputs)
     if native.kernel("runparse") is None:
         assert make is CycleInputs and plain is None
         return
@@ -166,9 +167,9 @@ def test_readings_made_in_one_call_are_the_dataclass_instances() -> None:
 def test_pure_path_makes_readings_in_python(monkeypatch: pytest.MonkeyPatch) -> None:
     """Without the runparse kernel (UVNAV_PURE=1) the makers are the Python ones."""
     monkeypatch.setattr(native, "kernel", lambda name: None)
-    assert base.attrs_maker(_PlainInputs) is None
-    assert base.slots_maker(SystemReading) is SystemReading
-    assert base._reading_maker() is base._new_reading_py
+    assert fast_make.attrs_maker(_PlainInputs) is None
+    assert fast_make.slots_maker(SystemReading) is SystemReading
+    assert fast_decca.maker(SystemReading) is SystemReading
 
 
 _M = st.floats(-1e7, 1e7, allow_nan=False)
@@ -181,23 +182,17 @@ def test_gps_rows_are_the_python_rows(x: float, y: float, cn: float, ce: float, 
                                       py: float, var: float, slot0: int) -> None:
     """``decca.gps_rows`` writes the GPS coordinate rows of ``_GpsObservations.linearise``:
     the same A, b and C_l bits as its Python (run with the kernel's function switched off)."""
+    from engine.fast.gps import FastGpsObservations
     from engine.systems import gps
 
     fix = gps.GpsFix(52.0, 5.0, x, y, var, cn, ce)
-    obs = gps._GpsObservations(fix)
     p = Point(GRID, FAST, px, py)
     out = []
-    for rows in (gps._ROWS, None):
+    for obs in (FastGpsObservations(fix), gps._GpsObservations(fix)):
         n = slot0 + 2
         A, b, Cl = [0.25] * (2 * n), [0.5] * n, np.full((n, n), 0.75)
-        saved = gps._ROWS
-        gps._ROWS = rows
-        try:
-            obs.linearise(p, slot0, A, b, Cl)
-        finally:
-            gps._ROWS = saved
+        obs.linearise(p, slot0, A, b, Cl)
         out.append((hexes(A), hexes(b), hexes(Cl)))
-    assert gps._ROWS is not None
     assert out[0] == out[1]
 
 
@@ -220,7 +215,7 @@ def test_gps_rows_decline_what_they_do_not_write() -> None:
 def _page_both(obs: decca.DeccaObservations, p: Point) -> tuple[object, object]:
     """``readings`` (the kernel's page) and the Python's rows at ``p``, as comparable values."""
     fast = obs.readings(p)
-    pure = obs._readings_py(obs.geometry_at(p))
+    pure = decca.DeccaObservations.readings(obs, p)
     assert type(fast) is list and all(type(r) is base.LopReading for r in fast)
     return [[_cell(getattr(r, f.name)) for f in fields(r)] for r in fast], \
         [[_cell(getattr(r, f.name)) for f in fields(r)] for r in pure]
@@ -239,21 +234,22 @@ def test_page_and_nearest_on_the_replay() -> None:
     # the fix calls nearest_station_m(p_hat, used[start:stop]) and readings(p_hat) of each set at
     # its estimate (in Python, or from the lsq kernel's tail/estimate through the methods)
     seen: list[tuple[decca.DeccaObservations, Point, object]] = []
-    orig = decca.DeccaObservations.nearest_station_m
+    orig = FastDeccaObservations.nearest_station_m
 
     def spy(self, p_hat, used):  # type: ignore[no-untyped-def]
         seen.append((self, p_hat, list(used)))
         return orig(self, p_hat, used)
 
-    replay_patched([(decca.DeccaObservations, "nearest_station_m", spy)], 120)
-    assert len(seen) > 100 and decca._PAGE is not None and decca._NEAREST is not None
+    replay_patched([(FastDeccaObservations, "nearest_station_m", spy)], 120)
+    assert len(seen) > 100
     for obs, p, used in seen:
         fast, pure = _page_both(obs, p)
         assert fast == pure
         geom = obs.geometry_at(p)
         for u in (used, [True] * 3, [False, True, False]):
-            assert decca._NEAREST(geom.d_master_m, geom.d_slave_m, u) is not NotImplemented
-            assert hexes(obs.nearest_station_m(p, u)) == hexes(obs._nearest_py(geom, u))
+            assert K.nearest(geom.d_master_m, geom.d_slave_m, u) is not NotImplemented
+            assert hexes(obs.nearest_station_m(p, u)) == hexes(
+                decca.DeccaObservations.nearest_station_m(obs, p, u))
 
 
 _RAW = st.one_of(st.none(), st.floats(-1e4, 1e4))
@@ -266,7 +262,7 @@ def test_page_anywhere(dx: float, dy: float, raw: tuple[float | None, ...],
                        corr: tuple[float, float, float]) -> None:
     reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3,
                                  corrections_lanes=corr)
-    obs = decca.DeccaObservations(reading, [math.nan] * 3, list(raw), [True] * 3, [])
+    obs = FastDeccaObservations(reading, [math.nan] * 3, list(raw), [True] * 3, [])
     p = Point(GRID, FAST, MX + dx, MY + dy)
     try:
         obs.geometry_at(p)
@@ -297,7 +293,11 @@ def test_nearest_anywhere(dm: float, ds: tuple[float, float, float],
                           used: tuple[bool, bool, bool]) -> None:
     """min's own order, NaN and infinities included."""
     geom = SimpleNamespace(d_master_m=dm, d_slave_m=np.array(ds))
-    want = decca.DeccaObservations._nearest_py(geom, list(used))  # type: ignore[arg-type]
+    reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3)
+    ref = decca.DeccaObservations(reading, [math.nan] * 3, [None] * 3, [True] * 3, [])
+    p = Point(GRID, PURE, MX, MY)
+    ref._at = (p, geom)  # type: ignore[assignment]
+    want = ref.nearest_station_m(p, list(used))
     for u in (list(used), used):
         assert hexes(K.nearest(dm, geom.d_slave_m, u)) == hexes(want)
 
@@ -322,15 +322,14 @@ def test_page_and_nearest_decline_what_they_do_not_read() -> None:
 
 def test_pure_path_has_no_page_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
     """Without the kernel (UVNAV_PURE=1) readings and nearest_station_m are the Python's."""
-    monkeypatch.setattr(decca, "_PAGE", None)
-    monkeypatch.setattr(decca, "_NEAREST", None)
+    monkeypatch.setattr(fast_decca, "KERNEL", None)
     reading = decca.DeccaReading(PLACED, (0.1, 0.2, 0.3), (None, None, None), (True,) * 3)
-    obs = decca.DeccaObservations(reading, [math.nan] * 3, [1.0, None, 3.0], [True] * 3, [])
+    obs = FastDeccaObservations(reading, [math.nan] * 3, [1.0, None, 3.0], [True] * 3, [])
     p = Point(GRID, FAST, MX + 1e3, MY - 2e3)
     fast, pure = _page_both(obs, p)
     assert fast == pure and len(fast) == 2
-    geom = obs.geometry_at(p)
-    assert obs.nearest_station_m(p, [True] * 3) == obs._nearest_py(geom, [True] * 3)
+    assert obs.nearest_station_m(p, [True] * 3) == decca.DeccaObservations.nearest_station_m(
+        obs, p, [True] * 3)
 
 
 # ------------------------------------------------------- observed (tracked totals' lists)
@@ -345,10 +344,8 @@ def _observations_both(value: decca.DeccaReading, monkeypatch: pytest.MonkeyPatc
         return ([_cell(v) for v in o.observed], [_cell(v) for v in o.raw],
                 [_cell(v) for v in o._available], o.messages, o.reading is value, o._at)
 
-    fast = decca.DECCA.observations(value, p0)
-    with monkeypatch.context() as mp:
-        mp.setattr(decca, "_OBSERVED", None)
-        pure = decca.DECCA.observations(value, p0)
+    fast = FAST_DECCA.observations(value, p0)
+    pure = decca.DECCA.observations(value, p0)
     assert fast is not None and pure is not None
     return parts(fast), parts(pure)
 
@@ -358,22 +355,22 @@ def test_observed_on_the_replay(monkeypatch: pytest.MonkeyPatch) -> None:
     from tests.native.replay import replay
 
     seen: list[decca.DeccaReading] = []
-    orig = decca.DeccaSystem.observations
+    orig = fast_decca.FastDeccaSystem.observations
 
     def spy(self, value, p0):  # type: ignore[no-untyped-def]
         if value is not None:
             seen.append(value)
         return orig(self, value, p0)
 
-    monkeypatch.setattr(decca.DeccaSystem, "observations", spy)
+    monkeypatch.setattr(fast_decca.FastDeccaSystem, "observations", spy)
     replay(120)
-    monkeypatch.setattr(decca.DeccaSystem, "observations", orig)
-    assert len(seen) > 100 and decca._OBSERVED is not None
+    monkeypatch.setattr(fast_decca.FastDeccaSystem, "observations", orig)
+    assert len(seen) > 100
     for value in seen:
         assert value.totals is not None
         args = (value.totals, value.fractions, value.corrections_lanes, value.selected,
                 math.nan)
-        assert decca._OBSERVED(*args) is not NotImplemented
+        assert K.observed(*args) is not NotImplemented
         fast, pure = _observations_both(value, monkeypatch)
         assert fast == pure
 

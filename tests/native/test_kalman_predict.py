@@ -93,7 +93,7 @@ def test_predict_step_position_is_predict_step_and_position(replay_steps,
     position() of the predicted state (cycle.filter_estimate): the same state, Φ and estimate;
     its estimate None where position() declines (no grid), and from the Python's prediction
     (kernel None, Δt 0) too, where the caller makes the estimate as before."""
-    from engine.geodesy.tmgrid import TMGrid
+    from engine.fast.geodesy import FastTMGrid as TMGrid
 
     grid = TMGrid(cycle_mod.WGS84.ellipsoid, 3.0)
     monkeypatch.setattr(cycle_mod, "_POSITION_K", cycle_mod._UNSET)
@@ -455,7 +455,7 @@ def _same_estimate(a: object, b: object) -> None:
 def test_position_is_filter_estimate_in_python(replay_steps, monkeypatch: pytest.MonkeyPatch):
     """cycle.filter_estimate in one compiled call (kalman_predict.position through the TM and
     ellipse kernels) gives the Python's estimate: the replay's states and non-finite VCVs."""
-    from engine.geodesy.tmgrid import TMGrid
+    from engine.fast.geodesy import FastTMGrid as TMGrid
 
     grid = TMGrid(cycle_mod.WGS84.ellipsoid, 3.0)
     monkeypatch.setattr(cycle_mod, "_POSITION_K", cycle_mod._UNSET)

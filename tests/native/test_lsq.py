@@ -1,11 +1,12 @@
 """The compiled LSQ kernel (engine/native/lsq.c) gives the bits of the Python it replaces.
 
-Each entry point is compared with its pure-Python twin, to the bit (``float.hex`` / the bytes
-of the arrays): ``step`` with ``adjustment._solve`` + ``_step_py``, ``finish`` with
-``adjustment._adjustment_py`` (residuals, S², RMS, drms, the statistics block), ``ellipse``
-with ``confidence._error_ellipse_py``; on (a) the matrices a short demo replay really
-produces and (b) hypothesis-generated inputs around them; and whole ``gauss_newton`` runs with
-and without the kernel. The pure path is the one taken with ``UVNAV_PURE=1``.
+Each entry point is compared with the reference Python it stands for, to the bit (``float.hex``
+/ the bytes of the arrays): ``step`` with ``adjustment._solve`` + ``_step``, ``finish`` with
+``adjustment._adjustment`` (residuals, S², RMS, drms, the statistics block), ``ellipse`` with
+``confidence.error_ellipse``; on (a) the matrices a short demo replay really produces and (b)
+hypothesis-generated inputs around them; and whole adjustments by the kernel's ``adjust`` (as
+engine.fast.lsq calls it) against ``gauss_newton``. The pure path is the one taken with
+``UVNAV_PURE=1``.
 """
 
 from __future__ import annotations
@@ -21,18 +22,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import engine.fast as fast
 import engine.lsq.adjustment as adj
 import engine.lsq.confidence as conf
+import engine.lsq.fix as fixmod
 import engine.lsq.snooping as snoop
 import engine.run.cycle as cycle
 from engine import native
-from engine.lsq import _kernel
-from engine.lsq.adjustment import COND_MAX, Linearisation, gauss_newton
-from engine.lsq.statistics import delta0
+from engine.fast import lsq as fast_lsq
+from engine.lsq.adjustment import COND_MAX, MAX_AXIS_RATIO, Adjustment, Linearisation, gauss_newton
+from engine.lsq.statistics import delta0, frozen_instance, unit_variance_test, w_critical
 from tests.native.replay import replay_patched
 from tests.tolerance import ATOL_METRES, RTOL, close
 
-K = _kernel.kernel()
+K = fast_lsq.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -85,7 +88,7 @@ def check_step(Au: np.ndarray, bu: np.ndarray, Clu: np.ndarray, x: np.ndarray,
     try:
         sol = adj._solve(Au, bu, Clu, cond_max)
         run = _Run(x, np.ones(bu.size, bool))
-        big = adj._step_py(run, sol)
+        big = adj._step(run, sol)
     except adj._Stop:
         assert res is None
         return False
@@ -105,13 +108,14 @@ def check_finish(sol: adj._Solution, x: np.ndarray, used: np.ndarray, scale_vcv:
     run.it, run.steps, run.converged = 2, [3.0, 0.5], True
     d0 = delta0(0.05, 0.80)
     res = K.finish(sol, run.used, scale_vcv, d0)
-    want = adj._adjustment_py(run, sol, 1.0, scale_vcv, 0.05, 0.80, None)
+    want = adj._adjustment(run, sol, 1.0, scale_vcv, 0.05, 0.80, None)
     if res is None:
         return False
-    got = adj._adjustment(run, sol, 1.0, scale_vcv, 0.05, 0.80, None)
+    v, s2, rms, drms, cov, scaled, block = res
     rtol = adjustment_rtol(want)
-    for name in ADJ_FIELDS:
-        assert same(getattr(want, name), getattr(got, name), rtol), name
+    for name, got in (("v", v), ("s2", s2), ("rms_m", rms), ("drms_m", drms), ("cov_x", cov),
+                      ("scaled", scaled), ("stats_block", block)):
+        assert same(getattr(want, name), got, rtol), name
     return True
 
 
@@ -119,7 +123,7 @@ def check_ellipse(c2: np.ndarray) -> bool:
     """The kernel's ellipse equals the Python's (or declines); True when it took it."""
     got = K.ellipse(c2)
     try:
-        want = conf._error_ellipse_py(c2)
+        want = conf.error_ellipse(c2)
     except (ValueError, ZeroDivisionError):
         assert got is None
         return False
@@ -141,7 +145,7 @@ def recorded() -> dict[str, list[Any]]:
     while recording, so each is recorded as the Python saw it)."""
 
     rec: dict[str, list[Any]] = {"step": [], "finish": [], "ellipse": []}
-    evaluate, adjustment, ellipse = adj._evaluate, adj._adjustment_py, conf._error_ellipse_py
+    evaluate, adjustment, ellipse = adj._evaluate, adj._adjustment, conf.error_ellipse
 
     def ev(lin: Any, run: adj._Run, sq: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         out = evaluate(lin, run, sq)
@@ -156,13 +160,14 @@ def recorded() -> dict[str, list[Any]]:
         rec["ellipse"].append(np.array(c2))
         return ellipse(c2)
 
-    replay_patched([(_kernel, "kernel", lambda: None),
+    replay_patched([(fast_lsq, "kernel", lambda: None),
                     # the filter estimate's ellipse too (its compiled PositionEstimate calls
                     # the ellipse in C)
                     (cycle, "_POSITION_K", None),
                     (adj, "_evaluate", ev),
-                    (adj, "_adjustment_py", fin),
-                    (conf, "_error_ellipse_py", ell)], 200)
+                    (adj, "_adjustment", fin),
+                    (fixmod, "error_ellipse", ell),
+                    (cycle, "error_ellipse", ell)], 200)
     return rec
 
 
@@ -369,18 +374,18 @@ def test_worst_and_monitor_are_the_pythons(w: list[float], row: bool) -> None:
     else:
         arr = np.repeat(arr, 2)[::2]  # a strided view
     fake = type("A", (), {"w": arr})()
-    want = snoop._worst_py(fake)  # type: ignore[arg-type]
+    want = snoop._worst(fake)  # type: ignore[arg-type]
     got = K.worst(arr)
     assert got[0] == want[0] and same(got[1], want[1])
     k = 1.959963984540054
-    assert K.monitor(arr, k, 2.576) == snoop._monitor_py(arr, k, 2.576)
+    assert K.monitor(arr, k, 2.576) == snoop._monitor(arr, k, 2.576)
     assert K.worst(np.zeros(0)) is None
     # quiet: the band when the largest |w| is within the bound (_snoop stops at once), else None
     block = np.zeros((9, arr.size))
     block[1] = arr
     quiet = K.quiet(block, k, 2.576)
     if abs(want[1]) <= 2.576:
-        assert quiet == snoop._monitor_py(arr, k, 2.576)
+        assert quiet == snoop._monitor(arr, k, 2.576)
     else:
         assert quiet is None
 
@@ -405,14 +410,32 @@ def _bearings(stations: np.ndarray, obs: np.ndarray, sig: np.ndarray,
     return lin
 
 
+_GN = {"epsilon": 1.0, "max_iter": 10, "s02": 1.0, "scale_vcv": False, "cond_max": COND_MAX,
+       "max_axis_ratio": MAX_AXIS_RATIO, "alpha": 0.05, "power": 0.80}
+"""gauss_newton's defaults."""
+
+
+def _kernel_gn(model: Any, x0: Any, used: Any, fresh: Any = None, **kw: Any) -> Adjustment:
+    """The adjustment by the kernel's ``adjust`` on the model's rows (a plain linearisation
+    wrapped in :class:`_RowsModel`), as engine.fast.lsq hands it over; gauss_newton (of
+    ``fresh()``, a model not called yet, where given) where the kernel declines (it hands back
+    its state, or None)."""
+    p = {**_GN, **kw}
+    rows_model = model if hasattr(model, "rows") else _RowsModel(model)
+    state = K.adjust(rows_model.rows, np.array(x0, dtype=float), np.array(used, dtype=bool),
+                     p["epsilon"], p["max_iter"], p["cond_max"], p["max_axis_ratio"],
+                     p["scale_vcv"], delta0(p["alpha"], p["power"]))
+    if type(state) is dict:
+        if state["s2"] is not None:
+            state["variance_test"] = unit_variance_test(state["s2"], state["redundancy"],
+                                                        p["alpha"], p["s02"])
+        return frozen_instance(Adjustment, state)
+    return gauss_newton(model if fresh is None else fresh(), x0, used, **kw)
+
+
 def _both(*args: Any, **kw: Any) -> Iterator[Any]:
-    mp = pytest.MonkeyPatch()
+    yield _kernel_gn(*args, **kw)
     yield gauss_newton(*args, **kw)
-    mp.setattr(_kernel, "kernel", lambda: None)
-    try:
-        yield gauss_newton(*args, **kw)
-    finally:
-        mp.undo()
 
 
 @needs_kernel
@@ -498,14 +521,18 @@ def test_quiet_fixes_with_and_without_the_kernel(seed: int, policy: str, noise: 
         assert same(getattr(want.adjustment, name), getattr(got.adjustment, name), rtol), name
 
 
-def _both_snoop(*args: Any, **kw: Any) -> Iterator[Any]:
-    mp = pytest.MonkeyPatch()
-    yield snoop.adjust_with_testing(*args, **kw)
-    mp.setattr(_kernel, "kernel", lambda: None)
-    try:
-        yield snoop.adjust_with_testing(*args, **kw)
-    finally:
-        mp.undo()
+def _both_snoop(model: Any, x0: Any, used: Any, **kw: Any) -> Iterator[Any]:
+    """adjust_with_testing as the compiled fix runs it (the first adjustment by ``adjust``, a
+    quiet fix concluded by the kernel's ``quiet``), then the reference."""
+    policy, estimator = kw.get("policy", "Y"), kw.get("estimator", "lsq")
+    got = None
+    if estimator == "lsq":
+        first = _kernel_gn(model, x0, used)
+        got = fast_lsq.tested_quiet(first, w_critical(0.05), policy, estimator, K)
+        if got is None:
+            got = snoop.adjust_with_testing(model, x0, used, first=first, **kw)
+    yield got if got is not None else snoop.adjust_with_testing(model, x0, used, **kw)
+    yield snoop.adjust_with_testing(model, x0, used, **kw)
 
 
 @needs_kernel
@@ -527,20 +554,15 @@ def test_an_untestable_slot_goes_to_python() -> None:
 
 
 def test_pure_env_takes_the_python(monkeypatch: pytest.MonkeyPatch) -> None:
+    """UVNAV_PURE=1: the run's fix is the reference's."""
     monkeypatch.setenv(native.PURE_ENV, "1")
-    monkeypatch.setattr(_kernel, "_K", _kernel._UNSET)  # resolved again here, restored after
-    assert _kernel.kernel() is None
-    calls: list[str] = []
-    for name in ("_iterate_py", "_adjustment_py"):
-        fn = getattr(adj, name)
-        monkeypatch.setattr(adj, name, lambda *a, _f=fn, _n=name: calls.append(_n) or _f(*a))
-    ell = conf._error_ellipse_py
-    monkeypatch.setattr(conf, "_error_ellipse_py", lambda c: calls.append("ell") or ell(c))
-    lin = _bearings(np.array([[0.0, 1e4], [1e4, 0.0], [-1e4, 0.0]]),
-                    np.array([1e4, 1e4, 1e4]), np.array([10.0, 10.0, 10.0]), 0.0)
-    res = gauss_newton(lin, np.array([100.0, 100.0]), np.ones(3, bool))
-    conf.error_ellipse(res.cov_x)
-    assert res.ok and calls == ["_iterate_py", "_adjustment_py", "ell"]
+    fast._verdict.cache_clear()
+    try:
+        from engine.run.parts import choose
+
+        assert choose().compute_fix is fixmod.compute_fix
+    finally:
+        fast._verdict.cache_clear()
 
 
 def test_binding_is_lazy() -> None:
@@ -548,8 +570,8 @@ def test_binding_is_lazy() -> None:
     import subprocess
     import sys
 
-    code = ("import sys, engine.lsq.fix, engine.lsq.adjustment, engine.lsq._kernel as k; "
-            "assert not k._BOUND and k._K is k._UNSET; "
+    code = ("import sys, engine.lsq.fix, engine.lsq.adjustment, engine.fast.lsq as k; "
+            "assert k.kernel.cache_info().currsize == 0; "
             "assert 'engine.native.blas' not in sys.modules; print('ok')")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT, timeout=60)
@@ -586,14 +608,9 @@ class _RowsModel:
 
 
 def _both_rows(make: Any, *args: Any, **kw: Any) -> Iterator[Any]:
-    """gauss_newton of a fresh model from ``make()`` with the kernel, then without."""
-    mp = pytest.MonkeyPatch()
+    """A fresh model from ``make()`` adjusted by the kernel's ``adjust``, then gauss_newton."""
+    yield _kernel_gn(make(), *args, fresh=make, **kw)
     yield gauss_newton(make(), *args, **kw)
-    mp.setattr(_kernel, "kernel", lambda: None)
-    try:
-        yield gauss_newton(make(), *args, **kw)
-    finally:
-        mp.undo()
 
 
 @needs_kernel
@@ -642,23 +659,3 @@ def test_adjust_declines_to_the_python() -> None:
     assert state is None or type(state) is tuple  # the untestable slot: never a result
 
 
-@needs_kernel
-def test_adjust_is_one_call(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A model with rows() (compute_fix's) goes through ``adjust``, one call per adjustment."""
-    calls: list[int] = []
-    real = K.adjust
-
-    class Spy:
-        def __getattr__(self, name: str) -> Any:
-            return getattr(K, name)
-
-        @staticmethod
-        def adjust(*a: Any) -> Any:
-            calls.append(1)
-            return real(*a)
-
-    monkeypatch.setattr(_kernel, "kernel", lambda: Spy())
-    lin = _bearings(np.array([[0.0, 1e4], [1e4, 0.0], [-1e4, 0.0]]),
-                    np.array([1e4, 1e4, 1e4]), np.array([10.0, 10.0, 10.0]), 0.0)
-    res = gauss_newton(_RowsModel(lin), np.array([100.0, 100.0]), np.ones(3, bool))
-    assert res.ok and calls == [1]

@@ -7,12 +7,12 @@
 * ``_Model.arrays`` (what :func:`engine.lsq.adjustment.gauss_newton` calls when the model
   offers it) gives the arrays of ``_Model.__call__``, and a whole adjustment with and without
   it is the same to the bit.
-* The one-call fix (2026-12-03 night): ``tail`` (the linear-range check and the table of
-  the systems' readings) is ``fix._tail_py``; ``adjust_tested`` (adjust, the unit-variance
-  test, the Adjustment and a quiet fix's TestedAdjustment built in C, the start arrays made
-  of compute_fix's tuple and list) is ``adjust`` + ``fix._first_py`` + ``fix._tested_py``;
-  ``estimate`` (a quiet fix's FixResult) is ``fix._at_estimate``; each declines what the
-  Python must say.
+* The one-call fix (``engine.fast.lsq.compute_fix``): ``tail`` (the linear-range check and
+  the table of the systems' readings) is ``fix._tail``; ``adjust_tested`` (adjust, the
+  unit-variance test, the Adjustment and a quiet fix's TestedAdjustment built in C, the start
+  arrays made of compute_fix's tuple and list) is ``adjust`` + ``first_adjustment`` +
+  ``tested_quiet`` of engine.fast.lsq; ``estimate`` (a quiet fix's FixResult) is
+  ``fix._at_estimate``; each declines what the Python must say.
 """
 
 from __future__ import annotations
@@ -29,15 +29,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import engine.fast as fast
 import engine.lsq.fix as fix
 from engine import native
-from engine.lsq import _kernel
+from engine.fast import lsq as fast_lsq
 from engine.lsq.adjustment import COND_MAX, MAX_AXIS_RATIO, gauss_newton
 from engine.lsq.fix import LopRow
 from tests.native.replay import replay_patched
 from tests.tolerance import close
 
-K = _kernel.kernel()
+K = fast_lsq.kernel()
 needs_kernel = pytest.mark.skipif(K is None, reason="engine.native.lsq not built or not bound")
 ROOT = Path(__file__).resolve().parents[2]
 FIELDS = tuple(f.name for f in dataclasses.fields(LopRow))
@@ -70,10 +71,9 @@ def same_row(got: Any, want: LopRow, same_values: bool = True) -> bool:
 @pytest.fixture(scope="module")
 def replay() -> dict[str, list[Any]]:
     """The compute_fix calls of the first 200 demo epochs and the model of each fix."""
-    import engine.run.cycle as cyc
 
     rec: dict[str, list[Any]] = {"calls": [], "models": []}
-    compute, model_cls = cyc.compute_fix, fix._Model
+    compute, model_cls = fast_lsq.compute_fix, fix._Model
 
     def record(*a: Any, **k: Any) -> Any:
         rec["calls"].append((a, k))
@@ -84,16 +84,18 @@ def replay() -> dict[str, list[Any]]:
             super().__init__(*a, **k)
             rec["models"].append(self)
 
-    replay_patched([(cyc, "compute_fix", record), (fix, "_Model", Model)], 200)
+    fast.parts()  # the probes made before recording (they call compute_fix too)
+    replay_patched([(fast_lsq, "compute_fix", record), (fix, "_Model", Model)], 200)
     return rec
 
 
 def _fixes(calls: list[Any], pure: bool, mp: pytest.MonkeyPatch) -> list[fix.FixResult]:
-    """compute_fix of each recorded call with the lsq kernel (and its row maker) on or off."""
-    if pure:
-        mp.setattr(_kernel, "kernel", lambda: None)
+    """Each recorded call by the compiled compute_fix (engine.fast.lsq), or with ``pure`` by
+    the reference's (its own systems)."""
     try:
-        return [fix.compute_fix(*a, **k) for a, k in calls]
+        if pure:
+            return [fix.compute_fix(*a, **dict(k, systems=None)) for a, k in calls]
+        return [fast_lsq.compute_fix(*a, **k) for a, k in calls]
     finally:
         mp.undo()
 
@@ -131,7 +133,7 @@ def test_replay_model_arrays_are_the_linearisation(replay: dict[str, list[Any]])
 def test_replay_adjustments_with_and_without_arrays(replay: dict[str, list[Any]]) -> None:
     """gauss_newton on the model (rows or arrays taken), on the model without its rows (arrays
     taken) and on a plain function calling it (the Linearisation path) gives the same
-    Adjustment, with and without the kernel, for consecutive and scattered used slots."""
+    Adjustment, for consecutive and scattered used slots."""
 
     class ArraysOnly:
         def __init__(self, model: Any) -> None:
@@ -140,10 +142,8 @@ def test_replay_adjustments_with_and_without_arrays(replay: dict[str, list[Any]]
         def __call__(self, x: np.ndarray) -> Any:
             return self.model(x)
 
-    for pure in (False, True):
+    for _ in (0,):
         mp = pytest.MonkeyPatch()
-        if pure:
-            mp.setattr(_kernel, "kernel", lambda: None)
         try:
             for (a, _k), model in list(zip(replay["calls"], replay["models"], strict=False))[:60]:
                 x0 = np.array(a[2], dtype=float)
@@ -191,7 +191,7 @@ def test_replay_one_call_fix_is_the_layers(replay: dict[str, list[Any]]) -> None
     calls = _variants(replay["calls"])
     mp = pytest.MonkeyPatch()
     got = _fixes(calls, False, mp)
-    mp.setattr(fix, "_quick_settings", lambda s: None)
+    mp.setattr(fast_lsq, "quick_settings", lambda s: None)
     layers = _fixes(calls, False, mp)
     pure = _fixes(calls, True, mp)
     kinds = set()
@@ -221,7 +221,7 @@ def test_replay_adjust_of_the_model_spec_is_adjust_of_rows(
         for x0 in (np.array(a[2], dtype=float), np.array(a[2], dtype=float) + 3e5):
             for used in (np.array([True] * 5 + [False] * (n - 5)),
                          np.array([True, False, True, True, True] + [False] * (n - 5))):
-                want, got = _adjust(model.rows, x0, used), _adjust(model.spec, x0, used)
+                want, got = _adjust(model.rows, x0, used), _adjust(fast_lsq.spec(model), x0, used)
                 assert type(got) is type(want)
                 if type(want) is dict:
                     assert list(got) == list(want)
@@ -236,12 +236,12 @@ def test_replay_adjust_of_the_model_spec_is_adjust_of_rows(
         def linearise(self, *a: Any) -> None:
             raise ValueError("boom")
 
-    bad = ((model.spec[0][0], (2, Boom())), *model.spec[1:])
+    sp = fast_lsq.spec(model)
+    bad = ((sp[0][0], (2, Boom())), *sp[1:])
     assert _adjust(bad, x0, used) is None
     assert _adjust(lambda x: model.rows(x) and Boom().linearise(), x0, used) is None
-    for spec in (model.spec[:4], (list(model.spec[0]), *model.spec[1:]),
-                 (*model.spec[:4], np.eye(model.n_slots + 1)),
-                 (*model.spec[:4], np.asfortranarray(np.eye(model.n_slots))[:, ::-1])):
+    for spec in (sp[:4], (list(sp[0]), *sp[1:]), (*sp[:4], np.eye(model.n_slots + 1)),
+                 (*sp[:4], np.asfortranarray(np.eye(model.n_slots))[:, ::-1])):
         assert _adjust(spec, x0, used) is None
 
 
@@ -260,13 +260,11 @@ def test_generated_rows(slot: int, system: str, pattern: str, vals: list[float],
                         verdict: str) -> None:
     args = (slot, system, pattern, *vals[:5], used, *vals[5:9], verdict)
     assert len(args) == len(FIELDS)
-    fix._row_maker()  # bound
     assert same_row(K.row(*args), LopRow(*args))
 
 
 @needs_kernel
 def test_rows_are_frozen_and_keep_their_references() -> None:
-    fix._row_maker()
     value = object.__new__(type("Marker", (), {}))
     before = sys.getrefcount(value)
     rows = [K.row(1, "s", "p", 0.0, 0.0, 0.0, 0.0, 0.0, True, 1.0, 2.0, 3.0, 4.0, value)
@@ -301,8 +299,7 @@ def test_row_binding_refuses_other_classes() -> None:
         K._bind_row(Slotted, ("a",))  # not every slot named
     with pytest.raises(AttributeError):
         K._bind_row(Slotted, ("a", "c"))
-    fix._ROW_MAKER[:] = [None, LopRow]  # rebound to LopRow on the next use
-    assert fix._row_maker() is K.row
+    K._bind_row(LopRow, FIELDS)  # rebound to LopRow (as engine.fast.lsq binds it)
     with pytest.raises(TypeError):
         K.row(1, 2)
 
@@ -313,10 +310,13 @@ def test_row_binding_refuses_other_classes() -> None:
 
 def test_pure_env_makes_plain_rows(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(native.PURE_ENV, "1")
-    monkeypatch.setattr(_kernel, "_K", _kernel._UNSET)  # resolved again here, restored after
-    monkeypatch.setattr(fix, "_ROW_MAKER", [None, LopRow])
-    assert _kernel.kernel() is None
-    assert fix._row_maker() is LopRow
+    fast._verdict.cache_clear()
+    try:
+        from engine.run.parts import choose
+
+        assert choose().compute_fix is fix.compute_fix  # the reference makes LopRow itself
+    finally:
+        fast._verdict.cache_clear()
     assert not math.isnan(LopRow(0, "s", "p", 0.0, 0.0, 0.0, 0.0, 0.0, True).read)
 
 
@@ -348,6 +348,18 @@ def _groups(n: int, seed: int) -> list[tuple[int, list[Any]]]:
     return [(0, [mk(i) for i in range(cut)]), (cut, [mk(i) for i in range(n - cut)])]
 
 
+def _ref_lop_rows(adj: Any, groups: list[tuple[int, list[Any]]], alpha: float) -> list[Any]:
+    """The reference table (fix._lop_rows) of ``groups``: each a system whose readings are
+    the group's, its slots from the group's first."""
+    import types
+
+    sets, layout = {}, {}
+    for i, (first, readings) in enumerate(groups):
+        sets[f"s{i}"] = types.SimpleNamespace(readings=lambda p, _r=readings: _r)
+        layout[f"s{i}"] = range(first, first + len(readings))
+    return fix._lop_rows(adj, sets, None, alpha, None, layout)  # type: ignore[arg-type]
+
+
 @needs_kernel
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.one_of(st.floats(-6.0, 6.0), st.just(math.nan), st.just(1.96),
@@ -356,11 +368,9 @@ def _groups(n: int, seed: int) -> list[tuple[int, list[Any]]]:
 def test_lop_rows_are_the_pythons(w: list[float], seed: int, alpha: float) -> None:
     adj = _adj_like(w, seed)
     groups = _groups(len(w), seed)
-    make = fix._row_maker()
-    assert make is K.row
     got = K.lop_rows(groups, adj.stats_block, adj.v, adj.used,
                      fix.w_critical(alpha), fix.REJECT_BOUND)
-    want = fix._lop_rows_py(adj, groups, alpha, None, LopRow)
+    want = _ref_lop_rows(adj, groups, alpha)
     assert len(got) == len(want)
     for g, r in zip(got, want, strict=True):
         assert same_row(g, r, same_values=False)
@@ -369,7 +379,6 @@ def test_lop_rows_are_the_pythons(w: list[float], seed: int, alpha: float) -> No
 @needs_kernel
 def test_lop_rows_declines_what_the_python_must_do() -> None:
     adj = _adj_like([0.5, 1.0, 3.0], 1)
-    fix._row_maker()
     args = (adj.stats_block, adj.v, adj.used, 1.96, 2.576)
     assert K.lop_rows([(2, _groups(3, 1)[1][1])], *args) is None  # a slot beyond n
     assert K.lop_rows([(-1, _groups(3, 1)[1][1])], *args) is None  # a negative slot
@@ -383,17 +392,20 @@ def test_lop_rows_declines_what_the_python_must_do() -> None:
 
 
 def _tail_calls(replay: dict[str, list[Any]]) -> list[tuple[Any, ...]]:
-    """The arguments of every ``tail`` call of the replay's fixes and of their variants."""
+    """The arguments ``tail`` takes for every table of the replay's fixes and of their
+    variants (the reference's _tail calls, its arguments as the kernel takes them)."""
     calls: list[tuple[Any, ...]] = []
-    real = K.tail
+    real = fix._tail
 
-    def record(*a: Any) -> Any:
-        calls.append(a)
-        return real(*a)
+    def record(adj: Any, problem: Any, p_hat: Any, used: Any, check: Any, l1: Any,
+               alpha: float) -> Any:
+        calls.append((problem.sets, problem.spans, p_hat, used, check, l1, adj.stats_block,
+                      adj.v, adj.used, fix.w_critical(alpha), fix.REJECT_BOUND))
+        return real(adj, problem, p_hat, used, check, l1, alpha)
 
     mp = pytest.MonkeyPatch()
-    mp.setattr(K, "tail", record)
-    mp.setattr(K, "estimate", lambda *a: None)  # _at_estimate, which calls tail
+    mp.setattr(fix, "_tail", record)
+    mp.setattr(K, "estimate", lambda *a: None)  # _at_estimate, which calls _tail
     try:
         _fixes(_variants(replay["calls"]), False, mp)
     finally:
@@ -402,9 +414,7 @@ def _tail_calls(replay: dict[str, list[Any]]) -> list[tuple[Any, ...]]:
 
 
 def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
-    """fix._tail_py on what ``tail`` was given (``a``: its arguments), all in Python: its
-    table would take the compiled ``lop_rows`` (the one ``tail`` calls), made to decline
-    here so that the table is fix._lop_rows_py's."""
+    """The reference's fix._tail on what ``tail`` was given (``a``: its arguments)."""
     import types
 
     from engine.systems import registry
@@ -413,17 +423,14 @@ def _twin(a: tuple[Any, ...], alpha: float = 0.05) -> Any:
     assert k == fix.w_critical(alpha) and bound == fix.REJECT_BOUND
     adj = types.SimpleNamespace(stats_block=stats, v=v, used=used_arr, cov_x_apriori=None)
     problem = types.SimpleNamespace(sets=sets, spans=spans, layout=registry.layout())
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(K, "lop_rows", lambda *a: None)
-        return fix._tail_py(adj, problem, p_hat, used, check, l1,  # type: ignore[arg-type]
-                            alpha)
+    return fix._tail(adj, problem, p_hat, used, check, l1, alpha)  # type: ignore[arg-type]
 
 
 @needs_kernel
 def test_replay_tail_is_the_python(replay: dict[str, list[Any]]) -> None:
-    """``tail`` gives _tail_py's rows (to the bit) on every call of the replay's fixes and
-    their variants (GPS + Decca, Decca alone, blunders), and declines (None) what the Python
-    must say: beyond the linear range (a huge λ1), a check without λ1, a system raising."""
+    """``tail`` gives the reference _tail's rows (to the bit) on every call of the replay's
+    fixes and their variants (GPS + Decca, Decca alone, blunders), and declines (None) what the
+    Python must say: beyond the linear range (a huge λ1), a check without λ1, a system raising."""
     calls = _tail_calls(replay)
     assert len(calls) > 150
     n_rows = 0
@@ -474,7 +481,7 @@ def test_replay_tail_is_the_python(replay: dict[str, list[Any]]) -> None:
 
 @needs_kernel
 def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> None:
-    """``adjust_tested`` gives what ``adjust`` followed by fix._first_py and fix._tested_py
+    """``adjust_tested`` gives what ``adjust`` followed by first_adjustment and tested_quiet
     gives (a quiet fix's TestedAdjustment, else the Adjustment, field by field to the bit), on
     the replay's models with their used slots and fewer, at several σ0² (the unit variance
     accepted and rejected) and α; a dict where α or σ0² is not a float, adjust()'s hand-backs
@@ -482,7 +489,6 @@ def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> Non
     from engine.lsq.adjustment import Adjustment
     from engine.lsq.snooping import TestedAdjustment
 
-    fix._bind_fix(K)
     kinds: set[tuple[str, bool]] = set()
     for (a, _k), model in list(zip(replay["calls"], replay["models"], strict=False))[:80]:
         n = model.n_slots
@@ -491,11 +497,12 @@ def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> Non
                      np.array([True, True, False, True, False] + [False] * (n - 5)),
                      np.array([True, False, True, True, True] + [False] * (n - 5))):
             for alpha, s02 in ((0.05, 1.0), (0.01, 1e-3), (0.1, 50.0), (0.05, 0.2)):
-                base = (model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8)
+                base = (fast_lsq.spec(model), x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO,
+                        False, 2.8)
                 kw = (fix.w_critical(alpha), fix.REJECT_BOUND, "A", "lsq")
                 got = K.adjust_tested(*base, alpha, s02, *kw)
                 # x0 as compute_fix's tuple, used as its list: the arrays made by the kernel
-                lists = K.adjust_tested(model.spec, tuple(x0.tolist()), used.tolist(),
+                lists = K.adjust_tested(fast_lsq.spec(model), tuple(x0.tolist()), used.tolist(),
                                         *base[3:], alpha, s02, *kw)
                 assert type(lists) is type(got) and same(lists, got)
                 adj_l = lists if type(lists) is Adjustment else lists.adjustment
@@ -503,13 +510,13 @@ def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> Non
                 assert same(adj_l.used, used)
                 state = K.adjust(*base)
                 assert type(state) is dict
-                first = fix._first_py(state, alpha, s02)
-                want = fix._tested_py(first, kw[0], "A", "lsq", K) or first
+                first = fast_lsq.first_adjustment(state, alpha, s02)
+                want = fast_lsq.tested_quiet(first, kw[0], "A", "lsq", K) or first
                 kinds.add((type(got).__name__, got.variance_test is None
                            or got.variance_test.accepted))
-                if type(got) is Adjustment:  # more to do: the caller's _tested_py
+                if type(got) is Adjustment:  # more to do: the caller's tested_quiet
                     assert type(want) is Adjustment or not want.variance_test.accepted
-                    got = fix._tested_py(got, kw[0], "A", "lsq", K) or got
+                    got = fast_lsq.tested_quiet(got, kw[0], "A", "lsq", K) or got
                 assert type(got) is type(want) and same(got, want)
                 if type(got) is TestedAdjustment:
                     assert same(got.adjustment, want.adjustment)
@@ -522,11 +529,12 @@ def test_replay_adjust_tested_is_the_python(replay: dict[str, list[Any]]) -> Non
     model = replay["models"][0]
     x0 = np.array(replay["calls"][0][0][2], dtype=float)
     used = np.array([True] + [False] * (model.n_slots - 1))
-    assert K.adjust_tested(model.spec, x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO, False, 2.8,
-                           0.05, 1.0, 1.96, 2.576, "A", "lsq") is None  # m < 2: adjust's None
+    assert K.adjust_tested(fast_lsq.spec(model), x0, used, 1.0, 10, COND_MAX, MAX_AXIS_RATIO,
+                           False, 2.8, 0.05, 1.0, 1.96, 2.576, "A",
+                           "lsq") is None  # m < 2: adjust's None
     assert type(Adjustment) is type and type(TestedAdjustment) is type
     with pytest.raises(TypeError):
-        K._bind_fix(LopRow, TestedAdjustment, Adjustment, fix._variance_bounds)  # slotted
+        K._bind_fix(LopRow, TestedAdjustment, Adjustment, fast_lsq._variance_bounds)  # slotted
 
 
 # ------------------------------------------------------------------------------------------

@@ -163,6 +163,7 @@ def test_make_builds_the_dataclass_instance() -> None:
     """runparse.make (the GPS and Decca readings' constructors) gives what __init__ gives."""
     import numpy as np
 
+    from engine.fast.decca import maker
     from engine.run import cycle as cycle_mod
     from engine.systems import decca as decca_mod
     from engine.systems import gps as gps_mod
@@ -171,14 +172,14 @@ def test_make_builds_the_dataclass_instance() -> None:
     assert KERNEL is not None
     cov = np.eye(2)
     cases = [
-        (gps_mod.GpsInput, gps_mod._new_input,
+        (gps_mod.GpsInput, maker(gps_mod.GpsInput),
          (52.1, 4.2, 52.2, 4.3, -40.5, (1.0, 2.0, 3.0), 52.0, 4.0, 1e5, 5.8e6, None)),
-        (gps_mod.GpsFix, gps_mod._new_fix, (52.1, 4.2, 1e5, 5.8e6, 2500.0, -0.0, 1.5, None)),
-        (decca_mod.LaneSource, decca_mod._new_source, ("GPS", 1.0, 2.0, cov)),
-        (decca_mod.DeccaReading, decca_mod._new_reading,
+        (gps_mod.GpsFix, maker(gps_mod.GpsFix), (52.1, 4.2, 1e5, 5.8e6, 2500.0, -0.0, 1.5, None)),
+        (decca_mod.LaneSource, maker(decca_mod.LaneSource), ("GPS", 1.0, 2.0, cov)),
+        (decca_mod.DeccaReading, maker(decca_mod.DeccaReading),
          (None, (0.5, None, 0.25), (None, (1, 2), None), (True, False, True), (0.0, 0.1, 0.0),
           64.0, (44.5, None, 1.25))),
-        (decca_mod.LaneTotals, decca_mod._new_totals,
+        (decca_mod.LaneTotals, maker(decca_mod.LaneTotals),
          ((44.5, None, 1.25), (None, None, None), ("a note",), 1)),
         (cycle_mod.CycleResult, cycle_mod._new_result,
          tuple(object() for _ in fields(cycle_mod.CycleResult))),
@@ -201,17 +202,19 @@ def test_make_builds_the_dataclass_instance() -> None:
             new(*values[:-1])
     with pytest.raises(TypeError):
         KERNEL.make(gps_mod.GpsFix, [])  # the slots must be a tuple
-    assert gps_mod.slots_maker(gps_mod.GpsFix).func is KERNEL.make  # type: ignore[attr-defined]
+    assert maker(gps_mod.GpsFix).func is KERNEL.make  # type: ignore[attr-defined]
 
 
 def test_slots_maker_is_the_class_without_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    from engine.fast.decca import maker
+    from engine.fast.make import slots_maker
     from engine.run import cycle as cycle_mod
     from engine.systems import decca as decca_mod
     from engine.systems import gps as gps_mod
     from engine.systems.base import CycleInputs
 
     monkeypatch.setattr(native, "kernel", lambda name: None)
-    assert gps_mod.slots_maker(gps_mod.GpsFix) is gps_mod.GpsFix
-    assert decca_mod.slots_maker(decca_mod.LaneSource) is decca_mod.LaneSource
+    assert maker(gps_mod.GpsFix) is gps_mod.GpsFix
+    assert maker(decca_mod.LaneSource) is decca_mod.LaneSource
     for cls in (decca_mod.LaneTotals, cycle_mod.CycleResult, cycle_mod.NavState, CycleInputs):
-        assert decca_mod.slots_maker(cls) is cls
+        assert slots_maker(cls) is cls

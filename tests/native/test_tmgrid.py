@@ -1,7 +1,7 @@
 """The compiled TM grid (engine/native/tmgrid.c) gives the pure Python's bits (issue 14).
 
-``TMGrid.forward``, ``forward_full`` and ``inverse`` go through the kernel when it is built;
-``_forward_py``, ``_forward_full_py`` and ``_inverse_py`` are the Python it mirrors. Every
+``engine.fast.geodesy.FastTMGrid``'s ``forward``, ``forward_full`` and ``inverse`` go through
+the kernel; the reference ``TMGrid``'s methods are the Python it mirrors. Every
 comparison here is exact (``float.hex``, so the sign of a zero counts): on the calls a short
 demo replay really makes, on hypothesis inputs over the grid's domain (both hemispheres, west
 and east of the CM, the antimeridian, the poles), and on the edges where the kernel declines
@@ -24,23 +24,35 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import engine.geodesy.tmgrid as tmgrid
 import engine.systems.gps as gps
 from engine import native
+from engine.fast import geodesy as fast_geodesy
+from engine.fast import gps as fast_gps
+from engine.fast.geodesy import FastTMGrid, fast_datum_shift
+from engine.fast.gps import FAST_GPS, FastGpsSystem
 from engine.geodesy.ellipsoid import WGS84 as WGS84_DATUM
 from engine.geodesy.ellipsoid import WGS84_ELLIPSOID, Ellipsoid
-from engine.geodesy.ellipsoidal import datum_shift
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.datumfile import read_datum_file
 from tests.native.replay import replay_patched
 from tests.paths import DATA, ROOT
 
-KERNEL = tmgrid._K
+KERNEL = fast_geodesy.KERNEL
 needs_kernel = pytest.mark.skipif(KERNEL is None, reason="engine.native.tmgrid not built")
 
 INTL = Ellipsoid("INTERNATIONAL", 6378388.0, 297.0)
 CMS = (-179.0, -3.0, 0.0, 5.0, 180.0)
-GRIDS = {(ell.name, cm): TMGrid(ell, cm) for ell in (INTL, WGS84_ELLIPSOID) for cm in CMS}
+GRIDS = {(ell.name, cm): FastTMGrid(ell, cm) for ell in (INTL, WGS84_ELLIPSOID) for cm in CMS}
+_REFS: dict[tuple[str, float], TMGrid] = {}
+
+
+def _ref(grid: TMGrid) -> TMGrid:
+    """The reference grid of ``grid``'s ellipsoid and central meridian (one per pair)."""
+    key = (grid.ellipsoid.name, grid.cm_deg)
+    ref = _REFS.get(key)
+    if ref is None or ref.ellipsoid != grid.ellipsoid:
+        ref = _REFS[key] = TMGrid(grid.ellipsoid, grid.cm_deg)
+    return ref
 
 
 def _bits(v: Any) -> Any:
@@ -61,12 +73,13 @@ def _outcome(fn: Callable[..., Any], *args: Any) -> Any:
 
 
 def _check_forward(grid: TMGrid, lat: Any, lon: Any) -> None:
-    assert _outcome(grid.forward, lat, lon) == _outcome(grid._forward_py, lat, lon)
-    assert _outcome(grid.forward_full, lat, lon) == _outcome(grid._forward_full_py, lat, lon)
+    ref = _ref(grid)
+    assert _outcome(grid.forward, lat, lon) == _outcome(ref.forward, lat, lon)
+    assert _outcome(grid.forward_full, lat, lon) == _outcome(ref.forward_full, lat, lon)
 
 
 def _check_inverse(grid: TMGrid, x: Any, y: Any) -> None:
-    want = _outcome(grid._inverse_py, x, y)
+    want = _outcome(_ref(grid)._inverse, x, y)
     assert _outcome(grid._inverse, x, y) == want
     assert _outcome(grid.inverse, x, y) == want  # the kernel's memo (a miss, then a hit)
     assert _outcome(grid.inverse, x, y) == want
@@ -77,9 +90,9 @@ def _check_inverse(grid: TMGrid, x: Any, y: Any) -> None:
 def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
     """The grid calls of the first 200 demo epochs (grid, argument, argument), recorded."""
 
-    calls: dict[str, list[tuple[TMGrid, Any, Any]]] = {"forward": [], "_forward_full": [],
+    calls: dict[str, list[tuple[TMGrid, Any, Any]]] = {"forward": [], "forward_full": [],
                                                         "convergence_deg": [], "inverse": []}
-    originals = {name: getattr(TMGrid, name) for name in calls}
+    originals = {name: getattr(FastTMGrid, name) for name in calls}
 
     def recorder(name: str) -> Callable[..., Any]:
         def record(self: TMGrid, a: Any, b: Any) -> Any:
@@ -89,8 +102,8 @@ def replayed() -> dict[str, list[tuple[TMGrid, Any, Any]]]:
 
     # The GPS input through its Python, whose grid.forward is recorded here (the kernel's
     # gps_input does the forward itself: test_gps_input_* below).
-    replay_patched([*((TMGrid, name, recorder(name)) for name in calls),
-                    (gps, "gps_input", gps._gps_input_py)], 200)
+    replay_patched([*((FastTMGrid, name, recorder(name)) for name in calls),
+                    (FastGpsSystem, "gps_input", gps.GpsSystem.gps_input)], 200)
     return calls
 
 
@@ -101,23 +114,24 @@ def test_replayed_calls_give_the_pure_bits(replayed: dict[str, list[tuple]]) -> 
     the replay really runs compiled)."""
     n = {k: len(v) for k, v in replayed.items()}
     assert n["forward"] >= 150 and n["inverse"] >= 150, n
-    assert n["_forward_full"] + n["convergence_deg"] >= 150, n
+    assert n["forward_full"] + n["convergence_deg"] >= 150, n
     for grid, lat, lon in replayed["forward"]:
         assert KERNEL.forward(grid._packed, lat, lon) is not None
-        assert _bits(grid.forward(lat, lon)) == _bits(grid._forward_py(lat, lon))
-    for grid, lat, lon in replayed["_forward_full"]:
+        assert _bits(grid.forward(lat, lon)) == _bits(_ref(grid).forward(lat, lon))
+    for grid, lat, lon in replayed["forward_full"]:
         assert KERNEL.forward_full(grid._packed, lat, lon) is not None
-        assert _bits(grid._forward_full(lat, lon)) == _bits(grid._forward_full_py(lat, lon))
+        assert _bits(grid.forward_full(lat, lon)) == _bits(_ref(grid).forward_full(lat, lon))
     for grid, lat, lon in replayed["convergence_deg"]:
         assert KERNEL.forward_full(grid._packed, lat, lon) is not None
-        assert _bits(grid.convergence_deg(lat, lon)) == _bits(grid._forward_full_py(lat, lon)[2])
+        assert _bits(grid.convergence_deg(lat, lon)) == _bits(
+            _ref(grid).forward_full(lat, lon)[2])
     fresh: dict[float, TMGrid] = {}
     for grid, x, y in replayed["inverse"]:
         assert KERNEL.inverse(grid._packed, x, y, False) is not None
-        want = _bits(grid._inverse_py(x, y))
+        want = _bits(_ref(grid)._inverse(x, y))
         assert _bits(grid._inverse(x, y)) == want
         # In replay order through the memo of one grid (hits and evictions as in the run).
-        g = fresh.setdefault(grid.cm_deg, TMGrid(grid.ellipsoid, grid.cm_deg))
+        g = fresh.setdefault(grid.cm_deg, FastTMGrid(grid.ellipsoid, grid.cm_deg))
         assert _bits(g.inverse(x, y)) == want
 
 
@@ -191,7 +205,7 @@ def test_other_argument_types() -> None:
     for a, b in [(-20000, 5800000), (np.float64(-2.5e4), np.float64(5.8e6)), (1, True),
                  (0, 0), (10**400, 1.0), (np.float32(1e4), 5.8e6), ("1", 2.0)]:
         _check_inverse(grid, a, b)
-    int_cm = TMGrid(INTL, 5)
+    int_cm = FastTMGrid(INTL, 5)
     assert int_cm._packed is not None
     _check_forward(int_cm, 52.5, 4.25)
     _check_inverse(int_cm, -2.5e4, 5.8e6)
@@ -201,15 +215,15 @@ def test_other_argument_types() -> None:
 def test_memo_keeps_zero_signs_and_evicts() -> None:
     """Hits are the computed inverses through many evictions; a zero is never looked up (its
     sign reaches the latitude)."""
-    grid = TMGrid(INTL, 5.0)
+    grid, ref = FastTMGrid(INTL, 5.0), TMGrid(INTL, 5.0)
     pts = [(-1000.0 * i - 1.5, 5.8e6 + 7.25 * i) for i in range(12)]
     for x, y in pts + pts[::-1] + pts[:3] * 3:
-        assert _bits(grid.inverse(x, y)) == _bits(grid._inverse_py(x, y))
+        assert _bits(grid.inverse(x, y)) == _bits(ref._inverse(x, y))
     for first, second in ((0.0, -0.0), (-0.0, 0.0)):
         grid.inverse(-1000.0, first)
-        assert _bits(grid.inverse(-1000.0, second)) == _bits(grid._inverse_py(-1000.0, second))
+        assert _bits(grid.inverse(-1000.0, second)) == _bits(ref._inverse(-1000.0, second))
     assert grid._inverted == {}  # the kernel keeps its own memo
-    assert grid == TMGrid(INTL, 5.0)
+    assert grid == FastTMGrid(INTL, 5.0)
 
 
 # --------------------------------------------------------------------------- the GPS input
@@ -232,19 +246,19 @@ def _gps_outcome(fn: Callable[..., Any], inputs: Any) -> Any:
 def gps_inputs() -> list[Any]:
     """The CycleInputs of GPS's reading in the first 150 demo epochs."""
     seen: list[Any] = []
-    real = gps.gps_input
+    real = FastGpsSystem.gps_input
 
-    def record(inputs: Any) -> Any:
+    def record(self: Any, inputs: Any) -> Any:
         seen.append(inputs)
-        return real(inputs)
+        return real(self, inputs)
 
-    replay_patched([(gps, "gps_input", record)], 150)
+    replay_patched([(FastGpsSystem, "gps_input", record)], 150)
     return seen
 
 
 @needs_kernel
 def test_gps_input_on_the_replay(gps_inputs: list[Any]) -> None:
-    """The kernel's gps_input (datum shift, ECEF, grid, record) == _gps_input_py, and it takes
+    """The kernel's gps_input (datum shift, ECEF, grid, record) == the reference, and it takes
     every record of the replay."""
     assert len(gps_inputs) >= 140
     for inputs in gps_inputs:
@@ -252,13 +266,13 @@ def test_gps_input_on_the_replay(gps_inputs: list[Any]) -> None:
         ctx = inputs.context
         assert KERNEL.gps_input(inputs.grid._packed, ctx.gps_shift._point, None,
                                 ctx.gps_shift._forward, rec.gps_lat_deg, rec.gps_lon_deg,
-                                gps._WGS84_A, gps._WGS84_E2, gps._new_input,
+                                gps._WGS84_A, gps._WGS84_E2, fast_gps._new_input,
                                 gps.gps_weight(inputs.config, rec)) is not None
-        assert _gps_bits(gps.gps_input(inputs)) == _gps_bits(gps._gps_input_py(inputs))
+        assert _gps_bits(FAST_GPS.gps_input(inputs)) == _gps_bits(gps.gps_input(inputs))
 
 
 _DATUMS = read_datum_file(DATA / "TO_WGS84.DAT")
-_SHIFTS = {pair: None if pair[0] == pair[1] else datum_shift(
+_SHIFTS = {pair: None if pair[0] == pair[1] else fast_datum_shift(
     WGS84_DATUM if pair[0] == "WGS84" else _DATUMS.datum(pair[0]),
     WGS84_DATUM if pair[1] == "WGS84" else _DATUMS.datum(pair[1]))
     for pair in (("WGS84", "ED50"), ("ED50", "WGS84"), ("ED50", "ED50"), ("WGS84", "WGS84"))}
@@ -280,40 +294,23 @@ def test_gps_input_anywhere(gps_inputs: list[Any], k: int, gps_datum: str, worki
                           gps_to_wgs84=_SHIFTS[(gps_datum, "WGS84")])
     rec = replace(base.record, gps_lat_deg=lat, gps_lon_deg=lon)
     inputs = replace(base, context=ctx, record=rec, grid=GRIDS[("INTERNATIONAL", cm)])
-    assert _gps_outcome(gps.gps_input, inputs) == _gps_outcome(gps._gps_input_py, inputs)
+    assert _gps_outcome(FAST_GPS.gps_input, inputs) == _gps_outcome(gps.gps_input, inputs)
 
 
 # --------------------------------------------------------------------------- the pure path
-def test_pure_path_without_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
-    """With no kernel the Python methods run (and the dict memo)."""
-    monkeypatch.setattr(tmgrid, "_K", None)
+def test_reference_grid_has_no_compiled_state() -> None:
+    """The reference grid is pure Python: its dict memo, nothing packed for a kernel."""
     grid = TMGrid(INTL, 5.0)
-    assert grid._packed is None
-    seen: list[str] = []
-
-    def spy(name: str) -> Callable[..., Any]:
-        orig = getattr(TMGrid, name)
-
-        def wrapped(self: TMGrid, a: float, b: float) -> Any:
-            seen.append(name)
-            return orig(self, a, b)
-        return wrapped
-
-    for name in ("_forward_py", "_forward_full_py", "_inverse_py"):
-        monkeypatch.setattr(TMGrid, name, spy(name))
+    assert not hasattr(grid, "_packed")
     x, y = grid.forward(52.5, 4.25)
-    grid.forward_full(52.5, 4.25)
-    grid.inverse(x, y)
-    grid.inverse(x, y)  # a hit of the dict memo
-    assert seen == ["_forward_py", "_forward_full_py", "_inverse_py"]
+    assert grid.inverse(x, y) == grid.inverse(x, y)  # a hit of the dict memo
     assert len(grid._inverted) == 1
 
 
 def test_pure_env_leaves_the_kernel_unloaded() -> None:
-    """UVNAV_PURE=1: no kernel, grids carry no packed state."""
-    code = ("from engine.geodesy import tmgrid as t; from engine.geodesy.ellipsoid import "
-            "WGS84_ELLIPSOID as W; g = t.TMGrid(W, 3.0); "
-            "assert t._K is None and g._packed is None; print(g.inverse(*g.forward(52.0, 4.0)))")
+    """UVNAV_PURE=1: no kernel, the run's parts are the reference's."""
+    code = ("from engine.fast import geodesy as g; from engine.run.parts import REFERENCE, "
+            "choose; assert g.KERNEL is None and choose() == REFERENCE; print('ok')")
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=120, env={**os.environ, native.PURE_ENV: "1"})
     assert done.returncode == 0, done.stderr

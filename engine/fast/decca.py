@@ -1,0 +1,186 @@
+"""Decca on the compiled lane model (``engine.native.decca``).
+
+:class:`FastDeccaSystem` is :class:`engine.systems.decca.DeccaSystem` whose usual record (every
+pattern tracked, no lane slip) has its lane totals made in one compiled call (``tracked``), and
+whose observations are :class:`FastDeccaObservations`: the rows of each LSQ iteration
+(``linearise_at``/``linearise``), the geometry, the page rows and the nearest station in one
+call each. Anything the kernel declines (NotImplemented: a first reading, a gap, a slip, an
+argument it does not read) goes to the reference.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+from engine import native
+from engine.fast.geodesy import _UNSET as _UNSET_GEODESIC
+from engine.fast.geodesy import FastGeodesicSolver
+from engine.fast.make import slots_maker as maker
+from engine.systems import decca
+from engine.systems.base import CycleInputs, LopReading, Point
+from engine.systems.decca import (
+    DECCA_PATTERN_NAMES,
+    DECCA_TRACK_GAP_S,
+    LANE_SIGMA_MAX,
+    PATTERNS,
+    ChainOnGrid,
+    DeccaGeometry,
+    DeccaObservations,
+    DeccaReading,
+    DeccaSystem,
+    LaneTotals,
+)
+
+KERNEL: Any = native.kernel("decca")
+"""``engine.native.decca``, or None."""
+TMGRID: Any = native.kernel("tmgrid")
+"""``engine.native.tmgrid`` (its ``inverse``, which the lane kernels call), or None."""
+
+
+_new_geometry = maker(DeccaGeometry)
+_new_lop = maker(LopReading)
+
+
+def geodesic_kernel(geodesic: Any) -> Any:
+    """The solver's compiled geodesic (:meth:`FastGeodesicSolver.native`), or None (the
+    reference solver, or one whose kernel declined). Several times a cycle: its resolved
+    geodesic read first."""
+    g = getattr(geodesic, "_native", None)
+    if g is None or KERNEL is None:
+        return None
+    if g is _UNSET_GEODESIC:
+        g = geodesic.native() if isinstance(geodesic, FastGeodesicSolver) else None
+    return g
+
+
+@cache
+def lane_sigma_kernel() -> Any:
+    """The kernel's ``lane_sigma`` (its own 2×2 products, engine/native/uvn_linalg.h), or None
+    (no kernel)."""
+    return None if KERNEL is None else KERNEL.lane_sigma
+
+
+def decca_geometry(placed: ChainOnGrid, x_m: float, y_m: float, geodesic: Any,
+                   latlon_deg: tuple[float, float] | None = None) -> DeccaGeometry:
+    """:func:`engine.systems.decca.decca_geometry` in one compiled call (``geometry_new``)."""
+    kg = geodesic_kernel(geodesic)
+    if kg is not None:
+        lat0, lon0 = placed.grid.inverse(x_m, y_m) if latlon_deg is None else latlon_deg
+        r = KERNEL.geometry_new(placed._scalars, kg, x_m, y_m, lat0, lon0, _new_geometry,
+                                placed.baseline_m)
+        if r is not NotImplemented:
+            return r  # type: ignore[no-any-return]
+    return decca.decca_geometry(placed, x_m, y_m, geodesic, latlon_deg)
+
+
+def tracked_totals(placed: ChainOnGrid, geodesic: Any,
+                   track: Sequence[Any], fractions: Sequence[float | None], time: Any,
+                   gps: Any) -> LaneTotals | None:
+    """:func:`engine.systems.decca.decca_totals` in one compiled call (``tracked``) for the
+    usual record: every pattern read is tracked (its last total within
+    :data:`DECCA_TRACK_GAP_S`) and GPS (``gps``, a :class:`engine.systems.gps.GpsFix`, its
+    corrections added; None: no GPS) finds no lane slip. None for anything else: then the
+    reference runs."""
+    kg = geodesic_kernel(geodesic)
+    packed = getattr(placed.grid, "_packed", None)
+    if kg is None or TMGRID is None or packed is None or lane_sigma_kernel() is None:
+        return None
+    if gps is None:
+        r = KERNEL.tracked(placed._scalars, kg, TMGRID.inverse, packed, track, fractions, time,
+                           None, None, None, DECCA_TRACK_GAP_S, LANE_SIGMA_MAX, LaneTotals)
+    else:
+        r = KERNEL.tracked(placed._scalars, kg, TMGRID.inverse, packed, track, fractions, time,
+                           gps.x_m + gps.corr_east_m, gps.y_m + gps.corr_north_m, gps.var_m2,
+                           DECCA_TRACK_GAP_S, LANE_SIGMA_MAX, LaneTotals)
+    return None if r is NotImplemented else r  # type: ignore[no-any-return]
+
+
+class FastDeccaObservations(DeccaObservations):
+    """:class:`DeccaObservations` with its per-iteration work in the compiled lane model."""
+
+    __slots__ = ()
+
+    def linearise(self, p: Point, slot0: int, A: list[float], b: list[float],
+                  Cl: np.ndarray) -> None:
+        """The rows in one compiled call (``linearise_at``, which also sets ``p.latlon`` by
+        the tmgrid kernel's inverse, else ``linearise``), where the model's own
+        :func:`engine.systems.decca.decca_vcv_m2` is in place."""
+        kg = geodesic_kernel(p.geodesic)
+        if kg is not None and decca.decca_vcv_m2 is decca._DECCA_VCV_M2:
+            placed = self.reading.placed
+            grid = placed.grid
+            packed = getattr(grid, "_packed", None)
+            s = slice(slot0, slot0 + len(PATTERNS))
+            if TMGRID is not None and packed is not None:
+                r = KERNEL.linearise_at(placed._scalars, kg, TMGRID.inverse, packed, grid, p,
+                                        self.observed, slot0, A, b, Cl, self.reading.cf)
+                if r is None:
+                    return
+                if r is not NotImplemented:  # Cl is not a float64 buffer: numpy assigns it
+                    Cl[s, s] = r
+                    return
+            lat0, lon0 = p.latlon if p.grid is grid else grid.inverse(p.x, p.y)
+            r = KERNEL.linearise(placed._scalars, kg, p.x, p.y, lat0, lon0, self.observed,
+                                 slot0, A, b, Cl, self.reading.cf)
+            if r is None:
+                return
+            if r is not NotImplemented:
+                Cl[s, s] = r
+                return
+        super().linearise(p, slot0, A, b, Cl)
+
+    def geometry_at(self, p: Point) -> DeccaGeometry:
+        if self._at is None or self._at[0] is not p:
+            self._at = (p, decca_geometry(self.reading.placed, p.x, p.y, p.geodesic, p.latlon))
+        return self._at[1]
+
+    def readings(self, p: Point) -> list[LopReading]:
+        """The page rows in one compiled call (``page``)."""
+        at = self._at  # self.geometry_at(p), its computed case looked up here
+        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
+        if KERNEL is not None:
+            rows = KERNEL.page(geom.n_calc, geom.lop_azimuth_rad, self.raw,
+                               self.reading.corrections_lanes, DECCA_PATTERN_NAMES, "Decca",
+                               _new_lop)
+            if rows is not NotImplemented:
+                return rows  # type: ignore[no-any-return]
+        return super().readings(p)
+
+    def nearest_station_m(self, p: Point, used: Sequence[bool]) -> float:
+        """The nearest station in one compiled call (``nearest``)."""
+        at = self._at  # self.geometry_at(p), its computed case looked up here
+        geom = at[1] if at is not None and at[0] is p else self.geometry_at(p)
+        if KERNEL is not None:
+            near = KERNEL.nearest(geom.d_master_m, geom.d_slave_m, used)
+            if near is not NotImplemented:
+                return near  # type: ignore[no-any-return]
+        return super().nearest_station_m(p, used)
+
+
+class FastDeccaSystem(DeccaSystem):
+    """:class:`DeccaSystem` on the compiled lane model."""
+
+    observations_class = FastDeccaObservations
+
+    def lane_totals(self, inputs: CycleInputs, placed: ChainOnGrid, gps: Any) -> LaneTotals:
+        lanes = tracked_totals(placed, inputs.context.geodesic, inputs.nav.decca_track,
+                               inputs.record.decca, inputs.record.time, gps)
+        return super().lane_totals(inputs, placed, gps) if lanes is None else lanes
+
+    def observations(self, value: DeccaReading | None, p0: Point) -> DeccaObservations | None:
+        """Tracked totals' lists in one compiled call (``observed``)."""
+        if value is not None and value.totals is not None and KERNEL is not None:
+            lists = KERNEL.observed(value.totals, value.fractions, value.corrections_lanes,
+                                    value.selected, math.nan)
+            if lists is not NotImplemented:
+                return FastDeccaObservations(value, *lists, [])
+        return super().observations(value, p0)
+
+
+FAST_DECCA = FastDeccaSystem()
+"""The Decca system of a run on the compiled path."""

@@ -1,0 +1,260 @@
+"""The geodesy of a run on the compiled kernels: TM grid, datum shift, geodesic azimuths.
+
+* :class:`FastTMGrid` is :class:`engine.geodesy.tmgrid.TMGrid` (the reference) whose forward,
+  inverse and convergence call ``engine.native.tmgrid`` on a packed copy of the grid's
+  constants (``_packed``, :func:`engine.native.tmgrid.pack`). Where the kernel declines (a
+  central meridian that is no float, a non-float argument, a math error) the reference runs.
+* :class:`FastDatumShift` is :class:`engine.geodesy.ellipsoidal.DatumShift` whose point call
+  is ``engine.native.datum.Shift`` (the textbook formulas of the Helmert pipeline's steps,
+  compiled), where it agrees with PROJ on :data:`SHIFT_PROBES` within the tolerance contract.
+* :class:`FastGeodesicSolver` is :class:`engine.geodesy.ellipsoidal.GeodesicSolver` whose
+  per-epoch azimuths are ``engine.native.decca``'s own ``Geodesic`` (Vincenty's inverse with
+  Karney's integrals; pyproj's public ``Geod.inv`` for the lines it does not take), where it
+  agrees with PROJ's ``geod_inverse`` on :data:`GEOD_PROBES` within the tolerance contract.
+
+The tolerance contract (docs/PERFORMANCE.md): 1e-9 relative, or 1e-9° and 1e-6 m absolute.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from functools import cache
+from typing import Any
+
+from engine import native
+from engine.geodesy.ellipsoid import Datum, Ellipsoid
+from engine.geodesy.ellipsoidal import (
+    PJ_FWD,
+    DatumShift,
+    GeodesicSolver,
+    _is_identity,
+    _proj_library,
+    _ProjPoint,
+)
+from engine.geodesy.tmgrid import TMGrid
+
+KERNEL: Any = native.kernel("tmgrid")
+"""``engine.native.tmgrid``, or None (not built, stale, ``UVNAV_PURE=1``)."""
+
+
+class FastTMGrid(TMGrid):
+    """:class:`TMGrid` on the compiled kernel (the constants packed once per grid)."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        object.__setattr__(self, "_packed", self._pack())
+
+    def _pack(self) -> bytearray | None:
+        """The kernel's state (the constants and an empty memo of inverses), or None. Each
+        constant is the float the reference computes: ``self._e**2``, the pole scale, ``A/a``,
+        the factors of :func:`math.radians`/:func:`math.degrees`. A central meridian that is
+        not a float or an int gets None (the reference runs)."""
+        if KERNEL is None or not isinstance(self.cm_deg, (float, int)):
+            return None
+        try:
+            cm = float(self.cm_deg)
+        except OverflowError:  # an int beyond floats: the reference raises where it is used
+            return None
+        e, e2m = self._e, self._e2m
+        k_pole = e2m**0.5 * math.exp(e * math.atanh(e))
+        return KERNEL.pack((cm, e, e2m, self._A, self._A / self.ellipsoid.a_m,  # type: ignore[no-any-return]
+                            e**2, k_pole, math.radians(1.0), math.degrees(1.0),
+                            *self._alpha, *self._beta))
+
+    def forward_full(self, lat_deg: float, lon_deg: float) -> tuple[float, float, float, float]:
+        out = KERNEL.forward_full(self._packed, lat_deg, lon_deg)
+        return super().forward_full(lat_deg, lon_deg) if out is None else out  # type: ignore[no-any-return]
+
+    def forward(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+        out = KERNEL.forward(self._packed, lat_deg, lon_deg)
+        return super().forward(lat_deg, lon_deg) if out is None else out  # type: ignore[no-any-return]
+
+    def inverse(self, x_m: float, y_m: float) -> tuple[float, float]:
+        """The kernel keeps its own memo (a ring in ``_packed``, the reference's rule)."""
+        out = KERNEL.inverse(self._packed, x_m, y_m)
+        return super().inverse(x_m, y_m) if out is None else out  # type: ignore[no-any-return]
+
+    def _inverse(self, x_m: float, y_m: float) -> tuple[float, float]:
+        out = KERNEL.inverse(self._packed, x_m, y_m, False)
+        return super()._inverse(x_m, y_m) if out is None else out  # type: ignore[no-any-return]
+
+    def convergence_deg(self, lat_deg: float, lon_deg: float) -> float:
+        out = KERNEL.forward_full(self._packed, lat_deg, lon_deg)
+        return super().convergence_deg(lat_deg, lon_deg) if out is None else out[2]  # type: ignore[no-any-return]
+
+
+# --------------------------------------------------------------------------- datum shift
+DATUM: Any = native.kernel("datum")
+"""``engine.native.datum``, or None."""
+
+SHIFT_PROBES: tuple[tuple[float, float, float], ...] = (
+    (52.0, 3.0, 0.0), (57.7, -1.25, -45.5), (-33.9, 151.2, 100.0), (0.0, 0.0, 0.0),
+    (89.99999, -179.9, -5000.0), (-90.0, 0.0, 0.0), (0.0, 180.0, 10000.0),
+    (-45.0, -180.0, -10000.0), (10.0, -45.0, 1e-9),
+)
+"""(lat, lon degrees, h m) on which the compiled datum shift must agree with libproj before it
+replaces the PROJ call: near the chart's area, poles, ±180°, heights ±10 km."""
+
+
+def compiled_point(proj: _ProjPoint, src: Datum, dst: Datum, pipeline: str) -> Any:
+    """``engine.native.datum.Shift`` for ``proj``'s pipeline (it hands what it does not cover
+    to ``proj.point``) where the kernel is built and PROJ runs the pipeline as written
+    (:meth:`_ProjPoint.definition`) and the kernel agrees with PROJ on :data:`SHIFT_PROBES`
+    (1e-9 relative, or 1e-9° and 1e-6 m); else ``proj.point`` itself (the reference's call)."""
+    k = DATUM
+    if k is None or proj._deg_in or proj._deg_out:
+        return proj.point
+    if proj.definition() != " ".join(word.lstrip("+") for word in pipeline.split()):
+        return proj.point
+
+    def ell(e: Ellipsoid) -> tuple[float, float]:  # as _ell_args writes it: rf 0.0 for +b=a
+        return float(e.a_m), 0.0 if e.f == 0.0 else float(e.inv_f)
+
+    def helmert(d: Datum) -> tuple[float, ...] | None:  # as _helmert_args writes it
+        if _is_identity(d):
+            return None
+        return (float(d.dx_m), float(d.dy_m), float(d.dz_m), float(d.rx_arcsec),
+                float(d.ry_arcsec), float(d.rz_arcsec), float(d.scale_ppm))
+
+    try:
+        shift = k.Shift(proj.point, *ell(src.ellipsoid), helmert(src), *ell(dst.ellipsoid),
+                        helmert(dst))
+    except (TypeError, ValueError):
+        return proj.point
+    for q in SHIFT_PROBES:  # the tolerance contract (docs/PERFORMANCE.md)
+        got = shift.forward(*q)
+        if got is None:  # declined there: the PROJ call answers that point
+            continue
+        want = proj.point(*q, None, PJ_FWD, False, False)
+        if any(not abs(g - w) <= max(1e-9 * abs(w), floor)
+               for g, w, floor in zip(got, want, (1e-9, 1e-9, 1e-6), strict=True)):
+            return proj.point
+    return shift
+
+
+class FastDatumShift(DatumShift):
+    """:class:`DatumShift` whose point call is the compiled Helmert pipeline
+    (:func:`compiled_point`); everything else is the reference's."""
+
+    __slots__ = ()
+
+    def __init__(self, src: Datum, dst: Datum) -> None:
+        super().__init__(src, dst)
+        if self._proj is not None:
+            self._point = compiled_point(self._proj, src, dst, self.pipeline)
+
+    def __reduce__(self) -> tuple[Any, tuple[Datum, Datum]]:
+        return FastDatumShift, (self.src, self.dst)
+
+
+def fast_datum_shift(src: Datum, dst: Datum) -> DatumShift:
+    """:func:`engine.geodesy.ellipsoidal.datum_shift` with the compiled point call."""
+    return FastDatumShift(src, dst)
+
+
+# --------------------------------------------------------------------------- geodesics
+DECCA: Any = native.kernel("decca")
+"""``engine.native.decca`` (its ``Geodesic``: the kernel's own geodesic inverse), or None."""
+
+_UNSET: Any = object()
+"""A :class:`FastGeodesicSolver`'s compiled geodesic before it is resolved (first use)."""
+
+GEOD_PROBES: tuple[tuple[float, float, float, float], ...] = (
+    (3.1, 53.2, 4.9, 52.4), (-1.25, 57.7, 2.0, 58.9), (5.0, 0.0, 5.0, 0.0),
+    (0.0, 0.0, 179.5, 0.5), (-179.9, 89.9, 179.9, -89.9), (10.0, -45.0, -170.0, 45.0),
+    (0.0, 90.0, 33.0, 10.0), (1e-9, 52.0, -1e-9, 52.0), (120.0, -33.8, 151.2, -33.9),
+)
+"""(lon1, lat1, lon2, lat2) degrees on which the compiled geodesic must agree with PROJ's:
+near and far lines, a zero-length line, near-antipodal and polar ones."""
+
+
+@cache
+def geod_kernel() -> Any:
+    """``engine.native.decca`` (its ``Geodesic`` is its own: nothing to look up in another
+    package's library), or None: the kernel is not built, stale or declined."""
+    return DECCA
+
+
+def geod_reference(a: float, f: float) -> Any:
+    """PROJ's ``geod_inverse`` on a ``geod_geodesic`` that ``geod_init(a, f)`` made, called
+    through ctypes as pyproj's ``Geod._inv_point`` calls it (degrees, no back azimuth, no
+    radians): ``(lon1, lat1, lon2, lat2) → (azi1, azi2, s12)``; None where libproj cannot be
+    loaded. What :meth:`FastGeodesicSolver.native` checks the compiled geodesic against (the
+    probe's reference only: the run's azimuths never call it)."""
+    import ctypes
+
+    lib = _proj_library()
+    if lib is None:
+        return None
+    d, pd = ctypes.c_double, ctypes.POINTER(ctypes.c_double)
+    try:
+        lib.geod_init.restype = None
+        lib.geod_init.argtypes = [ctypes.c_void_p, d, d]
+        lib.geod_inverse.restype = None
+        lib.geod_inverse.argtypes = [ctypes.c_void_p, d, d, d, d, pd, pd, pd]
+    except AttributeError:
+        return None
+    g = (d * 64)()  # struct geod_geodesic: 51 doubles
+    lib.geod_init(g, a, f)
+
+    def inverse_point(lon1: float, lat1: float, lon2: float, lat2: float
+                      ) -> tuple[float, float, float]:
+        s12, azi1, azi2 = d(), d(), d()
+        lib.geod_inverse(g, lat1, lon1, lat2, lon2, s12, azi1, azi2)
+        return azi1.value, azi2.value, s12.value
+
+    return inverse_point
+
+
+class FastGeodesicSolver(GeodesicSolver):
+    """:class:`GeodesicSolver` whose per-epoch azimuths are the compiled geodesic's
+    (:meth:`native`); pyproj is not imported by them (start-up time)."""
+
+    __slots__ = ("_native",)
+
+    def __init__(self, ell: Ellipsoid) -> None:
+        super().__init__(ell)
+        self._native: Any = _UNSET
+
+    def native(self) -> Any:
+        """The compiled geodesic (``engine.native.decca.Geodesic`` of the ellipsoid's a and f:
+        Vincenty's inverse, pyproj's where that is not used), or None where the kernel is not
+        available or its azimuths on :data:`GEOD_PROBES` differ from PROJ's ``geod_inverse``
+        called as pyproj calls it (:func:`geod_reference`) by more than the tolerance contract
+        (1e-9 relative or 1e-9°). Resolved on first use."""
+        g = self._native
+        if g is _UNSET:
+            g = None
+            k = geod_kernel()
+            a, f = float(self.ellipsoid.a_m), float(self.ellipsoid.f)
+            reference = None if k is None else geod_reference(a, f)
+            if k is not None and reference is not None:
+                cand = k.Geodesic(a, f)
+                own = [(cand.own_point(*q), q) for q in GEOD_PROBES]  # None: pyproj's line
+                if all(abs(g1 - w1) <= max(1e-9 * abs(w1), 1e-9)  # the tolerance contract
+                       for got, q in own if got is not None
+                       for g1, w1 in zip(got[:2], reference(*q)[:2], strict=True)):
+                    g = cand
+            self._native = g
+        return g
+
+    def forward_azimuths_deg(
+        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
+    ) -> list[float]:
+        g = self._native
+        if g is _UNSET:
+            g = self.native()
+        if g is not None:
+            return g.forward_azimuths_deg(lat1_deg, lon1_deg, points)  # type: ignore[no-any-return]
+        return super().forward_azimuths_deg(lat1_deg, lon1_deg, points)
+
+    def forward_azimuths_rad(
+        self, lat1_deg: float, lon1_deg: float, points: Sequence[tuple[float, float]]
+    ) -> list[float]:
+        g = self._native
+        if g is _UNSET:
+            g = self.native()
+        if g is not None:
+            return g.forward_azimuths_rad(lat1_deg, lon1_deg, points)  # type: ignore[no-any-return]
+        return super().forward_azimuths_rad(lat1_deg, lon1_deg, points)

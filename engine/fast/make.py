@@ -1,0 +1,41 @@
+"""Frozen dataclasses made in one compiled call (``engine.native.runparse``).
+
+A frozen dataclass's generated ``__init__`` sets each field with ``object.__setattr__``; the
+kernel's ``make`` sets the slots of a slotted one (``make_attrs`` the instance dict of a plain
+one) from every field positionally, the same instance. Where the kernel is not built these
+give the class itself (or None), so a caller can always call what it gets.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import fields
+from functools import partial
+from typing import Any
+
+from engine import native
+
+
+def slots_maker(cls: type) -> Callable[..., Any]:
+    """A constructor of the frozen slots dataclass ``cls`` taking every field positionally:
+    ``engine.native.runparse.make`` bound to it, or ``cls`` itself (no kernel)."""
+    kernel = native.kernel("runparse")
+    if kernel is None:
+        return cls
+    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
+
+
+def attrs_maker(cls: type) -> Callable[..., Any] | None:
+    """``engine.native.runparse.make_attrs`` bound to the plain frozen dataclass ``cls`` and
+    its field names (the same instance as ``object.__new__`` plus its ``__dict__`` filled
+    makes); None where the kernel is not in use."""
+    kernel = native.kernel("runparse")
+    if kernel is None or not hasattr(kernel, "make_attrs"):
+        return None
+    return partial(kernel.make_attrs, cls, tuple(f.name for f in fields(cls)))
+
+
+def runparse_function(name: str) -> Any:
+    """The function ``name`` of the compiled ``engine.native.runparse`` (None: the kernel not
+    in use, or a build without it)."""
+    return getattr(native.kernel("runparse"), name, None)
