@@ -1,7 +1,7 @@
 """Opening output files: the ``.OUT`` rule, identity checks against the inputs, ``--force``.
 
 Every file UVNAV writes (``.OUT`` log, JSON lines, smoothed positions, simulated ``.RUN`` and
-truth CSV, assessment SVG) is opened here, by :meth:`OutputGuard.open`. The rule (README.md,
+truth CSV, assessment SVG) is opened here, by :meth:`OutputGuard.open`. The rule (docs/CLI.md,
 "Output files"):
 
 * **Identity, not names.** Two paths are the same file when ``os.stat`` gives the same

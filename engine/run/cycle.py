@@ -330,7 +330,7 @@ class CycleResult:
     epoch, Φ): what the RTS smoother needs to go back over this step."""
     sensor_update: UpdateResult | None = None
     """The update with this record's gyro, log and inclinometer rows, made before the step into
-    this epoch (README "Sensor timing"); ``filter_update`` is the update at this epoch (fix or raw
+    this epoch (docs/DECISIONS.md "Sensor timing"); ``filter_update`` is the update at this epoch (fix or raw
     LOPs, and the pressure depth). Both carry their LOM and LS tests."""
     fix_fails_tests: bool = False
     """The LSE failed its tests (:func:`fix_fit`): a message says so; .OUT/JSONL record it."""
@@ -955,7 +955,7 @@ def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_
         _rescale_gnss_fix_states(f, meas)
     if source != f.source:
         # A new fix source is a new, independent error process: one Gauss–Markov pair
-        # models the LSE error of one source (README "Correlated fixes"); a change of the
+        # models the LSE error of one source (docs/DECISIONS.md "Correlated fixes"); a change of the
         # receiver's fix quality (SPS → DGPS → RTK) is one too (docs/GNSS_WEIGHTS.md).
         old, f.source = f.source, source
         if meas.bias_cov is not None and f.link is not None and f.state is not None:

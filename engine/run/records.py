@@ -66,7 +66,7 @@ def lse_estimate(r: CycleResult) -> PositionEstimate | None:
 def updates(r: CycleResult) -> list[tuple[str, UpdateResult]]:
     """The cycle's filter updates with their tests, as (kind, result): ``"epoch"`` = the update
     at this epoch (fix or raw LOPs, pressure depth), then ``"sensors"`` = this record's gyro, log
-    and inclinometer rows, applied before the step into the epoch (README "Sensor timing")."""
+    and inclinometer rows, applied before the step into the epoch (docs/DECISIONS.md "Sensor timing")."""
     out = []
     if r.filter_update is not None:
         out.append(("epoch", r.filter_update))
@@ -89,7 +89,7 @@ def _test_json(kind: str, u: UpdateResult) -> dict[str, Any]:
 
 
 def cycle_json(r: CycleResult) -> dict[str, Any]:
-    """The JSON-lines object of one cycle (keys documented in README, "Replay outputs")."""
+    """The JSON-lines object of one cycle (keys documented in docs/FORMATS.md, "JSON lines")."""
     lops = []
     if r.fix is not None:
         for lop in r.fix.lops:

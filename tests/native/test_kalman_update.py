@@ -523,13 +523,12 @@ def test_pure_env_runs_the_python(monkeypatch) -> None:
 
 
 def test_binding_is_lazy() -> None:
-    """Importing the filter does not load the OpenBLAS libraries through ctypes."""
+    """Importing the filter resolves no kernel and loads no SciPy (start-up time)."""
     import subprocess
     import sys
 
     code = ("import sys, engine.filter.update as U\n"
             "assert U._K is U._UNRESOLVED\n"
-            "assert 'engine.native.blas' not in sys.modules\n"
             "assert 'scipy' not in sys.modules\n")
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
 

@@ -18,7 +18,7 @@ With ``--config`` the run uses that configuration (working datum, DR position, s
 ``[nmea]``). Without it the configuration is derived from the stream as ``uvnav replay`` derives
 one from a log (docs/NMEA.md): WGS84, DR position = the first fix, GPS on, Decca off, each
 sensor on when its sentences came in the first ``--learn`` seconds (10) after that fix; it is
-printed before the first cycle. Outputs follow the ``.OUT`` rule (README "Output files"); the
+printed before the first cycle. Outputs follow the ``.OUT`` rule (docs/CLI.md "Output files"); the
 default ``.OUT`` is ``live-YYYYMMDDTHHMMSSZ.OUT`` in the current directory.
 
 Exit status: 0 ended by ``--cycles``/``--seconds``; 1 an output cannot be written; 2 bad input

@@ -99,7 +99,8 @@ def _import_quietly(module: str) -> object:
 
 def version_text() -> str:
     """``uvnav --version``: the package version and, per compiled kernel (engine/native), whether
-    it is in use ("compiled") or why the engine runs that part in Python (same results)."""
+    it is in use ("compiled") or why the engine runs that part in Python (the reference, which
+    the compiled path agrees with within the tolerance contract of docs/PERFORMANCE.md)."""
     from importlib.metadata import PackageNotFoundError, version
 
     from engine.api import kernel_report

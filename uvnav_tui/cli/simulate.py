@@ -13,7 +13,7 @@ See docs/SIMULATOR.md.
 ``--nmea`` also writes the same readings as an NMEA 0183 log (engine/sim/nmea.py,
 docs/NMEA_OUT.md).
 
-Outputs (engine/io/outputs.py, README "Output files"): an existing ``--out``, ``--truth`` or
+Outputs (engine/io/outputs.py, docs/CLI.md "Output files"): an existing ``--out``, ``--truth`` or
 ``--nmea`` is refused unless ``--force``, which replaces only an earlier simulator output (a
 ``.RUN`` file, a truth CSV, an NMEA log), never the scenario or a data file (compared by
 device and inode, so links do not hide them), never a device, pipe or directory.
