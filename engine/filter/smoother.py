@@ -270,11 +270,11 @@ class SmootherSpill:
 
     Records are appended in time order with the frame of their states. The newest stays in
     memory, because the next cycle replaces it (the state after that cycle's sensor update,
-    docs/DECISIONS.md "Sensor timing"); older ones go to an anonymous temporary file (deleted when closed
-    or when the process ends), each followed by its length (``_LEN``), so the backward pass
-    reads the file from the end without an index: memory is one record (and a 64 kB write
-    buffer) whatever the run's length; disk is 4.5 kB per epoch with 13 states (390 MB for a
-    day at 1 Hz).
+    docs/DECISIONS.md "Sensor timing"); older ones go to an anonymous temporary file (deleted
+    when closed or when the process ends), each followed by its length (``_LEN``), so the
+    backward pass reads the file from the end without an index: memory is one record (and a
+    64 kB write buffer) whatever the run's length; disk is 4.5 kB per epoch with 13 states
+    (390 MB for a day at 1 Hz).
 
     A record is a tag byte and then either (tag 1) a raw encoding: a header (flags, frame as a
     float64), per FilterState (filtered, then predicted_next if present) t, n, fix_cov's

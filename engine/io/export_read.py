@@ -47,7 +47,8 @@ __all__ = [
 
 W_FLAG_BOUND = 2.576
 """|w| above which an LOP counts as flagged: the thesis' fixed rejection bound
-(``engine.lsq.statistics.REJECT_BOUND``, docs/DECISIONS.md "Least squares" Q16; a test keeps them equal)."""
+(``engine.lsq.statistics.REJECT_BOUND``, docs/DECISIONS.md "Least squares" Q16; a test keeps
+them equal)."""
 
 
 MAX_SEMI_AXIS_M = 1_000_000.0

@@ -330,8 +330,8 @@ class CycleResult:
     epoch, Φ): what the RTS smoother needs to go back over this step."""
     sensor_update: UpdateResult | None = None
     """The update with this record's gyro, log and inclinometer rows, made before the step into
-    this epoch (docs/DECISIONS.md "Sensor timing"); ``filter_update`` is the update at this epoch (fix or raw
-    LOPs, and the pressure depth). Both carry their LOM and LS tests."""
+    this epoch (docs/DECISIONS.md "Sensor timing"); ``filter_update`` is the update at this
+    epoch (fix or raw LOPs, and the pressure depth). Both carry their LOM and LS tests."""
     fix_fails_tests: bool = False
     """The LSE failed its tests (:func:`fix_fit`): a message says so; .OUT/JSONL record it."""
     fix_cov_scale: float = 1.0

@@ -66,7 +66,8 @@ def lse_estimate(r: CycleResult) -> PositionEstimate | None:
 def updates(r: CycleResult) -> list[tuple[str, UpdateResult]]:
     """The cycle's filter updates with their tests, as (kind, result): ``"epoch"`` = the update
     at this epoch (fix or raw LOPs, pressure depth), then ``"sensors"`` = this record's gyro, log
-    and inclinometer rows, applied before the step into the epoch (docs/DECISIONS.md "Sensor timing")."""
+    and inclinometer rows, applied before the step into the epoch (docs/DECISIONS.md, "Sensor
+    timing")."""
     out = []
     if r.filter_update is not None:
         out.append(("epoch", r.filter_update))

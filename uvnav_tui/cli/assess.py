@@ -8,8 +8,8 @@ the LSE, the filter and the MPP with the 95 %-ellipse coverage and the NEES, the
 ``docs/ASSESS.md``.  Exit status 0, 2 for bad input (one line on stderr, never a traceback),
 1 when the SVG cannot be written (the message names it), 130 on Ctrl-C.
 
-The SVG follows the ``.OUT`` rule (engine/io/outputs.py, docs/CLI.md "Output files"): never one of the
-inputs (compared by device and inode), an existing file is kept and a free ``NAME_N.svg`` is
+The SVG follows the ``.OUT`` rule (engine/io/outputs.py, docs/CLI.md "Output files"): never one
+of the inputs (compared by device and inode), an existing file is kept and a free ``NAME_N.svg`` is
 used instead, ``--force`` replaces only an earlier assessment plot; devices, pipes and
 directories are refused.
 """

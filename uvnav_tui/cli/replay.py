@@ -8,8 +8,8 @@ Shows a rich progress bar on a terminal (silent when not a TTY) and prints a clo
 Never a traceback for bad input: file, line and field are named.
 
 Output files (the ``.OUT`` log, ``--jsonl``, ``--smooth``) all follow the ``.OUT`` rule
-(engine/io/outputs.py, docs/CLI.md "Output files"): never the same file (device and inode) as an input
-or another output; an existing file is never overwritten, the first free ``NAME_N.suffix`` is
+(engine/io/outputs.py, docs/CLI.md "Output files"): never the same file (device and inode) as an
+input or another output; an existing file is never overwritten, the first free ``NAME_N.suffix`` is
 used instead; ``--force`` replaces only an earlier UVNAV output of the same kind; devices,
 pipes and directories are refused. Every output is checked, then created, before the replay
 starts; if one cannot be, the ones already created are removed again and nothing runs.
