@@ -4,14 +4,16 @@ figures below are made up, and the table is checked to be computed from them).""
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from bench import bench_baseline as bb
 
-DEMO = next(w for w in bb.WORKLOADS if w.key == "demo")
-PAINT = next(w for w in bb.WORKLOADS if w.key == "paint")
+# The workloads as the bench has them, with 3 rounds (the made-up runs below).
+DEMO = replace(next(w for w in bb.WORKLOADS if w.key == "demo"), rounds=3)
+PAINT = replace(next(w for w in bb.WORKLOADS if w.key == "paint"), rounds=3)
 CRASH = "exit 1: internal error (AttributeError: 'FilterState' object has no attribute 'x')"
 
 
@@ -53,6 +55,12 @@ def test_table_medians_and_ratios_of_cpu_for_replays():
     assert row[4] == "0.80"  # 0.40 / 0.50, CPU medians
 
 
+def test_a_cell_says_when_it_has_fewer_runs_than_rounds():
+    groups = _groups()
+    groups["3.11.7"][1].runs[DEMO.key] = [(0.7, 0.4)]
+    assert _row(bb.table(groups, (DEMO,)), DEMO.name, "3.11.7")[3] == "0.400 s (wall 0.70, 1 run)"
+
+
 def test_table_first_paint_is_wall_time():
     row = _row(bb.table(_groups(), (DEMO, PAINT)), PAINT.name, "3.11.7")
     assert row[2] == "0.900 s (CPU 0.50)"
@@ -60,18 +68,25 @@ def test_table_first_paint_is_wall_time():
 
 
 def test_table_says_the_baseline_crashes_and_what_it_compares_against():
-    row = _row(bb.table(_groups(), (DEMO, PAINT)), DEMO.name, "3.13.0")
-    assert row[2] == f"compiled fails: {CRASH}; pure: 2.100 s (wall 2.50)"
+    t = bb.table(_groups(), (DEMO, PAINT))
+    row = _row(t, DEMO.name, "3.13.0")
+    assert row[2] == "compiled fails [1]; pure: 2.100 s (wall 2.50)"
     # Against the baseline's compiled path on the first Python (where it runs), named.
     assert row[4] == f"{0.45 / 0.50:.2f} (vs {bb.BASELINE} on 3.11.7)"
+    # The message once under the table, whichever rows it failed on.
+    assert _row(t, PAINT.name, "3.13.0")[2].startswith("compiled fails [1]; pure:")
+    assert t.splitlines()[-1] == f"* [1] {bb.BASELINE} compiled on Python 3.13.0: {CRASH}"
+    assert t.count("* [") == 1
 
 
-def test_table_escapes_a_pipe_in_an_error_message():
+def test_table_numbers_distinct_failures_apart():
     groups = _groups()
-    groups["3.13.0"][0].failed[DEMO.key] = "exit 2: a | b"
-    row = bb.table(groups, (DEMO,)).splitlines()[-1]
-    assert "a \\| b" in row
-    assert len(row.replace("\\|", "").strip("|").split("|")) == 6
+    groups["3.11.7"][1].failed[PAINT.key] = "the menu bar did not appear within 60 s"
+    t = bb.table(groups, (DEMO, PAINT))
+    assert _row(t, PAINT.name, "3.11.7")[3] == "fails [2]"
+    assert _row(t, PAINT.name, "3.11.7")[4] == "–"  # no ratio without a figure
+    assert t.splitlines()[-1] == ("* [2] this tree on Python 3.11.7: the menu bar did not "
+                                  "appear within 60 s")
 
 
 def test_doc_section_is_replaced_between_the_markers_only():
