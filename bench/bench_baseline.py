@@ -508,7 +508,11 @@ def prepare(commit: str | None, skip_notes: list[str]) -> dict[str, list[Variant
     """The variants per Python (``x.y.z`` keys), in the order of :func:`pythons`; what cannot
     be prepared goes to ``skip_notes``."""
     groups: dict[str, list[Variant]] = {}
-    for version, base_py in pythons():
+    found = pythons()
+    if len(found) < 2:
+        skip_notes.append(f"no Python newer than {_minor(found[0][0])} found (pyenv or PATH, "
+                          ".ci/newest-python): measured on that one only")
+    for version, base_py in found:
         vs: list[Variant] = []
         try:
             this_py: Path | None = this_tree_python(version)
