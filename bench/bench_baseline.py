@@ -17,9 +17,9 @@ files carry the interpreter's tag, so the Pythons' builds sit side by side). The
 same versions of numpy, SciPy, pyproj, … as this tree's venv on that Python (its ``pip
 freeze`` as constraints), so the engines differ and the libraries do not; if that resolution
 fails the baseline gets PyPI's newest and the table says so. Everything is cached (a venv is
-reused once its ``.complete`` marker is written); the first run takes a few minutes to build,
-later runs only measure. This tree runs from the repo's own venvs: ``.venv`` (``make venv``)
-and ``.venv-<x.y>`` (``make venv-new``; ``make bench`` builds both).
+reused while this tree's library versions are those it was built with); the first run takes a
+few minutes to build, later runs only measure. This tree runs from the repo's own venvs:
+``.venv`` (``make venv``) and ``.venv-<x.y>`` (``make venv-new``; ``make bench`` builds both).
 
 The workloads, each a fresh ``uvnav`` process with a warm bytecode cache (one untimed run of
 each variant first; ``PYTHONPYCACHEPREFIX`` in a folder of this run):
@@ -241,22 +241,25 @@ def baseline_python(commit: str, version: str, base_python: Path,
                     pins: list[str]) -> tuple[Path, str]:
     """The interpreter of the baseline's venv on Python ``version`` (built once: ``python -m
     venv``, ``pip install -e src`` with ``pins`` as constraints, unconstrained if they do not
-    resolve) and a note on the libraries it got."""
+    resolve) and a note on the libraries it got. A cached venv is reused while this tree's
+    versions are those it was built with (its ``constraints.txt``), else built again."""
     src = baseline_source(commit)
     venv = baseline_dir(commit) / f"venv-{version}"
     py = venv / "bin" / "python"
-    note_file = venv / ".complete"
-    if note_file.exists() and py.exists():
+    note_file, cfile = venv / ".complete", venv / "constraints.txt"
+    pin_text = "".join(f"{ln}\n" for ln in pins)
+    if note_file.exists() and py.exists() and (
+            cfile.read_text() if cfile.exists() else "") == pin_text:
         return py, note_file.read_text().strip()
     shutil.rmtree(venv, ignore_errors=True)
     print(f"  preparing the baseline {commit[:7]} on Python {version} in {venv} "
-          "(venv, pip install -e, its kernels built; once) …", flush=True)
+          "(venv, pip install -e, its kernels built; again when this tree's library versions "
+          "change) …", flush=True)
     _run_checked([str(base_python), "-m", "venv", str(venv)], f"python{version} -m venv")
     pip = [str(py), "-m", "pip", "install", "--quiet", "--disable-pip-version-check"]
     note = "same library versions as this tree"
     if pins:
-        cfile = venv / "constraints.txt"
-        cfile.write_text("\n".join(pins) + "\n")
+        cfile.write_text(pin_text)
         try:
             _run_checked([*pip, "-c", str(cfile), "-e", str(src)], "pip install (pinned)")
         except Unavailable as exc:
