@@ -11,7 +11,7 @@ NEW_VERSION := $(if $(PYTHON_NEW),$(shell $(PYTHON_NEW) -c 'import sys; print("%
 VENV_NEW := .venv-$(NEW_VERSION)
 STAMP_NEW := $(VENV_NEW)/.installed
 
-.PHONY: run test test-new bench lint venv venv-new clean
+.PHONY: run test test-new bench bench-baseline lint venv venv-new clean
 
 # The compiled kernels (engine/native/*.c, built by setup.py) are rebuilt when a source changes.
 NATIVE_SRC := setup.py $(wildcard engine/native/*.c engine/native/*.h)
@@ -59,8 +59,14 @@ $(BENCH_STAMP): $(STAMP) pyproject.toml
 	$(PY) -m pip install --quiet -e '.[bench]'
 	touch $(BENCH_STAMP)
 
-bench: $(BENCH_STAMP)
+# Both venvs: bench/bench_baseline.py times this tree against the pinned baseline on the main
+# venv's Python and on the newest (it prepares the baseline's own venvs in the temp folder).
+bench: $(BENCH_STAMP) venv-new
 	$(PY) -m bench
+
+# Only that side-by-side table, also written into docs/PERFORMANCE.md's section for it.
+bench-baseline: $(STAMP) venv-new
+	$(PY) -m bench.bench_baseline --doc docs/PERFORMANCE.md
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

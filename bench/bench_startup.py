@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import os
 import resource
+import shlex
 import shutil
 import statistics
 import subprocess
@@ -42,9 +43,9 @@ POLL_S = 0.01
 TMUX_SOCKET = f"uvnav-startup-{os.getpid()}"
 
 
-def _uvnav() -> list[str]:
-    """The command that starts uvnav with this interpreter."""
-    return [sys.executable, "-m", "uvnav_tui.cli.main"]
+def _uvnav(python: Path | None = None) -> list[str]:
+    """The command that starts uvnav with ``python`` (None: this interpreter)."""
+    return [str(python or sys.executable), "-m", "uvnav_tui.cli.main"]
 
 
 def replay_once(pycache: Path | None = None) -> tuple[float, float]:
@@ -74,15 +75,19 @@ def _tmux(*args: str, check: bool = True) -> str:
                           capture_output=True, text=True).stdout
 
 
-def first_paint_once(pycache: Path | None = None, timeout_s: float = 60.0
+def first_paint_once(pycache: Path | None = None, timeout_s: float = 60.0,
+                     python: Path | None = None, cwd: Path = ROOT, pure: bool = False
                      ) -> tuple[float, float]:
     """Seconds from starting ``uvnav`` in a new tmux session until the menu bar is painted,
     wall clock and CPU time of the process by then (±10 ms; NaN if it did not appear within
-    ``timeout_s``)."""
+    ``timeout_s``). ``python`` runs it (None: this interpreter) in ``cwd`` (the tree whose
+    ``uvnav`` starts; bench_baseline.py times other trees), ``pure``: with ``UVNAV_PURE=1``."""
     cols, rows = TERM_SIZE
     session = f"paint{time.monotonic_ns()}"
     prefix = f"PYTHONPYCACHEPREFIX={pycache} " if pycache is not None else ""
-    cmd = f"cd {ROOT} && exec env -u PYTHONDONTWRITEBYTECODE {prefix}{' '.join(_uvnav())}"
+    prefix += "UVNAV_PURE=1 " if pure else ""
+    cmd = (f"cd {shlex.quote(str(cwd))} && exec env -u PYTHONDONTWRITEBYTECODE -u UVNAV_PURE "
+           f"{prefix}{' '.join(shlex.quote(a) for a in _uvnav(python))}")
     t0 = time.perf_counter()
     _tmux("new-session", "-d", "-s", session, "-x", str(cols), "-y", str(rows), cmd)
     try:
