@@ -130,7 +130,6 @@ if TYPE_CHECKING:
         sensor_measurement,
     )
     from engine.filter.poe import PoeSample, drms, poe_states
-    from engine.geodesy.ellipsoidal import load_proj
     from engine.io.export_geo import ELLIPSE_POINTS, Wgs84Converter, build_export
     from engine.io.export_geo import TRACKS as EXPORT_TRACKS
     from engine.io.export_read import (
@@ -219,7 +218,6 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
                              "denied_experiment", "run_records", "truth_reference"),
     "engine.sim.scenario": ("load_scenario",),
     "engine.native": ("PURE_ENV",),
-    "engine.geodesy.ellipsoidal": ("load_proj",),
     "engine.run.kernels": ("kernel_report",),
     "engine.sim.simulate": ("read_data_files", "write_simulation"),
     "engine.io.nmea_send": ("NmeaSender", "open_nmea_sender", "parse_nmea_destination"),
@@ -375,7 +373,6 @@ __all__ = [
     # the compiled kernels (engine/native, docs/PERFORMANCE.md): which are in use
     "PURE_ENV",
     "kernel_report",
-    "load_proj",
     # live NMEA sources (docs/LIVE.md), imported on first use
     "LEARN_S",
     "LiveCycle",

@@ -347,3 +347,29 @@ def test_the_seam_check_finds_a_breach() -> None:
     """The seam check is not vacuous: a module still dispatching to a kernel is found."""
     graph, modules = _import_graph()
     assert _seam_breaches("engine.run.kernels", graph, modules)  # reports on engine.native
+
+
+def _foreign_library_loads(paths: list[pathlib.Path]) -> list[str]:
+    """Sources that could load a shared library of another package (a symbol dug out of a
+    wheel): Python importing ``ctypes`` or ``cffi``, C calling ``dlopen``/``dlsym``."""
+    found = []
+    for p in paths:
+        if p.suffix == ".py":
+            hits = sorted(_imports(p) & {"ctypes", "cffi", "_ctypes"})
+        else:
+            text = p.read_text(encoding="utf-8")
+            hits = [w for w in ("dlopen", "dlsym", "LoadLibrary") if w in text]
+        found += [f"{p.name}: {h}" for h in hits]
+    return found
+
+
+def test_no_shared_library_of_another_package_is_loaded(tmp_path: pathlib.Path) -> None:
+    """The engine and the console use other packages through their public Python (or, for
+    the kernels, C) interfaces only: nothing loads another package's shared library."""
+    paths = [p for top in ("engine", "uvnav_tui") for pattern in ("*.py", "*.c", "*.h")
+             for p in sorted((ROOT / top).rglob(pattern))]
+    assert len(paths) > 100
+    assert _foreign_library_loads(paths) == []
+    bad = tmp_path / "bad.py"
+    bad.write_text("import ctypes\nlib = ctypes.CDLL('libproj.so')\n", encoding="utf-8")
+    assert _foreign_library_loads([bad]) == ["bad.py: ctypes"]

@@ -109,15 +109,13 @@ start-up time). Same rules in the same order: the dialog is the first screen pus
 
 def load_engine() -> None:
     """Import the engine's run-time modules (the session, the cycle, the commands): what
-    :mod:`engine.api` would otherwise import when the run starts, and load the PROJ library
-    the run's datum shifts call (:func:`engine.api.load_proj`). The cyclic garbage collector
+    :mod:`engine.api` would otherwise import when the run starts. The cyclic garbage collector
     is paused meanwhile, as for the imports at start-up (``uvnav_tui.cli.main``)."""
     was_enabled = gc.isenabled()
     gc.disable()
     try:
         for name in PRELOADED:
             getattr(api, name)
-        api.load_proj()
     finally:
         if was_enabled:  # never switch on a collector somebody else paused
             gc.enable()
@@ -126,8 +124,8 @@ def load_engine() -> None:
 PRELOADED = ("Session", "CycleResult", "SetDatum", "lse_estimate", "quality_name", "lop_name")
 """Names of :mod:`engine.api` whose modules :func:`load_engine` imports (together they load
 all a run needs: the session imports the cycle, the filter, the fix and the NMEA reader).
-pyproj is not among them: a run reaches PROJ without it (engine/geodesy/ellipsoidal.py); it
-was preloaded here while the run context imported it (~0.1 s of CPU)."""
+pyproj is not among them: the datum shifts are the engine's own formulas
+(engine/geodesy/ellipsoidal.py); the geodesic azimuths import it on first use."""
 
 
 class Advanced(Message):

@@ -72,15 +72,16 @@ def _probe_datum_shift() -> str | None:
 
 def _probe_geodesic() -> str | None:
     """Why the compiled geodesic azimuths are not used (None: they are). The check is the
-    solver's own (:meth:`FastGeodesicSolver.native`: PROJ's ``geod_inverse`` through ctypes
-    on :data:`engine.fast.geodesy.GEOD_PROBES`), so pyproj is not imported for it."""
+    solver's own (:meth:`FastGeodesicSolver.native`: the reference's
+    :class:`engine.geodesy.ellipsoidal.GeodesicSolver` on
+    :data:`engine.fast.geodesy.GEOD_PROBES`)."""
     from engine.fast import geodesy
     from engine.geodesy.ellipsoid import WGS84
 
     if geodesy.DECCA is None:
         return native.status("decca")
     if geodesy.FastGeodesicSolver(WGS84.ellipsoid).native() is None:
-        return "first-use probe failed (geodesic azimuths, or PROJ's geod_inverse not found)"
+        return "first-use probe failed (geodesic azimuths)"
     return None
 
 

@@ -5,12 +5,13 @@
   constants (``_packed``, :func:`engine.native.tmgrid.pack`). Where the kernel declines (a
   central meridian that is no float, a non-float argument, a math error) the reference runs.
 * :class:`FastDatumShift` is :class:`engine.geodesy.ellipsoidal.DatumShift` whose point call
-  is ``engine.native.datum.Shift`` (the textbook formulas of the Helmert pipeline's steps,
-  compiled), where it agrees with PROJ on :data:`SHIFT_PROBES` within the tolerance contract.
+  is ``engine.native.datum.Shift`` (the reference's geocentric shift, compiled), where it
+  agrees with the reference on :data:`SHIFT_PROBES` within the tolerance contract.
 * :class:`FastGeodesicSolver` is :class:`engine.geodesy.ellipsoidal.GeodesicSolver` whose
   per-epoch azimuths are ``engine.native.decca``'s own ``Geodesic`` (Vincenty's inverse with
   Karney's integrals; pyproj's public ``Geod.inv`` for the lines it does not take), where it
-  agrees with PROJ's ``geod_inverse`` on :data:`GEOD_PROBES` within the tolerance contract.
+  agrees with the reference's (pyproj's ``Geod.inv``) on :data:`GEOD_PROBES` within the
+  tolerance contract.
 
 The tolerance contract (docs/PERFORMANCE.md): 1e-9 relative, or 1e-9° and 1e-6 m absolute.
 """
@@ -19,19 +20,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from functools import cache
 from typing import Any
 
 from engine import native
 from engine.geodesy.ellipsoid import Datum, Ellipsoid
-from engine.geodesy.ellipsoidal import (
-    PJ_FWD,
-    DatumShift,
-    GeodesicSolver,
-    _is_identity,
-    _proj_library,
-    _ProjPoint,
-)
+from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, _is_identity
 from engine.geodesy.tmgrid import TMGrid
 
 KERNEL: Any = native.kernel("tmgrid")
@@ -93,59 +86,62 @@ SHIFT_PROBES: tuple[tuple[float, float, float], ...] = (
     (89.99999, -179.9, -5000.0), (-90.0, 0.0, 0.0), (0.0, 180.0, 10000.0),
     (-45.0, -180.0, -10000.0), (10.0, -45.0, 1e-9),
 )
-"""(lat, lon degrees, h m) on which the compiled datum shift must agree with libproj before it
-replaces the PROJ call: near the chart's area, poles, ±180°, heights ±10 km."""
+"""(lat, lon degrees, h m) on which the compiled datum shift must agree with the reference
+before it replaces it: near the chart's area, poles, ±180°, heights ±10 km."""
 
 
-def compiled_point(proj: _ProjPoint, src: Datum, dst: Datum, pipeline: str) -> Any:
-    """``engine.native.datum.Shift`` for ``proj``'s pipeline (it hands what it does not cover
-    to ``proj.point``) where the kernel is built and PROJ runs the pipeline as written
-    (:meth:`_ProjPoint.definition`) and the kernel agrees with PROJ on :data:`SHIFT_PROBES`
-    (1e-9 relative, or 1e-9° and 1e-6 m); else ``proj.point`` itself (the reference's call)."""
-    k = DATUM
-    if k is None or proj._deg_in or proj._deg_out:
-        return proj.point
-    if proj.definition() != " ".join(word.lstrip("+") for word in pipeline.split()):
-        return proj.point
+def _ell(e: Ellipsoid) -> tuple[float, float]:
+    """(a m, 1/f; 0.0 for a sphere): the kernel's ellipsoid arguments."""
+    return float(e.a_m), 0.0 if e.f == 0.0 else float(e.inv_f)
 
-    def ell(e: Ellipsoid) -> tuple[float, float]:  # as _ell_args writes it: rf 0.0 for +b=a
-        return float(e.a_m), 0.0 if e.f == 0.0 else float(e.inv_f)
 
-    def helmert(d: Datum) -> tuple[float, ...] | None:  # as _helmert_args writes it
-        if _is_identity(d):
-            return None
-        return (float(d.dx_m), float(d.dy_m), float(d.dz_m), float(d.rx_arcsec),
-                float(d.ry_arcsec), float(d.rz_arcsec), float(d.scale_ppm))
+def _helmert(d: Datum) -> tuple[float, ...] | None:
+    """The datum's seven Bursa–Wolf numbers, or None (all zero: the step is left out)."""
+    if _is_identity(d):
+        return None
+    return (float(d.dx_m), float(d.dy_m), float(d.dz_m), float(d.rx_arcsec),
+            float(d.ry_arcsec), float(d.rz_arcsec), float(d.scale_ppm))
 
+
+def compiled_point(reference: DatumShift) -> Any:
+    """``engine.native.datum.Shift`` of ``reference``'s datums (it hands what it does not cover
+    to ``reference.transform``) where the kernel is built and agrees with the reference on
+    :data:`SHIFT_PROBES` (1e-9 relative, or 1e-9° and 1e-6 m); else ``reference.transform``."""
+    k, src, dst = DATUM, reference.src, reference.dst
+    if k is None:
+        return reference.transform
     try:
-        shift = k.Shift(proj.point, *ell(src.ellipsoid), helmert(src), *ell(dst.ellipsoid),
-                        helmert(dst))
+        shift = k.Shift(reference.transform, *_ell(src.ellipsoid), _helmert(src),
+                        *_ell(dst.ellipsoid), _helmert(dst))
     except (TypeError, ValueError):
-        return proj.point
+        return reference.transform
     for q in SHIFT_PROBES:  # the tolerance contract (docs/PERFORMANCE.md)
         got = shift.forward(*q)
-        if got is None:  # declined there: the PROJ call answers that point
+        if got is None:  # declined there: the reference answers that point
             continue
-        want = proj.point(*q, None, PJ_FWD, False, False)
+        want = reference.transform(*q)
         if any(not abs(g - w) <= max(1e-9 * abs(w), floor)
                for g, w, floor in zip(got, want, (1e-9, 1e-9, 1e-6), strict=True)):
-            return proj.point
+            return reference.transform
     return shift
 
 
 class FastDatumShift(DatumShift):
-    """:class:`DatumShift` whose point call is the compiled Helmert pipeline
+    """:class:`DatumShift` whose point call is the compiled geocentric shift
     (:func:`compiled_point`); everything else is the reference's."""
 
-    __slots__ = ()
+    __slots__ = ("point",)
 
     def __init__(self, src: Datum, dst: Datum) -> None:
         super().__init__(src, dst)
-        if self._proj is not None:
-            self._point = compiled_point(self._proj, src, dst, self.pipeline)
+        self.point: Any = compiled_point(DatumShift(src, dst))
+        """``(lat deg, lon deg, h m) → (lat, lon, h)`` on the destination: the kernel, or the
+        reference's :meth:`DatumShift.transform`."""
 
-    def __reduce__(self) -> tuple[Any, tuple[Datum, Datum]]:
-        return FastDatumShift, (self.src, self.dst)
+    def transform(
+        self, lat_deg: float, lon_deg: float, h_m: float = 0.0
+    ) -> tuple[float, float, float]:
+        return self.point(lat_deg, lon_deg, h_m)  # type: ignore[no-any-return]
 
 
 def fast_datum_shift(src: Datum, dst: Datum) -> DatumShift:
@@ -165,51 +161,28 @@ GEOD_PROBES: tuple[tuple[float, float, float, float], ...] = (
     (0.0, 0.0, 179.5, 0.5), (-179.9, 89.9, 179.9, -89.9), (10.0, -45.0, -170.0, 45.0),
     (0.0, 90.0, 33.0, 10.0), (1e-9, 52.0, -1e-9, 52.0), (120.0, -33.8, 151.2, -33.9),
 )
-"""(lon1, lat1, lon2, lat2) degrees on which the compiled geodesic must agree with PROJ's:
-near and far lines, a zero-length line, near-antipodal and polar ones."""
+"""(lon1, lat1, lon2, lat2) degrees on which the compiled geodesic must agree with the
+reference's: near and far lines, a zero-length line, near-antipodal and polar ones."""
 
 
-@cache
-def geod_kernel() -> Any:
-    """``engine.native.decca`` (its ``Geodesic`` is its own: nothing to look up in another
-    package's library), or None: the kernel is not built, stale or declined."""
-    return DECCA
+def _same_azimuth(got: float, want: float) -> bool:
+    """Two azimuths (degrees) within the tolerance contract (1e-9 relative or 1e-9°), angles
+    that differ by a multiple of 360° being one direction."""
+    d = abs(got - want) % 360.0
+    return min(d, 360.0 - d) <= max(1e-9 * abs(want), 1e-9)
 
 
-def geod_reference(a: float, f: float) -> Any:
-    """PROJ's ``geod_inverse`` on a ``geod_geodesic`` that ``geod_init(a, f)`` made, called
-    through ctypes as pyproj's ``Geod._inv_point`` calls it (degrees, no back azimuth, no
-    radians): ``(lon1, lat1, lon2, lat2) → (azi1, azi2, s12)``; None where libproj cannot be
-    loaded. What :meth:`FastGeodesicSolver.native` checks the compiled geodesic against (the
-    probe's reference only: the run's azimuths never call it)."""
-    import ctypes
-
-    lib = _proj_library()
-    if lib is None:
-        return None
-    d, pd = ctypes.c_double, ctypes.POINTER(ctypes.c_double)
-    try:
-        lib.geod_init.restype = None
-        lib.geod_init.argtypes = [ctypes.c_void_p, d, d]
-        lib.geod_inverse.restype = None
-        lib.geod_inverse.argtypes = [ctypes.c_void_p, d, d, d, d, pd, pd, pd]
-    except AttributeError:
-        return None
-    g = (d * 64)()  # struct geod_geodesic: 51 doubles
-    lib.geod_init(g, a, f)
-
-    def inverse_point(lon1: float, lat1: float, lon2: float, lat2: float
-                      ) -> tuple[float, float, float]:
-        s12, azi1, azi2 = d(), d(), d()
-        lib.geod_inverse(g, lat1, lon1, lat2, lon2, s12, azi1, azi2)
-        return azi1.value, azi2.value, s12.value
-
-    return inverse_point
+def _agrees(got: tuple[float, float, float], want: tuple[float, float, float]) -> bool:
+    """The kernel's ``own_point`` (forward azimuths at 1 and at 2, degrees; distance m) against
+    the reference's :meth:`GeodesicSolver.inverse` (forward azimuth, back azimuth at 2,
+    distance) within the tolerance contract (1e-9 relative, or 1e-9° and 1e-6 m)."""
+    return (_same_azimuth(got[0], want[0]) and _same_azimuth(got[1], want[1] + 180.0)
+            and abs(got[2] - want[2]) <= max(1e-9 * abs(want[2]), 1e-6))
 
 
 class FastGeodesicSolver(GeodesicSolver):
     """:class:`GeodesicSolver` whose per-epoch azimuths are the compiled geodesic's
-    (:meth:`native`); pyproj is not imported by them (start-up time)."""
+    (:meth:`native`)."""
 
     __slots__ = ("_native",)
 
@@ -220,21 +193,19 @@ class FastGeodesicSolver(GeodesicSolver):
     def native(self) -> Any:
         """The compiled geodesic (``engine.native.decca.Geodesic`` of the ellipsoid's a and f:
         Vincenty's inverse, pyproj's where that is not used), or None where the kernel is not
-        available or its azimuths on :data:`GEOD_PROBES` differ from PROJ's ``geod_inverse``
-        called as pyproj calls it (:func:`geod_reference`) by more than the tolerance contract
-        (1e-9 relative or 1e-9°). Resolved on first use."""
+        available or its forward azimuths on :data:`GEOD_PROBES` differ from the reference's
+        (:meth:`GeodesicSolver.inverse`) by more than the tolerance contract (1e-9 relative or
+        1e-9°). Resolved on first use."""
         g = self._native
         if g is _UNSET:
             g = None
-            k = geod_kernel()
-            a, f = float(self.ellipsoid.a_m), float(self.ellipsoid.f)
-            reference = None if k is None else geod_reference(a, f)
-            if k is not None and reference is not None:
-                cand = k.Geodesic(a, f)
+            k = DECCA
+            if k is not None:
+                a, f = float(self.ellipsoid.a_m), float(self.ellipsoid.f)
+                cand, reference = k.Geodesic(a, f), GeodesicSolver(self.ellipsoid)
                 own = [(cand.own_point(*q), q) for q in GEOD_PROBES]  # None: pyproj's line
-                if all(abs(g1 - w1) <= max(1e-9 * abs(w1), 1e-9)  # the tolerance contract
-                       for got, q in own if got is not None
-                       for g1, w1 in zip(got[:2], reference(*q)[:2], strict=True)):
+                if all(_agrees(got, reference.inverse(q[1], q[0], q[3], q[2]))
+                       for got, q in own if got is not None):
                     g = cand
             self._native = g
         return g

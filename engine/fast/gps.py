@@ -37,18 +37,15 @@ _new_lop = maker(LopReading)
 
 class _ShiftArgs:
     """What the kernel's gps_input needs of the run's datum shifts (None: no shift), for the
-    last pair seen (a run has one): each one's point call (:meth:`DatumShift.transform` calls
-    it) and the direction; ``ok`` False where a shift has no point call (the reference runs)."""
+    last pair seen (a run has one): each one's point call, ``(lat, lon, h) → (lat, lon, h)``
+    (a :class:`FastDatumShift`'s compiled ``point``, else the shift's ``transform``)."""
 
-    __slots__ = ("direction", "ok", "s_point", "shift", "to_wgs", "w_point")
+    __slots__ = ("s_point", "shift", "to_wgs", "w_point")
 
     def __init__(self, shift: Any, to_wgs: Any) -> None:
         self.shift, self.to_wgs = shift, to_wgs
-        self.s_point = None if shift is None else getattr(shift, "_point", None)
-        self.w_point = None if to_wgs is None else getattr(to_wgs, "_point", None)
-        self.ok = ((shift is None or self.s_point is not None)
-                   and (to_wgs is None or self.w_point is not None))
-        self.direction = getattr(shift if shift is not None else to_wgs, "_forward", None)
+        self.s_point = None if shift is None else getattr(shift, "point", shift.transform)
+        self.w_point = None if to_wgs is None else getattr(to_wgs, "point", to_wgs.transform)
 
 
 class FastGpsObservations(_GpsObservations):
@@ -94,9 +91,7 @@ class FastGpsSystem(GpsSystem):
         sa = self._shifts
         if sa is None or sa.shift is not ctx.gps_shift or sa.to_wgs is not ctx.gps_to_wgs84:
             sa = self._shifts = _ShiftArgs(ctx.gps_shift, ctx.gps_to_wgs84)
-        if not sa.ok:
-            return super().gps_input(inputs)
-        out = TMGRID.gps_input(packed, sa.s_point, sa.w_point, sa.direction, rec.gps_lat_deg,
+        out = TMGRID.gps_input(packed, sa.s_point, sa.w_point, rec.gps_lat_deg,
                                rec.gps_lon_deg, ref._WGS84_A, ref._WGS84_E2, _new_input,
                                gps_weight(inputs.config, rec))
         return super().gps_input(inputs) if out is None else out  # type: ignore[no-any-return]

@@ -49,23 +49,6 @@ def _same(a: Any, b: Any) -> bool:
         (fa == fb) | np.isclose(fa, fb, rtol=REL, atol=ABS) | (np.isnan(fa) & np.isnan(fb))))
 
 
-class _ProjGeodesic(GeodesicSolver):
-    """The reference solver's azimuths from PROJ's ``geod_inverse`` called through ctypes
-    (:func:`engine.fast.geodesy.geod_reference`: the C function pyproj's scalar inverse
-    calls), so that the probe does not import pyproj (start-up time)."""
-
-    __slots__ = ("_ref",)
-
-    def __init__(self, ell: Ellipsoid, ref: Any) -> None:
-        super().__init__(ell)
-        self._ref = ref
-
-    def forward_azimuths_rad(self, lat1_deg: float, lon1_deg: float,
-                             points: Any) -> list[float]:
-        return [math.radians(self._ref(lon1_deg, lat1_deg, lon2, lat2)[0] % 360.0)
-                for lat2, lon2 in points]
-
-
 def _rows(obs: Any, p: Point) -> tuple[list[float], list[float], np.ndarray]:
     A, b, Cl = [0.0] * 20, [0.0] * 10, np.eye(10)
     obs.linearise(p, 2, A, b, Cl)
@@ -80,13 +63,10 @@ def _page(rows: list[LopReading]) -> list[Any]:
 def systems(fast_decca: Any, fast_gps: Any) -> str | None:
     """Why the compiled systems are not used (None: they agree with the reference)."""
     from engine.fast import decca as fdecca
-    from engine.fast.geodesy import FastGeodesicSolver, FastTMGrid, geod_reference
+    from engine.fast.geodesy import FastGeodesicSolver, FastTMGrid
 
-    ref = geod_reference(_INTL.a_m, _INTL.f)
-    if ref is None:
-        return "PROJ's geod_inverse not found (the compiled geodesic is not used either)"
     grids = FastTMGrid(_INTL, 7.0), TMGrid(_INTL, 7.0)
-    geods = FastGeodesicSolver(_INTL), _ProjGeodesic(_INTL, ref)
+    geods = FastGeodesicSolver(_INTL), GeodesicSolver(_INTL)
     placed = [decca.place_chain(_CHAIN, g) for g in grids]
     t0 = datetime(1992, 9, 17, 12, 0, tzinfo=UTC)
     mx, my = placed[1].station_xy_m[0].tolist()
@@ -144,17 +124,14 @@ def fix(fast_compute_fix: Any) -> str | None:
     """Why the compiled fix is not used (None: a GPS + Decca fix agrees with the reference's:
     position, VCV, S², and every LOP row's numbers and verdict)."""
     from engine.fast.decca import FAST_DECCA
-    from engine.fast.geodesy import FastGeodesicSolver, FastTMGrid, geod_reference
+    from engine.fast.geodesy import FastGeodesicSolver, FastTMGrid
     from engine.fast.gps import FAST_GPS
     from engine.lsq.fix import compute_fix
     from engine.systems.gps import GPS
     from engine.systems.manual import MANUAL
 
-    ref = geod_reference(_INTL.a_m, _INTL.f)
-    if ref is None:
-        return "PROJ's geod_inverse not found"
     grids = FastTMGrid(_INTL, 7.0), TMGrid(_INTL, 7.0)
-    geods = FastGeodesicSolver(_INTL), _ProjGeodesic(_INTL, ref)
+    geods = FastGeodesicSolver(_INTL), GeodesicSolver(_INTL)
     placed = [decca.place_chain(_CHAIN, g) for g in grids]
     mx, my = placed[1].station_xy_m[0].tolist()
     systems = ((FAST_GPS, FAST_DECCA, MANUAL), (GPS, decca.DECCA, MANUAL))

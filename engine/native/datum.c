@@ -1,8 +1,8 @@
-/* The engine's datum shifts, compiled (engine.native.datum): the transformation
- * engine.geodesy.ellipsoidal.helmert_pipeline describes, computed from the textbook formulas
- * (the pure path runs that pipeline in PROJ; the two agree to the engine's tolerance contract,
- * docs/PERFORMANCE.md; tests/native/test_datum.py compares them on every datum of
- * data/TO_WGS84.DAT, on a replay's points and over the whole globe):
+/* The engine's datum shifts, compiled (engine.native.datum): engine.geodesy.ellipsoidal.DatumShift
+ * (the reference, pure Python) computed by the same steps (thesis §5.3, A8.4; docs/THEORY.md
+ * §2.1-2.2 and D1). The two agree to the engine's tolerance contract (docs/PERFORMANCE.md);
+ * engine.fast.geodesy checks that on first use, tests/native/test_datum.py on every datum of
+ * data/TO_WGS84.DAT, on a replay's points and over the whole globe:
  *
  *   1. geodetic (φ, λ, h) on the source ellipsoid → geocentric Cartesian (X, Y, Z):
  *        N = a / √(1 − e² sin²φ),  X = (N + h) cos φ cos λ,  Y = (N + h) cos φ sin λ,
@@ -11,27 +11,22 @@
  *   2. the source datum's seven-parameter similarity to WGS84, position-vector convention with
  *      the small-angle rotation matrix (IOGP Guidance Note 7-2, EPSG method 9606):
  *        X' = T + (1 + s·10⁻⁶) R X,  R = [[1, −rz, ry], [rz, 1, −rx], [−ry, rx, 1]] (radians);
- *   3. the destination datum's similarity reversed (GN 7-2: the reverse of 9606 applies the
- *      parameters with their signs changed, i.e. Rᵀ for R; here X = Rᵀ (X' − T) / (1 + s·10⁻⁶),
- *      as PROJ's +inv helmert step does);
+ *      with zero rotations and scale the 3-parameter shift X' = X + (dX, dY, dZ);
+ *   3. the destination datum's similarity reversed: X = Rᵀ (X' − T) / (1 + s·10⁻⁶);
  *   4. Cartesian → geodetic on the destination ellipsoid by Bowring's formula (Bowring 1976,
- *      Survey Review 23(181):323–327), one step of the parametric latitude β:
- *        p = √(X² + Y²), tan β = (Z a) / (p b),
+ *      Survey Review 23(181):323–327) iterated on the parametric latitude β until it moves by
+ *      less than 1e-14 rad:
+ *        p = √(X² + Y²), tan β = (1 − f) tan φ (first: Z / ((1 − f) p)),
  *        tan φ = (Z + e'² b sin³β) / (p − e² a cos³β),  λ = atan2(Y, X),
- *        h = p / cos φ − N  (Torge & Müller §4.1.1; the form PROJ's cart step uses, so far from
- *      the ellipsoid, where one Bowring step is no longer exact, both still give the same
- *      height). Near the ellipsoid (±10 km, every point a datum shift of this engine sees) one
- *      step is exact to well below a micrometre. Within 1° of a pole p / cos φ magnifies the
- *      last bit of φ: there the PROJ call answers.
+ *        h = p cos φ + Z sin φ − a √(1 − e² sin²φ).
  * Degrees in and out, (lat, lon, h) order. Steps whose seven parameters are all zero (WGS84)
- * are left out, as helmert_pipeline leaves them out.
+ * are left out, as the reference leaves them out.
  *
- * A Shift object is called like engine.geodesy.ellipsoidal._ProjPoint.point (x, y, z, t,
- * direction, radians, errcheck) -> (x, y, z): it computes the forward direction (PJ_FWD) for
- * float x, y, z (finite), t None, radians and errcheck False; anything else (another direction
- * or argument type, a non-finite value, a latitude beyond ±90°, a longitude beyond 10 rad (which
- * PROJ refuses), a result on the antimeridian (where the sign of ±180° is PROJ's choice) or
- * within 1° of a pole goes to the fallback it was made with (the PROJ call itself).
+ * A Shift object is called as DatumShift.transform: (lat, lon, h) -> (lat, lon, h). It computes
+ * three floats that are finite, with |lat| <= 90° and |lon| <= 10 rad; anything else (another
+ * argument type, a non-finite value or result, a result on the antimeridian, where the sign of
+ * ±180° is the rounding's choice, or within 1° of a pole, where the longitude is that of the
+ * rounding of X, Y ≈ 0) goes to the fallback it was made with (the reference's transform).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -44,7 +39,6 @@
 
 #define DEG_TO_RAD 0.017453292519943295 /* π / 180 */
 #define ARCSEC_TO_RAD (DEG_TO_RAD / 3600.0)
-#define PJ_FWD 1
 
 typedef struct {
     double a, b, e2, ep2; /* semi-axes (m), first and second eccentricity squared */
@@ -60,12 +54,12 @@ typedef struct {
 typedef struct {
     PyObject_HEAD
     vectorcallfunc vectorcall;
-    PyObject *fallback; /* _ProjPoint.point: the PROJ call */
+    PyObject *fallback; /* DatumShift.transform: the reference */
     ell_t src, dst;
     helmert_t hsrc, hdst;
 } ShiftObject;
 
-/* "+a=<a> +rf=<rf>" (rf > 0) or a sphere "+a=<a> +b=<a>" (rf == 0): 0, or -1 (refused). */
+/* An ellipsoid (a m, 1/f > 1) or a sphere (rf == 0): 0, or -1 (refused). */
 static int ell_init(ell_t *e, double a, double rf)
 {
     if (!(a > 0.0) || !isfinite(a) || !(rf == 0.0 || (rf > 1.0 && isfinite(rf))))
@@ -109,18 +103,29 @@ static void to_cartesian(const ell_t *e, double phi, double lam, double h, doubl
     v[2] = (n * (1.0 - e->e2) + h) * sphi;
 }
 
-/* Step 4: Cartesian → geodetic (φ, λ rad, h m), Bowring's formula. */
+/* Step 4: Cartesian → geodetic (φ, λ rad, h m), Bowring's formula iterated (module doc). */
 static void to_geodetic(const ell_t *e, const double v[3], double out[3])
 {
-    const double p = hypot(v[0], v[1]);
-    const double beta = atan2(v[2] * e->a, p * e->b);
-    const double sb = sin(beta), cb = cos(beta);
-    const double phi = atan2(v[2] + e->ep2 * e->b * sb * sb * sb,
-                             p - e->e2 * e->a * cb * cb * cb);
-    const double sphi = sin(phi), cphi = cos(phi);
-    out[0] = phi;
+    const double p = hypot(v[0], v[1]), ratio = e->b / e->a; /* 1 − f */
     out[1] = atan2(v[1], v[0]);
-    out[2] = p / cphi - e->a / sqrt(1.0 - e->e2 * sphi * sphi);
+    if (p == 0.0) {
+        out[0] = copysign(90.0 * DEG_TO_RAD, v[2]);
+        out[2] = fabs(v[2]) - e->b;
+        return;
+    }
+    double beta = atan2(v[2], ratio * p), phi = beta;
+    for (int i = 0; i < 8; i++) {
+        const double sb = sin(beta), cb = cos(beta);
+        phi = atan2(v[2] + e->ep2 * e->b * sb * sb * sb, p - e->e2 * e->a * cb * cb * cb);
+        const double next = atan2(ratio * sin(phi), cos(phi));
+        const int done = fabs(next - beta) < 1e-14;
+        beta = next;
+        if (done)
+            break;
+    }
+    const double sphi = sin(phi);
+    out[0] = phi;
+    out[2] = p * cos(phi) + v[2] * sphi - e->a * sqrt(1.0 - e->e2 * sphi * sphi);
 }
 
 /* Steps 2 and 3. */
@@ -143,13 +148,12 @@ static void helmert_reverse(const helmert_t *h, double v[3])
 }
 
 /* The whole forward transformation: (lat deg, lon deg, h m) on the source datum -> out on the
- * destination. 0, or -1 where the PROJ call is left to answer (a latitude beyond ±90°, a
- * non-finite value). */
+ * destination. 0, or -1 where the reference is left to answer (module doc). */
 static int shift_fwd(const ShiftObject *S, double lat, double lon, double h, double out[3])
 {
     double v[3], g[3];
     if (!isfinite(lat) || !isfinite(lon) || !isfinite(h) || fabs(lat) > 90.0 ||
-        fabs(lon * DEG_TO_RAD) > 10.0) /* PROJ refuses a longitude beyond 10 rad */
+        fabs(lon * DEG_TO_RAD) > 10.0)
         return -1;
     to_cartesian(&S->src, lat * DEG_TO_RAD, lon * DEG_TO_RAD, h, v);
     if (S->hsrc.present)
@@ -162,9 +166,9 @@ static int shift_fwd(const ShiftObject *S, double lat, double lon, double h, dou
     out[2] = g[2];
     if (!isfinite(out[0]) || !isfinite(out[1]) || !isfinite(out[2]))
         return -1;
-    if (fabs(fabs(out[1]) - 180.0) < 1e-9) /* on the antimeridian: ±180° is PROJ's choice */
+    if (fabs(fabs(out[1]) - 180.0) < 1e-9) /* on the antimeridian: ±180° is the rounding's */
         return -1;
-    if (fabs(out[0]) > 89.0) /* near a pole h = p / cos φ − N magnifies the last bit of φ */
+    if (fabs(out[0]) > 89.0) /* near a pole λ = atan2(Y, X) of the rounding of X, Y ≈ 0 */
         return -1;
     return 0;
 }
@@ -192,26 +196,19 @@ shift_vectorcall(PyObject *self, PyObject *const *args, size_t nargsf, PyObject 
     ShiftObject *S = (ShiftObject *)self;
     Py_ssize_t nargs = PyVectorcall_NARGS(nargsf);
     double out[3];
-    if (kwnames == NULL && nargs == 7 && PyFloat_CheckExact(args[0])
-        && PyFloat_CheckExact(args[1]) && PyFloat_CheckExact(args[2]) && args[3] == Py_None
-        && PyLong_CheckExact(args[4]) && args[5] == Py_False && args[6] == Py_False) {
-        int overflow = 0;
-        long direction = PyLong_AsLongAndOverflow(args[4], &overflow);
-        if (direction == PJ_FWD && !overflow
-            && shift_fwd(S, PyFloat_AS_DOUBLE(args[0]), PyFloat_AS_DOUBLE(args[1]),
-                         PyFloat_AS_DOUBLE(args[2]), out) == 0)
-            return triple(out);
-        if (PyErr_Occurred())
-            return NULL;
-    }
+    if (kwnames == NULL && nargs == 3 && PyFloat_CheckExact(args[0])
+        && PyFloat_CheckExact(args[1]) && PyFloat_CheckExact(args[2])
+        && shift_fwd(S, PyFloat_AS_DOUBLE(args[0]), PyFloat_AS_DOUBLE(args[1]),
+                     PyFloat_AS_DOUBLE(args[2]), out) == 0)
+        return triple(out);
     return PyObject_Vectorcall(S->fallback, args, nargsf, kwnames);
 }
 
 PyDoc_STRVAR(forward_doc,
 "forward(x, y, z) -> (x, y, z) or None\n\n"
-"The pipeline's forward direction computed here (floats: lat deg, lon deg, h m on the source\n"
-"datum -> the same on the destination), or None where this kernel declines (the PROJ call\n"
-"then answers). For the tests.");
+"The shift computed here (floats: lat deg, lon deg, h m on the source datum -> the same on\n"
+"the destination), or None where this kernel declines (the reference then answers). For the\n"
+"first-use check and the tests.");
 
 static PyObject *shift_forward(PyObject *self, PyObject *args)
 {
@@ -308,16 +305,15 @@ static PyMethodDef shift_methods[] = {
 };
 
 static PyGetSetDef shift_getset[] = {
-    {"fallback", shift_get_fallback, NULL, "the PROJ call for what this kernel declines", NULL},
+    {"fallback", shift_get_fallback, NULL, "the reference's call for what this declines", NULL},
     {NULL, NULL, NULL, NULL, NULL}
 };
 
 PyDoc_STRVAR(shift_doc,
 "Shift(fallback, a_src, rf_src, helmert_src, a_dst, rf_dst, helmert_dst)\n\n"
-"helmert_pipeline(src, dst)'s transformation from the textbook formulas (module doc).\n"
-"Called as _ProjPoint.point: (x, y, z, t, direction, radians, errcheck) -> (x, y, z)\n"
-"(lat deg, lon deg, h m); ``fallback`` (that PROJ call) answers what it does not cover.\n"
-"rf 0.0: a sphere (+b=a); a helmert: None (omitted step) or (x, y, z, rx, ry, rz, s).");
+"DatumShift(src, dst).transform compiled (module doc): (lat deg, lon deg, h m) -> the same\n"
+"on the destination; ``fallback`` (the reference's transform) answers what it does not cover.\n"
+"rf 0.0: a sphere; a helmert: None (omitted step) or (x, y, z m, rx, ry, rz arcsec, s ppm).");
 
 static PyTypeObject ShiftType = {
     PyVarObject_HEAD_INIT(NULL, 0)
@@ -337,7 +333,7 @@ static PyTypeObject ShiftType = {
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "engine.native.datum",
-    "helmert_pipeline's datum shifts, compiled from the textbook formulas.", -1,
+    "DatumShift's geocentric datum shifts, compiled (module doc of datum.c).", -1,
     NULL,
 };
 

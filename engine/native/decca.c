@@ -680,64 +680,6 @@ static PyObject *list_of(const double *v, Py_ssize_t n)
     return out;
 }
 
-/* Parse (sc, x, y, lat0): 1 = not the fast path's types. */
-static int parse_model_args(PyObject *const *args, chain_t *c, double *x, double *y,
-                            double *lat0)
-{
-    return read_chain(args[0], c) || arg_float(args[1], x) || arg_float(args[2], y)
-           || arg_float(args[3], lat0);
-}
-
-static PyObject *lanes_result(const lanes_t *o)
-{
-    PyObject *d = list_of(o->dist, 4), *n = list_of(o->n_calc, 3), *rx = list_of(o->row_x, 3),
-             *ry = list_of(o->row_y, 3);
-    if (d == NULL || n == NULL || rx == NULL || ry == NULL) {
-        Py_XDECREF(d);
-        Py_XDECREF(n);
-        Py_XDECREF(rx);
-        Py_XDECREF(ry);
-        return NULL;
-    }
-    return Py_BuildValue("(NNNN)", d, n, rx, ry);
-}
-
-/* lane_model(sc, x, y, lat0) -> decca._lane_model_py's (dist, n_calc, row_x, row_y). */
-static PyObject *py_lane_model(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
-{
-    chain_t c;
-    double x, y, lat0;
-    lanes_t o;
-    if (nargs != 4 || parse_model_args(args, &c, &x, &y, &lat0))
-        Py_RETURN_NOTIMPLEMENTED;
-    if (lane_model(&c, x, y, lat0, &o) < 0)
-        return NULL;
-    return lanes_result(&o);
-}
-
-/* lef(az) -> decca._lef_py(az) for a list/tuple of 4 floats. */
-static PyObject *py_lef(PyObject *m, PyObject *arg)
-{
-    double az[4], lef[3];
-    PyObject *t = NULL;
-    int bad;
-    if (PyList_CheckExact(arg)) {
-        t = PyList_AsTuple(arg);
-        if (t == NULL)
-            return NULL;
-        bad = floats_of(t, 4, az);
-        Py_DECREF(t);
-    }
-    else {
-        bad = floats_of(arg, 4, az);
-    }
-    if (bad)
-        Py_RETURN_NOTIMPLEMENTED;
-    if (lef_of(az, lef) < 0)
-        return NULL;
-    return list_of(lef, 3);
-}
-
 static int check_geodesic(PyObject *o)
 {
     return !PyObject_TypeCheck(o, &GeodesicType);
@@ -885,30 +827,6 @@ static PyObject *py_lef_certain(PyObject *m, PyObject *const *args, Py_ssize_t n
         || arg_float(args[5], &lon0))
         Py_RETURN_NOTIMPLEMENTED;
     return PyBool_FromLong(lef_certain(&c, (GeodesicObject *)args[1], x, y, lat0, lon0));
-}
-
-/* lanes(sc, geodesic, x, y, lat0, lon0) -> (n_calc, [[rx0, ry0], [rx1, ry1], [rx2, ry2]]):
- * _LaneAt._lanes' numbers (the LEF formed, for its errors, and dropped, unless lef_certain
- * shows it cannot raise); raises as the Python does, the caller turns ValueError/
- * ArithmeticError and a non-finite N_calc into None. */
-static PyObject *py_lanes(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
-{
-    chain_t c;
-    double x, y, lat0, lon0, az[4], lef[3];
-    lanes_t o;
-    if (nargs != 6 || read_chain(args[0], &c) || check_geodesic(args[1])
-        || arg_float(args[2], &x) || arg_float(args[3], &y) || arg_float(args[4], &lat0)
-        || arg_float(args[5], &lon0))
-        Py_RETURN_NOTIMPLEMENTED;
-    if (lane_model(&c, x, y, lat0, &o) < 0)
-        return NULL;
-    if (!lef_certain(&c, (GeodesicObject *)args[1], x, y, lat0, lon0)) {
-        azimuths((GeodesicObject *)args[1], &c, lat0, lon0, az);
-        if (PyErr_Occurred() || lef_of(az, lef) < 0)
-            return NULL;
-    }
-    return Py_BuildValue("(N[[dd][dd][dd]])", list_of(o.n_calc, 3), o.row_x[0], o.row_y[0],
-                         o.row_x[1], o.row_y[1], o.row_x[2], o.row_y[2]);
 }
 
 /* decca._vcv_core then decca._vcv_m2 (m^2), the same operations. */
@@ -1258,66 +1176,6 @@ static PyObject *py_lane_sigma(PyObject *m, PyObject *const *args, Py_ssize_t na
     return PyFloat_FromDouble(sqrt(q));
 }
 
-/* sigma of lane_sigma into *out: 0, 1 (not the fast path's buffers) */
-static int sigma_of(PyObject *row, PyObject *cov, double *out)
-{
-    static const Py_ssize_t s1[1] = {2}, s2[2] = {2, 2};
-    Py_buffer vr, vc;
-    double y[2], sum;
-    if (f64_buffer(row, &vr, 1, s1))
-        return 1;
-    if (f64_buffer(cov, &vc, 2, s2)) {
-        PyBuffer_Release(&vr);
-        return 1;
-    }
-    y[0] = y[1] = 0.0;
-    p_dgemv(UvnRowMajor, UvnTrans, 2, 2, 1.0, (const double *)vc.buf, 2,
-            (const double *)vr.buf, 1, 0.0, y, 1);
-    sum = 0.;
-    sum += p_ddot(2, y, 1, (const double *)vr.buf, 1);
-    PyBuffer_Release(&vr);
-    PyBuffer_Release(&vc);
-    *out = sqrt((0.0 > sum) ? 0.0 : sum);
-    return 0;
-}
-
-/* lane_check(n_calc, row, cov, frac, total, sigma_max) -> (value, slip): the numbers of
- * decca._gps_lane_check_py once GPS's lane (n_calc, row) is known: (total, 0) when GPS does
- * not settle the lane (sigma > sigma_max or NaN) or the count agrees with it, else
- * (identify_lane(n_calc, frac), round(total - expected)). NotImplemented for arguments or
- * values where the Python would raise or take another path (non-finite, other types). */
-static PyObject *py_lane_check(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
-{
-    double n_calc, frac, total, smax, sigma, d, fl, expected, x, rounded;
-    PyObject *slip;
-    if (nargs != 6 || arg_float(args[0], &n_calc) || arg_float(args[3], &frac)
-        || arg_float(args[4], &total) || arg_float(args[5], &smax)
-        || sigma_of(args[1], args[2], &sigma))
-        Py_RETURN_NOTIMPLEMENTED;
-    if (!(sigma <= smax))
-        return Py_BuildValue("(Oi)", args[4], 0);
-    /* identify_lane = track_lane(n_calc, frac); math.floor's int converts back exactly */
-    if (!isfinite(n_calc))
-        Py_RETURN_NOTIMPLEMENTED;
-    fl = floor(n_calc);
-    d = frac - (n_calc - fl);
-    if (!isfinite(d + 0.5))
-        Py_RETURN_NOTIMPLEMENTED;
-    expected = n_calc + (d - floor(d + 0.5));
-    x = total - expected;
-    if (!isfinite(x))
-        Py_RETURN_NOTIMPLEMENTED;
-    rounded = round(x); /* float.__round__ without ndigits: half to even */
-    if (fabs(x - rounded) == 0.5)
-        rounded = 2.0 * round(x / 2.0);
-    if (rounded == 0.0)
-        return Py_BuildValue("(Oi)", args[4], 0);
-    slip = PyLong_FromDouble(rounded);
-    if (slip == NULL)
-        return NULL;
-    return Py_BuildValue("(dN)", expected, slip);
-}
-
 /* ------------------------------------------------------------------ decca_totals, tracked */
 static PyObject *s_total_seconds, *s_totals, *s_track, *s_notes, *s_slips;
 
@@ -1458,7 +1316,7 @@ static PyObject *py_tracked(PyObject *m, PyObject *const *args, Py_ssize_t nargs
             if (gps_state < 0)
                 goto decline;
             if (gps_state == 1) {
-                /* _K.lane_check(n_calc, row, cov, frac, total, sigma_max) */
+                /* decca._gps_lane_check: the GPS lane's sigma, lane and slip */
                 double row[2] __attribute__((aligned(16))), y[2], sum, sigma, expected, x, rd;
                 row[0] = gl.row_x[i];
                 row[1] = gl.row_y[i];
@@ -1535,25 +1393,6 @@ fail:
 decline:
     PyErr_Clear();
     Py_RETURN_NOTIMPLEMENTED;
-}
-
-/* _bind_blas(cblas_dgemv address, cblas_ddot address): numpy's (ILP64) routines. */
-static PyObject *py_bind_blas(PyObject *m, PyObject *args)
-{
-    (void)args; /* kept for callers: the products are the kernel's own (uvn_linalg.h) */
-    Py_RETURN_NONE;
-}
-
-/* _bind_geod(geod_init address, geod_inverse address) */
-static PyObject *py_bind_geod(PyObject *m, PyObject *args)
-{
-    (void)args; /* kept for callers: the geodesic is the kernel's own (Vincenty) */
-    Py_RETURN_NONE;
-}
-
-static PyObject *py_geod_bound(PyObject *m, PyObject *noargs)
-{
-    Py_RETURN_TRUE; /* the geodesic needs no binding */
 }
 
 static PyObject *py_sync_sq(PyObject *m, PyObject *noargs)
@@ -1708,15 +1547,10 @@ fail:
 
 static PyMethodDef methods[] = {
     UVN_PROBE_METHOD,
-    {"lane_model", (PyCFunction)(void (*)(void))py_lane_model, METH_FASTCALL,
-     "decca._lane_model: (dist, n_calc, row_x, row_y)."},
-    {"lef", (PyCFunction)py_lef, METH_O, "decca._lef: 1/sin(gamma/2) per pattern."},
     {"geometry_new", (PyCFunction)(void (*)(void))py_geometry_new, METH_FASTCALL,
      "decca_geometry's DeccaGeometry in one call (its arrays made here)."},
     {"geometry", (PyCFunction)(void (*)(void))py_geometry, METH_FASTCALL,
      "decca_geometry's numbers: (d_master, az_master, block of 24)."},
-    {"lanes", (PyCFunction)(void (*)(void))py_lanes, METH_FASTCALL,
-     "_LaneAt._lanes' numbers: (n_calc, 3x2 rows)."},
     {"_lef_certain", (PyCFunction)(void (*)(void))py_lef_certain, METH_FASTCALL,
      "Whether lanes() may skip the LEF's geodesics (it cannot raise there; tests)."},
     {"gps_rows", (PyCFunction)(void (*)(void))py_gps_rows, METH_FASTCALL,
@@ -1728,8 +1562,6 @@ static PyMethodDef methods[] = {
     {"vcv_m2", (PyCFunction)py_vcv_m2, METH_VARARGS, "_vcv_m2(_vcv_core(...), k)."},
     {"lane_sigma", (PyCFunction)(void (*)(void))py_lane_sigma, METH_FASTCALL,
      "decca.lane_sigma through numpy's dgemv and ddot."},
-    {"lane_check", (PyCFunction)(void (*)(void))py_lane_check, METH_FASTCALL,
-     "decca._gps_lane_check's numbers: (value, slip)."},
     {"observed", (PyCFunction)(void (*)(void))py_observed, METH_FASTCALL,
      "DeccaSystem.observations' lists for tracked totals."},
     {"page", (PyCFunction)(void (*)(void))py_page, METH_FASTCALL,
@@ -1738,11 +1570,6 @@ static PyMethodDef methods[] = {
      "DeccaObservations.nearest_station_m after its geometry (m)."},
     {"tracked", (PyCFunction)(void (*)(void))py_tracked, METH_FASTCALL,
      "decca_totals where every pattern is tracked and GPS finds no slip: LaneTotals."},
-    {"_bind_blas", (PyCFunction)py_bind_blas, METH_VARARGS,
-     "Kept for callers: ignored (the products are the kernel's own)."},
-    {"_bind_geod", (PyCFunction)py_bind_geod, METH_VARARGS,
-     "Kept for callers: ignored (the geodesic is the kernel's own)."},
-    {"geod_bound", (PyCFunction)py_geod_bound, METH_NOARGS, "True once _bind_geod ran."},
     {"_sync_sq", (PyCFunction)py_sync_sq, METH_NOARGS, "SYNC_SIGMA_LANES ** 2 (tests)."},
     {NULL, NULL, 0, NULL},
 };

@@ -1,20 +1,17 @@
 /* Compiled twin of the least-squares fix's numeric core (engine/lsq), bit for bit.
  *
- * The entry points, each the happy path of Python code kept beside it (the `_..._py` twins):
- *   step(Au, bu, Clu, cond_max, x)  one Gauss-Newton iteration (adjustment._solve + the step of
- *                                   adjustment._iterate): W = C_l^-1, A^T W, (A^T W A)^-1 with
- *                                   its conditioning guard, G = C_x A^T W, dx = G b, x + dx;
- *   step_rows(A, b, Cl, idx, ...)   the used rows of the model's lists (adjustment._evaluate)
- *                                   gathered, then step() on them; arrays made only for the
- *                                   step the caller keeps (the last);
- *   finish(sol, used, scale_vcv, d0) the residuals, S^2, RMS, drms and the per-slot statistics of
- *                                   adjustment._adjustment / statistics.used_statistics;
- *   adjust(rows, x, used, ...)      adjustment.gauss_newton for a model with rows(): the loop
- *                                   of step_rows, the axis-ratio guard and finish in one call,
- *                                   the Adjustment's fields as a dict (or where to go on);
+ * The entry points, each the happy path of the reference Python:
+ *   adjust(rows, x, used, ...)      adjustment.gauss_newton for a model with rows(): each
+ *                                   iteration's used rows gathered (adjustment._evaluate), the
+ *                                   step (step_calc: W = C_l^-1, A^T W, (A^T W A)^-1 with its
+ *                                   conditioning guard, G = C_x A^T W, dx = G b, x + dx), the
+ *                                   axis-ratio guard and the residuals, S^2, RMS, drms and
+ *                                   per-slot statistics (finish_calc: adjustment._adjustment /
+ *                                   statistics.used_statistics), the Adjustment's fields as a
+ *                                   dict (or where to go on);
  *   ellipse(C2)                     confidence.error_ellipse (closed form);
- *   worst(w), monitor(w, k, bound)  snooping's largest |w| and its monitor band;
- *   quiet(stats, k, bound)          both at once when nothing is to be rejected;
+ *   quiet(stats, k, bound)          snooping's largest |w| and its monitor band when nothing
+ *                                   is to be rejected;
  *   row(*values)                    fix.LopRow(*values) without its generated __init__ (the
  *                                   same frozen slotted instance; bound by _bind_row);
  *   lop_rows(groups, stats, ...)    fix._lop_rows' table: every row() with its tests;
@@ -220,14 +217,6 @@ static double np_sum(const double *a, Py_ssize_t n)
 /* ---------------------------------------------------------------------------------------- */
 /* step */
 
-PyDoc_STRVAR(step_doc,
-"step(Au, bu, Clu, cond_max, x) -> (solution, x + dx, |dx| (math.hypot), max |dx_j|) or None\n"
-"\n"
-"One Gauss-Newton iteration of engine.lsq.adjustment (_solve and the step of _iterate) for\n"
-"u = 2: Au (m, 2) C-contiguous, bu (m,) contiguous, Clu (m, m) any strides, x (2,), float64.\n"
-"None where the Python must run (other shapes, a singular C_l, a normal matrix failing the\n"
-"guard, non-finite misclosures or step).");
-
 /* One step's numbers in C buffers (step_calc), wrapped into arrays only where the caller
  * needs them (step_solution). 64-byte alignment, as numpy's own data at least. */
 typedef struct {
@@ -322,208 +311,8 @@ static PyObject *array_of(Py_ssize_t rows, Py_ssize_t cols, const double *src)
     return o;
 }
 
-/* step()'s result for a step_calc that was done: (solution, x + dx, |dx|, max |dx_j|), the
- * solution None when full is 0 (the caller does not keep it); ao, bo, clo: its Au, bu, Clu.
- * New reference or NULL (error). */
-static PyObject *step_result(const step_t *s, PyObject *ao, PyObject *bo, PyObject *clo,
-                             int full)
-{
-    Py_ssize_t m = s->m;
-    PyObject *res = NULL, *sol = NULL;
-    PyObject *Wo = NULL, *atwo = NULL, *cxo = NULL, *gaino = NULL, *dxo = NULL, *xo = NULL;
-    PyObject *cx2 = NULL, *stepo = NULL;
-    if (full) {
-        if ((Wo = array_of(m, m, s->W)) == NULL || (atwo = array_of(2, m, s->atw)) == NULL ||
-            (cxo = array_of(2, 2, s->cx)) == NULL || (gaino = array_of(2, m, s->gain)) == NULL ||
-            (dxo = array_of(2, -1, s->dx)) == NULL)
-            goto done;
-    }
-    if ((xo = array_of(2, -1, s->xn)) == NULL)
-        goto done;
-    if ((stepo = call_py_hypot(s->dx[0], s->dx[1])) == NULL)
-        goto done;
-    if (full) {
-        if ((cx2 = Py_BuildValue("(ddd)", s->i00, s->i01, s->i11)) == NULL)
-            goto done;
-        if ((sol = sol_type->tp_alloc(sol_type, 9)) == NULL)
-            goto done;
-        PyObject *items[9] = {ao, bo, clo, Wo, atwo, cxo, gaino, dxo, cx2};
-        for (int k = 0; k < 9; k++) {
-            Py_INCREF(items[k]);
-            PyTuple_SET_ITEM(sol, k, items[k]);
-        }
-    }
-    else
-        sol = Py_NewRef(Py_None);
-    res = Py_BuildValue("(NOOd)", sol, xo, stepo, s->big);
-done:
-    Py_XDECREF(Wo);
-    Py_XDECREF(atwo);
-    Py_XDECREF(cxo);
-    Py_XDECREF(gaino);
-    Py_XDECREF(dxo);
-    Py_XDECREF(xo);
-    Py_XDECREF(cx2);
-    Py_XDECREF(stepo);
-    return res;
-}
-
-static PyObject *lsq_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    if (nargs != 5) {
-        PyErr_SetString(PyExc_TypeError, "step(Au, bu, Clu, cond_max, x)");
-        return NULL;
-    }
-    if (need_bound() < 0)
-        return NULL;
-    double cond_max = PyFloat_AsDouble(args[3]);
-    if (cond_max == -1.0 && PyErr_Occurred())
-        return NULL;
-    buf_t a = {0}, bb = {0}, cl = {0}, xb = {0};
-    PyObject *res;
-    if (buf_get(args[0], &a, 2) < 0 || buf_get(args[1], &bb, 1) < 0 ||
-        buf_get(args[2], &cl, 2) < 0 || buf_get(args[4], &xb, 1) < 0)
-        goto none;
-    Py_ssize_t m = a.view.shape[0];
-    if (a.view.shape[1] != 2 || m < 2 || m > MAXM || bb.view.shape[0] != m ||
-        cl.view.shape[0] != m || cl.view.shape[1] != m || xb.view.shape[0] != 2 ||
-        !buf_c_contiguous(&a) || !buf_c_contiguous(&bb))
-        goto none;
-    step_t st;
-    if (!step_calc(&st, (const double *)a.view.buf, (const double *)bb.view.buf,
-                   (const double *)cl.view.buf, cl.view.strides[0] / 8, cl.view.strides[1] / 8,
-                   m, cond_max, AT1(xb, 0), AT1(xb, 1)))
-        goto none;
-    res = step_result(&st, args[0], args[1], args[2], 1);
-    goto done;
-none:
-    res = Py_NewRef(Py_None);
-done:
-    buf_release(&a);
-    buf_release(&bb);
-    buf_release(&cl);
-    buf_release(&xb);
-    return res;
-}
-
 /* ---------------------------------------------------------------------------------------- */
-/* step_rows */
-
-PyDoc_STRVAR(step_rows_doc,
-"step_rows(A, b, Cl, idx, cond_max, x, eps) -> (Au, bu, Clu, step's result or None) or None\n"
-"\n"
-"The used rows of one linearisation and step() on them: A a list of 2n floats (row-major\n"
-"(n, 2)), b a list of n floats, Cl (n, n) float64 (any strides), idx the used slots (a list\n"
-"of ints), x (2,). Au (m, 2), bu (m,), Clu (m, m) are new arrays holding the numbers of\n"
-"numpy.array(A).reshape(n, 2)[idx], numpy.array(b)[idx] and Cl[ix_(idx, idx)]. A step whose\n"
-"max |dx_j| is not below eps is not the last one the caller keeps: then Au, bu, Clu and the\n"
-"solution are None (x + dx, |dx| and max |dx_j| as always; eps = inf: never). None where the\n"
-"lists are not exactly that (other lengths, an item not a float, a slot out of range, m < 2\n"
-"or > 32): the Python builds the arrays then.");
-
-static PyObject *lsq_step_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    if (nargs != 7) {
-        PyErr_SetString(PyExc_TypeError, "step_rows(A, b, Cl, idx, cond_max, x, eps)");
-        return NULL;
-    }
-    if (need_bound() < 0)
-        return NULL;
-    double cond_max = PyFloat_AsDouble(args[4]);
-    if (cond_max == -1.0 && PyErr_Occurred())
-        return NULL;
-    double eps = PyFloat_AsDouble(args[6]);
-    if (eps == -1.0 && PyErr_Occurred())
-        return NULL;
-    PyObject *al = args[0], *bl = args[1], *il = args[3];
-    if (!PyList_CheckExact(al) || !PyList_CheckExact(bl) || !PyList_CheckExact(il))
-        return Py_NewRef(Py_None);
-    Py_ssize_t n = PyList_GET_SIZE(bl), m = PyList_GET_SIZE(il);
-    if (PyList_GET_SIZE(al) != 2 * n || m < 2 || m > MAXM)
-        return Py_NewRef(Py_None);
-    Py_ssize_t slot[MAXM];
-    for (Py_ssize_t j = 0; j < m; j++) {
-        PyObject *o = PyList_GET_ITEM(il, j);
-        if (!PyLong_CheckExact(o))
-            return Py_NewRef(Py_None);
-        Py_ssize_t s = PyLong_AsSsize_t(o);
-        if (s == -1 && PyErr_Occurred()) {
-            PyErr_Clear();
-            return Py_NewRef(Py_None);
-        }
-        if (s < 0 || s >= n)
-            return Py_NewRef(Py_None);
-        slot[j] = s;
-    }
-    for (Py_ssize_t j = 0; j < m; j++) {
-        Py_ssize_t s = slot[j];
-        if (!PyFloat_CheckExact(PyList_GET_ITEM(al, 2 * s)) ||
-            !PyFloat_CheckExact(PyList_GET_ITEM(al, 2 * s + 1)) ||
-            !PyFloat_CheckExact(PyList_GET_ITEM(bl, s)))
-            return Py_NewRef(Py_None);
-    }
-    buf_t cl = {0}, xb = {0};
-    PyObject *res = NULL, *ao = NULL, *bo = NULL, *clo = NULL, *st = NULL;
-    if (buf_get(args[2], &cl, 2) < 0 || buf_get(args[5], &xb, 1) < 0)
-        goto none;
-    if (cl.view.shape[0] != n || cl.view.shape[1] != n || xb.view.shape[0] != 2)
-        goto none;
-    _Alignas(64) double Au[2 * MAXM];
-    _Alignas(64) double bu[MAXM];
-    _Alignas(64) double Clu[MAXM * MAXM];
-    for (Py_ssize_t j = 0; j < m; j++) {
-        Py_ssize_t s = slot[j];
-        Au[2 * j] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(al, 2 * s));
-        Au[2 * j + 1] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(al, 2 * s + 1));
-        bu[j] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(bl, s));
-        for (Py_ssize_t k = 0; k < m; k++)
-            Clu[j * m + k] = AT2(cl, s, slot[k]);
-    }
-    step_t sc;
-    int done = step_calc(&sc, Au, bu, Clu, m, 1, m, cond_max, AT1(xb, 0), AT1(xb, 1));
-    if (done && !(sc.big < eps)) { /* not the last step: only x + dx and the step lengths */
-        if ((st = step_result(&sc, NULL, NULL, NULL, 0)) == NULL)
-            goto error;
-        res = PyTuple_Pack(4, Py_None, Py_None, Py_None, st);
-        goto done;
-    }
-    if ((ao = array_of(m, 2, Au)) == NULL || (bo = array_of(m, -1, bu)) == NULL ||
-        (clo = array_of(m, m, Clu)) == NULL)
-        goto error;
-    if (done) {
-        if ((st = step_result(&sc, ao, bo, clo, 1)) == NULL)
-            goto error;
-    }
-    else
-        st = Py_NewRef(Py_None); /* declined: the Python solves these arrays */
-    res = PyTuple_Pack(4, ao, bo, clo, st);
-    goto done;
-none:
-    res = Py_NewRef(Py_None);
-    goto done;
-error:
-    res = NULL;
-done:
-    Py_XDECREF(ao);
-    Py_XDECREF(bo);
-    Py_XDECREF(clo);
-    Py_XDECREF(st);
-    buf_release(&cl);
-    buf_release(&xb);
-    return res;
-}
-
-/* ---------------------------------------------------------------------------------------- */
-/* finish */
-
-PyDoc_STRVAR(finish_doc,
-"finish(sol, used, scale_vcv, d0) -> (v, s2 or None, rms_m, drms_m, cov_x, scaled, stats)\n"
-"or None\n"
-"\n"
-"The results of engine.lsq.adjustment._adjustment for a solution of step(): residuals v over\n"
-"all n slots (NaN unused, m), S^2, RMS and drms (m), the displayed C_x (x S^2 when scaled),\n"
-"and the (9, n) statistics block of statistics.used_statistics (NaN unused, or all NaN when\n"
-"r < 1). None where the Python must run (an untestable slot, other shapes).");
+/* the residuals and statistics of a solution (adjustment._adjustment) */
 
 /* finish's results (finish_calc): new references to v (n,), the displayed C_x (cxo itself
  * unless scaled), the (9, n) statistics and S^2 (a float or None). */
@@ -534,7 +323,7 @@ typedef struct {
     int scaled;
 } fin_t;
 
-/* finish()'s arithmetic on raw inputs: Au (m, 2), bu (m,), W, atw (2, m), cx (2, 2) (its
+/* _adjustment's arithmetic on raw inputs: Au (m, 2), bu (m,), W, atw (2, m), cx (2, 2) (its
  * array cxo), gain (2, m), dx (2,) C-contiguous, C_l's element (i, j) at cl[i * cs0 + j * cs1]
  * (strides in doubles), slot[j] the used slots among n. 1: done (f filled), 0: declined (an
  * untestable slot), -1: error (exception set). */
@@ -654,101 +443,6 @@ out:
     return ret;
 }
 
-static PyObject *lsq_finish(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError, "finish(sol, used, scale_vcv, d0)");
-        return NULL;
-    }
-    if (need_bound() < 0)
-        return NULL;
-    PyObject *sol = args[0];
-    if (!PyTuple_Check(sol) || PyTuple_GET_SIZE(sol) != 9)
-        return Py_NewRef(Py_None);
-    int scale_vcv = PyObject_IsTrue(args[2]);
-    if (scale_vcv < 0)
-        return NULL;
-    double d0 = PyFloat_AsDouble(args[3]);
-    if (d0 == -1.0 && PyErr_Occurred())
-        return NULL;
-    buf_t a = {0}, bb = {0}, cl = {0}, w = {0}, at = {0}, cxb = {0}, g = {0}, dxb = {0};
-    Py_buffer ub;
-    int ub_held = 0;
-    PyObject *res = NULL, *vo = NULL, *covo = NULL, *stato = NULL, *s2o = NULL;
-    if (buf_get(PyTuple_GET_ITEM(sol, 0), &a, 2) < 0 || buf_get(PyTuple_GET_ITEM(sol, 1), &bb, 1) < 0
-        || buf_get(PyTuple_GET_ITEM(sol, 2), &cl, 2) < 0
-        || buf_get(PyTuple_GET_ITEM(sol, 3), &w, 2) < 0
-        || buf_get(PyTuple_GET_ITEM(sol, 4), &at, 2) < 0
-        || buf_get(PyTuple_GET_ITEM(sol, 5), &cxb, 2) < 0
-        || buf_get(PyTuple_GET_ITEM(sol, 6), &g, 2) < 0
-        || buf_get(PyTuple_GET_ITEM(sol, 7), &dxb, 1) < 0)
-        goto none;
-    if (PyObject_GetBuffer(args[1], &ub, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
-        PyErr_Clear();
-        goto none;
-    }
-    ub_held = 1;
-    Py_ssize_t m = a.view.shape[0], n = ub.len;
-    if (ub.ndim != 1 || ub.itemsize != 1 || ub.format == NULL || strcmp(ub.format, "?") != 0 ||
-        a.view.shape[1] != 2 || m < 2 || m > MAXM || n < m || bb.view.shape[0] != m ||
-        cl.view.shape[0] != m || cl.view.shape[1] != m || w.view.shape[0] != m ||
-        w.view.shape[1] != m || at.view.shape[0] != 2 || at.view.shape[1] != m ||
-        cxb.view.shape[0] != 2 || cxb.view.shape[1] != 2 || g.view.shape[0] != 2 ||
-        g.view.shape[1] != m || dxb.view.shape[0] != 2 || !buf_c_contiguous(&a) ||
-        !buf_c_contiguous(&bb) || !buf_c_contiguous(&w) || !buf_c_contiguous(&at) ||
-        !buf_c_contiguous(&cxb) || !buf_c_contiguous(&g) || !buf_c_contiguous(&dxb))
-        goto none;
-    const unsigned char *used = (const unsigned char *)ub.buf;
-    Py_ssize_t slot[MAXM], k = 0;
-    for (Py_ssize_t i = 0; i < n; i++)
-        if (used[i]) {
-            if (k == m)
-                goto none;
-            slot[k++] = i;
-        }
-    if (k != m)
-        goto none;
-    const double *Au = a.view.buf, *bu = bb.view.buf, *W = w.view.buf, *atw = at.view.buf;
-    const double *cx = cxb.view.buf, *gain = g.view.buf, *dx = dxb.view.buf;
-
-    fin_t f;
-    int got = finish_calc(&f, Au, bu, (const double *)cl.view.buf, cl.view.strides[0] / 8,
-                          cl.view.strides[1] / 8, W, atw, cx, PyTuple_GET_ITEM(sol, 5), gain, dx,
-                          slot, m, n, scale_vcv, d0);
-    if (got < 0)
-        goto error;
-    if (got == 0)
-        goto none;
-    vo = f.vo;
-    covo = f.covo;
-    stato = f.stato;
-    s2o = f.s2o;
-    res = Py_BuildValue("(OOddOOO)", vo, s2o, f.rms, f.drms, covo, f.scaled ? Py_True : Py_False,
-                        stato);
-    goto done;
-none:
-    res = Py_NewRef(Py_None);
-    goto done;
-error:
-    res = NULL;
-done:
-    Py_XDECREF(vo);
-    Py_XDECREF(covo);
-    Py_XDECREF(stato);
-    Py_XDECREF(s2o);
-    if (ub_held)
-        PyBuffer_Release(&ub);
-    buf_release(&a);
-    buf_release(&bb);
-    buf_release(&cl);
-    buf_release(&w);
-    buf_release(&at);
-    buf_release(&cxb);
-    buf_release(&g);
-    buf_release(&dxb);
-    return res;
-}
-
 /* ---------------------------------------------------------------------------------------- */
 /* adjust: gauss_newton's whole loop, axis-ratio guard and finish in one call */
 
@@ -757,7 +451,8 @@ PyDoc_STRVAR(adjust_doc,
 "-> dict, (iterations, x, steps) or None\n"
 "\n"
 "engine.lsq.adjustment.gauss_newton for a model with rows() (u = 2, no damping): rows(x)\n"
-"called as _iterate calls it, each step as step_rows, then _check_axis_ratio and finish.\n"
+"called as _iterate calls it, each step on its used rows, then _check_axis_ratio and the\n"
+"residuals and statistics (_adjustment).\n"
 "x (2,) float64, used (n,) bool (the arrays gauss_newton made). rows may instead be the\n"
 "model's spec (fix._Model.spec: parts, Point, grid, geodesic, eye), for which adjust does what\n"
 "_Model.rows does (the lists, the copy of eye, the Point, each part's linearise) itself.\n"
@@ -793,7 +488,7 @@ static int adjust_ready(void)
 }
 
 /* The used rows of rows()'s result (A list of 2n floats, b list of n floats, Cl (n, n)) into
- * Au, bu, Clu (as step_rows gathers them): 1 done, 0 not this shape or type. */
+ * Au, bu, Clu (as adjustment._evaluate slices them): 1 done, 0 not this shape or type. */
 static int gather(PyObject *got, Py_ssize_t n, const Py_ssize_t *slot, Py_ssize_t m,
                   double *Au, double *bu, double *Clu)
 {
@@ -1248,39 +943,6 @@ fail:
 /* ---------------------------------------------------------------------------------------- */
 /* data snooping: the worst w and the monitor band */
 
-PyDoc_STRVAR(worst_doc,
-"worst(w) -> (slot, w[slot]) or None\n"
-"\n"
-"engine.lsq.snooping._worst: the first slot of largest |w| (NaN never wins; slot 0 when all\n"
-"are NaN) of a float64 1-D array; None for an empty or other array (the Python's case).");
-
-static PyObject *lsq_worst(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    if (nargs != 1) {
-        PyErr_SetString(PyExc_TypeError, "worst(w)");
-        return NULL;
-    }
-    buf_t w = {0};
-    if (buf_get(args[0], &w, 1) < 0)
-        return Py_NewRef(Py_None);
-    Py_ssize_t n = w.view.shape[0], k = 0;
-    if (n < 1) {
-        buf_release(&w);
-        return Py_NewRef(Py_None);
-    }
-    double best = -1.0;
-    for (Py_ssize_t i = 0; i < n; i++) {
-        double a = fabs(AT1(w, i));
-        if (a > best) {
-            k = i;
-            best = a;
-        }
-    }
-    double wk = AT1(w, k);
-    buf_release(&w);
-    return Py_BuildValue("(nd)", k, wk);
-}
-
 /* The slots i < n with k < |x_i| <= bound (x_i at p + i * stride, bytes), in hit; their
  * count, or -1 for more than MAXM (the caller leaves it to the Python). */
 static Py_ssize_t band_slots(const char *p, Py_ssize_t stride, Py_ssize_t n, double k,
@@ -1315,41 +977,11 @@ static PyObject *slot_tuple(const Py_ssize_t *hit, Py_ssize_t cnt)
     return t;
 }
 
-PyDoc_STRVAR(monitor_doc,
-"monitor(w, k, bound) -> tuple of the slots with k < |w| <= bound, or None\n"
-"\n"
-"The monitor band of engine.lsq.snooping._finish (NaN is never in it) of a float64 1-D array;\n"
-"None for another array (the Python's case).");
-
-static PyObject *lsq_monitor(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    if (nargs != 3) {
-        PyErr_SetString(PyExc_TypeError, "monitor(w, k, bound)");
-        return NULL;
-    }
-    double kc = PyFloat_AsDouble(args[1]);
-    if (kc == -1.0 && PyErr_Occurred())
-        return NULL;
-    double bound = PyFloat_AsDouble(args[2]);
-    if (bound == -1.0 && PyErr_Occurred())
-        return NULL;
-    buf_t w = {0};
-    if (buf_get(args[0], &w, 1) < 0)
-        return Py_NewRef(Py_None);
-    Py_ssize_t hit[MAXM];
-    Py_ssize_t cnt = band_slots((const char *)w.view.buf, w.view.strides[0], w.view.shape[0],
-                                kc, bound, hit);
-    buf_release(&w);
-    if (cnt < 0)
-        return Py_NewRef(Py_None);
-    return slot_tuple(hit, cnt);
-}
-
 PyDoc_STRVAR(quiet_doc,
 "quiet(stats, k, bound) -> tuple of the monitor band's slots, or None\n"
 "\n"
 "snooping's test of a final adjustment when nothing is to be rejected: the largest |w| of\n"
-"row 1 of the statistics block (as worst()) is within bound; then the slots with\n"
+"row 1 of the statistics block (snooping._worst) is within bound; then the slots with\n"
 "k < |w| <= bound (as monitor()). None when the snooping loop has something to do (or all\n"
 "w are NaN, or another array): the Python runs.");
 
@@ -1372,7 +1004,7 @@ static PyObject *lsq_quiet(PyObject *self, PyObject *const *args, Py_ssize_t nar
     Py_ssize_t hit[MAXM];
     double best = -1.0;
     int ok = st.view.shape[0] >= 2 && n >= 1;
-    for (Py_ssize_t i = 0; ok && i < n; i++) { /* worst() */
+    for (Py_ssize_t i = 0; ok && i < n; i++) { /* snooping._worst */
         double a = fabs(AT2(st, 1, i));
         if (a > best) {
             k = i;
@@ -2236,13 +1868,8 @@ static PyMethodDef methods[] = {
     {"row", (PyCFunction)(void (*)(void))lsq_row, METH_FASTCALL, row_doc},
     {"lop_rows", (PyCFunction)(void (*)(void))lsq_lop_rows, METH_FASTCALL, lop_rows_doc},
     {"_bind", (PyCFunction)(void (*)(void))lsq_bind, METH_FASTCALL, bind_doc},
-    {"step", (PyCFunction)(void (*)(void))lsq_step, METH_FASTCALL, step_doc},
-    {"step_rows", (PyCFunction)(void (*)(void))lsq_step_rows, METH_FASTCALL, step_rows_doc},
-    {"finish", (PyCFunction)(void (*)(void))lsq_finish, METH_FASTCALL, finish_doc},
     {"adjust", (PyCFunction)(void (*)(void))lsq_adjust, METH_FASTCALL, adjust_doc},
     {"ellipse", (PyCFunction)(void (*)(void))lsq_ellipse, METH_FASTCALL, ellipse_doc},
-    {"worst", (PyCFunction)(void (*)(void))lsq_worst, METH_FASTCALL, worst_doc},
-    {"monitor", (PyCFunction)(void (*)(void))lsq_monitor, METH_FASTCALL, monitor_doc},
     {"quiet", (PyCFunction)(void (*)(void))lsq_quiet, METH_FASTCALL, quiet_doc},
     {NULL, NULL, 0, NULL},
 };

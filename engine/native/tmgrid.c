@@ -611,24 +611,23 @@ tm_inverse(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 
 /* ----------------------------------------------------------------------------- gps_input */
 PyDoc_STRVAR(gps_input_doc,
-"gps_input(packed, shift, to_wgs84, direction, lat_in, lon_in, a, e2, make, weight)\n"
+"gps_input(packed, shift, to_wgs84, lat_in, lon_in, a, e2, make, weight)\n"
 "    -> make(...)'s GpsInput or None\n\n"
 "engine.systems.gps._gps_input_py after its checks: the record's GPS (lat_in, lon_in, floats)\n"
-"through the datum shifts (shift, to_wgs84: each None or the pyproj point function\n"
-"DatumShift.transform calls, with ``direction``), its WGS84 ECEF on the ellipsoid (a, e2) and\n"
+"through the datum shifts (shift, to_wgs84: each None or a DatumShift's transform, called as\n"
+"(lat, lon, 0.0)), its WGS84 ECEF on the ellipsoid (a, e2) and\n"
 "the grid of ``packed``; make(lat_in, lon_in, w_lat, w_lon, hg, ecef, lat, lon, x, y, weight).\n"
 "None: the caller runs the pure Python (another kind of value, a math error, any error).");
 
 static PyObject *g_zero; /* the float 0.0, DatumShift.transform's h_m */
 
-/* DatumShift.transform(lat, lon, 0.0)'s point call: out[3], 0; -1 (an error, or not three
- * floats: the caller falls back). */
+/* DatumShift.transform(lat, lon, 0.0): out[3], 0; -1 (an error, or not three floats: the
+ * caller falls back). */
 static int
-shift_point(PyObject *point, PyObject *direction, PyObject *lat, PyObject *lon,
-            PyObject *out[3])
+shift_point(PyObject *point, PyObject *lat, PyObject *lon, PyObject *out[3])
 {
-    PyObject *a[7] = {lat, lon, g_zero, Py_None, direction, Py_False, Py_False};
-    PyObject *r = PyObject_Vectorcall(point, a, 7, NULL);
+    PyObject *a[3] = {lat, lon, g_zero};
+    PyObject *r = PyObject_Vectorcall(point, a, 3, NULL);
     if (r == NULL)
         return -1;
     if (!PyTuple_CheckExact(r) || PyTuple_GET_SIZE(r) != 3) {
@@ -656,35 +655,35 @@ tm_gps_input(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     PyObject *lat_o, *lon_o, *w_lat_o, *w_lon_o, *hg_o = NULL, *ecef = NULL, *res = NULL;
     PyObject *x_o = NULL, *y_o = NULL;
     double a_m, e2, w_lat, w_lon, hg, lat, lon, x, y;
-    if (nargs != 10) {
-        PyErr_SetString(PyExc_TypeError, "gps_input(packed, shift, to_wgs84, direction, "
+    if (nargs != 9) {
+        PyErr_SetString(PyExc_TypeError, "gps_input(packed, shift, to_wgs84, "
                         "lat_in, lon_in, a, e2, make, weight)");
         return NULL;
     }
-    if (consts_of(args[0], &k) < 0 || !PyFloat_CheckExact(args[4])
-        || !PyFloat_CheckExact(args[5]) || !PyFloat_CheckExact(args[6])
-        || !PyFloat_CheckExact(args[7]))
+    if (consts_of(args[0], &k) < 0 || !PyFloat_CheckExact(args[3])
+        || !PyFloat_CheckExact(args[4]) || !PyFloat_CheckExact(args[5])
+        || !PyFloat_CheckExact(args[6]))
         return bail_none();
-    a_m = PyFloat_AS_DOUBLE(args[6]);
-    e2 = PyFloat_AS_DOUBLE(args[7]);
+    a_m = PyFloat_AS_DOUBLE(args[5]);
+    e2 = PyFloat_AS_DOUBLE(args[6]);
     if (args[1] == Py_None) {
-        lat_o = args[4];
-        lon_o = args[5];
+        lat_o = args[3];
+        lon_o = args[4];
         hg = -0.0; /* -h_datum, h_datum = 0.0 */
     }
     else {
-        if (shift_point(args[1], args[3], args[4], args[5], shifted) < 0)
+        if (shift_point(args[1], args[3], args[4], shifted) < 0)
             goto bail;
         lat_o = shifted[0];
         lon_o = shifted[1];
         hg = -PyFloat_AS_DOUBLE(shifted[2]);
     }
     if (args[2] == Py_None) {
-        w_lat_o = args[4];
-        w_lon_o = args[5];
+        w_lat_o = args[3];
+        w_lon_o = args[4];
     }
     else {
-        if (shift_point(args[2], args[3], args[4], args[5], wgs) < 0)
+        if (shift_point(args[2], args[3], args[4], wgs) < 0)
             goto bail;
         w_lat_o = wgs[0];
         w_lon_o = wgs[1];
@@ -730,9 +729,9 @@ tm_gps_input(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     if (hg_o == NULL || x_o == NULL || y_o == NULL)
         goto bail;
     {
-        PyObject *margs[11] = {args[4], args[5], w_lat_o, w_lon_o, hg_o, ecef, lat_o, lon_o,
-                               x_o, y_o, args[9]};
-        res = PyObject_Vectorcall(args[8], margs, 11, NULL);
+        PyObject *margs[11] = {args[3], args[4], w_lat_o, w_lon_o, hg_o, ecef, lat_o, lon_o,
+                               x_o, y_o, args[8]};
+        res = PyObject_Vectorcall(args[7], margs, 11, NULL);
     }
 bail:
     for (int i = 0; i < 3; i++) {

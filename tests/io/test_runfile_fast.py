@@ -13,16 +13,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from engine.errors import InputError
-from engine.geodesy.ellipsoid import WGS84
-from engine.geodesy.ellipsoidal import DatumShift
 from engine.io import runfile
-from engine.io.datumfile import read_datum_file
 from engine.io.runfile import RunRecord, _fast_record_py, _new_record, _parse_tokens
 from engine.systems import decca as decca_mod
 from engine.systems import gps as gps_mod
 from tests.paths import DATA
 from tests.run_lines import DIVE_LINES, perturbed_dive_lines
-from tests.tolerance import Near
 
 LINES = [
     *(DATA / "DEMO.RUN").read_text(encoding="utf-8").splitlines(keepends=True)[:400],
@@ -167,22 +163,6 @@ def test_new_record_is_the_dataclass_record() -> None:
     assert a == b and _bits(a) == _bits(b) and repr(a) == repr(b)
     with pytest.raises(AttributeError):
         a.line_no = 4  # type: ignore[misc]
-
-
-def test_datum_shift_point_call_is_the_public_transform() -> None:
-    datums = read_datum_file(DATA / "TO_WGS84.DAT")
-    ed50 = datums.datum("ED50")
-    for shift in (DatumShift(WGS84, ed50), DatumShift(ed50, WGS84)):
-        assert shift._point is not None
-        for lat, lon, h in ((52.8, 4.5, 0.0), (-33.25, 151.1, 12.5), (89.9, -179.9, -40.0),
-                            (0.0, 0.0, 0.0), (52.833493333, 4.498822222, 0.0)):
-            got = shift.transform(lat, lon, h)
-            want = tuple(float(v) for v in shift._tr.transform(lat, lon, h))
-            assert Near(got, (1e-9, 1e-9, 1e-6)) == Near(want, (1e-9, 1e-9, 1e-6))
-        # non-float input takes the public call
-        assert shift.transform(52, 4, 0) == shift._tr.transform(52, 4, 0)
-    shift._point = None  # a pyproj without the point call
-    assert shift.transform(52.8, 4.5, 0.0) == tuple(shift._tr.transform(52.8, 4.5, 0.0))
 
 
 def test_fixed_gps_weight_is_computed_once_per_configuration() -> None:

@@ -264,8 +264,8 @@ def test_gps_input_on_the_replay(gps_inputs: list[Any]) -> None:
     for inputs in gps_inputs:
         rec = inputs.record
         ctx = inputs.context
-        assert KERNEL.gps_input(inputs.grid._packed, ctx.gps_shift._point, None,
-                                ctx.gps_shift._forward, rec.gps_lat_deg, rec.gps_lon_deg,
+        assert KERNEL.gps_input(inputs.grid._packed, ctx.gps_shift.point, None,
+                                rec.gps_lat_deg, rec.gps_lon_deg,
                                 gps._WGS84_A, gps._WGS84_E2, fast_gps._new_input,
                                 gps.gps_weight(inputs.config, rec)) is not None
         assert _gps_bits(FAST_GPS.gps_input(inputs)) == _gps_bits(gps.gps_input(inputs))

@@ -372,9 +372,8 @@ def test_lane_check_refuses_where_the_geometry_raised() -> None:
        st.floats(-180.0, 180.0))
 def test_scalar_geodesic_path_is_geod_inv(lat1: float, lon1: float, lat2: float,
                                           lon2: float) -> None:
-    """azimuth_distance and forward_azimuths_deg (pyproj's scalar inverse without Geod.inv's
-    wrapper) equal Geod.inv's azimuth (in [0, 360)) and distance exactly; so does the fallback
-    for a pyproj without the scalar path."""
+    """azimuth_distance and forward_azimuths_deg equal Geod.inv's azimuth (in [0, 360)) and
+    distance exactly."""
     az12, _az21, dist = _PYPROJ_GEOD.inv(lon1, lat1, lon2, lat2)
     want = (float(az12) % 360.0, float(dist))
     assert GEOD.azimuth_distance(lat1, lon1, lat2, lon2) == want
@@ -384,8 +383,6 @@ def test_scalar_geodesic_path_is_geod_inv(lat1: float, lon1: float, lat2: float,
         directions([want[0]] * 2)
     assert directions(GEOD.forward_azimuths_rad(lat1, lon1, [(lat2, lon2)]), 180 / math.pi) == \
         directions([math.radians(want[0])], 180 / math.pi)
-    fb = GEOD._inv_fallback(lon1, lat1, lon2, lat2, False, False)
-    assert fb == GEOD._geod._inv_point(lon1, lat1, lon2, lat2, False, False)
 
 
 @settings(deadline=None)
