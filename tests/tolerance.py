@@ -69,6 +69,21 @@ def ellipse_az_tolerance(fields: dict[str, str]) -> float | None:
     return max(ATOL_DEFAULT, math.degrees(RTOL * c / gap))
 
 
+def covariance_tolerance(fields: dict[str, str]) -> float | None:
+    """The absolute tolerance (m²) of a VCV's off-diagonal ``cxy`` logged with its diagonal:
+    1e-9·√(cxx·cyy), the contract's relative tolerance of the scale Cauchy–Schwarz bounds it
+    by (|cxy| ≤ √(cxx·cyy)); a covariance that nearly cancels is a small difference of large
+    products, so it is judged against that scale, not against itself. None without the
+    diagonal."""
+    try:
+        cxx, cyy = float(fields["cxx"]), float(fields["cyy"])
+    except (KeyError, ValueError):
+        return None
+    if not (math.isfinite(cxx) and math.isfinite(cyy)) or cxx < 0.0 or cyy < 0.0:
+        return None
+    return max(ATOL_DEFAULT, RTOL * math.sqrt(cxx * cyy))
+
+
 def numbers_close(a: float, b: float, atol: float = ATOL_DEFAULT, scale: float = 0.0,
                   rtol: float = RTOL) -> bool:
     """``a`` and ``b`` within ``RTOL`` of the larger of them (or of ``scale``, an array's
@@ -241,6 +256,8 @@ def compare_lines(got: list[str], want: list[str], name: str = "log") -> list[st
             if a == b:
                 continue
             atol = ellipse_az_tolerance(fields) if ka == "az" else None
+            if ka == "cxy":
+                atol = covariance_tolerance(fields)
             if metres_lop and ka in ("v", "sd"):  # a GPS (or other metric) LOP: metres
                 atol = ATOL_METRES
             if ka != kb or "=" not in a or "=" not in b or not _values_agree(va, vb, ka, atol):

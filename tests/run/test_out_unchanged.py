@@ -118,6 +118,13 @@ def test_the_axis_of_a_near_circular_ellipse_is_judged_by_its_vcv() -> None:
     assert compare_lines(_with(6, "az=3.0055195257390137", "az=5.0"), SAMPLE_LINES)
 
 
+def test_a_cancelling_covariance_is_judged_against_its_diagonal() -> None:
+    """cxy near zero beside cxx ≈ cyy ≈ 127 m²: its tolerance is 1e-9·√(cxx·cyy) = 1.27e-7 m²
+    (tests.tolerance.covariance_tolerance), not 1e-9 of itself."""
+    assert compare_lines(_with(6, "cxy=0.0000002", "cxy=0.0000003"), SAMPLE_LINES) == []
+    assert compare_lines(_with(6, "cxy=0.0000002", "cxy=0.0000012"), SAMPLE_LINES)
+
+
 def test_a_missing_line_or_field_fails() -> None:
     assert compare_lines(SAMPLE_LINES[:-1], SAMPLE_LINES)
     assert compare_lines(_with(2, " ok=1", ""), SAMPLE_LINES)
