@@ -109,11 +109,10 @@ def _probe_fix() -> str | None:
     return fix(lsq.compute_fix)
 
 
-@cache
 def _probe_filter() -> str | None:
     """Why the compiled filter is not used (None: it is): a few cycles of a coloured filter
     both ways (:func:`engine.fast.filter.probe`), on the run's grid (the compiled one where it
-    passes its own probe). One check for all the filter's parts."""
+    passes its own probe). One check for all the filter's parts (:func:`_as_update`)."""
     from engine.fast import filter as fast_filter
     from engine.geodesy.ellipsoid import WGS84
     from engine.geodesy.tmgrid import TMGrid
@@ -124,6 +123,11 @@ def _probe_filter() -> str | None:
 
         grid = geodesy.FastTMGrid(WGS84.ellipsoid, 3.0)
     return fast_filter.probe(grid)
+
+
+def _as_update() -> str | None:
+    """The verdict of the filter's other parts: the one of its update (one probe for all)."""
+    return _verdict("update")
 
 
 def _probe_freeze() -> str | None:
@@ -152,15 +156,15 @@ _PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
     "geodesic": ("decca", _probe_geodesic),
     "systems": ("decca", _probe_systems),
     "compute_fix": ("lsq", _probe_fix),
-    "predict": ("kalman_predict", _probe_filter),
-    "predict_estimate": ("kalman_predict", _probe_filter),
-    "estimate": ("kalman_predict", _probe_filter),
-    "prior": ("runparse", _probe_filter),
     "update": ("kalman_update", _probe_filter),
-    "update_rows": ("kalman_update", _probe_filter),
-    "update_gated": ("kalman_update", _probe_filter),
-    "innovation_distance": ("kalman_update", _probe_filter),
-    "lse_measurement": ("kalman_predict", _probe_filter),
+    "predict": ("kalman_predict", _as_update),
+    "predict_estimate": ("kalman_predict", _as_update),
+    "estimate": ("kalman_predict", _as_update),
+    "prior": ("runparse", _as_update),
+    "update_rows": ("kalman_update", _as_update),
+    "update_gated": ("kalman_update", _as_update),
+    "innovation_distance": ("kalman_update", _as_update),
+    "lse_measurement": ("kalman_predict", _as_update),
     "freeze": ("outfmt", _probe_freeze),
     "make": ("runparse", _probe_make),
 }

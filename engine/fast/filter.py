@@ -290,6 +290,7 @@ _LSE_COLS = ((IX,), (IY,))
 _LSE_LABELS = ("x_LSE", "y_LSE")
 _LSE_H = h_template(_LSE_COLS, N_NAV)
 """The LSE rows' H over the nav states (the reference's ``h_template`` array)."""
+_NEW = object.__new__
 
 
 def lse_measurement(x_m: float, y_m: float, C2: np.ndarray, params: FilterParams | None = None,
@@ -300,9 +301,11 @@ def lse_measurement(x_m: float, y_m: float, C2: np.ndarray, params: FilterParams
         arrays = KP.lse(x_m, y_m, C2, params.fix_sigma_frac)
         if arrays is not None:
             tau = params.fix_tau_s
-            return ref_measurements._measurement(
-                arrays[0], _LSE_H, arrays[1], _LSE_LABELS, (), keys, arrays[2], (tau, tau),
-                _LSE_COLS)
+            m = _NEW(Measurement)  # ref_measurements._measurement(…) inline, the same dict
+            m.__dict__.update(z=arrays[0], H=_LSE_H, R=arrays[1], labels=_LSE_LABELS,
+                              angle_rows=(), bias_keys=keys, bias_cov=arrays[2],
+                              bias_tau_s=(tau, tau), _cols=_LSE_COLS)
+            return m
     return ref_measurements.lse_measurement(x_m, y_m, C2, params, keys)
 
 
@@ -352,6 +355,11 @@ def _agree(a: Any, b: Any) -> bool:
                        | (np.isnan(fa) & np.isnan(fb))))
 
 
+def _agree_each(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
+    """Scalars pairwise within :data:`REL_TOL` of each one's own magnitude."""
+    return len(a) == len(b) and all(_agree(u, v) for u, v in zip(a, b, strict=True))
+
+
 def _same_state(a: FilterState, b: FilterState) -> bool:
     return (a.fix_states == b.fix_states and a.fix_tau_s == b.fix_tau_s and _agree(a.t, b.t)
             and _agree(a.x, b.x) and _agree(a.P, b.P) and _agree(a.fix_cov, b.fix_cov))
@@ -360,7 +368,8 @@ def _same_state(a: FilterState, b: FilterState) -> bool:
 def _same_update(a: UpdateResult, b: UpdateResult) -> bool:
     return (_same_state(a.state, b.state) and a.labels == b.labels
             and a.lom.verdict == b.lom.verdict and a.lom.dof == b.lom.dof
-            and _agree((a.lom.t, a.lom.lower, a.lom.upper), (b.lom.t, b.lom.lower, b.lom.upper))
+            and _agree_each((a.lom.t, a.lom.lower, a.lom.upper),
+                            (b.lom.t, b.lom.lower, b.lom.upper))
             and _agree(a.innovation, b.innovation) and _agree(a.S, b.S) and _agree(a.K, b.K)
             and _agree(a.ls.t, b.ls.t) and a.ls.flags == b.ls.flags
             and a.ls.identified == b.ls.identified)
@@ -368,10 +377,11 @@ def _same_update(a: UpdateResult, b: UpdateResult) -> bool:
 
 def _same_estimate(a: PositionEstimate, b: PositionEstimate) -> bool:
     ea, eb = a.ellipse, b.ellipse
-    return (a.source == b.source and _agree((a.lat_deg, a.lon_deg, a.x_m, a.y_m, a.depth_m),
-                                            (b.lat_deg, b.lon_deg, b.x_m, b.y_m, b.depth_m))
+    return (a.source == b.source
+            and _agree_each((a.lat_deg, a.lon_deg, a.x_m, a.y_m, a.depth_m),
+                            (b.lat_deg, b.lon_deg, b.x_m, b.y_m, b.depth_m))
             and _agree(a.cov, b.cov) and (ea is None) == (eb is None)
-            and (ea is None or eb is None or _agree(
+            and (ea is None or eb is None or _agree_each(
                 (ea.a_m, ea.b_m, ea.az_deg), (eb.a_m, eb.b_m, eb.az_deg))))
 
 
@@ -404,7 +414,8 @@ def probe(grid: TMGrid) -> str | None:
             return f"first-use probe failed (predict_step, cycle {k})"
         (xf, yf), prior_f = filter_prior(pf[0])
         (xr, yr), prior_r = ref_estimate.filter_prior(pr[0])
-        if not (_agree((xf, yf, prior_f.x_m, prior_f.y_m), (xr, yr, prior_r.x_m, prior_r.y_m))
+        if not (_agree_each((xf, yf, prior_f.x_m, prior_f.y_m),
+                            (xr, yr, prior_r.x_m, prior_r.y_m))
                 and _agree(prior_f.cov, prior_r.cov)):
             return f"first-use probe failed (prior, cycle {k})"
         fx, fy = xr + 40.0 * (k - 1), yr - 25.0 * k

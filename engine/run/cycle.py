@@ -142,22 +142,33 @@ class _ConfigDerived:
     fix_source: tuple[object, ...]
     run_systems: tuple[NavSystem, ...]
     """The systems the run reads the registry's with (:meth:`CycleParts.run_systems`)."""
-    new_result: Callable[..., CycleResult]
-    """``CycleResult`` from every field positionally (:attr:`CycleParts.make`); and so on."""
-    new_nav: Callable[..., NavState]
-    new_sensor_values: Callable[..., SensorValues]
-    new_inputs: Callable[..., CycleInputs]
-    new_prediction: Callable[..., _Prediction]
-    new_filtering: Callable[..., _Filtering]
 
     @classmethod
     def of(cls, cfg: RunConfig, parts: CycleParts) -> _ConfigDerived:
         """The values of ``cfg`` under the registry as it is now."""
-        make = parts.make
         return cls(cfg, registry.SYSTEMS, systems_string(cfg),
                    tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg),
-                   parts.run_systems(registry.SYSTEMS), make(CycleResult), make(NavState),
-                   make(SensorValues), make(CycleInputs), make(_Prediction), make(_Filtering))
+                   parts.run_systems(registry.SYSTEMS))
+
+
+@dataclass(frozen=True, slots=True)
+class _Makers:
+    """The cycle's dataclasses made from every field positionally, as the run's parts make
+    them (:attr:`CycleParts.make`)."""
+
+    result: Callable[..., CycleResult]
+    nav: Callable[..., NavState]
+    sensor_values: Callable[..., SensorValues]
+    inputs: Callable[..., CycleInputs]
+    prediction: Callable[..., _Prediction]
+    filtering: Callable[..., _Filtering]
+
+    @classmethod
+    def of(cls, parts: CycleParts) -> _Makers:
+        """The constructors of ``parts``."""
+        make = parts.make
+        return cls(make(CycleResult), make(NavState), make(SensorValues), make(CycleInputs),
+                   make(_Prediction), make(_Filtering))
 
 
 @dataclass
@@ -187,6 +198,11 @@ class RunContext:
     _grids: dict[float, TMGrid] = field(default_factory=dict)
     _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
     _derived: _ConfigDerived | None = field(default=None, repr=False, compare=False)
+    new: _Makers = field(init=False, repr=False, compare=False)
+    """The cycle's dataclasses made positionally by the run's parts (:class:`_Makers`)."""
+
+    def __post_init__(self) -> None:
+        self.new = _Makers.of(self.parts)
 
     def derived(self) -> _ConfigDerived:
         """What every cycle reads from the configuration and the system registry, computed once
@@ -406,7 +422,7 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
             heading = (rec.cog_deg if rec.cog_deg is not None
                        and rec.sog_kn >= cfg.sensors.cog_min_sog_kn else None)
             h_sigma, s_sigma = standin_sigmas(rec.sog_kn)
-    values = ctx.derived().new_sensor_values(  # SensorValues(...) positionally, field order
+    values = ctx.new.sensor_values(  # SensorValues(...) positionally: the order of the fields
         status,
         heading,
         speed,
@@ -543,8 +559,7 @@ def step(
     n = nav.n + 1
     link = filt.link
     # CycleResult(...) and NavState(...) positionally, in the order of their fields
-    derived = ctx.derived()
-    result = derived.new_result(
+    result = ctx.new.result(
         n, rec.line_no, rec.time, rec.raw, dt, ctx.working.name, cm,
         ctx.derived().systems_string, sens, readings[GPS.name].detail, rec.decca,
         ctx.config.decca.on, fix, pred.estimate, kf_est, mpp, filt.status, filt.state,
@@ -553,7 +568,7 @@ def step(
         0 if lanes is None else lanes.slips,
     )
     ctx.parts.freeze(fix, None if link is None else link[2], filt.result, pred.sensor_update)
-    next_nav = derived.new_nav(
+    next_nav = ctx.new.nav(
         n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
         nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
         filt.gated, sens.reference, pred.reference,
@@ -644,7 +659,7 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
         fstate = sens_result.state
     pred_state, phi, est = ctx.parts.predict_estimate(fstate, dt, params, "KF", grid)
     # _Prediction(...) positionally, every field
-    return ctx.derived().new_prediction(pred_state, est, (fstate, pred_state, phi), sens_result,
+    return ctx.new.prediction(pred_state, est, (fstate, pred_state, phi), sens_result,
                                         dr_sensors, reference)
 
 
@@ -688,7 +703,7 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
     readings before it: Decca checks its lanes against GPS)."""
     readings: dict[str, SystemReading] = {}
     extend = messages.extend
-    make = ctx.derived().new_inputs  # CycleInputs(...) positionally
+    make = ctx.new.inputs  # CycleInputs(...) positionally
     config = ctx.config
     for system in ctx.derived().run_systems:
         reading = system.read(make(config, ctx, nav, rec, grid, cm, x_start, prior,
@@ -763,7 +778,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     ``gnss``: the receiver part of the fix source (:func:`gnss_source`)."""
     cfg, params = ctx.config, ctx.filter_params
     # _Filtering(...) with every field positionally (result None, gate "")
-    f = ctx.derived().new_filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
+    f = ctx.new.filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
                        nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "")
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
