@@ -649,7 +649,7 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     # sample's KF row moves on the mean of the two records' gyro headings). A state just
     # initialised from this record's readings has them already (no double counting).
     # The rows of sensor_measurement(fstate, log_ms=…, gyro_grid_rad=…, incl_rad=…), updated
-    # from their values and variances without a Measurement (update_rows: the same update).
+    # from their values, variances and layout (update_rows).
     zs, var, layout = sensor_rows(None, speed_ms, heading_grid, incl, params,
                                   sens.speed_sigma_ms, sens.heading_sigma_deg)
     dr_sensors = len(zs) > 0
@@ -660,7 +660,7 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     pred_state, phi, est = ctx.parts.predict_estimate(fstate, dt, params, "KF", grid)
     # _Prediction(...) positionally, every field
     return ctx.new.prediction(pred_state, est, (fstate, pred_state, phi), sens_result,
-                                        dr_sensors, reference)
+                              dr_sensors, reference)
 
 
 def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,
@@ -779,11 +779,10 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     cfg, params = ctx.config, ctx.filter_params
     # _Filtering(...) with every field positionally (result None, gate "")
     f = ctx.new.filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
-                       nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "")
+                          nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "")
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
-    # layout, depth_sensor_rows): updated from them without a Measurement (update_rows,
-    # update_rows_two_gated).
+    # layout, depth_sensor_rows): updated from them (update_rows, update_gated).
     depth_rows: tuple[list[float], list[float], SensorLayout] | None = None
     if pred.state is not None and sens.depth_m is not None:
         depth_rows = depth_sensor_rows(sens.depth_m, params)  # sensor_rows(depth, None, …)
@@ -934,9 +933,8 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
     error (:data:`GROSS_GATE_SIGMA`); after :data:`GROSS_GATE_RESET` gated LSEs the filter
     position restarts from the LSE. Returns the depth rows still to be applied (None: done)."""
     assert f.state is not None
-    # One update for all measured at this epoch: the depth rows stacked before the fix's
-    # (update_rows_two_gated is update(state, stack_measurements(the depth rows' measurement,
-    # meas), params) and the innovation_distance of the fix's rows, the last, in one call).
+    # One update for all measured at this epoch: the depth rows stacked before the fix's, and
+    # the gate's innovation_distance of the fix's rows, the last (update_gated).
     parts = ctx.parts
     if depth_rows is None:
         trial = parts.update(f.state, meas, ctx.filter_params)
