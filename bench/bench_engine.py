@@ -64,9 +64,10 @@ STAGES = {
                             "engine.fast.decca:tracked_totals"),
     "LSQ fix + tests": ("engine.lsq.fix:compute_fix", "engine.fast.lsq:compute_fix"),
     "filter (predict, updates)": (
-        "predict_step", "predict_step_position", "update", "sensor_rows", "depth_sensor_rows",
-        "update_rows", "update_rows_two_gated", "lse_measurement", "stack_measurements",
-        "innovation_distance"),
+        "sensor_rows", "depth_sensor_rows",
+        *(f"engine.fast.filter:{f}" for f in (
+            "predict_estimate", "update", "update_rows", "update_rows_gated", "lse_measurement",
+            "innovation_distance"))),
 }
 """Stage → the functions whose time it is: ``module:function`` or ``module:Class.method`` (the
 run's parts: the reference's and engine.fast's), or a function of ``engine.run.cycle`` (as

@@ -295,6 +295,20 @@ def test_the_checks_find_a_cycle_and_a_layer_breach() -> None:
 
 
 SEAM_CLEAN = (
+    "engine.filter",
+    "engine.filter.estimate",
+    "engine.filter.explain",
+    "engine.filter.kalman",
+    "engine.filter.lazy_scipy",
+    "engine.filter.measurements",
+    "engine.filter.model",
+    "engine.filter.params",
+    "engine.filter.poe",
+    "engine.filter.predict",
+    "engine.filter.smoother",
+    "engine.filter.state",
+    "engine.filter.update",
+    "engine.filter.variances",
     "engine.geodesy",
     "engine.geodesy.angles",
     "engine.geodesy.ellipsoid",
@@ -308,6 +322,7 @@ SEAM_CLEAN = (
     "engine.lsq.robust",
     "engine.lsq.snooping",
     "engine.lsq.statistics",
+    "engine.run.cycle",
     "engine.systems",
     "engine.systems.base",
     "engine.systems.decca",

@@ -110,12 +110,64 @@ def _probe_fix() -> str | None:
     return fix(lsq.compute_fix)
 
 
+def _probe_filter() -> str | None:
+    """Why the compiled filter is not used (None: it is): a few cycles of a coloured filter
+    both ways (:func:`engine.fast.filter.probe`), on the run's grid (the compiled one where it
+    passes its own probe). One check for all the filter's parts (:func:`_as_update`)."""
+    from engine.fast import filter as fast_filter
+    from engine.geodesy.ellipsoid import WGS84
+    from engine.geodesy.tmgrid import TMGrid
+
+    grid = TMGrid(WGS84.ellipsoid, 3.0)
+    if _verdict("grid") is None:
+        from engine.fast import geodesy
+
+        grid = geodesy.FastTMGrid(WGS84.ellipsoid, 3.0)
+    return fast_filter.probe(grid)
+
+
+def _as_update() -> str | None:
+    """The verdict of the filter's other parts: the one of its update (one probe for all)."""
+    return _verdict("update")
+
+
+def _probe_freeze() -> str | None:
+    """Why the compiled freezing of a cycle's arrays is not used (None: it is): an update's
+    arrays made read-only both ways."""
+    from engine.fast import filter as fast_filter
+
+    if fast_filter._FREEZE is None:
+        return native.status("outfmt")
+    return fast_filter.probe_freeze()
+
+
+def _probe_make() -> str | None:
+    """Why the compiled construction of the cycle's dataclasses is not used (None: it is): one
+    built both ways has the same fields."""
+    from engine.fast import filter as fast_filter
+
+    if native.kernel("runparse") is None:
+        return native.status("runparse")
+    return fast_filter.probe_make()
+
+
 _PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
     "grid": ("tmgrid", _probe_grid),
     "datum_shift": ("datum", _probe_datum_shift),
     "geodesic": ("decca", _probe_geodesic),
     "systems": ("decca", _probe_systems),
     "compute_fix": ("lsq", _probe_fix),
+    "update": ("kalman_update", _probe_filter),
+    "predict": ("kalman_predict", _as_update),
+    "predict_estimate": ("kalman_predict", _as_update),
+    "estimate": ("kalman_predict", _as_update),
+    "prior": ("runparse", _as_update),
+    "update_rows": ("kalman_update", _as_update),
+    "update_gated": ("kalman_update", _as_update),
+    "innovation_distance": ("kalman_update", _as_update),
+    "lse_measurement": ("kalman_predict", _as_update),
+    "freeze": ("outfmt", _probe_freeze),
+    "make": ("runparse", _probe_make),
 }
 """Part of the cycle → (its kernel, its probe)."""
 
@@ -152,7 +204,30 @@ def _factory(part: str) -> Any:
         from engine.fast import lsq
 
         return lsq.compute_fix
+    if part in _FILTER_PARTS:
+        from engine.fast import filter as fast_filter
+
+        return getattr(fast_filter, _FILTER_PARTS[part])
+    if part == "make":
+        from engine.fast.make import slots_maker
+
+        return slots_maker
     raise KeyError(part)
+
+
+_FILTER_PARTS = {
+    "predict": "predict_step",
+    "predict_estimate": "predict_estimate",
+    "estimate": "filter_estimate",
+    "prior": "filter_prior",
+    "update": "update",
+    "update_rows": "update_rows",
+    "update_gated": "update_rows_gated",
+    "innovation_distance": "innovation_distance",
+    "lse_measurement": "lse_measurement",
+    "freeze": "freeze_result",
+}
+"""Part of the cycle → its function in :mod:`engine.fast.filter`."""
 
 
 def parts() -> dict[str, Any]:

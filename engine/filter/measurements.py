@@ -7,27 +7,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
-from engine import native
 from engine.filter.params import DEG, FilterParams, read_only
 from engine.filter.state import IDEPS, IDPSI, IDV, IEPS, IPSI, IV, IX, IY, IZ, N_NAV, FilterState
-
-_UNRESOLVED = object()
-_K: Any = _UNRESOLVED
-"""The compiled helpers of ``engine/native/kalman_predict.c`` that build the rows' arrays
-(``rows``, ``stack2``: copies only, the same arrays), or None (not built, stale,
-``UVNAV_PURE=1``): then numpy builds them. Resolved on first use, not at import."""
-
-
-def _kernel() -> Any:
-    """:data:`_K`, resolved on first use."""
-    global _K
-    if _K is _UNRESOLVED:
-        _K = native.kernel("kalman_predict")
-    return _K
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,41 +87,8 @@ def lse_measurement(
 
     With ``params.coloured`` the rows become x + b_e, y + b_n on the Gauss–Markov states
     ``keys`` (added by :func:`update` on first use, stationary VCV frac·C2, τ = fix_tau_s) and
-    R = (1 − frac)·C2, the white part (THEORY §8.2 option (a)). The coloured arrays come from
-    the compiled helper where it takes the inputs (the same products; :func:`_lse_py`).
+    R = (1 − frac)·C2, the white part (THEORY §8.2 option (a)).
     """
-    if params is not None and params.coloured:
-        k = _K if _K is not _UNRESOLVED else _kernel()
-        if k is not None:
-            arrays = k.lse(x_m, y_m, C2, params.fix_sigma_frac)
-            if arrays is not None:
-                # _measurement(z, h_template(_LSE_COLS, N_NAV), R, _LSE_LABELS, (), keys, cov,
-                # (τ, τ), _LSE_COLS) inline (every cycle): the same dict, in the same order
-                H = _LSE_H[0]
-                if H is None:
-                    H = _LSE_H[0] = h_template(_LSE_COLS, N_NAV)
-                m = _NEW(Measurement)
-                tau = params.fix_tau_s
-                m.__dict__.update(z=arrays[0], H=H, R=arrays[1], labels=_LSE_LABELS,
-                                  angle_rows=(), bias_keys=keys, bias_cov=arrays[2],
-                                  bias_tau_s=(tau, tau), _cols=_LSE_COLS)
-                return m
-    return _lse_py(x_m, y_m, C2, params, keys)
-
-
-_NEW = object.__new__
-_LSE_H: list[np.ndarray | None] = [None]
-"""``h_template(_LSE_COLS, N_NAV)``, the LSE rows' H, once made (the same read-only array)."""
-
-
-def _lse_py(
-    x_m: float,
-    y_m: float,
-    C2: np.ndarray,
-    params: FilterParams | None = None,
-    keys: tuple[str, str] = ("fix_e", "fix_n"),
-) -> Measurement:
-    """:func:`lse_measurement` with numpy (the reference of the compiled helper)."""
     C = np.asarray(C2, dtype=float)
     H = h_template(_LSE_COLS, N_NAV)
     z = np.array([x_m, y_m], dtype=float)
@@ -165,9 +117,7 @@ def sensor_measurement(
     ``gyro_sigma_deg`` replace this cycle's σ of the speed / heading row (a COG/SOG stand-in,
     docs/GNSS_WEIGHTS.md); None: the parameters' σ.
 
-    The rows' labels, H and angle row come from a table per set of sensors
-    (:func:`_sensor_layout`); values and variances are those of :func:`_sensor_rows`, by the
-    same operations (:func:`_sensor_measurement_py` is the code it replaces).
+    The rows' values, variances and layout are those of :func:`sensor_rows`.
     """
     return rows_measurement(*sensor_rows(depth_m, log_ms, gyro_grid_rad, incl_rad, params,
                                          log_sigma_ms, gyro_sigma_deg))
@@ -239,17 +189,13 @@ def depth_sensor_rows(depth_m: float,
 
 def rows_measurement(zs: list[float], var: list[float], layout: SensorLayout) -> Measurement:
     """The measurement of independent rows: values ``zs``, variances ``var`` (R diagonal) and
-    the ``layout`` of :func:`sensor_rows` (its arrays from the compiled helper where built)."""
+    the ``layout`` of :func:`sensor_rows`."""
     labels, cols_t, H, angle = layout
-    k = _K if _K is not _UNRESOLVED else _kernel()
-    zr = k.rows(zs, var) if k is not None else None
-    if zr is None:
-        p = len(zs)
-        R = np.zeros((p, p))
-        for i, s2 in enumerate(var):
-            R[i, i] = s2
-        return _measurement(np.array(zs, dtype=float), H, R, labels, angle, cols=cols_t)
-    return _measurement(zr[0], H, zr[1], labels, angle, cols=cols_t)
+    p = len(zs)
+    R = np.zeros((p, p))
+    for i, s2 in enumerate(var):
+        R[i, i] = s2
+    return _measurement(np.array(zs, dtype=float), H, R, labels, angle, cols=cols_t)
 
 
 _VARIANCES: dict[int, tuple[FilterParams, float, float, float]] = {}
@@ -282,41 +228,6 @@ def _sensor_layout(which: int) -> SensorLayout:
     cols_t = tuple(r[1] for r in rows)
     angle = (labels.index("psi_m"),) if "psi_m" in labels else ()
     return labels, cols_t, h_template(cols_t, N_NAV), angle
-
-
-def _sensor_measurement_py(
-    state: FilterState,
-    *,
-    depth_m: float | None = None,
-    log_ms: float | None = None,
-    gyro_grid_rad: float | None = None,
-    incl_rad: float | None = None,
-    params: FilterParams,
-    log_sigma_ms: float | None = None,
-    gyro_sigma_deg: float | None = None,
-) -> Measurement:
-    """:func:`sensor_measurement` as it was written first (the reference of the tests)."""
-    zs: list[float] = []
-    var: list[float] = []
-    labels: list[str] = []
-    cols: list[tuple[int, ...]] = []
-    _sensor_rows(zs, var, labels, cols, params, depth_m, log_ms, gyro_grid_rad, incl_rad,
-                 log_sigma_ms, gyro_sigma_deg)
-    return _white_rows(zs, var, labels, cols)
-
-
-def _white_rows(zs: list[float], var: list[float], labels: list[str],
-                cols: list[tuple[int, ...]]) -> Measurement:
-    """The measurement of rows with independent white noise (R diagonal, ``var``), H a
-    template: what :func:`nav_measurement` gives without an LSE."""
-    p = len(zs)
-    cols_t = tuple(cols)
-    R = np.zeros((p, p))
-    for i, s2 in enumerate(var):
-        R[i, i] = s2
-    lab = tuple(labels)
-    return _measurement(np.array(zs, dtype=float), h_template(cols_t, N_NAV), R, lab,
-                        (lab.index("psi_m"),) if "psi_m" in lab else (), cols=cols_t)
 
 
 def nav_measurement(
@@ -476,64 +387,8 @@ def stack_measurements(*parts: Measurement) -> Measurement:
     """Concatenate measurement blocks (R block-diagonal), e.g. LSE rows then sensor rows.
 
     Fix-error keys are concatenated per row; their prior VCVs block-diagonally (a key already
-    given by an earlier block keeps that block's prior). The cycle's case — rows without
-    fix-error keys (the pressure depth) stacked before rows that may carry them (the LSE),
-    both with template H — takes :func:`_stack_two`; anything else :func:`_stack_py`, the
-    general code (both give the same arrays, bit for bit).
+    given by an earlier block keeps that block's prior).
     """
-    if len(parts) == 2:
-        a, b = parts
-        if not a.bias_keys and a.bias_cov is None and a._cols is not None and \
-                b._cols is not None and a.z.shape[0] and b.z.shape[0]:
-            m = _stack_two(a, b)
-            if m is not None:
-                return m
-    return _stack_py(*parts)
-
-
-def _stack_two(a: Measurement, b: Measurement) -> Measurement | None:
-    """:func:`_stack_py` of two non-empty blocks with template H, ``a`` without fix-error keys
-    or priors: b's keys and prior are the stack's (the priors' one source is b, in its own
-    order). None where b's prior is not a matrix covering its keys (the general code then)."""
-    ka = a.z.shape[0]
-    cols_t = a._cols + b._cols  # type: ignore[operator]
-    wa = a.H.shape[1]
-    wb = b.H.shape[1]
-    H = h_template(cols_t, wa if wa > wb else wb)
-    angle = tuple(a.angle_rows)
-    if b.angle_rows:
-        angle += tuple(ka + i for i in b.angle_rows)
-    labels = tuple(a.labels) + tuple(b.labels)
-    bk = b.bias_keys
-    dk = distinct_key_tuple(bk) if bk else ()
-    first = None if not dk or b.bias_cov is None else np.asarray(b.bias_cov)
-    m_dk = len(dk)
-    if first is not None and (first.ndim != 2 or min(first.shape) < m_dk):
-        return None
-    k = _K if _K is not _UNRESOLVED else _kernel()
-    arrays = k.stack2(a.z, b.z, a.R, b.R, first, m_dk) if k is not None else None
-    if arrays is None:
-        p_tot = ka + b.z.shape[0]
-        R = np.zeros((p_tot, p_tot))
-        R[:ka, :ka] = a.R
-        R[ka:, ka:] = b.R
-        z = np.concatenate([a.z, b.z])
-        cov = None if first is None else np.array(first[:m_dk, :m_dk], dtype=float)
-    else:
-        z, R, cov = arrays
-    if not dk:
-        return _measurement(z, H, R, labels, angle, cols=cols_t)
-    keys = (None,) * ka + tuple(bk)
-    if cov is None:
-        return _measurement(z, H, R, labels, angle, keys, None, (), cols_t)
-    taus_b = b.bias_tau_s
-    taus = tuple(taus_b[:m_dk]) if len(taus_b) >= m_dk else \
-        tuple(taus_b[m] if m < len(taus_b) else float("nan") for m in range(m_dk))
-    return _measurement(z, H, R, labels, angle, keys, cov, taus, cols_t)
-
-
-def _stack_py(*parts: Measurement) -> Measurement:
-    """:func:`stack_measurements` in general (any number of blocks, general H and priors)."""
     parts = tuple(p for p in parts if p.z.shape[0])
     if not parts:
         return Measurement(np.zeros(0), np.zeros((0, N_NAV)), np.zeros((0, 0)), ())

@@ -19,11 +19,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 
-from engine import native
 from engine.filter.params import DEG, FilterParams, read_only
 from engine.geodesy.angles import wrap_2pi
 
@@ -90,21 +88,8 @@ class FilterState:
     def with_fix_cov(self, keys: Sequence[str], cov: np.ndarray) -> FilterState:
         """The same estimate with the stationary VCV of fix-error states ``keys`` set to ``cov``
         (m², over ``keys``); their covariances with the other fix-error states become 0."""
-        if tuple(keys) == self.fix_states:  # the usual case: the LSE pair is all there is
-            k = _K if _K is not _UNRESOLVED else _kernel()
-            fc = k.sym2(cov) if k is not None else None  # a float64 2×2: read-only (C + Cᵀ)/2
-            if fc is not None:
-                new = object.__new__(FilterState)
-                d = new.__dict__
-                d.update(self.__dict__)
-                d["fix_cov"] = fc
-                return new
         C = np.asarray(cov, dtype=float)
-        if C.shape == (2, 2):  # the LSE pair: (C + Cᵀ)/2 entry by entry, the same operations
-            (a, b), (c, d) = C.tolist()
-            C = np.array([[0.5 * (a + a), 0.5 * (b + c)], [0.5 * (c + b), 0.5 * (d + d)]])
-        else:
-            C = 0.5 * (C + C.T)
+        C = 0.5 * (C + C.T)
         if tuple(keys) == self.fix_states:  # the usual case: the LSE pair is all there is
             fc = C
         else:
@@ -133,48 +118,11 @@ class FilterState:
         d["t"], d["x"], d["P"] = t, x, P
         return new
 
-    def _with_frozen(self, t: float, x: np.ndarray, P: np.ndarray) -> FilterState:
-        """:meth:`_with` for fresh arrays the caller has already made read-only (a compiled
-        kernel's outputs): no setflags calls."""
-        new = object.__new__(FilterState)
-        d = new.__dict__
-        d.update(self.__dict__)
-        d["t"], d["x"], d["P"] = t, x, P
-        return new
-
-
-_UNRESOLVED = object()
-_K: Any = _UNRESOLVED
-"""``engine.native.kalman_predict`` (its ``estimate`` and ``sym2``, copies only: no BLAS), or
-None (not built, stale, ``UVNAV_PURE=1``): then the numpy code (:func:`_estimate_parts_py`,
-:meth:`FilterState.with_fix_cov`). Resolved on first use."""
-
-
-def _kernel() -> object:
-    """:data:`_K`, resolved on first use."""
-    global _K
-    if _K is _UNRESOLVED:
-        _K = native.kernel("kalman_predict")
-    return _K
-
 
 def estimate_parts(fs: FilterState) -> tuple[float, float, float, np.ndarray, bool]:
-    """The horizontal position x, y (grid m), depth z (m) of a state as floats, a read-only
-    copy of its 2×2 position VCV (m²) and whether that VCV is finite: what the cycle's
-    estimate of a state needs (``engine.run.cycle.filter_estimate``), in one compiled call
-    where the kernel is built (the same floats and array as :func:`_estimate_parts_py`)."""
-    k = _K if _K is not _UNRESOLVED else _kernel()
-    if k is not None:
-        r = k.estimate(fs.x, fs.P)  # type: ignore[attr-defined]
-        if r is not None:
-            return r  # type: ignore[no-any-return]
-    return _estimate_parts_py(fs)
-
-
-def _estimate_parts_py(fs: FilterState) -> tuple[float, float, float, np.ndarray, bool]:
-    """:func:`estimate_parts` in numpy: the values of :attr:`FilterState.east_north_m`,
-    :attr:`FilterState.depth_m` and :attr:`FilterState.position_cov_m2` (one tolist() instead
-    of three properties)."""
+    """The horizontal position x, y (grid m) and depth z (m) of a state as floats, a read-only
+    copy of its 2×2 position VCV (m²) and whether that VCV is finite: what the estimate of a
+    state is made of (:func:`engine.filter.estimate.filter_estimate`)."""
     x, y, z = fs.x[IX:IZ + 1].tolist()
     cov = fs.P[IX:IY + 1, IX:IY + 1].copy()
     finite = all(map(math.isfinite, cov.ravel().tolist()))

@@ -1,12 +1,8 @@
 """Measurement update of the filter (6.21, Joseph form) and its innovation tests: the Local
 Overall Model test (6.38–6.40, THEORY D30) and the Local Slippage w-statistics (6.41).
 
-The per-epoch numeric core (:func:`update`, :func:`innovation_distance`, the LS statistics of an
-update) runs in the compiled kernel ``engine.native.kalman_update`` where it is built: the same
-BLAS/LAPACK routines with the same arguments as the numpy/SciPy code here, so the same bits
-(docs/PERFORMANCE.md). The Python (:func:`_update_py`, :func:`_innovation_distance_py`) is the
-reference, runs with ``UVNAV_PURE=1`` or without the kernel, and wherever the kernel declines
-(errors, unusual layouts). :func:`lom_test` and :func:`ls_test` (not per epoch) stay numpy.
+This is the reference (numpy and SciPy's LAPACK/BLAS); the compiled update of the cycle is
+``engine.fast.filter``, which agrees with it to the tolerance contract of docs/PERFORMANCE.md.
 """
 
 from __future__ import annotations
@@ -14,12 +10,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
-from types import ModuleType
 
 import numpy as np
 
-from engine import native
-from engine.filter import state as _st
 from engine.filter.lazy_scipy import blas, lapack
 from engine.filter.measurements import (
     Measurement,
@@ -35,31 +28,6 @@ from engine.geodesy.angles import wrap_2pi, wrap_pi
 from engine.lsq.statistics import chi2_bounds
 
 _EYES = tuple(read_only(np.eye(k)) for k in range(21))  # identities up to 20×20
-
-
-_UNRESOLVED = object()
-_K: ModuleType | None | object = _UNRESOLVED
-"""The compiled twin ``engine.native.kalman_update`` once bound to the BLAS/LAPACK routines
-(resolved on the first update, not at import: binding loads both OpenBLAS libraries), or None:
-not built, stale, ``UVNAV_PURE=1`` or no bundled OpenBLAS. Then the Python below runs."""
-
-
-def _kernel() -> ModuleType | None:
-    """Resolve :data:`_K` (once per process; :func:`_reset_kernel` forgets it, for tests)."""
-    global _K
-    if _K is _UNRESOLVED:
-        k = native.bound_kernel("kalman_update")
-        if k is not None:  # what update_result() builds, and the LOM bounds it asks for
-            k.bind_result(FilterState, LomTest, LsTest, UpdateResult, _lom_limits)
-        _K = k
-    return _K  # type: ignore[return-value]
-
-
-def _reset_kernel() -> None:
-    """Forget the resolved kernel (the next update resolves it again, e.g. after a change of
-    ``UVNAV_PURE``)."""
-    global _K
-    _K = _UNRESOLVED
 
 
 def _eye(k: int) -> np.ndarray:
@@ -203,34 +171,20 @@ def lom_test(v: np.ndarray, S: np.ndarray, alpha: float = 0.05) -> LomTest:
 
 
 def innovation_distance(result: UpdateResult, rows: slice = slice(None)) -> float:
-    """Mahalanobis length √(v̂ᵀ S⁻¹ v̂) of the innovation ``rows`` of an update (in σ).
+    """Mahalanobis length √(v̂ᵀ S⁻¹ v̂) of the innovation ``rows`` of an update (in σ; inf when
+    that block of S is not positive definite).
 
     Under H0 its square is χ²_p; a length of tens of σ is no statistical question any more but
-    a gross error (a fix thousands of km away), which the cycle keeps out of the filter. The
-    compiled kernel computes it for a slice of step 1 (the same LAPACK/BLAS calls, the same
-    bits); :func:`_innovation_distance_py` otherwise.
+    a gross error (a fix thousands of km away), which the cycle keeps out of the filter.
     """
-    k = _K if _K is not _UNRESOLVED else _kernel()
-    if k is not None and type(rows) is slice:
-        v = result.innovation
-        start, stop, step = rows.indices(v.shape[0])
-        if step == 1:
-            d = k.distance(v, result.S, start, stop)
-            if d is not None:
-                return d  # type: ignore[no-any-return]
-    return _innovation_distance_py(result, rows)
-
-
-def _innovation_distance_py(result: UpdateResult, rows: slice = slice(None)) -> float:
-    """:func:`innovation_distance` in numpy/SciPy (the reference of the compiled kernel)."""
     v = np.asarray(result.innovation[rows], dtype=float)
     if v.shape[0] == 0:
         return 0.0
     S = np.asarray(result.S[rows, rows], dtype=float)
-    L, info = lapack.dpotrf(S, 1, 1)  # _factor_solve(S, v) inline (per epoch): lower, clean
+    L, info = lapack.dpotrf(S, 1, 1)  # S = L Lᵀ (lower, clean)
     if info != 0:
         return math.inf
-    w = blas.dtrsm(1.0, L, v.reshape(-1, 1), 0, 1).reshape(-1)  # side=0, lower=1
+    w = blas.dtrsm(1.0, L, v.reshape(-1, 1), 0, 1).reshape(-1)  # w = L⁻¹v̂ (side=0, lower=1)
     d2 = float(w @ w)
     return math.sqrt(d2) if d2 >= 0.0 else math.inf
 
@@ -287,193 +241,7 @@ def _bias_h(cols: tuple[tuple[int, ...], ...], keys: tuple[str | None, ...],
 
 
 def update(state: FilterState, rows: Measurement, params: FilterParams) -> UpdateResult:
-    """Measurement update (6.21a–c) with the innovation tests (6.37–6.41): :func:`_update_py`,
-    its numeric core (innovation, S, factor and solve, gain, x and P, the NIS) done by the
-    compiled kernel ``engine.native.kalman_update`` when it is built (the same BLAS/LAPACK calls
-    in the same order: the same bits). Where the kernel declines (S not positive definite, a
-    non-positive variance, an unusual array layout) the Python runs and raises what it raises.
-    """
-    k = _K if _K is not _UNRESOLVED else _kernel()
-    if k is None:
-        return _update_py(state, rows, params)
-    z = rows.z
-    p = z.shape[0]
-    if p == 0:
-        return _empty_update(state)
-    if rows.bias_keys:
-        new, H = _with_bias_columns(state, rows, params)
-    else:  # _full_width inline (the sensor rows of every cycle)
-        new, H = state, rows.H
-        if H.shape[1] < state.x.shape[0]:
-            new, H = _full_width(state, rows, params)
-    # The kernel's update and the whole result in one call: x⁺, P⁺ (read-only) in a new
-    # FilterState as _with_frozen makes it, v (p,), S (p×p), K (n×p), the LOM test as
-    # _lom_from_nis makes it and the LsTest of Y = L⁻¹[HP | v̂ | I] (its t filled when the kernel
-    # computed it, else on access as usual); None where the kernel declines.
-    result = k.update_result(new, H, z, rows.R, rows.angle_rows, params.joseph, IPSI,
-                             params.alpha, rows.labels)
-    if result is None:
-        return _update_py(state, rows, params)
-    return result  # type: ignore[no-any-return]
-
-
-def update_rows(state: FilterState, zs: list[float], var: list[float], layout: SensorLayout,
-                params: FilterParams) -> UpdateResult:
-    """``update(state, rows_measurement(zs, var, layout), params)``: the update with independent
-    rows (values ``zs``, variances ``var``, the ``layout`` of
-    ``engine.filter.measurements.sensor_rows``: the sensors' rows of a cycle), the kernel
-    reading the values and variances straight from the lists (``update_blocks``), without the
-    :class:`Measurement`; the same result, bit for bit."""
-    k = _K if _K is not _UNRESOLVED else _kernel()
-    if k is not None and zs:
-        labels, cols_t, H, angle = layout
-        n = state.x.shape[0]
-        if H.shape[1] < n:  # _full_width's template, h_template(cols_t, n)
-            last = _ROWS_LAST[0]
-            if last[0] is cols_t and last[1] == n:
-                H = last[2]
-            else:
-                H = h_template(cols_t, n)
-                _ROWS_LAST[0] = (cols_t, n, H)
-        result = k.update_blocks(state, H, ((zs, var),), angle, params.joseph, IPSI,
-                                 params.alpha, labels)
-        if result is not None:
-            return result  # type: ignore[no-any-return]
-    return update(state, rows_measurement(zs, var, layout), params)
-
-
-_ROWS_LAST: list[tuple[object, int, np.ndarray | None]] = [(None, -1, None)]
-"""The last ``h_template(cols, n)`` of :func:`update_rows` with its columns (compared by
-identity: the cycle passes the same layout tuple every time) and n: looked up once, not
-hashed per update."""
-
-
-def update_two(state: FilterState, a: Measurement, b: Measurement,
-               params: FilterParams) -> UpdateResult:
-    """``update(state, stack_measurements(a, b), params)``: the cycle's update with rows ``a``
-    without fix-error keys (the pressure depth) stacked before rows ``b`` (the LSE, with its
-    fix-error keys and their prior), both with template H, and the fix-error states already in
-    the state (every fix but the first): the kernel stacks the two blocks itself
-    (``update_blocks``), without the stacked :class:`Measurement`, and H and the fix-error VCV
-    are those :func:`_with_bias_columns` makes of the stack. Anything else (and where the
-    kernel declines) goes through the stack and :func:`update`; the same result, bit for bit."""
-    if not (a.bias_keys or a.bias_cov is not None or a._cols is None or not a.z.shape[0]):
-        result = _update_two(state, (a.z, a.R), a._cols, a.labels, a.angle_rows, a.H.shape[1],
-                             b, params)
-        if result is not None:
-            return result
-    return update(state, stack_measurements(a, b), params)
-
-
-def update_rows_two(state: FilterState, zs: list[float], var: list[float],
-                    layout: SensorLayout, b: Measurement, params: FilterParams) -> UpdateResult:
-    """:func:`update_two` of the rows ``rows_measurement(zs, var, layout)`` (the pressure depth
-    of ``engine.filter.measurements.sensor_rows``) and ``b``, read straight from the lists."""
-    if zs:
-        labels, cols_t, H, angle = layout
-        result = _update_two(state, (zs, var), cols_t, labels, angle, H.shape[1], b, params)
-        if result is not None:
-            return result
-    return update(state, stack_measurements(rows_measurement(zs, var, layout), b), params)
-
-
-def update_rows_two_gated(state: FilterState, zs: list[float], var: list[float],
-                          layout: SensorLayout, b: Measurement,
-                          params: FilterParams) -> tuple[UpdateResult, float]:
-    """:func:`update_rows_two` and the gross-error gate's distance of ``b``'s rows,
-    ``innovation_distance(result, slice(len(zs), None))``, in one compiled call where the kernel
-    takes them (``update_blocks`` with its gate); the same result and float as the two calls."""
-    if zs:
-        labels, cols_t, H, angle = layout
-        r = _update_two(state, (zs, var), cols_t, labels, angle, H.shape[1], b, params, len(zs))
-        if r is not None:
-            result, d = r
-            if d is None:  # the kernel's distance declined: the Python's
-                d = innovation_distance(result, slice(len(zs), None))
-            return result, d
-    result = update(state, stack_measurements(rows_measurement(zs, var, layout), b), params)
-    return result, innovation_distance(result, slice(len(zs), None))
-
-
-_TWO_LAST: list[tuple[tuple[object, ...], tuple[object, ...]] | None] = [None]
-"""The last plan of :func:`_update_two`, (key, plan), replaced whole: the key is what the plan
-is made of (a's columns, labels, angle rows and H width, b's columns, fix-error keys, labels
-and angle rows, the state's fix-error states, the number of states; tuples and ints), the plan
-H, the stacked angle rows and labels and whether b's keys are the state's fix-error states.
-The cycle passes the same objects every time, so the keys' tuple comparison is ten identity
-checks in C and the plan is looked up and stacked once (equal but new objects: the same
-plan, also kept)."""
-
-
-def _update_two(state: FilterState, block_a: tuple[object, object],
-                cols_a: tuple[tuple[int, ...], ...], labels_a: tuple[str, ...],
-                angle_a: tuple[int, ...], width_a: int, b: Measurement,
-                params: FilterParams, gate: int | None = None) -> UpdateResult | None:
-    """The fast path of :func:`update_two` for rows ``a`` given by their block (z, R) for
-    ``update_blocks``, H columns, labels, angle rows and H width (at least one row, no
-    fix-error keys or prior); None: the caller runs the general code. With ``gate`` (the first
-    of b's rows) the kernel's (result, distance or None) of :func:`update_rows_two_gated`."""
-    k = _K if _K is not _UNRESOLVED else _kernel()
-    cb = b._cols
-    if k is None or cb is None or not b.z.shape[0]:
-        return None
-    n = state.x.shape[0]
-    bk = b.bias_keys
-    fs = state.fix_states
-    lb = b.labels
-    ab = b.angle_rows
-    key = (cols_a, labels_a, angle_a, width_a, cb, bk, lb, ab, fs, n)
-    lk = _TWO_LAST[0]
-    if lk is not None and lk[0] == key:
-        H, angle, labels, keys_ok = lk[1]
-    else:
-        H = None
-        keys_ok = False
-        ka = len(cols_a)
-        cols_t = cols_a + cb
-        if bk:
-            dk = distinct_key_tuple(bk)
-            keys_ok = bool(dk) and dk == fs
-            if keys_ok:
-                H = _bias_h(cols_t, (None,) * ka + bk, fs, n)
-        elif not (width_a > n or b.H.shape[1] > n):
-            H = h_template(cols_t, n)
-        if H is None:
-            return None
-        angle = tuple(angle_a)
-        if ab:
-            angle += tuple(ka + i for i in ab)
-        labels = tuple(labels_a) + tuple(lb)
-        _TWO_LAST[0] = (key, (H, angle, labels, keys_ok))
-    if bk:
-        cov = b.bias_cov
-        # _stack_two's prior (b's leading m×m block; here all of it) and _with_bias_columns
-        # with nothing missing; else the general code (adding states, its errors)
-        if not keys_ok or len(bk) != b.z.shape[0] or cov is None or \
-                type(cov) is not np.ndarray or cov.dtype != np.float64 or \
-                cov.shape != (len(fs), len(fs)):
-            return None
-        # state.with_fix_cov(dk, cov) is the state with fix_cov = sym2(cov) (its case of all
-        # the fix-error states): the kernel's new state takes that fix_cov directly.
-        sk = _st._K if _st._K is not _st._UNRESOLVED else _st._kernel()
-        fc = sk.sym2(cov) if sk is not None else None  # type: ignore[attr-defined]
-        new = state if fc is not None else state.with_fix_cov(fs, cov)
-    else:
-        if width_a > n or b.H.shape[1] > n:
-            return None
-        new, fc = state, None
-    if gate is None:
-        return k.update_blocks(new, H, (block_a, (b.z, b.R)),  # type: ignore[no-any-return]
-                               angle, params.joseph, IPSI, params.alpha, labels, fc)
-    return k.update_blocks(new, H, (block_a, (b.z, b.R)),  # type: ignore[no-any-return]
-                           angle, params.joseph, IPSI, params.alpha, labels, fc, gate)
-
-
-_EMPTY = np.empty
-
-
-def _update_py(state: FilterState, rows: Measurement, params: FilterParams) -> UpdateResult:
-    """Measurement update (6.21a–c) with the innovation tests (6.37–6.41), in numpy/SciPy.
+    """Measurement update (6.21a–c) with the innovation tests (6.37–6.41).
 
     S = H P Hᵀ + R is Cholesky-factorised (S = L Lᵀ) and one triangular solve L Y = [HP | v̂ | I]
     gives L⁻¹HP, L⁻¹v̂ and L⁻¹, so K = (L⁻¹HP)ᵀ L⁻¹ and T_LOM·p = |L⁻¹v̂|²; neither S nor P is
@@ -574,3 +342,20 @@ def _updated_cov(
     else:
         Pn = P - K.dot(HP)
     return symmetrised(Pn)
+
+
+def update_rows(state: FilterState, zs: list[float], var: list[float], layout: SensorLayout,
+                params: FilterParams) -> UpdateResult:
+    """The update with independent rows: values ``zs``, variances ``var`` and the ``layout`` of
+    ``engine.filter.measurements.sensor_rows`` (the sensors' rows of a cycle)."""
+    return update(state, rows_measurement(zs, var, layout), params)
+
+
+def update_rows_gated(state: FilterState, zs: list[float], var: list[float],
+                      layout: SensorLayout, b: Measurement,
+                      params: FilterParams) -> tuple[UpdateResult, float]:
+    """One update with the independent rows ``zs``/``var``/``layout`` (the pressure depth)
+    stacked before the rows ``b`` (the fix), and the Mahalanobis length of ``b``'s innovation
+    (:func:`innovation_distance`): what the cycle's gross-error gate decides on."""
+    result = update(state, stack_measurements(rows_measurement(zs, var, layout), b), params)
+    return result, innovation_distance(result, slice(len(zs), None))

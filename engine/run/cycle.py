@@ -14,11 +14,10 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from datetime import datetime
-from typing import Any
 
 import numpy as np
 
-from engine.fast.make import runparse_function, slots_maker
+from engine.filter.estimate import PositionEstimate, filter_estimate, position_estimate
 from engine.filter.kalman import (
     FilterParams,
     FilterState,
@@ -28,19 +27,13 @@ from engine.filter.kalman import (
     fix_states_from_fix,
     inflate_fix_states,
     init_state,
-    innovation_distance,
     lop_measurement,
-    lse_measurement,
-    predict_step,
     restart_dr_states,
     restart_fix_states,
     stack_measurements,
-    update,
 )
 from engine.filter.measurements import SensorLayout, depth_sensor_rows, sensor_rows
-from engine.filter.predict import predict_step_position
-from engine.filter.state import IX, IY, estimate_parts, move_to_grid, replace_position
-from engine.filter.update import update_rows, update_rows_two_gated
+from engine.filter.state import move_to_grid, replace_position
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -49,7 +42,6 @@ from engine.io.datumfile import DatumFile
 from engine.io.deccafile import DeccaChain
 from engine.io.operator_input import parse_zone_lane
 from engine.io.runfile import RunRecord
-from engine.lsq.confidence import Ellipse, error_ellipse
 from engine.lsq.fix import (
     GPS_VAR_CA_M2,
     GPS_VAR_P_M2,
@@ -159,6 +151,26 @@ class _ConfigDerived:
                    parts.run_systems(registry.SYSTEMS))
 
 
+@dataclass(frozen=True, slots=True)
+class _Makers:
+    """The cycle's dataclasses made from every field positionally, as the run's parts make
+    them (:attr:`CycleParts.make`)."""
+
+    result: Callable[..., CycleResult]
+    nav: Callable[..., NavState]
+    sensor_values: Callable[..., SensorValues]
+    inputs: Callable[..., CycleInputs]
+    prediction: Callable[..., _Prediction]
+    filtering: Callable[..., _Filtering]
+
+    @classmethod
+    def of(cls, parts: CycleParts) -> _Makers:
+        """The constructors of ``parts``."""
+        make = parts.make
+        return cls(make(CycleResult), make(NavState), make(SensorValues), make(CycleInputs),
+                   make(_Prediction), make(_Filtering))
+
+
 @dataclass
 class RunContext:
     """What a run needs besides its state: configuration, data files and derived solvers.
@@ -186,6 +198,11 @@ class RunContext:
     _grids: dict[float, TMGrid] = field(default_factory=dict)
     _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
     _derived: _ConfigDerived | None = field(default=None, repr=False, compare=False)
+    new: _Makers = field(init=False, repr=False, compare=False)
+    """The cycle's dataclasses made positionally by the run's parts (:class:`_Makers`)."""
+
+    def __post_init__(self) -> None:
+        self.new = _Makers.of(self.parts)
 
     def derived(self) -> _ConfigDerived:
         """What every cycle reads from the configuration and the system registry, computed once
@@ -253,21 +270,6 @@ def build_context(cfg: RunConfig, datums: DatumFile, chains: dict[str, DeccaChai
         filter_params_gnss=filter_params_from_config(cfg, gnss_receiver=True),
         parts=parts,
     )
-
-
-@dataclass(frozen=True, slots=True)
-class PositionEstimate:
-    """A position with its precision: geodetic (degrees, working datum), TM grid (m) on the
-    cycle's CM, depth (m, positive down), the 2×2 horizontal VCV (m², x/y) and its ellipse."""
-
-    source: str
-    lat_deg: float
-    lon_deg: float
-    x_m: float
-    y_m: float
-    depth_m: float
-    cov: np.ndarray
-    ellipse: Ellipse | None
 
 
 @dataclass(frozen=True, slots=True)
@@ -420,7 +422,7 @@ def _sensors(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid,
             heading = (rec.cog_deg if rec.cog_deg is not None
                        and rec.sog_kn >= cfg.sensors.cog_min_sog_kn else None)
             h_sigma, s_sigma = standin_sigmas(rec.sog_kn)
-    values = _new_sensor_values(  # SensorValues(...) positionally: the order of the fields
+    values = ctx.new.sensor_values(  # SensorValues(...) positionally: the order of the fields
         status,
         heading,
         speed,
@@ -455,76 +457,6 @@ def _reference_messages(nav: NavState, sens: SensorValues, rec: RunRecord,
                            if have else ""))
     else:
         messages.append("Gyro and log back: dead reckoning through the water")
-
-
-def _estimate(source: str, grid: TMGrid, x: float, y: float, depth: float,
-              cov: np.ndarray) -> PositionEstimate:
-    """A position estimate at grid (x, y) m with its 2×2 VCV ``cov`` (m², made read-only): its
-    geodetic position and, when the VCV is finite, its error ellipse."""
-    lat, lon = grid.inverse(x, y)
-    ell = error_ellipse(cov) if all(map(math.isfinite, cov.ravel().tolist())) else None
-    cov.setflags(write=False)
-    if ell is not None:
-        ell.eigenvectors.setflags(write=False)
-    return PositionEstimate(source, lat, lon, x, y, depth, cov, ell)
-
-
-def filter_estimate(source: str, grid: TMGrid, fs: FilterState) -> PositionEstimate:
-    """The horizontal position of a filter state as an estimate (grid ``grid``)."""
-    k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
-    if k is not None:  # the whole estimate in one compiled call (the same floats and arrays)
-        est = k.position(source, getattr(grid, "_packed", None), fs.x, fs.P)  # type: ignore[attr-defined]
-        if est is not None:
-            return est  # type: ignore[no-any-return]
-    # The state's position, depth and horizontal VCV as FilterState.east_north_m, depth_m and
-    # position_cov_m2 give them (the same floats; the VCV a read-only copy), in one call.
-    x, y, z, cov, finite = estimate_parts(fs)
-    # _estimate(source, grid, x, y, z, cov) inline (twice per cycle)
-    lat, lon = grid.inverse(x, y)
-    ell = error_ellipse(cov) if finite else None
-    if ell is not None:
-        ell.eigenvectors.setflags(write=False)
-    return PositionEstimate(source, lat, lon, x, y, z, cov, ell)
-
-
-def _freeze_result(fix: FixResult | None, phi: np.ndarray | None,
-                   *updates: UpdateResult | None) -> None:
-    """Make the arrays a cycle hands out read-only, besides its estimates (see ``_estimate``)
-    and filter states (which already are): the fix's VCV, ellipse axes and raw LOPs, the
-    smoother link's Φ and each filter update's innovation, S, K and LS factors. A cycle result
-    is an immutable value (the per-slot arrays inside ``fix.tested`` belong to
-    engine.lsq.snooping)."""
-    if fix is not None:
-        fix.cov.setflags(write=False)
-        if fix.ellipse is not None:
-            fix.ellipse.eigenvectors.setflags(write=False)
-        raw = fix.raw_lops
-        if raw is not None:
-            for a in (raw.A, raw.omc_m, raw.Cl, raw.x_ref):
-                a.setflags(write=False)
-    if phi is not None:
-        phi.setflags(write=False)
-    for u in updates:
-        if u is not None:
-            for a in (u.innovation, u.S, u.K, u.ls.l_inv, u.ls.w):
-                a.setflags(write=False)
-
-
-_FREEZE_UNSET = object()
-_FREEZE: object = _FREEZE_UNSET
-"""``outfmt.freeze_result`` or None, once :func:`_freeze_kernel` resolved it."""
-
-
-def _freeze_kernel() -> Callable[..., bool | None] | None:
-    """``outfmt.freeze_result`` (engine/native/outfmt.c: :func:`_freeze_result` in one call,
-    the same arrays made read-only in the same order), resolved once; None without the kernel
-    (not built, stale, ``UVNAV_PURE=1``): then :func:`_freeze_result` does it."""
-    from engine import native
-
-    global _FREEZE
-    k = native.kernel("outfmt")
-    _FREEZE = getattr(k, "freeze_result", None) if k is not None else None
-    return _FREEZE  # type: ignore[return-value]
 
 
 def _cm_for(nav: NavState, lon: float) -> float:
@@ -607,7 +539,7 @@ def step(
                                messages)
     _reference_messages(nav, sens, rec, messages)
     pred = _dead_reckoning(ctx, nav, fstate, sens, grid, dt)
-    x_start, prior = _provisional(nav, grid, pred.state)
+    x_start, prior = _provisional(ctx, nav, grid, pred.state)
     readings = _read_systems(ctx, nav, rec, grid, cm, x_start, prior, messages)
     fix = _fix(ctx, nav, grid, x_start, prior, readings, excluded_slots, messages)
     fit_scale, fit_note, fix_cov = _fitness(fix, messages)
@@ -618,7 +550,7 @@ def step(
         # Without an update at this epoch (dead reckoning only: a dive) the filtered state is
         # the prediction, whose estimate the cycle has already made: not converted again.
         kf_est = (pred.estimate if filt.state is pred.state and pred.estimate is not None
-                  else filter_estimate("KF", grid, filt.state))
+                  else ctx.parts.estimate("KF", grid, filt.state))
     mpp = _mpp(ctx, nav, grid, kf_est, filt.state, fix, fix_cov, messages)
     cumulative = nav.cumulative
     if fix is not None and fix.lse_ok and fix.s2 is not None:
@@ -627,8 +559,7 @@ def step(
     n = nav.n + 1
     link = filt.link
     # CycleResult(...) and NavState(...) positionally, in the order of their fields
-    # (_new_result, _new_nav: their slots set in one compiled call).
-    result = _new_result(
+    result = ctx.new.result(
         n, rec.line_no, rec.time, rec.raw, dt, ctx.working.name, cm,
         ctx.derived().systems_string, sens, readings[GPS.name].detail, rec.decca,
         ctx.config.decca.on, fix, pred.estimate, kf_est, mpp, filt.status, filt.state,
@@ -636,24 +567,13 @@ def step(
         pred.sensor_update, fit_note is not None, fit_scale, filt.gate,
         0 if lanes is None else lanes.slips,
     )
-    freeze = _FREEZE if _FREEZE is not _FREEZE_UNSET else _freeze_kernel()
-    phi = None if link is None else link[2]
-    if freeze is None or freeze(fix, phi, filt.result, pred.sensor_update) is None:
-        _freeze_result(fix, phi, filt.result, pred.sensor_update)
-    next_nav = _new_nav(
+    ctx.parts.freeze(fix, None if link is None else link[2], filt.result, pred.sensor_update)
+    next_nav = ctx.new.nav(
         n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
         nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
         filt.gated, sens.reference, pred.reference,
     )
     return next_nav, result
-
-
-_new_result = slots_maker(CycleResult)
-_new_nav = slots_maker(NavState)
-"""``CycleResult`` and ``NavState`` from every field positionally: ``engine.native.runparse.make``
-setting their slots (instead of the generated ``__init__``'s one ``object.__setattr__`` per
-field: a CycleResult has 28), or the class itself (the pure path).
-tests/run/test_cycle.py checks every field is set."""
 
 
 def _interval(ctx: RunContext, nav: NavState, rec: RunRecord) -> float:
@@ -729,29 +649,18 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     # sample's KF row moves on the mean of the two records' gyro headings). A state just
     # initialised from this record's readings has them already (no double counting).
     # The rows of sensor_measurement(fstate, log_ms=…, gyro_grid_rad=…, incl_rad=…), updated
-    # from their values and variances without a Measurement (update_rows: the same update).
+    # from their values, variances and layout (update_rows).
     zs, var, layout = sensor_rows(None, speed_ms, heading_grid, incl, params,
                                   sens.speed_sigma_ms, sens.heading_sigma_deg)
     dr_sensors = len(zs) > 0
     sens_result = None
     if dr_sensors and not initialised:
-        sens_result = update_rows(fstate, zs, var, layout, params)
+        sens_result = ctx.parts.update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
-    # filter_estimate("KF", grid, pred_state), its compiled call made here (the same estimate)
-    # in the prediction's call (predict_step_position); where the kernel is not there or
-    # declines, filter_estimate
-    k = _POSITION_K if _POSITION_K is not _UNSET else _position_kernel()
-    if k is None:
-        pred_state, phi = predict_step(fstate, dt, params)
-        est = None
-    else:
-        pred_state, phi, est = predict_step_position(fstate, dt, params, "KF",
-                                                     getattr(grid, "_packed", None))
-    if est is None:
-        est = filter_estimate("KF", grid, pred_state)
-    # _Prediction(...) positionally, every field (its slots set in one compiled call)
-    return _new_prediction(pred_state, est, (fstate, pred_state, phi), sens_result, dr_sensors,
-                           reference)
+    pred_state, phi, est = ctx.parts.predict_estimate(fstate, dt, params, "KF", grid)
+    # _Prediction(...) positionally, every field
+    return ctx.new.prediction(pred_state, est, (fstate, pred_state, phi), sens_result,
+                              dr_sensors, reference)
 
 
 def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,
@@ -777,20 +686,14 @@ def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, sp
     )
 
 
-def _provisional(nav: NavState, grid: TMGrid,
+def _provisional(ctx: RunContext, nav: NavState, grid: TMGrid,
                  pred_state: FilterState | None) -> tuple[tuple[float, float],
                                                          PositionPrior | None]:
     """The provisional position of the fix (grid m) and the filter's a priori position: the
     prediction when there is a filter, else the last MPP without a prior."""
     if pred_state is None:
         return grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg), None
-    k = _prior_kernel
-    if k is not None:  # the lines below in one compiled call (the same floats and copy)
-        r = k(pred_state.x, pred_state.P, IX, IY, _new_prior)
-        if r is not None:
-            return r  # type: ignore[no-any-return]
-    x, y = pred_state.x[IX:IY + 1].tolist()  # = pred_state.east_north_m
-    return (x, y), _new_prior(x, y, pred_state.P[IX:IY + 1, IX:IY + 1].copy())
+    return ctx.parts.prior(pred_state)  # type: ignore[no-any-return]
 
 
 def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, cm: float,
@@ -800,7 +703,7 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
     readings before it: Decca checks its lanes against GPS)."""
     readings: dict[str, SystemReading] = {}
     extend = messages.extend
-    make = _new_inputs  # CycleInputs(...) positionally (its slots set in one compiled call)
+    make = ctx.new.inputs  # CycleInputs(...) positionally
     config = ctx.config
     for system in ctx.derived().run_systems:
         reading = system.read(make(config, ctx, nav, rec, grid, cm, x_start, prior,
@@ -809,24 +712,6 @@ def _read_systems(ctx: RunContext, nav: NavState, rec: RunRecord, grid: TMGrid, 
             extend(reading.messages)
         readings[system.name] = reading
     return readings
-
-
-def _sensor_values_maker() -> Callable[..., SensorValues]:
-    """``SensorValues`` from every field positionally: ``engine.native.runparse.make`` bound to
-    it (the same instance, without the dataclass ``__init__``'s ``object.__setattr__`` per
-    field), or the class itself (the pure path)."""
-    return slots_maker(SensorValues)
-
-
-_new_sensor_values = _sensor_values_maker()
-_new_prior = slots_maker(PositionPrior)
-"""``PositionPrior(x_m, y_m, cov)`` positionally (:func:`_sensor_values_maker`'s way)."""
-_new_inputs = slots_maker(CycleInputs)
-"""``CycleInputs`` from every field positionally (:func:`_sensor_values_maker`'s way)."""
-_prior_kernel: Any = runparse_function("prior")
-"""``engine/native/runparse.c``'s ``prior``: :func:`_provisional`'s filter part in one call
-(None: the kernel not in use; it returns None for arrays it does not read, then the Python
-runs)."""
 
 
 def _fix(ctx: RunContext, nav: NavState, grid: TMGrid, x_start: tuple[float, float],
@@ -892,14 +777,12 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     the gross-error gate; with the filter off, dead reckoning restarts from each LSE.
     ``gnss``: the receiver part of the fix source (:func:`gnss_source`)."""
     cfg, params = ctx.config, ctx.filter_params
-    # _Filtering(...) with every field positionally (result None, gate ""): its slots set in
-    # one compiled call
-    f = _new_filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
-                       nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "")
+    # _Filtering(...) with every field positionally (result None, gate "")
+    f = ctx.new.filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
+                          nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "")
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
-    # layout, depth_sensor_rows): updated from them without a Measurement (update_rows,
-    # update_rows_two_gated).
+    # layout, depth_sensor_rows): updated from them (update_rows, update_gated).
     depth_rows: tuple[list[float], list[float], SensorLayout] | None = None
     if pred.state is not None and sens.depth_m is not None:
         depth_rows = depth_sensor_rows(sens.depth_m, params)  # sensor_rows(depth, None, …)
@@ -926,7 +809,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
         # Filter off: dead reckoning restarts from each LSE (THEORY §12.6 Kalman ▸ Filtering).
         f.state = replace_position(f.state, fix.x_m, fix.y_m, fix_cov)
     if f.state is not None and depth_rows is not None:
-        depth_result = update_rows(f.state, *depth_rows, params)
+        depth_result = ctx.parts.update_rows(f.state, *depth_rows, params)
         f.state = depth_result.state
         f.result = f.result or depth_result
     return f
@@ -946,7 +829,7 @@ def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_
     params = ctx.filter_params
     if gnss and ctx.filter_params_gnss is not None:
         params = ctx.filter_params_gnss
-    meas = lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
+    meas = ctx.parts.lse_measurement(fix.x_m, fix.y_m, fix_cov, params)
     base = ctx.derived().fix_source
     # _with_gnss(base, gnss, f.source); with this record's receiver part (not None) it is
     # base + gnss, done here
@@ -1050,14 +933,14 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
     error (:data:`GROSS_GATE_SIGMA`); after :data:`GROSS_GATE_RESET` gated LSEs the filter
     position restarts from the LSE. Returns the depth rows still to be applied (None: done)."""
     assert f.state is not None
-    # One update for all measured at this epoch: the depth rows stacked before the fix's
-    # (update_rows_two_gated is update(state, stack_measurements(the depth rows' measurement,
-    # meas), params) and the innovation_distance of the fix's rows, the last, in one call).
+    # One update for all measured at this epoch: the depth rows stacked before the fix's, and
+    # the gate's innovation_distance of the fix's rows, the last (update_gated).
+    parts = ctx.parts
     if depth_rows is None:
-        trial = update(f.state, meas, ctx.filter_params)
-        d_sigma = innovation_distance(trial, slice(0, None))
+        trial = parts.update(f.state, meas, ctx.filter_params)
+        d_sigma = parts.innovation_distance(trial, slice(0, None))
     else:
-        trial, d_sigma = update_rows_two_gated(f.state, *depth_rows, meas, ctx.filter_params)
+        trial, d_sigma = parts.update_gated(f.state, *depth_rows, meas, ctx.filter_params)
     f.status = "ON"
     if d_sigma <= GROSS_GATE_SIGMA:
         f.result, f.state, f.has_fix, f.gated = trial, trial.state, True, 0
@@ -1078,12 +961,6 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
     return depth_rows
 
 
-_new_prediction = slots_maker(_Prediction)
-"""``_Prediction`` from every field positionally (:func:`_sensor_values_maker`'s way)."""
-_new_filtering = slots_maker(_Filtering)
-"""``_Filtering`` from every field positionally (:func:`_sensor_values_maker`'s way)."""
-
-
 def _mpp(ctx: RunContext, nav: NavState, grid: TMGrid, kf_est: PositionEstimate | None,
          state: FilterState | None, fix: FixResult | None, fix_cov: np.ndarray,
          messages: list[str]) -> PositionEstimate:
@@ -1093,12 +970,12 @@ def _mpp(ctx: RunContext, nav: NavState, grid: TMGrid, kf_est: PositionEstimate 
         return kf_est
     if fix is not None and fix.lse_ok:
         depth = ctx.config.depth_m if state is None else state.depth_m
-        return _estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix_cov)
+        return position_estimate("LSE", grid, fix.x_m, fix.y_m, depth, fix_cov)
     if state is not None:
-        return filter_estimate("DR", grid, state)
+        return ctx.parts.estimate("DR", grid, state)
     x0, y0 = grid.forward(nav.mpp_lat_deg, nav.mpp_lon_deg)
     messages.append("No MPP: gyro and log must stay switched on !")
-    return _estimate("DR", grid, x0, y0, ctx.config.depth_m, np.full((2, 2), np.nan))
+    return position_estimate("DR", grid, x0, y0, ctx.config.depth_m, np.full((2, 2), np.nan))
 
 
 def innovation_message(u: UpdateResult) -> str:
@@ -1147,21 +1024,6 @@ def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
                            labels=tuple(f"lop{s}" for s in raw.slots))
 
 
-_UNSET = object()
-_POSITION_K: object = _UNSET
-"""The compiled estimate of :func:`filter_estimate` (``position_kernel``), once resolved: the
-one place it is held (``engine.fast.filter.position_kernel`` resolves and binds, no cache)."""
-
-
-def _position_kernel() -> object:
-    """:data:`_POSITION_K`, resolved on first use (None: the Python makes the estimate)."""
-    from engine.fast.filter import position_kernel
-
-    global _POSITION_K
-    _POSITION_K = position_kernel(PositionEstimate)
-    return _POSITION_K
-
-
 def reproject_state(
     fs: FilterState,
     old: TMGrid,
@@ -1208,6 +1070,7 @@ __all__ = [
     "SLOT_BRR0",
     "SensorValues",
     "build_context",
+    "filter_estimate",
     "initial_state",
     "lane_sigma",
     "step",

@@ -10,12 +10,22 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
+from engine.filter.estimate import filter_estimate, filter_prior, freeze_result, predict_estimate
+from engine.filter.measurements import lse_measurement
+from engine.filter.predict import predict_step
+from engine.filter.update import innovation_distance, update, update_rows, update_rows_gated
 from engine.geodesy.ellipsoid import Datum, Ellipsoid
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
 from engine.geodesy.tmgrid import TMGrid
 from engine.lsq.fix import FixResult, compute_fix
 from engine.systems.base import NavSystem
+
+
+def positional(cls: type) -> Callable[..., Any]:
+    """The constructor of dataclass ``cls`` from every field positionally: the class."""
+    return cls
 
 
 @dataclass(frozen=True)
@@ -33,6 +43,33 @@ class CycleParts:
 
     compute_fix: Callable[..., FixResult] = compute_fix
     """The fix of a cycle (:func:`engine.lsq.fix.compute_fix`'s arguments)."""
+
+    predict: Callable[..., Any] = predict_step
+    """The filter's time update (:func:`engine.filter.predict.predict_step`'s arguments)."""
+    predict_estimate: Callable[..., Any] = predict_estimate
+    """The time update and the predicted state's estimate
+    (:func:`engine.filter.estimate.predict_estimate`)."""
+    estimate: Callable[..., Any] = filter_estimate
+    """A filter state's position estimate (:func:`engine.filter.estimate.filter_estimate`)."""
+    prior: Callable[..., Any] = filter_prior
+    """The fix's start and prior from the prediction
+    (:func:`engine.filter.estimate.filter_prior`)."""
+    update: Callable[..., Any] = update
+    """The measurement update (:func:`engine.filter.update.update`)."""
+    update_rows: Callable[..., Any] = update_rows
+    """The update with a cycle's sensor rows (:func:`engine.filter.update.update_rows`)."""
+    update_gated: Callable[..., Any] = update_rows_gated
+    """The update with the depth and the fix, and the gate's distance
+    (:func:`engine.filter.update.update_rows_gated`)."""
+    innovation_distance: Callable[..., Any] = innovation_distance
+    """The gross-error gate's distance (:func:`engine.filter.update.innovation_distance`)."""
+    lse_measurement: Callable[..., Any] = lse_measurement
+    """The LSE's rows for the filter (:func:`engine.filter.measurements.lse_measurement`)."""
+    freeze: Callable[..., None] = freeze_result
+    """A cycle's arrays made read-only (:func:`engine.filter.estimate.freeze_result`)."""
+    make: Callable[[type], Callable[..., Any]] = positional
+    """The constructor taking every field positionally of a result dataclass of the cycle
+    (:func:`positional`: the class itself)."""
 
     def run_systems(self, registered: tuple[NavSystem, ...]) -> tuple[NavSystem, ...]:
         """The run's systems, in the order of ``registered`` (the registry's)."""

@@ -170,3 +170,75 @@ def test_a_context_built_without_parts_takes_the_runs_choice() -> None:
     ctx = build_context(cfg, *load_data(cfg))
     assert ctx.parts == choose()
     assert build_context(cfg, *load_data(cfg), REFERENCE).parts is REFERENCE
+
+
+FILTER_PARTS = ("update", "predict", "predict_estimate", "estimate", "prior", "update_rows",
+                "update_gated", "innovation_distance", "lse_measurement")
+"""The filter's parts of the run: one probe (engine.fast.filter.probe) decides them all."""
+
+
+def _nudged(value: Any) -> Any:
+    """``value`` (a filter result, state, estimate, measurement, float or a tuple of them)
+    with its leading numbers off by 1e-6 relative: a kernel outside the tolerance contract."""
+    from dataclasses import replace as dc_replace
+
+    import numpy as np
+
+    from engine.filter.estimate import PositionEstimate
+    from engine.filter.measurements import Measurement
+    from engine.filter.state import FilterState
+    from engine.filter.update import UpdateResult
+
+    if isinstance(value, float):
+        return value * (1.0 + 1e-6)
+    if isinstance(value, tuple):
+        return (_nudged(value[0]), *value[1:])
+    if isinstance(value, FilterState):
+        return value._with(value.t, np.array(value.x) * (1.0 + 1e-6), np.array(value.P))
+    if isinstance(value, UpdateResult | Measurement):
+        new = object.__new__(type(value))
+        new.__dict__.update(value.__dict__)
+        if isinstance(value, UpdateResult):
+            new.__dict__["state"] = _nudged(value.state)
+        else:
+            new.__dict__["z"] = value.z * (1.0 + 1e-6)
+        return new
+    if isinstance(value, PositionEstimate):
+        return dc_replace(value, lat_deg=value.lat_deg + 1e-6)
+    raise TypeError(type(value))
+
+
+@pytest.mark.skipif(native.kernel("kalman_update") is None or
+                    native.kernel("kalman_predict") is None,
+                    reason="the filter's kernels are not built")
+@pytest.mark.parametrize("name", ["predict_estimate", "predict_step", "update_rows",
+                                  "update_rows_gated", "update", "innovation_distance",
+                                  "lse_measurement", "filter_estimate", "filter_prior"])
+def test_the_filter_declines_when_its_probe_sees_other_numbers(
+        monkeypatch: pytest.MonkeyPatch, fresh_verdicts: None, name: str) -> None:
+    """A compiled filter function whose numbers are off is caught by the filter's probe: the
+    run takes every filter part of the reference (one probe decides them all)."""
+    from engine.fast import filter as fast_filter
+
+    real = getattr(fast_filter, name)
+    monkeypatch.setattr(fast_filter, name, lambda *a, **k: _nudged(real(*a, **k)))
+    offered = fast.parts()
+    assert not set(FILTER_PARTS) & set(offered), sorted(offered)
+    why = {p: w for p, _k, w in fast.declined()}
+    assert all(why[p].startswith("first-use probe failed") for p in FILTER_PARTS), why
+    parts = choose()
+    assert all(getattr(parts, p) == getattr(REFERENCE, p) for p in FILTER_PARTS)
+    assert "compute_fix" in offered or native.kernel("lsq") is None  # the others unaffected
+
+
+def test_the_filter_parts_are_offered_where_built(fresh_verdicts: None) -> None:
+    """With the filter's kernels built and passing the probe, every filter part of the run is
+    engine.fast.filter's (no silent reference); with UVNAV_PURE=1 every one is the
+    reference's (test_pure_env_chooses_the_reference)."""
+    from engine.fast import filter as fast_filter
+
+    if fast_filter.KU is None or fast_filter.KP is None:
+        pytest.skip("the filter's kernels are not built")
+    parts = choose()
+    for p in FILTER_PARTS:
+        assert getattr(parts, p) is getattr(fast_filter, fast._FILTER_PARTS[p]), p

@@ -22,12 +22,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import engine.fast as fast
+import engine.filter.estimate as filter_estimate
 import engine.lsq.adjustment as adj
 import engine.lsq.confidence as conf
 import engine.lsq.fix as fixmod
 import engine.lsq.snooping as snoop
-import engine.run.cycle as cycle
 from engine import native
+from engine.fast import filter as fast_filter
 from engine.fast import lsq as fast_lsq
 from engine.lsq.adjustment import COND_MAX, MAX_AXIS_RATIO, Adjustment, Linearisation, gauss_newton
 from engine.lsq.statistics import delta0, frozen_instance, unit_variance_test, w_critical
@@ -122,9 +123,9 @@ def recorded() -> dict[str, list[Any]]:
     replay_patched([(fast_lsq, "kernel", lambda: None),
                     # the filter estimate's ellipse too (its compiled PositionEstimate calls
                     # the ellipse in C)
-                    (cycle, "_POSITION_K", None),
+                    (fast_filter, "POSITION", None),
                     (fixmod, "error_ellipse", ell),
-                    (cycle, "error_ellipse", ell)], 200)
+                    (filter_estimate, "error_ellipse", ell)], 200)
     return rec
 
 

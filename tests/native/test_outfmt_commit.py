@@ -1,7 +1,8 @@
 """The cycle's commit in the compiled ``engine.native.outfmt`` (issue 14): ``cycle_writer`` writes
 a cycle's ``.OUT`` block straight to the log's descriptor, byte for byte the UTF-8 of
-``cycle_text``'s str; ``freeze_result`` makes the arrays :func:`engine.run.cycle._freeze_result`
-makes read-only, in the same order, with the same calls for anything that is not a plain array.
+``cycle_text``'s str; ``freeze_result`` makes the arrays
+:func:`engine.filter.estimate.freeze_result` makes read-only, in the same order, with the same
+calls for anything that is not a plain array.
 
 Compared with ``==``: the bytes of every block of three real replays, the flags of every array
 (fresh, writable copies of a replay's fix and updates), the calls a duck object receives and the
@@ -20,8 +21,10 @@ import numpy as np
 import pytest
 
 from engine import native
+from engine.filter.estimate import freeze_result
 from engine.io import outlog
-from engine.run import cycle, records
+from engine.run import records
+from engine.run.parts import REFERENCE, choose
 from tests.native.replay import replay
 
 K = native._load("outfmt")[0]
@@ -214,7 +217,7 @@ def test_freeze_result_is_the_python(results: list[object]) -> None:
     assert K.freeze_result(fix, phi, *ups) is True
     assert not any(x.flags.writeable for x in order)
     fix2, phi2, ups2, order2 = _arrays()
-    cycle._freeze_result(fix2, phi2, *ups2)
+    freeze_result(fix2, phi2, *ups2)
     for x, y in zip(order, order2, strict=True):
         assert _flags(x) == _flags(y)
     for x in (order2[-2], order2[-1]):
@@ -260,7 +263,7 @@ def test_freeze_result_calls_and_errors_as_the_python() -> None:
     K.freeze_result(fix, phi, u, None)
     got = list(log)
     log.clear()
-    cycle._freeze_result(*ducks()[:2], ducks()[2], None)
+    freeze_result(*ducks()[:2], ducks()[2], None)
     assert got == log and len(got) == 12
     assert all(kw == {"write": False} and not args for _n, args, kw in got)
 
@@ -273,7 +276,7 @@ def test_freeze_result_calls_and_errors_as_the_python() -> None:
         k_log = list(log)
         log.clear()
         with pytest.raises(AttributeError) as p_err:
-            cycle._freeze_result(fix, phi, u, None)
+            freeze_result(fix, phi, u, None)
         assert k_log == log and str(k_err.value) == str(p_err.value)
     with pytest.raises(TypeError):
         K.freeze_result(None, None, None)
@@ -286,4 +289,4 @@ def test_cycle_takes_the_kernel_or_the_python() -> None:
     r = s.history[-1]
     assert not r.filter_update.K.flags.writeable  # type: ignore[union-attr]
     kernel = native.kernel("outfmt")
-    assert (cycle._FREEZE is None) == (kernel is None)
+    assert (choose().freeze is REFERENCE.freeze) == (kernel is None)

@@ -181,11 +181,11 @@ def test_make_builds_the_dataclass_instance() -> None:
           64.0, (44.5, None, 1.25))),
         (decca_mod.LaneTotals, maker(decca_mod.LaneTotals),
          ((44.5, None, 1.25), (None, None, None), ("a note",), 1)),
-        (cycle_mod.CycleResult, cycle_mod._new_result,
+        (cycle_mod.CycleResult, maker(cycle_mod.CycleResult),
          tuple(object() for _ in fields(cycle_mod.CycleResult))),
-        (cycle_mod.NavState, cycle_mod._new_nav,
+        (cycle_mod.NavState, maker(cycle_mod.NavState),
          tuple(object() for _ in fields(cycle_mod.NavState))),
-        (CycleInputs, cycle_mod._new_inputs, tuple(object() for _ in fields(CycleInputs))),
+        (CycleInputs, maker(CycleInputs), tuple(object() for _ in fields(CycleInputs))),
     ]
     for cls, new, values in cases:
         assert new.func is KERNEL.make  # type: ignore[attr-defined]

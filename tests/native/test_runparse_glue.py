@@ -1,6 +1,7 @@
-"""runparse's ``prior`` (issue 14, night): ``engine.run.cycle._provisional``'s filter part in
-one call gives what its Python gives — the same two floats, a PositionPrior whose VCV is a
-fresh copy of P's position block with the same bits — and declines what it does not read."""
+"""runparse's ``prior``: the fix's prior from the prediction in one call
+(``engine.fast.filter.filter_prior``) gives what the reference
+(``engine.filter.estimate.filter_prior``) gives — the same two floats, a PositionPrior whose VCV
+is a fresh copy of P's position block with the same bits — and declines what it does not read."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from engine import native
+from engine.fast import filter as fast_filter
+from engine.filter.estimate import filter_prior
 from engine.filter.state import IX, IY, FilterState
-from engine.run import cycle
 from engine.systems.base import PositionPrior
 
 K = native.kernel("runparse")
@@ -19,15 +21,7 @@ pytestmark = pytest.mark.skipif(K is None, reason=f"runparse kernel: {native.sta
 
 
 def _both(state: FilterState) -> tuple[object, object]:
-    out = []
-    for k in (cycle._prior_kernel, None):
-        saved = cycle._prior_kernel
-        cycle._prior_kernel = k
-        try:
-            out.append(cycle._provisional(None, None, state))  # type: ignore[arg-type]
-        finally:
-            cycle._prior_kernel = saved
-    return out[0], out[1]
+    return fast_filter.filter_prior(state), filter_prior(state)
 
 
 _F = st.floats(allow_nan=True, allow_infinity=True, width=64)
@@ -39,7 +33,7 @@ _F = st.floats(allow_nan=True, allow_infinity=True, width=64)
 def test_prior_is_the_python_prior(x: list[float], p: list[float], transpose: bool) -> None:
     P = np.array(p).reshape(11, 11)
     state = FilterState(0.0, np.array(x), P.T if transpose else P)
-    assert cycle._prior_kernel is not None
+    assert fast_filter._PRIOR is not None
     fast, pure = _both(state)
     (xs, pr), (xs2, pr2) = fast, pure  # type: ignore[misc]
     assert [float.hex(v) for v in xs] == [float.hex(v) for v in xs2]
@@ -52,7 +46,7 @@ def test_prior_is_the_python_prior(x: list[float], p: list[float], transpose: bo
 
 
 def test_prior_declines_other_arrays() -> None:
-    make = cycle._new_prior
+    make = fast_filter._new_prior
     x, P = np.arange(11.0), np.eye(11)
     assert K.prior(x.astype(np.float32), P, IX, IY, make) is None
     assert K.prior(x, P.astype(np.float32), IX, IY, make) is None

@@ -77,6 +77,6 @@ def test_sensor_variances_follow_the_parameters() -> None:
                 kw = dict(depth_m=12.5, log_ms=3.0, gyro_grid_rad=1.25, incl_rad=0.01,
                           params=params, gyro_sigma_deg=gyro_sigma)
                 a = ms.sensor_measurement(state, **kw)
-                b = ms._sensor_measurement_py(state, **kw)
+                b = ms.nav_measurement(state, **kw)  # the rows built one by one
                 assert np.array_equal(a.R, b.R) and np.array_equal(a.z, b.z)
                 assert a.labels == b.labels and a.angle_rows == b.angle_rows
