@@ -35,7 +35,7 @@ Pure functions of immutable values; λ is dimensionless (a variance factor), W i
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -127,17 +127,26 @@ def clipped_chi2_mean(n: int, c: float) -> float:
 def fix_nis_ratio(innovation: np.ndarray, S: np.ndarray, rows: slice) -> float:
     """v_fᵀ S_f⁻¹ v_f / n_f of the fix rows ``rows`` of an update (the marginal of the stacked
     innovation: the depth row stacked with them does not enter). NaN when S_f is not positive
-    definite or the result is not finite."""
-    v = np.asarray(innovation, dtype=float)[rows]
-    Sf = np.asarray(S, dtype=float)[rows, rows]
-    n = v.shape[0]
+    definite or the result is not finite. Two rows (the LSE) in closed form on floats."""
+    v = innovation[rows].tolist()
+    n = len(v)
+    if n == 2:
+        (a, b), (b2, d) = S[rows, rows].tolist()
+        b = 0.5 * (b + b2)
+        det = a * d - b * b
+        if not (a > 0.0 and det > 0.0):
+            return math.nan
+        p, q = v
+        r = (d * p * p - 2.0 * b * p * q + a * q * q) / det / 2.0
+        return r if math.isfinite(r) else math.nan
     if n == 0:
         return math.nan
+    Sf = np.asarray(S, dtype=float)[rows, rows]
     try:
         L = np.linalg.cholesky(Sf)
     except np.linalg.LinAlgError:
         return math.nan
-    w = np.linalg.solve(L, v)
+    w = np.linalg.solve(L, np.asarray(v))
     r = float(w @ w) / n
     return r if math.isfinite(r) else math.nan
 
@@ -164,8 +173,14 @@ def _step(log_value: float, statistic: float, dof: int, factor: float, step: flo
     if clipped:
         r = c
     log_value += (r - clipped_chi2_mean(dof, c)) * step
-    lo, hi = math.log(settings.fix_min), math.log(settings.fix_max)
+    lo, hi = _log_bounds(settings.fix_min, settings.fix_max)
     return (lo if log_value < lo else hi if log_value > hi else log_value), clipped
+
+
+@lru_cache(maxsize=16)
+def _log_bounds(lo: float, hi: float) -> tuple[float, float]:
+    """(ln lo, ln hi)."""
+    return math.log(lo), math.log(hi)
 
 
 def learn_fix(state: AdaptState, settings: AdaptSettings, *, nis: float | None = None,
@@ -180,7 +195,9 @@ def learn_fix(state: AdaptState, settings: AdaptSettings, *, nis: float | None =
     factor = state.fix_factor
     bad = []
     used = False
-    step = gain(state.n + 1, settings)
+    w = settings.window  # gain(state.n + 1, settings) inline
+    k = float(state.n + 1)
+    step = 1.0 / min(max(k, min(START_WINDOW, w)), w)
     if nis is not None:
         if math.isfinite(nis) and nis >= 0.0:
             log_nis, c = _step(log_nis, nis, nis_rows, factor, step, settings)
@@ -200,14 +217,13 @@ def learn_fix(state: AdaptState, settings: AdaptSettings, *, nis: float | None =
         msg = f"Fix noise factor: {', '.join(bad)} not finite, not learnt"
     if not used:
         return state, msg
-    hi = math.log(settings.fix_max)
-    ell = max(log_s2, log_nis)
+    hi = _log_bounds(settings.fix_min, settings.fix_max)[1]
+    ell = log_s2 if log_s2 > log_nis else log_nis
     at_bound = ell >= hi
     if at_bound and not state.at_bound:
         msg = (f"Fix noise factor at its bound {settings.fix_max:g} (σ × "
                f"{math.sqrt(settings.fix_max):.3g}): the fixes are far worse than their VCV; "
                "check the systems")
-    new = replace(state, log_s2=log_s2, log_nis=log_nis,
-                  fix_factor=max(settings.fix_min, math.exp(ell)), n=state.n + 1,
-                  clipped=clipped, at_bound=at_bound)
+    new = AdaptState(log_s2, log_nis, max(settings.fix_min, math.exp(ell)), state.n + 1,
+                     clipped, state.source, at_bound)
     return new, msg

@@ -699,7 +699,9 @@ def _adapt_before(ctx: RunContext, nav: NavState,
                   gnss: tuple[object, ...] | None) -> nadapt.AdaptState:
     """The learnt fix factor for this cycle's fix source: the one learnt so far, or λ = 1
     when the source is new (a new receiver, chain or pattern set is a new error process)."""
-    source = _with_gnss(ctx.derived().fix_source, gnss, nav.fix_source)
+    base = ctx.derived().fix_source
+    # _with_gnss(base, gnss, nav.fix_source), its usual case (a GPS record) done here
+    source = base + gnss if gnss is not None else _with_gnss(base, gnss, nav.fix_source)
     learnt = nav.adapt
     if learnt is None or learnt.source != source:
         return nadapt.start(source)
