@@ -554,7 +554,7 @@ class LsqConfig:
     epsilon_m: float = 1.0
     s02: float = 1.0
     decca_cf: float = 64.0
-    gps_se_sf: float = 0.5
+    gps_se_sf: float = 0.67
     estimator: str = "lsq"
     sigma_compass_deg: float = 0.8
     sigma_periscope_deg: float = 0.7
@@ -589,10 +589,12 @@ LsqConfig.KEYS = (
         "Decca VCV divisor: 64 summer day, 4 winter day, 1 summer night, 1/2.25 winter night",
         "A8.2 Decca.CF = 64 (L8763–8764); L8352", _POSITIVE),
     Key("gps_se_sf", "gps_se_sf", "float", "—",
-        "scale factor on the GPS error VCV (C/A 2500 m², P 79.2 m² per axis): 0.5 reads the "
-        "thesis' 2 d_rms (100 m C/A, 17.8 m P) as d_rms² = σx² + σy² (σ 35.4 m C/A); the "
+        "scale factor on the GPS error VCV (C/A 2500 m², P 79.2 m² per axis): 0.67 reads the "
+        "SPS specification's 100 m (C/A, SA on) horizontal at 95 % as the 95 % radius of a "
+        "circular normal error, σ = 100/2.448 = 40.9 m per axis (P: 17.8 m → 7.3 m); the "
         "thesis program's 1 (σ = d_rms per axis) is in data/920917_1.toml",
-        "A8.2 GPS.SE_SF = 1 (L8759); THEORY D5; docs/CONFIG.md", _POSITIVE),
+        "GPS SPS Signal Specification (1993; 2nd ed. 1995) §3; A8.2 GPS.SE_SF = 1 (L8759); "
+        "THEORY D5; docs/CONFIG.md", _POSITIVE),
     Key("estimator", "estimator", "str", "—",
         '"lsq" (thesis) or the robust "huber" / "danish" alternatives', "not in the thesis",
         _choice("lsq", "huber", "danish")),
