@@ -352,7 +352,7 @@ def cycle_text(r: CycleResult) -> str | None:
     text :meth:`~engine.io.outlog.OutLogWriter.write_cycle` writes for :func:`cycle_block`,
     built and rendered by one compiled call (``outfmt.cycle_text``: no Python per line); None
     without the kernel or for a cycle it leaves to the Python (then write ``cycle_block``)."""
-    if _K is None:
+    if _K is None or r.adapt_logged:  # the ADAPT line ([filter] adapt): the Python writes it
         return None
     return _K.cycle_text(r, _CYCLE_CONSTS, _float_writer(), _format_text, format_value)
 
