@@ -119,6 +119,7 @@ if TYPE_CHECKING:
         summary_markdown,
         variant_arrays,
     )
+    from engine.filter.adapt import AdaptState
     from engine.filter.explain import added_process_noise, update_matrices
     from engine.filter.kalman import (
         IDEPS,
@@ -189,6 +190,7 @@ if TYPE_CHECKING:
 
 _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     # the run: NumPy, the filter, the fix, the NMEA reader (pynmea2)
+    "engine.filter.adapt": ("AdaptState",),
     "engine.filter.kalman": ("IDEPS", "IDPSI", "IDV", "STATE_LABELS", "FilterState",
                              "UpdateResult", "sensor_measurement"),
     "engine.filter.poe": ("PoeSample", "drms", "poe_states"),
@@ -302,6 +304,7 @@ __all__ = [
     "Ellipse",
     "Ellipsoid3",
     "FilterState",
+    "AdaptState",
     "FixResult",
     "LopRow",
     "ManualObservation",

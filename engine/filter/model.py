@@ -53,7 +53,7 @@ def derived_fix_model(gps_on: bool, gps_var_m2: float, decca_on: bool,
     average a slow error down too soon. Fraction: 1 − (white variance / fix variance) per
     system, at most 1 − :data:`FIX_WHITE_FLOOR`; for GPS the white part is the receiver noise
     (:data:`GPS_WHITE_SIGMA_M`, a tenth of it for P code) squared against the program's a priori
-    variance ``gps_var_m2`` (C/A at GPS.SE_SF 0.5: 1 − 25/1250 = 0.98; P: 1 − 0.25/39.6 → the
+    variance ``gps_var_m2`` (C/A at GPS.SE_SF 0.67: 1 − 25/1675 = 0.985; P: 1 − 0.25/53.1 → the
     floor, 0.99); the Decca
     reading's only white error is the 0.001-lane quantisation of the ``.RUN``
     format (σ 0.0003 lane against ≥ 0.01 lane of sky-wave), so the floor decides (0.99). With

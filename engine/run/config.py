@@ -554,7 +554,7 @@ class LsqConfig:
     epsilon_m: float = 1.0
     s02: float = 1.0
     decca_cf: float = 64.0
-    gps_se_sf: float = 0.5
+    gps_se_sf: float = 0.67
     estimator: str = "lsq"
     sigma_compass_deg: float = 0.8
     sigma_periscope_deg: float = 0.7
@@ -589,10 +589,12 @@ LsqConfig.KEYS = (
         "Decca VCV divisor: 64 summer day, 4 winter day, 1 summer night, 1/2.25 winter night",
         "A8.2 Decca.CF = 64 (L8763–8764); L8352", _POSITIVE),
     Key("gps_se_sf", "gps_se_sf", "float", "—",
-        "scale factor on the GPS error VCV (C/A 2500 m², P 79.2 m² per axis): 0.5 reads the "
-        "thesis' 2 d_rms (100 m C/A, 17.8 m P) as d_rms² = σx² + σy² (σ 35.4 m C/A); the "
+        "scale factor on the GPS error VCV (C/A 2500 m², P 79.2 m² per axis): 0.67 reads the "
+        "SPS specification's 100 m (C/A, SA on) horizontal at 95 % as the 95 % radius of a "
+        "circular normal error, σ = 100/2.448 = 40.9 m per axis (P: 17.8 m → 7.3 m); the "
         "thesis program's 1 (σ = d_rms per axis) is in data/920917_1.toml",
-        "A8.2 GPS.SE_SF = 1 (L8759); THEORY D5; docs/CONFIG.md", _POSITIVE),
+        "GPS SPS Signal Specification (1993; 2nd ed. 1995) §3; A8.2 GPS.SE_SF = 1 (L8759); "
+        "THEORY D5; docs/CONFIG.md", _POSITIVE),
     Key("estimator", "estimator", "str", "—",
         '"lsq" (thesis) or the robust "huber" / "danish" alternatives', "not in the thesis",
         _choice("lsq", "huber", "danish")),
@@ -643,6 +645,10 @@ class FilterConfig:
     incl_bias_rw_deg_sqrth: float = 0.1
     sigma_current2: float = 2e-8
     sigma_a2: float = SUBMARINE_SIGMA_A2
+    adapt: bool = True
+    adapt_window: float = 300.0
+    adapt_clip: float = 4.0
+    adapt_fix_max: float = 100.0
     set_keys: tuple[str, ...] = field(default=(), compare=False, repr=False)
     """The keys a TOML ``[filter]`` table set (not a key itself): they win over ``vessel``
     "auto" when it resolves to "surface" (:func:`resolve_vessel`)."""
@@ -667,7 +673,7 @@ class FilterConfig:
 
 FILTER_PRESETS: dict[str, dict[str, Any]] = {
     "honest": {},
-    "thesis": {"model": "thesis", "p0": "thesis", "bias_noise": False},
+    "thesis": {"model": "thesis", "p0": "thesis", "bias_noise": False, "adapt": False},
 }
 """Values a ``filter.preset`` gives to the keys the file does not set (docs/CONFIG.md, "The
 filter decision"). "honest" is the class defaults: time-correlated fix errors with parameters
@@ -793,6 +799,20 @@ FilterConfig.KEYS = (
     Key("sigma_a2", "sigma_a2", "float", "m²/s³",
         "spectral density of the along-track acceleration noise (Gelb's mixed pdf, a_max "
         "0.25 m/s², P_max 0.01, P_0 0.75)", "eq. 6.35; THEORY §8.9", _NON_NEGATIVE),
+    Key("adapt", "adapt", "bool", "—",
+        "learn a factor on the fix VCV from the filter's fix innovations (covariance matching; "
+        "never below the a-priori VCV); preset thesis: false",
+        "Mehra 1970; Mohamed & Schwarz 1999; THEORY §8.17 [not in the thesis]"),
+    Key("adapt_window", "adapt_window", "float", "fix epochs",
+        "W: the learnt log-factor moves by (clipped NIS per row − its mean)/W per fix epoch",
+        "THEORY §8.17: at least the fix-error correlation time (C/A 240 s) at 1 Hz",
+        _between(1.0, 1e6)),
+    Key("adapt_clip", "adapt_clip", "float", "—",
+        "c: the largest NIS per row one fix epoch counts with (a blunder moves the factor by "
+        "at most e^((c−1)/W))", "THEORY §8.17 (Huber-type clip)", _between(1.0, 1e3, lo_open=True)),
+    Key("adapt_fix_max", "adapt_fix_max", "float", "—",
+        "upper bound of the learnt fix-VCV factor (σ × √ of it); reaching it is said",
+        "THEORY §8.17", _between(1.0, 1e6)),
 )
 # fmt: on
 

@@ -17,6 +17,7 @@ from datetime import datetime
 
 import numpy as np
 
+from engine.filter import adapt as nadapt
 from engine.filter.estimate import PositionEstimate, filter_estimate, position_estimate
 from engine.filter.kalman import (
     FilterParams,
@@ -142,13 +143,25 @@ class _ConfigDerived:
     fix_source: tuple[object, ...]
     run_systems: tuple[NavSystem, ...]
     """The systems the run reads the registry's with (:meth:`CycleParts.run_systems`)."""
+    adapt: nadapt.AdaptSettings | None = None
+    """How the fix-VCV factor is learnt (``[filter] adapt``; None: not learnt)."""
 
     @classmethod
     def of(cls, cfg: RunConfig, parts: CycleParts) -> _ConfigDerived:
         """The values of ``cfg`` under the registry as it is now."""
         return cls(cfg, registry.SYSTEMS, systems_string(cfg),
                    tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg),
-                   parts.run_systems(registry.SYSTEMS))
+                   parts.run_systems(registry.SYSTEMS), adapt_settings(cfg))
+
+
+def adapt_settings(cfg: RunConfig) -> nadapt.AdaptSettings | None:
+    """The noise adaptation of a configuration (``[filter] adapt*``, docs/CONFIG.md); None
+    when it is off or the filter is off."""
+    f = cfg.filter
+    if not (f.adapt and f.on):
+        return None
+    return nadapt.AdaptSettings(window=f.adapt_window, clip=f.adapt_clip,
+                               fix_max=f.adapt_fix_max)
 
 
 @dataclass(frozen=True, slots=True)
@@ -337,13 +350,19 @@ class CycleResult:
     fix_fails_tests: bool = False
     """The LSE failed its tests (:func:`fix_fit`): a message says so; .OUT/JSONL record it."""
     fix_cov_scale: float = 1.0
-    """The factor the LSE's VCV was multiplied by before the filter and the MPP used it."""
+    """The factor the LSE's VCV was multiplied by before the filter and the MPP used it: S² of
+    a fix failing its tests, or the learnt factor (``[filter] adapt``) when that is larger."""
     fix_gate: str = ""
     """Why this epoch's fix is marked: "gross" (kept out by the gross-error gate,
     :data:`GROSS_GATE_SIGMA`), "innovation" (taken, but the filter's innovation (LOM) test
     rejects it), "" otherwise. The messages say the same in words."""
     lane_slips: int = 0
     """Decca lane slips corrected against GPS this cycle (one per pattern)."""
+    adapt: nadapt.AdaptState | None = None
+    """The learnt fix-VCV factor after this cycle (``[filter] adapt``; None: off)."""
+    adapt_logged: bool = False
+    """The factor moved by more than :data:`ADAPT_LOG_STEP` since it was last logged (or
+    this is the first cycle with a factor): the ``.OUT`` has an ``ADAPT`` line."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -371,6 +390,10 @@ class NavState:
     filter_reference: str = "water"
     """The reference ("water" or "ground") the filter's current and log/gyro bias states belong
     to: a sensor update with the other one restarts them (:func:`restart_dr_states`)."""
+    adapt: nadapt.AdaptState | None = None
+    """The learnt fix-VCV factor (engine.filter.adapt; None: adaptation off)."""
+    adapt_logged: float = 0.0
+    """The factor last written to the ``.OUT`` (0: none yet)."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -544,7 +567,25 @@ def step(
     fix = _fix(ctx, nav, grid, x_start, prior, readings, excluded_slots, messages)
     fit_scale, fit_note, fix_cov = _fitness(fix, messages)
     gnss = gnss_source(readings[GPS.name])
+    settings = ctx.derived().adapt
+    learnt = None
+    if settings is not None:
+        learnt = _adapt_before(ctx, nav, gnss)
+        lam = learnt.fix_factor
+        if fix is not None and lam > fit_scale:
+            # the learnt fix VCV (THEORY §8.17); a fix failing its tests keeps its own
+            # S² when that is larger (never both)
+            fix_cov = fix.cov * lam
+            fit_scale = lam
     filt = _update_filter(ctx, nav, pred, sens, fix, fix_cov, gnss, messages)
+    logged = nav.adapt_logged
+    log_adapt = False
+    if settings is not None and learnt is not None:
+        learnt = _adapt_after(learnt, fix, filt.result, settings, messages)
+        log_adapt = not (logged > 0.0 and abs(learnt.fix_factor / logged - 1.0)
+                         <= ADAPT_LOG_STEP)
+        if log_adapt:
+            logged = learnt.fix_factor
     kf_est = None
     if filt.state is not None and filt.status == "ON":
         # Without an update at this epoch (dead reckoning only: a dive) the filtered state is
@@ -565,15 +606,55 @@ def step(
         ctx.config.decca.on, fix, pred.estimate, kf_est, mpp, filt.status, filt.state,
         filt.result, cumulative, nav.pending_obs, tuple(messages), link,
         pred.sensor_update, fit_note is not None, fit_scale, filt.gate,
-        0 if lanes is None else lanes.slips,
+        0 if lanes is None else lanes.slips, learnt, log_adapt,
     )
     ctx.parts.freeze(fix, None if link is None else link[2], filt.result, pred.sensor_update)
     next_nav = ctx.new.nav(
         n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
         nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
-        filt.gated, sens.reference, pred.reference,
+        filt.gated, sens.reference, pred.reference, learnt, logged,
     )
     return next_nav, result
+
+
+ADAPT_LOG_STEP = 0.05
+"""The ``.OUT`` gets an ``ADAPT`` line when the learnt fix factor has moved by more than this
+(relative) since the last one it got: the factor moves by at most ~1 % a fix epoch once it has
+settled, so a log holds a line every half minute or so while the factor moves (63 in a 20-min
+Decca-only run with errors 3 × their VCV) and none while it holds."""
+
+
+def _adapt_before(ctx: RunContext, nav: NavState,
+                  gnss: tuple[object, ...] | None) -> nadapt.AdaptState:
+    """The learnt fix factor for this cycle's fix source: the one learnt so far, or λ = 1
+    when the source is new (a new receiver, chain or pattern set is a new error process)."""
+    base = ctx.derived().fix_source
+    # _with_gnss(base, gnss, nav.fix_source), its usual case (a GPS record) done here
+    source = base + gnss if gnss is not None else _with_gnss(base, gnss, nav.fix_source)
+    learnt = nav.adapt
+    if learnt is None or learnt.source != source:
+        return nadapt.start(source)
+    return learnt
+
+
+def _adapt_after(learnt: nadapt.AdaptState, fix: FixResult | None,
+                 result: UpdateResult | None, settings: nadapt.AdaptSettings,
+                 messages: list[str]) -> nadapt.AdaptState:
+    """One step of the learnt factor from this epoch's LSE (its S² when it has redundancy)
+    and fix update (the NIS of its ``x_LSE``/``y_LSE`` rows); neither: unchanged. A fix kept
+    out by the gross-error gate is not in ``result``; a hybrid fix (the filter's prediction
+    as LOPs) is not an independent LSE and teaches nothing."""
+    if fix is None or not fix.lse_ok or fix.uses_prior:
+        return learnt
+    nis = None
+    if result is not None and "x_LSE" in result.labels:
+        i = result.labels.index("x_LSE")
+        nis = nadapt.fix_nis_ratio(result.innovation, result.S, slice(i, i + 2))
+    dof = fix.n_used - 2
+    learnt, msg = nadapt.learn_fix(learnt, settings, nis=nis, s2=fix.s2, s2_dof=dof)
+    if msg is not None:
+        messages.append(msg)
+    return learnt
 
 
 def _interval(ctx: RunContext, nav: NavState, rec: RunRecord) -> float:

@@ -127,6 +127,8 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
         "state": None if fs is None else [_num(v, 6) for v in fs.x[: len(STATE_LABELS)]],
         **_gnss_json(r),
         "tests": [_test_json(kind, u) for kind, u in updates(r)],
+        **({} if r.adapt is None else {"adapt": {"fix": _num(r.adapt.fix_factor, 4),
+                                                 "n": r.adapt.n}}),
         "messages": list(r.messages),
     }
 
@@ -202,6 +204,9 @@ _OBS_KEYS = ("kind", "station", "lat", "lon", "value", "sigma", "sensor")
 _LOP_KEYS = ("sys", "pat", "obs", "corr", "calc", "v", "w", "sd", "tau", "az", "used", "verdict")
 _LSE_KEYS = ("kind", "n", "cat", "s2", "rms")
 _TEST_KEYS = ("lom", "lo", "hi", "dof", "verdict", "ls", "upd", "rows")
+_ADAPT_KEYS = ("fix", "n", "clipped")
+"""The ADAPT line (``[filter] adapt`` on, when the learnt factor moved, docs/FORMATS.md): the
+fix-VCV factor λ, the fix epochs learnt from and how many of them hit the clip."""
 _IN = ("\n  IN", ("raw",))
 _SYS = ("\n  SYS", ("systems", "sensors"))
 _MSG = ("\n  MSG", ("text",))
@@ -310,6 +315,9 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
         add(("\n  TEST", _TEST_KEYS, (
             lom.t, lom.lower, lom.upper, lom.dof, lom.verdict,
             ",".join(map(_LS_TEXT, u.ls.t.tolist())), kind, ",".join(u.labels))))
+    if r.adapt_logged and r.adapt is not None:  # the learnt fix-VCV factor (THEORY §8.17)
+        a = r.adapt
+        add(("\n  ADAPT", _ADAPT_KEYS, (a.fix_factor, a.n, a.clipped)))
     pos_keys, pos = _position_row(mpp.lat_deg, mpp.lon_deg, mpp.x_m, mpp.y_m, mpp.depth_m,
                                   mpp.cov, mpp.ellipse)
     add(("\n  MPP", ("source",) + pos_keys, (mpp.source,) + pos))
@@ -344,7 +352,7 @@ def cycle_text(r: CycleResult) -> str | None:
     text :meth:`~engine.io.outlog.OutLogWriter.write_cycle` writes for :func:`cycle_block`,
     built and rendered by one compiled call (``outfmt.cycle_text``: no Python per line); None
     without the kernel or for a cycle it leaves to the Python (then write ``cycle_block``)."""
-    if _K is None:
+    if _K is None or r.adapt_logged:  # the ADAPT line ([filter] adapt): the Python writes it
         return None
     return _K.cycle_text(r, _CYCLE_CONSTS, _float_writer(), _format_text, format_value)
 

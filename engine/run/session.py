@@ -426,7 +426,10 @@ class Session:
         out = self._out
         if out is not None:  # the block in one compiled call where it can, else by the Python
             write = self._write_cycle  # built and written to the file by the kernel itself
-            if write is None or not out.write_direct(write, result):
+            if result.adapt_logged:  # the ADAPT line: the reference writer (cycle_block)
+                head, lines = cycle_block(result)
+                out.write_cycle(head, lines)
+            elif write is None or not out.write_direct(write, result):
                 text = cycle_text(result)
                 if text is not None:
                     out.write_block(text)

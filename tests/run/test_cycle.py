@@ -277,12 +277,13 @@ def test_gps_receiver_switch_restarts_the_fix_error_states() -> None:
         r = s.step()
     fs = s.nav.filter
     assert fs.fix_states == ("fix_e", "fix_n")
-    np.testing.assert_allclose(fs.fix_cov, frac * r.fix.cov, rtol=1e-12)  # refreshed each fix
+    # refreshed each fix (the VCV the filter used: × the learnt factor, [filter] adapt)
+    np.testing.assert_allclose(fs.fix_cov, frac * r.fix_cov_scale * r.fix.cov, rtol=1e-12)
     s.apply(SetGps(on=True, receiver="P"))
     r = s.step()
     assert "Fix source changed: fix-error states restarted" in r.messages
     start, pred, phi = r.smoother_link
-    c_p = frac * r.fix.cov
+    c_p = frac * r.fix_cov_scale * r.fix.cov
     # P code: σ 8.9 m per axis (THEORY D5) → C_LSE below (10 m)² per axis.
     assert np.all(np.diag(r.fix.cov) < 100.0)
     np.testing.assert_array_equal(pred.x[11:], [0.0, 0.0])

@@ -83,15 +83,15 @@ def test_receiver_sigma_is_hdop_times_uere_over_root_two() -> None:
 
 def test_fixed_weights_without_hdop_or_when_configured() -> None:
     """No HDOP (every 1993 .RUN), an unusable one (0, NaN) or weights = "fixed": the 1993
-    figure, C/A 50 m × √(gps_se_sf 0.5) = 35.36 m (2500 m² × 0.5 = 1250 m², THEORY D5)."""
+    figure, C/A 50 m × √(gps_se_sf 0.67) = 40.93 m (2500 m² × 0.67 = 1675 m², THEORY D5)."""
     cfg = _cfg()
     for hdop in (None, 0.0, float("nan"), -1.0):
         w = gps_weight(cfg, _record(0, 52.8, 4.5, hdop=hdop, quality=2))
-        assert not w.receiver_weighted and w.sigma_m**2 == pytest.approx(1250.0, rel=1e-15)
+        assert not w.receiver_weighted and w.sigma_m**2 == pytest.approx(1675.0, rel=1e-15)
     fixed = _cfg('weights = "fixed"\n')
     w = gps_weight(fixed, _record(0, 52.8, 4.5, hdop=1.0, quality=2))
     assert not w.receiver_weighted
-    assert w.describe() == "σ 35.36 m = C/A code 50 m × √SE_SF 0.5"
+    assert w.describe() == "σ 40.93 m = C/A code 50 m × √SE_SF 0.67"
 
 
 @pytest.mark.parametrize(("text", "field"), [

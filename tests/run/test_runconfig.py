@@ -55,8 +55,9 @@ def test_omitted_keys_take_the_a82_defaults() -> None:
     assert cfg.lsq.conf_region_pct == 95.0  # ConfRegion (L8782)
     assert cfg.lsq.lop_reject == "A"  # LOPReject (L8776)
     assert cfg.lsq.epsilon_m == 1.0 and cfg.lsq.s02 == 1.0
-    # Not A8.2's 1 (kept in 920917_1.toml): the thesis' 2 d_rms = 100 m read as σ 35.4 m/axis.
-    assert cfg.lsq.gps_se_sf == 0.5
+    # Not A8.2's 1 (kept in 920917_1.toml): the SPS specification's 100 m horizontal at 95 %
+    # read as a circular normal's 95 % radius, σ = 100/√(−2 ln 0.05) = 40.9 m per axis.
+    assert cfg.lsq.gps_se_sf == 0.67
     assert cfg.lsq.scale_vcv is False
     assert cfg.demo.delta_t_s == 1  # DeltaT (L8788)
     assert cfg.demo.s_weight == 1.026  # s_weight (L8768)
@@ -404,14 +405,14 @@ def test_vessel_preset_and_auto(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("systems", "tau", "frac"), [
-    # C/A: SA τ 240 s; white 5 m against 2500 m² × GPS.SE_SF 0.5 → 1 − 25/1250 = 0.98.
-    ('[gps]\non = true\n', 240.0, 0.98),
-    # P: τ 600 s; white 0.5 m against 79.2 m² × 0.5 → 0.9937, capped at 0.99 (white floor 1 %).
+    # C/A: SA τ 240 s; white 5 m against 2500 m² × GPS.SE_SF 0.67 → 1 − 25/1675.
+    ('[gps]\non = true\n', 240.0, 1.0 - 25.0 / 1675.0),
+    # P: τ 600 s; white 0.5 m against 79.2 m² × 0.67 → 0.9953, capped at 0.99 (white floor 1 %).
     ('[gps]\non = true\nreceiver = "P"\n', 600.0, 0.99),
     # Decca only: sky-wave τ 180 s, white floor.
     ('[decca]\non = true\nred = "B20"\n', 180.0, 0.99),
     # Both: the longer τ, the smaller fraction.
-    ('[gps]\non = true\n[decca]\non = true\nred = "B20"\n', 240.0, 0.98),
+    ('[gps]\non = true\n[decca]\non = true\nred = "B20"\n', 240.0, 1.0 - 25.0 / 1675.0),
     # GPS.SE_SF 0.04 makes the C/A σ 10 m: 1 − 25/100 = 0.75.
     ('[gps]\non = true\n[lsq]\ngps_se_sf = 0.04\n', 240.0, 0.75),
 ])

@@ -34,6 +34,7 @@ import contextlib
 import dataclasses
 import gzip
 import json
+import math
 import os
 import sys
 import zlib
@@ -42,6 +43,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from engine.api import (
+    AdaptState,
     CycleResult,
     DatumFile,
     DeccaChain,
@@ -242,6 +244,13 @@ def _failed_fixes_line(s: RunSummary) -> str:
             "w-test rejected; used with VCV × S²)")
 
 
+def adapt_line(a: AdaptState) -> str:
+    """The learnt fix-VCV factor (``[filter] adapt``, THEORY §8.17) in one line."""
+    return (f"learnt fix VCV factor {a.fix_factor:.3g} (σ × {math.sqrt(a.fix_factor):.3g}; "
+            f"from S² {math.exp(a.log_s2):.3g}, NIS {math.exp(a.log_nis):.3g}) over {a.n} "
+            f"fix epochs, {a.clipped} clipped")
+
+
 def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str]:
     lines = [
         f"epochs {s.epochs}  fixes {s.fixes}  rejected LOPs {s.rejected_lops}  "
@@ -260,6 +269,8 @@ def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str
             f"final MPP ({m.source}, filter {r.filter_status}) {r.time:%H:%M:%S}Z  "
             f"{format_lat_dms(m.lat_deg)} {format_lon_dms(m.lon_deg)} {r.datum}{ell}"
         )
+        if r.adapt is not None:
+            lines.append(adapt_line(r.adapt))
     if s.out_path is not None:
         lines.append(f"log {s.out_path}")
     if s.jsonl_path is not None:

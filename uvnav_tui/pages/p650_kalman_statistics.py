@@ -113,8 +113,22 @@ def render(r: CycleResult, session: Session) -> str:
         out += ["", "Sensor update (gyro, log, inclinometer; applied at the previous epoch):"]
         out += test_lines(r.sensor_update)
     out.append("")
+    out += adapt_lines(r)
     out += mpp_lines(r, session)
     return "\n".join(out)
+
+
+def adapt_lines(r: CycleResult) -> list[str]:
+    """The learnt fix-VCV factor (``[filter] adapt``, THEORY §8.17) and a blank line; nothing
+    when adaptation is off."""
+    a = r.adapt
+    if a is None:
+        return []
+    sigma = num(math.sqrt(a.fix_factor), 3)
+    return [f"Learnt fix VCV factor : {num(a.fix_factor, 3)}  (σ × {sigma})"
+            f"  S² {num(math.exp(a.log_s2), 3)}  NIS {num(math.exp(a.log_nis), 3)}",
+            f"                        {a.n} fix epochs, {a.clipped} clipped"
+            + ("  AT BOUND" if a.at_bound else ""), ""]
 
 
 class KalmanStatisticsPage(TextPage):
