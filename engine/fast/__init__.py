@@ -109,12 +109,36 @@ def _probe_fix() -> str | None:
     return fix(lsq.compute_fix)
 
 
+def _probe_run_record() -> str | None:
+    """Why the compiled ``.RUN`` quick parser is not used (None: it is)."""
+    from engine.fast import runfile
+
+    return runfile.probe()
+
+
+def _probe_out_writer() -> str | None:
+    """Why the compiled ``.OUT`` block writer is not used (None: it is)."""
+    from engine.fast import outlog
+
+    return outlog.probe()
+
+
+def _probe_untrack() -> str | None:
+    """Why the compiled untracking of kept results is not used (None: it is)."""
+    from engine.fast import retained
+
+    return retained.probe()
+
+
 _PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
     "grid": ("tmgrid", _probe_grid),
     "datum_shift": ("datum", _probe_datum_shift),
     "geodesic": ("decca", _probe_geodesic),
     "systems": ("decca", _probe_systems),
     "compute_fix": ("lsq", _probe_fix),
+    "run_record": ("runparse", _probe_run_record),
+    "out_writer": ("outfmt", _probe_out_writer),
+    "untrack": ("runparse", _probe_untrack),
 }
 """Part of the cycle → (its kernel, its probe)."""
 
@@ -151,7 +175,28 @@ def _factory(part: str) -> Any:
         from engine.fast import lsq
 
         return lsq.compute_fix
+    if part in _IO_PARTS:
+        return _io_part(part)
     raise KeyError(part)
+
+
+_IO_PARTS = ("run_record", "out_writer", "untrack")
+"""The run's input and output parts (engine.fast.runfile, outlog, retained)."""
+
+
+def _io_part(part: str) -> Any:
+    """The compiled object of an input/output part (its verdict is None)."""
+    if part == "run_record":
+        from engine.fast import runfile
+
+        return runfile.quick_parser()
+    if part == "out_writer":
+        from engine.fast import outlog
+
+        return outlog.BlockWriter
+    from engine.fast import retained
+
+    return retained.untracker()
 
 
 def parts() -> dict[str, Any]:
