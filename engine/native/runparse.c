@@ -12,7 +12,8 @@
  * Also the cycle's small objects made in one call: make (frozen slots dataclasses), make_attrs
  * (frozen dataclasses with an instance dict) and prior (engine.run.cycle's provisional
  * position), and untrack: a kept cycle result out of the cyclic GC's lists
- * (engine.fast.retained). Public C API only (PyType_GetSlot for a type's slots). */
+ * (engine.fast.retained). Public C API only, and of CPython's the limited API's functions but
+ * for the datetime C API (datetime.h) and numpy's (uvn_numpy.h, prior). */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
@@ -43,8 +44,8 @@ alloc_of(PyTypeObject *tp)
 static int
 all_names(PyObject *t, const char *what)
 {
-    for (Py_ssize_t i = 0; i < PyTuple_GET_SIZE(t); i++)
-        if (!PyUnicode_CheckExact(PyTuple_GET_ITEM(t, i))) {
+    for (Py_ssize_t i = 0; i < PyTuple_Size(t); i++)
+        if (!PyUnicode_CheckExact(PyTuple_GetItem(t, i))) {
             PyErr_Format(PyExc_TypeError, "%s: a field name is not a str", what);
             return -1;
         }
@@ -55,7 +56,7 @@ static PyObject *
 rp_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 3 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
-        || PyTuple_GET_SIZE(args[1]) != N_SLOTS) {
+        || PyTuple_Size(args[1]) != N_SLOTS) {
         PyErr_SetString(PyExc_TypeError, "bind(cls, names[17], tzinfo)");
         return NULL;
     }
@@ -64,10 +65,13 @@ rp_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     allocfunc alloc = alloc_of((PyTypeObject *)args[0]);
     if (alloc == NULL)
         return NULL;
-    Py_XSETREF(g_cls, (PyTypeObject *)Py_NewRef(args[0]));
+    PyObject *old[3] = {(PyObject *)g_cls, g_names, g_tz};
+    g_cls = (PyTypeObject *)Py_NewRef(args[0]);
     g_alloc = alloc;
-    Py_XSETREF(g_names, Py_NewRef(args[1]));
-    Py_XSETREF(g_tz, Py_NewRef(args[2]));
+    g_names = Py_NewRef(args[1]);
+    g_tz = Py_NewRef(args[2]);
+    for (int i = 0; i < 3; i++)
+        Py_XDECREF(old[i]);
     Py_RETURN_NONE;
 }
 
@@ -143,7 +147,7 @@ set_slot(PyObject *obj, Py_ssize_t i, PyObject *value)
 {
     if (value == NULL)
         return -1;
-    int rc = PyObject_GenericSetAttr(obj, PyTuple_GET_ITEM(g_names, i), value);
+    int rc = PyObject_GenericSetAttr(obj, PyTuple_GetItem(g_names, i), value);
     Py_DECREF(value);
     return rc;
 }
@@ -315,7 +319,7 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
             Py_DECREF(decca);
             goto fail_time;
         }
-        PyTuple_SET_ITEM(decca, k, f);
+        PyTuple_SetItem(decca, k, f); /* steals f; cannot fail on a new tuple */
     }
     /* set_slot steals its value: time and decca are released here until a slot holds them */
     if (set_slot(rec, 0, Py_NewRef(args[1])) < 0) {
@@ -360,7 +364,7 @@ make_with(PyObject *cls, PyObject *names, PyObject *const *values, Py_ssize_t n,
     if (obj == NULL)
         return NULL;
     for (Py_ssize_t i = 0; i < n; i++)
-        if (PyObject_GenericSetAttr(obj, PyTuple_GET_ITEM(names, i), values[i]) < 0) {
+        if (PyObject_GenericSetAttr(obj, PyTuple_GetItem(names, i), values[i]) < 0) {
             Py_DECREF(obj);
             return NULL;
         }
@@ -377,7 +381,7 @@ static PyObject *
 rp_make(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
-        || PyTuple_GET_SIZE(args[1]) != nargs - 2) {
+        || PyTuple_Size(args[1]) != nargs - 2) {
         PyErr_SetString(PyExc_TypeError, "make(cls, names, *values): one value per name");
         return NULL;
     }
@@ -395,7 +399,7 @@ static PyObject *
 rp_make_attrs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
-        || PyTuple_GET_SIZE(args[1]) != nargs - 2) {
+        || PyTuple_Size(args[1]) != nargs - 2) {
         PyErr_SetString(PyExc_TypeError, "make_attrs(cls, names, *values): one value per name");
         return NULL;
     }
@@ -488,11 +492,11 @@ untrack_kind(PyTypeObject *tp, untrack_ctx *c)
     return kind == Py_True;
 }
 
-/* The collector tracks o. */
+/* The collector tracks o (0 for an object of a type without GC support). */
 static int
 gc_tracked(PyObject *o)
 {
-    return PyObject_IS_GC(o) && PyObject_GC_IsTracked(o);
+    return PyObject_GC_IsTracked(o);
 }
 
 static int untrack_walk(PyObject *o, untrack_ctx *c);
