@@ -40,18 +40,6 @@ alloc_of(PyTypeObject *tp)
     return alloc;
 }
 
-/* 0 if every item of tuple t is an exact str, else -1 with TypeError naming `what`. */
-static int
-all_names(PyObject *t, const char *what)
-{
-    for (Py_ssize_t i = 0; i < PyTuple_Size(t); i++)
-        if (!PyUnicode_CheckExact(PyTuple_GetItem(t, i))) {
-            PyErr_Format(PyExc_TypeError, "%s: a field name is not a str", what);
-            return -1;
-        }
-    return 0;
-}
-
 static PyObject *
 rp_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -60,8 +48,6 @@ rp_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         PyErr_SetString(PyExc_TypeError, "bind(cls, names[17], tzinfo)");
         return NULL;
     }
-    if (all_names(args[1], "bind") < 0)
-        return NULL;
     allocfunc alloc = alloc_of((PyTypeObject *)args[0]);
     if (alloc == NULL)
         return NULL;
@@ -349,13 +335,11 @@ fail:
     return NULL;
 }
 
-/* object.__new__(cls) with object.__setattr__(obj, names[i], values[i]) for each i. */
+/* object.__new__(cls) with object.__setattr__(obj, names[i], values[i]) for each i (a name
+ * that is not a str: TypeError from PyObject_GenericSetAttr). */
 static PyObject *
-make_with(PyObject *cls, PyObject *names, PyObject *const *values, Py_ssize_t n,
-          const char *what)
+make_with(PyObject *cls, PyObject *names, PyObject *const *values, Py_ssize_t n)
 {
-    if (all_names(names, what) < 0)
-        return NULL;
     PyTypeObject *tp = (PyTypeObject *)cls;
     allocfunc alloc = alloc_of(tp);
     if (alloc == NULL)
@@ -385,7 +369,7 @@ rp_make(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         PyErr_SetString(PyExc_TypeError, "make(cls, names, *values): one value per name");
         return NULL;
     }
-    return make_with(args[0], args[1], args + 2, nargs - 2, "make");
+    return make_with(args[0], args[1], args + 2, nargs - 2);
 }
 
 PyDoc_STRVAR(make_attrs_doc,
@@ -403,7 +387,7 @@ rp_make_attrs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         PyErr_SetString(PyExc_TypeError, "make_attrs(cls, names, *values): one value per name");
         return NULL;
     }
-    return make_with(args[0], args[1], args + 2, nargs - 2, "make_attrs");
+    return make_with(args[0], args[1], args + 2, nargs - 2);
 }
 
 PyDoc_STRVAR(prior_doc,
