@@ -6,8 +6,8 @@ the first ``N_EPOCHS`` records of the bundled demo (surfaced: GPS + Decca + filt
 The headline is a plain replay (``Session.run`` with the ``.OUT`` log, nothing instrumented).
 The stage split comes from the same replay with timers around the stage functions: the names
 in ``STAGES`` as the cycle (``engine.run.cycle``) calls them, and the session's ``.OUT`` block and
-write (``OutLogWriter.write_direct``, or ``engine.run.session.cycle_text`` / ``cycle_block``,
-``OutLogWriter.write_block`` / ``write_cycle``); parsing the ``.RUN`` is
+write (the run's block writer: ``engine.fast.outlog.BlockWriter`` or
+``engine.run.records.write_block``); parsing the ``.RUN`` is
 timed on its own. "rest of the cycle" is the time inside ``engine.run.cycle.step`` outside the
 stage functions; the session's own bookkeeping (history, counters) is in no row. The timers
 cost about a microsecond per call, so the rows add up to a little more than the headline.
@@ -47,9 +47,10 @@ from pathlib import Path
 import engine.run.cycle as cycle_mod
 import engine.run.session as session_mod
 from engine import native
-from engine.io.outlog import OutLogWriter
+from engine.fast.outlog import BlockWriter
 from engine.io.runfile import RunRecord, iter_run_file
 from engine.run.config import RunConfig, load_config
+from engine.run.parts import choose as choose_parts
 from engine.run.session import Session
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -139,12 +140,11 @@ def _instrumented(acc: dict[str, float]) -> Iterator[None]:
             patches.append((target, attr, _timed(getattr(target, attr), acc, stage)))
     # session.step calls engine.run.cycle.step through its own imported name.
     patches.append((session_mod, "step", _timed(session_mod.step, acc, CYCLE)))
-    # The session writes the block by the compiled writer (OutLogWriter.write_direct: text
-    # and write(2) in one call) and falls back to cycle_text + write_block, then to
-    # cycle_block + write_cycle: all five are timed as the .OUT stage.
-    for obj, attr in ((OutLogWriter, "write_direct"),
-                      (session_mod, "cycle_text"), (session_mod, "cycle_block"),
-                      (OutLogWriter, "write_block"), (OutLogWriter, "write_cycle")):
+    # The session writes each block by its run's block writer: the compiled one
+    # (engine.fast.outlog.BlockWriter: the kernel builds the block and writes it) or the
+    # reference's (engine.run.records.write_block, which the session takes by its own name):
+    # both are timed as the .OUT stage.
+    for obj, attr in ((BlockWriter, "__call__"), (session_mod, "write_block")):
         patches.append((obj, attr, _timed(getattr(obj, attr), acc, LOG_STAGE)))
     originals = [(obj, name, getattr(obj, name)) for obj, name, _ in patches]
     try:
@@ -271,7 +271,8 @@ def main() -> None:
     out = Path(tempfile.mkdtemp()) / "B.OUT"
     _replay(cfg, out, n)  # warm-up: lazy imports (scipy.stats), caches
     t_full = _median_time(lambda: _replay(cfg, out, n))
-    t_parse = _median_time(lambda: list(islice(iter_run_file(cfg.run_path), n)))
+    quick = choose_parts().run_record  # the run's .RUN parser (compiled where in use)
+    t_parse = _median_time(lambda: list(islice(iter_run_file(cfg.run_path, quick), n)))
     split = _stage_split(cfg, out, n)
     cycle_total = split.pop(CYCLE)
     t_log = split.pop(LOG_STAGE)

@@ -149,6 +149,25 @@ def _probe_make() -> str | None:
     if native.kernel("runparse") is None:
         return native.status("runparse")
     return fast_filter.probe_make()
+def _probe_run_record() -> str | None:
+    """Why the compiled ``.RUN`` quick parser is not used (None: it is)."""
+    from engine.fast import runfile
+
+    return runfile.probe()
+
+
+def _probe_out_writer() -> str | None:
+    """Why the compiled ``.OUT`` block writer is not used (None: it is)."""
+    from engine.fast import outlog
+
+    return outlog.probe()
+
+
+def _probe_untrack() -> str | None:
+    """Why the compiled untracking of kept results is not used (None: it is)."""
+    from engine.fast import retained
+
+    return retained.probe()
 
 
 _PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
@@ -168,6 +187,9 @@ _PROBES: dict[str, tuple[str, Callable[[], str | None]]] = {
     "lse_measurement": ("kalman_predict", _as_update),
     "freeze": ("outfmt", _probe_freeze),
     "make": ("runparse", _probe_make),
+    "run_record": ("runparse", _probe_run_record),
+    "out_writer": ("outfmt", _probe_out_writer),
+    "untrack": ("runparse", _probe_untrack),
 }
 """Part of the cycle → (its kernel, its probe)."""
 
@@ -212,6 +234,8 @@ def _factory(part: str) -> Any:
         from engine.fast.make import slots_maker
 
         return slots_maker
+    if part in _IO_PARTS:
+        return _io_part(part)
     raise KeyError(part)
 
 
@@ -228,6 +252,25 @@ _FILTER_PARTS = {
     "freeze": "freeze_result",
 }
 """Part of the cycle → its function in :mod:`engine.fast.filter`."""
+
+
+_IO_PARTS = ("run_record", "out_writer", "untrack")
+"""The run's input and output parts (engine.fast.runfile, outlog, retained)."""
+
+
+def _io_part(part: str) -> Any:
+    """The compiled object of an input/output part (its verdict is None)."""
+    if part == "run_record":
+        from engine.fast import runfile
+
+        return runfile.quick_parser()
+    if part == "out_writer":
+        from engine.fast import outlog
+
+        return outlog.BlockWriter
+    from engine.fast import retained
+
+    return retained.untracker()
 
 
 def parts() -> dict[str, Any]:

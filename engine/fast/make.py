@@ -1,8 +1,9 @@
 """Frozen dataclasses made in one compiled call (``engine.native.runparse``).
 
 A frozen dataclass's generated ``__init__`` sets each field with ``object.__setattr__``; the
-kernel's ``make`` sets the slots of a slotted one (``make_attrs`` the instance dict of a plain
-one) from every field positionally, the same instance. Where the kernel is not built these
+kernel's ``make`` (``make_attrs`` for a plain one, with an instance dict) does the same
+``object.__setattr__`` (``PyObject_GenericSetAttr``) for every field positionally, in one call
+without the Python frames: the same instance. Where the kernel is not built these
 give the class itself (or None), so a caller can always call what it gets.
 """
 
@@ -22,7 +23,7 @@ def slots_maker(cls: type) -> Callable[..., Any]:
     kernel = native.kernel("runparse")
     if kernel is None:
         return cls
-    return partial(kernel.make, cls, tuple(cls.__dict__[f.name] for f in fields(cls)))
+    return partial(kernel.make, cls, tuple(f.name for f in fields(cls)))
 
 
 def attrs_maker(cls: type) -> Callable[..., Any] | None:

@@ -51,7 +51,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from engine.errors import InputError
@@ -112,22 +112,21 @@ def parse_dms(d: str, m: str, s: str, h: str, is_lat: bool, field: str) -> float
     return _dms_checked(d, m, s, h, is_lat, field)
 
 
-def dms_fast(d: str, m: str, s: str, h: str, is_lat: bool,
-             number: Callable[[str], float] = float) -> float | None:
-    """:func:`parse_dms`'s fast path: the degrees of well-formed tokens with an upper-case
+def dms_fast(d: str, m: str, s: str, h: str, is_lat: bool) -> float | None:
+    """:func:`parse_dms`'s usual case: the degrees of well-formed tokens with an upper-case
     hemisphere, else None (then the checked path decides, and raises where the tokens are
-    wrong). ``number`` is ``float`` or a memo of it (the ``.RUN`` hot path's, the same bits).
+    wrong).
 
     D and M: ASCII digits; S: ASCII digits with at most one "." and at least one digit, which
     is exactly DECIMAL (str methods are faster than a regular expression here)."""
     if not (d.isascii() and d.isdigit() and m.isascii() and m.isdigit()
             and s.isascii() and s.replace(".", "", 1).isdigit()):
         return None
-    mv = number(m)
-    sv = number(s)
+    mv = float(m)
+    sv = float(s)
     if not (mv < 60.0 and sv < 60.0):
         return None
-    value = number(d) + mv / 60.0 + sv / 3600.0
+    value = float(d) + mv / 60.0 + sv / 3600.0
     _, limit, plus, minus = _AXES[is_lat]
     if not value <= limit:
         return None

@@ -22,7 +22,13 @@ from typing import BinaryIO, TextIO
 
 from engine.io.nmea_epochs import EpochBuilder, NmeaOptions, NmeaStats
 from engine.io.nmea_sentences import SkipKind
-from engine.io.runfile import BadRecord, RunRecord, check_input_file, iter_run_file
+from engine.io.runfile import (
+    BadRecord,
+    QuickParser,
+    RunRecord,
+    check_input_file,
+    iter_run_file,
+)
 
 __all__ = ["LogSniff", "NmeaLog", "is_nmea_file", "not_nmea_message", "open_log_text",
            "open_records", "scan_nmea_log", "sniff_log"]
@@ -241,13 +247,15 @@ class NmeaLog:
 
 
 def open_records(
-    path: str | os.PathLike[str], nmea_options: NmeaOptions | None = None
+    path: str | os.PathLike[str], nmea_options: NmeaOptions | None = None,
+    quick: QuickParser | None = None,
 ) -> Iterator[RunRecord | BadRecord]:
     """The records of a run file: an :class:`NmeaLog` when the content is NMEA 0183
-    (:func:`is_nmea_file`), else the ``.RUN`` reader (:func:`engine.io.runfile.iter_run_file`)."""
+    (:func:`is_nmea_file`), else the ``.RUN`` reader (:func:`engine.io.runfile.iter_run_file`,
+    with the run's ``quick`` parser of the usual line, if any)."""
     if is_nmea_file(path):
         return NmeaLog(path, nmea_options)
-    return iter_run_file(path)
+    return iter_run_file(path, quick)
 
 
 def scan_nmea_log(path: str | os.PathLike[str], options: NmeaOptions | None = None) -> NmeaStats:

@@ -20,13 +20,12 @@ process leaves every completed cycle readable; the reader reports a trailing blo
 ``END`` line as truncated instead of failing.  An existing log is never overwritten unless the
 caller asks for it explicitly (``force=True``): otherwise a new name is chosen.
 
-Writing is the per-cycle hot path (issue 14): a block handed over as :class:`KeyedLines` rows
-is rendered in one call by the compiled kernel ``engine.native.outfmt`` where it is built, else
-by one cached ``%`` template per block shape (:func:`_render_rows_py`); either way all its
-floats are written by one compiled call where orjson is installed (:func:`float_texts`, checked
-against ``repr``), the rest by ``repr``; :func:`format_line` / :func:`format_fields` stay the
-general API and the reference the fast paths are tested against (tests/io/test_outlog_fast.py,
-tests/native/test_outfmt.py).
+Writing is the per-cycle hot path: a block handed over as :class:`KeyedLines` rows is rendered
+by one cached ``%`` template per block shape (:func:`render_rows`), its floats written by one
+compiled call where orjson is installed (:func:`float_texts`, checked against ``repr``), the
+rest by ``repr``; :func:`format_line` / :func:`format_fields` stay the general API and the
+reference the template is tested against (tests/io/test_outlog_fast.py). A run may write its
+blocks by the compiled writer of ``engine.fast.outlog`` instead, which writes the same text.
 """
 
 from __future__ import annotations
@@ -45,7 +44,6 @@ from operator import itemgetter
 from pathlib import Path
 from typing import Any, overload
 
-from engine import native
 from engine.errors import InputError
 from engine.io.outputs import OutputFile, OutputGuard, free_name
 
@@ -350,26 +348,9 @@ _ROW_VALUES = itemgetter(2)
 
 
 _Row = tuple[str, tuple[str, ...], tuple[Value, ...]]
-_K = native.kernel("outfmt")
-"""The compiled block writer (engine/native/outfmt.c), or None: not built, stale, or
-``UVNAV_PURE=1`` (then :func:`_render_rows_py` writes every block)."""
 
 
-def render_rows(rows: list[_Row], compiled: bool = True) -> str:
-    """``"".join(render_line(*row) for row in rows)``: the text of a block's rows, by the
-    compiled kernel (``engine.native.outfmt``: the same characters, no Python per value, its
-    exact floats through the same probed :func:`float_texts` writer and ``repr`` rule) where it
-    is built, else (or for rows it leaves to Python) by :func:`_render_rows_py`.
-    ``compiled=False``: the floats through ``repr`` only."""
-    if _K is not None:
-        text = _K.render_rows(rows, _float_writer() if compiled else None, _format_text,
-                              format_value)
-        if text is not None:
-            return text
-    return _render_rows_py(rows, compiled)
-
-
-def _render_rows_py(rows: Sequence[_Row], compiled: bool = True) -> str:
+def render_rows(rows: Sequence[_Row], compiled: bool = True) -> str:
     """``"".join(render_line(*row) for row in rows)`` by one ``%`` with a cached whole-block
     template, all exact floats written by one :func:`float_texts` call and all str values by
     one ``map`` (the ``.OUT`` hot path: one cycle, ~17 lines, ~160 values, no per-value
@@ -534,6 +515,31 @@ def free_log_path(path: Path) -> Path:
     return free_name(path)
 
 
+def block_rows(fields: Mapping[str, Value], lines: KeyedLines) -> list[_Row]:
+    """The rows of a whole cycle block (``CYCLE`` … ``END n=…`` and its newline) for
+    :func:`render_rows`: the CYCLE line of ``fields``, the inner ``lines``, the END line."""
+    return [("CYCLE", tuple(fields), tuple(fields.values())), *lines.rows,
+            ("\nEND", _N, (fields.get("n"),)), ("\n", (), ())]
+
+
+def block_text(fields: Mapping[str, Value],
+               lines: Sequence[tuple[str, Mapping[str, Value]]]) -> str:
+    """The text of one cycle block: ``CYCLE`` and its fields, each inner (tag, fields) line
+    indented by two blanks, ``END n=…``, each line ending in a newline."""
+    if (type(lines) is KeyedLines and type(fields) is dict
+            and all(type(k) is str for k in fields)):
+        return render_rows(block_rows(fields, lines))
+    parts = [_render_fields("CYCLE", fields)]
+    if type(lines) is KeyedLines:
+        parts.extend(starmap(render_line, lines.rows))
+    else:
+        render = _render_fields
+        for tag, f in lines:
+            parts.append(render("\n  " + tag, f))
+    parts.append(f"\nEND n={format_value(fields.get('n'))}\n")
+    return "".join(parts)
+
+
 class OutLogWriter:
     """Append-only writer of a ``.OUT`` log.  Use :meth:`create`; close with :meth:`close`.
 
@@ -596,7 +602,7 @@ class OutLogWriter:
 
     def write_block(self, text: str) -> None:
         """Write one complete cycle block's text (``CYCLE`` … ``END n=…`` and its newline, as
-        :meth:`write_cycle` renders it: :func:`engine.run.records.cycle_text`) in a single
+        :meth:`write_cycle` renders it: :func:`block_text`) in a single
         flushed write (:meth:`_write`, written out: once per cycle)."""
         self._direct = None
         self._fh.write_flushed(text)
@@ -608,7 +614,7 @@ class OutLogWriter:
 
     def write_direct(self, write: Callable[[Any, int], int | None], item: object) -> bool:
         """Write one complete cycle block by ``write(item, fd)``, a compiled writer
-        (:func:`engine.run.records.cycle_writer`) that builds the block of ``item`` and writes
+        (``engine.fast.outlog``) that builds the block of ``item`` and writes
         its UTF-8 bytes to the log's descriptor itself (write(2) until all are written): the
         bytes :meth:`write_block` hands to the operating system for the same text, past the
         text layers, nothing being buffered before them. Counted for ``fsync_every`` as
@@ -634,27 +640,7 @@ class OutLogWriter:
         self, fields: Mapping[str, Value], lines: Sequence[tuple[str, Mapping[str, Value]]]
     ) -> None:
         """Write one complete cycle block (``CYCLE`` … ``END``) in a single flushed write."""
-        if type(lines) is KeyedLines and type(fields) is dict:
-            keys = tuple(fields)
-            rows = [("CYCLE", keys, tuple(fields.values())), *lines.rows,
-                    ("\nEND", _N, (fields.get("n"),)), ("\n", (), ())]
-            if _K is not None:  # the kernel checks the keys itself (None: not all exact str)
-                text = _K.render_rows(rows, _float_writer(), _format_text, format_value)
-                if text is not None:
-                    self._write(text)
-                    return
-            if all(type(k) is str for k in keys):
-                self._write(_render_rows_py(rows))
-                return
-        parts = [_render_fields("CYCLE", fields)]
-        if type(lines) is KeyedLines:
-            parts.extend(starmap(render_line, lines.rows))
-        else:
-            render = _render_fields
-            for tag, f in lines:
-                parts.append(render("\n  " + tag, f))
-        parts.append(f"\nEND n={format_value(fields.get('n'))}\n")
-        self._write("".join(parts))
+        self._write(block_text(fields, lines))
 
     def write_action(self, fields: Mapping[str, Value]) -> None:
         """Write an operator action line (``ACT``)."""

@@ -31,8 +31,9 @@ optional ``-`` in the numeric columns (the range checks then reject a negative h
 ``float()`` takes them. Fields are separated by spaces or tabs only.
 
 Parsing is per line (``str.split``, one character check of the numeric columns, ``float``; no
-regular expression on the hot path) so an 86 400-line day replays quickly;
-:func:`iter_run_file` streams and turns bad lines into :class:`BadRecord`.
+regular expression for a good line); :func:`iter_run_file` streams and turns bad lines into
+:class:`BadRecord`. A run may hand it a quicker parser of the usual line
+(:data:`QuickParser`: the compiled one of ``engine.fast.runfile``), checked against this one.
 """
 
 from __future__ import annotations
@@ -42,13 +43,11 @@ import os
 import re
 import stat
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
-from typing import Any
 
-from engine import native
 from engine.errors import InputError, read_error
-from engine.io.deccafile import dms_fast, format_dms, parse_dms
+from engine.io.deccafile import format_dms, parse_dms
 
 __all__ = [
     "BadRecord",
@@ -300,161 +299,6 @@ def _check_separators(line: str) -> None:
         )
 
 
-_DATES: dict[str, tuple[int, int, int]] = {}
-"""``YYMMDD`` → (year, month, day) of the dates :func:`_fast_record` has seen in a valid record
-(a day's file has one or two; bounded by :data:`_DATES_MAX`)."""
-_DATES_MAX = 1024
-
-
-def _fast_record_py(line: str, line_no: int) -> RunRecord | None:
-    """The record of a well-formed line in the usual shape (each GPS coordinate four tokens or
-    one ``-``, 6–9 numeric columns, no ``key=value``), else None: then :func:`parse_run_line`'s
-    checks decide.
-
-    Accepts only what those checks accept and builds the same record with the same float
-    operations (:func:`_parse_time`, :func:`~engine.io.deccafile.parse_dms`'s fast path,
-    :func:`_parse_numbers`, :func:`_check_separators`), in one call with no exceptions raised,
-    so a replay's hot path is cheap; every located error message stays the slow path's.
-    Records without GPS (``-`` ``-``: a dive) take it too since 2026-12-04.
-    """
-    toks = line.split()
-    n = len(toks)
-    if n < 10 or n > 19 or "=" in line:
-        return None
-    d, t = toks[0], toks[1]
-    if len(t) != 6 or not (t.isascii() and t.isdigit()):
-        return None
-    ymd = _DATES.get(d)
-    if ymd is None:
-        if len(d) != 6 or not (d.isascii() and d.isdigit()):
-            return None
-        yy, mmdd = divmod(int(d), 10000)
-        month, day = divmod(mmdd, 100)
-        ymd = (yy + (1900 if yy >= 70 else 2000), month, day)
-    hh, mmss = divmod(int(t), 10000)
-    minute, second = divmod(mmss, 100)
-    try:  # hh > 23, minute > 59, second > 59 or a wrong date: ValueError
-        time = datetime(ymd[0], ymd[1], ymd[2], hh, minute, second, tzinfo=UTC)
-    except ValueError:
-        return None
-    # parse_dms's fast path (dms_fast), latitude then longitude (n >= 10: the tokens exist)
-    lat = lon = None
-    if toks[2] == "-":
-        i = 3
-    else:
-        lat = dms_fast(toks[2], toks[3], toks[4], toks[5], True, _memo_number)
-        if lat is None:
-            return None
-        i = 6
-    if toks[i] == "-":
-        i += 1
-    else:
-        lon = dms_fast(toks[i], toks[i + 1], toks[i + 2], toks[i + 3], False, _memo_number)
-        if lon is None:
-            return None
-        i += 4
-    if not 6 <= n - i <= 9:
-        return None
-    # _parse_numbers: the character check, float, the range checks.
-    cols = toks[i:]
-    if " ".join(cols).translate(_NOT_NUMBER_CHARS):
-        return None
-    memo = _FLOATS
-    try:
-        v = [None if tok == "-" else memo[tok] if tok in memo else _memo_float(tok)
-             for tok in cols]
-    except ValueError:
-        return None
-    v += _PAD[n - i]
-    fr_r, fr_g, fr_p, hdg, spd, rud, incl, pfreq, echo = v
-    if not (
-        (fr_r is None or 0.0 <= fr_r < 1.0)
-        and (fr_g is None or 0.0 <= fr_g < 1.0)
-        and (fr_p is None or 0.0 <= fr_p < 1.0)
-        and (hdg is None or 0.0 <= hdg < 360.0)
-        and (spd is None or 0.0 <= spd <= MAX_SPEED_KN)
-        and (rud is None or -90.0 <= rud <= 90.0)
-        and (incl is None or -90.0 <= incl <= 90.0)
-        and (pfreq is None or (pfreq > 0.0 and math.isfinite(pfreq)))
-        and (echo is None or (echo >= 0.0 and math.isfinite(echo)))
-    ):
-        return None
-    raw = line.rstrip("\r\n")
-    if not (raw.isascii() and (raw.isprintable() or raw.replace("\t", " ").isprintable())):
-        return None
-    if d not in _DATES and len(_DATES) < _DATES_MAX:
-        _DATES[d] = ymd
-    return _new_record(line_no, time, lat, lon, (fr_r, fr_g, fr_p), hdg, spd, rud, incl, pfreq,
-                       echo, raw)
-
-
-def _memo_number(tok: str) -> float:
-    """``float(tok)`` through :data:`_FLOATS` (:func:`_memo_float` on a miss)."""
-    memo = _FLOATS
-    return memo[tok] if tok in memo else _memo_float(tok)
-
-
-_FLOATS: dict[str, float] = {}
-"""Token → ``float(token)`` of the numeric tokens :func:`_fast_record` has converted (a day's
-fractions, headings, speeds … repeat; a dictionary look-up is far cheaper than ``float``);
-bounded by :data:`_FLOATS_MAX`, the same float objects (bits) as ``float`` gives."""
-_FLOATS_MAX = 1 << 16
-
-
-def _memo_float(tok: str) -> float:
-    """``float(tok)``, remembered in :data:`_FLOATS` while it has room (ValueError as float)."""
-    value = float(tok)
-    if len(_FLOATS) < _FLOATS_MAX:
-        _FLOATS[tok] = value
-    return value
-
-
-_SETTERS = tuple(RunRecord.__dict__[f.name].__set__ for f in fields(RunRecord))
-"""The slot setters of :class:`RunRecord`'s fields, in field order."""
-
-
-def _new_record(line_no: int, time: datetime, lat: float | None, lon: float | None,
-                decca: tuple[float | None, float | None, float | None], hdg: float | None,
-                spd: float | None, rud: float | None, incl: float | None,
-                pfreq: float | None, echo: float | None, raw: str) -> RunRecord:
-    """``RunRecord(line_no, …, raw)`` (GNSS fields None) without the frozen dataclass's
-    ``__init__`` (one ``object.__setattr__`` call per field): the same slots through their
-    setters, a little over half the cost."""
-    (s0, s1, s2, s3, s4, s5, s6, s7, s8, s9, s10, s11, s12, s13, s14, s15, s16) = _SETTERS
-    r = object.__new__(RunRecord)
-    s0(r, line_no)
-    s1(r, time)
-    s2(r, lat)
-    s3(r, lon)
-    s4(r, decca)
-    s5(r, hdg)
-    s6(r, spd)
-    s7(r, rud)
-    s8(r, incl)
-    s9(r, pfreq)
-    s10(r, echo)
-    s11(r, raw)
-    s12(r, None)
-    s13(r, None)
-    s14(r, None)
-    s15(r, None)
-    s16(r, None)
-    return r
-
-
-_PAD: dict[int, list[None]] = {k: [None] * (9 - k) for k in range(6, 10)}
-"""The None columns that pad ``k`` numeric columns to nine."""
-
-_K: Any = native.kernel("runparse")
-"""The compiled twin of :func:`_fast_record_py` (``engine/native/runparse.c``), or None."""
-if _K is not None:
-    _K.bind(RunRecord, tuple(RunRecord.__dict__[f.name] for f in fields(RunRecord)), UTC)
-_fast_record: Callable[[str, int], RunRecord | None] = (
-    _fast_record_py if _K is None else _K.record)
-"""The hot path in use: the kernel's ``record`` where it is built, else :func:`_fast_record_py`
-(the same records: ``tests/native/test_runparse.py``)."""
-
-
 def parse_run_line(line: str, line_no: int = 0, filename: str = "<string>") -> RunRecord | None:
     """Parse one ``.RUN`` line (grammar in the module docstring).
 
@@ -463,9 +307,6 @@ def parse_run_line(line: str, line_no: int = 0, filename: str = "<string>") -> R
     ``time``, ``GPS latitude``, ``GPS longitude``, ``Decca red|green|purple``, ``heading``,
     ``speed``, ``rudder``, ``inclinometer``, ``pressure frequency``, ``echo sounder``).
     """
-    rec = _fast_record(line, line_no)
-    if rec is not None:
-        return rec
     toks = line.split()
     n = len(toks)
     if n == 0:
@@ -507,7 +348,15 @@ def iter_run_lines(
             yield item
 
 
-def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecord]:
+QuickParser = Callable[[str, int], "RunRecord | None"]
+"""A parser of the usual record tried before the checked one: ``quick(line, line_no)`` gives
+the record :func:`parse_run_line` gives for that line, or None for any line it leaves to it
+(a comment, a ``key=value`` record, a bad line: every message stays the checked parser's).
+The run loop passes the compiled one (``engine.fast.runfile``) where it is in use."""
+
+
+def iter_run_file(path: str | os.PathLike[str],
+                  quick: QuickParser | None = None) -> Iterator[RunRecord | BadRecord]:
     """Stream the records of a ``.RUN`` file, reading one line at a time (constant memory).
 
     The file is checked when this is called (opened and closed), so a missing, unreadable or
@@ -515,10 +364,11 @@ def iter_run_file(path: str | os.PathLike[str]) -> Iterator[RunRecord | BadRecor
     (:func:`~engine.errors.read_error`); it is opened on the first ``next()`` and closed when
     the iterator is exhausted or closed. Undecodable bytes become U+FFFD (so the line is
     reported as bad, never crashes the replay); a line over :data:`MAX_LINE_CHARS` characters
-    is a bad record.
+    is a bad record. ``quick``: a :data:`QuickParser` tried first on each line (None: every
+    line through :func:`parse_run_line`).
     """
     name = check_input_file(path)
-    return _stream(name)
+    return _stream(name, quick)
 
 
 def check_input_file(path: str | os.PathLike[str]) -> str:
@@ -538,17 +388,15 @@ def check_input_file(path: str | os.PathLike[str]) -> str:
     return name
 
 
-def _stream(name: str) -> Iterator[RunRecord | BadRecord]:
+def _stream(name: str, quick: QuickParser | None) -> Iterator[RunRecord | BadRecord]:
     with open(name, encoding="utf-8-sig", errors="replace") as fh:
         line_no = 0
         readline = fh.readline
         limit = MAX_LINE_CHARS + 1
-        fast = _fast_record
         while line := readline(limit):
             line_no += 1
-            if len(line) < limit:  # a whole line (or the last one): the usual record first
-                rec = fast(line, line_no)
-                if rec is not None:
+            if len(line) < limit:  # a whole line (or the last one)
+                if quick is not None and (rec := quick(line, line_no)) is not None:
                     yield rec
                     continue
             elif not line.endswith("\n"):

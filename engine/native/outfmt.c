@@ -966,20 +966,7 @@ static void *decline(void)
     return NULL;
 }
 
-/* Attribute reads: PyObject_GetAttr (the slot_t argument is a placeholder kept so the call
- * sites name what they read; no type internals are cached). */
-typedef char slot_t;
-
-static slot_t ATTR_SLOT[A_COUNT][2], SENS_SLOT[N_SENS][2], GPS_SLOT[N_GPS][2],
-    OBS_SLOT[N_OBS][2], LOP_SLOT[N_LOP][2];
-
-static inline PyObject *get_attr(PyObject *o, PyObject *name, slot_t *c)
-{
-    (void)c;
-    return PyObject_GetAttr(o, name);
-}
-
-#define GET(o, a) get_attr((o), ATTR[a], ATTR_SLOT[a])
+#define GET(o, a) PyObject_GetAttr((o), ATTR[a])
 
 /* Where build_cycle_rows puts its rows: appended to `list` (cycle_rows), or written at once
  * into `b` as render_rows would write them (cycle_text: no row objects, no second pass). */
@@ -1181,14 +1168,14 @@ static int add_vals(sink_t *rows, PyObject *prefix, PyObject *keys, val_t *vals,
 }
 
 /* A tuple of n + extra items: the attributes `names` of `o`, then `extra` empty slots. */
-static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, slot_t (*slots)[2],
+static PyObject *attrs_tuple(PyObject *o, PyObject *const *names,
                              Py_ssize_t n, Py_ssize_t extra)
 {
     PyObject *t = PyTuple_New(n + extra);
     if (t == NULL)
         return NULL;
     for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *v = get_attr(o, names[i], slots[i]);
+        PyObject *v = PyObject_GetAttr(o, names[i]);
         if (v == NULL) {
             Py_DECREF(t);
             return NULL;
@@ -1199,11 +1186,11 @@ static PyObject *attrs_tuple(PyObject *o, PyObject *const *names, slot_t (*slots
 }
 
 /* The attributes `names` of `o` into vals[0..n) (new references). 0, or -1 (none kept). */
-static int attrs_vals(PyObject *o, PyObject *const *names, slot_t (*slots)[2], Py_ssize_t n,
+static int attrs_vals(PyObject *o, PyObject *const *names, Py_ssize_t n,
                       val_t *vals)
 {
     for (Py_ssize_t i = 0; i < n; i++) {
-        vals[i].o = get_attr(o, names[i], slots[i]);
+        vals[i].o = PyObject_GetAttr(o, names[i]);
         vals[i].d = 0.0;
         if (vals[i].o == NULL) {
             vals_clear(vals, i);
@@ -1647,7 +1634,7 @@ fail:
  * names == NULL (prefix, keys, (item,)). */
 #define EACH_VALS 16
 static int add_each(sink_t *rows, PyObject *items, PyObject *prefix, PyObject *keys,
-                    PyObject *const *names, slot_t (*slots)[2], Py_ssize_t n)
+                    PyObject *const *names, Py_ssize_t n)
 {
     PyObject *it = PyObject_GetIter(items), *o;
     if (it == NULL)
@@ -1659,12 +1646,12 @@ static int add_each(sink_t *rows, PyObject *items, PyObject *prefix, PyObject *k
             rc = add_vals(rows, prefix, keys, &v, 1);
         } else if (n <= EACH_VALS) {
             val_t v[EACH_VALS];
-            rc = attrs_vals(o, names, slots, n, v);
+            rc = attrs_vals(o, names, n, v);
             Py_DECREF(o);
             if (rc == 0)
                 rc = add_vals(rows, prefix, keys, v, n);
         } else {
-            PyObject *v = attrs_tuple(o, names, slots, n, 0);
+            PyObject *v = attrs_tuple(o, names, n, 0);
             Py_DECREF(o);
             rc = add_row(rows, prefix, keys, v);
         }
@@ -1742,7 +1729,7 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
         }
         val_t sens[N_SENS + 3];
         Py_ssize_t ns = N_SENS;
-        rc = attrs_vals(s, SENS_ATTR, SENS_SLOT, N_SENS, sens);
+        rc = attrs_vals(s, SENS_ATTR, N_SENS, sens);
         if (rc == 0 && other) {
             val_set(sens, ns++, Py_NewRef(ref));
             if (standin) {
@@ -1802,7 +1789,7 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
         }
         val_t g[N_GPS + 5];
         Py_ssize_t ng = N_GPS;
-        rc = attrs_vals(o, GPS_ATTR, GPS_SLOT, N_GPS, g);
+        rc = attrs_vals(o, GPS_ATTR, N_GPS, g);
         if (rc == 0 && weighted) {
             static const int wn[5] = {A_HDOP, A_QUALITY, A_SATS, A_UERE_M, A_SIGMA_M};
             for (int i = 0; i < 5; i++, ng++) {
@@ -1822,7 +1809,7 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
 
     /* OBS */
     if ((o = GET(r, A_MANUAL)) == NULL ||
-        add_each(rows, o, STR[S_OBS], c[C_OBS_KEYS], OBS_ATTR, OBS_SLOT, N_OBS) < 0)
+        add_each(rows, o, STR[S_OBS], c[C_OBS_KEYS], OBS_ATTR, N_OBS) < 0)
         goto fail;
     Py_CLEAR(o);
 
@@ -1833,7 +1820,7 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
         PyObject *lops = GET(o, A_LOPS);
         if (lops == NULL)
             goto fail;
-        rc = add_each(rows, lops, STR[S_LOP], c[C_LOP_KEYS], LOP_ATTR, LOP_SLOT, N_LOP);
+        rc = add_each(rows, lops, STR[S_LOP], c[C_LOP_KEYS], LOP_ATTR, N_LOP);
         Py_DECREF(lops);
         if (rc < 0)
             goto fail;
@@ -1975,7 +1962,7 @@ static int build_cycle_rows(sink_t *rows, PyObject *r, PyObject *consts)
 
     /* MSG */
     if ((o = GET(r, A_MESSAGES)) == NULL ||
-        add_each(rows, o, STR[S_MSG], c[C_MSG_KEYS], NULL, NULL, 0) < 0)
+        add_each(rows, o, STR[S_MSG], c[C_MSG_KEYS], NULL, 0) < 0)
         goto fail;
     Py_CLEAR(o);
 
@@ -2159,7 +2146,6 @@ static const char *const FREEZE_NAMES[F_COUNT] = {
     "S", "K", "ls", "l_inv", "w", "setflags", "write"};
 static PyObject *FREEZE_ATTR[F_COUNT];
 static PyObject *WRITE_KWNAMES; /* ("write",) */
-#define NP_WARN_ON_WRITE 0x80000000u /* NPY_ARRAY_WARN_ON_WRITE */
 
 static int freeze_names(void)
 {
@@ -2169,11 +2155,11 @@ static int freeze_names(void)
     return (WRITE_KWNAMES = PyTuple_Pack(1, FREEZE_ATTR[F_WRITE])) == NULL ? -1 : 0;
 }
 
-/* a.setflags(write=False): 0, or -1 (exception set). */
+/* a.setflags(write=False): 0, or -1 (exception set). An exact ndarray by numpy's
+ * PyArray_CLEARFLAGS, anything else by its setflags method. */
 static int freeze_array(PyObject *a)
 {
-    if (np_layout == 1 && (PyObject *)Py_TYPE(a) == np_ndarray &&
-        !((unsigned)PyArray_FLAGS(((np_fields_t *)a)) & NP_WARN_ON_WRITE)) {
+    if (np_layout == 1 && (PyObject *)Py_TYPE(a) == np_ndarray) {
         PyArray_CLEARFLAGS((PyArrayObject *)a, NPY_ARRAY_WRITEABLE);
         return 0;
     }

@@ -1,23 +1,23 @@
-/* Compiled twin of engine.io.runfile._fast_record_py: one usual .RUN record (each GPS
- * coordinate four tokens or one '-', 6-9 numeric columns, no key=value) to a RunRecord, or
- * None where the Python
- * checks decide (then engine.io.runfile.parse_run_line's checked parser gives the same record
- * or the same located error).
+/* The .RUN reader's quick parser (engine.fast.runfile): one usual record (each GPS coordinate
+ * four tokens or one '-', 6-9 numeric columns, no key=value) to a RunRecord, or None where the
+ * reference's checked parser (engine.io.runfile.parse_run_line) decides, which then gives the
+ * same record or the located error.
  *
- * Same acceptance as the Python hot path: printable ASCII or tab only, split on blanks/tabs,
- * YYMMDD HHMMSS (datetime checks the values), D M S.sss H with parse_dms's fast-path rules,
- * numeric columns of [0-9.-] converted by PyOS_string_to_double (what float(str) calls, so the
- * same bits) and range-checked with the same comparisons; lat = d + m / 60.0 + s / 3600.0 in
- * that order (built with -ffp-contract=off). The record is made like object.__new__ plus the
- * slot setters (engine.io.runfile._new_record), bound once by bind().
+ * Accepts only what the checked parser accepts: printable ASCII or tab only, split on
+ * blanks/tabs, YYMMDD HHMMSS (datetime checks the values), D M S.sss H with parse_dms's rules,
+ * numeric columns of [0-9.-] converted by PyOS_string_to_double (what float(str) calls) and
+ * range-checked with the same comparisons; lat = d + m / 60.0 + s / 3600.0 in that order.
+ * The record is made as object.__new__ plus object.__setattr__ per field makes it
+ * (the type's tp_alloc slot, PyObject_GenericSetAttr), bound once by bind().
  * Also the cycle's small objects made in one call: make (frozen slots dataclasses), make_attrs
- * (frozen dataclasses with an instance dict: SystemReading, CycleInputs) and prior
- * (engine.run.cycle._provisional's filter part; tests/native/test_runparse_glue.py), and
- * untrack: a kept cycle result out of the cyclic GC's lists (engine.run.retained). */
+ * (frozen dataclasses with an instance dict) and prior (engine.run.cycle's provisional
+ * position), and untrack: a kept cycle result out of the cyclic GC's lists
+ * (engine.fast.retained). Public C API only, and of CPython's the limited API's functions but
+ * for the datetime C API (datetime.h) and numpy's (uvn_numpy.h, prior). */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <datetime.h>
-#include "uvn_numpy.h" /* numpy arrays read and made without numpy's headers (prior) */
+#include "uvn_numpy.h" /* numpy arrays through numpy's C API (prior) */
 #include <math.h>
 #include <string.h>
 
@@ -26,26 +26,38 @@
 #define MAX_TOK_CHARS 63
 
 static PyTypeObject *g_cls = NULL;
-static PyObject *g_setters = NULL; /* tuple of the 17 slot descriptors, field order */
+static allocfunc g_alloc = NULL;  /* g_cls's tp_alloc (PyType_GetSlot) */
+static PyObject *g_names = NULL;  /* tuple of the 17 field names, field order */
 static PyObject *g_tz = NULL;
+
+/* A type's tp_alloc, as object.__new__ calls it (NULL with TypeError if it has none). */
+static allocfunc
+alloc_of(PyTypeObject *tp)
+{
+    allocfunc alloc = (allocfunc)PyType_GetSlot(tp, Py_tp_alloc);
+    if (alloc == NULL && !PyErr_Occurred())
+        PyErr_SetString(PyExc_TypeError, "the class has no tp_alloc");
+    return alloc;
+}
 
 static PyObject *
 rp_bind(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 3 || !PyType_Check(args[0]) || !PyTuple_Check(args[1])
-        || PyTuple_GET_SIZE(args[1]) != N_SLOTS) {
-        PyErr_SetString(PyExc_TypeError, "bind(cls, setters[17], tzinfo)");
+    if (nargs != 3 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
+        || PyTuple_Size(args[1]) != N_SLOTS) {
+        PyErr_SetString(PyExc_TypeError, "bind(cls, names[17], tzinfo)");
         return NULL;
     }
-    for (Py_ssize_t i = 0; i < N_SLOTS; i++) {
-        if (Py_TYPE(PyTuple_GET_ITEM(args[1], i))->tp_descr_set == NULL) {
-            PyErr_SetString(PyExc_TypeError, "bind: a setter is not a data descriptor");
-            return NULL;
-        }
-    }
-    Py_XSETREF(g_cls, (PyTypeObject *)Py_NewRef(args[0]));
-    Py_XSETREF(g_setters, Py_NewRef(args[1]));
-    Py_XSETREF(g_tz, Py_NewRef(args[2]));
+    allocfunc alloc = alloc_of((PyTypeObject *)args[0]);
+    if (alloc == NULL)
+        return NULL;
+    PyObject *old[3] = {(PyObject *)g_cls, g_names, g_tz};
+    g_cls = (PyTypeObject *)Py_NewRef(args[0]);
+    g_alloc = alloc;
+    g_names = Py_NewRef(args[1]);
+    g_tz = Py_NewRef(args[2]);
+    for (int i = 0; i < 3; i++)
+        Py_XDECREF(old[i]);
     Py_RETURN_NONE;
 }
 
@@ -115,14 +127,13 @@ to_double(const char *p, Py_ssize_t n, double *out)
     return rc;
 }
 
+/* object.__setattr__(obj, names[i], value): 0, or -1 (exception set). Steals value. */
 static int
 set_slot(PyObject *obj, Py_ssize_t i, PyObject *value)
 {
-    /* steals value */
     if (value == NULL)
         return -1;
-    PyObject *d = PyTuple_GET_ITEM(g_setters, i);
-    int rc = Py_TYPE(d)->tp_descr_set(d, obj, value);
+    int rc = PyObject_GenericSetAttr(obj, PyTuple_GetItem(g_names, i), value);
     Py_DECREF(value);
     return rc;
 }
@@ -137,7 +148,8 @@ float_or_none(int present, double v)
 
 PyDoc_STRVAR(record_doc,
 "record(line, line_no) -> RunRecord | None\n\n"
-"engine.io.runfile._fast_record_py in one call (bind() first; None before that).");
+"The record of a usual .RUN line, or None where engine.io.runfile.parse_run_line decides\n"
+"(bind() first; None before that).");
 
 static PyObject *
 rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -147,11 +159,17 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         return NULL;
     }
     PyObject *line = args[0];
-    if (g_cls == NULL || !PyUnicode_Check(line) || !PyUnicode_IS_ASCII(line))
+    if (g_cls == NULL || !PyUnicode_Check(line))
         Py_RETURN_NONE;
-    const char *s = (const char *)PyUnicode_1BYTE_DATA(line);
-    Py_ssize_t len = PyUnicode_GET_LENGTH(line);
-    Py_ssize_t end = len;
+    Py_ssize_t len;
+    const char *s = PyUnicode_AsUTF8AndSize(line, &len); /* ASCII: the str's own bytes */
+    if (s == NULL) {
+        if (!PyErr_ExceptionMatches(PyExc_UnicodeError))
+            return NULL;
+        PyErr_Clear(); /* a lone surrogate: the checked parser's message */
+        Py_RETURN_NONE;
+    }
+    Py_ssize_t end = len; /* bytes = characters below: anything not ASCII is declined */
     while (end > 0 && (s[end - 1] == '\r' || s[end - 1] == '\n'))
         end--;
     /* printable ASCII or tab (the separators check), no '=' (key=value records) */
@@ -273,7 +291,7 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         PyErr_Clear();
         Py_RETURN_NONE;
     }
-    PyObject *rec = g_cls->tp_alloc(g_cls, 0);
+    PyObject *rec = g_alloc(g_cls, 0);
     if (rec == NULL) {
         Py_DECREF(time);
         return NULL;
@@ -287,7 +305,7 @@ rp_record(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
             Py_DECREF(decca);
             goto fail_time;
         }
-        PyTuple_SET_ITEM(decca, k, f);
+        PyTuple_SetItem(decca, k, f); /* steals f; cannot fail on a new tuple */
     }
     /* set_slot steals its value: time and decca are released here until a slot holds them */
     if (set_slot(rec, 0, Py_NewRef(args[1])) < 0) {
@@ -317,38 +335,41 @@ fail:
     return NULL;
 }
 
+/* object.__new__(cls) with object.__setattr__(obj, names[i], values[i]) for each i (a name
+ * that is not a str: TypeError from PyObject_GenericSetAttr). */
+static PyObject *
+make_with(PyObject *cls, PyObject *names, PyObject *const *values, Py_ssize_t n)
+{
+    PyTypeObject *tp = (PyTypeObject *)cls;
+    allocfunc alloc = alloc_of(tp);
+    if (alloc == NULL)
+        return NULL;
+    PyObject *obj = alloc(tp, 0);
+    if (obj == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < n; i++)
+        if (PyObject_GenericSetAttr(obj, PyTuple_GetItem(names, i), values[i]) < 0) {
+            Py_DECREF(obj);
+            return NULL;
+        }
+    return obj;
+}
+
 PyDoc_STRVAR(make_doc,
-"make(cls, slots, *values) -> cls instance\n\n"
-"A frozen slots dataclass instance made as its __init__ makes it when given every field\n"
-"positionally (object.__new__, then each slot descriptor's set in field order), without the\n"
-"per-field object.__setattr__ calls. slots: the member descriptors, in field order.");
+"make(cls, names, *values) -> cls instance\n\n"
+"A frozen dataclass instance made as its __init__ makes it when given every field\n"
+"positionally (object.__new__, then object.__setattr__(obj, names[i], values[i]) in field\n"
+"order), without the Python frames. names: the field names, in field order.");
 
 static PyObject *
 rp_make(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_Check(args[1])
-        || PyTuple_GET_SIZE(args[1]) != nargs - 2) {
-        PyErr_SetString(PyExc_TypeError, "make(cls, slots, *values): one value per slot");
+    if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
+        || PyTuple_Size(args[1]) != nargs - 2) {
+        PyErr_SetString(PyExc_TypeError, "make(cls, names, *values): one value per name");
         return NULL;
     }
-    PyTypeObject *tp = (PyTypeObject *)args[0];
-    PyObject *obj = tp->tp_alloc(tp, 0);
-    if (obj == NULL)
-        return NULL;
-    for (Py_ssize_t i = 0; i < nargs - 2; i++) {
-        PyObject *d = PyTuple_GET_ITEM(args[1], i);
-        descrsetfunc set = Py_TYPE(d)->tp_descr_set;
-        if (set == NULL) {
-            PyErr_SetString(PyExc_TypeError, "make: a slot is not a data descriptor");
-            Py_DECREF(obj);
-            return NULL;
-        }
-        if (set(d, obj, args[2 + i]) < 0) {
-            Py_DECREF(obj);
-            return NULL;
-        }
-    }
-    return obj;
+    return make_with(args[0], args[1], args + 2, nargs - 2);
 }
 
 PyDoc_STRVAR(make_attrs_doc,
@@ -362,31 +383,11 @@ static PyObject *
 rp_make_attrs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs < 2 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
-        || PyTuple_GET_SIZE(args[1]) != nargs - 2) {
+        || PyTuple_Size(args[1]) != nargs - 2) {
         PyErr_SetString(PyExc_TypeError, "make_attrs(cls, names, *values): one value per name");
         return NULL;
     }
-    PyTypeObject *tp = (PyTypeObject *)args[0];
-    if (tp->tp_dictoffset == 0) {
-        PyErr_SetString(PyExc_TypeError, "make_attrs: the class has no instance dict");
-        return NULL;
-    }
-    PyObject *obj = tp->tp_alloc(tp, 0);
-    if (obj == NULL)
-        return NULL;
-    for (Py_ssize_t i = 0; i < nargs - 2; i++) {
-        PyObject *name = PyTuple_GET_ITEM(args[1], i);
-        if (!PyUnicode_CheckExact(name)) {
-            PyErr_SetString(PyExc_TypeError, "make_attrs: a name is not a str");
-            Py_DECREF(obj);
-            return NULL;
-        }
-        if (PyObject_GenericSetAttr(obj, name, args[2 + i]) < 0) {
-            Py_DECREF(obj);
-            return NULL;
-        }
-    }
-    return obj;
+    return make_with(args[0], args[1], args + 2, nargs - 2);
 }
 
 PyDoc_STRVAR(prior_doc,
@@ -475,11 +476,11 @@ untrack_kind(PyTypeObject *tp, untrack_ctx *c)
     return kind == Py_True;
 }
 
-/* The collector tracks o. */
+/* The collector tracks o (0 for an object of a type without GC support). */
 static int
 gc_tracked(PyObject *o)
 {
-    return PyObject_IS_GC(o) && PyObject_GC_IsTracked(o);
+    return PyObject_GC_IsTracked(o);
 }
 
 static int untrack_walk(PyObject *o, untrack_ctx *c);
@@ -528,8 +529,14 @@ untrack_walk(PyObject *o, untrack_ctx *c)
         if (kind == 0)
             return 0; /* a list, a mutable object: stays tracked, not entered */
     }
+    traverseproc traverse = (traverseproc)PyType_GetSlot(Py_TYPE(o), Py_tp_traverse);
+    if (traverse == NULL) {
+        if (PyErr_Occurred())
+            return -1;
+        return 0; /* nothing to enter (a GC type always has one) */
+    }
     c->depth++;
-    int r = Py_TYPE(o)->tp_traverse(o, untrack_visit, c);
+    int r = traverse(o, untrack_visit, c);
     c->depth--;
     if (r < 0)
         return -1;
@@ -567,7 +574,7 @@ static PyMethodDef rp_methods[] = {
     {"make_attrs", (PyCFunction)(void (*)(void))rp_make_attrs, METH_FASTCALL,
      make_attrs_doc},
     {"bind", (PyCFunction)(void (*)(void))rp_bind, METH_FASTCALL,
-     "bind(cls, setters, tzinfo): the RunRecord class, its 17 slot descriptors, UTC."},
+     "bind(cls, names, tzinfo): the RunRecord class, its 17 field names, UTC."},
     {"record", (PyCFunction)(void (*)(void))rp_record, METH_FASTCALL, record_doc},
     {"untrack", (PyCFunction)(void (*)(void))rp_untrack, METH_FASTCALL, untrack_doc},
     {NULL, NULL, 0, NULL},
@@ -575,8 +582,8 @@ static PyMethodDef rp_methods[] = {
 
 static struct PyModuleDef rp_module = {
     PyModuleDef_HEAD_INIT, "runparse",
-    "Compiled twin of engine.io.runfile._fast_record_py (the .RUN hot path): the same\n"
-    "acceptance, the same float conversions and arithmetic, so the same records.",
+    "The .RUN reader's quick parser (engine.fast.runfile) and the cycle's small-object\n"
+    "makers: the records engine.io.runfile.parse_run_line gives, in one call.",
     -1, rp_methods,
 };
 

@@ -19,6 +19,8 @@ from engine.filter.update import innovation_distance, update, update_rows, updat
 from engine.geodesy.ellipsoid import Datum, Ellipsoid
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
 from engine.geodesy.tmgrid import TMGrid
+from engine.io.outlog import OutLogWriter
+from engine.io.runfile import QuickParser
 from engine.lsq.fix import FixResult, compute_fix
 from engine.systems.base import NavSystem
 
@@ -70,6 +72,17 @@ class CycleParts:
     make: Callable[[type], Callable[..., Any]] = positional
     """The constructor taking every field positionally of a result dataclass of the cycle
     (:func:`positional`: the class itself)."""
+    # The run's input and output around the cycle (None: the reference's own way).
+    run_record: QuickParser | None = None
+    """The ``.RUN`` reader's quick parser of the usual line
+    (:data:`engine.io.runfile.QuickParser`); None: every line by the checked parser."""
+    out_writer: Callable[..., Callable[[OutLogWriter, Any], None]] | None = None
+    """Makes the run's ``.OUT`` block writer ``write(out, result)`` from the reference's block
+    (:data:`engine.run.records.BLOCK_SHAPES`, :func:`~engine.run.records.cycle_block`); None:
+    the reference's writer, :func:`engine.run.records.write_block`."""
+    untrack: Callable[[Any], None] | None = None
+    """Takes a kept cycle result off the cyclic collector's lists (:mod:`engine.run.retained`);
+    None: nothing is untracked."""
 
     def run_systems(self, registered: tuple[NavSystem, ...]) -> tuple[NavSystem, ...]:
         """The run's systems, in the order of ``registered`` (the registry's)."""

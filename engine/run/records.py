@@ -8,7 +8,6 @@ and the major-axis azimuth in degrees from grid north.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from datetime import datetime
 from math import isfinite, sqrt
 from operator import attrgetter
@@ -16,9 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from engine import native
 from engine.filter.kalman import STATE_LABELS, UpdateResult
-from engine.io.outlog import KeyedLines, Value, _float_writer, _format_text, format_value
+from engine.io.outlog import KeyedLines, OutLogWriter, Value
 from engine.lsq.confidence import Ellipse, k_factor
 from engine.run.cycle import CycleResult, PositionEstimate
 
@@ -326,11 +324,7 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
     return head, block
 
 
-_K = native.kernel("outfmt")
-"""The compiled ``.OUT`` writer (engine/native/outfmt.c) or None (not built, stale,
-``UVNAV_PURE=1``): then every block is built by :func:`cycle_block`."""
-
-_CYCLE_CONSTS = (
+BLOCK_SHAPES = (
     _HEAD_KEYS,
     (_SENSOR_KEYS, _SENSOR_REF_KEYS, _SENSOR_STANDIN_KEYS),
     _GPS_KEYS, _GPS_WEIGHT_KEYS, _OBS_KEYS, _LOP_KEYS,
@@ -341,29 +335,14 @@ _CYCLE_CONSTS = (
     _KF_KEYS, _TEST_KEYS, ("n",), _IN[1], _SYS[1], _MSG[1], _NOFIX[1], _K95, _N_NAV,
     _utc_text,
 )
-"""What the kernel's ``cycle_rows`` takes from this module (its ``enum`` of ``C_*``): the key
-tuples of every line shape (the position variants indexed by ellipse + 2 × VCV finite, the LSE
-ones + 4 × rejected + 8 × failed), the 95 % factor, the number of navigation states and the
-time-stamp function for the years it leaves to Python."""
+"""What :func:`cycle_block` builds a block from besides the cycle: the key tuples of every line
+shape (the position variants indexed by ellipse + 2 × VCV finite, the LSE ones + 4 × rejected
++ 8 × failed), the 95 % factor, the number of navigation states and the time-stamp function.
+A writer that builds the block itself (``engine.fast.outlog``) is handed this."""
 
 
-def cycle_text(r: CycleResult) -> str | None:
-    """The whole ``.OUT`` block of ``r`` (``CYCLE`` … ``END n=…`` and its newline), exactly the
-    text :meth:`~engine.io.outlog.OutLogWriter.write_cycle` writes for :func:`cycle_block`,
-    built and rendered by one compiled call (``outfmt.cycle_text``: no Python per line); None
-    without the kernel or for a cycle it leaves to the Python (then write ``cycle_block``)."""
-    if _K is None or r.adapt_logged:  # the ADAPT line ([filter] adapt): the Python writes it
-        return None
-    return _K.cycle_text(r, _CYCLE_CONSTS, _float_writer(), _format_text, format_value)
-
-
-def cycle_writer() -> Callable[[CycleResult, int], int | None] | None:
-    """``write(r, fd)``: :func:`cycle_text`'s block of ``r`` written as UTF-8 bytes to the
-    descriptor ``fd`` by the kernel itself (``outfmt.cycle_writer``: the same text, no str made,
-    no Python frame per cycle; :meth:`~engine.io.outlog.OutLogWriter.write_direct` calls it);
-    it returns the number of bytes, or None with nothing written for a cycle it leaves to the
-    Python. None without the kernel (then :func:`cycle_text` / :func:`cycle_block`)."""
-    make = getattr(_K, "cycle_writer", None) if _K is not None else None
-    if make is None:
-        return None
-    return make(_CYCLE_CONSTS, _float_writer(), _format_text, format_value)  # type: ignore[no-any-return]
+def write_block(out: OutLogWriter, r: CycleResult) -> None:
+    """Write the ``.OUT`` block of ``r`` (:func:`cycle_block`) to ``out`` in one flushed write:
+    the reference's block writer (a run may take the compiled one of ``engine.fast.outlog``)."""
+    head, lines = cycle_block(r)
+    out.write_cycle(head, lines)

@@ -12,13 +12,14 @@ of the instructions and more of the time (docs/PERFORMANCE.md, "The garbage coll
 These objects cannot be part of a reference cycle: a frozen record gets its fields when it is
 made and never again, so nothing it holds can refer back to it unless a *mutable* object on
 the way is changed later, and the walk below does not enter mutable objects. Reference
-counting frees them as before; the collector just stops looking at them. :func:`untrack`
-takes a kept result and everything frozen under it off the collector's lists, in one compiled
-call (``engine.native.runparse.untrack``; ~35 k instructions, a few µs, an epoch). Without
-the kernel (``UVNAV_PURE=1``, no build) it is None and nothing is untracked: the pure path is
-the reference, not the fast one, and the results are the same either way.
+counting frees them as before; the collector just stops looking at them. The compiled walk of
+``engine.fast.retained`` takes a kept result and everything frozen under it off the
+collector's lists in one call (~35 k instructions, a few µs, an epoch); a run takes it as its
+``untrack`` part (``engine.run.parts.CycleParts``). The reference untracks nothing: the
+results are the same either way, only the collector's work differs.
 
-What is entered: exact tuples and instances of frozen dataclasses (:func:`is_frozen_record`),
+What is entered: exact tuples and instances of frozen dataclasses
+(``engine.fast.retained.is_frozen_record``),
 both then untracked; and exact dicts (a record's instance dict), whose values are walked and
 which are untracked only when none of their keys and values is tracked any more (CPython's own
 rule for dicts; CPython tracks such a dict again when a container is stored in it). What stops
@@ -29,12 +30,6 @@ session's objects are all freed once it is dropped (no cycle was hidden).
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Callable
-from typing import Any
-
-from engine import native
-
 UNTRACK_MIN_HISTORY = 100
 """A session untracks its results only when it keeps at least this many cycles. The walk costs
 about as many instructions as the collector's work it saves (~35 k an epoch on the demo); it
@@ -42,32 +37,3 @@ pays because the collector's work is cache misses over the whole history (a full
 of a 3600-cycle history: ~80 ms) and the walk's is not. A result kept for fewer cycles is seen
 by a few young collections at most (one every ~25 demo cycles) and never by a full one: there
 the walk would only cost (the replay keeps 1, ``uvnav replay``; the console 3600)."""
-
-
-def is_frozen_record(tp: type) -> bool:
-    """True for a frozen dataclass (its instances never change after ``__init__``): the types
-    :func:`untrack` enters and takes off the collector's lists."""
-    params = getattr(tp, "__dataclass_params__", None)
-    return isinstance(tp, type) and dataclasses.is_dataclass(tp) and bool(
-        getattr(params, "frozen", False))
-
-
-def _untracker() -> Callable[[Any], None] | None:
-    """``runparse.untrack`` bound to a cache of each type's :func:`is_frozen_record` answer, or
-    None (no kernel)."""
-    kernel = native.kernel("runparse")
-    walk = getattr(kernel, "untrack", None)
-    if walk is None:
-        return None
-    kinds: dict[type, bool] = {}
-
-    def untrack(obj: Any) -> None:
-        walk(obj, kinds, is_frozen_record)
-
-    return untrack
-
-
-untrack: Callable[[Any], None] | None = _untracker()
-"""``untrack(result)``: ``result`` and the frozen records, tuples and dicts under it off the
-cyclic collector's lists (compiled); None on the pure path, where a session leaves its results
-to the collector (same results, more collector work)."""

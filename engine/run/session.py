@@ -66,8 +66,8 @@ from engine.run.cycle import (
 )
 from engine.run.parts import CycleParts
 from engine.run.parts import choose as choose_parts
-from engine.run.records import cycle_block, cycle_json, cycle_text, cycle_writer
-from engine.run.retained import UNTRACK_MIN_HISTORY, untrack
+from engine.run.records import BLOCK_SHAPES, cycle_block, cycle_json, write_block
+from engine.run.retained import UNTRACK_MIN_HISTORY
 from engine.run.setup import (
     CHAIN_FILE,
     DATUM_FILE,
@@ -193,9 +193,9 @@ class Session:
         self.context: RunContext = build_context(config, self.datums, self.chains, self.parts)
         self.nav: NavState = initial_state(config)
         self.history: deque[CycleResult] = deque(maxlen=max(1, history))
-        self._untrack = untrack if history >= UNTRACK_MIN_HISTORY else None
+        self._untrack = self.parts.untrack if history >= UNTRACK_MIN_HISTORY else None
         """Kept results off the cyclic collector's lists (engine.run.retained) where they are
-        kept long enough for it to pay; None too on the pure path."""
+        kept long enough for it to pay; None too on the reference's parts."""
         self.bad_records: list[BadRecord] = []
         """The first :data:`BAD_RECORDS_KEPT` bad records (all of them are ``BAD`` lines of the
         ``.OUT`` log; :attr:`skipped_records` counts them all): memory stays bounded."""
@@ -214,7 +214,8 @@ class Session:
         self._counts = [0, 0, 0, 0]  # cycle_counts summed
         self._run_name = source_name if source_name is not None else os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = (
-            open_records(self._run_name, config.nmea.options) if records is None
+            open_records(self._run_name, config.nmea.options, self.parts.run_record)
+            if records is None
             else iter(records))
         self.nmea_stats: NmeaStats | None = None
         """Sentences used/skipped of an NMEA log run file (None for a ``.RUN``); complete at the
@@ -237,8 +238,10 @@ class Session:
         self._prev_record: RunRecord | None = None
         self._smoother: SmootherSpill | None = SmootherSpill() if collect_smoother else None
         self._out: OutLogWriter | None = None
-        self._write_cycle: Callable[[CycleResult, int], int | None] | None = None
-        """The compiled block writer for :meth:`OutLogWriter.write_direct` (None: none)."""
+        self._write_block: Callable[[OutLogWriter, CycleResult], None] = (
+            write_block if self.parts.out_writer is None
+            else self.parts.out_writer(BLOCK_SHAPES, cycle_block))
+        """Writes a cycle's ``.OUT`` block: the run's part (engine.run.parts), one per run."""
         self._jsonl: OutputFile | None = None
         self.jsonl_path: Path | None = None
         self._open_outputs(config, out_path, jsonl_path, force,
@@ -269,7 +272,6 @@ class Session:
                     force=force,
                     guard=guard,
                 )
-                self._write_cycle = cycle_writer()
         except BaseException:
             self.close()
             if self.jsonl_path is not None and not force:
@@ -424,18 +426,8 @@ class Session:
         if result.lane_slips:
             counts[3] += result.lane_slips
         out = self._out
-        if out is not None:  # the block in one compiled call where it can, else by the Python
-            write = self._write_cycle  # built and written to the file by the kernel itself
-            if result.adapt_logged:  # the ADAPT line: the reference writer (cycle_block)
-                head, lines = cycle_block(result)
-                out.write_cycle(head, lines)
-            elif write is None or not out.write_direct(write, result):
-                text = cycle_text(result)
-                if text is not None:
-                    out.write_block(text)
-                else:
-                    head, lines = cycle_block(result)
-                    out.write_cycle(head, lines)
+        if out is not None:
+            self._write_block(out, result)
         if self._jsonl is not None:
             self._jsonl.write(json.dumps(cycle_json(result), separators=(",", ":")) + "\n")
             self._jsonl.flush()

@@ -88,9 +88,10 @@ def test_engine_bench_counts_the_compiled_kernels(tmp_path, monkeypatch):
     kernel and the ``.OUT`` writer (a method the kernel binds at run time, which had no module
     in its label before) are both counted, and a method of a kernel type is named by its type."""
     from bench import bench_engine as be
-    from engine.run import records
+    from engine.fast import outlog as fast_outlog
+    from engine.run.records import BLOCK_SHAPES
 
-    if records.cycle_writer() is None:
+    if fast_outlog.cycle_writer(BLOCK_SHAPES) is None:
         pytest.skip("the compiled .OUT writer is not in use (not built, or UVNAV_PURE=1)")
     monkeypatch.setattr(be, "REPEATS", 1)
     t, each = be.kernel_time(load_config(be.CONFIG), tmp_path / "B.OUT", 30)

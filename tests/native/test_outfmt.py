@@ -1,5 +1,6 @@
 """The compiled ``.OUT`` block writer (``engine.native.outfmt``) writes exactly the characters of
-the Python it replaces (:func:`engine.io.outlog._render_rows_py`, issue 14).
+the reference it stands in for (:func:`engine.io.outlog.render_rows`, through
+``engine.fast.outlog``).
 
 Compared with ``==`` on the whole text: the rows of a real replay (200 demo epochs and the
 thesis sample), with orjson's float texts and with ``repr`` only (the kernel's
@@ -23,8 +24,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from engine import native
+from engine.fast import outlog as fast_outlog
 from engine.io import outlog
-from engine.io.outlog import _N, KeyedLines, _render_rows_py
+from engine.io.outlog import _N, KeyedLines
+from engine.io.outlog import render_rows as _render_rows_py
+from engine.run.records import BLOCK_SHAPES
 from tests.native.replay import replay
 
 K = native._load("outfmt")[0]
@@ -232,7 +236,7 @@ def _same_as_python(rows: list[Row], compiled: bool) -> None:
         assert got is None
         return
     assert got is None or got == want
-    assert outlog.render_rows(rows, compiled) == want
+    assert fast_outlog.render_rows(rows, compiled) == want
 
 
 @needs_kernel
@@ -329,16 +333,16 @@ def test_a_float_writer_with_a_wrong_count_is_not_used() -> None:
 def test_pure_path_when_the_kernel_is_none(monkeypatch: pytest.MonkeyPatch,
                                            replay_blocks: list[list[Row]]) -> None:
     calls = []
-    real = outlog._render_rows_py
+    real = outlog.render_rows
 
     def spy(rows: list[Row], compiled: bool = True) -> str:
         calls.append(1)
         return real(rows, compiled)
 
-    monkeypatch.setattr(outlog, "_K", None)
-    monkeypatch.setattr(outlog, "_render_rows_py", spy)
+    monkeypatch.setattr(fast_outlog, "kernel", lambda: None)
+    monkeypatch.setattr(outlog, "render_rows", spy)
     rows = replay_blocks[5]
-    assert outlog.render_rows(rows) == real(rows)
+    assert fast_outlog.render_rows(rows) == real(rows)
     assert calls
 
 
@@ -350,8 +354,8 @@ def test_uvnav_pure_gives_no_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
 @needs_kernel
 def test_the_writer_writes_the_kernel_text(tmp_path: Path,
                                            replay_blocks: list[list[Row]]) -> None:
-    """write_cycle goes through the kernel when it is loaded (and flushes each block)."""
-    if outlog._K is None:
+    """The reference writer's block (write_cycle, flushed each block) is the kernel's text."""
+    if fast_outlog.kernel() is None:
         pytest.skip("UVNAV_PURE=1: the writer uses the Python")
     rows = replay_blocks[3]
     head_row, *inner, _end, _nl = rows
@@ -382,7 +386,6 @@ def _typed(rows: list[Row]) -> list[tuple[str, tuple[str, ...], tuple[object, ..
 
 def _check_cycle(r: object) -> None:
     """The kernel's rows and text of ``r`` are the Python's, value by value and type by type."""
-    from engine.run import records
 
     assert K is not None
     if getattr(r, "adapt_logged", False):
@@ -392,11 +395,11 @@ def _check_cycle(r: object) -> None:
 
         r = replace(r, adapt_logged=False)  # type: ignore[type-var]
     want = _python_rows(r)
-    got = K.cycle_rows(r, records._CYCLE_CONSTS)
+    got = K.cycle_rows(r, BLOCK_SHAPES)
     assert got is not None
     assert _typed(got) == _typed(want)
     for compiled in (True, False):
-        text = K.cycle_text(r, records._CYCLE_CONSTS,
+        text = K.cycle_text(r, BLOCK_SHAPES,
                             outlog._float_writer() if compiled else None, outlog._format_text,
                             outlog.format_value)
         assert text == _render_rows_py(want, compiled)
@@ -418,14 +421,14 @@ def replay_results() -> list[object]:
 @needs_kernel
 def test_cycle_rows_are_cycle_block(replay_results: list[object]) -> None:
     """``outfmt.cycle_rows`` / ``cycle_text`` give the Python's rows and text on every cycle of
-    three real replays (and the replays went through them: records.cycle_text is used)."""
-    from engine.run import records
+    three real replays."""
 
     assert len(replay_results) > 250
     for r in replay_results:
         _check_cycle(r)
-        assert records.cycle_text(r) == (None if records._K is None or r.adapt_logged else
-                                         _render_rows_py(_python_rows(r)))
+        if not r.adapt_logged:  # an ADAPT cycle is the reference's to write (_check_cycle)
+            assert fast_outlog.cycle_text(r, BLOCK_SHAPES) == (
+                None if fast_outlog.kernel() is None else _render_rows_py(_python_rows(r)))
 
 
 @needs_kernel
@@ -479,7 +482,6 @@ def test_cycle_rows_leave_the_unexpected_to_the_python(replay_results: list[obje
     builds the block and raises or writes as it always did)."""
     from dataclasses import replace
 
-    from engine.run import records
 
     base = next(r for r in replay_results if r.kf_pred is not None)  # type: ignore
     int_p = replace(base.filter_state)  # type: ignore[attr-defined]
@@ -491,15 +493,14 @@ def test_cycle_rows_leave_the_unexpected_to_the_python(replay_results: list[obje
         replace(base, filter_state=int_p),
     ]
     for r in bad:
-        assert K.cycle_rows(r, records._CYCLE_CONSTS) is None  # type: ignore[union-attr]
-        assert records.cycle_text(r) is None
+        assert K.cycle_rows(r, BLOCK_SHAPES) is None  # type: ignore[union-attr]
+        assert fast_outlog.cycle_text(r, BLOCK_SHAPES) is None
     assert K.cycle_rows(base, ()) is None  # type: ignore[union-attr]
 
 
 def test_session_writes_the_python_block_without_the_kernel(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     """With the kernel (or where it declines) and without it, a replay's ``.OUT`` is the same."""
-    from engine.run import records
     from tests.paths import DATA
 
     def run(name: str) -> str:
@@ -513,6 +514,6 @@ def test_session_writes_the_python_block_without_the_kernel(
         return out.read_text(encoding="utf-8").split("# config-end\n", 1)[1]
 
     fast = run("fast")
-    monkeypatch.setattr(records, "_K", None)
-    assert records.cycle_text(object()) is None  # type: ignore[arg-type]
+    monkeypatch.setattr(fast_outlog, "kernel", lambda: None)
+    assert fast_outlog.cycle_text(object(), BLOCK_SHAPES) is None  # type: ignore[arg-type]
     assert run("pure") == fast

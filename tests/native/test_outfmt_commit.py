@@ -22,10 +22,11 @@ import numpy as np
 import pytest
 
 from engine import native
+from engine.fast import outlog as fast_outlog
 from engine.filter.estimate import freeze_result
 from engine.io import outlog
-from engine.run import records
 from engine.run.parts import REFERENCE, choose
+from engine.run.records import BLOCK_SHAPES
 from tests.native.replay import replay
 
 K = native._load("outfmt")[0]
@@ -59,13 +60,13 @@ def test_writer_writes_the_utf8_of_cycle_text(results: list[object], tmp_path: P
     count returned is their number; with ``repr`` only (no fast float writer) too."""
     assert len(results) > 200
     for dumps in (outlog._float_writer(), None):
-        write = K.cycle_writer(records._CYCLE_CONSTS, dumps, outlog._format_text,
+        write = K.cycle_writer(BLOCK_SHAPES, dumps, outlog._format_text,
                                outlog.format_value)
         fd = os.open(tmp_path / f"w{dumps is None}", os.O_RDWR | os.O_CREAT | os.O_TRUNC)
         try:
             want = []
             for r in results:
-                text = K.cycle_text(r, records._CYCLE_CONSTS, dumps, outlog._format_text,
+                text = K.cycle_text(r, BLOCK_SHAPES, dumps, outlog._format_text,
                                     outlog.format_value)
                 assert text is not None
                 data = text.encode("utf-8")
@@ -82,8 +83,8 @@ def test_writer_declines_and_fails_as_the_python(results: list[object], tmp_path
     written as its UTF-8; a closed descriptor: OSError EBADF; /dev/full: ENOSPC."""
     from dataclasses import replace
 
-    write = records.cycle_writer() or K.cycle_writer(
-        records._CYCLE_CONSTS, outlog._float_writer(), outlog._format_text, outlog.format_value)
+    write = fast_outlog.cycle_writer(BLOCK_SHAPES) or K.cycle_writer(
+        BLOCK_SHAPES, outlog._float_writer(), outlog._format_text, outlog.format_value)
     path = tmp_path / "d.OUT"
     fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC)
     try:
@@ -91,10 +92,11 @@ def test_writer_declines_and_fails_as_the_python(results: list[object], tmp_path
         assert write(replace(results[3], messages=("bad \udc80 text",)), fd) is None
         assert _read_all(fd) == b""
         r = replace(results[3], messages=("Δ 5° ✓", "naïve = 1"))
-        assert write(r, fd) == len(K.cycle_text(r, records._CYCLE_CONSTS,
+        assert write(r, fd) == len(K.cycle_text(r, BLOCK_SHAPES,
                                                outlog._float_writer(), outlog._format_text,
                                                outlog.format_value).encode())
-        assert _read_all(fd).decode("utf-8") == records.cycle_text(r) or records._K is None
+        assert (_read_all(fd).decode("utf-8") == fast_outlog.cycle_text(r, BLOCK_SHAPES)
+                or fast_outlog.kernel() is None)
     finally:
         os.close(fd)
     with pytest.raises(OSError) as info:
@@ -125,7 +127,7 @@ def test_session_writes_directly_and_errors_name_the_log(tmp_path: Path,
     from engine.run.session import Session
     from tests.paths import DATA
 
-    if records.cycle_writer() is None:
+    if fast_outlog.cycle_writer(BLOCK_SHAPES) is None:
         pytest.skip("UVNAV_PURE=1: the session writes through the text layers")
     calls = []
     real = OutLogWriter.write_direct
@@ -147,10 +149,10 @@ def test_session_writes_directly_and_errors_name_the_log(tmp_path: Path,
         return out.read_text(encoding="utf-8").split("# config-end\n", 1)[1]
 
     direct = run("direct")
-    assert calls == [True] * 30
-    monkeypatch.setattr(records, "_K", None)
+    assert calls == [True] * 29  # the first block: the run's first-use check (cycle_text)
+    monkeypatch.setattr(fast_outlog, "kernel", lambda: None)
     assert run("python") == direct
-    assert len(calls) == 30
+    assert len(calls) == 29
 
     log = OutLogWriter.create(tmp_path / "E.OUT")
     assert log._direct is not None

@@ -201,4 +201,4 @@ def test_remembered_word_forms_are_the_python_rule(words: list[str]) -> None:
     rows = [("W", tuple(f"k{i}" for i in range(len(values))), values)]
     for _ in range(2):
         got = K.render_rows(rows, None, outlog._format_text, outlog.format_value)
-        assert got == outlog._render_rows_py(rows, False)
+        assert got == outlog.render_rows(rows, False)

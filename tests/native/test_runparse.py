@@ -1,6 +1,8 @@
-"""engine.native.runparse (the compiled ``.RUN`` hot path) against its pure twin
-:func:`engine.io.runfile._fast_record_py`: the same record (every field, floats by their bits)
-or the same None, on the bundled files, edge lines and generated lines."""
+"""engine.native.runparse (the compiled ``.RUN`` quick parser, ``engine.fast.runfile``) against
+the reference's checked parser :func:`engine.io.runfile.parse_run_line`: where the kernel
+gives a record, the reference gives the same record (every float within the tolerance contract,
+every other field identical), on the bundled files, edge lines and generated lines; and the
+kernel takes every usual line of the bundled files."""
 
 from __future__ import annotations
 
@@ -14,13 +16,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from engine import native
-from engine.io import runfile
-from engine.io.runfile import RunRecord, _fast_record_py
+from engine.errors import InputError
+from engine.fast import runfile as fast_runfile
+from engine.io.runfile import RunRecord, parse_run_line
+from engine.run.parts import choose
 from tests.paths import DATA, ROOT
 from tests.run_lines import DIVE_LINES, perturbed_dive_lines
 
-KERNEL = runfile._K
-needs_kernel = pytest.mark.skipif(KERNEL is None, reason="engine.native.runparse not built")
+KERNEL = native.kernel("runparse")
+QUICK = fast_runfile.quick_parser()
+needs_kernel = pytest.mark.skipif(QUICK is None, reason="engine.native.runparse not built")
 
 LINES = [
     *(DATA / "DEMO.RUN").read_text(encoding="utf-8").splitlines(keepends=True),
@@ -31,33 +36,58 @@ SAMPLE = ("920917 100002 52 49 56.313 N 004 29 55.439 E .876 .162 .032 232.6 10.
 _TOKS = SAMPLE.split()
 
 
-def _bits(rec: RunRecord | None) -> object:
-    if rec is None:
-        return None
-
-    def one(v: object) -> object:
-        if isinstance(v, float):
-            return v.hex()
-        if isinstance(v, tuple):
-            return tuple(one(x) for x in v)
-        return (type(v).__name__, v)
-    return (type(rec).__name__, tuple(one(getattr(rec, f.name)) for f in fields(RunRecord)))
-
-
-def _same(line: str, line_no: int = 11) -> None:
-    assert KERNEL is not None
-    got = KERNEL.record(line, line_no)
-    want = _fast_record_py(line, line_no)
-    assert _bits(got) == _bits(want), line
-    if got is not None:
-        assert got == want and repr(got) == repr(want) and hash(got.time) == hash(want.time)
+def _same(line: str, line_no: int = 11) -> bool:
+    """The kernel's record of ``line`` is the reference's (True), or it left the line to the
+    reference (False)."""
+    assert QUICK is not None
+    got = QUICK(line, line_no)
+    if got is None:
+        return False
+    try:
+        want = parse_run_line(line, line_no)
+    except InputError as exc:
+        raise AssertionError(f"the kernel took a bad line {line!r}: {exc}") from None
+    assert want is not None, line
+    assert fast_runfile._same(got, want), (line, got, want)
+    assert got.raw == want.raw and got.time == want.time and hash(got.time) == hash(want.time)
+    return True
 
 
 @needs_kernel
-def test_bundled_records_give_the_pure_records() -> None:
-    for no, line in enumerate(LINES, 1):
-        _same(line, no)
-    assert runfile._fast_record is KERNEL.record
+def test_bundled_records_give_the_reference_records() -> None:
+    taken = sum(_same(line, no) for no, line in enumerate(LINES, 1))
+    records = sum(parse_run_line(line, 1) is not None for line in LINES)
+    assert taken == records  # every record of the bundled files takes the quick parser
+    assert choose().run_record is QUICK
+
+
+def test_the_probe_declines_a_parser_that_reads_otherwise() -> None:
+    """A quick parser whose latitude is off by 1e-8° (more than the tolerance contract), or
+    which takes a bad line, fails the first-use probe; the reference's own parser passes."""
+    from dataclasses import replace
+
+    def off(line: str, line_no: int) -> RunRecord | None:
+        rec = parse_run_line(line, line_no)
+        if rec is None or rec.gps_lat_deg is None:
+            return rec
+        return replace(rec, gps_lat_deg=rec.gps_lat_deg + 1e-8)
+
+    def lax(line: str, line_no: int) -> RunRecord | None:
+        try:
+            return parse_run_line(line, line_no)
+        except InputError:
+            return parse_run_line(fast_runfile.PROBE_LINES[0], line_no)
+
+    assert fast_runfile.probe(off) is not None and fast_runfile.probe(off).startswith(
+        "first-use probe failed")
+    assert "took the bad line" in (fast_runfile.probe(lax) or "")
+    def exact(line: str, line_no: int) -> RunRecord | None:
+        try:
+            return parse_run_line(line, line_no)
+        except InputError:
+            return None
+
+    assert fast_runfile.probe(exact) is None
 
 
 @needs_kernel
@@ -142,16 +172,10 @@ def test_random_values_give_the_pure_outcome(y: int, mo: int, d: int, h: int, mi
     _same(" ".join(toks[:len(toks) - drop]) + "\n")
 
 
-def test_pure_path_without_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
-    """With no kernel the module's hot path is the Python twin (what UVNAV_PURE=1 runs)."""
-    monkeypatch.setattr(runfile, "_fast_record", _fast_record_py)
-    rec = runfile.parse_run_line(SAMPLE, 3)
-    assert rec is not None and rec.line_no == 3 and rec.decca == (0.876, 0.162, 0.032)
-
-
 def test_pure_env_leaves_the_kernel_unloaded() -> None:
-    code = ("from engine.io import runfile as r; "
-            "assert r._K is None and r._fast_record is r._fast_record_py; "
+    code = ("import sys; from engine.run.parts import choose; from engine.io import runfile as r; "
+            "assert choose().run_record is None; "
+            "assert 'engine.native.runparse' not in sys.modules; "
             f"print(r.parse_run_line({SAMPLE!r}, 1))")
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=120, env={**os.environ, native.PURE_ENV: "1"})

@@ -1,6 +1,6 @@
 """The kept cycle results are off the cyclic collector's lists, and nothing is leaked by it.
 
-``engine.run.retained.untrack`` (the compiled ``runparse.untrack``) takes a result and the
+``engine.fast.retained.untracker()`` (the compiled ``runparse.untrack``) takes a result and the
 frozen records, tuples and all-untracked dicts under it off CPython's GC lists. The checks:
 what it enters and what it leaves tracked (synthetic objects, ``gc.is_tracked``), that a
 dict it untracked is tracked again by CPython when a container is stored in it, that a
@@ -20,13 +20,14 @@ from typing import Any
 import pytest
 
 from engine import native
+from engine.fast import retained as fast_retained
 from engine.run import retained
 from engine.run.config import load_config
 from engine.run.session import Session
 
 ROOT = Path(__file__).resolve().parents[2]
 needs_kernel = pytest.mark.skipif(
-    retained.untrack is None,
+    fast_retained.untracker() is None,
     reason=f"engine.native.runparse not in use: {native.status('runparse')}")
 
 
@@ -48,8 +49,9 @@ class _Mutable:
 
 
 def _untrack(obj: object) -> None:
-    assert retained.untrack is not None
-    retained.untrack(obj)
+    untrack = fast_retained.untracker()
+    assert untrack is not None
+    untrack(obj)
 
 
 @needs_kernel
@@ -88,10 +90,12 @@ def test_dict_holding_a_tracked_value_stays_tracked_and_is_retracked_on_store() 
 def test_pure_path_untracks_nothing(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     """Without the kernel there is no walk, and a session's kept results stay tracked."""
     import engine.run.session as session_mod
+    from engine.run.parts import REFERENCE
 
-    monkeypatch.setattr(native, "kernel", lambda name: None)
-    assert retained._untracker() is None
-    monkeypatch.setattr(session_mod, "untrack", None)
+    with monkeypatch.context() as m:
+        m.setattr(native, "kernel", lambda name: None)
+        assert fast_retained.untracker.__wrapped__() is None
+    monkeypatch.setattr(session_mod, "choose_parts", lambda: REFERENCE)
     s = _demo_session(tmp_path, "P")
     try:
         s.run(max_cycles=5)
@@ -106,10 +110,10 @@ def test_is_frozen_record() -> None:
     class Open:
         x: int
 
-    assert retained.is_frozen_record(_Leaf) and retained.is_frozen_record(_Node)
-    assert not retained.is_frozen_record(Open)
-    assert not retained.is_frozen_record(_Mutable)
-    assert not retained.is_frozen_record(tuple)
+    assert fast_retained.is_frozen_record(_Leaf) and fast_retained.is_frozen_record(_Node)
+    assert not fast_retained.is_frozen_record(Open)
+    assert not fast_retained.is_frozen_record(_Mutable)
+    assert not fast_retained.is_frozen_record(tuple)
 
 
 def _demo_session(tmp_path: Path, name: str, **kwargs: Any) -> Session:
@@ -129,7 +133,7 @@ def _tracked_frozen_under(obj: object) -> list[str]:
             continue
         seen.add(id(o))
         t = type(o)
-        if not (t is tuple or t is dict or retained.is_frozen_record(t)):
+        if not (t is tuple or t is dict or fast_retained.is_frozen_record(t)):
             continue
         if gc.is_tracked(o) and t is not dict:
             out.append(t.__name__)
