@@ -131,3 +131,29 @@ def test_simulate_random_bad_arguments(tmp_path: Path, capsys: pytest.CaptureFix
     assert run_simulate([*extra, "--out", str(tmp_path / "R.RUN")]) == 2
     assert text in capsys.readouterr().err
     assert not (tmp_path / "R.RUN").exists()
+
+
+def test_target_figures_of_hand_made_rows() -> None:
+    """tests/random_missions.py on three rows computed by hand: a phase under 300 epochs is not
+    scored, a failed run fails, the beyond-2a share is pooled over epochs."""
+    from tests.random_missions import figures
+
+    def row(**kw: object) -> dict:
+        base = {"status": "ok", "all_epochs": 1000, "all_mpp_cover95": 0.95,
+                "all_mpp_beyond2a": 0.0, "fixes_mpp_rms_m": 10.0, "fixes_lse_rms_m": 12.0,
+                "wrong_lane_surfaced": 0, "wrong_lane_submerged": 0, "wrong_lane_after": 0}
+        for ph in ("surfaced", "submerged", "after"):
+            base |= {f"{ph}_epochs": 400, f"{ph}_mpp_cover95": 0.9}
+        return base | kw
+
+    rows = [row(),
+            row(surfaced_epochs=299, surfaced_mpp_cover95=0.1, all_epochs=3000,
+                all_mpp_beyond2a=0.01, all_mpp_cover95=0.80, fixes_mpp_rms_m=13.0,
+                wrong_lane_after=2),
+            row(status="failed", all_epochs=0)]
+    f = figures(rows)
+    assert f.share_phases_ok == pytest.approx(2 / 3)
+    assert f.median_all_cover == pytest.approx(0.875)
+    assert f.beyond_2a == pytest.approx(30 / 4000)
+    assert f.mpp_le_lse_share == pytest.approx(0.5)
+    assert (f.wrong_lanes, f.missions_with_wrong_lanes, f.failed) == (2, 1, 1)
