@@ -183,6 +183,7 @@ if TYPE_CHECKING:
     from engine.run.nmea_out import NmeaOutOptions, NmeaPositionOut
     from engine.run.records import lse_estimate, position_json
     from engine.run.session import RunSummary, Session
+    from engine.sim.sampler import SamplerError, SamplerOptions, draw_mission
     from engine.sim.scenario import load_scenario
     from engine.sim.simulate import read_data_files, write_simulation
     from engine.systems.gps import GpsWeight, quality_name
@@ -219,6 +220,7 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     "engine.assess.denied": ("CHECKPOINTS_S", "DeniedReport", "clean_records",
                              "denied_experiment", "run_records", "truth_reference"),
     "engine.sim.scenario": ("load_scenario",),
+    "engine.sim.sampler": ("SamplerError", "SamplerOptions", "draw_mission"),
     "engine.native": ("PURE_ENV",),
     "engine.run.kernels": ("kernel_report",),
     "engine.sim.simulate": ("read_data_files", "write_simulation"),
@@ -360,6 +362,9 @@ __all__ = [
     "RunSummary",
     "assess",
     "load_scenario",
+    "SamplerError",
+    "SamplerOptions",
+    "draw_mission",
     "position_json",
     "read_data_files",
     "read_nav_log",

@@ -16,8 +16,10 @@ Columns (:data:`COLUMNS`, docs/CAMPAIGN.md): identity ``key, scenario, variant, 
 epochs with the truth in the 95 % ellipse) and ``_nees`` (mean eᵀC⁻¹e, expected 2); the MPP's RMS
 error by time since the last LSE (``mpp_rms_m_since_fix_A_Bmin``); counts ``fixes``,
 ``fix_updates``, ``lom_rejected``, ``gated``, ``wrong_lane_{surfaced,submerged,after}``,
-``lane_out``, ``bad_records``; timing ``wall_s``, ``cpu_s`` (the only columns that depend on
-the machine).
+``lane_out``, ``bad_records``; the share of epochs whose MPP error exceeds twice the filter's 95 %
+semi-major axis (``{phase}_mpp_beyond2a``); the MPP and LSE RMS over the surfaced epochs with an
+independent LSE (``fixes_mpp_rms_m``, ``fixes_lse_rms_m``); timing ``wall_s``, ``cpu_s`` (the
+only columns that depend on the machine).
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from engine.campaign.spec import CampaignBundle, RunTask, ScenarioInputs, merge_
 from engine.run.config import config_from_data
 from engine.run.cycle import CycleResult
 from engine.run.session import Session, read_data_dir
+from engine.sim.sampler import draw_mission
 from engine.sim.scenario import parse_scenario_text
 from engine.sim.simulate import format_truth_row, simulate, simulation_setup, truth_header
 from engine.systems.decca import decca_geometry
@@ -73,6 +76,8 @@ def _columns() -> tuple[tuple[str, str], ...]:
     for ph in PHASES:
         cols.append((f"{ph}_epochs", "int"))
         cols += [(f"{ph}_{est}_{suffix}", "float") for est in ESTIMATES for suffix, _ in STATS]
+    cols += [(f"{ph}_mpp_beyond2a", "float") for ph in PHASES]
+    cols += [("fixes_mpp_rms_m", "float"), ("fixes_lse_rms_m", "float")]
     cols += [(since_fix_column(lo, hi), "float") for lo, hi in SINCE_FIX_BINS_MIN]
     cols += [(n, "int") for n in ("fixes", "fix_updates", "lom_rejected", "gated")]
     cols += [(f"wrong_lane_{ph}", "int") for ph in LANE_PHASES]
@@ -224,6 +229,25 @@ def _since_fix(a: Assessment) -> dict[str, float]:
     return out
 
 
+def _beyond(a: Assessment) -> dict[str, float]:
+    """Per phase, the share of epochs whose MPP error exceeds twice the filter's 95 %
+    semi-major axis (epochs with both; NaN without any), and the MPP and LSE RMS errors (m)
+    over the surfaced epochs (either surfaced phase) that have an independent LSE."""
+    s = a.series
+    err = np.hypot(s.error["mpp"][:, 0], s.error["mpp"][:, 1])
+    ok = np.isfinite(err) & np.isfinite(s.kf_a95_m)
+    over = ok & (err > 2.0 * np.where(ok, s.kf_a95_m, 0.0))
+    out: dict[str, float] = {}
+    for i, ph in enumerate(PHASES):
+        m = ok if ph == "all" else ok & (s.phase == i)
+        out[f"{ph}_mpp_beyond2a"] = float(over[m].sum() / m.sum()) if m.any() else math.nan
+    lse = np.hypot(s.error["lse"][:, 0], s.error["lse"][:, 1])
+    both = np.isfinite(err) & np.isfinite(lse) & ((s.phase == 0) | (s.phase == 2))
+    out["fixes_mpp_rms_m"] = float(np.sqrt(np.mean(err[both] ** 2))) if both.any() else math.nan
+    out["fixes_lse_rms_m"] = float(np.sqrt(np.mean(lse[both] ** 2))) if both.any() else math.nan
+    return out
+
+
 def _figures(a: Assessment, session: Session, checks: _Checks) -> dict[str, Any]:
     row: dict[str, Any] = {}
     spans = {p.name: p.n for p in a.phases}
@@ -235,6 +259,7 @@ def _figures(a: Assessment, session: Session, checks: _Checks) -> dict[str, Any]
             for suffix, attr in STATS:
                 row[f"{ph}_{est}_{suffix}"] = float(getattr(st, attr))
     row.update(_since_fix(a))
+    row.update(_beyond(a))
     summary = session.summary()
     row.update(epochs=int(a.n_matched), fixes=int(summary.fixes),
                fix_updates=checks.fix_updates, lom_rejected=checks.lom_rejected,
@@ -242,6 +267,15 @@ def _figures(a: Assessment, session: Session, checks: _Checks) -> dict[str, Any]
                bad_records=int(summary.skipped_records))
     row.update({f"wrong_lane_{ph}": n for ph, n in checks.wrong.items()})
     return row
+
+
+def _drawn(inputs: ScenarioInputs, seed: int, tmp: Path) -> ScenarioInputs:
+    """The sampler's mission for ``seed`` in place of the spec's placeholder texts (a draw the
+    engine refuses raises :class:`engine.sim.sampler.SamplerError`: a failed row)."""
+    data = read_data_dir(_write_data(tmp / "draw_data", inputs.sim_data))
+    mission = draw_mission(seed, data[0], data[1], inputs.sampler)
+    return dataclasses.replace(inputs, scenario_text=mission.scenario_text,
+                               config_text=mission.config_text)
 
 
 def _message(exc: BaseException, tmp: str) -> str:
@@ -262,6 +296,8 @@ def run_one(bundle: CampaignBundle, task: RunTask, tracks_dir: str | None = None
         tmp = Path(tmp_name)
         try:
             inputs = bundle.scenarios[task.scenario]
+            if inputs.sampler is not None:
+                inputs = _drawn(inputs, task.seed, tmp)
             variant = bundle.variants[task.variant]
             run_path, truth_path, truth = _simulate(inputs, task.seed, tmp)
             out_path = (Path(tracks_dir) / f"{task.key}.OUT" if tracks_dir is not None

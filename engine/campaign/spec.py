@@ -5,7 +5,10 @@ configuration ``NAME.toml`` beside it, or ``{ scenario = "...", config = "..." }
 list of whole numbers ≥ 0, or a string of ranges ``"1-200"`` / ``"1-5,8,10-12"``), an optional
 ``[config]`` table of run-configuration overrides applied to every run (docs/CONFIG.md keys,
 merged key by key into each scenario's configuration) and optional ``[[variants]]`` tables (a
-``name`` plus overrides on top of ``[config]``). Runs: every scenario × variant × seed.
+``name`` plus overrides on top of ``[config]``). An optional ``[sampler]`` table adds the
+randomized missions of :mod:`engine.sim.sampler` as one more scenario (its ``name``, default
+``random``): each seed draws its own mission, which the worker simulates with that seed.
+Runs: every scenario × variant × seed.
 
 Everything a worker needs is shipped with the task (:class:`CampaignBundle`: the scenario and
 configuration texts and the bytes of the data files ``TO_WGS84.DAT`` and ``DECCA.CHN``), so a
@@ -39,7 +42,9 @@ from engine.io.tomlsource import (
 )
 from engine.run.config import config_from_data, parse_config_text
 from engine.run.setup import CHAIN_FILE, DATUM_FILE, read_data_dir
+from engine.sim.sampler import SamplerError, SamplerOptions, draw_mission
 from engine.sim.scenario import parse_scenario_text
+from engine.sim.simulate import read_data_files
 
 __all__ = [
     "DEFAULT_VARIANT",
@@ -54,14 +59,16 @@ __all__ = [
     "parse_seeds",
 ]
 
-KEY_VERSION = 1
+KEY_VERSION = 2
 """Part of every run key: raised when a run's row changes meaning, so old rows are not reused."""
 DEFAULT_VARIANT = "default"
 """The one variant of a spec without ``[[variants]]``: no overrides beyond ``[config]``."""
 MAX_RUNS = 1_000_000
 """Most runs one spec may ask for (a typo such as ``"1-1000000000"`` is refused, not queued):
 the client keeps each run's identity and key, about 0.4 KB a run."""
-TOP_KEYS = ("name", "scenarios", "seeds", "config", "variants", "tracks")
+TOP_KEYS = ("name", "scenarios", "seeds", "config", "variants", "tracks", "sampler")
+SAMPLER_KEYS = ("name", "data_dir", "sample_interval_s", "max_mission_s")
+SAMPLER_DEFAULT_NAME = "random"
 SCENARIO_KEYS = ("scenario", "config")
 SCENARIO_SUFFIX = ".scenario.toml"
 
@@ -83,11 +90,16 @@ class ScenarioInputs:
     config_text: str
     sim_data: tuple[tuple[str, bytes], ...]
     run_data: tuple[tuple[str, bytes], ...]
+    sampler: SamplerOptions | None = None
 
     @functools.cached_property
     def digest(self) -> str:
-        """Hash of every input of this scenario (texts and data files)."""
-        parts = [_sha(self.scenario_text), _sha(self.config_text)]
+        """Hash of every input of this scenario (texts and data files; for the sampler its
+        version and options, not the texts of the one draw kept for checks)."""
+        if self.sampler is not None:
+            parts = [self.sampler.digest_text()]
+        else:
+            parts = [_sha(self.scenario_text), _sha(self.config_text)]
         parts += [f"{n}:{_sha(b)}" for n, b in (*self.sim_data, *self.run_data)]
         return _sha("\n".join(parts))
 
@@ -269,6 +281,7 @@ class _Raw:
     config: dict[str, Any]
     variants: list[tuple[str, dict[str, Any]]]
     tracks: bool
+    sampler: dict[str, Any] | None = None
 
 
 def _parse_top(data: Mapping[str, Any], base: Path, default_name: str) -> _Raw:
@@ -278,8 +291,15 @@ def _parse_top(data: Mapping[str, Any], base: Path, default_name: str) -> _Raw:
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name.strip():
         raise InputError("Must be a non-empty string !", field="name", text=str(name))
-    scen = data.get("scenarios")
-    if not isinstance(scen, list) or not scen:
+    sampler = data.get("sampler")
+    if sampler is not None:
+        if not isinstance(sampler, dict):
+            raise InputError("Use a [sampler] table !", field="sampler", text=str(sampler))
+        for k in sampler:
+            if k not in SAMPLER_KEYS:
+                raise InputError(UNKNOWN_KEY_MESSAGE, field=f"sampler.{k}", text=k)
+    scen = data.get("scenarios", [] if sampler is not None else None)
+    if not isinstance(scen, list) or (not scen and sampler is None):
         raise InputError("scenarios = [\"NAME.scenario.toml\", ...] expected !",
                          field="scenarios", text=None if scen is None else str(scen))
     entries = [_entry(v, i + 1, base) for i, v in enumerate(scen)]
@@ -307,10 +327,41 @@ def _parse_top(data: Mapping[str, Any], base: Path, default_name: str) -> _Raw:
     tracks = data.get("tracks", False)
     if not isinstance(tracks, bool):
         raise InputError("Must be true or false !", field="tracks", text=str(tracks))
-    n = len(entries) * len(variants) * len(seeds)
+    n = (len(entries) + (sampler is not None)) * len(variants) * len(seeds)
     if n > MAX_RUNS:
         raise InputError(f"Too many runs ({n}, at most {MAX_RUNS}) !", field="seeds")
-    return _Raw(name.strip(), entries, seeds, config, variants, tracks)
+    return _Raw(name.strip(), entries, seeds, config, variants, tracks, sampler)
+
+
+def _sampler_inputs(table: Mapping[str, Any], base: Path, spec_file: str) -> ScenarioInputs:
+    """The ``[sampler]`` table as one scenario of the campaign (InputError naming the key)."""
+    name = table.get("name", SAMPLER_DEFAULT_NAME)
+    if not isinstance(name, str) or not name.strip():
+        raise InputError("Must be a non-empty string !", field="sampler.name", text=str(name))
+    data_text = table.get("data_dir", "..")
+    if not isinstance(data_text, str) or not data_text.strip() or "\0" in data_text:
+        raise InputError("A directory name expected !", field="sampler.data_dir",
+                         text=str(data_text))
+    ints: dict[str, int] = {}
+    defaults = SamplerOptions()
+    for key, lo, hi in (("sample_interval_s", 1, 60), ("max_mission_s", 60, 43200)):
+        v = table.get(key, getattr(defaults, key))
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            raise InputError(f"A whole number {lo}-{hi} expected !", field=f"sampler.{key}",
+                             text=str(v))
+        ints[key] = v
+    opts = SamplerOptions(ints["sample_interval_s"], ints["max_mission_s"], ".")
+    data_dir = base / data_text
+    datums, chains = read_data_files(data_dir)
+    try:
+        first = draw_mission(0, datums, chains, opts)
+    except SamplerError as err:
+        raise InputError(str(err), field="sampler") from None
+    files = _data_files(data_dir, f"[sampler] of {spec_file}")
+    return ScenarioInputs(label=name.strip(), scenario_file=f"{name.strip()}.scenario.toml",
+                          scenario_text=first.scenario_text,
+                          config_file=f"{name.strip()}.toml", config_text=first.config_text,
+                          sim_data=files, run_data=files, sampler=opts)
 
 
 def _entry_line(index: SourceIndex, entry: _Entry) -> int | None:
@@ -396,6 +447,11 @@ def load_campaign(path: str | os.PathLike[str]) -> CampaignSpec:
             located = located.located(line=_array_line(index, "scenarios", err.text))
         raise located from None
     scenarios: list[ScenarioInputs] = []
+    if raw.sampler is not None:
+        try:
+            scenarios.append(_sampler_inputs(raw.sampler, file.parent, spec_file))
+        except InputError as err:
+            raise (index.locate(err, spec_file) if err.file is None else err) from None
     for entry in raw.entries:
         inputs = _load_scenario(entry, spec_file, _entry_line(index, entry))
         if any(s.label == inputs.label for s in scenarios):

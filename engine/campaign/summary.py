@@ -27,6 +27,7 @@ DISTRIBUTION_METRICS: tuple[tuple[str, str, float], ...] = (
     ("mpp_max_m", "MPP max (m)", 1.0),
     ("lse_rms_m", "LSE RMS (m)", 1.0),
     ("lse_cover95", "LSE 95 % coverage (%)", 100.0),
+    ("mpp_beyond2a", "MPP error > 2 × a95 (% of epochs)", 100.0),
 )
 """(column suffix after ``{phase}_``, label, scale) of the distribution table."""
 WORST = 5

@@ -91,7 +91,8 @@ class Leg:
     ``acceleration_ms2`` to ``speed_kn`` (through the water) and dives at ``dive_rate_ms`` or
     climbs at ``climb_rate_ms`` (m/s, vertical) to ``depth_m``. ``surfaced`` legs receive GPS and
     Decca while the depth is at most the scenario's ``fix_depth_max_m``. ``current`` is the
-    current on this leg (the scenario-wide one unless overridden).
+    current on this leg (the scenario-wide one unless overridden). ``decca_sigma_factor``
+    multiplies the Decca correlated error on this leg (a sky-wave episode; 1 = none).
     """
 
     duration_s: int
@@ -103,6 +104,7 @@ class Leg:
     dive_rate_ms: float
     climb_rate_ms: float
     current: Current
+    decca_sigma_factor: float = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -151,7 +153,10 @@ class GpsModel:
 class DeccaModel:
     """Decca lane error (lanes): Gauss–Markov with the A4 3×3 lane VCV at the true position for
     ``cf`` (Decca.CF: 64 summer day, 4 winter day, 1 summer night, 1/2.25 winter night) times
-    ``sigma_scale``², correlation time ``tau_s`` (s), plus white noise ``white_sigma_lanes``."""
+    ``sigma_scale``², correlation time ``tau_s`` (s), plus white noise ``white_sigma_lanes``.
+    ``red_scale``, ``green_scale``, ``purple_scale`` scale each pattern's correlated error on top
+    of ``sigma_scale`` (covariance D·Σ·D, D = diag of the three: the patterns keep their A4
+    correlation); a leg's ``decca_sigma_factor`` multiplies all three (sky-wave episodes)."""
 
     on: bool = True
     chain: str = "9B"
@@ -159,6 +164,9 @@ class DeccaModel:
     sigma_scale: float = 1.0
     tau_s: float = 180.0
     white_sigma_lanes: float = 0.0
+    red_scale: float = 1.0
+    green_scale: float = 1.0
+    purple_scale: float = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -385,6 +393,9 @@ _DECCA: tuple[_Spec, ...] = (
     _Spec("sigma_scale", "float", 1.0, _SIGMA),
     _Spec("tau_s", "float", 180.0, _POSITIVE),
     _Spec("white_sigma_lanes", "float", 0.0, _range(0.0, 0.5)),
+    _Spec("red_scale", "float", 1.0, _range(0.0, 100.0)),
+    _Spec("green_scale", "float", 1.0, _range(0.0, 100.0)),
+    _Spec("purple_scale", "float", 1.0, _range(0.0, 100.0)),
 )
 _GYRO: tuple[_Spec, ...] = (
     _Spec("bias_deg", "float", 0.0, _range(-30.0, 30.0)),
@@ -422,6 +433,7 @@ _LEG: tuple[_Spec, ...] = (
     _Spec("climb_rate_ms", "float", 0.2, _range(0.0, 5.0, lo_open=True)),
     _Spec("current_set_deg", "float", None, _angle),
     _Spec("current_speed_kn", "float", None, _range(0.0, 10.0)),
+    _Spec("decca_sigma_factor", "float", 1.0, _range(0.0, 100.0)),
 )
 _TABLES: dict[str, tuple[_Spec, ...]] = {
     "current": _CURRENT,
@@ -650,6 +662,7 @@ def _leg(
         dive_rate_ms=v["dive_rate_ms"],
         climb_rate_ms=v["climb_rate_ms"],
         current=Current(set_deg, speed),
+        decca_sigma_factor=v["decca_sigma_factor"],
     )
 
 

@@ -372,7 +372,7 @@ def _run(
         hdop = scenario.gps.hdop_at(k * dt) if scenario.gps.hdop > 0.0 else None
         gps_lat, gps_lon = _gps_reading(scenario, setup, to_gps, vessel, truth.surfaced, proc, n,
                                         hdop)
-        decca = _decca_reading(scenario, setup, vessel, truth.surfaced, proc, n)
+        decca = _decca_reading(scenario, setup, vessel, truth.surfaced, proc, n, leg)
         rec = RunRecord(k + 1, time, gps_lat, gps_lon, decca,
                         *_sensor_readings(scenario, setup, vessel, leg, truth.pitch_deg, proc, n))
         rec = dataclasses.replace(rec, raw=format_run_record(rec))
@@ -422,17 +422,23 @@ def _gps_reading(
 
 def _decca_reading(
     scenario: Scenario, setup: SimulationSetup, v: _Vessel, fixes: bool, proc: _Processes,
-    n: np.ndarray,
+    n: np.ndarray, leg: Leg,
 ) -> tuple[float | None, float | None, float | None]:
-    """Decca lane fractions (Red, Green, Purple) in [0, 1), or None when off or submerged."""
+    """Decca lane fractions (Red, Green, Purple) in [0, 1), or None when off or submerged; the
+    correlated error is scaled per pattern and by the leg's sky-wave factor."""
     dc = scenario.decca
     if setup.placed is None or not fixes:
         return (None, None, None)
     geom = decca_geometry(setup.placed, v.x, v.y, setup.geodesic)
     total = geom.n_calc.copy()
-    if dc.sigma_scale > 0.0:
+    scale = dc.sigma_scale * leg.decca_sigma_factor
+    if scale > 0.0:
         chol = np.linalg.cholesky(decca_vcv_lanes(geom, dc.cf))
-        total += dc.sigma_scale * (chol @ proc.u_dec)
+        per = (dc.red_scale, dc.green_scale, dc.purple_scale)
+        corr = chol @ proc.u_dec
+        if per != (1.0, 1.0, 1.0):
+            corr = corr * np.array(per)
+        total += scale * corr
     if dc.white_sigma_lanes > 0.0:
         total += dc.white_sigma_lanes * n[7:10]
     fr = [float(val) % 1.0 for val in total]
