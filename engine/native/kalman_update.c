@@ -17,7 +17,7 @@
  * The caller allocates the outputs (numpy arrays, C-contiguous; Y C-contiguous (n+1+p)×p, i.e.
  * the Fortran-ordered p×(n+1+p) the Python's trsm overwrites) and wraps them; any input that is
  * not a C-contiguous float64 array of the expected shape, a non-finite angle innovation, S not
- * positive definite or borderline (factor_borderline), or a variance not above VARIANCE_FLOOR of
+ * positive definite or borderline (factor_borderline), or a variance not above VARIANCE_FLOOR·κ of
  * its prior gives None: the caller then runs the Python, which raises what it raises. update_new() is update() with the outputs made here (numpy.empty)
  * and returned, x⁺ and P⁺ (and t when filled) already read-only: one call instead of seven
  * numpy.empty and three setflags calls in the Python per update.
@@ -268,11 +268,12 @@ static int sp_potrf_lower(const double *s, int64_t ld, int m, double *f)
 #define PIVOT_FLOOR 1e-13
 
 /* After the update a variance P⁺_ii = P_ii - (K H P)_ii (or Joseph's sum) is a difference whose
- * rounding differs between the kernel and the reference by some cond(S)·ε·P_ii; with cond(S) up
- * to 1e13 allowed above, at or below VARIANCE_FLOOR·P_ii its sign (divergence or not) is
- * rounding's choice. A measurement that really shrinks a variance a billion-fold (1e-9) is
- * not one the filter's sensors make: such an update goes to the reference. */
-#define VARIANCE_FLOOR 1e-9
+ * rounding differs between the kernel and the reference by up to about cond(S)·ε·P_ii (measured
+ * on the random updates of tests/native/test_kalman_update.py: 1.2e-8·P_ii at cond(S) = 2.7e8).
+ * cond(S) ≤ κ = tr(S)·tr(S⁻¹) ≤ p²·cond(S), tr(S⁻¹) = ‖L⁻¹‖²_F from the L⁻¹ the update has
+ * anyway; at or below VARIANCE_FLOOR·κ·P_ii (some 450·κ·ε) the sign of P⁺_ii, divergence or
+ * not, is rounding's choice. */
+#define VARIANCE_FLOOR 1e-13
 
 /* 1 if the factor L (Fortran m×m at f) of the m×m block at s (row stride ld) is borderline:
  * a pivot L_kk² ≤ PIVOT_FLOOR·S_kk, or min L_kk² ≤ PIVOT_FLOOR·max L_kk² (NaN: borderline). */
@@ -529,12 +530,18 @@ static int update_core(const double *x, const double *P, const double *H, const 
             Pn[i * n + j] = (Pj[i * n + j] + Pj[j * n + i]) * 0.5;
 
     /* nis = float(w.dot(w)); every variance > 0 and nis finite, else the Python raises; a
-     * variance within VARIANCE_FLOOR of zero relative to its prior goes to the Python too */
+     * variance within VARIANCE_FLOOR·κ of zero relative to its prior goes to the Python too */
     double nis;
     if (np_dot(&aw, &aw, &nis, 1))
         goto fallback;
+    double tr_s = 0.0, tr_si = 0.0;
+    for (int64_t i = 0; i < p; i++)
+        tr_s += S[i * p + i];
+    for (int64_t i = 0; i < p * p; i++) /* ‖L⁻¹‖²_F of Li (Y's last p columns) */
+        tr_si += Y[(n + 1) * p + i] * Y[(n + 1) * p + i];
+    double floor_rel = VARIANCE_FLOOR * tr_s * tr_si;
     for (int64_t i = 0; i < n; i++)
-        if (!(0.0 < Pn[i * n + i] && VARIANCE_FLOOR * P[i * n + i] < Pn[i * n + i]))
+        if (!(0.0 < Pn[i * n + i] && floor_rel * P[i * n + i] < Pn[i * n + i]))
             goto fallback;
     if (!isfinite(nis))
         goto fallback;
