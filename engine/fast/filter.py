@@ -5,8 +5,10 @@ Each function here is the reference's of the same name (``engine.filter.predict`
 the predicted state's estimate, the update of a cycle's rows (read straight from the lists of
 ``engine.filter.measurements.sensor_rows``, stacked with the fix's rows where there are both)
 with the whole :class:`UpdateResult` and the gross-error gate's distance, the coloured LSE rows.
-A kernel returns None for inputs it declines (S not positive definite, a layout it does not
-read, a state it does not cover): the reference then runs, and raises what it raises.
+A kernel returns None for inputs it declines (S not positive definite or near that boundary, a
+variance after the update near zero — where rounding would decide, docs/PERFORMANCE.md — a
+layout it does not read, a state it does not cover): the reference then runs, and raises what
+it raises.
 
 The kernels agree with the reference to the tolerance contract of docs/PERFORMANCE.md, which
 :func:`probe` checks before a run takes any of these (``engine.fast.parts``).

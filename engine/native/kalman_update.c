@@ -17,8 +17,8 @@
  * The caller allocates the outputs (numpy arrays, C-contiguous; Y C-contiguous (n+1+p)×p, i.e.
  * the Fortran-ordered p×(n+1+p) the Python's trsm overwrites) and wraps them; any input that is
  * not a C-contiguous float64 array of the expected shape, a non-finite angle innovation, S not
- * positive definite or a non-positive variance gives None: the caller then runs the Python,
- * which raises what it raises. update_new() is update() with the outputs made here (numpy.empty)
+ * positive definite or borderline (factor_borderline), or a variance not above VARIANCE_FLOOR·κ of
+ * its prior gives None: the caller then runs the Python, which raises what it raises. update_new() is update() with the outputs made here (numpy.empty)
  * and returned, x⁺ and P⁺ (and t when filled) already read-only: one call instead of seven
  * numpy.empty and three setflags calls in the Python per update.
  */
@@ -252,6 +252,46 @@ static int sp_potrf_lower(const double *s, int64_t ld, int m, double *f)
     return info;
 }
 
+/* ------------------------------------------------------------------ the decline rule */
+
+/* Where rounding may decide a discrete outcome, the kernel declines and the reference decides
+ * (docs/PERFORMANCE.md, "The tolerance contract"): this kernel's Cholesky and LAPACK's round
+ * differently, so at the boundary of positive definiteness the two may disagree on whether S
+ * factorises, whether a variance stays positive, and (S near-singular) on the LOM verdict and
+ * the LS flags, whose values then carry no digits. */
+
+/* A pivot d_k = L_kk² is S_kk - Σ_j L_kj² with Σ_j L_kj² ≤ S_kk: its rounding error is about
+ * (k+1)·ε·S_kk (≤ 2.2e-15·S_kk for 9 rows, ε = 2.2e-16). Below PIVOT_FLOOR·S_kk (some 50 times
+ * that) the sign of the pivot, i.e. whether S factorises, is rounding's choice. The same floor
+ * on d_min / d_max, a lower bound of cond(S), declines S with cond(S) > 1e13, where the forward
+ * error of S⁻¹v (cond(S)·ε ≳ 1e-3) leaves the statistics no digits to compare. */
+#define PIVOT_FLOOR 1e-13
+
+/* After the update a variance P⁺_ii = P_ii - (K H P)_ii (or Joseph's sum) is a difference whose
+ * rounding differs between the kernel and the reference by up to about cond(S)·ε·P_ii (measured
+ * on the random updates of tests/native/test_kalman_update.py: 1.2e-8·P_ii at cond(S) = 2.7e8).
+ * cond(S) ≤ κ = tr(S)·tr(S⁻¹) ≤ p²·cond(S), tr(S⁻¹) = ‖L⁻¹‖²_F from the L⁻¹ the update has
+ * anyway; at or below VARIANCE_FLOOR·κ·P_ii (some 450·κ·ε) the sign of P⁺_ii, divergence or
+ * not, is rounding's choice. */
+#define VARIANCE_FLOOR 1e-13
+
+/* 1 if the factor L (Fortran m×m at f) of the m×m block at s (row stride ld) is borderline:
+ * a pivot L_kk² ≤ PIVOT_FLOOR·S_kk, or min L_kk² ≤ PIVOT_FLOOR·max L_kk² (NaN: borderline). */
+static int factor_borderline(const double *s, int64_t ld, int m, const double *f)
+{
+    double dmin = HUGE_VAL, dmax = 0.0;
+    for (int k = 0; k < m; k++) {
+        double d = f[k + (int64_t)k * m] * f[k + (int64_t)k * m];
+        if (!(d > PIVOT_FLOOR * s[k * ld + k]))
+            return 1;
+        if (d < dmin)
+            dmin = d;
+        if (d > dmax)
+            dmax = d;
+    }
+    return !(dmin > PIVOT_FLOOR * dmax);
+}
+
 /* blas.dtrsm(1.0, L, B, side=0, lower=1, trans_a=0, diag=0): B (Fortran, m×ncol) ← L⁻¹B. */
 static void sp_trsm_lower(const double *l, int m, double *b, int ncol)
 {
@@ -437,7 +477,7 @@ static int update_core(const double *x, const double *P, const double *H, const 
         S[i] = S[i] + R[i];
 
     /* L = dpotrf(S, 1, 1); Y = dtrsm(1.0, L, [HP | v | I]) in place */
-    if (sp_potrf_lower(S, p, (int)p, Lf) != 0)
+    if (sp_potrf_lower(S, p, (int)p, Lf) != 0 || factor_borderline(S, p, (int)p, Lf))
         goto fallback;
     for (int64_t j = 0; j < n; j++)
         for (int64_t i = 0; i < p; i++)
@@ -489,12 +529,19 @@ static int update_core(const double *x, const double *P, const double *H, const 
         for (int64_t j = 0; j < n; j++)
             Pn[i * n + j] = (Pj[i * n + j] + Pj[j * n + i]) * 0.5;
 
-    /* nis = float(w.dot(w)); every variance > 0 and nis finite, else the Python raises */
+    /* nis = float(w.dot(w)); every variance > 0 and nis finite, else the Python raises; a
+     * variance within VARIANCE_FLOOR·κ of zero relative to its prior goes to the Python too */
     double nis;
     if (np_dot(&aw, &aw, &nis, 1))
         goto fallback;
+    double tr_s = 0.0, tr_si = 0.0;
+    for (int64_t i = 0; i < p; i++)
+        tr_s += S[i * p + i];
+    for (int64_t i = 0; i < p * p; i++) /* ‖L⁻¹‖²_F of Li (Y's last p columns) */
+        tr_si += Y[(n + 1) * p + i] * Y[(n + 1) * p + i];
+    double floor_rel = VARIANCE_FLOOR * tr_s * tr_si;
     for (int64_t i = 0; i < n; i++)
-        if (!(0.0 < Pn[i * n + i]))
+        if (!(0.0 < Pn[i * n + i] && floor_rel * P[i * n + i] < Pn[i * n + i]))
             goto fallback;
     if (!isfinite(nis))
         goto fallback;
@@ -1184,8 +1231,9 @@ static PyObject *py_update_blocks(PyObject *self, PyObject *const *args, Py_ssiz
 
 PyDoc_STRVAR(distance_doc,
 "distance(innovation, S, start, stop) -> float | None\n\n"
-"√(v̂ᵀS⁻¹v̂) of rows start:stop (engine.filter.update.innovation_distance): inf if that\n"
-"block of S is not positive definite; None if the arrays are not C-contiguous float64.");
+"√(v̂ᵀS⁻¹v̂) of rows start:stop (engine.filter.update.innovation_distance); None if the\n"
+"arrays are not C-contiguous float64 or that block of S is not positive definite or near\n"
+"singular (its factor borderline: the reference decides, inf where it does not factorise).");
 
 static PyObject *py_distance(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -1225,10 +1273,10 @@ static PyObject *py_distance(PyObject *self, PyObject *const *args, Py_ssize_t n
         goto done;
     }
     double *Lf = work, *b = work + m * m;
-    if (sp_potrf_lower(S + start * p + start, p, m, Lf) != 0) {
-        result = PyFloat_FromDouble(Py_HUGE_VAL);
-        goto done;
-    }
+    /* not positive definite (the reference's inf) or borderline: the reference decides */
+    if (sp_potrf_lower(S + start * p + start, p, m, Lf) != 0 ||
+        factor_borderline(S + start * p + start, p, m, Lf))
+        goto fallback;
     memcpy(b, v + start, sizeof(double) * (size_t)m);
     sp_trsm_lower(Lf, m, b, 1);
     /* float(w @ w): matmul of two vectors is DOUBLE_dot, 0.0 + ddot, for any length */

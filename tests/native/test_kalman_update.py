@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import engine.filter.update as U
@@ -435,6 +435,11 @@ def _state(rng: np.random.Generator, fix: int, scale: float) -> FilterState:
 @given(seed=st.integers(0, 2**32 - 1), p=st.integers(1, 9), fix=st.integers(0, 3),
        template=st.booleans(), joseph=st.booleans(), narrow=st.booleans(),
        scale=st.sampled_from([1e-3, 1.0, 1e3]), r_scale=st.sampled_from([1e-6, 1.0, 1e4]))
+# S numerically singular: the reference's variance after the update is ≤ 0 (cond(S) ~ 3e11)
+@example(seed=742065, p=7, fix=0, template=True, joseph=False, narrow=False, scale=1e3,
+         r_scale=1e-6)
+# cond(S) ~ 2e16: the kernel's Cholesky of S fails where LAPACK's does not (the distance)
+@example(seed=3, p=9, fix=3, template=True, joseph=True, narrow=True, scale=1e3, r_scale=1e-6)
 def test_random_updates_are_the_same(seed: int, p: int, fix: int, template: bool, joseph: bool,
                                      narrow: bool, scale: float, r_scale: float) -> None:
     rng = np.random.default_rng(seed)
@@ -500,6 +505,31 @@ def test_a_non_positive_variance_raises_the_same() -> None:
     R = np.diag([1.0, -0.5 * float(s.P[4, 4])])  # S stays PD; P[4, 4] goes negative
     assert_same_update(s, _nav_rows(s, R), FilterParams(joseph=False))
     assert_same_update(s, _nav_rows(s, R), FilterParams(joseph=True))
+
+
+def test_the_kernel_declines_at_the_boundary_and_the_reference_decides() -> None:
+    """At the boundary of positive definiteness (docs/PERFORMANCE.md, the tolerance contract)
+    the kernel returns None: S not positive definite or near-singular in distance(), a
+    variance shrunk to within 1e-13·tr(S)·tr(S⁻¹) of zero in the update; the fast functions
+    then give the reference's answer. A plain S is answered: √(2²/4 + 3²/9) = √2."""
+    k = ff.KU
+    v = np.array([2.0, 3.0])
+    assert same(k.distance(v, np.diag([4.0, 9.0]), 0, 2), math.sqrt(2.0))
+    not_pd = np.array([[1.0, 2.0], [2.0, 1.0]])
+    near = np.array([[1.0, 1.0], [1.0, 1.0 + 4e-15]])  # pivot 4e-15·S_11: rounding's choice
+    for S in (not_pd, near):
+        assert k.distance(v, S, 0, 2) is None
+        u = dataclasses.replace(U._empty_update(_state(np.random.default_rng(1), 0, 1.0)),
+                                innovation=v, S=S)
+        assert same(ff.innovation_distance(u), U.innovation_distance(u))
+    assert ff.innovation_distance(u) == U.innovation_distance(u)
+    # x observed with σ 1e-6 m on a prior σ of 1e3 m: P⁺_xx / P_xx ≈ 1e-18, the reference's call
+    s = FilterState(0.0, np.zeros(N_NAV), np.diag(np.full(N_NAV, 1e6)))
+    rows = _nav_rows(s, np.diag([1e-12, 1.0]))
+    new, H = U._full_width(s, rows, FilterParams())
+    assert k.update_result(new, H, rows.z, rows.R, (), False, U.IPSI, 0.05, rows.labels) is None
+    assert_same_update(s, rows, FilterParams(joseph=False))
+    assert_same_update(s, rows, FilterParams(joseph=True))
 
 
 @pytest.mark.parametrize("bad", [math.inf, -math.inf, math.nan])
