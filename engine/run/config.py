@@ -265,6 +265,15 @@ SUBMARINE_SIGMA_A2 = accel_variance(0.25, 0.01, 0.75)
 """σ_a² (m²/s³ as a spectral density, eq. 6.35) of the thesis' submarine: the default of
 ``filter.sigma_a2``."""
 
+THESIS_SIGMA_CURRENT2 = 2e-8
+"""σ_vc² of the thesis (§6.6; m²/s³ read per 1 s): its 1 m/s semi-diurnal tide's rate of change,
+``current_rate_variance(1.0, 45000.0)`` = 1.95·10⁻⁸ rounded; ``preset = "thesis"``."""
+
+HONEST_SIGMA_CURRENT2 = 3.5e-5
+"""Default ``filter.sigma_current2`` (m²/s³, THEORY §8.9): the thesis' tide (V_cm 1 m/s, period
+45 000 s) matched as a random walk over an hour without fixes,
+``tidal_current_psd(1.0, 45000.0, 3600.0)`` = 3.44·10⁻⁵, rounded up."""
+
 _UERE = _between(0.001, 1000.0)
 """Range of a UERE key (m, 1σ): from a millimetre to a kilometre."""
 
@@ -643,7 +652,7 @@ class FilterConfig:
     log_bias_rw_ms_sqrth: float = 0.01
     gyro_bias_rw_deg_sqrth: float = 1.2
     incl_bias_rw_deg_sqrth: float = 0.1
-    sigma_current2: float = 2e-8
+    sigma_current2: float = HONEST_SIGMA_CURRENT2
     sigma_a2: float = SUBMARINE_SIGMA_A2
     adapt: bool = True
     adapt_window: float = 300.0
@@ -673,13 +682,14 @@ class FilterConfig:
 
 FILTER_PRESETS: dict[str, dict[str, Any]] = {
     "honest": {},
-    "thesis": {"model": "thesis", "p0": "thesis", "bias_noise": False, "adapt": False},
+    "thesis": {"model": "thesis", "p0": "thesis", "bias_noise": False, "adapt": False,
+               "sigma_current2": THESIS_SIGMA_CURRENT2},
 }
 """Values a ``filter.preset`` gives to the keys the file does not set (docs/CONFIG.md, "The
 filter decision"). "honest" is the class defaults: time-correlated fix errors with parameters
 derived from the configured receiver and chain, P0 from sensor accuracies, drifting biases.
-"thesis" is the thesis-literal filter of ch. 6: white fix noise (L2291), P0 = I (L2670) and
-the biases random constants (L2639–2641)."""
+"thesis" is the thesis-literal filter of ch. 6: white fix noise (L2291), P0 = I (L2670), the
+biases random constants (L2639–2641) and the current's random walk of §6.6 (2·10⁻⁸)."""
 
 _PRESET_CHECK = _choice("honest", "thesis")
 
@@ -725,7 +735,8 @@ FilterConfig.KEYS = (
     Key("on", "on", "bool", "—", "Kalman filtering on (Kalman ▸ Filtering)", "L7641"),
     Key("preset", "preset", "str", "—",
         '"honest" (default: the keys below as listed) or "thesis" (model, p0 "thesis", '
-        'bias_noise false: the thesis-literal filter); keys set in the file override it',
+        'bias_noise and adapt false, sigma_current2 2e-8: the thesis-literal filter); keys set '
+        'in the file override it',
         "docs/CONFIG.md \"The filter decision\" [not in the thesis]", _PRESET_CHECK),
     Key("vessel", "vessel", "str", "—",
         '"submarine" (the thesis\' gyro 0.65°, EM log 2 %, slow drifts: the keys below as '
@@ -794,8 +805,11 @@ FilterConfig.KEYS = (
         "THEORY D29 [assumption]", _NON_NEGATIVE),
     Key("sigma_current2", "sigma_current2", "float", "m²/s³",
         "spectral density of the current random walk per grid component (the rate noise of "
-        "the current states; surface: leeway and stream change with course and wind)",
-        "thesis §6.6 (2·10⁻⁸); THEORY §8.9; docs/CONFIG.md", _NON_NEGATIVE),
+        "the current states): the thesis' 1 m/s semi-diurnal tide matched over an hour without "
+        "fixes, A²(1 − cos ωh)/h = 3.44·10⁻⁵, rounded up (preset thesis: 2·10⁻⁸, the same tide "
+        "matched over its 1-s step; surface: leeway and stream change with course and wind)",
+        "thesis §6.6 (tide V_cm 1 m/s, period 45 000 s); THEORY §8.9; docs/CONFIG.md",
+        _NON_NEGATIVE),
     Key("sigma_a2", "sigma_a2", "float", "m²/s³",
         "spectral density of the along-track acceleration noise (Gelb's mixed pdf, a_max "
         "0.25 m/s², P_max 0.01, P_0 0.75)", "eq. 6.35; THEORY §8.9", _NON_NEGATIVE),

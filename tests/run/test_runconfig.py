@@ -366,6 +366,26 @@ def test_empty_filter_table_is_the_honest_preset() -> None:
     assert (caught.value.field, caught.value.line) == ("filter.preset", 3)
 
 
+def test_current_random_walk_honest_and_thesis() -> None:
+    """The honest current random walk is the thesis' tide (V_cm 1 m/s, period 45 000 s, §6.6)
+    matched over an hour without fixes, THEORY §8.9; hand value: ω = 2π/45 000 = 1.39626·10⁻⁴
+    rad/s, ωh = 0.502655, 1 − cos ωh = 0.123688, /3600 s = 3.4358·10⁻⁵ m²/s³, rounded up to
+    3.5·10⁻⁵ (within 2 %); the thesis preset keeps §6.6's 2·10⁻⁸ (its tide's rate of change
+    per 1-s step: ω² = 1.9496·10⁻⁸)."""
+    from engine.filter.variances import current_rate_variance, tidal_current_psd
+    from engine.run.cycle import filter_params_from_config
+
+    assert tidal_current_psd(1.0, 45000.0, 3600.0) == pytest.approx(3.4358e-5, rel=1e-4)
+    assert current_rate_variance(1.0, 45000.0) == pytest.approx(1.9496e-8, rel=1e-4)
+    honest = filter_params_from_config(parse_config_text(""))
+    assert honest.sigma_current2 == pytest.approx(3.4358e-5, rel=0.02)
+    assert honest.sigma_current2 >= 3.4358e-5  # rounded up, not down
+    thesis = filter_params_from_config(parse_config_text('[filter]\npreset = "thesis"\n'))
+    assert thesis.sigma_current2 == 2e-8
+    given = parse_config_text('[filter]\npreset = "thesis"\nsigma_current2 = 1e-6\n')
+    assert given.filter.sigma_current2 == 1e-6
+
+
 def test_vessel_preset_and_auto(tmp_path: Path) -> None:
     """``filter.vessel`` (docs/CONFIG.md "The vessel decision"): "surface" fills the keys the
     file leaves out, a key in the file wins; "auto" leaves a .RUN configuration exactly as it
@@ -443,8 +463,8 @@ def test_switching_the_preset_in_the_dialog_changes_only_what_the_preset_decides
     new, _nav, _text = apply_command(ctx, initial_state(cfg),
                                      SetParameters("filter", (("preset", "thesis"),)))
     f = new.filter
-    assert (f.preset, f.model, f.p0, f.bias_noise, f.q_scale) == (
-        "thesis", "thesis", "thesis", False, 2.0)
+    assert (f.preset, f.model, f.p0, f.bias_noise, f.q_scale, f.sigma_current2) == (
+        "thesis", "thesis", "thesis", False, 2.0, 2e-8)
 
 
 def test_a_byte_order_mark_is_allowed(tmp_path: Path) -> None:
