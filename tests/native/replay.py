@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
 import pytest
 
+import engine.run.parts as parts_mod
 from engine.run.config import load_config
 from engine.run.session import Session
 from tests.paths import DATA
@@ -38,3 +40,16 @@ def replay_patched(patches: Iterable[tuple[object, str, object]],
         for target, name, value in patches:
             mp.setattr(target, name, value)
         return replay(max_cycles, config, history)
+
+
+def record_parts(**recorders: object) -> object:
+    """A ``choose`` for the session whose parts named in ``recorders`` are wrapped: each
+    recorder gets the part and returns its replacement (patch it in as
+    ``engine.run.session.choose_parts``)."""
+    real_choose = parts_mod.choose
+
+    def choose() -> object:
+        parts = real_choose()
+        return dataclasses.replace(parts, **{name: wrap(getattr(parts, name))  # type: ignore
+                                             for name, wrap in recorders.items()})
+    return choose

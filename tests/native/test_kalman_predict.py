@@ -5,7 +5,6 @@ with ``UVNAV_PURE=1`` the run takes the reference's parts and loads no kernel.""
 
 from __future__ import annotations
 
-import dataclasses
 import subprocess
 import sys
 
@@ -18,7 +17,6 @@ import engine.filter.estimate as est
 import engine.filter.measurements as ms
 import engine.filter.predict as pr
 import engine.run.cycle as cycle_mod
-import engine.run.parts as parts_mod
 import engine.run.session as session_mod
 from engine import native
 from engine.fast import filter as ff
@@ -28,7 +26,7 @@ from engine.filter.state import N_NAV, FilterState
 from engine.geodesy.ellipsoid import WGS84
 from engine.geodesy.tmgrid import TMGrid
 from engine.run.parts import REFERENCE, positional
-from tests.native.replay import replay_patched
+from tests.native.replay import record_parts, replay_patched
 from tests.paths import DATA, ROOT
 from tests.tolerance import assert_close
 
@@ -50,18 +48,6 @@ def _same(a: tuple[FilterState, np.ndarray], b: tuple[FilterState, np.ndarray]) 
     assert not sa.x.flags.writeable and not sa.P.flags.writeable
 
 
-def _record_parts(**recorders: object) -> object:
-    """A ``choose`` for the session whose parts named in ``recorders`` are wrapped: each
-    recorder gets the part and returns its replacement."""
-    real_choose = parts_mod.choose
-
-    def choose() -> object:
-        parts = real_choose()
-        return dataclasses.replace(parts, **{name: wrap(getattr(parts, name))  # type: ignore
-                                             for name, wrap in recorders.items()})
-    return choose
-
-
 @pytest.fixture(scope="module")
 def replay_steps() -> list[tuple[FilterState, float, FilterParams]]:
     """(state, Δt, params) of every prediction of 200 demo epochs and the thesis sample."""
@@ -74,7 +60,7 @@ def replay_steps() -> list[tuple[FilterState, float, FilterParams]]:
         return recording
 
     for name, n in (("DEMO.toml", 200), ("920917_1.toml", None)):
-        replay_patched([(session_mod, "choose_parts", _record_parts(predict_estimate=wrap))], n,
+        replay_patched([(session_mod, "choose_parts", record_parts(predict_estimate=wrap))], n,
                        DATA / name)
     return steps
 

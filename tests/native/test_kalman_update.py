@@ -22,7 +22,6 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import engine.filter.update as U
-import engine.run.parts as parts_mod
 import engine.run.session as session_mod
 from engine import native
 from engine.fast import filter as ff
@@ -31,7 +30,7 @@ from engine.filter import measurements as ms
 from engine.filter.measurements import Measurement, _measurement
 from engine.filter.params import FilterParams
 from engine.filter.state import N_NAV, FilterState, add_fix_states
-from tests.native.replay import replay_patched
+from tests.native.replay import record_parts, replay_patched
 from tests.tolerance import RTOL, close
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -44,18 +43,6 @@ pytestmark = pytest.mark.skipif(native.kernel("kalman_update") is None,
 def _kernel_resolved() -> None:
     if ff.KU is None:
         pytest.skip("the kernel declined at its first-use check (uvnav --version says why)")
-
-
-def _record_parts(**recorders: object) -> object:
-    """A ``choose`` for the session whose parts named in ``recorders`` are wrapped: each
-    recorder gets the part and returns its replacement."""
-    real_choose = parts_mod.choose
-
-    def choose() -> object:
-        parts = real_choose()
-        return dataclasses.replace(parts, **{name: wrap(getattr(parts, name))  # type: ignore
-                                             for name, wrap in recorders.items()})
-    return choose
 
 
 def fast_two(state: FilterState, a: Measurement, b: Measurement,
@@ -143,7 +130,7 @@ def replay_updates() -> list[tuple[FilterState, Measurement, FilterParams]]:
         r = record(state, ms.stack_measurements(ms.rows_measurement(zs, var, layout), b), params)
         return r, U.innovation_distance(r, slice(len(zs), None))
 
-    replay_patched([(session_mod, "choose_parts", _record_parts(
+    replay_patched([(session_mod, "choose_parts", record_parts(
         update=lambda _real: record,
         update_rows=lambda _real: lambda state, zs, var, layout, params: record(
             state, ms.rows_measurement(zs, var, layout), params),
@@ -166,7 +153,7 @@ def replay_blocks() -> list[tuple[str, tuple[object, ...]]]:
             return recording
         return wrap
 
-    replay_patched([(session_mod, "choose_parts", _record_parts(
+    replay_patched([(session_mod, "choose_parts", record_parts(
         update_rows=recorder("update_rows"), update_gated=recorder("update_rows_two")))], 100)
     assert {n for n, _ in seen} == {"update_rows", "update_rows_two"}
     seen += [("update_two", (a[0], ms.rows_measurement(*a[1:4]), *a[4:]))
