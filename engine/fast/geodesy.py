@@ -165,6 +165,39 @@ GEOD_PROBES: tuple[tuple[float, float, float, float], ...] = (
 reference's: near and far lines, a zero-length line, near-antipodal and polar ones."""
 
 
+GEOD_VERIFIED: dict[tuple[float, float], tuple[tuple[float, float, float], ...]] = {
+    # WGS84
+    (6378137.0, 0.0033528106647474805): (
+        (125.53319725030951, -53.03297069077158, 150540.59254372408),
+        (53.58066053545707, -123.65384650385022, 232730.84638031755),
+        (180.0, 0.0, 0.0),
+        (25.67187286829188, -25.672914530058392, 19936288.578965314),
+        (-179.89999892617044, 0.10000107382956003, 19981592.6969672),
+        (-180.0, 180.0, 20003931.458625447),
+        (147.0, 0.0, 8896110.896078352),
+        (-89.999999999212, 89.999999999212, 0.0001373560321585971),
+        (99.05530700973107, -98.62608036309709, 2876195.2288347227),
+    ),
+    # International 1924 (Hayford 1909)
+    (6378388.0, 0.003367003367003367): (
+        (125.5329116104044, -53.03325632998212, 150547.32312447956),
+        (53.580873311027275, -123.65363372586397, 232741.79296442436),
+        (180.0, 0.0, 0.0),
+        (25.617491241179774, -25.618530342349572, 19936959.069935113),
+        (-179.89999892225964, 0.10000107774035882, 19982236.639089204),
+        (-180.0, 180.0, 20004576.59797889),
+        (147.0, 0.0, 8896420.969898032),
+        (-89.999999999212, 89.999999999212, 0.00013736264912275523),
+        (99.05530569180989, -98.6260876414219, 2876321.0607580077),
+    ),
+}
+"""The reference's (forward azimuth, back azimuth, distance m) on :data:`GEOD_PROBES` for the
+ellipsoids of the bundled runs, (a m, f) → one row per probe: Karney's geodesic through
+pyproj's public ``Geod.inv``, recorded so that a compiled run's first-use check needs no pyproj
+(its import is ~50 ms of start-up); tests/native/test_decca.py checks that the reference still
+gives these numbers. Any other ellipsoid is checked against the reference itself."""
+
+
 def _same_azimuth(got: float, want: float) -> bool:
     """Two azimuths (degrees) within the tolerance contract (1e-9 relative or 1e-9°), angles
     that differ by a multiple of 360° being one direction."""
@@ -202,10 +235,14 @@ class FastGeodesicSolver(GeodesicSolver):
             k = DECCA
             if k is not None:
                 a, f = float(self.ellipsoid.a_m), float(self.ellipsoid.f)
-                cand, reference = k.Geodesic(a, f), GeodesicSolver(self.ellipsoid)
-                own = [(cand.own_point(*q), q) for q in GEOD_PROBES]  # None: pyproj's line
-                if all(_agrees(got, reference.inverse(q[1], q[0], q[3], q[2]))
-                       for got, q in own if got is not None):
+                cand = k.Geodesic(a, f)
+                want = GEOD_VERIFIED.get((a, f))
+                if want is None:
+                    reference = GeodesicSolver(self.ellipsoid)
+                    want = tuple(reference.inverse(q[1], q[0], q[3], q[2]) for q in GEOD_PROBES)
+                own = [cand.own_point(*q) for q in GEOD_PROBES]  # None: pyproj's line
+                if all(_agrees(got, w) for got, w in zip(own, want, strict=True)
+                       if got is not None):
                     g = cand
             self._native = g
         return g

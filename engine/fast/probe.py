@@ -60,13 +60,25 @@ def _page(rows: list[LopReading]) -> list[Any]:
             for r in rows]
 
 
+def _geodesics() -> tuple[GeodesicSolver, GeodesicSolver]:
+    """(the compiled side's, the reference side's) geodesic of the systems' and the fix's
+    probes. The compiled geodesic, where in use, serves both sides: it has its own first-use
+    check (:meth:`engine.fast.geodesy.FastGeodesicSolver.native`, against the reference's
+    recorded numbers), so these probes check the systems and the fix given the geodesic, and a
+    compiled run does not import pyproj for them (~50 ms of start-up)."""
+    from engine.fast.geodesy import FastGeodesicSolver
+
+    fast = FastGeodesicSolver(_INTL)
+    return (fast, fast) if fast.native() is not None else (fast, GeodesicSolver(_INTL))
+
+
 def systems(fast_decca: Any, fast_gps: Any) -> str | None:
     """Why the compiled systems are not used (None: they agree with the reference)."""
     from engine.fast import decca as fdecca
-    from engine.fast.geodesy import FastGeodesicSolver, FastTMGrid
+    from engine.fast.geodesy import FastTMGrid
 
     grids = FastTMGrid(_INTL, 7.0), TMGrid(_INTL, 7.0)
-    geods = FastGeodesicSolver(_INTL), GeodesicSolver(_INTL)
+    geods = _geodesics()
     placed = [decca.place_chain(_CHAIN, g) for g in grids]
     t0 = datetime(1992, 9, 17, 12, 0, tzinfo=UTC)
     mx, my = placed[1].station_xy_m[0].tolist()
@@ -124,14 +136,14 @@ def fix(fast_compute_fix: Any) -> str | None:
     """Why the compiled fix is not used (None: a GPS + Decca fix agrees with the reference's:
     position, VCV, S², and every LOP row's numbers and verdict)."""
     from engine.fast.decca import FAST_DECCA
-    from engine.fast.geodesy import FastGeodesicSolver, FastTMGrid
+    from engine.fast.geodesy import FastTMGrid
     from engine.fast.gps import FAST_GPS
     from engine.lsq.fix import compute_fix
     from engine.systems.gps import GPS
     from engine.systems.manual import MANUAL
 
     grids = FastTMGrid(_INTL, 7.0), TMGrid(_INTL, 7.0)
-    geods = FastGeodesicSolver(_INTL), GeodesicSolver(_INTL)
+    geods = _geodesics()
     placed = [decca.place_chain(_CHAIN, g) for g in grids]
     mx, my = placed[1].station_xy_m[0].tolist()
     systems = ((FAST_GPS, FAST_DECCA, MANUAL), (GPS, decca.DECCA, MANUAL))

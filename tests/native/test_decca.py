@@ -489,10 +489,18 @@ def test_geodesic_probe_compares_with_the_reference(monkeypatch: pytest.MonkeyPa
     """The compiled geodesic is used only where its azimuths on the probe lines agree with the
     reference solver's (pyproj's public ``Geod.inv``) within the tolerance contract (1e-9
     relative: ≤ 1.8e-7° for an azimuth, ≤ 1e-3 m for the probe lines' distances): a reference
-    1e-6° off in the forward azimuth, or 1 cm off in distance, turns it down."""
+    1e-6° off in the forward azimuth, or 1 cm off in distance, turns it down. An ellipsoid
+    without recorded values (Bessel 1841) is checked against the solver itself; a recorded one
+    (ED50's International 1924) against :data:`GEOD_VERIFIED`."""
     from engine.fast import geodesy
+    from engine.geodesy.ellipsoid import Ellipsoid
 
-    assert geodesy.FastGeodesicSolver(ED50.ellipsoid).native() is not None
+    bessel = Ellipsoid("BESSEL 1841", 6377397.155, 299.1528128)
+    assert (bessel.a_m, bessel.f) not in geodesy.GEOD_VERIFIED
+    key = (float(ED50.ellipsoid.a_m), float(ED50.ellipsoid.f))
+    recorded = geodesy.GEOD_VERIFIED[key]
+    for ell in (ED50.ellipsoid, bessel):
+        assert geodesy.FastGeodesicSolver(ell).native() is not None
     real = GeodesicSolver.inverse
     for i, off in ((0, 1e-6), (2, 1e-2)):
         def shifted(self: GeodesicSolver, *q: float, i: int = i, off: float = off) -> Any:
@@ -500,5 +508,44 @@ def test_geodesic_probe_compares_with_the_reference(monkeypatch: pytest.MonkeyPa
             out[i] += off
             return tuple(out)
 
-        monkeypatch.setattr(GeodesicSolver, "inverse", shifted)
-        assert geodesy.FastGeodesicSolver(ED50.ellipsoid).native() is None
+        with monkeypatch.context() as m:
+            m.setattr(GeodesicSolver, "inverse", shifted)
+            assert geodesy.FastGeodesicSolver(bessel).native() is None
+        rows = [list(r) for r in recorded]
+        rows[1][i] += off
+        with monkeypatch.context() as m:
+            m.setitem(geodesy.GEOD_VERIFIED, key, tuple(tuple(r) for r in rows))
+            assert geodesy.FastGeodesicSolver(ED50.ellipsoid).native() is None
+
+
+def test_recorded_geodesics_are_the_reference() -> None:
+    """GEOD_VERIFIED holds what the reference solver (pyproj's ``Geod.inv``, Karney) gives on
+    the probe lines, to 1e-12 relative (or 1e-12° and 1e-9 m): a pyproj whose geodesic changed
+    fails here rather than let the probe compare against stale numbers."""
+    from engine.fast import geodesy
+    from engine.geodesy.ellipsoid import Ellipsoid
+
+    for (a, f), rows in geodesy.GEOD_VERIFIED.items():
+        ref = GeodesicSolver(Ellipsoid("probe", a, 1.0 / f))
+        for q, want in zip(geodesy.GEOD_PROBES, rows, strict=True):
+            got = ref.inverse(q[1], q[0], q[3], q[2])
+            for g, w, floor in zip(got, want, (1e-12, 1e-12, 1e-9), strict=True):
+                assert math.isclose(g, w, rel_tol=1e-12, abs_tol=floor), (a, f, q, got, want)
+
+
+def test_a_compiled_run_imports_no_pyproj() -> None:
+    """A compiled replay of the thesis sample checks its parts at first use without importing
+    pyproj (the geodesic's check reads recorded reference numbers; the systems' and the fix's
+    checks use the checked geodesic on both sides): pyproj's import is ~50 ms of start-up."""
+    import subprocess
+    import sys
+
+    from tests.paths import ROOT
+
+    code = ("import sys; sys.argv = ['uvnav', 'replay', 'data/920917_1.RUN', '--no-out']\n"
+            "from uvnav_tui.cli.main import main\n"
+            "try:\n    main()\nexcept SystemExit:\n    pass\n"
+            "print('PYPROJ', 'pyproj' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)
+    assert "PYPROJ False" in done.stdout, done.stdout + done.stderr
