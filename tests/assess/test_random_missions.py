@@ -13,7 +13,9 @@ The missions are the unit: each target is a share or a quantile over missions, a
 (the sixty seeds are fixed, not chosen by looking at results). The runs are a plain loop of the
 campaign's run function; ``uvnav campaign data/campaigns/random_60.toml --out DIR`` gives the
 same rows and ``python -m tests.random_missions DIR`` the tables. Targets the default filter
-does not meet yet are marked xfail (not strict), with the measured figure in docs/ASSESS.md.
+does not meet yet are marked xfail (not strict), with the measured figure in docs/ASSESS.md
+(the median all-epoch coverage, 97.4 %, and the epochs beyond 2 × a95, 0.35 %, are met and
+asserted).
 """
 
 from __future__ import annotations
@@ -51,13 +53,11 @@ def test_coverage_at_least_85_percent_in_every_phase_on_95_percent(rows: list[di
     assert rm.figures(rows).share_phases_ok >= rm.SHARE_MISSIONS
 
 
-@NOT_YET
 def test_median_all_epoch_coverage_92_to_98_5_percent(rows: list[dict]) -> None:
     lo, hi = rm.MEDIAN_ALL
     assert lo <= rm.figures(rows).median_all_cover <= hi
 
 
-@NOT_YET
 def test_errors_beyond_twice_the_semi_major_axis_at_most_half_a_percent(
         rows: list[dict]) -> None:
     assert rm.figures(rows).beyond_2a <= rm.BEYOND_2A
