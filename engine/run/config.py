@@ -45,6 +45,7 @@ from engine.io.tomlsource import (
     parse_located,
     read_text,
 )
+from engine.systems.decca_season import DECCA_CF_CONDITIONS
 from engine.systems.sensors import SENSOR_STATUS
 
 if TYPE_CHECKING:
@@ -517,36 +518,52 @@ CorrectionsConfig.KEYS = (
 # fmt: on
 
 
-DECCA_CF_CONDITIONS: dict[str, tuple[str, float]] = {
-    "SD": ("summer day", 64.0),
-    "WD": ("winter day", 4.0),
-    "SN": ("summer night", 1.0),
-    "WN": ("winter night", 1.0 / 2.25),
-}
-"""``Decca.CF`` per season and time of day (A8.2, thesis L8352; Pg 615 "(SD)"): the divisor of the
-Decca sky-wave variances. Code → (name, CF)."""
-
-
-def decca_cf_condition(cf: float) -> str | None:
-    """The condition code (``SD`` …) whose CF is ``cf``, or None for another value."""
+def decca_cf_condition(cf: float | str) -> str | None:
+    """The condition code (``SD`` …) whose CF is ``cf``, or None for another value (and for
+    ``"auto"``, whose condition changes from epoch to epoch)."""
+    if isinstance(cf, str):
+        return None
     for code, (_name, value) in DECCA_CF_CONDITIONS.items():
         if math.isclose(cf, value, rel_tol=1e-9):
             return code
     return None
 
 
-def parse_decca_cf(text: str) -> float:
-    """``Decca.CF`` as typed: a positive number, a condition code (``SD``, ``WD``, ``SN``,
-    ``WN``) or its name (``winter night``), any case; InputError otherwise."""
+def parse_decca_cf(text: str) -> float | str:
+    """``Decca.CF`` as typed: ``auto`` (by the sun, :func:`decca_condition`), a positive number,
+    a condition code (``SD``, ``WD``, ``SN``, ``WN``) or its name (``winter night``), any case;
+    InputError otherwise."""
     t = " ".join(text.split()).lower()
+    if t == "auto":
+        return "auto"
     for code, (name, value) in DECCA_CF_CONDITIONS.items():
         if t in (code.lower(), name):
             return value
     value = float(t) if SIGNED_DECIMAL_RE.fullmatch(t) else math.nan
     if not value > 0.0:
-        raise InputError("Decca.CF: a number > 0 or SD, WD, SN, WN !", field="decca_cf",
+        raise InputError(DECCA_CF_MESSAGE, field="decca_cf",
                          text=text)
     return value
+
+
+DECCA_CF_MESSAGE = 'Decca.CF: "auto", a number > 0 or SD, WD, SN, WN !'
+"""The message of a ``Decca.CF`` neither ``auto``, a positive number nor a condition."""
+
+
+def _decca_cf_check(value: Any) -> float | str:
+    """``lsq.decca_cf`` from TOML: ``"auto"`` (any case), a condition code or name, or a
+    number > 0 (the A8.2 fixed divisor)."""
+    if isinstance(value, str):
+        return parse_decca_cf(value)
+    number = _typed(value, "float")
+    if not number > 0.0:
+        raise _bad(DECCA_CF_MESSAGE)
+    return number
+
+
+THESIS_DECCA_CF = 64.0
+"""``lsq.decca_cf`` under ``filter.preset = "thesis"`` when the file does not set it: the thesis
+program's "Summer's day conditions" (A8.2, L8763–8764)."""
 
 
 @dataclass(frozen=True)
@@ -562,7 +579,7 @@ class LsqConfig:
     scale_vcv: bool = False
     epsilon_m: float = 1.0
     s02: float = 1.0
-    decca_cf: float = 64.0
+    decca_cf: float | str = "auto"
     gps_se_sf: float = 0.67
     estimator: str = "lsq"
     sigma_compass_deg: float = 0.8
@@ -594,9 +611,12 @@ LsqConfig.KEYS = (
         "A8.2 epsilon = 1.0 (L8772); L6526", _POSITIVE),
     Key("s02", "s02", "float", "—", "a-priori unit variance σ0²", "A8.2 s02 = 1.0 (L8773)",
         _POSITIVE),
-    Key("decca_cf", "decca_cf", "float", "—",
-        "Decca VCV divisor: 64 summer day, 4 winter day, 1 summer night, 1/2.25 winter night",
-        "A8.2 Decca.CF = 64 (L8763–8764); L8352", _POSITIVE),
+    Key("decca_cf", "decca_cf", "float_auto", "—",
+        'Decca sky-wave VCV divisor: 64 summer day, 4 winter day, 1 summer night, 1/2.25 '
+        'winter night; "auto" chooses it per epoch from the sun\'s elevation at the receiver '
+        "(night below +6°) and the hemisphere's half-year (preset thesis: 64)",
+        "L8352 (summer night ×1, summer day ÷8, winter day ÷2, winter night ×1.5 on σ); "
+        "L758, L1023–1025, L3295; A8.2 Decca.CF = 64 (L8763–8764)", _decca_cf_check),
     Key("gps_se_sf", "gps_se_sf", "float", "—",
         "scale factor on the GPS error VCV (C/A 2500 m², P 79.2 m² per axis): 0.67 reads the "
         "SPS specification's 100 m (C/A, SA on) horizontal at 95 % as the 95 % radius of a "
@@ -1119,7 +1139,20 @@ def _build(data: Mapping[str, Any], config_dir: Path) -> RunConfig:
         else:
             message = UNKNOWN_TABLE_MESSAGE if isinstance(value, dict) else UNKNOWN_KEY_MESSAGE
             raise InputError(message, field=name, text=name)
+    lsq = data.get("lsq")
+    if (_file_preset(data) == "thesis"
+            and not (isinstance(lsq, dict) and "decca_cf" in lsq)):
+        # the thesis preset's Decca.CF: summer's day (A8.2), not the sun's condition
+        kwargs["lsq"] = dataclasses.replace(kwargs.get("lsq", LsqConfig()),
+                                            decca_cf=THESIS_DECCA_CF)
     return RunConfig(**kwargs, config_dir=config_dir)
+
+
+def _file_preset(data: Mapping[str, Any]) -> str | None:
+    """The ``filter.preset`` a parsed document sets (checked by the filter table), else None."""
+    f = data.get("filter")
+    preset = f.get("preset") if isinstance(f, dict) else None
+    return preset.strip().lower() if isinstance(preset, str) else None
 
 
 def _build_table(table: str, cls: type, data: Mapping[str, Any]) -> Any:

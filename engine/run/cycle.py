@@ -68,6 +68,7 @@ from engine.systems.decca import (
     DECCA_TRACK_GAP_S,
     LANE_SIGMA_MAX,
     ChainOnGrid,
+    DeccaReading,
     LaneSource,
     lane_sigma,
     place_chain_on_datum,
@@ -363,6 +364,11 @@ class CycleResult:
     adapt_logged: bool = False
     """The factor moved by more than :data:`ADAPT_LOG_STEP` since it was last logged (or
     this is the first cycle with a factor): the ``.OUT`` has an ``ADAPT`` line."""
+    decca_cf: float | None = None
+    """The ``Decca.CF`` of this cycle's Decca VCV (None: no Decca reading)."""
+    decca_condition: str = ""
+    """Its sky-wave condition (``SD``, ``WD``, ``SN``, ``WN``) when ``lsq.decca_cf = "auto"``
+    chose it ("" for a fixed CF)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -394,6 +400,9 @@ class NavState:
     """The learnt fix-VCV factor (engine.filter.adapt; None: adaptation off)."""
     adapt_logged: float = 0.0
     """The factor last written to the ``.OUT`` (0: none yet)."""
+    decca_condition: str = ""
+    """The last Decca sky-wave condition ``lsq.decca_cf = "auto"`` chose ("": none yet): a
+    change is said."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -597,6 +606,7 @@ def step(
     if fix is not None and fix.lse_ok and fix.s2 is not None:
         cumulative = cumulative.update(fix.s2, fix.n_used - 2)
     lanes = readings[DECCA.name].detail
+    decca_cf, condition = _decca_condition(nav, readings[DECCA.name].value, messages)
     n = nav.n + 1
     link = filt.link
     # CycleResult(...) and NavState(...) positionally, in the order of their fields
@@ -606,15 +616,31 @@ def step(
         ctx.config.decca.on, fix, pred.estimate, kf_est, mpp, filt.status, filt.state,
         filt.result, cumulative, nav.pending_obs, tuple(messages), link,
         pred.sensor_update, fit_note is not None, fit_scale, filt.gate,
-        0 if lanes is None else lanes.slips, learnt, log_adapt,
+        0 if lanes is None else lanes.slips, learnt, log_adapt, decca_cf, condition,
     )
     ctx.parts.freeze(fix, None if link is None else link[2], filt.result, pred.sensor_update)
     next_nav = ctx.new.nav(
         n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
         nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
         filt.gated, sens.reference, pred.reference, learnt, logged,
+        condition or nav.decca_condition,
     )
     return next_nav, result
+
+
+def _decca_condition(nav: NavState, reading: DeccaReading | None,
+                     messages: list[str]) -> tuple[float | None, str]:
+    """(``Decca.CF`` of this cycle's Decca reading or None, its "auto" condition code or "");
+    a condition other than the last one chosen is said (docs/THEORY.md §3.5)."""
+    if reading is None:
+        return None, ""
+    cond = reading.condition
+    if cond is None:
+        return reading.cf, ""
+    if cond.code != nav.decca_condition:
+        messages.append(f"Decca sky-wave: {cond.name}, CF {cond.cf:.4g} "
+                        f"(sun {cond.sun_deg:+.1f}°)")
+    return reading.cf, cond.code
 
 
 ADAPT_LOG_STEP = 0.05

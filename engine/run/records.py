@@ -127,6 +127,8 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
         "tests": [_test_json(kind, u) for kind, u in updates(r)],
         **({} if r.adapt is None else {"adapt": {"fix": _num(r.adapt.fix_factor, 4),
                                                  "n": r.adapt.n}}),
+        **({} if not r.decca_condition else {"decca_cf": {
+            "cf": _num(r.decca_cf, 6), "condition": r.decca_condition}}),
         "messages": list(r.messages),
     }
 

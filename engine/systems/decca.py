@@ -33,6 +33,7 @@ from engine.systems.base import (
     Point,
     SystemReading,
 )
+from engine.systems.decca_season import DeccaCondition, decca_condition
 
 PATTERNS: tuple[str, str, str] = ("red", "green", "purple")
 """Pattern order used everywhere (slots 3–5 of the LS observation vector)."""
@@ -737,6 +738,9 @@ class DeccaReading:
     corrections_lanes: tuple[float, float, float] = (0.0, 0.0, 0.0)
     cf: float = 64.0
     totals: tuple[float | None, float | None, float | None] | None = None
+    condition: DeccaCondition | None = None
+    """The sky-wave condition ``cf`` was chosen by (``lsq.decca_cf = "auto"``; None: a fixed
+    ``Decca.CF``)."""
 
 
 class DeccaObservations:
@@ -858,8 +862,14 @@ class DeccaSystem:
                 cfg, (PATTERNS[0] in select, PATTERNS[1] in select, PATTERNS[2] in select),
                 (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes))
         totals = lanes.totals
-        reading = DeccaReading(placed, rec.decca, ctx.zone_lane, per[1], per[2],
-                               cfg.lsq.decca_cf, totals)
+        cf = cfg.lsq.decca_cf
+        condition = None
+        if isinstance(cf, str):  # "auto": the sun at the last MPP (docs/THEORY.md §3.5)
+            nav = inputs.nav
+            condition = decca_condition(rec.time, nav.mpp_lat_deg, nav.mpp_lon_deg)
+            cf = condition.cf
+        reading = DeccaReading(placed, rec.decca, ctx.zone_lane, per[1], per[2], cf, totals,
+                               condition)
         return SystemReading(reading, lanes.notes, lanes, totals != (None, None, None))
 
     def lane_totals(self, inputs: CycleInputs, placed: ChainOnGrid, gps: Any) -> LaneTotals:
