@@ -555,10 +555,7 @@ def _decca_cf_check(value: Any) -> float | str:
     number > 0 (the A8.2 fixed divisor)."""
     if isinstance(value, str):
         return parse_decca_cf(value)
-    number = _typed(value, "float")
-    if not number > 0.0:
-        raise _bad(DECCA_CF_MESSAGE)
-    return number
+    return _POSITIVE(_typed(value, "float"))
 
 
 THESIS_DECCA_CF = 64.0

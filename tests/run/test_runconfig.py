@@ -50,7 +50,9 @@ def test_sample_configuration_is_the_thesis_start_up() -> None:
 
 def test_omitted_keys_take_the_a82_defaults() -> None:
     cfg = parse_config_text("")
-    assert cfg.lsq.decca_cf == 64.0  # Decca.CF (L8763)
+    # Not A8.2's fixed 64 (summer's day, L8763): the thesis' four conditions by the sun
+    # (L8352); the thesis preset keeps 64 (test_thesis_preset_keeps_summer_day_decca_cf)
+    assert cfg.lsq.decca_cf == "auto"
     assert cfg.lsq.reliab_interval_pct == 5.0  # ReliabInterval (L8781)
     assert cfg.lsq.conf_region_pct == 95.0  # ConfRegion (L8782)
     assert cfg.lsq.lop_reject == "A"  # LOPReject (L8776)
@@ -338,7 +340,7 @@ def test_decca_cf_by_season_and_time_of_day(text: str, cf: float) -> None:
 def test_decca_cf_rejects(text: str) -> None:
     from engine.run.config import parse_decca_cf
 
-    with pytest.raises(InputError, match="Decca.CF: a number > 0 or SD, WD, SN, WN !"):
+    with pytest.raises(InputError, match='Decca.CF: "auto", a number > 0 or SD, WD, SN, WN !'):
         parse_decca_cf(text)
 
 
@@ -479,3 +481,25 @@ def test_a_byte_order_mark_is_allowed(tmp_path: Path) -> None:
     with pytest.raises(InputError) as err:
         load_config(cfg)
     assert str(err.value).startswith(f"{cfg}:3: demo.delta_t_s: ")
+
+
+@pytest.mark.parametrize(("text", "cf"), [
+    ("", "auto"),  # the thesis' four conditions by the sun (L8352)
+    ('[filter]\npreset = "thesis"\n', 64.0),  # the thesis program's summer's day (L8763)
+    ('[filter]\npreset = "Thesis"\n[lsq]\ndecca_cf = 4\n', 4.0),  # the file's key wins
+    ('[filter]\npreset = "thesis"\n[lsq]\ndecca_cf = "AUTO"\n', "auto"),
+    ('[filter]\npreset = "honest"\n', "auto"),
+    ('[lsq]\ndecca_cf = "winter night"\n', 1.0 / 2.25),
+    ("[lsq]\ndecca_cf = 1\n", 1.0),
+])
+def test_decca_cf_auto_and_the_thesis_preset(text: str, cf: object) -> None:
+    assert parse_config_text(text).lsq.decca_cf == cf
+
+
+@pytest.mark.parametrize("value", ['"nightly"', '""', "true", "[64]"])
+def test_bad_decca_cf_names_file_line_and_key(value: str) -> None:
+    with pytest.raises(InputError) as caught:
+        parse_config_text(f"[lsq]\nepsilon_m = 1.0\ndecca_cf = {value}\n", "mission.toml")
+    err = caught.value
+    assert (err.file, err.line, err.field) == ("mission.toml", 3, "lsq.decca_cf")
+    assert '"auto"' in err.message

@@ -472,3 +472,20 @@ def test_helpers() -> None:
     assert compact(4.1912, 6) == " 4.191" and compact(1.0, 4) == "   1"
     assert corr_text(-0.704, 5) == " -.70" and corr_text(1.0, 5) == " 1.00"
     assert corr_text(0.001, 5) == "    0"
+
+
+def test_decca_page_shows_the_cf_the_sun_chose(tmp_path: pytest.TempPathFactory) -> None:
+    """Pg 615 under ``lsq.decca_cf = "auto"``: the cycle's condition and CF, not the key's
+    "auto" (the sample's first records moved to 22:35 UTC, a summer night: CF 1, THEORY §3.5)."""
+    lines = (DATA / "920917_1.RUN").read_text(encoding="ascii").splitlines(keepends=True)
+    run = tmp_path / "night.RUN"  # type: ignore[operator]
+    run.write_text("".join([lines[0]] + [ln.replace("\t08", "\t22", 1) for ln in lines[1:4]]),
+                   encoding="ascii")
+    cfg = load_config(DATA / "920917_1.toml")
+    cfg = cfg.replace(run_file=str(run), lsq=dataclasses.replace(cfg.lsq, decca_cf="auto"))
+    session = Session(cfg)
+    r = session.step()
+    assert r is not None
+    text = mod(615).render(r, session)
+    assert "a priori VCV matrix (SN) :" in text
+    assert "Decca.CF 1 (auto: by the sun)" in text

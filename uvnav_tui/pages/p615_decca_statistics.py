@@ -2,7 +2,8 @@
 
 Per pattern: the observed total lane count (Obs), the operator's correction (C-O, A7), the count
 computed at the LSE (Calc), the lane expansion factor (LEF) and the LOP azimuth (Az, °); then the
-a priori VCV of the three Decca LOPs (m²) for the ``Decca.CF`` condition, "(SD)" = summer's day::
+a priori VCV of the three Decca LOPs (m²) for the cycle's ``Decca.CF`` condition, "(SD)" = summer's
+day (``decca_cf = "auto"``: the condition the sun gave this cycle)::
 
             Obs      C-O     Calc       LEF      Az
     Red  :   44.86   -0.05    44.81   3.98609    61.3
@@ -54,9 +55,13 @@ def render(r: CycleResult, session: Session) -> str:
     out.append("")
     cl = fix.apriori_vcv("decca")
     if cl is not None:
-        label = f"a priori VCV matrix ({condition_label(cfg.lsq.decca_cf)}) : "
+        cf = r.decca_cf if r.decca_cf is not None else cfg.lsq.decca_cf
+        code = r.decca_condition or (None if isinstance(cf, str) else condition_label(cf))
+        label = f"a priori VCV matrix ({code}) : "
         out += labelled_matrix(label, cl, 3, 9)
-        out += ["", f"Decca.CF {cfg.lsq.decca_cf:g}; unselected patterns: variance 1, "
+        chosen = " (auto: by the sun)" if r.decca_condition else ""
+        cf_text = cf if isinstance(cf, str) else f"{cf:g}"
+        out += ["", f"Decca.CF {cf_text}{chosen}; unselected patterns: variance 1, "
                 "covariances 0 (L6552)"]
     return "\n".join(out)
 
