@@ -110,3 +110,20 @@ def test_night_epoch_has_the_summer_night_vcv(tmp_path: Path) -> None:
     obj = json.loads(json.dumps(cycle_json(r_night)))
     assert obj["decca_cf"] == {"cf": 1.0, "condition": "SN"}
     assert "decca_cf" not in cycle_json(r_fixed)
+
+
+def test_compiled_path_takes_the_night_cf(tmp_path: Path,
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """The compiled lane model receives the epoch's CF as an argument: a night run on the
+    chosen parts and on the pure reference give the same VCV (tolerance contract, 1e-9)."""
+    import engine.run.session as session_mod
+    from engine.run.parts import REFERENCE
+
+    thesis = load_config(SAMPLE)
+    cfg = thesis.replace(lsq=replace(thesis.lsq, decca_cf="auto"),
+                         run_file=str(_sample(tmp_path, "22")))
+    fast, _r = _first_fix(cfg)
+    monkeypatch.setattr(session_mod, "choose_parts", lambda: REFERENCE)
+    pure, r = _first_fix(cfg)
+    assert r.decca_condition == "SN"
+    np.testing.assert_allclose(fast, pure, rtol=1e-9, atol=1e-9)
