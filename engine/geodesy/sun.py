@@ -17,7 +17,8 @@ from __future__ import annotations
 import math
 from datetime import UTC, datetime
 
-__all__ = ["equation_of_time_min", "solar_declination_deg", "sun_elevation_deg"]
+__all__ = ["equation_of_time_min", "solar_declination_deg", "solar_position_deg",
+           "sun_elevation_deg"]
 
 _J2000 = datetime(2000, 1, 1, 12, tzinfo=UTC)
 """Epoch J2000.0 (JD 2451545.0); UTC is used for TT (their difference, about a minute, moves
@@ -67,6 +68,12 @@ def equation_of_time_min(t: datetime) -> float:
 def sun_elevation_deg(t: datetime, lat_deg: float, lon_deg: float) -> float:
     """Geometric elevation of the sun's centre above the horizon at ``t`` seen from
     ``lat_deg``, ``lon_deg`` (degrees; negative: below the horizon)."""
+    return solar_position_deg(t, lat_deg, lon_deg)[1]
+
+
+def solar_position_deg(t: datetime, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+    """(the sun's declination, its geometric elevation at ``lat_deg``, ``lon_deg``) at ``t``,
+    degrees: :func:`solar_declination_deg` and :func:`sun_elevation_deg` in one evaluation."""
     if t.tzinfo is not None:
         t = t.astimezone(UTC)
     decl, eot = _solar(t)
@@ -74,4 +81,4 @@ def sun_elevation_deg(t: datetime, lat_deg: float, lon_deg: float) -> float:
     hour_angle = math.radians((minutes + eot + 4.0 * lon_deg) / 4.0 - 180.0)
     lat, d = math.radians(lat_deg), math.radians(decl)
     s = math.sin(lat) * math.sin(d) + math.cos(lat) * math.cos(d) * math.cos(hour_angle)
-    return math.degrees(math.asin(max(-1.0, min(1.0, s))))
+    return decl, math.degrees(math.asin(max(-1.0, min(1.0, s))))

@@ -28,7 +28,7 @@ import math
 from dataclasses import dataclass
 from datetime import datetime
 
-from engine.geodesy.sun import solar_declination_deg, sun_elevation_deg
+from engine.geodesy.sun import solar_declination_deg, solar_position_deg
 
 DECCA_CF_CONDITIONS: dict[str, tuple[str, float]] = {
     "SD": ("summer day", 64.0),
@@ -62,16 +62,17 @@ class DeccaCondition:
 
 def is_local_summer(t: datetime, lat_deg: float) -> bool:
     """Whether ``t`` is in the summer half-year of latitude ``lat_deg`` (degrees north): the
-    sun's declination on the same side of the equator (never on the equator itself)."""
+    sun's declination on the same side of the equator (never on the equator itself; the rule
+    :func:`decca_condition` applies)."""
     return solar_declination_deg(t) * lat_deg > 0.0
 
 
 def decca_condition(t: datetime, lat_deg: float, lon_deg: float) -> DeccaCondition:
     """The sky-wave condition at UTC ``t`` for a receiver at ``lat_deg``, ``lon_deg`` (degrees,
     north and east positive; any datum)."""
-    sun = sun_elevation_deg(t, lat_deg, lon_deg)
+    decl, sun = solar_position_deg(t, lat_deg, lon_deg)
     if not math.isfinite(sun):
         raise ValueError(f"no sun elevation at {lat_deg!r}, {lon_deg!r}")
-    code = ("S" if is_local_summer(t, lat_deg) else "W") + (
+    code = ("S" if decl * lat_deg > 0.0 else "W") + (
         "D" if sun >= DAY_MIN_SUN_ELEVATION_DEG else "N")
     return DeccaCondition(code, DECCA_CF_CONDITIONS[code][1], sun)
