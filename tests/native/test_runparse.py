@@ -202,7 +202,7 @@ def test_make_builds_the_dataclass_instance() -> None:
         (decca_mod.LaneSource, maker(decca_mod.LaneSource), ("GPS", 1.0, 2.0, cov)),
         (decca_mod.DeccaReading, maker(decca_mod.DeccaReading),
          (None, (0.5, None, 0.25), (None, (1, 2), None), (True, False, True), (0.0, 0.1, 0.0),
-          64.0, (44.5, None, 1.25))),
+          64.0, (44.5, None, 1.25), None)),
         (decca_mod.LaneTotals, maker(decca_mod.LaneTotals),
          ((44.5, None, 1.25), (None, None, None), ("a note",), 1)),
         (cycle_mod.CycleResult, maker(cycle_mod.CycleResult),
