@@ -664,7 +664,7 @@ def test_developer_parameter_dialogs(data_dir: Path) -> None:
         await fill(pilot, "param-lop_reject", "Y")
         await fill(pilot, "param-conf_region_pct", "99")
         cf = await fill(pilot, "param-decca_cf", "autumn")
-        assert message_of(cf) == "Decca.CF: a number > 0 or SD, WD, SN, WN !"
+        assert message_of(cf) == 'Decca.CF: "auto", a number > 0 or SD, WD, SN, WN !'
         await menu(pilot, "enter")
         assert isinstance(app.screen, Dialog) and cf.text == "autumn"  # kept, not applied
         await fill(pilot, "param-decca_cf", "winter night")
