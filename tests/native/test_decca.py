@@ -250,8 +250,9 @@ def test_tracked_totals_anywhere(replay_values: dict[str, list[Any]], k: int,
     kernel gives decca_totals' LaneTotals or declines; it declines every slip, gap and first
     reading."""
     calls = replay_values["totals"]
-    placed, _g, zone_lane, track, fractions, time, x_start, position, gps, rule = calls[
-        k % len(calls)]
+    call = calls[k % len(calls)]  # the rule, where the caller passed one
+    placed, _g, zone_lane, track, fractions, time, x_start, position, gps = call[:9]
+    rule = call[9] if len(call) > 9 else decca.LANE_RULE
     if track[0] is None:
         return
     track = tuple(None if t is None or f else (t[0] + s, t[1] - timedelta(seconds=gap))
