@@ -373,6 +373,10 @@ class DeccaConfig:
     green: str = ""
     purple: str = ""
     select: tuple[str, ...] = ()
+    lane_rule: str = "bootstrap"
+    lane_success: float = 0.999
+    lane_ratio: float = 3.0
+    lane_cf: float = 1.0
 
     def __post_init__(self) -> None:
         _validate(self, self.TABLE, self.KEYS)
@@ -425,6 +429,21 @@ DeccaConfig.KEYS = (
     Key("select", "select", "str_list", "—",
         "patterns used for fixing; omitted = every entered pattern",
         "L5424 (observables selectable); L5531"),
+    Key("lane_rule", "lane_rule", "str", "—",
+        '"bootstrap" (whole lanes after a gap, and GPS lane slips, only as the success rate and '
+        'ratio test below allow) or "sigma" (1σ of the position alone ≤ 1/6 lane)',
+        "THEORY §3.3 [not in the thesis]", _choice("bootstrap", "sigma")),
+    Key("lane_success", "lane_success", "float", "—",
+        "least integer-bootstrapping success rate 1 − α of a lane identification",
+        "Teunissen 1998 (J. Geod. 72:606); THEORY §3.3 [not in the thesis]",
+        _between(0.5, 1.0, hi_open=True)),
+    Key("lane_ratio", "lane_ratio", "float", "—",
+        "least ratio q2/q1 of the second-best to the best lane candidate (ratio test)",
+        "Euler & Schaffrin 1991; Verhagen & Teunissen 2013 (GPS Solut. 17:535); THEORY §3.3",
+        _between(1.0, None)),
+    Key("lane_cf", "lane_cf", "float", "—",
+        "largest Decca.CF of the Decca VCV a lane decision assumes (1 = summer night)",
+        "thesis table 4.3 (summer night σ), A4.1–A4.3; THEORY §3.3", _POSITIVE),
 )
 # fmt: on
 

@@ -540,16 +540,17 @@ class _LaneAt:
     def __init__(self, placed: ChainOnGrid, geodesic: GeodesicSolver) -> None:
         self.placed = placed
         self.geodesic = geodesic
-        self.cache: dict[str, tuple[list[float], np.ndarray] | None] = {}
+        self.cache: dict[str, tuple[list[float], np.ndarray, list[float]] | None] = {}
 
-    def _lanes(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
-        """(N_calc per pattern, 3×2 gradients) at ``src``: :func:`decca_geometry`'s numbers
-        without its page data (None where it raises or N_calc is not finite)."""
+    def _lanes(self, src: LaneSource) -> tuple[list[float], np.ndarray, list[float]] | None:
+        """(N_calc per pattern, 3×2 gradients, distances master/Red/Green/Purple in m) at
+        ``src``: :func:`decca_geometry`'s numbers without its page data (None where it raises or
+        N_calc is not finite)."""
         placed = self.placed
         sc = placed._scalars
         try:
             lat0, lon0 = placed.grid.inverse(src.x_m, src.y_m)
-            _d, n_calc, row_x, row_y = _lane_model(sc, src.x_m, src.y_m, lat0)
+            dist, n_calc, row_x, row_y = _lane_model(sc, src.x_m, src.y_m, lat0)
             # Not used here, but where decca_geometry cannot form the LEF (γ = 0) it raises.
             _lef(_azimuths_rad(sc, self.geodesic, lat0, lon0))
         except (ValueError, ArithmeticError):
@@ -558,9 +559,9 @@ class _LaneAt:
         if not (isfinite(n_calc[0]) and isfinite(n_calc[1]) and isfinite(n_calc[2])):
             return None
         return n_calc, np.array([[row_x[0], row_y[0]], [row_x[1], row_y[1]],
-                                 [row_x[2], row_y[2]]])
+                                 [row_x[2], row_y[2]]]), list(dist)
 
-    def lanes_at(self, src: LaneSource) -> tuple[list[float], np.ndarray] | None:
+    def lanes_at(self, src: LaneSource) -> tuple[list[float], np.ndarray, list[float]] | None:
         """:meth:`_lanes` at ``src``, cached per source name."""
         cache = self.cache
         name = src.name
@@ -592,10 +593,171 @@ class LaneTotals:
     slips: int
 
 
+@dataclass(frozen=True, slots=True)
+class LaneRule:
+    """When a position may settle Decca whole lanes (THEORY §3.3, "Lane identification with
+    its uncertainty"; config ``[decca] lane_success``, ``lane_ratio``, ``lane_cf``).
+
+    The float lane ambiguities a_i = N_calc_i(reference) − fraction_i have the VCV
+    Q = G·P·Gᵀ + C_lanes (G the lane gradients, P the reference position's 2×2 VCV, C_lanes the
+    Decca a priori VCV of A4.1–A4.3 at Decca.CF = min(configured, ``cf``)). Lanes are taken
+    only as far as the integer-bootstrapping success rate (Teunissen 1998) stays at or above
+    ``success`` (partial fixing, most precise pattern first), and only when the integer
+    least-squares solution of those patterns passes the ratio test q₂/q₁ ≥ ``ratio``
+    (Euler & Schaffrin 1991; Verhagen & Teunissen 2013)."""
+
+    success: float = 0.999
+    ratio: float = 3.0
+    cf: float = 1.0
+
+
+LANE_RULE = LaneRule()
+"""The default :class:`LaneRule` (its sources in docs/CONFIG.md)."""
+
+
+@dataclass(frozen=True, slots=True)
+class LaneFixing:
+    """Outcome of :func:`fix_lanes`: the whole lanes z_i taken per pattern index, the
+    bootstrapped success rate of those (1.0 when none), the ratio q₂/q₁ of their integer
+    least-squares solution (inf: no second candidate), and why the others were not taken
+    (None when every pattern asked for was)."""
+
+    lanes: dict[int, int]
+    success: float
+    ratio: float
+    why: str | None
+
+
+_SQRT1_2 = math.sqrt(0.5)
+
+
+def _success_factor(sigma: float) -> float:
+    """P(|e| < ½) of a Gaussian e with σ = ``sigma`` lanes: 2Φ(1/(2σ)) − 1 (Teunissen 1998)."""
+    if sigma <= 0.0:
+        return 1.0
+    return math.erf(0.5 / sigma * _SQRT1_2)
+
+
+def fix_lanes(a: np.ndarray, q: np.ndarray, want: Sequence[int], known: dict[int, int],
+              rule: LaneRule) -> LaneFixing:
+    """Whole lanes of the patterns ``want`` from float ambiguities ``a`` (lanes, per pattern
+    index 0–2) with VCV ``q`` (lanes², 3×3), given the whole lanes ``known`` of other patterns.
+
+    The floats of ``want`` are first conditioned on ``known`` (a_S|T = a_S − Q_ST·Q_TT⁻¹·(a_T −
+    z_T)); then patterns are taken in the bootstrapping order (least conditional variance
+    first) while the product of 2Φ(1/(2σ_i|I)) − 1 stays ≥ ``rule.success`` (Teunissen 1998's
+    success rate, a lower bound of integer least squares', Teunissen 1999); the taken set is
+    solved by integer least squares (a box search, q(z) = (a − z)ᵀQ⁻¹(a − z)) and accepted only
+    when the second-best candidate's q is at least ``rule.ratio`` times the best's."""
+    want = list(want)
+    t_idx = [i for i in known if i not in want]
+    a_s = np.array([a[i] for i in want], dtype=float)
+    q_ss = np.array([[q[i][j] for j in want] for i in want], dtype=float)
+    if t_idx:
+        q_tt = np.array([[q[i][j] for j in t_idx] for i in t_idx], dtype=float)
+        q_st = np.array([[q[i][j] for j in t_idx] for i in want], dtype=float)
+        r_t = np.array([a[i] - known[i] for i in t_idx], dtype=float)
+        try:
+            k = np.linalg.solve(q_tt, q_st.T).T  # Q_ST·Q_TT⁻¹
+        except np.linalg.LinAlgError:
+            k = None
+        if k is not None:
+            a_s = a_s - k @ r_t
+            q_ss = q_ss - k @ q_st.T
+    if not (np.isfinite(a_s).all() and np.isfinite(q_ss).all()):
+        return LaneFixing({}, 1.0, math.inf, "no finite lane variance")
+    # Bootstrapping order and conditional σ (sequential conditioning on those chosen).
+    order: list[int] = []
+    sigmas: list[float] = []
+    rest = list(range(len(want)))
+    while rest:
+        best = None
+        for j in rest:
+            v = float(q_ss[j, j])
+            if order:
+                c = q_ss[np.ix_([j], order)]
+                try:
+                    v -= float((c @ np.linalg.solve(q_ss[np.ix_(order, order)], c.T))[0, 0])
+                except np.linalg.LinAlgError:
+                    pass
+            if best is None or v < best[1]:
+                best = (j, v)
+        assert best is not None
+        order.append(best[0])
+        sigmas.append(math.sqrt(max(best[1], 0.0)))
+        rest.remove(best[0])
+    p = 1.0
+    taken: list[int] = []
+    for j, sg in zip(order, sigmas, strict=True):
+        f = p * _success_factor(sg)
+        if f < rule.success:
+            break
+        p = f
+        taken.append(j)
+    if not taken:
+        return LaneFixing({}, p * _success_factor(sigmas[0]), math.nan,
+                          f"±{3 * sigmas[0]:.2f} lane (3σ) at best, success rate "
+                          f"{_success_factor(sigmas[0]):.3f} < {rule.success:g}")
+    # Integer least squares of the taken patterns: a box of ±(⌈3σ⌉ + 1) lanes around the float.
+    a_u = a_s[taken]
+    q_u = q_ss[np.ix_(taken, taken)]
+    try:
+        w = np.linalg.inv(q_u)
+    except np.linalg.LinAlgError:
+        return LaneFixing({}, p, math.nan, "singular lane variance")
+    spans = []
+    for m in range(len(taken)):
+        half = min(int(math.ceil(3.0 * math.sqrt(max(float(q_u[m, m]), 0.0)))) + 1, 4)
+        c0 = int(math.floor(a_u[m] + 0.5))
+        spans.append(range(c0 - half, c0 + half + 1))
+    grids = np.array(np.meshgrid(*spans, indexing="ij"), dtype=float).reshape(len(taken), -1).T
+    d = a_u[None, :] - grids
+    qv = np.einsum("ni,ij,nj->n", d, w, d)
+    two = np.argsort(qv)[:2]
+    q1 = float(qv[two[0]])
+    q2 = float(qv[two[1]]) if two.size > 1 else math.inf
+    ratio = math.inf if q1 <= 0.0 else q2 / q1
+    if not ratio >= rule.ratio:
+        return LaneFixing({}, p, ratio, f"ratio test q2/q1 = {ratio:.2f} < {rule.ratio:g}")
+    z = grids[two[0]]
+    lanes = {want[j]: int(z[m]) for m, j in enumerate(taken)}
+    why = None
+    if len(taken) < len(want):
+        why = (f"success rate with the next pattern "
+               f"{p * _success_factor(sigmas[len(taken)]):.3f} < {rule.success:g}")
+    return LaneFixing(lanes, p, ratio, why)
+
+
+def _floats_at(at: _LaneAt, src: LaneSource, fractions: Sequence[float | None],
+               cf: float) -> tuple[np.ndarray, np.ndarray, list[float]] | None:
+    """(float ambiguities a_i = N_calc_i − fraction_i, their VCV G·P·Gᵀ + C_lanes (lanes²),
+    N_calc per pattern) at ``src``; a pattern without a fraction has a = nan. None where the
+    lane model cannot be evaluated."""
+    g = at.lanes_at(src)
+    if g is None:
+        return None
+    n_calc, rows, dist = g
+    sc = at.placed._scalars
+    c = np.array(_vcv_core(dist[0], dist[1:], sc.baseline_sky, cf), dtype=float)
+    q = rows @ np.asarray(src.cov, dtype=float) @ rows.T + c
+    a = np.array([math.nan if f is None else n_calc[i] - f for i, f in enumerate(fractions)])
+    return a, q, list(n_calc)
+
+
+def _total_for(n_calc: float, frac: float, z: int) -> float:
+    """The total count with fraction ``frac`` and whole lane ambiguity ``z`` (= z + frac),
+    written as :func:`identify_lane` from ``n_calc`` when z is the nearest lane (the same
+    operations, so the same bits as before the lane rule)."""
+    base = identify_lane(n_calc, frac)
+    return base + (z - round(base - frac))
+
+
 def _identify_after_gap(at: _LaneAt, i: int, frac: float, sources: Sequence[LaneSource | None],
                         gps: LaneSource | None, notes: list[str]) -> tuple[float | None, bool]:
     """The total of pattern ``i`` identified again after a gap from the first source precise
-    enough along the lane gradient (None and a note while none is); True if that was GPS."""
+    enough along the lane gradient (None and a note while none is); True if that was GPS.
+    The rule of ``[decca] lane_rule = "sigma"``: 1σ ≤ :data:`LANE_SIGMA_MAX`, the source's
+    position error only."""
     pattern = PATTERNS[i]
     worst = math.inf
     for src in sources:
@@ -639,6 +801,43 @@ def _gps_lane_check(at: _LaneAt, i: int, frac: float, total: float, gps: LaneSou
     return expected, 1
 
 
+LANE_DOUBT_NOTE = "lane in doubt"
+"""Words every note of a pattern kept out of the fix by the lane rule carries (counted by the
+campaign's ``lane_doubt`` column)."""
+
+
+def _gps_slip_confirmed(at: _LaneAt, fractions: Sequence[float | None],
+                        totals: list[float | None], suspects: list[int], gps: LaneSource,
+                        rule: LaneRule, notes: list[str]) -> int:
+    """The lane slips the old rule suspects (``suspects``: the count and GPS's nearest lane
+    differ) judged by :class:`LaneRule`: the patterns with counts are identified from GPS
+    together (:func:`fix_lanes`); a suspect GPS settles is corrected to GPS's lane (or kept
+    when GPS's lane is its own), one GPS cannot settle is kept out of this record's fix with a
+    note (the track goes on). ``totals`` is changed in place; returns the slips corrected."""
+    fl = _floats_at(at, gps, fractions, rule.cf)
+    want = [i for i in range(3) if totals[i] is not None and fractions[i] is not None]
+    fixing = None if fl is None else fix_lanes(fl[0], fl[1], want, {}, rule)
+    slips = 0
+    for i in suspects:
+        total = totals[i]
+        frac = fractions[i]
+        assert total is not None and frac is not None
+        if fixing is None or i not in fixing.lanes:
+            why = "no GPS lane" if fixing is None else (fixing.why or "")
+            notes.append(f"Decca {PATTERNS[i]}: {LANE_DOUBT_NOTE}: the count {total:.2f} and "
+                         f"GPS differ by half a lane or more and GPS cannot settle the lane "
+                         f"({why}): kept out of this fix")
+            totals[i] = None
+            continue
+        expected = _total_for(fl[2][i], frac, fixing.lanes[i])  # type: ignore[index]
+        slip = round(total - expected)
+        if slip != 0:
+            notes.append(_slip_note(i, slip, total, expected))
+            totals[i] = expected
+            slips += 1
+    return slips
+
+
 def decca_totals(
     placed: ChainOnGrid,
     geodesic: GeodesicSolver,
@@ -649,19 +848,22 @@ def decca_totals(
     x_start: tuple[float, float],
     position: LaneSource | None = None,
     gps: LaneSource | None = None,
+    rule: LaneRule | None = LANE_RULE,
 ) -> LaneTotals:
     """Total lane counts of one record's ``fractions``, tracked like a decometer, with lane
-    integrity (issue 11; thesis §4.2.3 on lane identification).
+    integrity (thesis §4.2.3 on lane identification; THEORY §3.3).
 
     The first reading of a pattern takes the operator's ``zone_lane`` (resolving the 10-zone
     cycle from the provisional position ``x_start``, :class:`ZoneLaneResolver`); later readings
     follow lane crossings (:func:`track_lane`). After a gap longer than
-    :data:`DECCA_TRACK_GAP_S` (a dive) the integer lane is identified again only from a source
-    precise enough along the lane gradient (1σ ≤ :data:`LANE_SIGMA_MAX`): ``gps``, else the
-    filter's ``position``; while neither is, the pattern stays out of the fix and a note says
-    why. Whenever ``gps`` settles the lane, every count is checked against it: a count a whole
-    lane or more off is a lane slip, corrected to GPS's lane with a note. A zone/lane more than
-    half a zone from the provisional count gives a warning (THEORY D7).
+    :data:`DECCA_TRACK_GAP_S` (a dive) the integer lanes are identified again from ``gps``,
+    else the filter's ``position``, only as :class:`LaneRule` ``rule`` allows (conditioned on
+    the patterns still tracked; None: the older rule, 1σ ≤ :data:`LANE_SIGMA_MAX` along the
+    gradient of the position alone); a pattern no source settles stays out of the fix and a
+    note says why. Whenever ``gps`` settles a lane, every count is checked against it: a count
+    a whole lane or more off is a lane slip, corrected to GPS's lane with a note (under
+    ``rule``, a suspected slip GPS cannot settle keeps that pattern out of this record's fix).
+    A zone/lane more than half a zone from the provisional count gives a warning (THEORY D7).
     """
     slips = 0
     totals: list[float | None] = [None, None, None]
@@ -674,6 +876,8 @@ def decca_totals(
     # of the two datetimes).
     last_time: datetime | None = None
     last_s = 0.0
+    gap: list[int] = []  # patterns to identify again after a gap (under ``rule``)
+    suspects: list[int] = []  # lane slips the old GPS check finds (judged under ``rule``)
     for i in range(3):
         frac = fractions[i]
         if frac is None:
@@ -691,6 +895,9 @@ def decca_totals(
             d = frac - (p0 - floor(p0))
             total: float | None = p0 + (d - floor(d + 0.5))
         elif prev is not None:
+            if rule is not None:
+                gap.append(i)
+                continue
             total, checked = _identify_after_gap(at, i, frac, (gps, position), gps, notes)
             if total is None:
                 continue  # the stale track stays: the next record tries again
@@ -705,12 +912,68 @@ def decca_totals(
             if lanes.warning is not None:  # more than half a zone from N_calc (THEORY D7)
                 notes.append(lanes.warning)
         if gps is not None and not checked:
-            total, slipped = _gps_lane_check(at, i, frac, total, gps, notes)
-            slips += slipped
+            if rule is not None:
+                lane = at(gps, i)
+                if (lane is not None and lane[1] <= LANE_SIGMA_MAX
+                        and round(total - identify_lane(lane[0], frac)) != 0):
+                    suspects.append(i)
+            else:
+                total, slipped = _gps_lane_check(at, i, frac, total, gps, notes)
+                slips += slipped
         totals[i] = total
         new_track[i] = (total, time)
+    if rule is not None and suspects and gps is not None:
+        slips += _gps_slip_confirmed(at, fractions, totals, suspects, gps, rule, notes)
+        for i in suspects:
+            if totals[i] is not None:
+                new_track[i] = (totals[i], time)  # type: ignore[assignment]
+    if rule is not None and gap:
+        _identify_gap(at, gap, fractions, totals, new_track, time, (gps, position), rule,
+                      notes)
     return LaneTotals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes),
                        slips)
+
+
+def _identify_gap(at: _LaneAt, gap: list[int], fractions: Sequence[float | None],
+                  totals: list[float | None], new_track: list[tuple[float, datetime] | None],
+                  time: datetime, sources: Sequence[LaneSource | None], rule: LaneRule,
+                  notes: list[str]) -> None:
+    """The patterns ``gap`` identified again after a gap under ``rule``: from each source in
+    turn (GPS, then the filter's position), jointly and conditioned on the whole lanes of the
+    patterns with counts in this record (:func:`fix_lanes`); ``totals`` and ``new_track`` are
+    set in place for those taken, a note says why for the others (kept out of the fix)."""
+    known: dict[int, int] = {}
+    for i in range(3):
+        t, f = totals[i], fractions[i]
+        if t is not None and f is not None:
+            known[i] = round(t - f)
+    left = list(gap)
+    whys: list[str] = []
+    for src in sources:
+        if src is None or not left:
+            continue
+        fl = _floats_at(at, src, fractions, rule.cf)
+        if fl is None:
+            whys.append(f"{src.name}: no lane count")
+            continue
+        fixing = fix_lanes(fl[0], fl[1], left, known, rule)
+        for i, z in sorted(fixing.lanes.items()):
+            frac = fractions[i]
+            assert frac is not None
+            total = _total_for(fl[2][i], frac, z)
+            totals[i] = total
+            new_track[i] = (total, time)
+            known[i] = z
+            notes.append(f"Decca {PATTERNS[i]}: lane identified again from {src.name} "
+                         f"(success rate {fixing.success:.4f}, ratio {fixing.ratio:.1f})")
+        left = [i for i in left if i not in fixing.lanes]
+        if fixing.why is not None and left:
+            whys.append(f"{src.name}: {fixing.why}")
+    for i in left:
+        why = "; ".join(whys) if whys else "no position"
+        notes.append(f"Decca {PATTERNS[i]}: lane not identified after the gap ({why}), "
+                     f"{LANE_DOUBT_NOTE}: kept out of the fix until GPS, a better position or "
+                     "a zone/lane entered in Setup > Decca settles it")
 
 
 # --------------------------------------------------------------------------------------------
@@ -884,7 +1147,22 @@ class DeccaSystem:
             None if prior is None else LaneSource("the DR position", *x_start, prior.cov),
             None if gps is None else LaneSource("GPS", gps.x_m + gps.corr_east_m,
                                                 gps.y_m + gps.corr_north_m,
-                                                self._gps_cov(gps.var_m2)))
+                                                self._gps_cov(gps.var_m2)),
+            self._rule(inputs.config))
+
+    _rule_of: tuple[Any, LaneRule | None] | None = None
+
+    def _rule(self, cfg: Any) -> LaneRule | None:
+        """The :class:`LaneRule` of ``cfg.decca`` (None: ``lane_rule = "sigma"``), the
+        assumed Decca.CF the smaller of ``lane_cf`` and ``[lsq] decca_cf``."""
+        got = self._rule_of
+        if got is not None and got[0] is cfg:
+            return got[1]
+        d = cfg.decca
+        rule = (None if d.lane_rule == "sigma" else
+                LaneRule(d.lane_success, d.lane_ratio, min(d.lane_cf, cfg.lsq.decca_cf)))
+        self._rule_of = (cfg, rule)
+        return rule
 
     _per_config: tuple[Any, tuple[bool, bool, bool], tuple[float, float, float]] | None = None
     """(configuration, selected patterns, corrections "C-O" in lanes) of the last configuration

@@ -194,7 +194,8 @@ def test_lane_totals_on_the_replay(replay_values: dict[str, list[Any]]) -> None:
 
 
 def _tracked_is_python(placed: Any, zone_lane: Any, track: Any, fractions: Any, time: Any,
-                       x_start: Any, position: Any, gps: Any) -> bool:
+                       x_start: Any, position: Any, gps: Any,
+                       rule: Any = decca.LANE_RULE) -> bool:
     """decca._tracked_totals (the kernel's ``tracked``) against the pure decca_totals of the
     same record: the same LaneTotals to the bit, or None. Returns whether the kernel took it."""
     fix = None
@@ -207,7 +208,7 @@ def _tracked_is_python(placed: Any, zone_lane: Any, track: Any, fractions: Any, 
     with _Pure():
         try:
             want = decca.decca_totals(placed, PURE, zone_lane, track, fractions, time, x_start,
-                                      position, gps)
+                                      position, gps, rule)
         except (ValueError, ArithmeticError):  # a NaN or infinite track: math.floor raises
             assert got is None
             return False
@@ -249,7 +250,9 @@ def test_tracked_totals_anywhere(replay_values: dict[str, list[Any]], k: int,
     kernel gives decca_totals' LaneTotals or declines; it declines every slip, gap and first
     reading."""
     calls = replay_values["totals"]
-    placed, _g, zone_lane, track, fractions, time, x_start, position, gps = calls[k % len(calls)]
+    call = calls[k % len(calls)]  # the rule, where the caller passed one
+    placed, _g, zone_lane, track, fractions, time, x_start, position, gps = call[:9]
+    rule = call[9] if len(call) > 9 else decca.LANE_RULE
     if track[0] is None:
         return
     track = tuple(None if t is None or f else (t[0] + s, t[1] - timedelta(seconds=gap))
@@ -259,7 +262,8 @@ def test_tracked_totals_anywhere(replay_values: dict[str, list[Any]], k: int,
         gps = None
     elif gps is not None:
         gps = decca.LaneSource("GPS", gps.x_m + off[0], gps.y_m + off[1], np.eye(2) * var)
-    took = _tracked_is_python(placed, zone_lane, track, fractions, time, x_start, position, gps)
+    took = _tracked_is_python(placed, zone_lane, track, fractions, time, x_start, position, gps,
+                              rule)
     event(f"kernel took it: {took}")
     read = [f is not None for f in fractions]
     if took:
