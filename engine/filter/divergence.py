@@ -15,7 +15,9 @@ after the dead-reckoned motion between them is taken out (:func:`consistent`: th
 fixes minus the filter's motion between the two epochs, tested against the sum of the two fix
 VCVs at χ²₂(0.99)). A single blunder breaks the run (the next fix is accepted, or disagrees with
 it) and is never acted on. After ``epochs`` such rejections in a row the filter, not the fixes,
-is taken to be wrong.
+is taken to be wrong — provided the run began after ``gap_s`` without a fix update (a dive):
+a filter that has been taking fixes all along does not diverge from them in a few epochs,
+whereas a fix error slower and larger than its VCV (night sky-wave) does look like this.
 
 **Remedy**, ``filter.recover`` (docs/CONFIG.md):
 
@@ -26,7 +28,7 @@ is taken to be wrong.
   the filter has lost the truth). The dead-reckoning states that let the position drift away are
   not left tight: each current component's variance gets (|ν| / Δt)² added, ν the innovation of
   the fix and Δt the time since the filter last accepted one — the current error that would
-  have produced the offset over that time (:func:`current_inflation`).
+  have produced the offset over that time (:func:`current_inflation`), at most (1 m/s)².
 * ``"fade"``: fading memory (Fagin 1964, "Recursive linear regression theory, optimal filter
   theory and error analysis of optimal systems", IEEE Int. Conv. Rec.; Sorenson & Sacks 1971,
   Inf. Sci. 3; the adaptive factor of Xia, Rao, Ying & Shen 1994, Automatica 30): the prior P
@@ -55,13 +57,21 @@ than this (Mahalanobis², against the sum of their VCVs)."""
 RECOVER_MODES = ("reset", "fade", "off")
 
 
+CURRENT_ADD_MAX = 1.0
+"""The largest variance (m²/s²) a reset adds to each current component: (1 m/s)², the thesis'
+tidal current amplitude V_cm (§6.6), so a large offset after a short gap cannot make the
+current free."""
+
+
 @dataclass(frozen=True, slots=True)
 class RecoverSettings:
-    """``filter.recover`` (a mode of :data:`RECOVER_MODES`, not "off") and
-    ``filter.recover_epochs`` (consecutive consistent rejections before the remedy)."""
+    """``filter.recover`` (a mode of :data:`RECOVER_MODES`, not "off"),
+    ``filter.recover_epochs`` (consecutive consistent rejections before the remedy) and
+    ``filter.recover_gap_s`` (s without a fix update before the run of rejections starts)."""
 
     mode: str
     epochs: int
+    gap_s: float = 240.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,7 +82,9 @@ class DivergenceWatch:
     ``fix_xy``/``fix_cov``: the last such fix (grid m, m²) and ``post_xy`` the filter position
     after that epoch's update (grid m); ``cm_deg`` their grid's central meridian;
     ``last_ok_s``: the time (s) of the last fix update the test accepted (None: none yet);
-    ``acted``: the remedy has acted in this run of rejections (reported once)."""
+    ``acted``: the remedy has acted in this run of rejections (reported once);
+    ``last_update_s``: the time (s) of the last LSE fix update, whatever its verdict;
+    ``gap_s``: the time (s) without a fix update before this run's first rejection."""
 
     streak: int = 0
     fix_xy: tuple[float, float] | None = None
@@ -81,6 +93,8 @@ class DivergenceWatch:
     cm_deg: float | None = None
     last_ok_s: float | None = None
     acted: bool = False
+    last_update_s: float | None = None
+    gap_s: float = 0.0
 
 
 def consistent(prev: DivergenceWatch, fix_xy: tuple[float, float], fix_cov: np.ndarray,
@@ -138,13 +152,15 @@ def observe(prev: DivergenceWatch, *, t_s: float, verdict: str, fix_good: bool,
     (:func:`consistent`), else starts a new run of one; anything else ends it (an accepted
     update also dates ``last_ok_s``). ``post_xy`` is left for :func:`settle`."""
     if verdict != "reject" or not fix_good:
-        return DivergenceWatch(last_ok_s=t_s if verdict == "accept" else prev.last_ok_s)
+        return DivergenceWatch(last_ok_s=t_s if verdict == "accept" else prev.last_ok_s,
+                               last_update_s=t_s)
     if prev.streak > 0 and consistent(prev, fix_xy, fix_cov, prior_xy, cm_deg):
-        streak, acted = prev.streak + 1, prev.acted
+        streak, acted, gap = prev.streak + 1, prev.acted, prev.gap_s
     else:
         streak, acted = 1, False
+        gap = 0.0 if prev.last_update_s is None else t_s - prev.last_update_s
     return DivergenceWatch(streak, fix_xy, np.asarray(fix_cov, dtype=float), None, cm_deg,
-                           prev.last_ok_s, acted)
+                           prev.last_ok_s, acted, t_s, gap)
 
 
 def settle(w: DivergenceWatch, post_xy: tuple[float, float], acted: bool) -> DivergenceWatch:
@@ -153,12 +169,15 @@ def settle(w: DivergenceWatch, post_xy: tuple[float, float], acted: bool) -> Div
     if w.streak == 0:
         return w
     return DivergenceWatch(w.streak, w.fix_xy, w.fix_cov, post_xy, w.cm_deg, w.last_ok_s,
-                           w.acted or acted)
+                           w.acted or acted, w.last_update_s, w.gap_s)
 
 
 def due(w: DivergenceWatch, settings: RecoverSettings) -> bool:
-    """Whether the remedy acts at this epoch: ``epochs`` consistent rejections in a row."""
-    return w.streak >= settings.epochs
+    """Whether the remedy acts at this epoch: ``epochs`` consistent rejections in a row, the
+    first of them after at least ``gap_s`` without a fix update (a dive, an outage: the time
+    dead reckoning needs to diverge; within it a disagreement is as likely the fixes' own slow
+    error, which the fix-error states model)."""
+    return w.streak >= settings.epochs and w.gap_s >= settings.gap_s
 
 
 def fade_factor(t: float, upper: float) -> float:
@@ -175,7 +194,7 @@ def current_inflation(innovation_m: float, since_ok_s: float | None) -> float:
     accepted a fix; 0 when there was none or Δt ≤ 0."""
     if since_ok_s is None or not since_ok_s > 0.0 or not math.isfinite(innovation_m):
         return 0.0
-    return (innovation_m / since_ok_s) ** 2
+    return min((innovation_m / since_ok_s) ** 2, CURRENT_ADD_MAX)
 
 
 def message(mode: str, streak: int, offset_m: float, since_s: float | None) -> str:

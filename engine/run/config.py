@@ -661,6 +661,7 @@ class FilterConfig:
     adapt_fix_max: float = 100.0
     recover: str = "reset"
     recover_epochs: int = 5
+    recover_gap_s: float = 240.0
     set_keys: tuple[str, ...] = field(default=(), compare=False, repr=False)
     """The keys a TOML ``[filter]`` table set (not a key itself): they win over ``vessel``
     "auto" when it resolves to "surface" (:func:`resolve_vessel`)."""
@@ -840,6 +841,11 @@ FilterConfig.KEYS = (
         "K: consistent innovation-test rejections in a row before the remedy (a consistent "
         "filter rejects K in a row with probability 0.025^K ≈ 10⁻⁸ for K = 5)",
         "THEORY §8.18", _between(2, 1000)),
+    Key("recover_gap_s", "recover_gap_s", "float", "s",
+        "G: the remedy acts only on a run of rejections that began after at least this long "
+        "without a fix update (a dive, an outage): the longest 'auto' fix-error correlation "
+        "time of the 1993 systems but P code (C/A 240 s), beyond which the first fix is an "
+        "independent check of the dead reckoning", "THEORY §8.18", _NON_NEGATIVE),
 )
 # fmt: on
 

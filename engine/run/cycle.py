@@ -164,7 +164,7 @@ def recover_settings(cfg: RunConfig) -> ndiv.RecoverSettings | None:
     f = cfg.filter
     if f.recover == "off" or not f.on:
         return None
-    return ndiv.RecoverSettings(f.recover, f.recover_epochs)
+    return ndiv.RecoverSettings(f.recover, f.recover_epochs, f.recover_gap_s)
 
 
 def adapt_settings(cfg: RunConfig) -> nadapt.AdaptSettings | None:
@@ -1109,7 +1109,7 @@ def _watch_divergence(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measu
             st = replace(st, P=P)
         f.state, f.has_fix, f.gate = st, True, "recovered"
         messages.append(ndiv.message("reset", w.streak, offset, since))
-        f.watch = ndiv.DivergenceWatch(last_ok_s=prior.t)
+        f.watch = ndiv.DivergenceWatch(last_ok_s=prior.t, last_update_s=prior.t)
         return None
     lam = ndiv.fade_factor(t_fix, upper)
     faded = replace(prior, P=np.asarray(prior.P) * lam)
