@@ -9,8 +9,9 @@ filter is then confident and wrong, the worst failure of a navigator.
 
 **Detection** (Teunissen & Salzmann 1989, "A recursive slippage test for use in state-space
 filtering", manuscripta geodaetica 14: a persistent model error shows in consecutive epochs, a
-blunder in one): the watch counts LSE fix updates in a row whose LOM test rejects, whose LSE
-passed its own tests (the fix is good by its own redundancy), and that agree with each other
+blunder in one): the watch counts LSE fix updates in a row whose fix rows fail the innovation
+(LOM) test (:func:`fix_rows_test`), whose LSE passed its own tests (the fix is good by its own
+redundancy), and that agree with each other
 after the dead-reckoned motion between them is taken out (:func:`consistent`: the motion of the
 fixes minus the filter's motion between the two epochs, tested against the sum of the two fix
 VCVs at χ²₂(0.99)). A single blunder breaks the run (the next fix is accepted, or disagrees with
@@ -24,8 +25,8 @@ whereas a fix error slower and larger than its VCV (night sky-wave) does look li
 * ``"reset"``: re-initialise the position from the fix, as at the start of a run (THEORY D22):
   position = LSE with its VCV, no covariance with the other states, the fix-error states at zero
   with their stationary VCV (Brown & Hwang, *Introduction to Random Signals and Applied Kalman
-  Filtering*, 4th ed. 2012, §7.7 and ch. 9 on divergence: re-initialise when the residuals show
-  the filter has lost the truth). The dead-reckoning states that let the position drift away are
+  Filtering*, 4th ed. 2012, on filter divergence: re-initialise when the residuals show the
+  filter has lost the truth). The dead-reckoning states that let the position drift away are
   not left tight: each current component's variance gets (|ν| / Δt)² added, ν the innovation of
   the fix and Δt the time since the filter last accepted one — the current error that would
   have produced the offset over that time (:func:`current_inflation`), at most (1 m/s)².

@@ -835,7 +835,7 @@ FilterConfig.KEYS = (
         'what the filter does when consistent good fixes fail its innovation test epoch after '
         'epoch (divergence): "reset" (re-initialise the position from the LSE, widen the '
         'current), "fade" (inflate P by T/T_upper until accepted) or "off"; preset thesis: off',
-        "Teunissen & Salzmann 1989; Brown & Hwang 2012 §7.7; Fagin 1964; THEORY §8.18 "
+        "Teunissen & Salzmann 1989; Brown & Hwang 2012; Fagin 1964; THEORY §8.18 "
         "[not in the thesis]", _choice(*RECOVER_MODES)),
     Key("recover_epochs", "recover_epochs", "int", "fix epochs",
         "K: consistent innovation-test rejections in a row before the remedy (a consistent "
