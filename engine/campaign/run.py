@@ -15,8 +15,9 @@ Columns (:data:`COLUMNS`, docs/CAMPAIGN.md): identity ``key, scenario, variant, 
 ``{phase}_{est}_rms_m``, ``_p95_m``, ``_max_m`` (horizontal error, m), ``_cover95`` (fraction of
 epochs with the truth in the 95 % ellipse) and ``_nees`` (mean eᵀC⁻¹e, expected 2); the MPP's RMS
 error by time since the last LSE (``mpp_rms_m_since_fix_A_Bmin``); counts ``fixes``,
-``fix_updates``, ``lom_rejected``, ``gated``, ``wrong_lane_{surfaced,submerged,after}``,
-``lane_out``, ``bad_records``; the share of epochs whose MPP error exceeds twice the filter's 95 %
+``fix_updates``, ``lom_rejected``, ``gated``, ``recovered``,
+``wrong_lane_{surfaced,submerged,after}``, ``lane_out``, ``bad_records``; the share of epochs
+whose MPP error exceeds twice the filter's 95 %
 semi-major axis (``{phase}_mpp_beyond2a``); the MPP and LSE RMS over the surfaced epochs with an
 independent LSE (``fixes_mpp_rms_m``, ``fixes_lse_rms_m``); timing ``wall_s``, ``cpu_s`` (the
 only columns that depend on the machine).
@@ -79,7 +80,8 @@ def _columns() -> tuple[tuple[str, str], ...]:
     cols += [(f"{ph}_mpp_beyond2a", "float") for ph in PHASES]
     cols += [("fixes_mpp_rms_m", "float"), ("fixes_lse_rms_m", "float")]
     cols += [(since_fix_column(lo, hi), "float") for lo, hi in SINCE_FIX_BINS_MIN]
-    cols += [(n, "int") for n in ("fixes", "fix_updates", "lom_rejected", "gated")]
+    cols += [(n, "int") for n in ("fixes", "fix_updates", "lom_rejected", "gated",
+                                        "recovered")]
     cols += [(f"wrong_lane_{ph}", "int") for ph in LANE_PHASES]
     cols += [("lane_out", "int"), ("bad_records", "int"), ("wall_s", "float"),
              ("cpu_s", "float")]
@@ -155,6 +157,7 @@ class _Checks:
         self.i = 0
         self.dived = False
         self.fix_updates = self.lom_rejected = self.gated = self.lane_out = 0
+        self.recovered = 0
         self.wrong = dict.fromkeys(LANE_PHASES, 0)
 
     def __call__(self, r: CycleResult) -> None:
@@ -168,6 +171,7 @@ class _Checks:
         fix = r.fix
         if any(m.startswith("Fix ") and "gross error" in m for m in r.messages):
             self.gated += 1
+        self.recovered += r.fix_gate == "recovered"
         u = r.filter_update
         if u is not None and fix is not None and fix.ok:
             self.fix_updates += 1
@@ -263,7 +267,7 @@ def _figures(a: Assessment, session: Session, checks: _Checks) -> dict[str, Any]
     summary = session.summary()
     row.update(epochs=int(a.n_matched), fixes=int(summary.fixes),
                fix_updates=checks.fix_updates, lom_rejected=checks.lom_rejected,
-               gated=checks.gated, lane_out=checks.lane_out,
+               gated=checks.gated, recovered=checks.recovered, lane_out=checks.lane_out,
                bad_records=int(summary.skipped_records))
     row.update({f"wrong_lane_{ph}": n for ph, n in checks.wrong.items()})
     return row

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from engine.errors import InputError
+from engine.filter.divergence import RECOVER_MODES
 from engine.filter.variances import accel_variance
 from engine.io.operator_input import (
     DATUM_MESSAGE,
@@ -694,6 +695,9 @@ class FilterConfig:
     adapt_window: float = 300.0
     adapt_clip: float = 4.0
     adapt_fix_max: float = 100.0
+    recover: str = "reset"
+    recover_epochs: int = 5
+    recover_gap_s: float = 240.0
     set_keys: tuple[str, ...] = field(default=(), compare=False, repr=False)
     """The keys a TOML ``[filter]`` table set (not a key itself): they win over ``vessel``
     "auto" when it resolves to "surface" (:func:`resolve_vessel`)."""
@@ -719,7 +723,7 @@ class FilterConfig:
 FILTER_PRESETS: dict[str, dict[str, Any]] = {
     "honest": {},
     "thesis": {"model": "thesis", "p0": "thesis", "bias_noise": False, "adapt": False,
-               "sigma_current2": THESIS_SIGMA_CURRENT2},
+               "sigma_current2": THESIS_SIGMA_CURRENT2, "recover": "off"},
 }
 """Values a ``filter.preset`` gives to the keys the file does not set (docs/CONFIG.md, "The
 filter decision"). "honest" is the class defaults: time-correlated fix errors with parameters
@@ -771,8 +775,8 @@ FilterConfig.KEYS = (
     Key("on", "on", "bool", "—", "Kalman filtering on (Kalman ▸ Filtering)", "L7641"),
     Key("preset", "preset", "str", "—",
         '"honest" (default: the keys below as listed) or "thesis" (model, p0 "thesis", '
-        'bias_noise and adapt false, sigma_current2 2e-8: the thesis-literal filter); keys set '
-        'in the file override it',
+        'bias_noise and adapt false, sigma_current2 2e-8, recover off: the thesis-literal '
+        'filter); keys set in the file override it',
         "docs/CONFIG.md \"The filter decision\" [not in the thesis]", _PRESET_CHECK),
     Key("vessel", "vessel", "str", "—",
         '"submarine" (the thesis\' gyro 0.65°, EM log 2 %, slow drifts: the keys below as '
@@ -863,6 +867,21 @@ FilterConfig.KEYS = (
     Key("adapt_fix_max", "adapt_fix_max", "float", "—",
         "upper bound of the learnt fix-VCV factor (σ × √ of it); reaching it is said",
         "THEORY §8.17", _between(1.0, 1e6)),
+    Key("recover", "recover", "str", "—",
+        'what the filter does when consistent good fixes fail its innovation test epoch after '
+        'epoch (divergence): "reset" (re-initialise the position from the LSE, widen the '
+        'current), "fade" (inflate P by T/T_upper until accepted) or "off"; preset thesis: off',
+        "Teunissen & Salzmann 1989; Brown & Hwang 2012; Fagin 1964; THEORY §8.18 "
+        "[not in the thesis]", _choice(*RECOVER_MODES)),
+    Key("recover_epochs", "recover_epochs", "int", "fix epochs",
+        "K: consistent innovation-test rejections in a row before the remedy (a consistent "
+        "filter rejects K in a row with probability 0.025^K ≈ 10⁻⁸ for K = 5)",
+        "THEORY §8.18", _between(2, 1000)),
+    Key("recover_gap_s", "recover_gap_s", "float", "s",
+        "G: the remedy acts only on a run of rejections that began after at least this long "
+        "without a fix update (a dive, an outage): the longest 'auto' fix-error correlation "
+        "time of the 1993 systems but P code (C/A 240 s), beyond which the first fix is an "
+        "independent check of the dead reckoning", "THEORY §8.18", _NON_NEGATIVE),
 )
 # fmt: on
 

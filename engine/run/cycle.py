@@ -18,6 +18,7 @@ from datetime import datetime
 import numpy as np
 
 from engine.filter import adapt as nadapt
+from engine.filter import divergence as ndiv
 from engine.filter.estimate import PositionEstimate, filter_estimate, position_estimate
 from engine.filter.kalman import (
     FilterParams,
@@ -34,7 +35,7 @@ from engine.filter.kalman import (
     stack_measurements,
 )
 from engine.filter.measurements import SensorLayout, depth_sensor_rows, sensor_rows
-from engine.filter.state import move_to_grid, replace_position
+from engine.filter.state import IVCX, IVCY, IX, IY, move_to_grid, replace_position
 from engine.geodesy.angles import wrap_180_deg
 from engine.geodesy.ellipsoid import WGS84, Datum
 from engine.geodesy.ellipsoidal import DatumShift, GeodesicSolver, datum_shift
@@ -146,13 +147,25 @@ class _ConfigDerived:
     """The systems the run reads the registry's with (:meth:`CycleParts.run_systems`)."""
     adapt: nadapt.AdaptSettings | None = None
     """How the fix-VCV factor is learnt (``[filter] adapt``; None: not learnt)."""
+    recover: ndiv.RecoverSettings | None = None
+    """The remedy of a diverged filter (``[filter] recover``; None: off)."""
 
     @classmethod
     def of(cls, cfg: RunConfig, parts: CycleParts) -> _ConfigDerived:
         """The values of ``cfg`` under the registry as it is now."""
         return cls(cfg, registry.SYSTEMS, systems_string(cfg),
                    tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg),
-                   parts.run_systems(registry.SYSTEMS), adapt_settings(cfg))
+                   parts.run_systems(registry.SYSTEMS), adapt_settings(cfg),
+                   recover_settings(cfg))
+
+
+def recover_settings(cfg: RunConfig) -> ndiv.RecoverSettings | None:
+    """The divergence remedy of a configuration (``[filter] recover*``, docs/CONFIG.md, THEORY
+    §8.18); None when off."""
+    f = cfg.filter
+    if f.recover == "off" or not f.on:
+        return None
+    return ndiv.RecoverSettings(f.recover, f.recover_epochs, f.recover_gap_s)
 
 
 def adapt_settings(cfg: RunConfig) -> nadapt.AdaptSettings | None:
@@ -356,7 +369,8 @@ class CycleResult:
     fix_gate: str = ""
     """Why this epoch's fix is marked: "gross" (kept out by the gross-error gate,
     :data:`GROSS_GATE_SIGMA`), "innovation" (taken, but the filter's innovation (LOM) test
-    rejects it), "" otherwise. The messages say the same in words."""
+    rejects it), "recovered" (the filter was found diverged and the remedy of ``[filter]
+    recover`` acted, THEORY §8.18), "" otherwise. The messages say the same in words."""
     lane_slips: int = 0
     """Decca lane slips corrected against GPS this cycle (one per pattern)."""
     adapt: nadapt.AdaptState | None = None
@@ -403,6 +417,8 @@ class NavState:
     decca_condition: str = ""
     """The last Decca sky-wave condition ``lsq.decca_cf = "auto"`` chose ("": none yet): a
     change is said."""
+    divergence: ndiv.DivergenceWatch | None = None
+    """The run of consistent innovation-test rejections (``[filter] recover``; None: none)."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -623,7 +639,7 @@ def step(
         n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
         nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
         filt.gated, sens.reference, pred.reference, learnt, logged,
-        condition or nav.decca_condition,
+        condition or nav.decca_condition, filt.watch,
     )
     return next_nav, result
 
@@ -874,6 +890,7 @@ class _Filtering:
     status: str
     result: UpdateResult | None = None
     gate: str = ""
+    watch: ndiv.DivergenceWatch | None = None
 
 
 def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: SensorValues,
@@ -886,7 +903,8 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     cfg, params = ctx.config, ctx.filter_params
     # _Filtering(...) with every field positionally (result None, gate "")
     f = ctx.new.filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
-                          nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "")
+                          nav.gated_fixes, "OFF" if not cfg.filter.on else "N/A", None, "",
+                          nav.divergence)
     lse_ok = fix is not None and fix.lse_ok
     # The pressure depth's rows (sensor_measurement(state, depth_m=…)'s values, variances and
     # layout, depth_sensor_rows): updated from them (update_rows, update_gated).
@@ -909,7 +927,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
     elif f.state is not None and cfg.filter.on:
         meas = _fix_measurement(ctx, f, fix, fix_cov, gnss, messages)
         if meas is not None:
-            depth_rows = _gated_update(ctx, nav, f, meas, depth_rows, fix, messages)
+            depth_rows = _gated_update(ctx, nav, f, meas, depth_rows, fix, fix_cov, messages)
         elif pred.dr_sensors:
             f.status = "ON"  # DR-only path: model plus bounded sensors (THEORY §12.5)
     elif f.state is not None and fix is not None and lse_ok:
@@ -1034,7 +1052,7 @@ def _with_gnss(base: tuple[object, ...], gnss: tuple[object, ...] | None,
 
 def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measurement,
                   depth_rows: tuple[list[float], list[float], SensorLayout] | None,
-                  fix: FixResult | None,
+                  fix: FixResult | None, fix_cov: np.ndarray,
                   messages: list[str]) -> tuple[list[float], list[float], SensorLayout] | None:
     """One update with everything measured at this epoch, taken unless the fix is a gross
     error (:data:`GROSS_GATE_SIGMA`); after :data:`GROSS_GATE_RESET` gated LSEs the filter
@@ -1050,8 +1068,18 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
         trial, d_sigma = parts.update_gated(f.state, *depth_rows, meas, ctx.filter_params)
     f.status = "ON"
     if d_sigma <= GROSS_GATE_SIGMA:
+        rec = ctx.derived().recover
+        if rec is not None and fix is not None and fix.lse_ok and not fix.uses_prior:
+            taken = _watch_divergence(ctx, nav, f, meas, depth_rows, fix, fix_cov, trial, rec,
+                                      messages)
+            if taken is None:  # re-initialised from this fix: only the depth rows are left
+                return depth_rows
+            trial = taken
         f.result, f.state, f.has_fix, f.gated = trial, trial.state, True, 0
-        if trial.lom.verdict == "reject":
+        if f.watch is not None and f.watch.streak:
+            f.watch = ndiv.settle(f.watch, (float(trial.state.x[IX]), float(trial.state.x[IY])),
+                                  f.gate == "recovered")
+        if trial.lom.verdict == "reject" and not f.gate:
             f.gate = "innovation"
             messages.append(innovation_message(trial))
         return None
@@ -1066,6 +1094,59 @@ def _gated_update(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measureme
                         f"{f.gated} gated fixes")
         f.gated = 0
     return depth_rows
+
+
+def _watch_divergence(ctx: RunContext, nav: NavState, f: _Filtering, meas: Measurement,
+                      depth_rows: tuple[list[float], list[float], SensorLayout] | None,
+                      fix: FixResult, fix_cov: np.ndarray, trial: UpdateResult,
+                      rec: ndiv.RecoverSettings, messages: list[str]) -> UpdateResult | None:
+    """The divergence watch of an LSE fix update (THEORY §8.18): count consistent
+    innovation-test rejections of good fixes; after ``rec.epochs`` of them in a row act:
+    "reset" re-initialises the position from the LSE (returns None: the fix is used up) and
+    widens the current, "fade" returns the update made with the prior P × T/T_upper. Else
+    returns ``trial`` unchanged. The first action of a run of rejections is said once."""
+    prior = f.state
+    assert prior is not None
+    upper = ndiv.fix_rows_upper(ctx.filter_params.alpha)
+    verdict, t_fix = ndiv.fix_rows_test(trial.innovation, trial.S, trial.labels, upper)
+    w = ndiv.observe(f.watch or ndiv.DivergenceWatch(), t_s=prior.t, verdict=verdict,
+                     fix_good=verdict != "reject" or fix_fit(fix)[1] is None,
+                     fix_xy=(fix.x_m, fix.y_m), fix_cov=fix.cov,
+                     prior_xy=(float(prior.x[IX]), float(prior.x[IY])),
+                     cm_deg=_cm_for(nav, nav.mpp_lon_deg))
+    f.watch = w
+    if not ndiv.due(w, rec):
+        return trial
+    offset = math.hypot(fix.x_m - float(prior.x[IX]), fix.y_m - float(prior.x[IY]))
+    since = None if w.last_ok_s is None else prior.t - w.last_ok_s
+    if rec.mode == "reset":
+        st = replace_position(prior, fix.x_m, fix.y_m, fix_cov)
+        keys = [k for k in meas.bias_keys[:2] if k is not None]
+        if len(keys) == 2 and all(k in st.fix_states for k in keys) \
+                and meas.bias_cov is not None:
+            # the fix-error states start again as at a position taken from a fix
+            st = fix_states_from_fix(st, keys, np.asarray(meas.bias_cov)[:2, :2],
+                                     ctx.filter_params, meas.bias_tau_s[0])
+        add = ndiv.current_inflation(offset, since)
+        if add > 0.0:
+            P = np.array(st.P)
+            P[IVCX, IVCX] += add
+            P[IVCY, IVCY] += add
+            st = replace(st, P=P)
+        f.state, f.has_fix, f.gate = st, True, "recovered"
+        messages.append(ndiv.message("reset", w.streak, offset, since))
+        f.watch = ndiv.DivergenceWatch(last_ok_s=prior.t, last_update_s=prior.t)
+        return None
+    lam = ndiv.fade_factor(t_fix, upper)
+    faded = replace(prior, P=np.asarray(prior.P) * lam)
+    if depth_rows is None:
+        out = ctx.parts.update(faded, meas, ctx.filter_params)
+    else:
+        out, _ = ctx.parts.update_gated(faded, *depth_rows, meas, ctx.filter_params)
+    if not w.acted:
+        f.gate = "recovered"
+        messages.append(ndiv.message("fade", w.streak, offset, since))
+    return out
 
 
 def _mpp(ctx: RunContext, nav: NavState, grid: TMGrid, kf_est: PositionEstimate | None,

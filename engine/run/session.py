@@ -104,16 +104,18 @@ class RunSummary:
     """Fixes the filter took although its innovation (LOM) test rejected them."""
     lane_slips: int = 0
     """Decca lane slips corrected against GPS."""
+    recoveries: int = 0
+    """Times the filter was found diverged and ``[filter] recover`` acted (THEORY §8.18)."""
 
 
-def cycle_counts(r: CycleResult) -> tuple[int, int, int, int]:
-    """(flagged LOPs, gated fix, innovation-rejected fix, lane slips) of one cycle (issue 11:
-    what the replay summary counts)."""
+def cycle_counts(r: CycleResult) -> tuple[int, int, int, int, int]:
+    """(flagged LOPs, gated fix, innovation-rejected fix, lane slips, divergence remedy) of one
+    cycle: what the replay summary counts."""
     flagged = 0
     if r.fix is not None and r.fix.tested is not None:
         flagged = len(r.fix.tested.flagged) + (r.fix.candidate_slot is not None)
     return (flagged, int(r.fix_gate == "gross"), int(r.fix_gate == "innovation"),
-            r.lane_slips)
+            r.lane_slips, int(r.fix_gate == "recovered"))
 
 
 NOT_ADVANCING_MESSAGE = "Time does not advance !"
@@ -211,7 +213,7 @@ class Session:
         self.data_warnings: tuple[str, ...] = data_file_warnings(config.data_dir)
         """Data files that differ from the bundled ones (engine.io.datafile_io.modified_bundled);
         written to the .OUT header, shown by the replay."""
-        self._counts = [0, 0, 0, 0]  # cycle_counts summed
+        self._counts = [0, 0, 0, 0, 0]  # cycle_counts summed
         self._run_name = source_name if source_name is not None else os.fspath(config.run_path)
         self._records: Iterator[RunRecord | BadRecord] = (
             open_records(self._run_name, config.nmea.options, self.parts.run_record)
@@ -423,6 +425,8 @@ class Session:
                 counts[1] += 1
             elif gate == "innovation":
                 counts[2] += 1
+            elif gate == "recovered":
+                counts[4] += 1
         if result.lane_slips:
             counts[3] += result.lane_slips
         out = self._out
@@ -520,6 +524,7 @@ class Session:
             gated_fixes=self._counts[1],
             innovation_rejects=self._counts[2],
             lane_slips=self._counts[3],
+            recoveries=self._counts[4],
         )
 
     # ------------------------------------------------------------------ operator

@@ -328,7 +328,7 @@ def test_cycle_makers_are_the_dataclasses() -> None:
         assert type(got) is cycle_mod._Prediction and got == cycle_mod._Prediction(state, *p)
         assert new_prediction(None, None, None, None, False, "water") == cycle_mod._Prediction()
         f = (state, link, True, ("LSE",), 2, "N/A")
-        got_f = new_filtering(*f, None, "")
+        got_f = new_filtering(*f, None, "", None)
         assert type(got_f) is cycle_mod._Filtering and got_f == cycle_mod._Filtering(*f)
         got_f.status = "ON"  # still a plain (mutable) slots instance
         assert got_f.status == "ON"

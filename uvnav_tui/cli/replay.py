@@ -143,7 +143,8 @@ def integrity_summary_line(s: RunSummary, policy: str) -> str:
     """The summary line of what the tests flagged and what was done (issue 11)."""
     return (f"w-test: {s.flagged_lops + s.rejected_lops} LOPs flagged, {policy}  "
             f"gross-error fixes kept out {s.gated_fixes}  innovation-test fails "
-            f"{s.innovation_rejects}  Decca lane slips corrected {s.lane_slips}")
+            f"{s.innovation_rejects}  Decca lane slips corrected {s.lane_slips}"
+            + (f"  divergence remedies {s.recoveries}" if s.recoveries else ""))
 
 
 def _config_path(run: Path, config: str | None) -> Path | None:
