@@ -658,6 +658,10 @@ class FilterConfig:
     adapt_window: float = 300.0
     adapt_clip: float = 4.0
     adapt_fix_max: float = 100.0
+    adapt_dr: bool = True
+    adapt_dr_horizon_s: float = 300.0
+    adapt_dr_min: float = 1.0
+    adapt_dr_max: float = 100.0
     set_keys: tuple[str, ...] = field(default=(), compare=False, repr=False)
     """The keys a TOML ``[filter]`` table set (not a key itself): they win over ``vessel``
     "auto" when it resolves to "surface" (:func:`resolve_vessel`)."""
@@ -683,7 +687,7 @@ class FilterConfig:
 FILTER_PRESETS: dict[str, dict[str, Any]] = {
     "honest": {},
     "thesis": {"model": "thesis", "p0": "thesis", "bias_noise": False, "adapt": False,
-               "sigma_current2": THESIS_SIGMA_CURRENT2},
+               "adapt_dr": False, "sigma_current2": THESIS_SIGMA_CURRENT2},
 }
 """Values a ``filter.preset`` gives to the keys the file does not set (docs/CONFIG.md, "The
 filter decision"). "honest" is the class defaults: time-correlated fix errors with parameters
@@ -827,6 +831,20 @@ FilterConfig.KEYS = (
     Key("adapt_fix_max", "adapt_fix_max", "float", "—",
         "upper bound of the learnt fix-VCV factor (σ × √ of it); reaching it is said",
         "THEORY §8.17", _between(1.0, 1e6)),
+    Key("adapt_dr", "adapt_dr", "bool", "—",
+        "learn a factor μ on the random walks of the current and of the log and gyro biases "
+        "from multi-minute shadow predictions checked against later fixes (predictive NEES; "
+        "with adapt on); preset thesis: false",
+        "Mehra 1970; Bar-Shalom, Li & Kirubarajan 2001 §5.4; THEORY §8.18 [not in the thesis]"),
+    Key("adapt_dr_horizon_s", "adapt_dr_horizon_s", "float", "s",
+        "h: the span of each shadow prediction (a new one every h/2 while fixes arrive)",
+        "THEORY §8.18: the 5-minute dead reckoning of docs/REALDATA.md", _between(10.0, 7200.0)),
+    Key("adapt_dr_min", "adapt_dr_min", "float", "—",
+        "lower bound of μ: 1 keeps the cited random walks as the floor (a surfaced check "
+        "cannot see the hour of a dive)", "THEORY §8.18, §8.9", _between(0.01, 1.0)),
+    Key("adapt_dr_max", "adapt_dr_max", "float", "—",
+        "upper bound of μ (σ of the random walks × √ of it); reaching it is said",
+        "THEORY §8.18", _between(1.0, 1e6)),
 )
 # fmt: on
 
