@@ -274,6 +274,12 @@ HONEST_SIGMA_CURRENT2 = 3.5e-5
 45 000 s) matched as a random walk over an hour without fixes,
 ``tidal_current_psd(1.0, 45000.0, 3600.0)`` = 3.44·10⁻⁵, rounded up."""
 
+SURFACE_SIGMA_CURRENT2 = 4.5e-5
+"""``filter.sigma_current2`` of ``vessel = "surface"`` (m²/s³, docs/CONFIG.md "The vessel
+decision"): the tide of the submarine's default (a yacht at sea has it too) plus leeway and
+stream that change with course and wind (0.08 m/s in 10 minutes: 1·10⁻⁵), independent random
+walks whose densities add: 4.5·10⁻⁵."""
+
 _UERE = _between(0.001, 1000.0)
 """Range of a UERE key (m, 1σ): from a millimetre to a kilometre."""
 
@@ -704,7 +710,7 @@ VESSEL_PRESETS: dict[str, dict[str, Any]] = {
         "log_sigma_frac": 0.05,
         "gyro_bias_rw_deg_sqrth": 5.0,
         "log_bias_rw_ms_sqrth": 0.2,
-        "sigma_current2": 1e-5,
+        "sigma_current2": SURFACE_SIGMA_CURRENT2,
         "turn_rate_max_deg_s": 3.0,
     },
 }
