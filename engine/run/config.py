@@ -274,11 +274,11 @@ HONEST_SIGMA_CURRENT2 = 3.5e-5
 45 000 s) matched as a random walk over an hour without fixes,
 ``tidal_current_psd(1.0, 45000.0, 3600.0)`` = 3.44·10⁻⁵, rounded up."""
 
-SURFACE_SIGMA_CURRENT2 = 4.5e-5
+SURFACE_SIGMA_CURRENT2 = HONEST_SIGMA_CURRENT2
 """``filter.sigma_current2`` of ``vessel = "surface"`` (m²/s³, docs/CONFIG.md "The vessel
-decision"): the tide of the submarine's default (a yacht at sea has it too) plus leeway and
-stream that change with course and wind (0.08 m/s in 10 minutes: 1·10⁻⁵), independent random
-walks whose densities add: 4.5·10⁻⁵."""
+decision"): the tide of the submarine's default, which a yacht at sea has too; its leeway (the
+angle between heading and course through the water, changing with every tack and gust) is a
+heading error, carried by the surface preset's gyro-bias random walk (5°/√h)."""
 
 _UERE = _between(0.001, 1000.0)
 """Range of a UERE key (m, 1σ): from a millimetre to a kilometre."""
