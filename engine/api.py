@@ -121,6 +121,7 @@ if TYPE_CHECKING:
     )
     from engine.filter.adapt import AdaptState
     from engine.filter.explain import added_process_noise, update_matrices
+    from engine.filter.horizon import DrAdaptState
     from engine.filter.kalman import (
         IDEPS,
         IDPSI,
@@ -192,6 +193,7 @@ if TYPE_CHECKING:
 _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     # the run: NumPy, the filter, the fix, the NMEA reader (pynmea2)
     "engine.filter.adapt": ("AdaptState",),
+    "engine.filter.horizon": ("DrAdaptState",),
     "engine.filter.kalman": ("IDEPS", "IDPSI", "IDV", "STATE_LABELS", "FilterState",
                              "UpdateResult", "sensor_measurement"),
     "engine.filter.poe": ("PoeSample", "drms", "poe_states"),
@@ -307,6 +309,7 @@ __all__ = [
     "Ellipsoid3",
     "FilterState",
     "AdaptState",
+    "DrAdaptState",
     "FixResult",
     "LopRow",
     "ManualObservation",

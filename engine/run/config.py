@@ -276,6 +276,12 @@ HONEST_SIGMA_CURRENT2 = 3.5e-5
 45 000 s) matched as a random walk over an hour without fixes,
 ``tidal_current_psd(1.0, 45000.0, 3600.0)`` = 3.44·10⁻⁵, rounded up."""
 
+SURFACE_SIGMA_CURRENT2 = HONEST_SIGMA_CURRENT2
+"""``filter.sigma_current2`` of ``vessel = "surface"`` (m²/s³, docs/CONFIG.md "The vessel
+decision"): the tide of the submarine's default, which a yacht at sea has too; its leeway (the
+angle between heading and course through the water, changing with every tack and gust) is a
+heading error, carried by the surface preset's gyro-bias random walk (5°/√h)."""
+
 _UERE = _between(0.001, 1000.0)
 """Range of a UERE key (m, 1σ): from a millimetre to a kilometre."""
 
@@ -698,6 +704,10 @@ class FilterConfig:
     recover: str = "reset"
     recover_epochs: int = 5
     recover_gap_s: float = 240.0
+    adapt_dr: bool = False
+    adapt_dr_horizon_s: float = 300.0
+    adapt_dr_min: float = 1.0
+    adapt_dr_max: float = 100.0
     set_keys: tuple[str, ...] = field(default=(), compare=False, repr=False)
     """The keys a TOML ``[filter]`` table set (not a key itself): they win over ``vessel``
     "auto" when it resolves to "surface" (:func:`resolve_vessel`)."""
@@ -723,7 +733,7 @@ class FilterConfig:
 FILTER_PRESETS: dict[str, dict[str, Any]] = {
     "honest": {},
     "thesis": {"model": "thesis", "p0": "thesis", "bias_noise": False, "adapt": False,
-               "sigma_current2": THESIS_SIGMA_CURRENT2, "recover": "off"},
+               "adapt_dr": False, "sigma_current2": THESIS_SIGMA_CURRENT2, "recover": "off"},
 }
 """Values a ``filter.preset`` gives to the keys the file does not set (docs/CONFIG.md, "The
 filter decision"). "honest" is the class defaults: time-correlated fix errors with parameters
@@ -740,7 +750,7 @@ VESSEL_PRESETS: dict[str, dict[str, Any]] = {
         "log_sigma_frac": 0.05,
         "gyro_bias_rw_deg_sqrth": 5.0,
         "log_bias_rw_ms_sqrth": 0.2,
-        "sigma_current2": 1e-5,
+        "sigma_current2": SURFACE_SIGMA_CURRENT2,
         "turn_rate_max_deg_s": 3.0,
     },
 }
@@ -882,6 +892,21 @@ FilterConfig.KEYS = (
         "without a fix update (a dive, an outage): the longest 'auto' fix-error correlation "
         "time of the 1993 systems but P code (C/A 240 s), beyond which the first fix is an "
         "independent check of the dead reckoning", "THEORY §8.18", _NON_NEGATIVE),
+    Key("adapt_dr", "adapt_dr", "bool", "—",
+        "learn a factor μ ≥ 1 on the random walks of the current and of the log and gyro "
+        "biases from multi-minute shadow predictions checked against later fixes (predictive "
+        "NEES; with adapt on); off by default: measured, it moved no target of the randomized "
+        "missions and costs a tenth of a replay",
+        "Mehra 1970; Bar-Shalom, Li & Kirubarajan 2001 §5.4; THEORY §8.19 [not in the thesis]"),
+    Key("adapt_dr_horizon_s", "adapt_dr_horizon_s", "float", "s",
+        "h: the span of each shadow prediction (a new one every h/2 while fixes arrive)",
+        "THEORY §8.19: the 5-minute dead reckoning of docs/REALDATA.md", _between(10.0, 7200.0)),
+    Key("adapt_dr_min", "adapt_dr_min", "float", "—",
+        "lower bound of μ: 1 keeps the cited random walks as the floor (a surfaced check "
+        "cannot see the hour of a dive)", "THEORY §8.19, §8.9", _between(0.01, 1.0)),
+    Key("adapt_dr_max", "adapt_dr_max", "float", "—",
+        "upper bound of μ (σ of the random walks × √ of it); reaching it is said",
+        "THEORY §8.19", _between(1.0, 1e6)),
 )
 # fmt: on
 

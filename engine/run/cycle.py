@@ -19,6 +19,7 @@ import numpy as np
 
 from engine.filter import adapt as nadapt
 from engine.filter import divergence as ndiv
+from engine.filter import horizon as nhorizon
 from engine.filter.estimate import PositionEstimate, filter_estimate, position_estimate
 from engine.filter.kalman import (
     FilterParams,
@@ -149,6 +150,8 @@ class _ConfigDerived:
     """How the fix-VCV factor is learnt (``[filter] adapt``; None: not learnt)."""
     recover: ndiv.RecoverSettings | None = None
     """The remedy of a diverged filter (``[filter] recover``; None: off)."""
+    dr_adapt: nhorizon.DrAdaptSettings | None = None
+    """How the dead-reckoning noise factor is learnt (``[filter] adapt_dr``; None: not)."""
 
     @classmethod
     def of(cls, cfg: RunConfig, parts: CycleParts) -> _ConfigDerived:
@@ -156,7 +159,7 @@ class _ConfigDerived:
         return cls(cfg, registry.SYSTEMS, systems_string(cfg),
                    tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg),
                    parts.run_systems(registry.SYSTEMS), adapt_settings(cfg),
-                   recover_settings(cfg))
+                   recover_settings(cfg), dr_adapt_settings(cfg))
 
 
 def recover_settings(cfg: RunConfig) -> ndiv.RecoverSettings | None:
@@ -176,6 +179,17 @@ def adapt_settings(cfg: RunConfig) -> nadapt.AdaptSettings | None:
         return None
     return nadapt.AdaptSettings(window=f.adapt_window, clip=f.adapt_clip,
                                fix_max=f.adapt_fix_max)
+
+
+def dr_adapt_settings(cfg: RunConfig) -> nhorizon.DrAdaptSettings | None:
+    """The dead-reckoning noise adaptation of a configuration (``[filter] adapt_dr*``,
+    THEORY §8.19); None when it, the fix factor's adaptation or the filter is off."""
+    f = cfg.filter
+    if not (f.adapt_dr and f.adapt and f.on):
+        return None
+    h = f.adapt_dr_horizon_s
+    return nhorizon.DrAdaptSettings(horizon_s=h, stagger_s=h / 2.0, mu_min=f.adapt_dr_min,
+                                    mu_max=f.adapt_dr_max, max_age_s=max(7200.0, h))
 
 
 @dataclass(frozen=True, slots=True)
@@ -377,12 +391,16 @@ class CycleResult:
     """The learnt fix-VCV factor after this cycle (``[filter] adapt``; None: off)."""
     adapt_logged: bool = False
     """The factor moved by more than :data:`ADAPT_LOG_STEP` since it was last logged (or
-    this is the first cycle with a factor): the ``.OUT`` has an ``ADAPT`` line."""
+    this is the first cycle with a factor), or the dead-reckoning factor changed: the ``.OUT``
+    has an ``ADAPT`` line."""
     decca_cf: float | None = None
     """The ``Decca.CF`` of this cycle's Decca VCV (None: no Decca reading)."""
     decca_condition: str = ""
     """Its sky-wave condition (``SD``, ``WD``, ``SN``, ``WN``) when ``lsq.decca_cf = "auto"``
     chose it ("" for a fixed CF)."""
+    dr_adapt: nhorizon.DrAdaptState | None = None
+    """The learnt dead-reckoning noise factor μ after this cycle (``[filter] adapt_dr``,
+    THEORY §8.19; None: off)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -419,6 +437,8 @@ class NavState:
     change is said."""
     divergence: ndiv.DivergenceWatch | None = None
     """The run of consistent innovation-test rejections (``[filter] recover``; None: none)."""
+    dr_adapt: nhorizon.DrAdaptState | None = None
+    """The learnt dead-reckoning noise factor and its shadow predictions (THEORY §8.19)."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -609,8 +629,14 @@ def step(
         learnt = _adapt_after(learnt, fix, filt.result, settings, messages)
         log_adapt = not (logged > 0.0 and abs(learnt.fix_factor / logged - 1.0)
                          <= ADAPT_LOG_STEP)
-        if log_adapt:
-            logged = learnt.fix_factor
+    dr = nav.dr_adapt
+    dr_settings = ctx.derived().dr_adapt
+    if dr_settings is not None:
+        dr = _dr_adapt(ctx, nav, pred, filt, fix, fix_cov, gnss, cm, dt, dr_settings,
+                       messages)
+        log_adapt = log_adapt or nav.dr_adapt is None or dr.mu != nav.dr_adapt.mu
+    if log_adapt and learnt is not None:
+        logged = learnt.fix_factor
     kf_est = None
     if filt.state is not None and filt.status == "ON":
         # Without an update at this epoch (dead reckoning only: a dive) the filtered state is
@@ -632,14 +658,14 @@ def step(
         ctx.config.decca.on, fix, pred.estimate, kf_est, mpp, filt.status, filt.state,
         filt.result, cumulative, nav.pending_obs, tuple(messages), link,
         pred.sensor_update, fit_note is not None, fit_scale, filt.gate,
-        0 if lanes is None else lanes.slips, learnt, log_adapt, decca_cf, condition,
+        0 if lanes is None else lanes.slips, learnt, log_adapt, decca_cf, condition, dr,
     )
     ctx.parts.freeze(fix, None if link is None else link[2], filt.result, pred.sensor_update)
     next_nav = ctx.new.nav(
         n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
         nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
         filt.gated, sens.reference, pred.reference, learnt, logged,
-        condition or nav.decca_condition, filt.watch,
+        condition or nav.decca_condition, filt.watch, dr,
     )
     return next_nav, result
 
@@ -699,6 +725,41 @@ def _adapt_after(learnt: nadapt.AdaptState, fix: FixResult | None,
     return learnt
 
 
+def _dr_adapt(ctx: RunContext, nav: NavState, pred: _Prediction, filt: _Filtering,
+              fix: FixResult | None, fix_cov: np.ndarray, gnss: tuple[object, ...] | None,
+              cm: float, dt: float, settings: nhorizon.DrAdaptSettings,
+              messages: list[str]) -> nhorizon.DrAdaptState:
+    """The shadow predictions of this cycle (THEORY §8.19): each takes this record's sensor
+    rows and step; the oldest due one is checked against a fix the filter took (not a gross
+    error, not a hybrid fix) and μ learnt from it; a new one starts from the filter after the
+    fix update. A new grid or dead-reckoning reference drops them (another frame)."""
+    st = nav.dr_adapt or nhorizon.DrAdaptState()
+    fs = filt.state
+    if (pred.state is None or fs is None or (nav.cm_deg is not None and cm != nav.cm_deg)
+            or pred.reference != nav.filter_reference):
+        return st._with((), None, st.last_start) if st.shadows else st
+    parts = ctx.parts
+    params = nhorizon.scaled_params(ctx.filter_params, st.mu)
+    if st.shadows:
+        zs, var, layout = pred.rows if pred.rows is not None else ((), (), None)
+        st = nhorizon.advance(st, zs, var, layout, dt, params, parts.update_rows,
+                              parts.predict, settings)
+    taken = (fix is not None and fix.lse_ok and not fix.uses_prior and filt.gate != "gross"
+             and filt.status == "ON" and filt.has_fix)
+    if st.shadows and fs.t - st.shadows[0].t0 >= settings.horizon_s - 1e-6:  # one is due
+        p = ctx.filter_params_gnss if gnss and ctx.filter_params_gnss is not None else \
+            ctx.filter_params
+        white = 1.0 - p.fix_sigma_frac if p.coloured else 1.0
+        st, msg = nhorizon.check(st, fs.t, (fix.x_m, fix.y_m) if taken and fix else None,
+                                 fix_cov if taken else None, white, params, parts.update_rows,
+                                 parts.predict, settings)
+        if msg is not None:
+            messages.append(msg)
+    if taken:
+        st = nhorizon.start_shadow(st, fs, settings)
+    return st
+
+
 def _interval(ctx: RunContext, nav: NavState, rec: RunRecord) -> float:
     """The time step into this record (s): ``demo.delta_t_s`` for the first record, else the
     time since the last (ValueError when it does not advance)."""
@@ -736,6 +797,9 @@ class _Prediction:
     dr_sensors: bool = False
     reference: str = "water"
     """The reference the filter's current and bias states now belong to."""
+    rows: tuple[list[float], list[float], SensorLayout] | None = None
+    """This record's gyro/log/inclinometer rows (values, variances, layout; THEORY §8.19's
+    shadow predictions take them too)."""
 
 
 def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
@@ -780,10 +844,12 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     if dr_sensors and not initialised:
         sens_result = ctx.parts.update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
-    pred_state, phi, est = ctx.parts.predict_estimate(fstate, dt, params, "KF", grid)
+    qparams = params if nav.dr_adapt is None else nhorizon.scaled_params(params,
+                                                                         nav.dr_adapt.mu)
+    pred_state, phi, est = ctx.parts.predict_estimate(fstate, dt, qparams, "KF", grid)
     # _Prediction(...) positionally, every field
     return ctx.new.prediction(pred_state, est, (fstate, pred_state, phi), sens_result,
-                              dr_sensors, reference)
+                              dr_sensors, reference, (zs, var, layout))
 
 
 def _start_filter(ctx: RunContext, nav: NavState, grid: TMGrid, gamma: float, speed_ms: float,

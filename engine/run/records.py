@@ -126,11 +126,19 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
         **_gnss_json(r),
         "tests": [_test_json(kind, u) for kind, u in updates(r)],
         **({} if r.adapt is None else {"adapt": {"fix": _num(r.adapt.fix_factor, 4),
-                                                 "n": r.adapt.n}}),
+                                                 "n": r.adapt.n, **_dr_json(r)}}),
         **({} if not r.decca_condition else {"decca_cf": {
             "cf": _num(r.decca_cf, 6), "condition": r.decca_condition}}),
         "messages": list(r.messages),
     }
+
+
+def _dr_json(r: CycleResult) -> dict[str, Any]:
+    """The learnt dead-reckoning noise factor μ and its checks (THEORY §8.19); {} when off."""
+    d = r.dr_adapt
+    if d is None:
+        return {}
+    return {"dr": _num(d.mu, 4), "dr_checks": d.n, "dr_nees": _num(d.nees_mean, 3)}
 
 
 def _gnss_json(r: CycleResult) -> dict[str, Any]:
@@ -205,8 +213,10 @@ _LOP_KEYS = ("sys", "pat", "obs", "corr", "calc", "v", "w", "sd", "tau", "az", "
 _LSE_KEYS = ("kind", "n", "cat", "s2", "rms")
 _TEST_KEYS = ("lom", "lo", "hi", "dof", "verdict", "ls", "upd", "rows")
 _ADAPT_KEYS = ("fix", "n", "clipped")
+_ADAPT_DR_KEYS = (*_ADAPT_KEYS, "dr", "checks")
 """The ADAPT line (``[filter] adapt`` on, when the learnt factor moved, docs/FORMATS.md): the
-fix-VCV factor λ, the fix epochs learnt from and how many of them hit the clip."""
+fix-VCV factor λ, the fix epochs learnt from and how many of them hit the clip; with
+``[filter] adapt_dr`` the dead-reckoning noise factor μ and the checks it was learnt from."""
 _IN = ("\n  IN", ("raw",))
 _SYS = ("\n  SYS", ("systems", "sensors"))
 _MSG = ("\n  MSG", ("text",))
@@ -316,8 +326,11 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
             lom.t, lom.lower, lom.upper, lom.dof, lom.verdict,
             ",".join(map(_LS_TEXT, u.ls.t.tolist())), kind, ",".join(u.labels))))
     if r.adapt_logged and r.adapt is not None:  # the learnt fix-VCV factor (THEORY §8.17)
-        a = r.adapt
-        add(("\n  ADAPT", _ADAPT_KEYS, (a.fix_factor, a.n, a.clipped)))
+        a, d = r.adapt, r.dr_adapt
+        if d is None:
+            add(("\n  ADAPT", _ADAPT_KEYS, (a.fix_factor, a.n, a.clipped)))
+        else:
+            add(("\n  ADAPT", _ADAPT_DR_KEYS, (a.fix_factor, a.n, a.clipped, d.mu, d.n)))
     pos_keys, pos = _position_row(mpp.lat_deg, mpp.lon_deg, mpp.x_m, mpp.y_m, mpp.depth_m,
                                   mpp.cov, mpp.ellipse)
     add(("\n  MPP", ("source",) + pos_keys, (mpp.source,) + pos))

@@ -320,13 +320,14 @@ def test_cycle_makers_are_the_dataclasses() -> None:
 
     state = FilterState(0.0, np.zeros(N_NAV), np.eye(N_NAV))
     link = (state, state, np.eye(N_NAV))
-    p = ("est", link, "upd", True, "ground")
+    p = ("est", link, "upd", True, "ground", ([5.0], [0.01], "layout"))
     assert REFERENCE.make is positional
     for make in (positional, slots_maker):
         new_prediction, new_filtering = make(cycle_mod._Prediction), make(cycle_mod._Filtering)
         got = new_prediction(state, *p)
         assert type(got) is cycle_mod._Prediction and got == cycle_mod._Prediction(state, *p)
-        assert new_prediction(None, None, None, None, False, "water") == cycle_mod._Prediction()
+        assert (new_prediction(None, None, None, None, False, "water", None)
+                == cycle_mod._Prediction())
         f = (state, link, True, ("LSE",), 2, "N/A")
         got_f = new_filtering(*f, None, "", None)
         assert type(got_f) is cycle_mod._Filtering and got_f == cycle_mod._Filtering(*f)

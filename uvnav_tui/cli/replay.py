@@ -47,6 +47,7 @@ from engine.api import (
     CycleResult,
     DatumFile,
     DeccaChain,
+    DrAdaptState,
     InputError,
     NmeaConfig,
     NmeaOutOptions,
@@ -252,6 +253,18 @@ def adapt_line(a: AdaptState) -> str:
             f"fix epochs, {a.clipped} clipped")
 
 
+def dr_adapt_line(d: DrAdaptState) -> str:
+    """The learnt dead-reckoning noise factor (``[filter] adapt_dr``, THEORY §8.19)."""
+    return (f"learnt dead-reckoning noise factor {d.mu:.3g} (current, log and gyro bias random "
+            f"walks; σ × {math.sqrt(d.mu):.3g}) from {d.n} {h_checks(d.n)}, mean NEES "
+            f"{d.nees_mean:.3g} (2 when right), {d.clipped} clipped")
+
+
+def h_checks(n: int) -> str:
+    """"check" or "checks"."""
+    return "check" if n == 1 else "checks"
+
+
 def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str]:
     lines = [
         f"epochs {s.epochs}  fixes {s.fixes}  rejected LOPs {s.rejected_lops}  "
@@ -272,6 +285,8 @@ def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str
         )
         if r.adapt is not None:
             lines.append(adapt_line(r.adapt))
+        if r.dr_adapt is not None:
+            lines.append(dr_adapt_line(r.dr_adapt))
     if s.out_path is not None:
         lines.append(f"log {s.out_path}")
     if s.jsonl_path is not None:

@@ -128,7 +128,19 @@ def adapt_lines(r: CycleResult) -> list[str]:
     return [f"Learnt fix VCV factor : {num(a.fix_factor, 3)}  (σ × {sigma})"
             f"  S² {num(math.exp(a.log_s2), 3)}  NIS {num(math.exp(a.log_nis), 3)}",
             f"                        {a.n} fix epochs, {a.clipped} clipped"
-            + ("  AT BOUND" if a.at_bound else ""), ""]
+            + ("  AT BOUND" if a.at_bound else ""), *dr_lines(r), ""]
+
+
+def dr_lines(r: CycleResult) -> list[str]:
+    """The learnt dead-reckoning noise factor μ (``[filter] adapt_dr``, THEORY §8.19)."""
+    d = r.dr_adapt
+    if d is None:
+        return []
+    last = "—" if d.n == 0 else num(d.nees, 3)
+    return [f"Learnt DR noise factor: {num(d.mu, 3)}  (σ × {num(math.sqrt(d.mu), 3)})"
+            f"  NEES {last} mean {num(d.nees_mean, 3) if d.n else '—'}",
+            f"                        {d.n} checks of {len(d.shadows)} shadows, "
+            f"{d.clipped} clipped" + ("  AT BOUND" if d.at_bound else "")]
 
 
 class KalmanStatisticsPage(TextPage):
