@@ -1125,15 +1125,28 @@ class DeccaSystem:
                 cfg, (PATTERNS[0] in select, PATTERNS[1] in select, PATTERNS[2] in select),
                 (c.decca_red_lanes, c.decca_green_lanes, c.decca_purple_lanes))
         totals = lanes.totals
-        cf = cfg.lsq.decca_cf
-        condition = None
-        if isinstance(cf, str):  # "auto": the sun at the last MPP (docs/THEORY.md §3.5)
-            nav = inputs.nav
-            condition = decca_condition(rec.time, nav.mpp_lat_deg, nav.mpp_lon_deg)
-            cf = condition.cf
+        cf, condition = self._epoch_cf(inputs)
         reading = DeccaReading(placed, rec.decca, ctx.zone_lane, per[1], per[2], cf, totals,
                                condition)
         return SystemReading(reading, lanes.notes, lanes, totals != (None, None, None))
+
+    _epoch: tuple[CycleInputs, float, Any] | None = None
+    """(inputs, Decca.CF, condition) of the last epoch whose CF was resolved."""
+
+    def _epoch_cf(self, inputs: CycleInputs) -> tuple[float, Any]:
+        """This epoch's Decca.CF and, under ``lsq.decca_cf = "auto"``, its sky-wave condition
+        from the sun at the last MPP (docs/THEORY.md §3.5; None for a fixed CF)."""
+        got = self._epoch
+        if got is not None and got[0] is inputs:
+            return got[1], got[2]
+        cf = inputs.config.lsq.decca_cf
+        condition = None
+        if isinstance(cf, str):
+            nav = inputs.nav
+            condition = decca_condition(inputs.record.time, nav.mpp_lat_deg, nav.mpp_lon_deg)
+            cf = condition.cf
+        self._epoch = (inputs, cf, condition)
+        return cf, condition
 
     def lane_totals(self, inputs: CycleInputs, placed: ChainOnGrid, gps: Any) -> LaneTotals:
         """The record's lane counts tracked from the last cycle's (:func:`decca_totals`),
@@ -1148,20 +1161,20 @@ class DeccaSystem:
             None if gps is None else LaneSource("GPS", gps.x_m + gps.corr_east_m,
                                                 gps.y_m + gps.corr_north_m,
                                                 self._gps_cov(gps.var_m2)),
-            self._rule(inputs.config))
+            self._rule(inputs.config, self._epoch_cf(inputs)[0]))
 
-    _rule_of: tuple[Any, LaneRule | None] | None = None
+    _rule_of: tuple[Any, float, LaneRule | None] | None = None
 
-    def _rule(self, cfg: Any) -> LaneRule | None:
+    def _rule(self, cfg: Any, cf: float) -> LaneRule | None:
         """The :class:`LaneRule` of ``cfg.decca`` (None: ``lane_rule = "sigma"``), the
-        assumed Decca.CF the smaller of ``lane_cf`` and ``[lsq] decca_cf``."""
+        assumed Decca.CF the smaller of ``lane_cf`` and this epoch's ``cf``."""
         got = self._rule_of
-        if got is not None and got[0] is cfg:
-            return got[1]
+        if got is not None and got[0] is cfg and got[1] == cf:
+            return got[2]
         d = cfg.decca
         rule = (None if d.lane_rule == "sigma" else
-                LaneRule(d.lane_success, d.lane_ratio, min(d.lane_cf, cfg.lsq.decca_cf)))
-        self._rule_of = (cfg, rule)
+                LaneRule(d.lane_success, d.lane_ratio, min(d.lane_cf, cf)))
+        self._rule_of = (cfg, cf, rule)
         return rule
 
     _per_config: tuple[Any, tuple[bool, bool, bool], tuple[float, float, float]] | None = None
