@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import engine.fast as fast
@@ -393,6 +393,7 @@ def _both_rows(make: Any, *args: Any, **kw: Any) -> Iterator[Any]:
 @settings(max_examples=150, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(2, 8), st.booleans(), st.booleans(),
        st.integers(1, 10), st.sampled_from([None, 1, 2, 3]), st.sampled_from([1.0, 1e-9]))
+@example(seed=6420882, n=3, scale=False, gap=True, max_iter=7, fail_at=None, eps=1.0)
 def test_adjust_is_gauss_newton(seed: int, n: int, scale: bool, gap: bool, max_iter: int,
                                 fail_at: int | None, eps: float) -> None:
     """The one-call adjustment against the Python loop: converged, not converged (max_iter,
@@ -409,8 +410,12 @@ def test_adjust_is_gauss_newton(seed: int, n: int, scale: bool, gap: bool, max_i
     x0 = truth + rng.normal(0, 3000, 2)
     got, want = _both_rows(lambda: _RowsModel(lin, fail_at), x0, used, scale_vcv=scale,
                            max_iter=max_iter, epsilon=eps)
+    # The tolerance of the other adjustment tests: an iterate that did not converge (or an
+    # ill-conditioned N) agrees only to adjustment_rtol (the @example: 7 iterations on nearly
+    # parallel LOPs, cov_x 1.5e-9 apart; reason, counts and flags still compared exactly).
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS + ("ok", "reason", "used", "u", "damping"):
-        assert same(getattr(want, name), getattr(got, name)), name
+        assert same(getattr(want, name), getattr(got, name), rtol), name
     assert (got.cov_x is got.cov_x_apriori) == (want.cov_x is want.cov_x_apriori)
     assert list(vars(got)) == list(vars(want))  # every field, in order
 
