@@ -75,7 +75,9 @@ def adjustment_rtol(adj: Any) -> float:
     # cancellation: two correct computations differ by ~1e-12 absolute (3.3e-13 seen at
     # r_i = 9.85e-5), so r_i, and the MDB and external reliability that divide by √r_i or r_i,
     # agree only to 1e-12 / r_i relative.
-    r = np.asarray(getattr(adj, "redundancy_numbers", np.array([])), dtype=float)
+    # Its magnitude: an r_i that is 0 but for rounding may come out as −2.6e-7 (a fresh draw,
+    # the @example of test_gauss_newton_with_and_without_the_kernel).
+    r = np.abs(np.asarray(getattr(adj, "redundancy_numbers", np.array([])), dtype=float))
     r = r[np.isfinite(r) & (r > 0.0)]
     smallest = float(r.min()) if r.size else 1.0
     return max(RTOL, cond * 1e-16, 1e-12 / smallest)
@@ -220,6 +222,7 @@ def _both(*args: Any, **kw: Any) -> Iterator[Any]:
 @needs_kernel
 @settings(max_examples=150, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(3, 8), st.booleans(), st.booleans())
+@example(seed=1404, n=3, scale=False, gap=False)  # r_2 = −2.6e-7: stats_block 1.7e-9 apart
 def test_gauss_newton_with_and_without_the_kernel(seed: int, n: int, scale: bool,
                                                   gap: bool) -> None:
     rng = np.random.default_rng(seed)
