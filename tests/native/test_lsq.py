@@ -397,6 +397,7 @@ def _both_rows(make: Any, *args: Any, **kw: Any) -> Iterator[Any]:
 @given(st.integers(0, 2**32 - 1), st.integers(2, 8), st.booleans(), st.booleans(),
        st.integers(1, 10), st.sampled_from([None, 1, 2, 3]), st.sampled_from([1.0, 1e-9]))
 @example(seed=6420882, n=3, scale=False, gap=True, max_iter=7, fail_at=None, eps=1.0)
+@example(seed=19343, n=2, scale=False, gap=False, max_iter=5, fail_at=None, eps=1.0)
 def test_adjust_is_gauss_newton(seed: int, n: int, scale: bool, gap: bool, max_iter: int,
                                 fail_at: int | None, eps: float) -> None:
     """The one-call adjustment against the Python loop: converged, not converged (max_iter,
@@ -418,6 +419,13 @@ def test_adjust_is_gauss_newton(seed: int, n: int, scale: bool, gap: bool, max_i
     # parallel LOPs, cov_x 1.5e-9 apart; reason, counts and flags still compared exactly).
     rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS + ("ok", "reason", "used", "u", "damping"):
+        if name in ("v", "rms_m") and want.reason == "no convergence" and isinstance(
+                want.b_used, np.ndarray):
+            # v = b − A·dx of the last iterate cancels terms as large as b (the @example with
+            # seed 19343: b 2.2e5 m, v and its RMS 3e-6 m apart), so judged on b's scale.
+            atol = max(ATOL_METRES, rtol * float(np.abs(want.b_used).max(initial=0.0)))
+            assert not close(getattr(got, name), getattr(want, name), atol, rtol=rtol), name
+            continue
         assert same(getattr(want, name), getattr(got, name), rtol), name
     assert (got.cov_x is got.cov_x_apriori) == (want.cov_x is want.cov_x_apriori)
     assert list(vars(got)) == list(vars(want))  # every field, in order
