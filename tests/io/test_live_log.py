@@ -238,7 +238,10 @@ def test_flood_drops_are_noted_where_they_happened_and_nothing_waiting_is_lost(
                 out.sendto(f"{HDT}\r\n".encode(), ("127.0.0.1", source.local_port))
             deadline = time.monotonic() + DEADLINE_S
             seen = -1
-            while source.state.lines != seen:  # until the reader has taken what came
+            # Until the reader has taken what came, and has dropped (what the test is about): a
+            # reader thread starved for 0.3 s on a loaded machine must not pass for a drained
+            # socket, nor the poll below make room before the bound was ever reached.
+            while source.state.lines != seen or source.state.dropped == 0:
                 assert time.monotonic() < deadline
                 seen = source.state.lines
                 time.sleep(0.3)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import engine.fast as fast
@@ -75,7 +75,9 @@ def adjustment_rtol(adj: Any) -> float:
     # cancellation: two correct computations differ by ~1e-12 absolute (3.3e-13 seen at
     # r_i = 9.85e-5), so r_i, and the MDB and external reliability that divide by √r_i or r_i,
     # agree only to 1e-12 / r_i relative.
-    r = np.asarray(getattr(adj, "redundancy_numbers", np.array([])), dtype=float)
+    # Its magnitude: an r_i that is 0 but for rounding may come out as −2.6e-7 (a fresh draw,
+    # the @example of test_gauss_newton_with_and_without_the_kernel).
+    r = np.abs(np.asarray(getattr(adj, "redundancy_numbers", np.array([])), dtype=float))
     r = r[np.isfinite(r) & (r > 0.0)]
     smallest = float(r.min()) if r.size else 1.0
     return max(RTOL, cond * 1e-16, 1e-12 / smallest)
@@ -220,6 +222,7 @@ def _both(*args: Any, **kw: Any) -> Iterator[Any]:
 @needs_kernel
 @settings(max_examples=150, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(3, 8), st.booleans(), st.booleans())
+@example(seed=1404, n=3, scale=False, gap=False)  # r_2 = −2.6e-7: stats_block 1.7e-9 apart
 def test_gauss_newton_with_and_without_the_kernel(seed: int, n: int, scale: bool,
                                                   gap: bool) -> None:
     rng = np.random.default_rng(seed)
@@ -393,6 +396,8 @@ def _both_rows(make: Any, *args: Any, **kw: Any) -> Iterator[Any]:
 @settings(max_examples=150, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(2, 8), st.booleans(), st.booleans(),
        st.integers(1, 10), st.sampled_from([None, 1, 2, 3]), st.sampled_from([1.0, 1e-9]))
+@example(seed=6420882, n=3, scale=False, gap=True, max_iter=7, fail_at=None, eps=1.0)
+@example(seed=19343, n=2, scale=False, gap=False, max_iter=5, fail_at=None, eps=1.0)
 def test_adjust_is_gauss_newton(seed: int, n: int, scale: bool, gap: bool, max_iter: int,
                                 fail_at: int | None, eps: float) -> None:
     """The one-call adjustment against the Python loop: converged, not converged (max_iter,
@@ -409,8 +414,19 @@ def test_adjust_is_gauss_newton(seed: int, n: int, scale: bool, gap: bool, max_i
     x0 = truth + rng.normal(0, 3000, 2)
     got, want = _both_rows(lambda: _RowsModel(lin, fail_at), x0, used, scale_vcv=scale,
                            max_iter=max_iter, epsilon=eps)
+    # The tolerance of the other adjustment tests: an iterate that did not converge (or an
+    # ill-conditioned N) agrees only to adjustment_rtol (the @example: 7 iterations on nearly
+    # parallel LOPs, cov_x 1.5e-9 apart; reason, counts and flags still compared exactly).
+    rtol = adjustment_rtol(want)
     for name in ADJ_FIELDS + ("ok", "reason", "used", "u", "damping"):
-        assert same(getattr(want, name), getattr(got, name)), name
+        if name in ("v", "rms_m") and want.reason == "no convergence" and isinstance(
+                want.b_used, np.ndarray):
+            # v = b − A·dx of the last iterate cancels terms as large as b (the @example with
+            # seed 19343: b 2.2e5 m, v and its RMS 3e-6 m apart), so judged on b's scale.
+            atol = max(ATOL_METRES, rtol * float(np.abs(want.b_used).max(initial=0.0)))
+            assert not close(getattr(got, name), getattr(want, name), atol, rtol=rtol), name
+            continue
+        assert same(getattr(want, name), getattr(got, name), rtol), name
     assert (got.cov_x is got.cov_x_apriori) == (want.cov_x is want.cov_x_apriori)
     assert list(vars(got)) == list(vars(want))  # every field, in order
 
