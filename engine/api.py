@@ -130,6 +130,7 @@ if TYPE_CHECKING:
         UpdateResult,
         sensor_measurement,
     )
+    from engine.filter.motion import MotionState
     from engine.filter.poe import PoeSample, drms, poe_states
     from engine.io.export_geo import ELLIPSE_POINTS, Wgs84Converter, build_export
     from engine.io.export_geo import TRACKS as EXPORT_TRACKS
@@ -192,6 +193,7 @@ if TYPE_CHECKING:
 _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     # the run: NumPy, the filter, the fix, the NMEA reader (pynmea2)
     "engine.filter.adapt": ("AdaptState",),
+    "engine.filter.motion": ("MotionState",),
     "engine.filter.kalman": ("IDEPS", "IDPSI", "IDV", "STATE_LABELS", "FilterState",
                              "UpdateResult", "sensor_measurement"),
     "engine.filter.poe": ("PoeSample", "drms", "poe_states"),
@@ -307,6 +309,7 @@ __all__ = [
     "Ellipsoid3",
     "FilterState",
     "AdaptState",
+    "MotionState",
     "FixResult",
     "LopRow",
     "ManualObservation",

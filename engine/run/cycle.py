@@ -18,6 +18,7 @@ from datetime import datetime
 import numpy as np
 
 from engine.filter import adapt as nadapt
+from engine.filter import motion as nmotion
 from engine.filter.estimate import PositionEstimate, filter_estimate, position_estimate
 from engine.filter.kalman import (
     FilterParams,
@@ -145,13 +146,16 @@ class _ConfigDerived:
     """The systems the run reads the registry's with (:meth:`CycleParts.run_systems`)."""
     adapt: nadapt.AdaptSettings | None = None
     """How the fix-VCV factor is learnt (``[filter] adapt``; None: not learnt)."""
+    motion: nmotion.MotionSettings | None = None
+    """Bounds of the COG/SOG stand-in's learnt process noise (None: not learnt)."""
 
     @classmethod
     def of(cls, cfg: RunConfig, parts: CycleParts) -> _ConfigDerived:
         """The values of ``cfg`` under the registry as it is now."""
         return cls(cfg, registry.SYSTEMS, systems_string(cfg),
                    tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg),
-                   parts.run_systems(registry.SYSTEMS), adapt_settings(cfg))
+                   parts.run_systems(registry.SYSTEMS), adapt_settings(cfg),
+                   motion_settings(cfg))
 
 
 def adapt_settings(cfg: RunConfig) -> nadapt.AdaptSettings | None:
@@ -162,6 +166,16 @@ def adapt_settings(cfg: RunConfig) -> nadapt.AdaptSettings | None:
         return None
     return nadapt.AdaptSettings(window=f.adapt_window, clip=f.adapt_clip,
                                fix_max=f.adapt_fix_max)
+
+
+def motion_settings(cfg: RunConfig) -> nmotion.MotionSettings | None:
+    """The learnt process noise of the COG/SOG stand-in (engine.filter.motion): with the
+    filter and ``[filter] adapt`` on and ``sensors.cog_sog = "standin"``, capped at the
+    configured ``turn_rate_max_deg_s`` and ``sigma_a2``; else None."""
+    f = cfg.filter
+    if not (f.adapt and f.on and cfg.sensors.standin):
+        return None
+    return nmotion.MotionSettings.of(f.turn_rate_max_deg_s, f.sigma_a2)
 
 
 @dataclass(frozen=True, slots=True)
@@ -211,6 +225,8 @@ class RunContext:
     _grids: dict[float, TMGrid] = field(default_factory=dict)
     _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
     _derived: _ConfigDerived | None = field(default=None, repr=False, compare=False)
+    _motion_params: dict[tuple[int, int], FilterParams] = field(
+        default_factory=dict, repr=False, compare=False)
     new: _Makers = field(init=False, repr=False, compare=False)
     """The cycle's dataclasses made positionally by the run's parts (:class:`_Makers`)."""
 
@@ -225,6 +241,21 @@ class RunContext:
         if d is None or d.config is not self.config or d.systems is not registry.SYSTEMS:
             d = self._derived = _ConfigDerived.of(self.config, self.parts)
         return d
+
+    def motion_params(self, motion: nmotion.MotionState) -> FilterParams:
+        """``filter_params`` with the stand-in's learnt ψ̇_max and σ_a² (engine.filter.motion),
+        on a grid of 1 % steps in their logarithms so that a run makes few of them (each keeps
+        its own per-Δt constants); at most 256 are kept."""
+        key = (round(50.0 * math.log(motion.turn_rate_max_deg_s)),
+               round(100.0 * math.log(motion.sigma_a2)))
+        p = self._motion_params.get(key)
+        if p is None:
+            if len(self._motion_params) >= 256:
+                self._motion_params.clear()
+            p = self._motion_params[key] = replace(
+                self.filter_params, turn_rate_max_deg_s=math.exp(key[0] / 50.0),
+                sigma_a2=math.exp(key[1] / 100.0))
+        return p
 
     def grid(self, cm_deg: float) -> TMGrid:
         """The TM grid of the working datum at central meridian ``cm_deg``."""
@@ -363,6 +394,9 @@ class CycleResult:
     adapt_logged: bool = False
     """The factor moved by more than :data:`ADAPT_LOG_STEP` since it was last logged (or
     this is the first cycle with a factor): the ``.OUT`` has an ``ADAPT`` line."""
+    motion: nmotion.MotionState | None = None
+    """The COG/SOG stand-in's learnt process noise after this cycle (None: not learnt); the
+    ``.OUT`` has a ``MOTION`` line with the ``ADAPT`` line."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -394,6 +428,10 @@ class NavState:
     """The learnt fix-VCV factor (engine.filter.adapt; None: adaptation off)."""
     adapt_logged: float = 0.0
     """The factor last written to the ``.OUT`` (0: none yet)."""
+    motion: nmotion.MotionState | None = None
+    """The COG/SOG stand-in's learnt process noise (engine.filter.motion; None: not learnt)."""
+    motion_logged: float = 0.0
+    """ψ̇_max × σ_a² last written to the ``.OUT`` (0: none yet)."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -561,7 +599,13 @@ def step(
     sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg,
                                messages)
     _reference_messages(nav, sens, rec, messages)
-    pred = _dead_reckoning(ctx, nav, fstate, sens, grid, dt)
+    motion = nav.motion
+    msettings = ctx.derived().motion
+    q_params = None
+    if msettings is not None:
+        motion = _learn_motion(ctx, motion, msettings, rec)
+        q_params = ctx.motion_params(motion)
+    pred = _dead_reckoning(ctx, nav, fstate, sens, grid, dt, q_params)
     x_start, prior = _provisional(ctx, nav, grid, pred.state)
     readings = _read_systems(ctx, nav, rec, grid, cm, x_start, prior, messages)
     fix = _fix(ctx, nav, grid, x_start, prior, readings, excluded_slots, messages)
@@ -586,6 +630,12 @@ def step(
                          <= ADAPT_LOG_STEP)
         if log_adapt:
             logged = learnt.fix_factor
+    motion_logged = nav.motion_logged
+    if motion is not None:
+        mq = motion.turn_rate_max_deg_s * motion.sigma_a2
+        if log_adapt or not (motion_logged > 0.0 and abs(mq / motion_logged - 1.0)
+                             <= ADAPT_LOG_STEP):
+            log_adapt, motion_logged = True, mq
     kf_est = None
     if filt.state is not None and filt.status == "ON":
         # Without an update at this epoch (dead reckoning only: a dive) the filtered state is
@@ -606,13 +656,13 @@ def step(
         ctx.config.decca.on, fix, pred.estimate, kf_est, mpp, filt.status, filt.state,
         filt.result, cumulative, nav.pending_obs, tuple(messages), link,
         pred.sensor_update, fit_note is not None, fit_scale, filt.gate,
-        0 if lanes is None else lanes.slips, learnt, log_adapt,
+        0 if lanes is None else lanes.slips, learnt, log_adapt, motion,
     )
     ctx.parts.freeze(fix, None if link is None else link[2], filt.result, pred.sensor_update)
     next_nav = ctx.new.nav(
         n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
         nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
-        filt.gated, sens.reference, pred.reference, learnt, logged,
+        filt.gated, sens.reference, pred.reference, learnt, logged, motion, motion_logged,
     )
     return next_nav, result
 
@@ -622,6 +672,20 @@ ADAPT_LOG_STEP = 0.05
 (relative) since the last one it got: the factor moves by at most ~1 % a fix epoch once it has
 settled, so a log holds a line every half minute or so while the factor moves (63 in a 20-min
 Decca-only run with errors 3 × their VCV) and none while it holds."""
+
+
+def _learn_motion(ctx: RunContext, motion: nmotion.MotionState | None,
+                  settings: nmotion.MotionSettings, rec: RunRecord) -> nmotion.MotionState:
+    """This record's COG/SOG into the stand-in's learnt process noise (engine.filter.motion):
+    a COG is usable at ``sensors.cog_min_sog_kn`` or more."""
+    if motion is None:
+        motion = nmotion.start(settings)
+    sog = rec.sog_kn
+    if sog is None and rec.cog_deg is None:
+        return motion
+    usable = sog is not None and sog >= ctx.config.sensors.cog_min_sog_kn
+    return nmotion.learn(motion, settings, rec.time, rec.cog_deg,
+                         None if sog is None else knots_to_ms(sog), usable)
 
 
 def _adapt_before(ctx: RunContext, nav: NavState,
@@ -697,9 +761,11 @@ class _Prediction:
 
 
 def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
-                    sens: SensorValues, grid: TMGrid, dt: float) -> _Prediction:
+                    sens: SensorValues, grid: TMGrid, dt: float,
+                    q_params: FilterParams | None = None) -> _Prediction:
     """Start the filter from the DR position if needed, update it with this record's sensors
-    and predict it one step (THEORY D22)."""
+    and predict it one step (THEORY D22); ``q_params``: the parameters of the step over
+    ground with the stand-in's learnt process noise (:meth:`RunContext.motion_params`)."""
     params = ctx.filter_params
     gamma = sens.convergence_deg
     heading_grid = (
@@ -738,6 +804,8 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     if dr_sensors and not initialised:
         sens_result = ctx.parts.update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
+    if q_params is not None and reference == "ground":
+        params = q_params
     pred_state, phi, est = ctx.parts.predict_estimate(fstate, dt, params, "KF", grid)
     # _Prediction(...) positionally, every field
     return ctx.new.prediction(pred_state, est, (fstate, pred_state, phi), sens_result,
@@ -975,13 +1043,14 @@ def _gnss_part(source: tuple[object, ...] | None) -> tuple[object, ...]:
 
 def gnss_source(reading: SystemReading) -> tuple[object, ...] | None:
     """The receiver part of this cycle's fix source: ``(("GNSS", "DGPS"),)`` for a
-    receiver-weighted GPS fix (its GGA quality in words), () for a fixed-weighted one, None
+    receiver-weighted or SA-free ("sps") GPS fix (its GGA quality in words, "?" without
+    one), () for a fixed-weighted (SA-era) one, None
     when the record has no GPS fix (the previous receiver part stands)."""
     value = reading.value
     weight = getattr(value, "weight", None)
     if value is None or weight is None:
         return None
-    if not weight.receiver_weighted:
+    if not weight.sa_free:
         return ()
     return (("GNSS", quality_name(weight.quality)),)
 

@@ -126,9 +126,19 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
         **_gnss_json(r),
         "tests": [_test_json(kind, u) for kind, u in updates(r)],
         **({} if r.adapt is None else {"adapt": {"fix": _num(r.adapt.fix_factor, 4),
-                                                 "n": r.adapt.n}}),
+                                                 "n": r.adapt.n, **_motion_json(r)}}),
         "messages": list(r.messages),
     }
+
+
+def _motion_json(r: CycleResult) -> dict[str, Any]:
+    """The COG/SOG stand-in's learnt process noise (engine.filter.motion), when learnt."""
+    m = r.motion
+    if m is None:
+        return {}
+    return {"turn_deg_s": _num(m.turn_rate_max_deg_s, 4), "accel_m2s4": _num(m.sigma_a2, 6),
+            "motion_s": _num(m.seconds, 1), "motion_clipped": m.clipped,
+            "motion_skipped": m.skipped}
 
 
 def _gnss_json(r: CycleResult) -> dict[str, Any]:
@@ -205,6 +215,10 @@ _TEST_KEYS = ("lom", "lo", "hi", "dof", "verdict", "ls", "upd", "rows")
 _ADAPT_KEYS = ("fix", "n", "clipped")
 """The ADAPT line (``[filter] adapt`` on, when the learnt factor moved, docs/FORMATS.md): the
 fix-VCV factor λ, the fix epochs learnt from and how many of them hit the clip."""
+_MOTION_KEYS = ("turn", "accel", "s", "n", "clipped", "skipped")
+"""The MOTION line (after ADAPT, with the COG/SOG stand-in, docs/FORMATS.md): ψ̇_max (deg/s)
+and σ_a² (m²/s⁴) in force, the seconds and lags learnt from, the lags clipped and the COG
+samples skipped (engine.filter.motion)."""
 _IN = ("\n  IN", ("raw",))
 _SYS = ("\n  SYS", ("systems", "sensors"))
 _MSG = ("\n  MSG", ("text",))
@@ -316,6 +330,10 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
     if r.adapt_logged and r.adapt is not None:  # the learnt fix-VCV factor (THEORY §8.17)
         a = r.adapt
         add(("\n  ADAPT", _ADAPT_KEYS, (a.fix_factor, a.n, a.clipped)))
+        m = r.motion
+        if m is not None:
+            add(("\n  MOTION", _MOTION_KEYS, (m.turn_rate_max_deg_s, m.sigma_a2, m.seconds,
+                                              m.n, m.clipped, m.skipped)))
     pos_keys, pos = _position_row(mpp.lat_deg, mpp.lon_deg, mpp.x_m, mpp.y_m, mpp.depth_m,
                                   mpp.cov, mpp.ellipse)
     add(("\n  MPP", ("source",) + pos_keys, (mpp.source,) + pos))
