@@ -102,3 +102,19 @@ def test_outage_ellipse_grows_with_time_since_the_last_fix(
     assert nav.motion.q_turn == held.q_turn and nav.motion.seconds == held.seconds
     assert all(b > a for a, b in zip(a95, a95[1:], strict=False))
     assert a95[-1] > 5 * a95[0]
+
+
+def test_shown_on_pg650_and_in_the_replay_summary(baltic: tuple[object, object, list]) -> None:
+    """Pg 650 shows the learnt stand-in noise under the learnt fix factor; the replay summary
+    has a line for it."""
+    from uvnav_tui.cli.replay import motion_line
+    from uvnav_tui.pages.p650_kalman_statistics import adapt_lines
+
+    r = baltic[2][-1]
+    m = r.motion
+    text = "\n".join(adapt_lines(r))
+    assert f"Learnt stand-in noise : rate of turn {m.turn_rate_max_deg_s:.3f}"[:44] in text
+    assert f"{m.skipped} COG skipped" in text
+    line = motion_line(m)
+    assert line.startswith("learnt stand-in motion noise: rate of turn")
+    assert f"{m.n} lags" in line
