@@ -227,6 +227,8 @@ class RunContext:
     _derived: _ConfigDerived | None = field(default=None, repr=False, compare=False)
     _motion_params: dict[tuple[int, int], FilterParams] = field(
         default_factory=dict, repr=False, compare=False)
+    _motion_last: tuple[tuple[float, float], FilterParams] | None = field(
+        default=None, repr=False, compare=False)
     new: _Makers = field(init=False, repr=False, compare=False)
     """The cycle's dataclasses made positionally by the run's parts (:class:`_Makers`)."""
 
@@ -244,17 +246,27 @@ class RunContext:
 
     def motion_params(self, motion: nmotion.MotionState) -> FilterParams:
         """``filter_params`` with the stand-in's learnt ψ̇_max and σ_a² (engine.filter.motion),
-        on a grid of 1 % steps in their logarithms so that a run makes few of them (each keeps
-        its own per-Δt constants); at most 256 are kept."""
-        key = (round(50.0 * math.log(motion.turn_rate_max_deg_s)),
-               round(100.0 * math.log(motion.sigma_a2)))
-        p = self._motion_params.get(key)
-        if p is None:
-            if len(self._motion_params) >= 256:
-                self._motion_params.clear()
-            p = self._motion_params[key] = replace(
-                self.filter_params, turn_rate_max_deg_s=math.exp(key[0] / 50.0),
-                sigma_a2=math.exp(key[1] / 100.0))
+        on a grid of 1–2 % steps in their logarithms so that a run makes few of them (each
+        keeps its own per-Δt constants), never above the configured ones (the caps: those
+        parameters themselves); at most 256 are kept."""
+        last = self._motion_last
+        if last is not None and last[0] == (motion.turn_rate_max_deg_s, motion.sigma_a2):
+            return last[1]
+        base = self.filter_params
+        turn, a2 = motion.turn_rate_max_deg_s, motion.sigma_a2
+        if turn >= base.turn_rate_max_deg_s and a2 >= base.sigma_a2:
+            p = base  # the caps: the configured parameters themselves
+        else:
+            key = (round(50.0 * math.log(turn)), round(100.0 * math.log(a2)))
+            p = self._motion_params.get(key)
+            if p is None:
+                if len(self._motion_params) >= 256:
+                    self._motion_params.clear()
+                p = self._motion_params[key] = replace(
+                    base, turn_rate_max_deg_s=min(math.exp(key[0] / 50.0),
+                                                  base.turn_rate_max_deg_s),
+                    sigma_a2=min(math.exp(key[1] / 100.0), base.sigma_a2))
+        self._motion_last = ((motion.turn_rate_max_deg_s, motion.sigma_a2), p)
         return p
 
     def grid(self, cm_deg: float) -> TMGrid:

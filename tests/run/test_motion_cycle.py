@@ -45,6 +45,7 @@ def test_learnt_below_the_cap_on_the_baltic(baltic: tuple[object, object, list])
     assert last is not None and last.seconds >= MIN_S
     assert 0.4 < last.turn_rate_max_deg_s < 2.0
     assert ctx.derived().motion.accel_floor <= last.sigma_a2 <= ctx.derived().motion.accel_cap
+    assert ctx.motion_params(first) is ctx.filter_params  # the caps: unchanged parameters
     p = ctx.motion_params(last)
     assert p.turn_rate_max_deg_s == pytest.approx(last.turn_rate_max_deg_s, rel=0.011)
     assert p.sigma_a2 == pytest.approx(last.sigma_a2, rel=0.006)
