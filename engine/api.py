@@ -131,6 +131,7 @@ if TYPE_CHECKING:
         UpdateResult,
         sensor_measurement,
     )
+    from engine.filter.motion import MotionState
     from engine.filter.poe import PoeSample, drms, poe_states
     from engine.io.export_geo import ELLIPSE_POINTS, Wgs84Converter, build_export
     from engine.io.export_geo import TRACKS as EXPORT_TRACKS
@@ -194,6 +195,7 @@ _LAZY_MODULES: dict[str, tuple[str, ...]] = {
     # the run: NumPy, the filter, the fix, the NMEA reader (pynmea2)
     "engine.filter.adapt": ("AdaptState",),
     "engine.filter.horizon": ("DrAdaptState",),
+    "engine.filter.motion": ("MotionState",),
     "engine.filter.kalman": ("IDEPS", "IDPSI", "IDV", "STATE_LABELS", "FilterState",
                              "UpdateResult", "sensor_measurement"),
     "engine.filter.poe": ("PoeSample", "drms", "poe_states"),
@@ -310,6 +312,7 @@ __all__ = [
     "FilterState",
     "AdaptState",
     "DrAdaptState",
+    "MotionState",
     "FixResult",
     "LopRow",
     "ManualObservation",

@@ -60,11 +60,25 @@ def _mission(name: str, records: int) -> Callable[[Path], RunConfig]:
     return make
 
 
+def _standin(path: Path) -> Callable[[Path], RunConfig]:
+    """The log of ``path`` with COG/SOG standing in for the missing gyro and log: the learnt
+    motion noise (engine.filter.motion) and its MOTION lines."""
+
+    def make(_work: Path) -> RunConfig:
+        from dataclasses import replace
+
+        cfg = load_config(path)
+        return cfg.replace(sensors=replace(cfg.sensors, cog_sog="standin"))
+
+    return make
+
+
 CASES: dict[str, Case] = {
     "SAMPLE": Case(_config_file(DATA / "920917_1.toml"), None),
     "DEMO": Case(_config_file(DATA / "DEMO.toml"), 1500),
     **{f"NMEA_{p.stem}": Case(_config_file(p), 3000)
        for p in sorted((DATA / "nmea").glob("*.toml"))},
+    "NMEA_baltic_standin": Case(_standin(DATA / "nmea" / "avnav-baltic-20130731.toml"), 3000),
     **{f"SIM_{m}": Case(_mission(m, 400), None) for m in MISSIONS},
 }
 """Case name → run. Slices keep the pure-Python reference run within a few minutes."""

@@ -338,7 +338,9 @@ GpsConfig.KEYS = (
     Key("weights", "weights", "str", "—",
         '"receiver": a record with an HDOP (NMEA GGA) weighs each horizontal coordinate with '
         'σ = HDOP × UERE(quality)/√2, at least sigma_floor_m; "fixed": always the receiver '
-        "type's σ × lsq.gps_se_sf (a record without HDOP, every 1993 .RUN, is fixed anyway)",
+        "type's σ × lsq.gps_se_sf. A C/A record without a usable HDOP gets under 'receiver' the "
+        "SPS PS 2008 worst-site σ 6.95 m when dated after SA was switched off (2 May 2000), "
+        "else the fixed σ (every 1993 .RUN)",
         "docs/GNSS_WEIGHTS.md [not in the thesis]", _choice("receiver", "fixed")),
     Key("uere_sps_m", "uere_sps_m", "float", "m",
         "UERE (1σ) of a GGA quality 1 (SPS, single frequency) fix, and of an HDOP without a "
@@ -865,7 +867,9 @@ FilterConfig.KEYS = (
         "0.25 m/s², P_max 0.01, P_0 0.75)", "eq. 6.35; THEORY §8.9", _NON_NEGATIVE),
     Key("adapt", "adapt", "bool", "—",
         "learn a factor on the fix VCV from the filter's fix innovations (covariance matching; "
-        "never below the a-priori VCV); preset thesis: false",
+        "never below the a-priori VCV) and, with the COG/SOG stand-in, its rate-of-turn and "
+        "acceleration noise from the COG/SOG history (at most the configured ones); preset "
+        "thesis: false",
         "Mehra 1970; Mohamed & Schwarz 1999; THEORY §8.17 [not in the thesis]"),
     Key("adapt_window", "adapt_window", "float", "fix epochs",
         "W: the learnt log-factor moves by (clipped NIS per row − its mean)/W per fix epoch",

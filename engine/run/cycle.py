@@ -20,6 +20,7 @@ import numpy as np
 from engine.filter import adapt as nadapt
 from engine.filter import divergence as ndiv
 from engine.filter import horizon as nhorizon
+from engine.filter import motion as nmotion
 from engine.filter.estimate import PositionEstimate, filter_estimate, position_estimate
 from engine.filter.kalman import (
     FilterParams,
@@ -152,6 +153,8 @@ class _ConfigDerived:
     """The remedy of a diverged filter (``[filter] recover``; None: off)."""
     dr_adapt: nhorizon.DrAdaptSettings | None = None
     """How the dead-reckoning noise factor is learnt (``[filter] adapt_dr``; None: not)."""
+    motion: nmotion.MotionSettings | None = None
+    """Bounds of the COG/SOG stand-in's learnt process noise (None: not learnt)."""
 
     @classmethod
     def of(cls, cfg: RunConfig, parts: CycleParts) -> _ConfigDerived:
@@ -159,7 +162,8 @@ class _ConfigDerived:
         return cls(cfg, registry.SYSTEMS, systems_string(cfg),
                    tuple(cfg.sensors.status(n) for n in SENSOR_NAMES), fix_source(cfg),
                    parts.run_systems(registry.SYSTEMS), adapt_settings(cfg),
-                   recover_settings(cfg), dr_adapt_settings(cfg))
+                   recover_settings(cfg), dr_adapt_settings(cfg),
+                   motion_settings(cfg))
 
 
 def recover_settings(cfg: RunConfig) -> ndiv.RecoverSettings | None:
@@ -190,6 +194,15 @@ def dr_adapt_settings(cfg: RunConfig) -> nhorizon.DrAdaptSettings | None:
     h = f.adapt_dr_horizon_s
     return nhorizon.DrAdaptSettings(horizon_s=h, stagger_s=h / 2.0, mu_min=f.adapt_dr_min,
                                     mu_max=f.adapt_dr_max, max_age_s=max(7200.0, h))
+
+def motion_settings(cfg: RunConfig) -> nmotion.MotionSettings | None:
+    """The learnt process noise of the COG/SOG stand-in (engine.filter.motion): with the
+    filter and ``[filter] adapt`` on and ``sensors.cog_sog = "standin"``, capped at the
+    configured ``turn_rate_max_deg_s`` and ``sigma_a2``; else None."""
+    f = cfg.filter
+    if not (f.adapt and f.on and cfg.sensors.standin):
+        return None
+    return nmotion.MotionSettings.of(f.turn_rate_max_deg_s, f.sigma_a2)
 
 
 @dataclass(frozen=True, slots=True)
@@ -239,6 +252,10 @@ class RunContext:
     _grids: dict[float, TMGrid] = field(default_factory=dict)
     _placed: dict[float, ChainOnGrid | None] = field(default_factory=dict)
     _derived: _ConfigDerived | None = field(default=None, repr=False, compare=False)
+    _motion_params: dict[tuple[int, int], FilterParams] = field(
+        default_factory=dict, repr=False, compare=False)
+    _motion_last: tuple[tuple[float, float], FilterParams] | None = field(
+        default=None, repr=False, compare=False)
     new: _Makers = field(init=False, repr=False, compare=False)
     """The cycle's dataclasses made positionally by the run's parts (:class:`_Makers`)."""
 
@@ -253,6 +270,31 @@ class RunContext:
         if d is None or d.config is not self.config or d.systems is not registry.SYSTEMS:
             d = self._derived = _ConfigDerived.of(self.config, self.parts)
         return d
+
+    def motion_params(self, motion: nmotion.MotionState) -> FilterParams:
+        """``filter_params`` with the stand-in's learnt ψ̇_max and σ_a² (engine.filter.motion),
+        on a grid of 1–2 % steps in their logarithms so that a run makes few of them (each
+        keeps its own per-Δt constants), never above the configured ones (the caps: those
+        parameters themselves); at most 256 are kept."""
+        last = self._motion_last
+        if last is not None and last[0] == (motion.turn_rate_max_deg_s, motion.sigma_a2):
+            return last[1]
+        base = self.filter_params
+        turn, a2 = motion.turn_rate_max_deg_s, motion.sigma_a2
+        if turn >= base.turn_rate_max_deg_s and a2 >= base.sigma_a2:
+            p = base  # the caps: the configured parameters themselves
+        else:
+            key = (round(50.0 * math.log(turn)), round(100.0 * math.log(a2)))
+            p = self._motion_params.get(key)
+            if p is None:
+                if len(self._motion_params) >= 256:
+                    self._motion_params.clear()
+                p = self._motion_params[key] = replace(
+                    base, turn_rate_max_deg_s=min(math.exp(key[0] / 50.0),
+                                                  base.turn_rate_max_deg_s),
+                    sigma_a2=min(math.exp(key[1] / 100.0), base.sigma_a2))
+        self._motion_last = ((motion.turn_rate_max_deg_s, motion.sigma_a2), p)
+        return p
 
     def grid(self, cm_deg: float) -> TMGrid:
         """The TM grid of the working datum at central meridian ``cm_deg``."""
@@ -401,6 +443,9 @@ class CycleResult:
     dr_adapt: nhorizon.DrAdaptState | None = None
     """The learnt dead-reckoning noise factor μ after this cycle (``[filter] adapt_dr``,
     THEORY §8.19; None: off)."""
+    motion: nmotion.MotionState | None = None
+    """The COG/SOG stand-in's learnt process noise after this cycle (None: not learnt); the
+    ``.OUT`` has a ``MOTION`` line with the ``ADAPT`` line."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -439,6 +484,10 @@ class NavState:
     """The run of consistent innovation-test rejections (``[filter] recover``; None: none)."""
     dr_adapt: nhorizon.DrAdaptState | None = None
     """The learnt dead-reckoning noise factor and its shadow predictions (THEORY §8.19)."""
+    motion: nmotion.MotionState | None = None
+    """The COG/SOG stand-in's learnt process noise (engine.filter.motion; None: not learnt)."""
+    motion_logged: float = 0.0
+    """ψ̇_max × σ_a² last written to the ``.OUT`` (0: none yet)."""
 
 
 def initial_state(cfg: RunConfig) -> NavState:
@@ -606,7 +655,13 @@ def step(
     sens, press_ref = _sensors(ctx, nav, rec, grid, nav.mpp_lat_deg, nav.mpp_lon_deg,
                                messages)
     _reference_messages(nav, sens, rec, messages)
-    pred = _dead_reckoning(ctx, nav, fstate, sens, grid, dt)
+    motion = nav.motion
+    msettings = ctx.derived().motion
+    q_params = None
+    if msettings is not None:
+        motion = _learn_motion(ctx, motion, msettings, rec)
+        q_params = ctx.motion_params(motion)
+    pred = _dead_reckoning(ctx, nav, fstate, sens, grid, dt, q_params)
     x_start, prior = _provisional(ctx, nav, grid, pred.state)
     readings = _read_systems(ctx, nav, rec, grid, cm, x_start, prior, messages)
     fix = _fix(ctx, nav, grid, x_start, prior, readings, excluded_slots, messages)
@@ -637,6 +692,12 @@ def step(
         log_adapt = log_adapt or nav.dr_adapt is None or dr.mu != nav.dr_adapt.mu
     if log_adapt and learnt is not None:
         logged = learnt.fix_factor
+    motion_logged = nav.motion_logged
+    if motion is not None:
+        mq = motion.turn_rate_max_deg_s * motion.sigma_a2
+        if log_adapt or not (motion_logged > 0.0 and abs(mq / motion_logged - 1.0)
+                             <= ADAPT_LOG_STEP):
+            log_adapt, motion_logged = True, mq
     kf_est = None
     if filt.state is not None and filt.status == "ON":
         # Without an update at this epoch (dead reckoning only: a dive) the filtered state is
@@ -658,14 +719,14 @@ def step(
         ctx.config.decca.on, fix, pred.estimate, kf_est, mpp, filt.status, filt.state,
         filt.result, cumulative, nav.pending_obs, tuple(messages), link,
         pred.sensor_update, fit_note is not None, fit_scale, filt.gate,
-        0 if lanes is None else lanes.slips, learnt, log_adapt, decca_cf, condition, dr,
+        0 if lanes is None else lanes.slips, learnt, log_adapt, decca_cf, condition, dr, motion,
     )
     ctx.parts.freeze(fix, None if link is None else link[2], filt.result, pred.sensor_update)
     next_nav = ctx.new.nav(
         n, rec.time, cm, mpp.lat_deg, mpp.lon_deg, filt.state, cumulative, (), press_ref,
         nav.decca_track if lanes is None else lanes.track, filt.has_fix, filt.source,
         filt.gated, sens.reference, pred.reference, learnt, logged,
-        condition or nav.decca_condition, filt.watch, dr,
+        condition or nav.decca_condition, filt.watch, dr, motion, motion_logged,
     )
     return next_nav, result
 
@@ -690,6 +751,20 @@ ADAPT_LOG_STEP = 0.05
 (relative) since the last one it got: the factor moves by at most ~1 % a fix epoch once it has
 settled, so a log holds a line every half minute or so while the factor moves (63 in a 20-min
 Decca-only run with errors 3 × their VCV) and none while it holds."""
+
+
+def _learn_motion(ctx: RunContext, motion: nmotion.MotionState | None,
+                  settings: nmotion.MotionSettings, rec: RunRecord) -> nmotion.MotionState:
+    """This record's COG/SOG into the stand-in's learnt process noise (engine.filter.motion):
+    a COG is usable at ``sensors.cog_min_sog_kn`` or more."""
+    if motion is None:
+        motion = nmotion.start(settings)
+    sog = rec.sog_kn
+    if sog is None and rec.cog_deg is None:
+        return motion
+    usable = sog is not None and sog >= ctx.config.sensors.cog_min_sog_kn
+    return nmotion.learn(motion, settings, rec.time, rec.cog_deg,
+                         None if sog is None else knots_to_ms(sog), usable)
 
 
 def _adapt_before(ctx: RunContext, nav: NavState,
@@ -803,9 +878,11 @@ class _Prediction:
 
 
 def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
-                    sens: SensorValues, grid: TMGrid, dt: float) -> _Prediction:
+                    sens: SensorValues, grid: TMGrid, dt: float,
+                    q_params: FilterParams | None = None) -> _Prediction:
     """Start the filter from the DR position if needed, update it with this record's sensors
-    and predict it one step (THEORY D22)."""
+    and predict it one step (THEORY D22); ``q_params``: the parameters of the step over
+    ground with the stand-in's learnt process noise (:meth:`RunContext.motion_params`)."""
     params = ctx.filter_params
     gamma = sens.convergence_deg
     heading_grid = (
@@ -844,6 +921,8 @@ def _dead_reckoning(ctx: RunContext, nav: NavState, fstate: FilterState | None,
     if dr_sensors and not initialised:
         sens_result = ctx.parts.update_rows(fstate, zs, var, layout, params)
         fstate = sens_result.state
+    if q_params is not None and reference == "ground":
+        params = q_params
     qparams = params if nav.dr_adapt is None else nhorizon.scaled_params(params,
                                                                          nav.dr_adapt.mu)
     pred_state, phi, est = ctx.parts.predict_estimate(fstate, dt, qparams, "KF", grid)
@@ -1085,13 +1164,14 @@ def _gnss_part(source: tuple[object, ...] | None) -> tuple[object, ...]:
 
 def gnss_source(reading: SystemReading) -> tuple[object, ...] | None:
     """The receiver part of this cycle's fix source: ``(("GNSS", "DGPS"),)`` for a
-    receiver-weighted GPS fix (its GGA quality in words), () for a fixed-weighted one, None
+    receiver-weighted or SA-free ("sps") GPS fix (its GGA quality in words, "?" without
+    one), () for a fixed-weighted (SA-era) one, None
     when the record has no GPS fix (the previous receiver part stands)."""
     value = reading.value
     weight = getattr(value, "weight", None)
     if value is None or weight is None:
         return None
-    if not weight.receiver_weighted:
+    if not weight.sa_free:
         return ()
     return (("GNSS", quality_name(weight.quality)),)
 

@@ -126,7 +126,8 @@ def cycle_json(r: CycleResult) -> dict[str, Any]:
         **_gnss_json(r),
         "tests": [_test_json(kind, u) for kind, u in updates(r)],
         **({} if r.adapt is None else {"adapt": {"fix": _num(r.adapt.fix_factor, 4),
-                                                 "n": r.adapt.n, **_dr_json(r)}}),
+                                                 "n": r.adapt.n, **_dr_json(r),
+                                                 **_motion_json(r)}}),
         **({} if not r.decca_condition else {"decca_cf": {
             "cf": _num(r.decca_cf, 6), "condition": r.decca_condition}}),
         "messages": list(r.messages),
@@ -139,6 +140,16 @@ def _dr_json(r: CycleResult) -> dict[str, Any]:
     if d is None:
         return {}
     return {"dr": _num(d.mu, 4), "dr_checks": d.n, "dr_nees": _num(d.nees_mean, 3)}
+
+
+def _motion_json(r: CycleResult) -> dict[str, Any]:
+    """The COG/SOG stand-in's learnt process noise (engine.filter.motion), when learnt."""
+    m = r.motion
+    if m is None:
+        return {}
+    return {"turn_deg_s": _num(m.turn_rate_max_deg_s, 4), "accel_m2s4": _num(m.sigma_a2, 6),
+            "motion_s": _num(m.seconds, 1), "motion_clipped": m.clipped,
+            "motion_skipped": m.skipped}
 
 
 def _gnss_json(r: CycleResult) -> dict[str, Any]:
@@ -217,6 +228,10 @@ _ADAPT_DR_KEYS = (*_ADAPT_KEYS, "dr", "checks")
 """The ADAPT line (``[filter] adapt`` on, when the learnt factor moved, docs/FORMATS.md): the
 fix-VCV factor λ, the fix epochs learnt from and how many of them hit the clip; with
 ``[filter] adapt_dr`` the dead-reckoning noise factor μ and the checks it was learnt from."""
+_MOTION_KEYS = ("turn", "accel", "s", "n", "clipped", "skipped")
+"""The MOTION line (after ADAPT, with the COG/SOG stand-in, docs/FORMATS.md): ψ̇_max (deg/s)
+and σ_a² (m²/s⁴) in force, the seconds and lags learnt from, the lags clipped and the COG
+samples skipped (engine.filter.motion)."""
 _IN = ("\n  IN", ("raw",))
 _SYS = ("\n  SYS", ("systems", "sensors"))
 _MSG = ("\n  MSG", ("text",))
@@ -331,6 +346,10 @@ def cycle_block(r: CycleResult) -> tuple[dict[str, Value], KeyedLines]:
             add(("\n  ADAPT", _ADAPT_KEYS, (a.fix_factor, a.n, a.clipped)))
         else:
             add(("\n  ADAPT", _ADAPT_DR_KEYS, (a.fix_factor, a.n, a.clipped, d.mu, d.n)))
+        m = r.motion
+        if m is not None:
+            add(("\n  MOTION", _MOTION_KEYS, (m.turn_rate_max_deg_s, m.sigma_a2, m.seconds,
+                                              m.n, m.clipped, m.skipped)))
     pos_keys, pos = _position_row(mpp.lat_deg, mpp.lon_deg, mpp.x_m, mpp.y_m, mpp.depth_m,
                                   mpp.cov, mpp.ellipse)
     add(("\n  MPP", ("source",) + pos_keys, (mpp.source,) + pos))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from typing import Any
 
 import numpy as np
@@ -33,6 +34,30 @@ GPS_VAR_CA_M2 = 2500.0
 """A priori variance of a C/A-code GPS coordinate (σ = 50 m; thesis L5564, Pg 611/821)."""
 GPS_VAR_P_M2 = 8.9**2
 """A priori variance of a P-code GPS coordinate: 2 d_rms 17.8 m → σ 8.9 m (THEORY D5)."""
+
+SA_OFF_UTC = datetime(2000, 5, 2, 4, 0)
+"""Selective Availability was set to zero at midnight EDT, 1–2 May 2000 (04:00 UTC, 2 May;
+statement of the President of the United States, 1 May 2000): a C/A fix dated later is not
+degraded by it (UTC; a record's naive time is read as UTC, :func:`after_sa`)."""
+SPS_2008_H95_WORST_SITE_M = 17.0
+"""GPS SPS Performance Standard, 4th ed. (Sept. 2008), the position domain accuracy
+standard: ≤ 17 m 95 % horizontal error at the worst site (≤ 9 m global average), SA off."""
+K95_2D = math.sqrt(-2.0 * math.log(0.05))
+"""Radius of the 95 % circle of a circular 2-D normal in units of its σ per axis (2.4477):
+the same reading of a 95 % horizontal figure as ``lsq.gps_se_sf`` (100 m → 41 m, THEORY D5)."""
+GPS_SIGMA_CA_SPS_M = SPS_2008_H95_WORST_SITE_M / K95_2D
+"""σ per axis (m) of a C/A fix without an HDOP dated after :data:`SA_OFF_UTC`: the SPS
+Performance Standard's worst-site 17 m 95 % as a circular normal, 6.95 m (docs/GNSS_WEIGHTS.md)."""
+
+
+
+def after_sa(time: datetime) -> bool:
+    """True when ``time`` (UTC, naive or aware) is after :data:`SA_OFF_UTC`."""
+    if time.year != 2000:
+        return time.year > 2000
+    return time.replace(tzinfo=None) >= SA_OFF_UTC if time.tzinfo is None else (
+        time >= SA_OFF_UTC.replace(tzinfo=UTC))
+
 
 ROW_LAT, ROW_LON = 0, 1
 """Rows of the system: northing ("Lat") and easting ("Lon")."""
@@ -56,7 +81,9 @@ class GpsWeight:
 
     ``origin`` "receiver": σ = HDOP × UERE(quality) / √2 per horizontal axis (the HDOP scales
     the horizontal d_rms, d_rms² = σ_E² + σ_N² = HDOP²·σ_UERE², split evenly over the two
-    axes), at least ``floor_m``; "fixed": the receiver type's 1993 figure (C/A 50 m, P 8.9 m)
+    axes), at least ``floor_m``; "sps": a C/A fix without an HDOP dated after Selective
+    Availability was switched off, σ :data:`GPS_SIGMA_CA_SPS_M` (the SPS Performance
+    Standard 2008's worst site); "fixed": the receiver type's 1993 figure (C/A 50 m, P 8.9 m)
     times ``lsq.gps_se_sf``. ``sigma_m`` is the σ used per axis (m); ``hdop``, ``quality``,
     ``sats`` as in the record; ``uere_m`` the UERE of the quality code (m, 1σ)."""
 
@@ -75,12 +102,21 @@ class GpsWeight:
         """True when the σ follows the receiver's HDOP (not the fixed 1993 figure)."""
         return self.origin == "receiver"
 
+    @property
+    def sa_free(self) -> bool:
+        """True when the fix is not degraded by Selective Availability (an HDOP-weighted or an
+        "sps" fix): the filter models its error as a modern receiver's (docs/GNSS_WEIGHTS.md)."""
+        return self.origin != "fixed"
+
     def describe(self) -> str:
         """The σ and its origin in one line, e.g. ``σ 4.24 m = HDOP 1.2 × UERE 5.0 m / √2``."""
         if self.receiver_weighted:
             text = (f"σ {self.sigma_m:.2f} m = HDOP {self.hdop:.1f} × UERE {self.uere_m:g} m "
                     f"({quality_name(self.quality)}) / √2")
             return text + (" → floor" if self.floored else "")
+        if self.origin == "sps":
+            return (f"σ {self.sigma_m:.2f} m = SPS PS 2008 worst site "
+                    f"{SPS_2008_H95_WORST_SITE_M:g} m 95 % / {K95_2D:.3f} (no HDOP, SA off)")
         base = 8.9 if self.receiver == "P" else 50.0
         code = "P code" if self.receiver == "P" else "C/A code"
         return f"σ {self.sigma_m:.2f} m = {code} {base:g} m × √SE_SF {self.se_sf:g}"
@@ -177,13 +213,19 @@ class _PerConfig:
     decides, computed once per configuration object: the fixed variance (m²) and the fixed
     :class:`GpsWeight` of a record without HDOP, quality or satellites (a 1993 record)."""
 
-    __slots__ = ("config", "variance_m2", "fixed_weight")
+    __slots__ = ("config", "variance_m2", "fixed_weight", "sps_weight")
 
     def __init__(self, config: Any) -> None:
         self.config = config
         self.variance_m2 = gps_variance_m2(config)
         self.fixed_weight = GpsWeight("fixed", math.sqrt(self.variance_m2), None, None, None,
                                       se_sf=config.lsq.gps_se_sf, receiver=config.gps.receiver)
+        g = config.gps
+        self.sps_weight = None
+        if (g.weights == "receiver" and g.receiver == "C/A"
+                and getattr(config.filter, "preset", "honest") != "thesis"):
+            self.sps_weight = GpsWeight("sps", GPS_SIGMA_CA_SPS_M, None, None, None,
+                                        receiver=g.receiver)
 
 
 _per_config: _PerConfig | None = None
@@ -204,20 +246,28 @@ def gps_weight(config: Any, record: RunRecord) -> GpsWeight:
     With ``gps.weights = "receiver"`` and a usable HDOP in the record (finite, > 0):
     σ = max(HDOP × UERE(quality) / √2, ``gps.sigma_floor_m``) — HDOP² = G_EE + G_NN of the
     geometry's (GᵀG)⁻¹, so σ_E² + σ_N² = HDOP²·σ_UERE² (the horizontal d_rms²), split evenly
-    because GGA gives no more (docs/GNSS_WEIGHTS.md). Otherwise the fixed 1993 figure:
+    because GGA gives no more (docs/GNSS_WEIGHTS.md). Without a usable HDOP, a C/A fix dated
+    after :data:`SA_OFF_UTC` under ``gps.weights = "receiver"`` (not ``filter.preset =
+    "thesis"``) gets :data:`GPS_SIGMA_CA_SPS_M` ("sps"). Otherwise the fixed 1993 figure:
     √(:func:`gps_variance_m2`), so every 1993 ``.RUN`` replays exactly as before.
     """
     g = config.gps
     hdop = record.gps_hdop
     sats, quality = record.gps_sats, record.gps_quality
     if hdop is None and sats is None and quality is None:  # a 1993 record: per configuration
-        return _of_config(config).fixed_weight
+        pc = _of_config(config)
+        if pc.sps_weight is not None and after_sa(record.time):
+            return pc.sps_weight
+        return pc.fixed_weight
     if g.weights == "receiver" and hdop is not None and math.isfinite(hdop) and hdop > 0.0:
         uere = g.uere_m(quality)
         sigma = hdop * uere / math.sqrt(2.0)
         floored = sigma < g.sigma_floor_m
         return GpsWeight("receiver", max(sigma, g.sigma_floor_m), hdop, quality, sats, uere,
                          floored)
+    pc = _of_config(config)
+    if pc.sps_weight is not None and after_sa(record.time):
+        return GpsWeight("sps", GPS_SIGMA_CA_SPS_M, hdop, quality, sats, receiver=g.receiver)
     return GpsWeight("fixed", math.sqrt(gps_variance_m2(config)), hdop, quality, sats,
                      se_sf=config.lsq.gps_se_sf, receiver=g.receiver)
 
@@ -326,8 +376,8 @@ class GpsSystem:
         c = inputs.config.corrections
         w = gps.weight if gps.weight is not None else gps_weight(inputs.config, inputs.record)
         # The fixed figure keeps its variance exactly as before (σ² of √var is not bit-exact).
-        # (w.origin != "receiver" is ``not w.receiver_weighted``, without the property's call.)
-        if w.origin != "receiver":
+        # (w.origin == "fixed" is ``not w.sa_free``, without the property's call.)
+        if w.origin == "fixed":
             pc = _per_config
             var = (pc if pc is not None and pc.config is inputs.config
                    else _of_config(inputs.config)).variance_m2

@@ -4,6 +4,7 @@ parts 4–5; docs/GNSS_WEIGHTS.md), on synthetic record streams built directly a
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from datetime import UTC, datetime, timedelta
 
 import numpy as np
@@ -81,17 +82,70 @@ def test_receiver_sigma_is_hdop_times_uere_over_root_two() -> None:
     assert "→ floor" in w.describe() and "RTK fixed" in w.describe()
 
 
+def _dated(rec: RunRecord, when: datetime) -> RunRecord:
+    return replace(rec, time=when)
+
+
+SA_ERA = datetime(1992, 9, 17, 10, 0, 0)
+"""The thesis' sample date (naive UTC, as a 1993 .RUN record's time)."""
+
+
 def test_fixed_weights_without_hdop_or_when_configured() -> None:
-    """No HDOP (every 1993 .RUN), an unusable one (0, NaN) or weights = "fixed": the 1993
-    figure, C/A 50 m × √(gps_se_sf 0.67) = 40.93 m (2500 m² × 0.67 = 1675 m², THEORY D5)."""
+    """No HDOP (every 1993 .RUN), an unusable one (0, NaN) dated before Selective Availability
+    was switched off, or weights = "fixed": the 1993 figure, C/A 50 m × √(gps_se_sf 0.67) =
+    40.93 m (2500 m² × 0.67 = 1675 m², THEORY D5)."""
     cfg = _cfg()
     for hdop in (None, 0.0, float("nan"), -1.0):
-        w = gps_weight(cfg, _record(0, 52.8, 4.5, hdop=hdop, quality=2))
+        w = gps_weight(cfg, _dated(_record(0, 52.8, 4.5, hdop=hdop, quality=2), SA_ERA))
         assert not w.receiver_weighted and w.sigma_m**2 == pytest.approx(1675.0, rel=1e-15)
     fixed = _cfg('weights = "fixed"\n')
     w = gps_weight(fixed, _record(0, 52.8, 4.5, hdop=1.0, quality=2))
     assert not w.receiver_weighted
     assert w.describe() == "σ 40.93 m = C/A code 50 m × √SE_SF 0.67"
+
+
+SPS_2008_SIGMA_M = 17.0 / 2.447746830680816
+"""GPS SPS Performance Standard, 4th ed. (2008): ≤ 17 m 95 % horizontal at the worst site; as
+a circular normal, R95 = σ √(−2 ln 0.05) = 2.4477 σ (hand calculation: 6.945 m per axis)."""
+
+
+def test_no_hdop_after_sa_gets_the_sps_2008_weight() -> None:
+    """A C/A fix without an HDOP (RMC, GLL) dated after 2 May 2000 04:00 UTC gets the SPS
+    Performance Standard 2008's worst-site σ; dated before, the SA-era 40.93 m; with
+    ``weights = "fixed"``, a P receiver or the thesis preset, the 1993 figure whatever the date."""
+    cfg = _cfg()
+    rmc = _record(0, 52.8, 4.5)
+    for when in (datetime(2013, 7, 31, 8, 30), datetime(2013, 7, 31, 8, 30, tzinfo=UTC),
+                 datetime(2000, 5, 2, 4, 0, tzinfo=UTC)):
+        w = gps_weight(cfg, _dated(rmc, when))
+        assert w.origin == "sps" and w.sa_free and not w.receiver_weighted
+        assert w.sigma_m == pytest.approx(SPS_2008_SIGMA_M, rel=1e-12)
+        assert w.sigma_m == pytest.approx(6.945, abs=5e-4)
+    for when in (SA_ERA, datetime(2000, 5, 2, 3, 59, 59, tzinfo=UTC), datetime(1999, 12, 31)):
+        w = gps_weight(cfg, _dated(rmc, when))
+        assert w.origin == "fixed" and w.sigma_m == pytest.approx(math.sqrt(1675.0), rel=1e-15)
+    after = _dated(rmc, datetime(2013, 7, 31, 8, 30))
+    for extra in ('weights = "fixed"\n', 'receiver = "P"\n'):
+        w = gps_weight(_cfg(extra), after)
+        assert w.origin == "fixed"
+    thesis = parse_config_text(BASE + '[filter]\npreset = "thesis"\n', base_dir=DATA)
+    assert gps_weight(thesis, after).origin == "fixed"
+    # a GGA with a quality but an unusable HDOP, after SA: the SPS figure too
+    w = gps_weight(cfg, _record(0, 52.8, 4.5, hdop=float("nan"), quality=1))
+    assert w.origin == "sps" and "SPS PS 2008 worst site 17 m" in w.describe()
+
+
+def test_sps_fix_is_weighted_so_in_the_cycle() -> None:
+    """In the cycle the "sps" fix's variance is σ² (not the 1993 one), and the filter models
+    its error as a modern receiver's (fix source ("GNSS", "?"): τ FIX_TAU_GNSS_S)."""
+    ctx = build_context(_cfg(), *load_data(_cfg()))
+    nav = initial_state(ctx.config)
+    for k in range(3):
+        nav, r = step(ctx, nav, _record(k, 52.8, 4.5 + 1e-5 * k, heading=90.0, speed=1.0))
+    assert r.gps is not None and r.gps.weight.origin == "sps"
+    assert r.fix is not None
+    assert np.diag(r.fix.cov) == pytest.approx([SPS_2008_SIGMA_M**2] * 2, rel=1e-9)
+    assert nav.fix_source is not None and nav.fix_source[-1] == ("GNSS", "?")
 
 
 @pytest.mark.parametrize(("text", "field"), [

@@ -93,3 +93,15 @@ def test_page_yacht_snapshot(snap_compare: Callable[..., bool],
     """New snapshots (issue 13): Pg 611 with the receiver weight, Pg 620 with the stand-in."""
     session, r = yacht
     assert snap_compare(PageApp(number, r, session), terminal_size=SIZE)
+
+
+def test_611_names_the_sps_weight_of_a_fix_without_hdop() -> None:
+    """A fix without an HDOP dated after SA was switched off: Pg 611 says where its σ comes
+    from (the SPS Performance Standard 2008's worst site), not the 1993 C/A figure."""
+    from engine.systems.gps import GPS_SIGMA_CA_SPS_M, GpsWeight
+
+    w = GpsWeight("sps", GPS_SIGMA_CA_SPS_M)
+    lines = p611_gps_statistics.weight_lines(w)
+    assert len(lines) == 2 and "σ 6.95 m = SPS PS 2008 worst site 17 m 95 %" in lines[1]
+    assert "[no HDOP, SA off]" in lines[1]
+    assert "SPS PS 2008" in p611_gps_statistics.input_line(w, "WGS84", "C/A")

@@ -49,6 +49,7 @@ from engine.api import (
     DeccaChain,
     DrAdaptState,
     InputError,
+    MotionState,
     NmeaConfig,
     NmeaOutOptions,
     NmeaPositionOut,
@@ -265,6 +266,13 @@ def h_checks(n: int) -> str:
     return "check" if n == 1 else "checks"
 
 
+def motion_line(m: MotionState) -> str:
+    """The COG/SOG stand-in's learnt process noise (engine.filter.motion) in one line."""
+    return (f"learnt stand-in motion noise: rate of turn {m.turn_rate_max_deg_s:.3g}°/s "
+            f"(σ ½), σ_a² {m.sigma_a2:.3g} m²/s⁴ over {m.seconds / 60.0:.0f} min "
+            f"({m.n} lags, {m.clipped} clipped, {m.skipped} COG samples skipped)")
+
+
 def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str]:
     lines = [
         f"epochs {s.epochs}  fixes {s.fixes}  rejected LOPs {s.rejected_lops}  "
@@ -287,6 +295,8 @@ def _summary_lines(s: RunSummary, smoothed: tuple[int, Path] | None) -> list[str
             lines.append(adapt_line(r.adapt))
         if r.dr_adapt is not None:
             lines.append(dr_adapt_line(r.dr_adapt))
+        if r.motion is not None:
+            lines.append(motion_line(r.motion))
     if s.out_path is not None:
         lines.append(f"log {s.out_path}")
     if s.jsonl_path is not None:

@@ -87,6 +87,8 @@ def input_line(w: GpsWeight | None, datum: str, receiver: str) -> str:
     it and is not named)."""
     if w is not None and w.receiver_weighted:
         return f"input : NMEA fix on {datum}, weighted by the receiver's HDOP"
+    if w is not None and w.origin == "sps":
+        return f"input : fix on {datum} without HDOP, after SA: SPS PS 2008 weight"
     if w is not None and (w.hdop is not None or w.quality is not None):
         return f"input : NMEA fix on {datum}, receiver {receiver} weight"
     return f"input : .RUN record on {datum}, receiver {receiver}"
@@ -95,11 +97,13 @@ def input_line(w: GpsWeight | None, datum: str, receiver: str) -> str:
 def weight_lines(w: GpsWeight | None) -> list[str]:
     """The receiver's figures and the σ they give (docs/GNSS_WEIGHTS.md), only for a record
     that carries them (NMEA GGA): a 1993 ``.RUN`` record has none and its page is unchanged."""
-    if w is None or (w.hdop is None and w.quality is None and w.sats is None):
+    if w is None or (w.hdop is None and w.quality is None and w.sats is None
+                     and w.origin != "sps"):
         return []
     hdop = "—" if w.hdop is None else f"{w.hdop:.1f}"
     sats = "—" if w.sats is None else str(w.sats)
-    origin = "receiver" if w.receiver_weighted else "fixed (gps.weights or no usable HDOP)"
+    origin = ("receiver" if w.receiver_weighted else "no HDOP, SA off" if w.origin == "sps"
+              else "fixed (gps.weights or no usable HDOP)")
     return [f"fix : {quality_name(w.quality)}   HDOP {hdop}   satellites {sats}",
             f"weight per axis : {w.describe()}   [{origin}]"]
 

@@ -128,7 +128,7 @@ def adapt_lines(r: CycleResult) -> list[str]:
     return [f"Learnt fix VCV factor : {num(a.fix_factor, 3)}  (σ × {sigma})"
             f"  S² {num(math.exp(a.log_s2), 3)}  NIS {num(math.exp(a.log_nis), 3)}",
             f"                        {a.n} fix epochs, {a.clipped} clipped"
-            + ("  AT BOUND" if a.at_bound else ""), *dr_lines(r), ""]
+            + ("  AT BOUND" if a.at_bound else ""), *dr_lines(r), *motion_lines(r), ""]
 
 
 def dr_lines(r: CycleResult) -> list[str]:
@@ -141,6 +141,17 @@ def dr_lines(r: CycleResult) -> list[str]:
             f"  NEES {last} mean {num(d.nees_mean, 3) if d.n else '—'}",
             f"                        {d.n} checks of {len(d.shadows)} shadows, "
             f"{d.clipped} clipped" + ("  AT BOUND" if d.at_bound else "")]
+
+
+def motion_lines(r: CycleResult) -> list[str]:
+    """The COG/SOG stand-in's learnt process noise (engine.filter.motion); nothing without."""
+    m = r.motion
+    if m is None:
+        return []
+    return [f"Learnt stand-in noise : rate of turn {num(m.turn_rate_max_deg_s, 3)}°/s"
+            f"  σ_a² {num(m.sigma_a2, 3)} m²/s⁴",
+            f"                        {m.seconds / 60.0:.0f} min, {m.n} lags, {m.clipped} "
+            f"clipped, {m.skipped} COG skipped"]
 
 
 class KalmanStatisticsPage(TextPage):
