@@ -55,9 +55,6 @@ CONSISTENT_CHI2 = 9.2103
 """χ²₂(0.99): two fixes agree when their motion differs from the dead-reckoned motion by less
 than this (Mahalanobis², against the sum of their VCVs)."""
 
-RECOVER_MODES = ("reset", "fade", "off")
-
-
 CURRENT_ADD_MAX = 1.0
 """The largest variance (m²/s²) a reset adds to each current component: (1 m/s)², the thesis'
 tidal current amplitude V_cm (§6.6), so a large offset after a short gap cannot make the
@@ -66,7 +63,7 @@ current free."""
 
 @dataclass(frozen=True, slots=True)
 class RecoverSettings:
-    """``filter.recover`` (a mode of :data:`RECOVER_MODES`, not "off"),
+    """``filter.recover`` (a mode of :data:`engine.run.config.RECOVER_MODES`, not "off"),
     ``filter.recover_epochs`` (consecutive consistent rejections before the remedy) and
     ``filter.recover_gap_s`` (s without a fix update before the run of rejections starts)."""
 

@@ -22,7 +22,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from engine.errors import InputError
-from engine.filter.divergence import RECOVER_MODES
 from engine.filter.variances import accel_variance
 from engine.io.operator_input import (
     DATUM_MESSAGE,
@@ -731,6 +730,10 @@ class FilterConfig:
         name = _PRESET_CHECK(preset)
         return cls(**{**FILTER_PRESETS[name], "preset": name, **changes})
 
+
+RECOVER_MODES = ("reset", "fade", "off")
+"""``filter.recover``: the remedies of engine.filter.divergence (THEORY §8.18), defined here so
+that reading a configuration does not load numpy (the console's first frame)."""
 
 FILTER_PRESETS: dict[str, dict[str, Any]] = {
     "honest": {},

@@ -68,7 +68,14 @@ def test_mpp_ellipse_coverage_at_least_90_percent(figures: dict[str, list[Row]],
         assert m + h >= 0.90, (name, phase, m, h)
 
 
-@pytest.mark.parametrize("name", MISSIONS)
+WINTER_DECCA = pytest.mark.xfail(strict=True, reason=(
+    "over-coverage by the thesis' seasons: M1 is an October afternoon, a winter day for "
+    "lsq.decca_cf = 'auto' (σ ×4 on the summer day, thesis L8352), while the simulator draws "
+    "its Decca errors with the summer-day CF 64 (docs/ASSESS.md, 'Decca at night')"))
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=WINTER_DECCA) if n == "M1_SURF9B"
+                                  else n for n in MISSIONS])
 def test_mpp_ellipse_coverage_at_most_99_percent(figures: dict[str, list[Row]],
                                                  name: str) -> None:
     """Surfaced coverage consistent with ≤ 99 % (an ellipse not uselessly large)."""

@@ -138,12 +138,14 @@ def key_parser(table: Any, key: Key) -> Callable[[str], Any]:
 
 
 FILE_ONLY_KEYS = frozenset({"sigma_current2", "sigma_a2", "adapt_window", "adapt_clip",
-                            "adapt_fix_max", "recover", "recover_epochs", "recover_gap_s"})
+                            "adapt_fix_max", "recover", "recover_epochs", "recover_gap_s",
+                            "adapt_dr", "adapt_dr_horizon_s", "adapt_dr_min", "adapt_dr_max"})
 """Keys set in the configuration file only, not in the dialog: the filter's current and
 acceleration noise densities (m²/s³) follow the vessel (the dialog's ``vessel`` field sets
 them, docs/CONFIG.md "The vessel decision"), the adaptation's window, clip and bound (the
-dialog has its on/off switch, ``adapt``) and the divergence remedy (``recover`` and its K and
-G, THEORY §8.18); the file is the place for a deliberate value. It
+dialog has its on/off switch, ``adapt``), the divergence remedy (``recover`` and its K and
+G, THEORY §8.18) and the learnt dead-reckoning factor (``adapt_dr*``, off by default, THEORY
+§8.19); the file is the place for a deliberate value. It
 also keeps the Filter list whole on a 160×50 terminal."""
 
 FRAME_ROWS = 8
