@@ -129,12 +129,14 @@ def fix_rows_test(innovation: np.ndarray, S: np.ndarray, labels: tuple[str, ...]
     if "x_LSE" not in labels:
         return "", math.nan
     i = labels.index("x_LSE")
-    v = np.asarray(innovation, dtype=float)[i:i + 2]
-    Sf = np.asarray(S, dtype=float)[i:i + 2, i:i + 2]
-    try:
-        t = float(v @ np.linalg.solve(Sf, v)) / 2.0
-    except np.linalg.LinAlgError:
+    v0, v1 = float(innovation[i]), float(innovation[i + 1])
+    s00, s01 = float(S[i][i]), float(S[i][i + 1])
+    s10, s11 = float(S[i + 1][i]), float(S[i + 1][i + 1])
+    det = s00 * s11 - s01 * s10
+    if not det > 0.0:  # S_f of a proper update is positive definite: no usable test else
         return "", math.nan
+    # vᵀS_f⁻¹v by the 2×2 inverse (a cheap closed form, once per fix epoch)
+    t = (v0 * (s11 * v0 - s01 * v1) + v1 * (s00 * v1 - s10 * v0)) / det / 2.0
     if not math.isfinite(t):
         return "", math.nan
     return ("reject" if t > upper else "accept"), t

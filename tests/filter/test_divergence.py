@@ -24,6 +24,7 @@ from engine.filter.divergence import (
     current_inflation,
     due,
     fade_factor,
+    fix_rows_test,
     fix_rows_upper,
     observe,
     settle,
@@ -218,3 +219,19 @@ def test_thesis_preset_has_no_remedy() -> None:
     """``preset = "thesis"`` keeps the thesis' literal behaviour: the remedy is off."""
     assert FilterConfig.from_preset("thesis").recover == "off"
     assert FilterConfig().recover == "reset"
+
+
+def test_fix_rows_statistic_is_the_solved_quadratic_form() -> None:
+    """T = vᵀS_f⁻¹v / 2 of the fix rows by the closed-form 2×2 inverse equals numpy's solve
+    (rtol 1e-12) on random positive-definite S with a depth row stacked first; a singular S_f
+    gives no verdict."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        a = rng.normal(size=(3, 3)) * rng.uniform(0.1, 1e3)
+        S = a @ a.T + np.eye(3) * 1e-3
+        v = rng.normal(size=3) * 50.0
+        want = float(v[1:] @ np.linalg.solve(S[1:, 1:], v[1:])) / 2.0
+        verdict, t = fix_rows_test(v, S, ("depth", "x_LSE", "y_LSE"), 3.69)
+        assert t == pytest.approx(want, rel=1e-12)
+        assert verdict == ("reject" if want > 3.69 else "accept")
+    assert fix_rows_test(np.ones(2), np.ones((2, 2)), ("x_LSE", "y_LSE"), 3.69)[0] == ""
