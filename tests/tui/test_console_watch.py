@@ -530,7 +530,7 @@ def test_parameter_labels_and_sizes(data_dir: Path) -> None:
             await pilot.pause()
             labels = {f.id: f.label for f in app.screen.query(ValidatedField)}
             assert labels["param-sigma_periscope_deg"] == "σ periscope bearing (°)"
-            assert labels["param-decca_cf"] == "Decca CF (SD/WD/SN/WN or no.)"
+            assert labels["param-decca_cf"] == "Decca CF (auto/SD/WD/SN/WN/no.)"
             if size == (160, 50):  # the whole list shows: no raw key anywhere but the help
                 text = text_of(app).split("[lsq]")[0]
                 assert "σ periscope bearing (°)" in text and "sigma_" not in text

@@ -60,7 +60,7 @@ LABELS: dict[str, str] = {
     "scale_vcv": "Scale a-priori VCV by S²",
     "epsilon_m": "LS break-off ε",
     "s02": "A-priori variance factor σ0²",
-    "decca_cf": "Decca CF (SD/WD/SN/WN or no.)",
+    "decca_cf": "Decca CF (auto/SD/WD/SN/WN/no.)",
     "gps_se_sf": "GPS VCV scale factor",
     "estimator": "Estimator",
     "sigma_compass_deg": "σ compass-repeater bearing",
