@@ -19,9 +19,13 @@ from tests.paths import copy_data
 # 200-ms deadline, or a slow start of generation (the too_slow health check), says nothing
 # about the code under test (performance is measured in bench/, never asserted in tests).
 # print_blob: a CI failure prints the @reproduce_failure line that replays it here.
+# derandomize=False is explicit: with CI (or another CI variable) set in the environment,
+# Hypothesis loads its own "ci" profile first, which fixes the draws, and a profile registered
+# without a parent inherits from whatever profile is loaded.
 # The profile is the default of every @settings(...) created after this file is imported (the
 # test modules, which only set max_examples and sometimes suppress more checks).
-settings.register_profile("uvnav", deadline=None, print_blob=True,
+settings.register_profile("uvnav", parent=settings.get_profile("default"), derandomize=False,
+                          deadline=None, print_blob=True,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("uvnav")
 

@@ -43,3 +43,18 @@ def test_every_property_test_has_no_deadline_nor_too_slow_check() -> None:
             wrong.append(name)
     assert not wrong, f"timing verdicts or fixed draws in {wrong}"
 
+
+
+def test_the_profile_draws_afresh_on_a_ci_machine_too() -> None:
+    """With ``CI`` set, Hypothesis loads its own ``ci`` profile (fixed draws) before ours; the
+    suite's profile must still draw new examples there (a subprocess, so the variable is set
+    before Hypothesis is imported)."""
+    import os
+    import subprocess
+
+    code = ("import tests.conftest\nfrom hypothesis import settings\n"
+            "print(settings.default.derandomize, settings.default.deadline)")
+    env = {**os.environ, "CI": "true"}
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, check=True,
+                         capture_output=True, text=True).stdout.split()
+    assert out == ["False", "None"]
