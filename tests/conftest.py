@@ -6,6 +6,7 @@ import (they cannot import this file).
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import pytest
@@ -28,6 +29,14 @@ settings.register_profile("uvnav", parent=settings.get_profile("default"), deran
                           deadline=None, print_blob=True,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("uvnav")
+
+
+# A test runner started in the background by a non-interactive shell (`cmd &`) inherits SIGINT
+# ignored, and so would every uvnav process a test starts: the Ctrl-C tests would then see a run
+# finish instead of exit 130. A handled signal is reset to its default in a child at exec, so
+# handling SIGINT here gives the children the default a terminal gives them.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture

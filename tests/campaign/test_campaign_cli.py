@@ -212,3 +212,26 @@ def test_bad_input_exits_2_before_any_run(tmp_path: Path, monkeypatch: pytest.Mo
     err = capsys.readouterr().err
     assert rc == 2 and "--scheduler: Cannot reach the scheduler" in err, err
     assert not list((tmp_path / "o3" / "parts").glob("*.jsonl"))
+
+
+def test_a_held_dask_port_is_not_the_campaigns_business(tmp_path: Path) -> None:
+    """Another Dask user (or the other Python's suite) holding 8787, the default port of the
+    scheduler's HTTP server, must not put a warning in a campaign's output: the local cluster
+    has no dashboard and its HTTP server takes a free loopback port."""
+    import socket
+
+    held = socket.socket()
+    try:
+        held.bind(("127.0.0.1", 8787))
+        held.listen()
+    except OSError:  # already held by someone else: the condition under test all the same
+        pass
+    try:
+        proc = subprocess.run([sys.executable, "-m", "uvnav_tui.cli.main", "campaign",
+                               str(_spec(tmp_path, "1")), "--out", str(tmp_path / "out"),
+                               "--workers", "1"], cwd=ROOT, capture_output=True, text=True,
+                              timeout=300)
+    finally:
+        held.close()
+    assert proc.returncode == 0, proc.stderr
+    assert "8787" not in proc.stderr and "Warning" not in proc.stderr, proc.stderr

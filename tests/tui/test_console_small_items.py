@@ -168,8 +168,12 @@ def test_a_dialog_too_large_for_the_terminal_says_so(data_dir: Path) -> None:
         dialog = app.screen
         note = dialog.query_one("#dialog-too-small", Static)
         await wait_for(pilot, lambda: note.display, "the too-small note")
-        shown = " ".join(text_of(app).replace("│", " ").split())
-        assert "The terminal is too small for Obs ▸ Radar: 40×12, it needs 76×" in shown
+
+        def shown() -> str:  # the screen as drawn: the note is on it a frame after display
+            return " ".join(text_of(app).replace("│", " ").split())
+
+        await wait_for(pilot, lambda: "The terminal is too small" in shown(), "the note drawn")
+        assert "The terminal is too small for Obs ▸ Radar: 40×12, it needs 76×" in shown()
         await pilot.press(*"ABC")
         await pilot.resize_terminal(80, 24)
         await wait_for(pilot, lambda: not note.display, "the box back")

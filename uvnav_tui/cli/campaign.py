@@ -133,8 +133,12 @@ def _connect(scheduler: str | None, n_workers: int) -> tuple[Client, LocalCluste
         except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"Cannot reach the scheduler ({type(exc).__name__}: {exc}) !",
                              field="--scheduler", text=scheduler) from None
+    # No dashboard; the scheduler's own small HTTP server (health routes) on a free loopback
+    # port rather than 8787, which a second campaign or another Dask user may hold.
     cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+                           dashboard_address=None, silence_logs=logging.ERROR,
+                           scheduler_kwargs={"dashboard": False,
+                                             "dashboard_address": "127.0.0.1:0"})
     return Client(cluster, set_as_default=False), cluster
 
 
