@@ -2,6 +2,7 @@
 "Randomized missions", "Why the MPP does not beat the LSE").
 
     .venv/bin/python -m tests.mpp_diagnose [--spec TOML] [--seeds 1-60] [--set TABLE.KEY=VALUE]
+        [--oracle]
 
 For each seed the mission is drawn, simulated and replayed exactly as a campaign run does
 (``engine.campaign.run``), and once more from a twin simulation whose GPS has no white noise
@@ -17,6 +18,12 @@ same after each resurfacing, and the rest (≥ 5 min into a surfaced stretch). T
 add up to the difference; a mission loses (MPP RMS > LSE RMS) when it is positive. Then the
 share of missions won and the median ratio by fixing system and by the drawn fix-error τ.
 Nothing is asserted: a diagnosis, not a test. About 10 s a mission on one core.
+
+``--oracle`` gives the filter each mission's drawn fix-error model, which no default may take
+(docs/ASSESS.md): ``filter.fix_tau_s`` the drawn τ (GPS alone: the GPS τ, and
+``fix_sigma_frac`` its drawn coloured share, at most 0.99; Decca alone: the Decca τ; both: the
+longer of the two, the rule of the "auto" τ). It bounds what learning or citing the fix-error
+model could give the MPP.
 """
 
 from __future__ import annotations
@@ -105,11 +112,28 @@ def _drawn(text: str) -> dict[str, Any]:
             "gps_white": num("gps", "white_sigma_m"), "decca_tau": num("decca", "tau_s")}
 
 
-def mission(inputs: ScenarioInputs, seed: int, over: dict[str, Any]) -> dict[str, Any] | None:
+def oracle(text: str) -> dict[str, Any]:
+    """The ``[filter]`` overrides of ``--oracle`` for a drawn scenario text (module docstring)."""
+    d = _drawn(text)
+    if d["system"] == "decca":
+        return {"fix_tau_s": d["decca_tau"]}
+    if d["system"] == "gps+decca":
+        return {"fix_tau_s": max(d["gps_tau"], d["decca_tau"])}
+    body = text.split("[gps]", 1)[1].split("\n[", 1)[0]
+    m = re.search(r"^white_frac = (\S+)$", body, flags=re.M)
+    white = (float(m.group(1)) if m else
+             d["gps_white"] ** 2 / (d["gps_sigma"] ** 2 + d["gps_white"] ** 2))
+    return {"fix_tau_s": d["gps_tau"], "fix_sigma_frac": min(0.99, 1.0 - white)}
+
+
+def mission(inputs: ScenarioInputs, seed: int, over: dict[str, Any],
+            use_oracle: bool = False) -> dict[str, Any] | None:
     """The figures of one seed (module docstring); None without a surfaced epoch with an LSE."""
     with tempfile.TemporaryDirectory(prefix="uvnav-mpp-") as name:
         tmp = Path(name)
         inputs = crun._drawn(inputs, seed, tmp)
+        if use_oracle:
+            over = merge_overrides(over, {"filter": oracle(inputs.scenario_text)})
         s, white_model = _replay(inputs, seed, over, tmp / "run")
         text = re.sub(r"^white_sigma_m = .*$", "white_sigma_m = 0.0", inputs.scenario_text,
                       flags=re.M)
@@ -196,6 +220,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--spec", default=str(ROOT / "data/campaigns/random_60.toml"))
     ap.add_argument("--seeds", default=None, help="e.g. 1-60 or 1,5,9 (default: the spec's)")
     ap.add_argument("--set", action="append", default=[], metavar="TABLE.KEY=VALUE")
+    ap.add_argument("--oracle", action="store_true",
+                    help="give the filter each mission's drawn fix-error τ (a diagnosis only)")
     args = ap.parse_args(argv)
     spec = load_campaign(args.spec)
     bundle = spec.bundle()
@@ -205,7 +231,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows = []
     for seed in seeds:
         task = tasks[seed]
-        row = mission(bundle.scenarios[task.scenario], seed, over)
+        row = mission(bundle.scenarios[task.scenario], seed, over, args.oracle)
         if row is not None:
             rows.append(row)
             print(f"seed {seed}: MPP {row['mpp']:.1f} m, LSE {row['lse']:.1f} m", file=sys.stderr,

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.mpp_diagnose import WINDOWS, split_mse
+from tests.mpp_diagnose import WINDOWS, oracle, split_mse
 
 
 def _series() -> tuple[np.ndarray, ...]:
@@ -51,3 +51,20 @@ def test_missing_fix_restarts_the_stretch_and_nothing_surfaced_is_none() -> None
     assert row["parts"][WINDOWS[1]] == pytest.approx(9 * 139 / 399)
     assert row["parts"][WINDOWS[4]] == pytest.approx(9 * 50 / 399)
     assert split_mse(t, np.ones_like(phase), mpp, lse, colour) is None
+
+
+def _scenario(gps: bool, decca: bool, hdop: bool = False) -> str:
+    extra = "hdop = 1.5\nuere_m = 8.0\nwhite_frac = 0.2\n" if hdop else ""
+    return (f"[gps]\non = {str(gps).lower()}\nsigma_m = 30.0\ntau_s = 300.0\n"
+            f"white_sigma_m = 10.0\n{extra}\n[decca]\non = {str(decca).lower()}\n"
+            'chain = "9B"\ncf = 64.0\ntau_s = 500.0\n\n[sensors]\ngyro = true\n')
+
+
+def test_oracle_takes_the_drawn_model() -> None:
+    # GPS alone: its τ and coloured share 30² / (30² + 10²) = 0.9; with HDOP the drawn share
+    assert oracle(_scenario(True, False)) == pytest.approx(
+        {"fix_tau_s": 300.0, "fix_sigma_frac": 0.9})
+    assert oracle(_scenario(True, False, hdop=True)) == pytest.approx(
+        {"fix_tau_s": 300.0, "fix_sigma_frac": 0.8})
+    assert oracle(_scenario(False, True)) == {"fix_tau_s": 500.0}
+    assert oracle(_scenario(True, True)) == {"fix_tau_s": 500.0}
