@@ -682,7 +682,7 @@ def step(
     logged = nav.adapt_logged
     log_adapt = False
     if settings is not None and learnt is not None:
-        learnt = _adapt_after(learnt, fix, filt.result, settings, messages)
+        learnt = _adapt_after(learnt, fix, filt.result, settings, messages, fit_scale)
         log_adapt = not (logged > 0.0 and abs(learnt.fix_factor / logged - 1.0)
                          <= ADAPT_LOG_STEP)
     dr = nav.dr_adapt
@@ -783,7 +783,7 @@ def _adapt_before(ctx: RunContext, nav: NavState,
 
 def _adapt_after(learnt: nadapt.AdaptState, fix: FixResult | None,
                  result: UpdateResult | None, settings: nadapt.AdaptSettings,
-                 messages: list[str]) -> nadapt.AdaptState:
+                 messages: list[str], scale: float = 1.0) -> nadapt.AdaptState:
     """One step of the learnt factor from this epoch's LSE (its S² when it has redundancy)
     and fix update (the NIS of its ``x_LSE``/``y_LSE`` rows); neither: unchanged. A fix kept
     out by the gross-error gate is not in ``result``; a hybrid fix (the filter's prediction
@@ -793,7 +793,11 @@ def _adapt_after(learnt: nadapt.AdaptState, fix: FixResult | None,
     nis = None
     if result is not None and "x_LSE" in result.labels:
         i = result.labels.index("x_LSE")
-        nis = nadapt.fix_nis_ratio(result.innovation, result.S, slice(i, i + 2))
+        # The update weighed the fix with its VCV × ``scale`` (λ, or S² of a fix failing its
+        # tests): its NIS is λ_true/scale·χ²₂/2. learn_fix divides by the λ in force, as it
+        # does S² (relative to the a-priori VCV), so the NIS goes in relative to it too:
+        # × scale. Not multiplied, the fixed point was √λ_true (THEORY §8.17).
+        nis = nadapt.fix_nis_ratio(result.innovation, result.S, slice(i, i + 2)) * scale
     dof = fix.n_used - 2
     learnt, msg = nadapt.learn_fix(learnt, settings, nis=nis, s2=fix.s2, s2_dof=dof)
     if msg is not None:
