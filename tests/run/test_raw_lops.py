@@ -90,3 +90,35 @@ def test_one_lop_for_long_keeps_the_ellipse_honest(tmp_path: Path) -> None:
         inside.append(float(e @ np.linalg.solve(r.mpp.cov, e)) <= CHI2_2_95)
     assert raw_updates > 0.9 * RECORDS  # the path under test
     assert np.mean(inside) >= 0.85
+
+
+@pytest.mark.parametrize("model", ["coloured", "thesis"])
+def test_the_raw_lop_variance_the_filter_used(tmp_path: Path, model: str) -> None:
+    """R of the raw LOP row, recovered from the update as S − a P⁻ aᵀ (P⁻ the predicted
+    position VCV): C_l × λ × the effective-sample-size factor with the coloured fix-error
+    model, C_l itself with the thesis' white one (``preset = "thesis"`` keeps the thesis)."""
+    s, truth = _one_pattern(tmp_path)
+    cfg = s.config.replace(filter=dataclasses.replace(s.config.filter, model=model))
+    s = Session(cfg)
+    params = s.context.filter_params
+    checked = 0
+    prev = None
+    for _ in range(60):
+        r = s.step()
+        assert r is not None
+        u, fix = r.filter_update, r.fix
+        if (prev is not None and u is not None and fix is not None and fix.raw_lops is not None
+                and u.labels[:1] == ("lop2",) and r.kf_pred is not None):
+            a = np.asarray(fix.raw_lops.A)[0]
+            R = float(u.S[0, 0]) - float(a @ np.asarray(r.kf_pred.cov) @ a)
+            cl = float(np.asarray(fix.raw_lops.Cl)[0, 0])
+            if model == "thesis":
+                expected = cl
+            else:
+                lam = r.fix_cov_scale
+                expected = cl * lam * lop_vcv_factor(r.dt_s, params.fix_tau_s,
+                                                     params.fix_sigma_frac)
+            assert R == pytest.approx(expected, rel=1e-6)
+            checked += 1
+        prev = r
+    assert checked > 40
