@@ -15,8 +15,9 @@ the VCV is right:
 
 Each is a robust M-estimate of scale by stochastic approximation in the logarithm (ℓ = ln λ):
 
-    r_k   = min(t_k / λ_k, c)                       (t_k the statistic, S² or NIS per row, taken
-    ℓ_k+1 = ℓ_k + g_k (r_k − E[min(χ²_d/d, c)])     with the factor in force; d its dof;
+    r_k   = min(t_k / λ_k, c)                       (t_k the statistic relative to the a-priori
+    ℓ_k+1 = ℓ_k + g_k (r_k − E[min(χ²_d/d, c)])     VCV: S², or NIS × the factor the update's
+                                                     VCV carried; λ_k the factor in force; d dof;
                                                      g_k = 1/clamp(k, 30, W): a running mean
                                                      at first, a window of W epochs later)
 
@@ -187,7 +188,9 @@ def learn_fix(state: AdaptState, settings: AdaptSettings, *, nis: float | None =
               nis_rows: int = 2, s2: float | None = None,
               s2_dof: int = 0) -> tuple[AdaptState, str | None]:
     """One fix epoch's step of λ (module docstring) from the fix update's NIS per row ``nis``
-    (:func:`fix_nis_ratio`, over ``nis_rows`` rows; None: no fix update) and the fix's S²
+    relative to the a-priori VCV (:func:`fix_nis_ratio` × the factor the update's fix VCV
+    carried: its expectation is then λ_true, as S²'s is; over ``nis_rows`` rows; None: no fix
+    update) and the fix's S²
     with ``s2_dof`` > 0 degrees of freedom (None or 0 dof: no redundancy). Returns the new
     state and a message when a statistic was not finite (ignored) or λ has just reached its
     upper bound (clamped)."""

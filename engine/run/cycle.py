@@ -677,11 +677,12 @@ def step(
             # S² when that is larger (never both)
             fix_cov = fix.cov * lam
             fit_scale = lam
-    filt = _update_filter(ctx, nav, pred, sens, fix, fix_cov, gnss, messages)
+    filt = _update_filter(ctx, nav, pred, sens, fix, fix_cov, gnss, messages,
+                          (dt, fit_scale))
     logged = nav.adapt_logged
     log_adapt = False
     if settings is not None and learnt is not None:
-        learnt = _adapt_after(learnt, fix, filt.result, settings, messages)
+        learnt = _adapt_after(learnt, fix, filt.result, settings, messages, fit_scale)
         log_adapt = not (logged > 0.0 and abs(learnt.fix_factor / logged - 1.0)
                          <= ADAPT_LOG_STEP)
     dr = nav.dr_adapt
@@ -782,7 +783,7 @@ def _adapt_before(ctx: RunContext, nav: NavState,
 
 def _adapt_after(learnt: nadapt.AdaptState, fix: FixResult | None,
                  result: UpdateResult | None, settings: nadapt.AdaptSettings,
-                 messages: list[str]) -> nadapt.AdaptState:
+                 messages: list[str], scale: float = 1.0) -> nadapt.AdaptState:
     """One step of the learnt factor from this epoch's LSE (its S² when it has redundancy)
     and fix update (the NIS of its ``x_LSE``/``y_LSE`` rows); neither: unchanged. A fix kept
     out by the gross-error gate is not in ``result``; a hybrid fix (the filter's prediction
@@ -792,7 +793,11 @@ def _adapt_after(learnt: nadapt.AdaptState, fix: FixResult | None,
     nis = None
     if result is not None and "x_LSE" in result.labels:
         i = result.labels.index("x_LSE")
-        nis = nadapt.fix_nis_ratio(result.innovation, result.S, slice(i, i + 2))
+        # The update weighed the fix with its VCV × ``scale`` (λ, or S² of a fix failing its
+        # tests): its NIS is λ_true/scale·χ²₂/2. learn_fix divides by the λ in force, as it
+        # does S² (relative to the a-priori VCV), so the NIS goes in relative to it too:
+        # × scale. Not multiplied, the fixed point was √λ_true (THEORY §8.17).
+        nis = nadapt.fix_nis_ratio(result.innovation, result.S, slice(i, i + 2)) * scale
     dof = fix.n_used - 2
     learnt, msg = nadapt.learn_fix(learnt, settings, nis=nis, s2=fix.s2, s2_dof=dof)
     if msg is not None:
@@ -1040,11 +1045,13 @@ class _Filtering:
 
 def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: SensorValues,
                    fix: FixResult | None, fix_cov: np.ndarray, gnss: tuple[object, ...] | None,
-                   messages: list[str]) -> _Filtering:
+                   messages: list[str], lop_weight: tuple[float, float] = (0.0, 1.0)
+                   ) -> _Filtering:
     """The filter updates at this epoch: the first LSE initialises the position; then the fix
     (or the raw LOPs on the too-few-LOPs path, THEORY D20) with the pressure depth, behind
     the gross-error gate; with the filter off, dead reckoning restarts from each LSE.
-    ``gnss``: the receiver part of the fix source (:func:`gnss_source`)."""
+    ``gnss``: the receiver part of the fix source (:func:`gnss_source`); ``lop_weight``: (the
+    epoch interval in s, the factor on the fix VCV) for raw LOPs (:func:`lop_vcv_factor`)."""
     cfg, params = ctx.config, ctx.filter_params
     # _Filtering(...) with every field positionally (result None, gate "")
     f = ctx.new.filtering(pred.state, pred.link, nav.filter_has_fix, nav.fix_source,
@@ -1070,7 +1077,7 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
             f.state = fix_states_from_fix(f.state, ("fix_e", "fix_n"),
                                           gp.fix_sigma_frac * fix_cov, gp, gp.fix_tau_s)
     elif f.state is not None and cfg.filter.on:
-        meas = _fix_measurement(ctx, f, fix, fix_cov, gnss, messages)
+        meas = _fix_measurement(ctx, f, fix, fix_cov, gnss, messages, lop_weight)
         if meas is not None:
             depth_rows = _gated_update(ctx, nav, f, meas, depth_rows, fix, fix_cov, messages)
         elif pred.dr_sensors:
@@ -1086,8 +1093,8 @@ def _update_filter(ctx: RunContext, nav: NavState, pred: _Prediction, sens: Sens
 
 
 def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_cov: np.ndarray,
-                     gnss: tuple[object, ...] | None,
-                     messages: list[str]) -> Measurement | None:
+                     gnss: tuple[object, ...] | None, messages: list[str],
+                     lop_weight: tuple[float, float] = (0.0, 1.0)) -> Measurement | None:
     """The filter's measurement of this fix: the LSE (restarting the fix-error states when the
     fix source changed), else the raw LOPs of a hybrid fix, else None. A fix with
     receiver-weighted GPS takes the fix-error model of a modern receiver
@@ -1095,7 +1102,10 @@ def _fix_measurement(ctx: RunContext, f: _Filtering, fix: FixResult | None, fix_
     if fix is None or not fix.ok:
         return None
     if not fix.lse_ok:
-        return _raw_lop_measurement(fix)
+        p = ctx.filter_params
+        dt, scale = lop_weight
+        factor = lop_vcv_factor(dt, p.fix_tau_s, p.fix_sigma_frac) if p.coloured else 1.0
+        return _raw_lop_measurement(fix, scale * factor)
     params = ctx.filter_params
     if gnss and ctx.filter_params_gnss is not None:
         params = ctx.filter_params_gnss
@@ -1349,13 +1359,30 @@ def fix_source(cfg: RunConfig) -> tuple[object, ...]:
     return tuple(item for system in registry.SYSTEMS for item in system.fix_source(cfg))
 
 
-def _raw_lop_measurement(fix: FixResult) -> Measurement | None:
-    """The too-few-LOPs path: feed the real LOPs (not the hybrid LSE) to the filter (A10)."""
+def _raw_lop_measurement(fix: FixResult, factor: float = 1.0) -> Measurement | None:
+    """The too-few-LOPs path: feed the real LOPs (not the hybrid LSE) to the filter (A10),
+    their VCV ``Cl`` × ``factor`` (:func:`lop_vcv_factor` × the learnt fix factor)."""
     raw = fix.raw_lops
     if raw is None or not raw.slots:
         return None
-    return lop_measurement(raw.A, raw.omc_m, raw.x_ref, raw.Cl,
+    return lop_measurement(raw.A, raw.omc_m, raw.x_ref,
+                           raw.Cl if factor == 1.0 else raw.Cl * factor,
                            labels=tuple(f"lop{s}" for s in raw.slots))
+
+
+def lop_vcv_factor(dt_s: float, tau_s: float, coloured_frac: float) -> float:
+    """The factor on a raw LOP's VCV that makes one epoch count as the share of an independent
+    sample it is (THEORY §9.3): the LOP error is the fix-error model's, a fraction
+    ``coloured_frac`` Gauss–Markov with τ ``tau_s`` (s) and the rest white, sampled every
+    ``dt_s`` s. Raw LOPs have no fix-error states, so the filter takes them as white; n
+    samples of a first-order Gauss–Markov sequence (ρ = e^{−Δt/τ}) hold the information on
+    their mean of n(1 − ρ)/(1 + ρ) independent ones (the AR(1) effective sample size; Bayley &
+    Hammersley 1946, *J. R. Stat. Soc. Suppl.* 8, 184–197; von Storch & Zwiers 1999,
+    *Statistical Analysis in Climate Research*, §17.1), so the coloured share's variance is
+    weighted by (1 + ρ)/(1 − ρ): (1 − f) + f(1 + ρ)/(1 − ρ). 1 for Δt ≫ τ; Δt ≤ 0 (the first
+    epoch) counts as 1 s."""
+    rho = math.exp(-max(dt_s, 1.0) / tau_s)
+    return (1.0 - coloured_frac) + coloured_frac * (1.0 + rho) / (1.0 - rho)
 
 
 def reproject_state(

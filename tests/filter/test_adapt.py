@@ -1,8 +1,9 @@
 """The fix-VCV factor the filter learns from the data (engine/filter/adapt.py, THEORY §8.17).
 
 The statistics are drawn here from their known distributions (S² = λ_true·χ²_r/r, NIS per row
-= λ_true/λ·χ²_2/2), so the factor the estimator must reach is known independently of the
-engine; the closed forms of the clipped χ² mean are checked against a Monte-Carlo mean.
+relative to the a-priori VCV = λ_true·χ²_2/2: the cycle hands over the update's NIS × the factor
+its VCV carried), so the factor the estimator must reach is known independently of the engine;
+the closed forms of the clipped χ² mean are checked against a Monte-Carlo mean.
 """
 
 from __future__ import annotations

@@ -117,3 +117,33 @@ def test_factor_in_out_and_json(tmp_path: Path, m2_worse: RunConfig) -> None:
     objs = [json.loads(line) for line in jsonl.read_text().splitlines()]
     assert all("adapt" in o for o in objs)
     assert objs[-1]["adapt"]["fix"] > 1.5
+
+
+def test_gps_alone_learns_the_true_factor_from_the_nis(tmp_path: Path) -> None:
+    """GPS alone (M4: no redundancy, so the fix update's NIS is the only evidence), simulated
+    with its error twice the σ the engine assumes (81.8 m against the SA-era 40.9 m per axis,
+    white part 10 m against 5 m, the engine's τ of 240 s): λ_true = 4. The NIS is taken with
+    the factor in force, so it must go in relative to the a-priori VCV; divided by λ twice
+    the factor settled at √λ_true = 2 (measured 1.9–2.1 on three seeds)."""
+    from engine.run.setup import read_data_dir
+    from engine.sim.scenario import parse_scenario_text
+    from engine.sim.simulate import simulate
+
+    name = "M4_GPS_SW_WGS84"
+    path = DATA / "scenarios" / f"{name}.scenario.toml"
+    text = path.read_text(encoding="utf-8")
+    assert "sigma_m = 35.0" in text and "white_sigma_m = 5.0" in text
+    text = text.replace("white_sigma_m = 5.0", "white_sigma_m = 10.0").replace(
+        "sigma_m = 35.0", "sigma_m = 81.8")
+    scenario = parse_scenario_text(text, str(path), path.parent)
+    lines = [rec.raw + "\n" for _t, rec in simulate(scenario, *read_data_dir(DATA), 2)]
+    run = tmp_path / "m4x2.RUN"
+    run.write_text("".join(lines), encoding="ascii")
+    s = Session(load_config(DATA / "scenarios" / f"{name}.toml").replace(run_file=str(run)))
+    factors = []
+    while (r := s.step()) is not None:
+        assert r.adapt is not None
+        factors.append(r.adapt.fix_factor)
+    assert len(factors) == 1200
+    # the last 10 minutes: within 25 % of 4 (the window's scatter with τ = 240 s is ~10 %)
+    assert np.median(factors[600:]) == pytest.approx(4.0, rel=0.25)
