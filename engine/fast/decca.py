@@ -27,6 +27,7 @@ from engine.systems.decca import (
     DECCA_PATTERN_NAMES,
     DECCA_TRACK_GAP_S,
     LANE_SIGMA_MAX,
+    LANE_STEP_MAX,
     PATTERNS,
     ChainOnGrid,
     DeccaGeometry,
@@ -162,15 +163,38 @@ class FastDeccaObservations(DeccaObservations):
         return super().nearest_station_m(p, used)
 
 
+def _big_step(track: Sequence[Any], fractions: Sequence[float | None]) -> bool:
+    """A pattern whose reading moved more than :data:`LANE_STEP_MAX` lanes from its tracked
+    count (:func:`engine.systems.decca.decca_totals` identifies it again; the kernel would
+    track it)."""
+    floor = math.floor
+    for prev, frac in zip(track, fractions, strict=True):
+        if prev is None or frac is None:
+            continue
+        p0 = prev[0]
+        if not isinstance(p0, float) or not math.isfinite(p0):
+            continue
+        d = frac - (p0 - floor(p0))
+        if not abs(d - floor(d + 0.5)) <= LANE_STEP_MAX:
+            return True
+    return False
+
+
 class FastDeccaSystem(DeccaSystem):
     """:class:`DeccaSystem` on the compiled lane model."""
 
     observations_class = FastDeccaObservations
 
     def lane_totals(self, inputs: CycleInputs, placed: ChainOnGrid, gps: Any) -> LaneTotals:
-        lanes = tracked_totals(placed, inputs.context.geodesic, inputs.nav.decca_track,
-                               inputs.record.decca, inputs.record.time, gps)
+        track, fractions = inputs.nav.decca_track, inputs.record.decca
+        d = inputs.config.decca
+        if (d.lane_check == "dia" and d.lane_rule != "sigma"
+                and _big_step(track, fractions)):
+            return super().lane_totals(inputs, placed, gps)  # the count identified again
+        lanes = tracked_totals(placed, inputs.context.geodesic, track, fractions,
+                               inputs.record.time, gps)
         return super().lane_totals(inputs, placed, gps) if lanes is None else lanes
+
 
     def observations(self, value: DeccaReading | None, p0: Point) -> DeccaObservations | None:
         """Tracked totals' lists in one compiled call (``observed``)."""
