@@ -999,22 +999,24 @@ def _confirm_doubt(at: _LaneAt, doubted: dict[int, float], fractions: Sequence[f
                    time: datetime, gps: LaneSource | None, rule: LaneRule,
                    notes: list[str]) -> None:
     """The patterns in doubt (``doubted``: index → this record's tracked total) back in the fix
-    once GPS alone settles each one's tracked lane under the lane rule (:func:`fix_lanes` of
-    that pattern, not conditioned on the others: their sky-wave errors would pass into it).
-    GPS never moves a count in doubt to another lane: the track is continuous (its steps are
-    small, else it is identified again as after a gap), so a disagreement is the reading's
-    error or GPS's. The rest stay in doubt (tracked on, out of the fix) with a note."""
-    fl = None if gps is None else _floats_at(at, gps, fractions, rule.cf)
+    once GPS, precise enough to have put them in doubt (1σ ≤ :data:`LANE_SIGMA_MAX` along the
+    gradient), puts its float a = N_calc(GPS) − fraction within the ratio test's reach of the
+    tracked lane z: (1 − |a − z|)² / (a − z)² ≥ ``rule.ratio`` (|a − z| ≤ 0.366 lane at 3),
+    the next lane's q at least ``rule.ratio`` times the tracked one's. The track is the
+    candidate, so the success rate of an identification from scratch is not asked; GPS never
+    moves a count in doubt to another lane (the track is continuous: its steps are small, else
+    it is identified again as after a gap). The rest stay in doubt (tracked on, out of the fix)
+    with a note."""
     for i in sorted(doubted):
         total = doubted[i]
         frac = fractions[i]
         assert frac is not None
-        z = _lane_of(total, frac)
-        if fl is not None:
-            fixing = fix_lanes(fl[0], fl[1], [i], {}, rule)
-            if fixing.lanes.get(i) == z:
-                notes.append(f"Decca {PATTERNS[i]}: lane in doubt confirmed from {gps.name} "  # type: ignore[union-attr]
-                             f"(success rate {fixing.success:.4f}, ratio {fixing.ratio:.1f})")
+        lane = None if gps is None else at(gps, i)
+        if lane is not None and lane[1] <= LANE_SIGMA_MAX:
+            d = abs(lane[0] - frac - _lane_of(total, frac))
+            if (1.0 - d) ** 2 >= rule.ratio * d * d:
+                notes.append(f"Decca {PATTERNS[i]}: lane in doubt confirmed from GPS "
+                             f"({total:.2f}, {d:.2f} lane from GPS)")
                 totals[i] = total
                 new_track[i] = (total, time)
                 continue
