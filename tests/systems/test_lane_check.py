@@ -191,3 +191,17 @@ def test_lane_check_defaults_and_the_thesis_preset() -> None:
     assert config_from_data(thesis).decca.lane_check == "off"
     both = {"decca": {"on": False, "lane_check": "dia"}, "filter": {"preset": "thesis"}}
     assert config_from_data(both).decca.lane_check == "dia"
+
+
+def test_the_compiled_tracking_declines_a_step_that_may_slip() -> None:
+    """The compiled tracking (engine.fast.decca) tracks every count it is given, so it is not
+    asked where a reading moved more than a quarter lane from its track (the reference
+    identifies that lane again): 0.30 lane is declined, 0.20 is not, a wrap across 0/1 is a
+    small step (0.95 → 0.05 is +0.10)."""
+    from engine.fast.decca import _big_step
+
+    t = T0 - timedelta(seconds=2)
+    assert _big_step(((10.40, t), None, None), (0.10, None, None))
+    assert not _big_step(((10.40, t), None, None), (0.20, None, None))
+    assert not _big_step(((10.95, t), (3.5, t), None), (0.05, 0.45, None))
+    assert not _big_step((None, None, None), (0.9, 0.1, 0.5))
