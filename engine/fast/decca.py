@@ -27,6 +27,7 @@ from engine.systems.decca import (
     DECCA_PATTERN_NAMES,
     DECCA_TRACK_GAP_S,
     LANE_SIGMA_MAX,
+    LANE_STEP_MAX,
     PATTERNS,
     ChainOnGrid,
     DeccaGeometry,
@@ -84,12 +85,14 @@ def tracked_totals(placed: ChainOnGrid, geodesic: Any,
     """:func:`engine.systems.decca.decca_totals` in one compiled call (``tracked``) for the
     usual record: every pattern read is tracked (its last total within
     :data:`DECCA_TRACK_GAP_S`) and GPS (``gps``, a :class:`engine.systems.gps.GpsFix`, its
-    corrections added; None: no GPS) finds no lane slip. None for anything else: then the
-    reference runs."""
+    corrections added; None: no GPS) finds no lane slip, and no reading moved more than
+    :data:`LANE_STEP_MAX` from its track. None for anything else: then the reference runs."""
     kg = geodesic_kernel(geodesic)
     packed = getattr(placed.grid, "_packed", None)
     if kg is None or TMGRID is None or packed is None or lane_sigma_kernel() is None:
         return None
+    if _big_step(track, fractions):
+        return None  # under lane_check = "dia" the count is identified again
     if gps is None:
         r = KERNEL.tracked(placed._scalars, kg, TMGRID.inverse, packed, track, fractions, time,
                            None, None, None, DECCA_TRACK_GAP_S, LANE_SIGMA_MAX, LaneTotals)
@@ -162,6 +165,23 @@ class FastDeccaObservations(DeccaObservations):
         return super().nearest_station_m(p, used)
 
 
+def _big_step(track: Sequence[Any], fractions: Sequence[float | None]) -> bool:
+    """A pattern whose reading moved more than :data:`LANE_STEP_MAX` lanes from its tracked
+    count (:func:`engine.systems.decca.decca_totals` identifies it again under ``[decca]
+    lane_check = "dia"``; the kernel would track it, so it is not asked)."""
+    floor = math.floor
+    for prev, frac in zip(track, fractions, strict=True):
+        if prev is None or frac is None:
+            continue
+        p0 = prev[0]
+        if not isinstance(p0, float) or not math.isfinite(p0):
+            continue
+        d = frac - (p0 - floor(p0))
+        if not abs(d - floor(d + 0.5)) <= LANE_STEP_MAX:
+            return True
+    return False
+
+
 class FastDeccaSystem(DeccaSystem):
     """:class:`DeccaSystem` on the compiled lane model."""
 
@@ -171,6 +191,7 @@ class FastDeccaSystem(DeccaSystem):
         lanes = tracked_totals(placed, inputs.context.geodesic, inputs.nav.decca_track,
                                inputs.record.decca, inputs.record.time, gps)
         return super().lane_totals(inputs, placed, gps) if lanes is None else lanes
+
 
     def observations(self, value: DeccaReading | None, p0: Point) -> DeccaObservations | None:
         """Tracked totals' lists in one compiled call (``observed``)."""

@@ -385,6 +385,7 @@ class DeccaConfig:
     lane_success: float = 0.999
     lane_ratio: float = 3.0
     lane_cf: float = 1.0
+    lane_check: str = "dia"
 
     def __post_init__(self) -> None:
         _validate(self, self.TABLE, self.KEYS)
@@ -452,6 +453,12 @@ DeccaConfig.KEYS = (
     Key("lane_cf", "lane_cf", "float", "—",
         "largest Decca.CF of the Decca VCV a lane decision assumes (1 = summer night)",
         "thesis table 4.3 (summer night σ), A4.1–A4.3; THEORY §3.3", _POSITIVE),
+    Key("lane_check", "lane_check", "str", "—",
+        '"dia" (the start-up zone/lane entries tested against the reference position, a tracked '
+        'lane changed only when the test rejects it at α = 1 − lane_success, a pattern in doubt '
+        'kept out until a position confirms its lane) or "off" (preset thesis)',
+        "Teunissen 2000 (DIA, Delft); Baarda 1968; THEORY §3.3 [not in the thesis]",
+        _choice("dia", "off")),
 )
 # fmt: on
 
@@ -1212,6 +1219,12 @@ def _build(data: Mapping[str, Any], config_dir: Path) -> RunConfig:
         # the thesis preset's Decca.CF: summer's day (A8.2), not the sun's condition
         kwargs["lsq"] = dataclasses.replace(kwargs.get("lsq", LsqConfig()),
                                             decca_cf=THESIS_DECCA_CF)
+    decca = data.get("decca")
+    if (_file_preset(data) == "thesis"
+            and not (isinstance(decca, dict) and "lane_check" in decca)):
+        # the thesis preset takes the zone/lane entries literally (thesis §7.3.1)
+        kwargs["decca"] = dataclasses.replace(kwargs.get("decca", DeccaConfig()),
+                                              lane_check="off")
     return RunConfig(**kwargs, config_dir=config_dir)
 
 

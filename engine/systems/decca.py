@@ -13,6 +13,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
+from statistics import NormalDist
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -24,7 +25,12 @@ from engine.geodesy.ellipsoidal import (
 )
 from engine.geodesy.tmgrid import TMGrid
 from engine.io.deccafile import DeccaChain
-from engine.io.operator_input import ZONE_LETTERS, decca_pattern, lanes_from_zone_lane
+from engine.io.operator_input import (
+    ZONE_LETTERS,
+    decca_pattern,
+    lanes_from_zone_lane,
+    zone_lane_of,
+)
 from engine.systems.base import (
     EVAL_ERRORS,
     CycleInputs,
@@ -460,6 +466,12 @@ DECCA_TRACK_GAP_S = 30.0
 """Longest gap in a pattern's readings over which its lane count is still tracked (s); after a
 longer gap (a dive) the lane is identified again from the provisional position."""
 
+LANE_STEP_MAX = 0.25
+"""Largest change of a pattern's reading between consecutive records (lanes) a tracked count
+follows under ``[decca] lane_check = "dia"``: half the half lane :func:`track_lane` relies on,
+the other half left to the ship's motion and the reading's noise over the interval. A larger
+step may have put the count on the wrong lane: the lane is identified again, as after a gap."""
+
 LANE_SIGMA_MAX = 0.5 / 3.0
 """Largest 1σ (lanes) along a pattern's lane gradient of a position an integer lane may be taken
 from: 3σ < 0.5 lane, so the nearest whole lane is the right one with probability ≥ 99.7 %
@@ -604,11 +616,17 @@ class LaneRule:
     only as far as the integer-bootstrapping success rate (Teunissen 1998) stays at or above
     ``success`` (partial fixing, most precise pattern first), and only when the integer
     least-squares solution of those patterns passes the ratio test q₂/q₁ ≥ ``ratio``
-    (Euler & Schaffrin 1991; Verhagen & Teunissen 2013)."""
+    (Euler & Schaffrin 1991; Verhagen & Teunissen 2013).
+
+    ``check`` (config ``[decca] lane_check = "dia"``): the lanes a record starts from are
+    tested too (:func:`check_lanes`) — the start-up zone/lane entries against the reference
+    position, a tracked lane before GPS may change it — and a pattern the test puts in doubt
+    stays out of the fix until a position confirms its lane (:func:`decca_totals`)."""
 
     success: float = 0.999
     ratio: float = 3.0
     cf: float = 1.0
+    check: bool = True
 
 
 LANE_RULE = LaneRule()
@@ -728,6 +746,79 @@ def fix_lanes(a: np.ndarray, q: np.ndarray, want: Sequence[int], known: dict[int
     return LaneFixing(lanes, p, ratio, why)
 
 
+def lr_critical(success: float) -> float:
+    """χ²₁(1 − α), α = 1 − ``success``: the critical value of the likelihood-ratio test of the
+    lanes under test against one alternative (10.83 at 0.999; the w-test's 3.29²)."""
+    z = NormalDist().inv_cdf(0.5 + 0.5 * success)
+    return z * z
+
+
+@dataclass(frozen=True, slots=True)
+class LaneCheck:
+    """Outcome of :func:`check_lanes`. ``verdict``: "kept" (no alternative is better than the
+    lanes under test at α), "changed" (the one alternative the test and the ratio allow:
+    pattern index ``pattern`` moved by ``shift`` whole lanes) or "doubt" (rejected, and the
+    patterns ``doubt`` carry the alternatives the ratio test cannot separate); ``lr`` the
+    statistic q(z₀) − q(best alternative)."""
+
+    verdict: str
+    pattern: int = -1
+    shift: int = 0
+    doubt: tuple[int, ...] = ()
+    lr: float = 0.0
+
+
+_KEPT = LaneCheck("kept")
+_SHIFTS = (-2, -1, 1, 2)
+"""Whole-lane alternatives of one pattern :func:`check_lanes` weighs (a lane or two off: an
+entry or a count one or two lanes wrong; a larger error the zone/lane warning of D7 names)."""
+
+
+def check_lanes(a: np.ndarray, q: np.ndarray, z0: dict[int, int], under_test: Sequence[int],
+                rule: LaneRule) -> LaneCheck:
+    """Detection, identification and adaptation (Teunissen's DIA; Baarda's data snooping with
+    whole-lane alternatives) of the whole lanes ``z0`` (per pattern index) against the float
+    ambiguities ``a`` with VCV ``q`` (lanes², :func:`_floats_at`; the patterns of ``z0``).
+
+    The alternatives are one pattern of ``under_test`` off by ±1 or ±2 lanes. The lanes are
+    rejected when the best alternative's q(z) = (a − z)ᵀQ⁻¹(a − z) is below q(z₀) by at least
+    χ²₁(1 − α), α = 1 − ``rule.success`` (:func:`lr_critical`: the likelihood-ratio test of
+    one alternative at the lane rule's own α); the alternative is taken when every other
+    candidate, ``z0`` included, has q at least ``rule.ratio`` times its q (the ratio test),
+    else the patterns of the candidates within that ratio are in doubt."""
+    idx = sorted(z0)
+    if not under_test or not idx:
+        return _KEPT
+    a_u = np.array([a[i] for i in idx], dtype=float)
+    q_u = np.array([[q[i][j] for j in idx] for i in idx], dtype=float)
+    if not (np.isfinite(a_u).all() and np.isfinite(q_u).all()):
+        return _KEPT
+    try:
+        w = np.linalg.inv(q_u)
+    except np.linalg.LinAlgError:
+        return _KEPT
+    zv = np.array([z0[i] for i in idx], dtype=float)
+    d0 = a_u - zv
+    q0 = float(d0 @ w @ d0)
+    cands: list[tuple[float, int, int]] = []
+    for i in under_test:
+        m = idx.index(i)
+        wm = w[m]
+        for k in _SHIFTS:
+            # q(z0 + k·e_m) = q0 − 2k·(W d0)_m + k²·W_mm
+            cands.append((q0 - 2.0 * k * float(wm @ d0) + k * k * float(wm[m]), i, k))
+    cands.sort()
+    qb, ib, kb = cands[0]
+    lr = q0 - qb
+    if not lr >= lr_critical(rule.success):
+        return _KEPT
+    lim = rule.ratio * max(qb, 0.0)
+    rivals = [c for c in cands[1:] if c[0] < lim]
+    if not rivals and q0 >= lim:
+        return LaneCheck("changed", ib, kb, (), lr)
+    return LaneCheck("doubt", -1, 0, tuple(sorted({ib, *(c[1] for c in rivals)})), lr)
+
+
 def _floats_at(at: _LaneAt, src: LaneSource, fractions: Sequence[float | None],
                cf: float) -> tuple[np.ndarray, np.ndarray, list[float]] | None:
     """(float ambiguities a_i = N_calc_i − fraction_i, their VCV G·P·Gᵀ + C_lanes (lanes²),
@@ -806,6 +897,17 @@ LANE_DOUBT_NOTE = "lane in doubt"
 campaign's ``lane_doubt`` column)."""
 
 
+DOUBT = "in doubt"
+"""Third item of a pattern's lane track while the pattern is in doubt (``lane_check``): the
+count is tracked on but kept out of the fix until a position confirms its lane
+(:func:`decca_totals`). A track of two items is a lane in use."""
+
+
+def _lane_of(total: float, frac: float) -> int:
+    """The whole lane z of a total count (total = z + fraction)."""
+    return round(total - frac)
+
+
 def _gps_slip_confirmed(at: _LaneAt, fractions: Sequence[float | None],
                         totals: list[float | None], suspects: list[int], gps: LaneSource,
                         rule: LaneRule, notes: list[str]) -> int:
@@ -836,6 +938,90 @@ def _gps_slip_confirmed(at: _LaneAt, fractions: Sequence[float | None],
             totals[i] = expected
             slips += 1
     return slips
+
+
+def _zone_lane_text(i: int, total: float) -> str:
+    """The zone letter and whole lane of ``total`` in pattern ``i`` ("E33")."""
+    letter, lane = zone_lane_of(total, PATTERNS[i])
+    return f"{letter}{math.floor(lane)}"
+
+
+def _check_entry(at: _LaneAt, entered: list[int], fractions: Sequence[float | None],
+                 totals: list[float | None], new_track: list[tuple[Any, ...] | None],
+                 time: datetime, sources: Sequence[LaneSource | None], rule: LaneRule,
+                 notes: list[str]) -> None:
+    """The start-up zone/lane entries of ``entered`` (their first reading, ``totals`` from the
+    entry) tested with :func:`check_lanes` against the first of ``sources`` (GPS, the filter's
+    position with its P) that gives lane counts, together with the other patterns' counts of
+    this record: an entry the test rejects is corrected when one alternative is clear,
+    else the patterns the test cannot tell apart are put in doubt (tracked on from the entry,
+    kept out of the fix until a position confirms their lanes). ``totals`` and ``new_track``
+    are changed in place; a note names the pattern, the entered and the resolved lane."""
+    under = [i for i in entered if totals[i] is not None]
+    if not under:
+        return
+    for src in sources:
+        if src is None:
+            continue
+        fl = _floats_at(at, src, fractions, rule.cf)
+        if fl is None:
+            continue
+        z0 = {i: _lane_of(t, fractions[i])  # type: ignore[arg-type]
+              for i, t in enumerate(totals) if t is not None and fractions[i] is not None}
+        check = check_lanes(fl[0], fl[1], z0, under, rule)
+        if check.verdict == "changed":
+            i, k = check.pattern, check.shift
+            old = totals[i]
+            assert old is not None
+            total = old + k
+            notes.append(f"Decca {PATTERNS[i]}: the zone/lane entered, "
+                         f"{_zone_lane_text(i, old)} ({old:.2f}), is {abs(k)} lane"
+                         f"{'s' if abs(k) > 1 else ''} {'low' if k > 0 else 'high'} against "
+                         f"{src.name} (likelihood ratio {check.lr:.1f}): "
+                         f"{_zone_lane_text(i, total)} ({total:.2f}) used")
+            totals[i] = total
+            new_track[i] = (total, time)
+        elif check.verdict == "doubt":
+            for i in check.doubt:
+                old = totals[i]
+                assert old is not None
+                notes.append(f"Decca {PATTERNS[i]}: {LANE_DOUBT_NOTE}: the zone/lane entered, "
+                             f"{_zone_lane_text(i, old)} ({old:.2f}), fails its test against "
+                             f"{src.name} (likelihood ratio {check.lr:.1f}) and no one lane "
+                             "explains it: kept out of the fix until a position confirms it")
+                totals[i] = None
+                new_track[i] = (old, time, DOUBT)
+        return
+
+
+def _confirm_doubt(at: _LaneAt, doubted: dict[int, float], fractions: Sequence[float | None],
+                   totals: list[float | None], new_track: list[tuple[Any, ...] | None],
+                   time: datetime, gps: LaneSource | None, rule: LaneRule,
+                   notes: list[str]) -> None:
+    """The patterns in doubt (``doubted``: index → this record's tracked total) back in the fix
+    once GPS, precise enough to have put them in doubt (1σ ≤ :data:`LANE_SIGMA_MAX` along the
+    gradient), puts its float a = N_calc(GPS) − fraction within the ratio test's reach of the
+    tracked lane z: (1 − |a − z|)² / (a − z)² ≥ ``rule.ratio`` (|a − z| ≤ 0.366 lane at 3),
+    the next lane's q at least ``rule.ratio`` times the tracked one's. The track is the
+    candidate, so the success rate of an identification from scratch is not asked; GPS never
+    moves a count in doubt to another lane (the track is continuous: its steps are small, else
+    it is identified again as after a gap). The rest stay in doubt (tracked on, out of the fix)
+    with a note."""
+    for i in sorted(doubted):
+        total = doubted[i]
+        frac = fractions[i]
+        assert frac is not None
+        lane = None if gps is None else at(gps, i)
+        if lane is not None and lane[1] <= LANE_SIGMA_MAX:
+            d = abs(lane[0] - frac - _lane_of(total, frac))
+            if (1.0 - d) ** 2 >= rule.ratio * d * d:
+                notes.append(f"Decca {PATTERNS[i]}: lane in doubt confirmed from GPS "
+                             f"({total:.2f}, {d:.2f} lane from GPS)")
+                totals[i] = total
+                new_track[i] = (total, time)
+                continue
+        notes.append(f"Decca {PATTERNS[i]}: {LANE_DOUBT_NOTE}: {total:.2f} not yet confirmed "
+                     "by GPS: kept out of the fix")
 
 
 def decca_totals(
@@ -878,6 +1064,9 @@ def decca_totals(
     last_s = 0.0
     gap: list[int] = []  # patterns to identify again after a gap (under ``rule``)
     suspects: list[int] = []  # lane slips the old GPS check finds (judged under ``rule``)
+    entered: list[int] = []  # first readings, from the zone/lane entries
+    doubted: dict[int, float] = {}  # patterns in doubt (``rule.check``): their tracked totals
+    check = rule is not None and rule.check
     for i in range(3):
         frac = fractions[i]
         if frac is None:
@@ -893,7 +1082,16 @@ def decca_totals(
             # track_lane(prev[0], frac), written out (the same operations)
             p0 = prev[0]
             d = frac - (p0 - floor(p0))
-            total: float | None = p0 + (d - floor(d + 0.5))
+            step = d - floor(d + 0.5)
+            total: float | None = p0 + step
+            if check:
+                if not abs(step) <= LANE_STEP_MAX:  # the track may have slipped here
+                    gap.append(i)
+                    continue
+                if len(prev) > 2:  # in doubt: tracked on, out of the fix
+                    doubted[i] = total  # type: ignore[assignment]
+                    new_track[i] = (total, time, DOUBT)  # type: ignore[assignment]
+                    continue
         elif prev is not None:
             if rule is not None:
                 gap.append(i)
@@ -909,6 +1107,7 @@ def decca_totals(
             if lanes is None:
                 continue  # never entered by the operator, or no N_calc: not available
             total = lanes.total
+            entered.append(i)
             if lanes.warning is not None:  # more than half a zone from N_calc (THEORY D7)
                 notes.append(lanes.warning)
         if gps is not None and not checked:
@@ -916,6 +1115,14 @@ def decca_totals(
                 lane = at(gps, i)
                 if (lane is not None and lane[1] <= LANE_SIGMA_MAX
                         and round(total - identify_lane(lane[0], frac)) != 0):
+                    if check and prev is not None:
+                        # a continuous track does not slip: the reading's error (or GPS's)
+                        notes.append(f"Decca {PATTERNS[i]}: {LANE_DOUBT_NOTE}: the count "
+                                     f"{total:.2f} and GPS differ by half a lane or more on a "
+                                     "track without a step that could slip it: kept out of "
+                                     "the fix until GPS confirms its lane")
+                        new_track[i] = (total, time, DOUBT)
+                        continue
                     suspects.append(i)
             else:
                 total, slipped = _gps_lane_check(at, i, frac, total, gps, notes)
@@ -927,9 +1134,15 @@ def decca_totals(
         for i in suspects:
             if totals[i] is not None:
                 new_track[i] = (totals[i], time)  # type: ignore[assignment]
+    if check and entered:
+        _check_entry(at, entered, fractions, totals, new_track,  # type: ignore[arg-type]
+                     time, (gps, position), rule, notes)
     if rule is not None and gap:
         _identify_gap(at, gap, fractions, totals, new_track, time, (gps, position), rule,
                       notes)
+    if check and doubted:
+        _confirm_doubt(at, doubted, fractions, totals, new_track,  # type: ignore[arg-type]
+                       time, gps, rule, notes)
     return LaneTotals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes),
                        slips)
 
@@ -1173,7 +1386,8 @@ class DeccaSystem:
             return got[2]
         d = cfg.decca
         rule = (None if d.lane_rule == "sigma" else
-                LaneRule(d.lane_success, d.lane_ratio, min(d.lane_cf, cf)))
+                LaneRule(d.lane_success, d.lane_ratio, min(d.lane_cf, cf),
+                         d.lane_check == "dia"))
         self._rule_of = (cfg, cf, rule)
         return rule
 

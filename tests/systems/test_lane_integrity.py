@@ -22,8 +22,10 @@ from engine.run.config import load_config
 from engine.run.cycle import NavState, RunContext, build_context, gps_voted_out
 from engine.run.session import read_data_dir
 from engine.systems.decca import (
+    LANE_RULE,
     LANE_SIGMA_MAX,
     ChainOnGrid,
+    LaneRule,
     LaneSource,
     decca_geometry,
     decca_totals,
@@ -63,11 +65,11 @@ def _stale_nav(n_true: np.ndarray) -> NavState:
 
 def _decca_totals(ctx: RunContext, nav: NavState, rec: RunRecord, placed: ChainOnGrid,
                   x_start: tuple[float, float], position: LaneSource | None,
-                  gps: LaneSource | None) -> tuple[tuple[float | None, ...],
-                                                   tuple[object, ...], list[str], int]:
+                  gps: LaneSource | None, rule: LaneRule = LANE_RULE
+                  ) -> tuple[tuple[float | None, ...], tuple[object, ...], list[str], int]:
     """:func:`engine.systems.decca.decca_totals` for this record and state, as a tuple."""
     lanes = decca_totals(placed, ctx.geodesic, ctx.zone_lane, nav.decca_track, rec.decca,
-                         rec.time, x_start, position, gps)
+                         rec.time, x_start, position, gps, rule)
     return lanes.totals, lanes.track, list(lanes.notes), lanes.slips
 
 
@@ -129,14 +131,16 @@ def test_a_precise_dr_position_may_settle_the_lane(setup) -> None:  # noqa: ANN0
 
 def test_a_lane_slip_is_corrected_from_gps_and_said(setup) -> None:  # noqa: ANN001
     """A track one Red lane high and one Green lane low (a slip while tracking) against GPS in
-    the same record: both corrected to the true totals, two slips counted and said."""
+    the same record: both corrected to the true totals, two slips counted and said (``[decca]
+    lane_check = "off"``; under "dia" a track without a step that could slip it is held in
+    doubt instead, tests/systems/test_lane_check.py)."""
     ctx, placed, x, y, n_true, _rows = setup
     now = T0 - timedelta(seconds=1)
     nav = NavState(decca_track=((float(n_true[0]) + 1.0, now), (float(n_true[1]) - 1.0, now),
                                 None))
     gps = LaneSource("GPS", x - 25.0, y + 60.0, np.eye(2) * 2500.0)
     totals, track, notes, slips = _decca_totals(ctx, nav, _record(n_true, T0), placed, (x, y),
-                                                None, gps)
+                                                None, gps, LaneRule(check=False))
     assert slips == 2
     assert totals[0] == pytest.approx(n_true[0], abs=1e-9)
     assert totals[1] == pytest.approx(n_true[1], abs=1e-9)

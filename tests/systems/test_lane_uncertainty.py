@@ -122,7 +122,8 @@ def test_gps_does_not_flip_a_right_track_at_night(setup) -> None:  # noqa: ANN00
 
 def test_gps_with_a_tight_vcv_identifies_as_before(setup) -> None:  # noqa: ANN001, F811
     """GPS 1σ 50 m (≤ 0.03 lane along either gradient) after a dive: both lanes taken, the
-    same totals to the bit as the old rule gave, and a real slip is still corrected."""
+    same totals to the bit as the old rule gave, and a real slip is still corrected (``lane_check
+    = "off"``: under "dia" a slip shows as a step, tests/systems/test_lane_check.py)."""
     ctx, placed, x, y, n_true, rows = setup
     gps = LaneSource("GPS", x + 40.0, y - 30.0, np.eye(2) * 2500.0)
     old = T0 - timedelta(hours=1)
@@ -135,5 +136,5 @@ def test_gps_with_a_tight_vcv_identifies_as_before(setup) -> None:  # noqa: ANN0
     assert now.totals[1] == pytest.approx(n_true[1] - 0.03, abs=1e-9)
     now_t = T0 - timedelta(seconds=2)
     slipped = ((float(n_true[0]) + 1.05, now_t), (float(n_true[1]) - 0.03, now_t), None)
-    got = _totals(ctx, placed, slipped, rec, (x, y), None, gps, LANE_RULE)
+    got = _totals(ctx, placed, slipped, rec, (x, y), None, gps, LaneRule(check=False))
     assert got.slips == 1 and got.totals[0] == pytest.approx(n_true[0] + 0.05, abs=1e-9)
