@@ -113,7 +113,8 @@ def gap_totals(placed: ChainOnGrid, geodesic: Any, track: Sequence[Any],
     ``gps_source``, then ``position``). None for anything else (a first reading, no gap, a
     slip, a lane taken, a decision within the error bound): then the reference runs."""
     kg = geodesic_kernel(geodesic)
-    if kg is None:
+    packed = getattr(placed.grid, "_packed", None)
+    if kg is None or TMGRID is None or packed is None or not hasattr(KERNEL, "lanes"):
         return None
     gap: list[int] = []
     last_time = None
@@ -139,10 +140,10 @@ def gap_totals(placed: ChainOnGrid, geodesic: Any, track: Sequence[Any],
     totals = list(lanes.totals)
     new_track = list(lanes.track)
     notes: list[str] = []
+    at = fast_lanes.Sources(placed, KERNEL, kg, TMGRID.inverse, packed)
     try:
-        decca._identify_gap(fast_lanes.Sources(placed, KERNEL, kg), gap, fractions, totals,
-                            new_track, time, (gps_source, position), rule, notes,
-                            floats=fast_lanes.floats_at, fix=fast_lanes.fix_lanes)
+        decca._identify_gap(at, gap, fractions, totals, new_track, time, (gps_source, position),
+                            rule, notes, floats=fast_lanes.floats_at, fix=fast_lanes.fix_lanes)
     except fast_lanes.Declined:
         return None
     return LaneTotals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes), 0)

@@ -7,8 +7,8 @@ record until it is settled: the reference forms the float ambiguities and their 
 .fix_lanes`: conditioning on the tracked patterns, the bootstrapping order and success rate,
 Teunissen 1998; the ratio test, Verhagen & Teunissen 2013; THEORY §3.3). Here the same
 formulas run on Python floats with the closed-form inverse of the at most 2×2 matrices they
-invert, the lane model by the compiled ``geometry`` (``engine.native.decca``, the reference's
-numbers to the bit, tests/native/test_decca.py), and the record's tracked patterns by the
+invert, the lane model by the compiled ``lanes`` (``engine.native.decca``, the reference's
+numbers to the bit, tests/native/test_decca_gap.py), and the record's tracked patterns by the
 compiled ``tracked``. The reference's own :func:`engine.systems.decca._identify_gap` writes
 the notes.
 
@@ -49,40 +49,38 @@ class Declined(Exception):
 
 class Sources:
     """The lane model's context for :func:`floats_at` (the ``at`` of ``_identify_gap``): the
-    placed chain and the compiled geodesic."""
+    placed chain, the decca kernel, the compiled geodesic, the tmgrid kernel's ``inverse``
+    and the grid's packed constants."""
 
-    __slots__ = ("geodesic", "kernel", "placed")
+    __slots__ = ("geodesic", "inverse", "kernel", "packed", "placed")
 
-    def __init__(self, placed: decca.ChainOnGrid, kernel: Any, geodesic: Any) -> None:
+    def __init__(self, placed: decca.ChainOnGrid, kernel: Any, geodesic: Any, inverse: Any,
+                 packed: Any) -> None:
         self.placed = placed
         self.kernel = kernel
         self.geodesic = geodesic
+        self.inverse = inverse
+        self.packed = packed
 
 
 def floats_at(at: Sources, src: LaneSource, fractions: Sequence[float | None],
               cf: float) -> tuple[list[float], list[list[float]], list[float]]:
     """:func:`engine.systems.decca._floats_at` as lists: (a_i = N_calc_i − fraction_i, their
-    VCV G·P·Gᵀ + C_lanes (lanes²), N_calc) at ``src`` by the compiled lane model. Declined
-    where the reference gives None (the lane model cannot be evaluated)."""
-    placed = at.placed
-    sc = placed._scalars
-    x, y = src.x_m, src.y_m
+    VCV G·P·Gᵀ + C_lanes (lanes²), N_calc) at ``src`` by the compiled lane model (``lanes``:
+    ``_LaneAt._lanes``' numbers to the bit). Declined where the reference gives None (the
+    lane model cannot be evaluated)."""
+    sc = at.placed._scalars
     try:
         (p00, p01), (p10, p11) = src.cov.tolist()
-        lat0, lon0 = placed.grid.inverse(x, y)
-        got = at.kernel.geometry(sc, at.geodesic, x, y, lat0, lon0)
+        got = at.kernel.lanes(sc, at.geodesic, at.inverse, at.packed, src.x_m, src.y_m)
     except (ValueError, ArithmeticError, TypeError, AttributeError) as exc:
         raise Declined from exc
-    if got is NotImplemented:
+    if got is None or got is NotImplemented:
         raise Declined
-    d_master, _az, block = got
-    n_calc = block[15:18]
-    isfinite = math.isfinite
-    if not (isfinite(n_calc[0]) and isfinite(n_calc[1]) and isfinite(n_calc[2])):
-        raise Declined
-    c = decca._vcv_core(d_master, block[0:3], sc.baseline_sky, cf)  # A4.1–A4.3 at this cf
-    gx0, gy0, gx1, gy1, gx2, gy2 = block[18:24]
-    # rows of G·P, then G·P·Gᵀ + C written out (symmetric P: the upper triangle mirrored)
+    d_master, d0, d1, d2, n0, n1, n2, gx0, gy0, gx1, gy1, gx2, gy2 = got
+    n_calc = [n0, n1, n2]
+    c = decca._vcv_core(d_master, (d0, d1, d2), sc.baseline_sky, cf)  # A4.1–A4.3 at this cf
+    # rows of G·P, then G·P·Gᵀ + C, every element written out
     u0, v0 = gx0 * p00 + gy0 * p10, gx0 * p01 + gy0 * p11
     u1, v1 = gx1 * p00 + gy1 * p10, gx1 * p01 + gy1 * p11
     u2, v2 = gx2 * p00 + gy2 * p10, gx2 * p01 + gy2 * p11
@@ -92,8 +90,8 @@ def floats_at(at: Sources, src: LaneSource, fractions: Sequence[float | None],
          [u2 * gx0 + v2 * gy0 + c20, u2 * gx1 + v2 * gy1 + c21, u2 * gx2 + v2 * gy2 + c22]]
     f0, f1, f2 = fractions
     nan = math.nan
-    a = [nan if f0 is None else n_calc[0] - f0, nan if f1 is None else n_calc[1] - f1,
-         nan if f2 is None else n_calc[2] - f2]
+    a = [nan if f0 is None else n0 - f0, nan if f1 is None else n1 - f1,
+         nan if f2 is None else n2 - f2]
     return a, q, n_calc
 
 

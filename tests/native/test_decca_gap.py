@@ -24,7 +24,16 @@ import engine.systems.decca as decca
 from engine import native
 from engine.fast import decca as fast_decca
 from engine.fast import lanes
-from tests.native.test_decca import FAST, PURE, hexes, replay_values  # noqa: F401 - fixture
+from tests.native.test_decca import (  # noqa: F401 - replay_values: a fixture
+    FAST,
+    GRID,
+    MX,
+    MY,
+    PLACED,
+    PURE,
+    hexes,
+    replay_values,
+)
 
 K = native.kernel("decca")
 pytestmark = pytest.mark.skipif(K is None, reason=f"decca kernel: {native.status('decca')}")
@@ -32,6 +41,69 @@ pytestmark = pytest.mark.skipif(K is None, reason=f"decca kernel: {native.status
 _RULES = st.sampled_from([decca.LANE_RULE, decca.LaneRule(0.99, 2.0, 1.0),
                           decca.LaneRule(0.9, 3.0, 4.0), decca.LaneRule(0.999, 1.5, 64.0),
                           decca.LaneRule(0.5, 1.0, 1.0)])
+
+
+T = native.kernel("tmgrid")
+
+
+def _lanes_both(placed: Any, x: float, y: float) -> tuple[Any, Any]:
+    """The kernel's ``lanes`` at (x, y) as _LaneAt._lanes' triple, and the reference's."""
+    got = K.lanes(placed._scalars, fast_decca.geodesic_kernel(FAST), T.inverse,
+                  placed.grid._packed, x, y)
+    if got is not None and got is not NotImplemented:
+        got = (list(got[4:7]), [[got[7], got[8]], [got[9], got[10]], [got[11], got[12]]],
+               list(got[0:4]))
+    ref = decca._LaneAt(placed, PURE)._lanes(decca.LaneSource("p", x, y, np.eye(2)))
+    if ref is not None:
+        ref = (ref[0], ref[1].tolist(), ref[2])
+    return got, ref
+
+
+def test_lanes_on_the_replay(replay_values: dict[str, list[Any]]) -> None:  # noqa: F811
+    """The kernel's lane model at every source the replay identified lanes from is
+    _LaneAt._lanes' to the bit."""
+    n = 0
+    for placed, src in replay_values["lanes"]:
+        if getattr(placed.grid, "_packed", None) is None:
+            continue  # the probe's reference grid
+        got, ref = _lanes_both(placed, src.x_m, src.y_m)
+        assert hexes(got) == hexes(ref)
+        n += 1
+    assert n > 100
+
+
+@settings(max_examples=300, deadline=None)
+@given(dx=st.floats(-4e5, 4e5), dy=st.floats(-4e5, 4e5))
+def test_lanes_anywhere(dx: float, dy: float) -> None:
+    """Anywhere around the chain (up to 400 km from the master): the reference's numbers to
+    the bit, or the kernel declines (NotImplemented) where the reference has none or raises
+    (a point on a baseline extension, where the LEF cannot be formed)."""
+    x, y = MX + dx, MY + dy
+    try:
+        got, ref = _lanes_both(PLACED, x, y)
+    except (ValueError, ArithmeticError):
+        got = K.lanes(PLACED._scalars, fast_decca.geodesic_kernel(FAST), T.inverse,
+                      GRID._packed, x, y)
+        assert got is NotImplemented
+        return
+    if got is NotImplemented:
+        assert ref is None
+        event("declined")
+        return
+    assert hexes(got) == hexes(ref)
+
+
+def test_lanes_declines_what_it_does_not_read() -> None:
+    good = [PLACED._scalars, fast_decca.geodesic_kernel(FAST), T.inverse, GRID._packed,
+            MX + 1e4, MY - 2e4]
+    assert len(K.lanes(*good)) == 13
+    for i, bad in ((0, None), (1, PURE), (4, 1), (5, "1.0")):
+        args = list(good)
+        args[i] = bad
+        assert K.lanes(*args) is NotImplemented
+    assert K.lanes(*good[:-1]) is NotImplemented
+    # at the master station the LEF's angle is undefined: the reference raises or has none
+    assert K.lanes(*good[:4], MX, MY) in (None, NotImplemented)
 
 
 def _cov(sx: float, sy: float, rho: float) -> np.ndarray:
@@ -77,7 +149,8 @@ def _gap_case(call: Any, gap: tuple[bool, ...], var: float | None, off: tuple[fl
 @settings(max_examples=300, deadline=None)
 @given(k=st.integers(0, 10_000), gap=st.tuples(st.booleans(), st.booleans(), st.booleans()),
        var=st.sampled_from([None, 1.0, 25.0, 1225.0, 1e4, 1e5]),
-       off=st.tuples(st.floats(-3e3, 3e3), st.floats(-3e3, 3e3)),
+       off=st.one_of(st.tuples(st.floats(-50.0, 50.0), st.floats(-50.0, 50.0)),
+                     st.tuples(st.floats(-3e3, 3e3), st.floats(-3e3, 3e3))),
        dr=st.one_of(st.none(), st.tuples(st.floats(1.0, 5e3), st.floats(1.0, 5e3),
                                          st.floats(-0.99, 0.99))),
        rule=_RULES)
