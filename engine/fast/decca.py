@@ -46,6 +46,7 @@ TMGRID: Any = native.kernel("tmgrid")
 
 
 _new_geometry = maker(DeccaGeometry)
+_new_totals = maker(LaneTotals)
 _new_lop = maker(LopReading)
 
 
@@ -146,7 +147,7 @@ def gap_totals(placed: ChainOnGrid, geodesic: Any, track: Sequence[Any],
                             rule, notes, floats=fast_lanes.floats_at, fix=fast_lanes.fix_lanes)
     except fast_lanes.Declined:
         return None
-    return LaneTotals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes), 0)
+    return _new_totals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes), 0)
 
 
 class FastDeccaObservations(DeccaObservations):

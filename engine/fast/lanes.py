@@ -28,6 +28,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from engine.fast.make import slots_maker
 from engine.systems import decca
 from engine.systems.decca import LaneFixing, LaneRule, LaneSource
 
@@ -40,6 +41,7 @@ _COND_MIN = 1e-4
 number ≤ ~4·10⁴, so the closed-form inverse and LAPACK's LU agree to ~10⁻¹¹ relative."""
 
 _TWO_OVER_SQRT_PI = 2.0 / math.sqrt(math.pi)
+_new_fixing = slots_maker(LaneFixing)
 
 
 class Declined(Exception):
@@ -218,13 +220,11 @@ def fix_lanes(a: Sequence[float], q: Sequence[Sequence[float]], want: Sequence[i
             break
         p, e_p = f, e_f
         taken.append(j)
-    if not taken:
-        s0, e0 = sigmas[0], errs[0]
-        sf0 = decca._success_factor(s0)
-        if _near_rounding(3.0 * s0, 2, 3.0 * e0) or _near_rounding(sf0, 3,
-                                                                   _success_error(s0, e0)):
+    if not taken:  # the loop broke at the first pattern: f and e_f are its own
+        s0 = sigmas[0]
+        if _near_rounding(3.0 * s0, 2, 3.0 * errs[0]) or _near_rounding(f, 3, e_f):
             raise Declined
-        return LaneFixing({}, p * sf0, math.nan, decca.why_unsure(s0, rule))
+        return _new_fixing({}, f, math.nan, decca.why_unsure(s0, rule))
     if len(taken) > 1:
         raise Declined
     a_u = a_s[taken[0]]
@@ -236,4 +236,4 @@ def fix_lanes(a: Sequence[float], q: Sequence[Sequence[float]], want: Sequence[i
     e_r = ratio * (2.0 * TOL / d1 + 2.0 * TOL / d2 + 1e-15)
     if abs(ratio - rule.ratio) <= e_r or ratio >= rule.ratio or _near_rounding(ratio, 2, e_r):
         raise Declined  # at the threshold, or a lane taken (the reference writes its total)
-    return LaneFixing({}, p, ratio, decca.why_ratio(ratio, rule))
+    return _new_fixing({}, p, ratio, decca.why_ratio(ratio, rule))
