@@ -54,8 +54,8 @@ def cpu_replay(tree: Path, rule: str) -> float:
     fresh process (this checkout's data/DEMO.toml)."""
     env = {**os.environ, "PYTHONPATH": str(tree)}
     done = subprocess.run([sys.executable, "-c", _RUNNER, str(ROOT / "data" / "DEMO.toml"),
-                           rule], cwd=ROOT, env=env, capture_output=True, text=True,
-                          check=True)
+                           rule], cwd=tree, env=env, capture_output=True, text=True,
+                          check=True)  # cwd: ``-c`` puts it first on sys.path
     return float(done.stdout.split()[-1])
 
 
