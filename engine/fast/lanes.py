@@ -178,36 +178,75 @@ def _bootstrap_order(a: Sequence[float], q: Sequence[Sequence[float]], want: lis
     return a_s, order, sigmas, errs
 
 
+def _not_taken(sigma: float, e_sigma: float, f: float, e_f: float,
+               rule: LaneRule) -> LaneFixing:
+    """The outcome when the first pattern in the bootstrapping order (1σ ``sigma``, success
+    factor ``f``, their bounds) fails the success rate: its note, unless a printed digit is
+    rounding's choice."""
+    if _near_rounding(3.0 * sigma, 2, 3.0 * e_sigma) or _near_rounding(f, 3, e_f):
+        raise Declined
+    return _new_fixing({}, f, math.nan, decca.why_unsure(sigma, rule))
+
+
+def _ratio_one(a_u: float, p: float, rule: LaneRule) -> LaneFixing:
+    """The outcome when one pattern (float ``a_u`` after conditioning, success rate ``p``)
+    passes the success rate: the ratio test of its two nearest integers, the best two of the
+    reference's box search in one dimension (their q's variance cancels in the ratio); a
+    pass takes the lane, which is the reference's to write (Declined)."""
+    lo = math.floor(a_u)
+    d1, d2 = sorted((abs(a_u - lo), abs(lo + 1 - a_u)))
+    if not d1 > 1e3 * TOL:
+        raise Declined  # q₁ ≈ 0: a lane the ratio test takes
+    ratio = (d2 * d2) / (d1 * d1)  # q₂/q₁
+    e_r = ratio * (2.0 * TOL / d1 + 2.0 * TOL / d2 + 1e-15)
+    if abs(ratio - rule.ratio) <= e_r or ratio >= rule.ratio or _near_rounding(ratio, 2, e_r):
+        raise Declined  # at the threshold, or a lane taken
+    return _new_fixing({}, p, ratio, decca.why_ratio(ratio, rule))
+
+
+def _fix_one(a: Sequence[float], q: Sequence[Sequence[float]], w: int, t0: int, t1: int,
+             known: dict[int, int], rule: LaneRule) -> LaneFixing:
+    """:func:`fix_lanes` for the usual case, one pattern ``w`` after a gap conditioned on
+    two tracked ones ``t0``, ``t1``, written out (the same formulas)."""
+    q0, q1, qw = q[t0], q[t1], q[w]
+    m00, m01, m10, m11 = q0[t0], q0[t1], q1[t0], q1[t1]
+    det = m00 * m11 - m01 * m10
+    if not (m00 > 0.0 and m11 > 0.0 and det > _COND_MIN * m00 * m11):
+        raise Declined
+    s0, s1 = qw[t0], qw[t1]
+    k0 = (s0 * m11 - s1 * m10) / det  # Q_ST·Q_TT⁻¹
+    k1 = (s1 * m00 - s0 * m01) / det
+    a_u = a[w] - (k0 * (a[t0] - known[t0]) + k1 * (a[t1] - known[t1]))
+    scale = qw[w]
+    v = scale - (k0 * s0 + k1 * s1)
+    if not (math.isfinite(a_u) and math.isfinite(v) and scale > 0.0):
+        raise Declined
+    e_v = TOL * scale
+    if not v > 2.0 * e_v:
+        raise Declined  # σ undetermined
+    sg = math.sqrt(v)
+    e_sg = e_v / sg
+    f = decca._success_factor(sg)
+    e_f = _success_error(sg, e_sg)
+    if abs(f - rule.success) <= e_f:
+        raise Declined
+    if f < rule.success:
+        return _not_taken(sg, e_sg, f, e_f, rule)
+    return _ratio_one(a_u, f, rule)
+
+
 def fix_lanes(a: Sequence[float], q: Sequence[Sequence[float]], want: Sequence[int],
               known: dict[int, int], rule: LaneRule) -> LaneFixing:
     """:func:`engine.systems.decca.fix_lanes` on floats for an outcome that takes no lane (the
     only one this path writes; anything else, or any decision within the error bound:
     :class:`Declined`). The same steps: conditioning on ``known``, the bootstrapping order
-    and success rate, and for a single pattern passing it the ratio test of its two nearest
-    integers (the best two of the reference's box search, in one dimension)."""
+    and success rate, and for a single pattern passing it the ratio test."""
+    if len(want) == 1 and len(known) == 2 and want[0] not in known:
+        t0, t1 = known
+        return _fix_one(a, q, want[0], t0, t1, known, rule)
     want = list(want)
-    n = len(want)
     t_idx = [i for i in known if i not in want]
-    if n == 1 and len(t_idx) == 2:  # the usual case: one pattern after a gap, two tracked
-        w = want[0]
-        t0, t1 = t_idx
-        qw = q[w]
-        scale_w = qw[w]
-        (m00, m01), (m10, m11) = _inverse([[q[t0][t0], q[t0][t1]], [q[t1][t0], q[t1][t1]]])
-        s0, s1 = qw[t0], qw[t1]
-        k0 = s0 * m00 + s1 * m10  # Q_ST·Q_TT⁻¹
-        k1 = s0 * m01 + s1 * m11
-        a_s = [a[w] - (k0 * (a[t0] - known[t0]) + k1 * (a[t1] - known[t1]))]
-        v = scale_w - (k0 * s0 + k1 * s1)
-        if not (math.isfinite(a_s[0]) and math.isfinite(v) and scale_w > 0.0):
-            raise Declined
-        e_v = TOL * scale_w
-        if not v > 2.0 * e_v:
-            raise Declined  # σ undetermined
-        sg = math.sqrt(v)
-        order, sigmas, errs = [0], [sg], [e_v / sg]
-    else:
-        a_s, order, sigmas, errs = _bootstrap_order(a, q, want, t_idx, known)
+    a_s, order, sigmas, errs = _bootstrap_order(a, q, want, t_idx, known)
     p = 1.0
     e_p = 0.0
     taken: list[int] = []
@@ -220,20 +259,8 @@ def fix_lanes(a: Sequence[float], q: Sequence[Sequence[float]], want: Sequence[i
             break
         p, e_p = f, e_f
         taken.append(j)
-    if not taken:  # the loop broke at the first pattern: f and e_f are its own
-        s0 = sigmas[0]
-        if _near_rounding(3.0 * s0, 2, 3.0 * errs[0]) or _near_rounding(f, 3, e_f):
-            raise Declined
-        return _new_fixing({}, f, math.nan, decca.why_unsure(s0, rule))
+    if not taken:  # the loop broke at the first pattern (p = 1): f and e_f are its own
+        return _not_taken(sigmas[0], errs[0], f, e_f, rule)
     if len(taken) > 1:
         raise Declined
-    a_u = a_s[taken[0]]
-    lo = math.floor(a_u)
-    d1, d2 = sorted((abs(a_u - lo), abs(lo + 1 - a_u)))  # the two nearest integers
-    if not d1 > 1e3 * TOL:
-        raise Declined  # q₁ ≈ 0: a lane the ratio test takes
-    ratio = (d2 * d2) / (d1 * d1)  # q₂/q₁; the variance cancels in one dimension
-    e_r = ratio * (2.0 * TOL / d1 + 2.0 * TOL / d2 + 1e-15)
-    if abs(ratio - rule.ratio) <= e_r or ratio >= rule.ratio or _near_rounding(ratio, 2, e_r):
-        raise Declined  # at the threshold, or a lane taken (the reference writes its total)
-    return _new_fixing({}, p, ratio, decca.why_ratio(ratio, rule))
+    return _ratio_one(a_s[taken[0]], p, rule)
