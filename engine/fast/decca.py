@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from engine import native
+from engine.fast import lanes as fast_lanes
 from engine.fast.geodesy import _UNSET as _UNSET_GEODESIC
 from engine.fast.geodesy import FastGeodesicSolver
 from engine.fast.make import slots_maker as maker
@@ -34,6 +35,8 @@ from engine.systems.decca import (
     DeccaObservations,
     DeccaReading,
     DeccaSystem,
+    LaneRule,
+    LaneSource,
     LaneTotals,
 )
 
@@ -44,6 +47,7 @@ TMGRID: Any = native.kernel("tmgrid")
 
 
 _new_geometry = maker(DeccaGeometry)
+_new_totals = maker(LaneTotals)
 _new_lop = maker(LopReading)
 
 
@@ -101,6 +105,52 @@ def tracked_totals(placed: ChainOnGrid, geodesic: Any,
                            gps.x_m + gps.corr_east_m, gps.y_m + gps.corr_north_m, gps.var_m2,
                            DECCA_TRACK_GAP_S, LANE_SIGMA_MAX, LaneTotals)
     return None if r is NotImplemented else r  # type: ignore[no-any-return]
+
+
+def gap_totals(placed: ChainOnGrid, geodesic: Any, track: Sequence[Any],
+               fractions: Sequence[float | None], time: Any, position: LaneSource | None,
+               gps: Any, gps_source: LaneSource | None, rule: LaneRule) -> LaneTotals | None:
+    """:func:`engine.systems.decca.decca_totals` under ``rule`` for a record whose patterns
+    read are tracked or after a gap, where no lane is taken: the tracked patterns by the
+    compiled ``tracked`` (:func:`tracked_totals`, GPS ``gps`` finding no slip), the others by
+    the reference's ``_identify_gap`` on :mod:`engine.fast.lanes`' scalars (GPS as
+    ``gps_source``, then ``position``). None for anything else (a first reading, no gap, a
+    slip, a lane taken, a decision within the error bound): then the reference runs."""
+    kg = geodesic_kernel(geodesic)
+    packed = getattr(placed.grid, "_packed", None)
+    if kg is None or TMGRID is None or packed is None or not hasattr(KERNEL, "lanes"):
+        return None
+    gap: list[int] = []
+    last_time = None
+    last_s = 0.0
+    for i in range(3):  # decca_totals' gap test
+        if fractions[i] is None:
+            continue
+        prev = track[i]
+        if prev is None:
+            return None  # a first reading: the operator's zone/lane
+        t_prev = prev[1]
+        if t_prev is not last_time:
+            last_s = (time - t_prev).total_seconds()
+            last_time = t_prev
+        if not last_s <= DECCA_TRACK_GAP_S:
+            gap.append(i)
+    if not gap:
+        return None
+    masked = tuple(None if i in gap else f for i, f in enumerate(fractions))
+    lanes = tracked_totals(placed, geodesic, track, masked, time, gps)
+    if lanes is None:
+        return None
+    totals = list(lanes.totals)
+    new_track = list(lanes.track)
+    notes: list[str] = []
+    at = fast_lanes.Sources(placed, KERNEL, kg, TMGRID.inverse, packed)
+    try:
+        decca._identify_gap(at, gap, fractions, totals, new_track, time, (gps_source, position),
+                            rule, notes, floats=fast_lanes.floats_at, fix=fast_lanes.fix_lanes)
+    except fast_lanes.Declined:
+        return None
+    return _new_totals((totals[0], totals[1], totals[2]), tuple(new_track), tuple(notes), 0)
 
 
 class FastDeccaObservations(DeccaObservations):
@@ -188,8 +238,23 @@ class FastDeccaSystem(DeccaSystem):
     observations_class = FastDeccaObservations
 
     def lane_totals(self, inputs: CycleInputs, placed: ChainOnGrid, gps: Any) -> LaneTotals:
-        lanes = tracked_totals(placed, inputs.context.geodesic, inputs.nav.decca_track,
-                               inputs.record.decca, inputs.record.time, gps)
+        """The usual record by :func:`tracked_totals`; one with patterns after a gap under
+        the bootstrap lane rule by :func:`gap_totals`; the rest by the reference."""
+        ctx, nav, rec = inputs.context, inputs.nav, inputs.record
+        lanes = tracked_totals(placed, ctx.geodesic, nav.decca_track, rec.decca, rec.time, gps)
+        if lanes is None:
+            rule = self._rule(inputs.config, self._epoch_cf(inputs)[0])
+            if rule is not None:
+                prior = inputs.prior
+                lanes = gap_totals(
+                    placed, ctx.geodesic, nav.decca_track, rec.decca, rec.time,
+                    None if prior is None else LaneSource("the DR position", *inputs.x_start,
+                                                           prior.cov),
+                    gps,
+                    None if gps is None else LaneSource("GPS", gps.x_m + gps.corr_east_m,
+                                                        gps.y_m + gps.corr_north_m,
+                                                        self._gps_cov(gps.var_m2)),
+                    rule)
         return super().lane_totals(inputs, placed, gps) if lanes is None else lanes
 
 

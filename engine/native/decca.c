@@ -1220,6 +1220,33 @@ static int gps_lanes(const chain_t *c, const GeodesicObject *g, PyObject *inv, P
     return 1;
 }
 
+/* lanes(sc, geodesic, inverse, packed, x, y) -> tuple of 13 floats | None | NotImplemented:
+ * _LaneAt._lanes' numbers at grid (x, y) by gps_lanes (the grid inverted by the tmgrid
+ * kernel's inverse, the lane model, the LEF's check): distances master, red, green, purple (m),
+ * N_calc red, green, purple (lanes), then dN/dx, dN/dy of red, green, purple (lanes/m). None
+ * where N_calc is not finite; NotImplemented for arguments of another kind and wherever
+ * gps_lanes cannot answer (an error on the way, a LEF that raises): the caller declines. */
+static PyObject *py_lanes(PyObject *m, PyObject *const *args, Py_ssize_t nargs)
+{
+    chain_t c;
+    double x, y;
+    lanes_t o;
+    int r;
+    if (nargs != 6 || read_chain(args[0], &c) || check_geodesic(args[1])
+        || arg_float(args[4], &x) || arg_float(args[5], &y))
+        Py_RETURN_NOTIMPLEMENTED;
+    r = gps_lanes(&c, (const GeodesicObject *)args[1], args[2], args[3], x, y, &o);
+    if (r < 0) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    if (r == 0)
+        Py_RETURN_NONE;
+    return Py_BuildValue("(ddddddddddddd)", o.dist[0], o.dist[1], o.dist[2], o.dist[3],
+                         o.n_calc[0], o.n_calc[1], o.n_calc[2], o.row_x[0], o.row_y[0],
+                         o.row_x[1], o.row_y[1], o.row_x[2], o.row_y[2]);
+}
+
 /* (time - t_prev).total_seconds() into *out: 0, -1 (an error: the caller declines). */
 static int seconds_between(PyObject *time, PyObject *t_prev, double *out)
 {
@@ -1568,6 +1595,8 @@ static PyMethodDef methods[] = {
      "DeccaObservations.readings' LopReading list after its geometry."},
     {"nearest", (PyCFunction)(void (*)(void))py_nearest, METH_FASTCALL,
      "DeccaObservations.nearest_station_m after its geometry (m)."},
+    {"lanes", (PyCFunction)(void (*)(void))py_lanes, METH_FASTCALL,
+     "_LaneAt._lanes' distances, N_calc and gradients at a grid point (13 floats)."},
     {"tracked", (PyCFunction)(void (*)(void))py_tracked, METH_FASTCALL,
      "decca_totals where every pattern is tracked and GPS finds no slip: LaneTotals."},
     {"_sync_sq", (PyCFunction)py_sync_sq, METH_NOARGS, "SYNC_SIGMA_LANES ** 2 (tests)."},

@@ -656,6 +656,18 @@ def _success_factor(sigma: float) -> float:
     return math.erf(0.5 / sigma * _SQRT1_2)
 
 
+def why_unsure(sigma: float, rule: LaneRule) -> str:
+    """Why :func:`fix_lanes` took no pattern: the most precise one's conditional 1σ
+    ``sigma`` (lanes) as 3σ and its success rate."""
+    return (f"±{3 * sigma:.2f} lane (3σ) at best, success rate "
+            f"{_success_factor(sigma):.3f} < {rule.success:g}")
+
+
+def why_ratio(ratio: float, rule: LaneRule) -> str:
+    """Why :func:`fix_lanes` took no pattern: the ratio test q₂/q₁ = ``ratio`` failed."""
+    return f"ratio test q2/q1 = {ratio:.2f} < {rule.ratio:g}"
+
+
 def fix_lanes(a: np.ndarray, q: np.ndarray, want: Sequence[int], known: dict[int, int],
               rule: LaneRule) -> LaneFixing:
     """Whole lanes of the patterns ``want`` from float ambiguities ``a`` (lanes, per pattern
@@ -714,8 +726,7 @@ def fix_lanes(a: np.ndarray, q: np.ndarray, want: Sequence[int], known: dict[int
         taken.append(j)
     if not taken:
         return LaneFixing({}, p * _success_factor(sigmas[0]), math.nan,
-                          f"±{3 * sigmas[0]:.2f} lane (3σ) at best, success rate "
-                          f"{_success_factor(sigmas[0]):.3f} < {rule.success:g}")
+                          why_unsure(sigmas[0], rule))
     # Integer least squares of the taken patterns: a box of ±(⌈3σ⌉ + 1) lanes around the float.
     a_u = a_s[taken]
     q_u = q_ss[np.ix_(taken, taken)]
@@ -736,7 +747,7 @@ def fix_lanes(a: np.ndarray, q: np.ndarray, want: Sequence[int], known: dict[int
     q2 = float(qv[two[1]]) if two.size > 1 else math.inf
     ratio = math.inf if q1 <= 0.0 else q2 / q1
     if not ratio >= rule.ratio:
-        return LaneFixing({}, p, ratio, f"ratio test q2/q1 = {ratio:.2f} < {rule.ratio:g}")
+        return LaneFixing({}, p, ratio, why_ratio(ratio, rule))
     z = grids[two[0]]
     lanes = {want[j]: int(z[m]) for m, j in enumerate(taken)}
     why = None
@@ -1150,11 +1161,13 @@ def decca_totals(
 def _identify_gap(at: _LaneAt, gap: list[int], fractions: Sequence[float | None],
                   totals: list[float | None], new_track: list[tuple[float, datetime] | None],
                   time: datetime, sources: Sequence[LaneSource | None], rule: LaneRule,
-                  notes: list[str]) -> None:
+                  notes: list[str], floats: Any = _floats_at, fix: Any = fix_lanes) -> None:
     """The patterns ``gap`` identified again after a gap under ``rule``: from each source in
     turn (GPS, then the filter's position), jointly and conditioned on the whole lanes of the
     patterns with counts in this record (:func:`fix_lanes`); ``totals`` and ``new_track`` are
-    set in place for those taken, a note says why for the others (kept out of the fix)."""
+    set in place for those taken, a note says why for the others (kept out of the fix).
+    ``floats`` and ``fix`` are :func:`_floats_at` and :func:`fix_lanes` unless the compiled
+    path (engine.fast.decca) passes its own."""
     known: dict[int, int] = {}
     for i in range(3):
         t, f = totals[i], fractions[i]
@@ -1165,11 +1178,11 @@ def _identify_gap(at: _LaneAt, gap: list[int], fractions: Sequence[float | None]
     for src in sources:
         if src is None or not left:
             continue
-        fl = _floats_at(at, src, fractions, rule.cf)
+        fl = floats(at, src, fractions, rule.cf)
         if fl is None:
             whys.append(f"{src.name}: no lane count")
             continue
-        fixing = fix_lanes(fl[0], fl[1], left, known, rule)
+        fixing = fix(fl[0], fl[1], left, known, rule)
         for i, z in sorted(fixing.lanes.items()):
             frac = fractions[i]
             assert frac is not None
